@@ -1,0 +1,180 @@
+// `piezo sensitivity`: the paper's section 5 study (four parameters, five
+// levels, 4.8 s each), with tables and plots of Figs. 14-22.
+
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "columns.hpp"
+#include "commands.hpp"
+#include "config_error.hpp"
+#include "gnuplot.hpp"
+#include "model_config.hpp"
+#include "parallel.hpp"
+#include "piezo/model/sensitivity.hpp"
+
+namespace piezo::host {
+namespace {
+
+struct SensitivityOptions {
+  std::string config;
+  std::vector<std::string> sets;
+  std::string model = "lugre";
+  std::string out;
+  bool json = false;
+};
+
+constexpr double kTraceInterval = 1e-3;  // angle traces for the plots [s]
+
+struct LevelRun {
+  std::size_t sweep;
+  std::size_t level;
+  model::Trajectory trace;
+};
+
+void write_outputs(const std::string& dir, const std::vector<model::SweepResult>& results,
+                   const std::vector<LevelRun>& runs) {
+  namespace fs = std::filesystem;
+  fs::create_directories(dir);
+  std::string comparison_plot;
+  for (std::size_t s = 0; s < results.size(); ++s) {
+    const auto& r = results[s];
+    std::vector<double> relative_level, relative_velocity;
+    const std::size_t mid = r.levels.size() / 2;
+    for (std::size_t i = 0; i < r.levels.size(); ++i) {
+      relative_level.push_back(100.0 * (r.levels[i] / r.levels[mid] - 1.0));
+      relative_velocity.push_back(100.0 * (r.mean_velocity[i] / r.mean_velocity[mid] - 1.0));
+    }
+    const std::string table = fmt::format("{}/velocity_{}.csv", dir, r.name);
+    write_csv(table, {{"level", r.levels},
+                      {"mean_velocity_rad_s", r.mean_velocity},
+                      {"level_change_pct", relative_level},
+                      {"velocity_change_pct", relative_velocity}});
+
+    std::vector<Column> trace_columns;
+    std::vector<std::vector<double>> theta_mrad(r.levels.size());
+    for (const auto& run : runs) {
+      if (run.sweep != s) continue;
+      if (trace_columns.empty()) trace_columns.push_back({"t", run.trace.t});
+      for (double th : run.trace.theta) theta_mrad[run.level].push_back(1e3 * th);
+    }
+    for (std::size_t i = 0; i < r.levels.size(); ++i) {
+      trace_columns.push_back(
+          {fmt::format("theta_mrad_{}={:g}", r.name, r.levels[i]), theta_mrad[i]});
+    }
+    const std::string traces = fmt::format("{}/angle_{}.csv", dir, r.name);
+    write_csv(traces, trace_columns);
+
+    std::string angle_plot = fmt::format(
+        "set terminal pngcairo size 900,600\nset output {}\nset key left top autotitle "
+        "columnhead\nset grid\nset xlabel 'time [s]'\nset ylabel 'rotor angle [mrad]'\n"
+        "set title 'Rotor angle for five levels of {}'\nplot for [i=2:{}] {} using 1:i with lines "
+        "lw 2\n",
+        gnuplot_quote(fmt::format("{}/angle_{}.png", dir, r.name)), r.name, r.levels.size() + 1,
+        gnuplot_quote(traces));
+    std::string velocity_plot = fmt::format(
+        "set terminal pngcairo size 900,600\nset output {}\nunset key\nset grid\n"
+        "set xlabel '{}'\nset ylabel 'mean velocity [rad/s]'\nset title 'Mean velocity against "
+        "{} (elasticity {:.3g})'\nplot {} skip 1 using 1:2 with linespoints lw 2 pt 7\n",
+        gnuplot_quote(fmt::format("{}/velocity_{}.png", dir, r.name)), r.name, r.name, r.elasticity,
+        gnuplot_quote(table));
+    run_gnuplot(angle_plot);
+    run_gnuplot(velocity_plot);
+    comparison_plot +=
+        fmt::format("{}{} skip 1 using 3:4 with linespoints lw 2 pt 7 title '{}'",
+                    comparison_plot.empty() ? "plot " : ", ", gnuplot_quote(table), r.name);
+  }
+  run_gnuplot(
+      fmt::format("set terminal pngcairo size 900,600\nset output {}\nset grid\nset key left top\n"
+                  "set xlabel 'parameter change [%]'\nset ylabel 'mean velocity change [%]'\n"
+                  "set title 'Sensitivity of mean velocity (paper Fig. 22)'\n{}\n",
+                  gnuplot_quote(dir + "/comparison.png"), comparison_plot));
+}
+
+int run(const SensitivityOptions& o) {
+  model::Parameters base = o.config.empty() ? model::Parameters{} : load_model_config(o.config);
+  for (const auto& s : o.sets) apply_parameter_override(s, base);
+  require_valid(base, o.sets.empty() ? "config" : "--set");
+  const auto friction = model::parse_friction_model(o.model);
+  if (!friction) throw ConfigError("--model", o.model, "allowed: lugre, coulomb");
+
+  const auto sweeps = model::paper_sweeps();
+  std::vector<LevelRun> runs;
+  for (std::size_t s = 0; s < sweeps.size(); ++s) {
+    for (std::size_t l = 0; l < sweeps[s].levels.size(); ++l) runs.push_back({s, l, {}});
+  }
+  // Validate every level before spending time on any run.
+  for (const auto& run : runs) {
+    const auto& sw = sweeps[run.sweep];
+    require_valid(model::with_level(base, sw.name, sw.levels[run.level]),
+                  fmt::format("sweep {}={}", sw.name, sw.levels[run.level]));
+  }
+  const auto times = model::uniform_times(model::kSensitivityRuntime, kTraceInterval);
+  parallel_for(
+      runs.size(),
+      [&](std::size_t i) {
+        const auto& sw = sweeps[runs[i].sweep];
+        const model::Parameters p = model::with_level(base, sw.name, sw.levels[runs[i].level]);
+        const model::Sawtooth drive(p.drive.V0, p.drive.f, p.drive.D());
+        runs[i].trace = model::simulate(p.motor, drive, *friction, times);
+      },
+      [](std::size_t done, std::size_t total) {
+        fmt::print(stderr, "\rsensitivity: {}/{} runs done", done, total);
+        if (done == total) fmt::print(stderr, "\n");
+      });
+
+  std::vector<model::SweepResult> results;
+  for (std::size_t s = 0; s < sweeps.size(); ++s) {
+    model::SweepResult r{sweeps[s].name, sweeps[s].levels, {}, 0.0};
+    for (const auto& run : runs) {
+      if (run.sweep == s)
+        r.mean_velocity.push_back(run.trace.theta.back() / model::kSensitivityRuntime);
+    }
+    r.elasticity = model::elasticity(r.levels, r.mean_velocity);
+    results.push_back(std::move(r));
+  }
+  const auto ranking = model::rank_by_influence(results);
+  if (!o.out.empty()) write_outputs(o.out, results, runs);
+
+  if (o.json) {
+    nlohmann::json params = nlohmann::json::array();
+    for (const auto& r : results) {
+      params.push_back({{"name", r.name},
+                        {"levels", r.levels},
+                        {"mean_velocity_rad_s", r.mean_velocity},
+                        {"elasticity", r.elasticity}});
+    }
+    std::cout << nlohmann::json{{"model", o.model},
+                                {"runtime_s", model::kSensitivityRuntime},
+                                {"parameters", params},
+                                {"ranking", ranking}}
+                     .dump()
+              << "\n";
+    return 0;
+  }
+  for (const auto& r : results) {
+    fmt::print("{:>3}  levels {}  mean velocity [rad/s] {:.5f}  elasticity {:+.3f}\n", r.name,
+               fmt::join(r.levels, " "), fmt::join(r.mean_velocity, " "), r.elasticity);
+  }
+  fmt::print("ranking by influence: {}\n", fmt::join(ranking, " > "));
+  if (!o.out.empty()) fmt::print("tables and plots written to {}\n", o.out);
+  return 0;
+}
+
+}  // namespace
+
+CommandRunner add_sensitivity_command(CLI::App& app) {
+  auto o = std::make_shared<SensitivityOptions>();
+  CLI::App* cmd = app.add_subcommand("sensitivity", "The paper's section 5 sensitivity study");
+  cmd->add_option("--config", o->config, "TOML config with [drive] and [model] (the baseline)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--set", o->sets, "Override a baseline parameter: KEY=VALUE");
+  cmd->add_option("--model", o->model, "Friction model: lugre or coulomb")->capture_default_str();
+  cmd->add_option("--out", o->out, "Directory for CSV tables and PNG plots");
+  cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
+  return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
+}
+
+}  // namespace piezo::host

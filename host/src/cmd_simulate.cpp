@@ -1,0 +1,115 @@
+// `piezo simulate`: one run of the LuGre or Coulomb model from rest.
+
+#include <fmt/format.h>
+
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "columns.hpp"
+#include "commands.hpp"
+#include "config_error.hpp"
+#include "h5_file.hpp"
+#include "model_config.hpp"
+#include "parameters_json.hpp"
+#include "piezo/model/simulate.hpp"
+
+namespace piezo::host {
+namespace {
+
+struct SimulateOptions {
+  std::string config;
+  std::vector<std::string> sets;
+  std::string model = "lugre";
+  double duration = 4.8;
+  double sample_interval = 1e-4;
+  double tolerance = model::IntegratorSettings{}.tolerance;
+  std::string out;
+  bool json = false;
+};
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() &&
+         s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+std::vector<Column> trajectory_columns(const model::Trajectory& tr) {
+  return {{"t", tr.t},         {"V", tr.V},         {"x", tr.x},
+          {"x_dot", tr.x_dot}, {"theta", tr.theta}, {"theta_dot", tr.theta_dot},
+          {"z", tr.z},         {"F_f", tr.F_f}};
+}
+
+void write_trajectory(const std::string& path, const model::Trajectory& tr,
+                      const model::Parameters& p, model::FrictionModel m) {
+  if (ends_with(path, ".h5")) {
+    H5File file = H5File::create(path);
+    for (const auto& c : trajectory_columns(tr)) file.write("/" + c.name, c.values);
+    file.set_attribute("/", "model", std::string(model::to_string(m)));
+    file.set_attribute("/", "parameters", to_json(p).dump());
+    return;
+  }
+  write_csv(path, trajectory_columns(tr));
+}
+
+int run(const SimulateOptions& o) {
+  model::Parameters p = o.config.empty() ? model::Parameters{} : load_model_config(o.config);
+  for (const auto& s : o.sets) apply_parameter_override(s, p);
+  require_valid(p, o.sets.empty() ? (o.config.empty() ? "defaults" : o.config) : "--set");
+  const auto friction = model::parse_friction_model(o.model);
+  if (!friction) throw ConfigError("--model", o.model, "allowed: lugre, coulomb");
+  if (!o.out.empty() && !ends_with(o.out, ".csv") && !ends_with(o.out, ".h5")) {
+    throw ConfigError("--out", o.out, "must end in .csv or .h5");
+  }
+
+  const model::Sawtooth drive(p.drive.V0, p.drive.f, p.drive.D());
+  const auto times = model::uniform_times(o.duration, o.sample_interval);
+  const model::Trajectory tr =
+      model::simulate(p.motor, drive, *friction, times, {.tolerance = o.tolerance});
+  if (!o.out.empty()) write_trajectory(o.out, tr, p, *friction);
+
+  const double theta_end = tr.theta.back();
+  const double mean_velocity = theta_end / o.duration;
+  if (o.json) {
+    nlohmann::json j{{"model", o.model},
+                     {"duration_s", o.duration},
+                     {"theta_end_rad", theta_end},
+                     {"mean_velocity_rad_s", mean_velocity},
+                     {"parameters", to_json(p)},
+                     {"integrator",
+                      {{"method", "dopri5"},
+                       {"tolerance", o.tolerance},
+                       {"steps", tr.stats.steps},
+                       {"rhs_evaluations", tr.stats.rhs_evaluations},
+                       {"mode_switches", tr.stats.mode_switches}}}};
+    std::cout << j.dump() << "\n";
+  } else {
+    fmt::print("model {}  duration {} s  theta_end {:.6g} rad  mean velocity {:.6g} rad/s\n",
+               o.model, o.duration, theta_end, mean_velocity);
+    if (!o.out.empty()) fmt::print("trajectory written to {}\n", o.out);
+  }
+  return 0;
+}
+
+}  // namespace
+
+CommandRunner add_simulate_command(CLI::App& app) {
+  auto o = std::make_shared<SimulateOptions>();
+  CLI::App* cmd = app.add_subcommand("simulate", "Simulate the motor from rest");
+  cmd->add_option("--config", o->config, "TOML config with [drive] and [model]")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--set", o->sets, "Override a parameter: KEY=VALUE (paper symbols, SI)");
+  cmd->add_option("--model", o->model, "Friction model: lugre or coulomb")->capture_default_str();
+  cmd->add_option("--duration", o->duration, "Simulated time [s]")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--dt", o->sample_interval, "Output sample interval [s]")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--tolerance", o->tolerance, "Integrator tolerance (scaled state)")
+      ->check(CLI::Range(1e-14, 1e-2))
+      ->capture_default_str();
+  cmd->add_option("--out", o->out, "Write the trajectory: FILE.csv or FILE.h5");
+  cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
+  return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
+}
+
+}  // namespace piezo::host

@@ -1,0 +1,15 @@
+#pragma once
+// The `piezo` subcommands. Each registers its options on the CLI and returns
+// a callable that runs it and yields the process exit code.
+
+#include <CLI/CLI.hpp>
+#include <functional>
+
+namespace piezo::host {
+
+using CommandRunner = std::function<int()>;
+
+CommandRunner add_simulate_command(CLI::App& app);
+CommandRunner add_sensitivity_command(CLI::App& app);
+
+}  // namespace piezo::host

@@ -1,0 +1,58 @@
+#pragma once
+// A small RAII wrapper over the HDF5 C API: create a file, write 1-D float64
+// datasets (fixed or appendable) and string attributes. Errors throw with the
+// object's name; HDF5's own error stack printing is silenced.
+
+#include <hdf5.h>
+
+#include <span>
+#include <string>
+
+namespace piezo::host {
+
+/// Owns one HDF5 identifier and closes it with the matching H5*close.
+class H5Id {
+ public:
+  H5Id() = default;
+  H5Id(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+  H5Id(const H5Id&) = delete;
+  H5Id& operator=(const H5Id&) = delete;
+  H5Id(H5Id&& o) noexcept : id_(o.id_), close_(o.close_) { o.id_ = H5I_INVALID_HID; }
+  H5Id& operator=(H5Id&& o) noexcept;
+  ~H5Id() { reset(); }
+
+  void reset();
+  [[nodiscard]] hid_t get() const { return id_; }
+
+ private:
+  hid_t id_ = H5I_INVALID_HID;
+  herr_t (*close_)(hid_t) = nullptr;
+};
+
+class H5File {
+ public:
+  /// Creates (truncates) `path`.
+  static H5File create(const std::string& path);
+
+  /// Writes a complete 1-D float64 dataset; intermediate groups are created.
+  void write(const std::string& name, std::span<const double> values);
+  /// Sets a string attribute on the root group ("/") or on an existing object.
+  void set_attribute(const std::string& object, const std::string& name, const std::string& value);
+  void set_attribute(const std::string& object, const std::string& name, double value);
+
+  /// Flushes everything written so far to the file.
+  void flush();
+
+  [[nodiscard]] hid_t id() const { return file_.get(); }
+  [[nodiscard]] const std::string& path() const { return path_; }
+
+ private:
+  H5File(H5Id file, std::string path) : file_(std::move(file)), path_(std::move(path)) {}
+  H5Id file_;
+  std::string path_;
+};
+
+/// Link-creation properties that create missing parent groups.
+[[nodiscard]] H5Id intermediate_groups_lcpl();
+
+}  // namespace piezo::host

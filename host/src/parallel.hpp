@@ -1,0 +1,54 @@
+#pragma once
+// Runs independent jobs on all cores, reporting progress from the calling
+// thread only (so stderr lines never interleave).
+
+#include <algorithm>
+#include <atomic>
+#include <cstddef>
+#include <exception>
+#include <functional>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace piezo::host {
+
+/// Calls job(i) for i in [0, count) on up to hardware_concurrency threads and
+/// progress(done, count) after each job finishes. The first exception thrown
+/// by a job is rethrown once all threads have stopped.
+inline void parallel_for(std::size_t count, const std::function<void(std::size_t)>& job,
+                         const std::function<void(std::size_t, std::size_t)>& progress) {
+  std::atomic<std::size_t> next{0};
+  std::atomic<std::size_t> done{0};
+  std::exception_ptr failure;
+  std::mutex failure_mutex;
+  auto worker = [&] {
+    for (std::size_t i = next++; i < count; i = next++) {
+      try {
+        job(i);
+      } catch (...) {
+        std::lock_guard lock(failure_mutex);
+        if (!failure) failure = std::current_exception();
+      }
+      ++done;
+    }
+  };
+  const std::size_t n_threads =
+      std::max<std::size_t>(1, std::min<std::size_t>(count, std::thread::hardware_concurrency()));
+  std::vector<std::thread> threads;
+  for (std::size_t t = 0; t < n_threads; ++t) threads.emplace_back(worker);
+  std::size_t reported = 0;
+  while (reported < count) {
+    const std::size_t now = done.load();
+    if (now != reported) {
+      reported = now;
+      progress(reported, count);
+    } else {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  }
+  for (auto& t : threads) t.join();
+  if (failure) std::rethrow_exception(failure);
+}
+
+}  // namespace piezo::host

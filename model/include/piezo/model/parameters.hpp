@@ -1,0 +1,84 @@
+#pragma once
+/// @file
+/// The motor's parameter set (paper Table 1) with the paper's own symbols,
+/// and validation that names each violated parameter with its allowed range.
+
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace piezo::model {
+
+/// Drive waveform parameters (MODEL.md section 1).
+struct DriveParameters {
+  double V0 = 80.0;     ///< peak amplifier output voltage [V]
+  double f = 10.0;      ///< drive frequency [Hz]
+  double C_dr = 0.95;   ///< commanded duty ratio [-]
+  double e_dr = 0.789;  ///< identified signal-chain factor [-]
+
+  /// Effective rise fraction of each period.
+  [[nodiscard]] double D() const { return C_dr * e_dr; }
+};
+
+/// Mechanical and friction parameters (MODEL.md sections 2 and 3), SI units.
+struct MotorParameters {
+  double d_e = 0.55e-6;  ///< effective piezo coefficient [m/V] (10 Hz value)
+  double M = 21.7e-3;    ///< stator mass [kg]
+  double J = 4.48e-6;    ///< rotor inertia [kg m^2]
+  double C = 20.0;       ///< stator damping [N s/m]
+  double K = 28e6;       ///< stator stiffness [N/m]
+  double r = 17.5e-3;    ///< contact radius [m]
+  double mu = 0.1;       ///< friction coefficient [-]
+  double F_N = 4.93e-3;  ///< normal force [N]
+  double sigma0 = 1650;  ///< bristle stiffness [N/m]
+  double sigma1 = 40;    ///< bristle damping [N s/m]
+  double sigma2 = 1e-4;  ///< viscous friction [N s/m]
+
+  /// Coulomb friction level F_c = mu * F_N.
+  [[nodiscard]] double F_c() const { return mu * F_N; }
+};
+
+/// Everything the paper's model needs: drive plus motor.
+struct Parameters {
+  DriveParameters drive;
+  MotorParameters motor;
+};
+
+/// Where a parameter lives and which values it may take.
+struct ParameterSpec {
+  std::string_view name;     ///< the paper's symbol, as used by --set and config keys
+  std::string_view section;  ///< config section: "drive" or "model"
+  std::string_view unit;
+  double min;
+  double max;
+  bool min_inclusive;
+  bool max_inclusive;
+  double& (*ref)(Parameters&);
+
+  /// Human-readable allowed range, e.g. "(0, inf)" or "[0, 1000]".
+  [[nodiscard]] std::string range_text() const;
+  [[nodiscard]] bool admits(double value) const;
+};
+
+/// All settable parameters, in Table 1 order.
+[[nodiscard]] std::span<const ParameterSpec> parameter_specs();
+
+/// The spec for a symbol, or nullptr when the name is not a parameter.
+[[nodiscard]] const ParameterSpec* find_parameter(std::string_view name);
+
+/// One violated constraint: which parameter, and what is allowed.
+struct ParameterIssue {
+  std::string name;
+  std::string message;
+};
+
+/// Checks every value (finite, within range) and the derived constraint
+/// 0 < C_dr*e_dr < 1. Returns one issue per violation; empty means valid.
+[[nodiscard]] std::vector<ParameterIssue> validate(const Parameters& p);
+
+/// Reads a parameter by symbol; nullopt when unknown.
+[[nodiscard]] std::optional<double> get_parameter(const Parameters& p, std::string_view name);
+
+}  // namespace piezo::model

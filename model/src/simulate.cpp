@@ -1,0 +1,222 @@
+#include "piezo/model/simulate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "piezo/model/dopri5.hpp"
+
+namespace piezo::model {
+
+std::string_view to_string(FrictionModel m) {
+  return m == FrictionModel::lugre ? "lugre" : "coulomb";
+}
+
+std::optional<FrictionModel> parse_friction_model(std::string_view text) {
+  if (text == "lugre") return FrictionModel::lugre;
+  if (text == "coulomb") return FrictionModel::coulomb;
+  return std::nullopt;
+}
+
+std::vector<double> uniform_times(double duration, double interval) {
+  std::vector<double> times;
+  const auto n = static_cast<std::size_t>(std::floor(duration / interval + 1e-9));
+  times.reserve(n + 2);
+  for (std::size_t i = 0; i <= n; ++i) times.push_back(static_cast<double>(i) * interval);
+  if (duration - times.back() > 1e-12 * std::max(1.0, duration)) times.push_back(duration);
+  return times;
+}
+
+namespace {
+
+// The states span ten orders of magnitude (z ~ 1e-7 m, theta ~ 1e-2 rad), so
+// each component gets its own absolute tolerance: `tolerance` times its
+// natural size. Sizes are the stack stroke at 100 V, that stroke per
+// millisecond, and the bristle deflection at sliding.
+template <std::size_t N>
+std::array<double, N> state_scale(const MotorParameters& p) {
+  const double stroke = std::max(p.d_e * 100.0, 1e-12);
+  const double speed = stroke / 1e-3;
+  std::array<double, N> s{};
+  s[kX] = stroke;
+  s[kXDot] = speed;
+  s[kTheta] = stroke / p.r;
+  s[kThetaDot] = speed / p.r;
+  if constexpr (N > 4) s[kZ] = p.F_c() / p.sigma0;
+  return s;
+}
+
+// Explicit Runge-Kutta steps beyond the stability limit on the stator's
+// lightly damped oscillation (omega_n * h ~ 3) are rejected anyway; capping
+// the step at 2/omega_n avoids those rejections.
+double max_step(const MotorParameters& p) {
+  return 2.0 / std::sqrt(p.K / p.M);
+}
+
+template <std::size_t N>
+struct Event {
+  double t;
+  std::array<double, N> y;  ///< state to restart from
+};
+
+/// Integrates dy/dt = rhs(y, V(t)) with Dormand-Prince 5(4), restarting
+/// exactly at each breakpoint of the drive, emitting the state at each sample
+/// time from the dense output, and letting `on_step` cut a step short at an
+/// event (a change of the right-hand side, e.g. stick/slip) it located inside it.
+template <std::size_t N, class Rhs, class Emit, class OnStep>
+IntegrationStats integrate(const MotorParameters& p, Rhs&& rhs, const Excitation& drive,
+                           std::span<const double> times, double tolerance, Emit&& emit,
+                           OnStep&& on_step) {
+  using State = std::array<double, N>;
+  IntegrationStats stats;
+  if (times.empty()) return stats;
+  if (times.front() < 0.0 || !std::is_sorted(times.begin(), times.end())) {
+    throw std::invalid_argument("sample times must be non-negative and non-decreasing");
+  }
+  State atol = state_scale<N>(p);
+  for (double& a : atol) a *= tolerance;
+  Dopri5<N> stepper(tolerance, atol, max_step(p));
+  LinearPiece voltage{0.0, 0.0, 0.0};
+  auto system = [&](const State& y, State& dydt, double t) { rhs(y, dydt, voltage.at(t)); };
+
+  std::size_t next = 0;
+  State y{};
+  while (next < times.size() && times[next] <= 0.0) emit(times[next++], y);
+
+  const double t_end = times.back();
+  double t = 0.0;
+  double h = 1e-7;
+  while (next < times.size()) {
+    const double seg_end = std::min(drive.next_breakpoint(t), t_end);
+    const double at_end = 1e-13 * std::max(1.0, seg_end);
+    voltage = drive.piece(t);
+    stepper.initialize(system, t, y, std::min(h, seg_end - t));
+    while (seg_end - stepper.time() > at_end) {
+      stepper.step(system, seg_end - stepper.time());
+      const std::optional<Event<N>> event = on_step(stepper);
+      const double emitted_until = event ? event->t : stepper.time();
+      while (next < times.size() && times[next] <= emitted_until) {
+        emit(times[next], stepper.dense(times[next]));
+        ++next;
+      }
+      if (event) {
+        ++stats.mode_switches;
+        stepper.initialize(system, event->t, event->y, stepper.proposed_step());
+      }
+    }
+    y = stepper.state();
+    t = seg_end;
+    h = stepper.proposed_step();
+    // Samples at t_end that rounding kept out of the last step.
+    if (seg_end >= t_end) {
+      while (next < times.size()) emit(times[next++], y);
+    }
+  }
+  stats.steps = stepper.steps();
+  stats.rhs_evaluations = stepper.evaluations();
+  return stats;
+}
+
+/// Finds the time in the last step where `crossed(t, y)` first becomes true,
+/// by bisection on the stepper's dense output.
+template <class Stepper, class Crossed>
+auto locate(const Stepper& stepper, Crossed&& crossed) {
+  double lo = stepper.previous_time(), hi = stepper.time();
+  for (int i = 0; i < 60 && hi - lo > 1e-14 * std::max(1.0, hi); ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (crossed(mid, stepper.dense(mid)) ? hi : lo) = mid;
+  }
+  return std::make_pair(hi, stepper.dense(hi));
+}
+
+template <std::size_t N>
+void record(Trajectory& out, double t, double V, const std::array<double, N>& y, double F_f) {
+  out.t.push_back(t);
+  out.V.push_back(V);
+  out.x.push_back(y[kX]);
+  out.x_dot.push_back(y[kXDot]);
+  out.theta.push_back(y[kTheta]);
+  out.theta_dot.push_back(y[kThetaDot]);
+  if constexpr (N > 4) {
+    out.z.push_back(y[kZ]);
+  } else {
+    out.z.push_back(0.0);
+  }
+  out.F_f.push_back(F_f);
+}
+
+Trajectory simulate_lugre(const MotorParameters& p, const Excitation& drive,
+                          std::span<const double> times, double tolerance) {
+  Trajectory out;
+  const LuGreMotor motor(p);
+  auto rhs = [&](const LuGreState& y, LuGreState& dydt, double V) { motor.derivative(V, y, dydt); };
+  auto emit = [&](double t, const LuGreState& y) {
+    record(out, t, drive.voltage(t), y, motor.friction(y).force);
+  };
+  auto no_events = [](const auto&) { return std::optional<Event<5>>{}; };
+  out.stats = integrate<5>(p, rhs, drive, times, tolerance, emit, no_events);
+  return out;
+}
+
+Trajectory simulate_coulomb(const MotorParameters& p, const Excitation& drive,
+                            std::span<const double> times, double tolerance) {
+  Trajectory out;
+  ContactMode mode = ContactMode::stick;
+  auto rhs = [&](const CoulombState& y, CoulombState& dydt, double V) {
+    coulomb_derivative(p, V, mode, y, dydt);
+  };
+  auto emit = [&](double t, const CoulombState& y) {
+    record(out, t, drive.voltage(t), y, coulomb_friction(p, drive.voltage(t), mode, y));
+  };
+  auto stick_force = [&](double t, const CoulombState& y) {
+    return coulomb_stick_force(p, drive.voltage(t), y);
+  };
+  // Karnopp switching: slip ends when v returns to zero; the contact then
+  // sticks if the force needed to hold it is within F_c, and otherwise slips
+  // the other way. Stick ends when the holding force would exceed F_c.
+  auto on_step = [&](const auto& stepper) -> std::optional<Event<4>> {
+    const double t1 = stepper.time();
+    const CoulombState& y1 = stepper.state();
+    if (mode == ContactMode::stick) {
+      if (std::abs(stick_force(t1, y1)) <= p.F_c()) return std::nullopt;
+      // The holding force depends on t through V(t), so the predicate takes both.
+      const auto [t_event, y] = locate(stepper, [&](double t, const CoulombState& ys) {
+        return std::abs(stick_force(t, ys)) > p.F_c();
+      });
+      mode = stick_force(t_event, y) > 0 ? ContactMode::slip_forward : ContactMode::slip_backward;
+      return Event<4>{t_event, y};
+    }
+    const double direction = mode == ContactMode::slip_forward ? 1.0 : -1.0;
+    if (direction * sliding_velocity(p, y1) > 0.0) return std::nullopt;
+    auto [t_event, y] = locate(stepper, [&](double, const CoulombState& ys) {
+      return direction * sliding_velocity(p, ys) <= 0.0;
+    });
+    const double F_hold = stick_force(t_event, y);
+    if (std::abs(F_hold) <= p.F_c()) {
+      mode = ContactMode::stick;
+      y[kThetaDot] = y[kXDot] / p.r;  // lock exactly: v = 0
+    } else {
+      mode = F_hold > 0 ? ContactMode::slip_forward : ContactMode::slip_backward;
+    }
+    return Event<4>{t_event, y};
+  };
+  out.stats = integrate<4>(p, rhs, drive, times, tolerance, emit, on_step);
+  return out;
+}
+
+}  // namespace
+
+Trajectory simulate(const MotorParameters& p, const Excitation& drive, FrictionModel model,
+                    std::span<const double> sample_times, const IntegratorSettings& settings) {
+  return model == FrictionModel::lugre
+             ? simulate_lugre(p, drive, sample_times, settings.tolerance)
+             : simulate_coulomb(p, drive, sample_times, settings.tolerance);
+}
+
+double final_angle(const MotorParameters& p, const Excitation& drive, FrictionModel model,
+                   double t_end, const IntegratorSettings& settings) {
+  const double times[] = {t_end};
+  return simulate(p, drive, model, times, settings).theta.back();
+}
+
+}  // namespace piezo::model

@@ -1,0 +1,141 @@
+// The `piezo` binary as people and scripts use it: exit codes, JSON on
+// stdout, named errors on stderr, written files readable by other tools.
+
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "../support/run_command.hpp"
+
+namespace piezo::testing {
+namespace {
+
+const std::string kPiezo = PIEZO_BINARY;
+const std::string kConfigs = std::string(PIEZO_SOURCE_DIR) + "/configs";
+
+TEST(SimulateCli, JsonHasAngleAndVelocity) {
+  const auto r = run_command(kPiezo + " simulate --duration 0.5 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_GT(j.at("theta_end_rad").get<double>(), 0.0);
+  EXPECT_NEAR(j.at("mean_velocity_rad_s").get<double>(), j.at("theta_end_rad").get<double>() / 0.5,
+              1e-12);
+}
+
+TEST(SimulateCli, ConfigAndSetCombine) {
+  const auto base =
+      run_command(kPiezo + " simulate --config " + kConfigs + "/paper.toml --duration 0.5 --json");
+  const auto faster = run_command(kPiezo + " simulate --config " + kConfigs +
+                                  "/paper.toml --set V0=88 --set f=12 --duration 0.5 --json");
+  ASSERT_EQ(base.exit_code, 0) << base.err;
+  ASSERT_EQ(faster.exit_code, 0) << faster.err;
+  EXPECT_GT(nlohmann::json::parse(faster.out)["theta_end_rad"].get<double>(),
+            nlohmann::json::parse(base.out)["theta_end_rad"].get<double>());
+}
+
+TEST(SimulateCli, CoulombModelRuns) {
+  const auto r = run_command(kPiezo + " simulate --model coulomb --duration 0.5 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["model"], "coulomb");
+}
+
+TEST(SimulateCli, CsvHasNamedColumns) {
+  const auto dir = fresh_temp_dir("cli-csv");
+  const auto path = (dir / "run.csv").string();
+  const auto r = run_command(kPiezo + " simulate --duration 0.2 --dt 1e-3 --out " + path);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::ifstream in(path);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header.rfind("t,V,", 0), 0u) << header;
+  EXPECT_NE(header.find("theta"), std::string::npos);
+  int rows = 0;
+  for (std::string line; std::getline(in, line);) ++rows;
+  EXPECT_EQ(rows, 201);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(SimulateCli, Hdf5IsReadableByH5py) {
+  const auto dir = fresh_temp_dir("cli-h5");
+  const auto path = (dir / "run.h5").string();
+  ASSERT_EQ(run_command(kPiezo + " simulate --duration 0.2 --dt 1e-3 --out " + path).exit_code, 0);
+  const auto r = run_command(
+      "/usr/bin/python3 -c \"import h5py,json; f=h5py.File('" + path +
+      "','r'); print(len(f['t']), f['theta'][-1] > 0, json.loads(f.attrs['parameters'])['V0'])\"");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, "201 True 80.0\n");
+  std::filesystem::remove_all(dir);
+}
+
+struct BadInvocation {
+  const char* name;
+  const char* args;
+  const char* expected_in_stderr;
+};
+
+class SimulateBadInput : public ::testing::TestWithParam<BadInvocation> {};
+
+TEST_P(SimulateBadInput, ExitsWithCode2AndNamesTheKey) {
+  const auto r = run_command(kPiezo + " simulate " + GetParam().args);
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find(GetParam().expected_in_stderr), std::string::npos) << r.err;
+  EXPECT_TRUE(r.out.empty()) << r.out;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Cli, SimulateBadInput,
+    ::testing::Values(BadInvocation{"UnknownSetKey", "--set sigma9=1", "sigma9"},
+                      BadInvocation{"SetNotANumber", "--set M=heavy", "M: 'heavy' is not a number"},
+                      BadInvocation{"SetNaN", "--set mu=nan", "mu: 'nan' is not finite"},
+                      BadInvocation{"SetOutOfRange", "--set K=-5", "allowed range (0, inf)"},
+                      BadInvocation{"SetMissingValue", "--set K", "expected KEY=VALUE"},
+                      BadInvocation{"RiseFractionAboveOne", "--set C_dr=1 --set e_dr=1.5", "C_dr"},
+                      BadInvocation{"UnknownModel", "--model stribeck", "allowed: lugre, coulomb"},
+                      BadInvocation{"BadOutSuffix", "--out run.txt", "--out"},
+                      BadInvocation{"NegativeDuration", "--duration -1", "--duration"},
+                      BadInvocation{"MissingConfig", "--config /nonexistent/x.toml", "--config"}),
+    [](const auto& test_info) { return test_info.param.name; });
+
+TEST(SimulateCli, BadConfigFileNamesFileAndKey) {
+  const auto dir = fresh_temp_dir("cli-badcfg");
+  const auto path = (dir / "bad.toml").string();
+  write_file(path, "[model]\nsigma0 = -3\n");
+  const auto r = run_command(kPiezo + " simulate --config " + path);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(path), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("model.sigma0"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("(0, inf)"), std::string::npos) << r.err;
+  std::filesystem::remove_all(dir);
+}
+
+TEST(SensitivityCli, JsonRanksAndWritesPlots) {
+  const auto dir = fresh_temp_dir("cli-sens");
+  const auto r = run_command(kPiezo + " sensitivity --json --out " + dir.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["parameters"].size(), 4u);
+  std::vector<std::string> names;
+  for (const auto& p : j["parameters"]) {
+    names.push_back(p["name"]);
+    EXPECT_EQ(p["levels"].size(), 5u);
+    EXPECT_EQ(p["mean_velocity_rad_s"].size(), 5u);
+    EXPECT_TRUE(p["elasticity"].is_number());
+  }
+  EXPECT_EQ(names, (std::vector<std::string>{"V0", "f", "mu", "D"}));
+  EXPECT_EQ(j["ranking"].size(), 4u);
+  EXPECT_NE(r.err.find("20/20"), std::string::npos) << "progress on stderr";
+  for (const char* f : {"angle_V0.png", "velocity_D.png", "comparison.png", "velocity_mu.csv"}) {
+    EXPECT_TRUE(std::filesystem::file_size(dir / f) > 0) << f;
+  }
+  std::filesystem::remove_all(dir);
+}
+
+TEST(SensitivityCli, BadBaselineIsRejectedBeforeRunning) {
+  const auto r = run_command(kPiezo + " sensitivity --set mu=-1");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("mu"), std::string::npos);
+  EXPECT_EQ(r.err.find("runs done"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace piezo::testing

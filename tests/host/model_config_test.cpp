@@ -1,0 +1,98 @@
+#include "model_config.hpp"
+
+#include <gtest/gtest.h>
+
+#include "../support/run_command.hpp"
+#include "config_error.hpp"
+
+namespace piezo::host {
+namespace {
+
+using piezo::testing::fresh_temp_dir;
+using piezo::testing::write_file;
+
+class ModelConfig : public ::testing::Test {
+ protected:
+  std::filesystem::path dir = fresh_temp_dir("model-config");
+  std::string file(const std::string& text) {
+    const auto path = dir / "c.toml";
+    write_file(path, text);
+    return path.string();
+  }
+  void TearDown() override { std::filesystem::remove_all(dir); }
+};
+
+TEST_F(ModelConfig, ReadsDriveAndModelSections) {
+  const auto p = load_model_config(file("[drive]\nV0 = 60\nf = 20\n[model]\nd_e = 0.228e-6\n"));
+  EXPECT_EQ(p.drive.V0, 60.0);
+  EXPECT_EQ(p.drive.f, 20.0);
+  EXPECT_EQ(p.motor.d_e, 0.228e-6);
+  EXPECT_EQ(p.motor.M, 21.7e-3);  // untouched keys keep Table 1
+}
+
+TEST_F(ModelConfig, PaperConfigHoldsTable1) {
+  const auto p = load_model_config(std::string(PIEZO_SOURCE_DIR) + "/configs/paper.toml");
+  const model::Parameters table1;
+  for (const auto& spec : model::parameter_specs()) {
+    EXPECT_EQ(*model::get_parameter(p, spec.name), *model::get_parameter(table1, spec.name))
+        << spec.name;
+  }
+}
+
+void expect_error(const std::string& path, const std::string& key, const std::string& fragment) {
+  try {
+    (void)load_model_config(path);
+    FAIL() << "expected a ConfigError for " << key;
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.source(), path);
+    EXPECT_EQ(e.key(), key);
+    EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(ModelConfig, UnknownKeyIsNamed) {
+  expect_error(file("[model]\nsigma3 = 1\n"), "model.sigma3", "unknown key");
+}
+
+TEST_F(ModelConfig, UnknownSectionIsNamed) {
+  expect_error(file("[modle]\nM = 1\n"), "modle", "unknown section");
+}
+
+TEST_F(ModelConfig, OutOfRangeValueNamesRange) {
+  expect_error(file("[model]\nM = -1\n"), "model.M", "(0, inf)");
+}
+
+TEST_F(ModelConfig, NanIsRejected) {
+  expect_error(file("[drive]\nV0 = nan\n"), "drive.V0", "range");
+}
+
+TEST_F(ModelConfig, StringIsNotANumber) {
+  expect_error(file("[drive]\nf = \"ten\"\n"), "drive.f", "must be a number");
+}
+
+TEST_F(ModelConfig, SyntaxErrorNamesLine) {
+  expect_error(file("[drive]\nV0 = = 3\n"), "line 2", "");
+}
+
+TEST_F(ModelConfig, DerivedRiseFractionIsChecked) {
+  expect_error(file("[drive]\nC_dr = 1.0\ne_dr = 1.0\n"), "C_dr*e_dr", "(0, 1)");
+}
+
+TEST(ParameterOverride, SetsBySymbol) {
+  model::Parameters p;
+  apply_parameter_override("sigma0=1700", p);
+  EXPECT_EQ(p.motor.sigma0, 1700.0);
+}
+
+TEST(ParameterOverride, RejectsBadInput) {
+  model::Parameters p;
+  EXPECT_THROW(apply_parameter_override("sigma0", p), ConfigError);
+  EXPECT_THROW(apply_parameter_override("sigma9=1", p), ConfigError);
+  EXPECT_THROW(apply_parameter_override("M=abc", p), ConfigError);
+  EXPECT_THROW(apply_parameter_override("M=1kg", p), ConfigError);
+  EXPECT_THROW(apply_parameter_override("M=nan", p), ConfigError);
+  EXPECT_THROW(apply_parameter_override("M=0", p), ConfigError);
+}
+
+}  // namespace
+}  // namespace piezo::host
