@@ -43,7 +43,8 @@ class Dopri5 {
   void step(Rhs&& rhs, double h_limit) {
     for (;;) {
       const double h = std::min(h_, h_limit);
-      State tmp, k2, k3, k4, k5, k6, y_new, k7;
+      State tmp, k2, y_new;
+      State &k3 = k3_, &k4 = k4_, &k5 = k5_, &k6 = k6_, &k7 = k7_;
       for (std::size_t i = 0; i < N; ++i) tmp[i] = y_[i] + h * (a21 * k1_[i]);
       rhs(tmp, k2, t_ + c2 * h);
       for (std::size_t i = 0; i < N; ++i) tmp[i] = y_[i] + h * (a31 * k1_[i] + a32 * k2[i]);
@@ -72,16 +73,10 @@ class Dopri5 {
       }
       const double err = std::sqrt(sum / N);
       if (err <= 1.0) {
-        for (std::size_t i = 0; i < N; ++i) {
-          const double dy = y_new[i] - y_[i];
-          const double bspl = h * k1_[i] - dy;
-          r1_[i] = y_[i];
-          r2_[i] = dy;
-          r3_[i] = bspl;
-          r4_[i] = dy - h * k7[i] - bspl;
-          r5_[i] =
-              h * (d1 * k1_[i] + d3 * k3[i] + d4 * k4[i] + d5 * k5[i] + d6 * k6[i] + d7 * k7[i]);
-        }
+        // Dense-output coefficients are worked out only when asked for
+        // (dense()): most steps of a long run are never sampled.
+        y_old_ = y_;
+        k1_old_ = k1_;
         t_old_ = t_;
         h_old_ = h;
         t_ += h;
@@ -96,12 +91,19 @@ class Dopri5 {
   }
 
   /// State at t inside the last step, from the 4th-order continuous extension.
+  /// Valid until the next step().
   [[nodiscard]] State dense(double t) const {
-    const double s = (t - t_old_) / h_old_;
+    const double h = h_old_;
+    const double s = (t - t_old_) / h;
     const double s1 = 1.0 - s;
     State out;
     for (std::size_t i = 0; i < N; ++i) {
-      out[i] = r1_[i] + s * (r2_[i] + s1 * (r3_[i] + s * (r4_[i] + s1 * r5_[i])));
+      const double dy = y_[i] - y_old_[i];
+      const double bspl = h * k1_old_[i] - dy;
+      const double r4 = dy - h * k7_[i] - bspl;
+      const double r5 = h * (d1 * k1_old_[i] + d3 * k3_[i] + d4 * k4_[i] + d5 * k5_[i] +
+                             d6 * k6_[i] + d7 * k7_[i]);
+      out[i] = y_old_[i] + s * (dy + s1 * (bspl + s * (r4 + s1 * r5)));
     }
     return out;
   }
@@ -146,7 +148,9 @@ class Dopri5 {
   State atol_;
   double max_step_;
   double t_ = 0.0, t_old_ = 0.0, h_ = 0.0, h_old_ = 1.0;
-  State y_{}, k1_{}, r1_{}, r2_{}, r3_{}, r4_{}, r5_{};
+  State y_{}, k1_{};
+  // The last accepted step, for dense output.
+  State y_old_{}, k1_old_{}, k3_{}, k4_{}, k5_{}, k6_{}, k7_{};
   std::size_t steps_ = 0;
   std::size_t evaluations_ = 0;
 };
