@@ -69,10 +69,11 @@ class Dopri5 {
         const double err =
             h * (e1 * k1_[i] + e3 * k3[i] + e4 * k4[i] + e5 * k5[i] + e6 * k6[i] + e7 * k7[i]);
         const double sc = atol_[i] + rtol_ * std::max(std::abs(y_[i]), std::abs(y_new[i]));
-        sum += (err / sc) * (err / sc);
+        const double ratio = err / sc;
+        sum += ratio * ratio;
       }
-      const double err = std::sqrt(sum / N);
-      if (err <= 1.0) {
+      const double err_squared = sum / N;  // RMS norm, squared: sqrt only when needed
+      if (err_squared <= 1.0) {
         // Dense-output coefficients are worked out only when asked for
         // (dense()): most steps of a long run are never sampled.
         y_old_ = y_;
@@ -82,11 +83,11 @@ class Dopri5 {
         t_ += h;
         y_ = y_new;
         k1_ = k7;  // first same as last
-        h_ = next_step(h, err);
+        h_ = next_step(h, err_squared);
         ++steps_;
         return;
       }
-      h_ = next_step(h, err);
+      h_ = next_step(h, err_squared);
     }
   }
 
@@ -120,9 +121,11 @@ class Dopri5 {
   /// most max_step. The stability-bound motor mostly sits at max_step, where
   /// the test below spares the pow() that would otherwise cost as much as a
   /// model evaluation.
-  [[nodiscard]] double next_step(double h, double err) const {
+  [[nodiscard]] double next_step(double h, double err_squared) const {
     const double q = 0.9 * h / max_step_;
-    if (q >= 0.18 && err <= q * q * q * q * q) return max_step_;  // growth cap 5 respected
+    const double q5 = q * q * q * q * q;
+    if (q >= 0.18 && err_squared <= q5 * q5) return max_step_;  // growth cap 5 respected
+    const double err = std::sqrt(err_squared);
     const double factor = err == 0.0 ? 5.0 : std::clamp(0.9 * std::pow(err, -0.2), 0.2, 5.0);
     return std::min(h * (err <= 1.0 ? factor : std::min(1.0, factor)), max_step_);
   }
