@@ -19,39 +19,45 @@ constexpr double kRequiredRelativeError = 1e-4;
 
 using Case = std::tuple<FrictionModel, double>;
 
-class ConvergenceTest : public ::testing::TestWithParam<Case> {};
-
-double reference_angle(FrictionModel m, const MotorParameters& p, const Sawtooth& drive, double h) {
-  return m == FrictionModel::lugre ? testing::lugre_rk4_angle(p, drive, kRuntime, h)
-                                   : testing::coulomb_rk4_angle(p, drive, kRuntime, h);
-}
-
-TEST_P(ConvergenceTest, DefaultSettingsMatchFineFixedStepSolution) {
-  const auto [friction, f] = GetParam();
+Parameters at_frequency(double f) {
   Parameters p;
   p.drive.f = f;
-  const Sawtooth drive(p.drive.V0, p.drive.f, p.drive.D());
+  return p;
+}
 
-  const double fine = reference_angle(friction, p.motor, drive, 1e-6);
-  const double coarse = reference_angle(friction, p.motor, drive, 2e-6);
+class ConvergenceTest : public ::testing::TestWithParam<Case> {
+ protected:
+  FrictionModel friction = std::get<0>(GetParam());
+  Parameters p = at_frequency(std::get<1>(GetParam()));
+  Sawtooth drive{p.drive.V0, p.drive.f, p.drive.D()};
+
+  [[nodiscard]] double reference_angle(double h) const {
+    return friction == FrictionModel::lugre
+               ? testing::lugre_rk4_angle(p.motor, drive, kRuntime, h)
+               : testing::coulomb_rk4_angle(p.motor, drive, kRuntime, h);
+  }
+  [[nodiscard]] double adaptive_angle(IntegratorSettings settings = {}) const {
+    return final_angle(p.motor, drive, friction, kRuntime, settings);
+  }
+};
+
+TEST_P(ConvergenceTest, DefaultSettingsMatchFineFixedStepSolution) {
+  const double fine = reference_angle(1e-6);
+  const double coarse = reference_angle(2e-6);
   // Even at first order (switching limits Coulomb to it) the reference error
   // is then below a quarter of what is being proven.
   ASSERT_LT(std::abs(fine - coarse) / std::abs(fine), 0.25 * kRequiredRelativeError)
       << "the fixed-step reference itself is not converged";
 
-  const double adaptive = final_angle(p.motor, drive, friction, kRuntime);
+  const double adaptive = adaptive_angle();
   EXPECT_LT(std::abs(adaptive - fine) / std::abs(fine), kRequiredRelativeError)
       << "adaptive " << adaptive << " rad, reference " << fine << " rad";
 }
 
 TEST_P(ConvergenceTest, TighterToleranceApproachesReference) {
-  const auto [friction, f] = GetParam();
-  Parameters p;
-  p.drive.f = f;
-  const Sawtooth drive(p.drive.V0, p.drive.f, p.drive.D());
-  const double fine = reference_angle(friction, p.motor, drive, 1e-6);
-  const double loose = final_angle(p.motor, drive, friction, kRuntime, {.tolerance = 1e-6});
-  const double tight = final_angle(p.motor, drive, friction, kRuntime, {.tolerance = 1e-9});
+  const double fine = reference_angle(1e-6);
+  const double loose = adaptive_angle({.tolerance = 1e-6});
+  const double tight = adaptive_angle({.tolerance = 1e-9});
   EXPECT_LT(std::abs(tight - fine), std::abs(loose - fine) + 1e-6 * std::abs(fine));
   EXPECT_LT(std::abs(tight - fine) / std::abs(fine), 1e-5);
 }
