@@ -61,8 +61,7 @@ void write_outputs(const std::string& dir, const std::vector<model::SweepResult>
       for (double th : run.trace.theta) theta_mrad[run.level].push_back(1e3 * th);
     }
     for (std::size_t i = 0; i < r.levels.size(); ++i) {
-      trace_columns.push_back(
-          {fmt::format("theta_mrad_{}={:g}", r.name, r.levels[i]), theta_mrad[i]});
+      trace_columns.push_back({fmt::format("{} = {:g}", r.name, r.levels[i]), theta_mrad[i]});
     }
     const std::string traces = fmt::format("{}/angle_{}.csv", dir, r.name);
     write_csv(traces, trace_columns);

@@ -21,7 +21,8 @@ std::string gnuplot_quote(const std::string& path) {
 void run_gnuplot(const std::string& script) {
   FILE* pipe = popen("gnuplot", "w");
   if (pipe == nullptr) throw std::runtime_error("cannot start gnuplot");
-  std::fputs("set datafile separator ','\n", pipe);
+  // noenhanced: column names such as theta_dot are text, not subscripts.
+  std::fputs("set datafile separator ','\nset termoption noenhanced\n", pipe);
   std::fputs(script.c_str(), pipe);
   const int status = pclose(pipe);
   if (status == -1 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
