@@ -8,7 +8,7 @@ preset="${1:-default}"
 packages=(
   build-essential cmake pkg-config git
   libeigen3-dev libcli11-dev libtomlplusplus-dev libfmt-dev nlohmann-json3-dev
-  libhdf5-dev libgtest-dev libgmock-dev libbenchmark-dev
+  libhdf5-dev libgtest-dev libgmock-dev
   gnuplot-nox python3 python3-h5py python3-numpy
 )
 missing=()

@@ -73,20 +73,4 @@ void H5File::set_attribute(const std::string& object, const std::string& name,
   }
 }
 
-void H5File::set_attribute(const std::string& object, const std::string& name, double value) {
-  H5Id space(checked(H5Screate(H5S_SCALAR), "create scalar space"), H5Sclose);
-  if (H5Aexists_by_name(file_.get(), object.c_str(), name.c_str(), H5P_DEFAULT) > 0) {
-    H5Adelete_by_name(file_.get(), object.c_str(), name.c_str(), H5P_DEFAULT);
-  }
-  H5Id attr(checked(H5Acreate_by_name(file_.get(), object.c_str(), name.c_str(), H5T_IEEE_F64LE,
-                                      space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
-                    "create attribute " + name),
-            H5Aclose);
-  H5Awrite(attr.get(), H5T_NATIVE_DOUBLE, &value);
-}
-
-void H5File::flush() {
-  H5Fflush(file_.get(), H5F_SCOPE_GLOBAL);
-}
-
 }  // namespace piezo::host

@@ -1,7 +1,7 @@
 #pragma once
 // A small RAII wrapper over the HDF5 C API: create a file, write 1-D float64
-// datasets (fixed or appendable) and string attributes. Errors throw with the
-// object's name; HDF5's own error stack printing is silenced.
+// datasets and string attributes. Errors throw with the object's name;
+// HDF5's own error stack printing is silenced.
 
 #include <hdf5.h>
 
@@ -38,12 +38,7 @@ class H5File {
   void write(const std::string& name, std::span<const double> values);
   /// Sets a string attribute on the root group ("/") or on an existing object.
   void set_attribute(const std::string& object, const std::string& name, const std::string& value);
-  void set_attribute(const std::string& object, const std::string& name, double value);
 
-  /// Flushes everything written so far to the file.
-  void flush();
-
-  [[nodiscard]] hid_t id() const { return file_.get(); }
   [[nodiscard]] const std::string& path() const { return path_; }
 
  private:

@@ -58,23 +58,10 @@ class LuGreMotor {
     dydt[kZ] = fr.z_rate;
   }
 
-  [[nodiscard]] const MotorParameters& parameters() const { return p_; }
-
  private:
   MotorParameters p_;
   double sigma0_over_Fc_, inv_M_, r_over_J_, K_d_e_;
 };
-
-[[nodiscard]] inline LuGreFriction lugre_friction(const MotorParameters& p, const LuGreState& y) {
-  return LuGreMotor(p).friction(y);
-}
-
-/// dy/dt of the LuGre motor at amplifier voltage V (convenience form; loops
-/// should hold a LuGreMotor).
-inline void lugre_derivative(const MotorParameters& p, double V, const LuGreState& y,
-                             LuGreState& dydt) {
-  LuGreMotor(p).derivative(V, y, dydt);
-}
 
 /// Contact mode of the Coulomb (Karnopp) model.
 enum class ContactMode { stick, slip_forward, slip_backward };

@@ -37,8 +37,6 @@ class Sawtooth final : public Excitation {
   [[nodiscard]] LinearPiece piece(double t) const override;
 
   [[nodiscard]] double period() const { return T_; }
-  [[nodiscard]] double rise_fraction() const { return D_; }
-  [[nodiscard]] double peak() const { return V0_; }
 
  private:
   double V0_;
