@@ -40,6 +40,110 @@ H5File H5File::create(const std::string& path) {
   return H5File(std::move(file), path);
 }
 
+H5File H5File::create_log(const std::string& path) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  H5Id fapl(checked(H5Pcreate(H5P_FILE_ACCESS), "create file access properties"), H5Pclose);
+  H5AC_cache_config_t cache{};
+  cache.version = H5AC__CURR_CACHE_CONFIG_VERSION;
+  H5Pget_mdc_config(fapl.get(), &cache);
+  cache.evictions_enabled = false;
+  cache.incr_mode = H5C_incr__off;
+  cache.flash_incr_mode = H5C_flash_incr__off;
+  cache.decr_mode = H5C_decr__off;
+  if (H5Pset_mdc_config(fapl.get(), &cache) < 0) {
+    throw std::runtime_error("HDF5: cannot configure the metadata cache for " + path);
+  }
+  H5Id file(
+      checked(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), "create " + path),
+      H5Fclose);
+  return H5File(std::move(file), path);
+}
+
+H5File H5File::open(const std::string& path) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  H5Id file(checked(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), "open " + path), H5Fclose);
+  return H5File(std::move(file), path);
+}
+
+void H5File::create_growing(const std::string& name) {
+  constexpr hsize_t kChunk = 8192;  // 64 KiB of float64: few chunks, cheap appends
+  const hsize_t dims[1] = {0};
+  const hsize_t max_dims[1] = {H5S_UNLIMITED};
+  H5Id space(checked(H5Screate_simple(1, dims, max_dims), "create dataspace for " + name),
+             H5Sclose);
+  H5Id dcpl(checked(H5Pcreate(H5P_DATASET_CREATE), "create dataset properties"), H5Pclose);
+  const hsize_t chunk[1] = {kChunk};
+  H5Pset_chunk(dcpl.get(), 1, chunk);
+  H5Id lcpl = intermediate_groups_lcpl();
+  H5Id dset(checked(H5Dcreate2(file_.get(), name.c_str(), H5T_IEEE_F64LE, space.get(), lcpl.get(),
+                               dcpl.get(), H5P_DEFAULT),
+                    "create dataset " + name),
+            H5Dclose);
+}
+
+void H5File::append(const std::string& name, std::span<const double> values) {
+  if (values.empty()) return;
+  H5Id dset(checked(H5Dopen2(file_.get(), name.c_str(), H5P_DEFAULT), "open dataset " + name),
+            H5Dclose);
+  H5Id old_space(checked(H5Dget_space(dset.get()), "get dataspace of " + name), H5Sclose);
+  hsize_t old_size[1] = {0};
+  H5Sget_simple_extent_dims(old_space.get(), old_size, nullptr);
+  const hsize_t new_size[1] = {old_size[0] + values.size()};
+  if (H5Dset_extent(dset.get(), new_size) < 0)
+    throw std::runtime_error("HDF5: cannot extend " + name);
+  H5Id file_space(checked(H5Dget_space(dset.get()), "get dataspace of " + name), H5Sclose);
+  const hsize_t count[1] = {values.size()};
+  H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, old_size, nullptr, count, nullptr);
+  H5Id mem_space(checked(H5Screate_simple(1, count, nullptr), "create memory space"), H5Sclose);
+  if (H5Dwrite(dset.get(), H5T_NATIVE_DOUBLE, mem_space.get(), file_space.get(), H5P_DEFAULT,
+               values.data()) < 0) {
+    throw std::runtime_error("HDF5: cannot append to " + name);
+  }
+}
+
+void H5File::flush() {
+  if (H5Fflush(file_.get(), H5F_SCOPE_LOCAL) < 0)
+    throw std::runtime_error("HDF5: cannot flush " + path_);
+}
+
+bool H5File::exists(const std::string& name) const {
+  return H5Lexists(file_.get(), name.c_str(), H5P_DEFAULT) > 0;
+}
+
+std::vector<double> H5File::read(const std::string& name) const {
+  H5Id dset(checked(H5Dopen2(file_.get(), name.c_str(), H5P_DEFAULT), "open dataset " + name),
+            H5Dclose);
+  H5Id space(checked(H5Dget_space(dset.get()), "get dataspace of " + name), H5Sclose);
+  if (H5Sget_simple_extent_ndims(space.get()) != 1) {
+    throw std::runtime_error("HDF5: " + name + " is not one-dimensional");
+  }
+  hsize_t size[1] = {0};
+  H5Sget_simple_extent_dims(space.get(), size, nullptr);
+  std::vector<double> out(size[0]);
+  if (!out.empty() &&
+      H5Dread(dset.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) < 0) {
+    throw std::runtime_error("HDF5: cannot read " + name);
+  }
+  return out;
+}
+
+std::string H5File::attribute(const std::string& object, const std::string& name) const {
+  H5Id attr(
+      checked(H5Aopen_by_name(file_.get(), object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT),
+              "open attribute " + name),
+      H5Aclose);
+  H5Id type(checked(H5Aget_type(attr.get()), "get type of attribute " + name), H5Tclose);
+  if (H5Tget_class(type.get()) != H5T_STRING || H5Tis_variable_str(type.get()) > 0) {
+    throw std::runtime_error("HDF5: attribute " + name + " is not a fixed-length string");
+  }
+  std::string value(H5Tget_size(type.get()), '\0');
+  if (H5Aread(attr.get(), type.get(), value.data()) < 0) {
+    throw std::runtime_error("HDF5: cannot read attribute " + name);
+  }
+  value.resize(value.find('\0') == std::string::npos ? value.size() : value.find('\0'));
+  return value;
+}
+
 void H5File::write(const std::string& name, std::span<const double> values) {
   const hsize_t dims[1] = {values.size()};
   H5Id space(checked(H5Screate_simple(1, dims, nullptr), "create dataspace for " + name), H5Sclose);

@@ -7,6 +7,7 @@
 
 #include <span>
 #include <string>
+#include <vector>
 
 namespace piezo::host {
 
@@ -33,6 +34,25 @@ class H5File {
  public:
   /// Creates (truncates) `path`.
   static H5File create(const std::string& path);
+  /// Creates `path` for a log that grows while it is written. Dirty metadata
+  /// stays in memory until flush(), so that between flushes only new raw data
+  /// reaches the disk and the last flushed state stays readable after a crash.
+  static H5File create_log(const std::string& path);
+  /// Opens an existing file read-only.
+  static H5File open(const std::string& path);
+
+  /// Creates an empty, unlimited, chunked 1-D float64 dataset.
+  void create_growing(const std::string& name);
+  /// Appends to a dataset made by create_growing.
+  void append(const std::string& name, std::span<const double> values);
+  /// Writes everything buffered to the file.
+  void flush();
+
+  /// A whole 1-D float64 dataset.
+  [[nodiscard]] std::vector<double> read(const std::string& name) const;
+  [[nodiscard]] bool exists(const std::string& name) const;
+  /// A string attribute of "/" or of an object.
+  [[nodiscard]] std::string attribute(const std::string& object, const std::string& name) const;
 
   /// Writes a complete 1-D float64 dataset; intermediate groups are created.
   void write(const std::string& name, std::span<const double> values);

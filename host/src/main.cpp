@@ -17,6 +17,8 @@ int main(int argc, char** argv) {
   const std::vector<piezo::host::CommandRunner> commands{
       piezo::host::add_simulate_command(app),
       piezo::host::add_sensitivity_command(app),
+      piezo::host::add_run_command(app),
+      piezo::host::add_report_command(app),
   };
   try {
     app.parse(argc, argv);

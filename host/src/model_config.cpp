@@ -114,8 +114,9 @@ model::Parameters load_model_config(const std::string& path) {
   for (const auto& [k, node] : table) {
     const std::string key(k.str());
     if (std::find(kKnownSections.begin(), kKnownSections.end(), key) == kKnownSections.end()) {
-      throw ConfigError(path, key,
-                        "unknown section (allowed: drive, model, plant, sensor, run, safety)");
+      std::string allowed;
+      for (const auto& name : kKnownSections) allowed += (allowed.empty() ? "" : ", ") + name;
+      throw ConfigError(path, key, "unknown section (allowed: " + allowed + ")");
     }
   }
   model::Parameters p;

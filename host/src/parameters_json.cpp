@@ -11,3 +11,19 @@ nlohmann::json to_json(const model::Parameters& p) {
 }
 
 }  // namespace piezo::host
+
+namespace piezo::host {
+
+model::Parameters parameters_from_json(const nlohmann::json& j) {
+  model::Parameters p;
+  for (const auto& [key, value] : j.items()) {
+    const model::ParameterSpec* spec = model::find_parameter(key);
+    if (spec == nullptr || !value.is_number()) {
+      throw std::runtime_error("parameters: unknown or non-numeric entry '" + key + "'");
+    }
+    spec->ref(p) = value.get<double>();
+  }
+  return p;
+}
+
+}  // namespace piezo::host

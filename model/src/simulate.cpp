@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "piezo/model/dopri5.hpp"
+#include "piezo/model/step_control.hpp"
 
 namespace piezo::model {
 
@@ -29,30 +30,6 @@ std::vector<double> uniform_times(double duration, double interval) {
 
 namespace {
 
-// The states span ten orders of magnitude (z ~ 1e-7 m, theta ~ 1e-2 rad), so
-// each component gets its own absolute tolerance: `tolerance` times its
-// natural size. Sizes are the stack stroke at 100 V, that stroke per
-// millisecond, and the bristle deflection at sliding.
-template <std::size_t N>
-std::array<double, N> state_scale(const MotorParameters& p) {
-  const double stroke = std::max(p.d_e * 100.0, 1e-12);
-  const double speed = stroke / 1e-3;
-  std::array<double, N> s{};
-  s[kX] = stroke;
-  s[kXDot] = speed;
-  s[kTheta] = stroke / p.r;
-  s[kThetaDot] = speed / p.r;
-  if constexpr (N > 4) s[kZ] = p.F_c() / p.sigma0;
-  return s;
-}
-
-// Explicit Runge-Kutta steps beyond the stability limit on the stator's
-// lightly damped oscillation (omega_n * h ~ 3) are rejected anyway; capping
-// the step at 2/omega_n avoids those rejections.
-double max_step(const MotorParameters& p) {
-  return 2.0 / std::sqrt(p.K / p.M);
-}
-
 template <std::size_t N>
 struct Event {
   double t;
@@ -75,7 +52,7 @@ IntegrationStats integrate(const MotorParameters& p, Rhs&& rhs, const Excitation
   }
   State atol = state_scale<N>(p);
   for (double& a : atol) a *= tolerance;
-  Dopri5<N> stepper(tolerance, atol, max_step(p));
+  Dopri5<N> stepper(tolerance, atol, max_stable_step(p));
   LinearPiece voltage{0.0, 0.0, 0.0};
   auto system = [&](const State& y, State& dydt, double t) { rhs(y, dydt, voltage.at(t)); };
 

@@ -1,0 +1,38 @@
+#pragma once
+/// @file
+/// The acquire loop: at the sensor's rate it issues one blocking read,
+/// reports the outcome to the safety supervisor (through SensorHealth) and
+/// pushes a timestamped SensorSample. Same rules as the drive loop: no
+/// allocation, locks, exceptions or I/O beyond the HAL inside it.
+
+#include <atomic>
+
+#include "piezo/firmware/loop_health.hpp"
+#include "piezo/firmware/samples.hpp"
+#include "piezo/firmware/sensor_health.hpp"
+#include "piezo/firmware/spsc_ring.hpp"
+#include "piezo/hal/clock.hpp"
+#include "piezo/hal/displacement_sensor.hpp"
+
+namespace piezo::firmware {
+
+class AcquireLoop {
+ public:
+  AcquireLoop(hal::Clock& clock, hal::DisplacementSensor& sensor, SensorHealth& sensor_health,
+              SpscRing<SensorSample>& ring);
+
+  /// Samples from t0 until `stop` is set (the drive loop has finished).
+  void run(hal::TimeNs t0, const std::atomic<bool>& stop);
+
+  [[nodiscard]] LoopHealth& health() { return health_; }
+  [[nodiscard]] const LoopHealth& health() const { return health_; }
+
+ private:
+  hal::Clock& clock_;
+  hal::DisplacementSensor& sensor_;
+  SensorHealth& sensor_health_;
+  SpscRing<SensorSample>& ring_;
+  LoopHealth health_;
+};
+
+}  // namespace piezo::firmware

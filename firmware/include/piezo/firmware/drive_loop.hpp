@@ -1,0 +1,65 @@
+#pragma once
+/// @file
+/// The drive loop: at every absolute deadline (default 10 kHz) it evaluates
+/// the waveform, applies the safety decision and the voltage limits, writes
+/// the drive, pulses sync at each period start and pushes a DriveSample.
+/// Everything is built before run(); the loop allocates nothing, takes no
+/// locks, throws nothing and does no I/O beyond the HAL.
+
+#include <atomic>
+
+#include "piezo/firmware/loop_health.hpp"
+#include "piezo/firmware/safety_supervisor.hpp"
+#include "piezo/firmware/samples.hpp"
+#include "piezo/firmware/spsc_ring.hpp"
+#include "piezo/firmware/voltage_limiter.hpp"
+#include "piezo/hal/clock.hpp"
+#include "piezo/hal/digital_lines.hpp"
+#include "piezo/hal/drive.hpp"
+#include "piezo/model/waveform.hpp"
+
+namespace piezo::firmware {
+
+struct DriveLoopSettings {
+  double rate_hz = 10'000.0;
+  double duration_s = 4.8;
+  double period_s = 0.1;  ///< of the waveform, for the sync pulse
+  VoltageLimits limits;
+};
+
+/// The devices and channels one drive loop works with; all outlive the loop.
+struct DriveLoopIo {
+  hal::Clock& clock;
+  hal::Drive& drive;
+  hal::DigitalLines& lines;
+  SpscRing<DriveSample>& ring;
+  const std::atomic<bool>& stop_requested;
+};
+
+class DriveLoop {
+ public:
+  DriveLoop(const DriveLoopSettings& settings, const model::Excitation& waveform,
+            SafetySupervisor& supervisor, DriveLoopIo io);
+
+  /// Runs from t0 (the run's time origin, a future time on the clock) until
+  /// the supervisor stops it; returns with the amplifier disabled.
+  StopCause run(hal::TimeNs t0);
+
+  [[nodiscard]] LoopHealth& health() { return health_; }
+  [[nodiscard]] const LoopHealth& health() const { return health_; }
+  /// Last commanded voltage, for the live status line.
+  [[nodiscard]] double last_voltage() const { return last_V_.load(std::memory_order_relaxed); }
+
+ private:
+  void emit(hal::TimeNs t, double V, DrivePhase phase, hal::Status status);
+  void stop_output(hal::TimeNs t);
+
+  DriveLoopSettings settings_;
+  const model::Excitation& waveform_;
+  SafetySupervisor& supervisor_;
+  DriveLoopIo io_;
+  LoopHealth health_;
+  std::atomic<double> last_V_{0.0};
+};
+
+}  // namespace piezo::firmware

@@ -1,0 +1,99 @@
+#pragma once
+/// @file
+/// Decides, every drive cycle, whether the drive may go on: an e-stop
+/// disables the amplifier at once; a stale or failing sensor, failing drive
+/// writes, a stop request or the end of the run ramp the drive to 0 V first.
+
+#include <algorithm>
+#include <cstdint>
+#include <string_view>
+
+#include "piezo/firmware/sensor_health.hpp"
+#include "piezo/hal/digital_lines.hpp"
+
+namespace piezo::firmware {
+
+struct SafetySettings {
+  double sensor_stale_s = 0.1;           ///< longest time without a good reading
+  std::uint32_t max_sensor_errors = 20;  ///< consecutive failed reads tolerated
+  std::uint32_t max_drive_errors = 3;    ///< consecutive failed writes tolerated
+  double ramp_down_V_per_s = 1000.0;     ///< slew of the ramp to 0 V
+};
+
+/// Why the drive stopped; `none` while it runs.
+enum class StopCause : std::uint8_t {
+  none = 0,
+  completed,    ///< the configured duration elapsed
+  interrupted,  ///< SIGINT/SIGTERM or an operator stop
+  estop,
+  sensor_fault,
+  drive_fault,
+};
+
+[[nodiscard]] constexpr std::string_view to_string(StopCause c) {
+  switch (c) {
+    case StopCause::none:
+      return "none";
+    case StopCause::completed:
+      return "completed";
+    case StopCause::interrupted:
+      return "interrupted";
+    case StopCause::estop:
+      return "estop";
+    case StopCause::sensor_fault:
+      return "sensor_fault";
+    case StopCause::drive_fault:
+      return "drive_fault";
+  }
+  return "unknown";
+}
+
+enum class SafetyAction : std::uint8_t { run, ramp_down, disable_now };
+
+class SafetySupervisor {
+ public:
+  SafetySupervisor(const SafetySettings& settings, const SensorHealth& sensor, hal::TimeNs t0)
+      : settings_(settings), sensor_(sensor), t0_(t0) {}
+
+  /// One check per drive cycle. The first cause found sticks; an e-stop
+  /// overrides a ramp already under way.
+  [[nodiscard]] SafetyAction check(hal::TimeNs now, const hal::EstopState& estop,
+                                   bool stop_requested, bool duration_elapsed) {
+    if (estop.pressed || estop.edge_seen || estop.status != hal::Status::ok) {
+      cause_ = StopCause::estop;
+      return SafetyAction::disable_now;
+    }
+    if (cause_ == StopCause::none) cause_ = find_cause(now, stop_requested, duration_elapsed);
+    return cause_ == StopCause::none ? SafetyAction::run : SafetyAction::ramp_down;
+  }
+
+  /// Reports the outcome of each drive write.
+  void report_drive_write(hal::Status s) {
+    drive_errors_ = s == hal::Status::ok ? 0 : drive_errors_ + 1;
+  }
+
+  [[nodiscard]] StopCause cause() const { return cause_; }
+  [[nodiscard]] const SafetySettings& settings() const { return settings_; }
+
+ private:
+  [[nodiscard]] StopCause find_cause(hal::TimeNs now, bool stop_requested,
+                                     bool duration_elapsed) const {
+    if (drive_errors_ >= settings_.max_drive_errors) return StopCause::drive_fault;
+    const hal::TimeNs last_good = std::max(sensor_.last_good.load(std::memory_order_acquire), t0_);
+    if (hal::to_seconds(now - last_good) > settings_.sensor_stale_s ||
+        sensor_.consecutive_errors.load(std::memory_order_relaxed) >= settings_.max_sensor_errors) {
+      return StopCause::sensor_fault;
+    }
+    if (stop_requested) return StopCause::interrupted;
+    if (duration_elapsed) return StopCause::completed;
+    return StopCause::none;
+  }
+
+  SafetySettings settings_;
+  const SensorHealth& sensor_;
+  hal::TimeNs t0_;
+  StopCause cause_ = StopCause::none;
+  std::uint32_t drive_errors_ = 0;
+};
+
+}  // namespace piezo::firmware

@@ -1,0 +1,33 @@
+#pragma once
+/// @file
+/// What the real-time loops hand to the host, one record per cycle.
+
+#include <cstdint>
+
+#include "piezo/hal/clock.hpp"
+#include "piezo/hal/status.hpp"
+
+namespace piezo::firmware {
+
+/// The drive's phase of a run, logged with every drive sample.
+enum class DrivePhase : std::uint8_t {
+  driving = 0,   ///< following the waveform
+  ramping_down,  ///< stop requested or fault: slewing to 0 V
+  stopped,       ///< amplifier disabled
+};
+
+struct DriveSample {
+  hal::TimeNs t;  ///< when the voltage was written
+  double V;       ///< commanded amplifier output [V]
+  DrivePhase phase;
+  hal::Status status;  ///< of the write
+};
+
+struct SensorSample {
+  hal::TimeNs t_request;
+  hal::TimeNs t_response;
+  double displacement_m;
+  hal::Status status;
+};
+
+}  // namespace piezo::firmware

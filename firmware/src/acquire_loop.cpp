@@ -1,0 +1,35 @@
+#include "piezo/firmware/acquire_loop.hpp"
+
+namespace piezo::firmware {
+
+AcquireLoop::AcquireLoop(hal::Clock& clock, hal::DisplacementSensor& sensor,
+                         SensorHealth& sensor_health, SpscRing<SensorSample>& ring)
+    : clock_(clock), sensor_(sensor), sensor_health_(sensor_health), ring_(ring) {}
+
+void AcquireLoop::run(hal::TimeNs t0, const std::atomic<bool>& stop) {
+  const auto period = hal::from_seconds(1.0 / sensor_.rate_hz());
+  hal::TimeNs deadline = t0;
+  while (!stop.load(std::memory_order_acquire)) {
+    clock_.sleep_until(deadline);
+    if (stop.load(std::memory_order_acquire)) break;
+    health_.period_error.record(clock_.now() - deadline);
+    health_.count(health_.cycles);
+
+    const hal::DisplacementReading r = sensor_.read();
+    const bool good = r.status == hal::Status::ok;
+    sensor_health_.report(good, r.t_response);
+    if (!good) health_.count(health_.errors);
+    if (!ring_.try_push({r.t_request, r.t_response, r.displacement_m, r.status})) {
+      health_.count(health_.dropped_samples);
+    }
+
+    deadline += period;
+    const hal::TimeNs done = clock_.now();
+    if (done > deadline) {
+      health_.count(health_.overruns);
+      health_.count(health_.missed_cycles, skip_missed(deadline, done, period));
+    }
+  }
+}
+
+}  // namespace piezo::firmware

@@ -1,0 +1,89 @@
+#include "piezo/firmware/drive_loop.hpp"
+
+#include <cmath>
+
+namespace piezo::firmware {
+
+DriveLoop::DriveLoop(const DriveLoopSettings& settings, const model::Excitation& waveform,
+                     SafetySupervisor& supervisor, DriveLoopIo io)
+    : settings_(settings), waveform_(waveform), supervisor_(supervisor), io_(io) {}
+
+void DriveLoop::emit(hal::TimeNs t, double V, DrivePhase phase, hal::Status status) {
+  if (status != hal::Status::ok) health_.count(health_.errors);
+  if (!io_.ring.try_push({t, V, phase, status})) health_.count(health_.dropped_samples);
+}
+
+void DriveLoop::stop_output(hal::TimeNs t) {
+  // Zero first, then disable: the amplifier is never left enabled at a voltage.
+  const hal::Status written = io_.drive.write(0.0);
+  (void)io_.lines.set_amplifier_enable(false);
+  (void)io_.lines.set_sync(false);
+  last_V_.store(0.0, std::memory_order_relaxed);
+  emit(t, 0.0, DrivePhase::stopped, written);
+}
+
+StopCause DriveLoop::run(hal::TimeNs t0) {
+  const auto period = hal::from_seconds(1.0 / settings_.rate_hz);
+  const double dt_nominal = 1.0 / settings_.rate_hz;
+  (void)io_.drive.write(0.0);
+  (void)io_.lines.set_amplifier_enable(true);
+
+  hal::TimeNs deadline = t0;
+  hal::TimeNs last_write = t0 - period;
+  double V = 0.0;
+  long last_waveform_period = -1;
+  bool sync_high = false;
+  DrivePhase phase = DrivePhase::driving;
+
+  for (;;) {
+    io_.clock.sleep_until(deadline);
+    const hal::TimeNs now = io_.clock.now();
+    health_.period_error.record(now - deadline);
+    health_.count(health_.cycles);
+    const double t = hal::to_seconds(now - t0);
+
+    const SafetyAction action = supervisor_.check(
+        now, io_.lines.poll_estop(), io_.stop_requested.load(std::memory_order_relaxed),
+        t >= settings_.duration_s);
+    if (action == SafetyAction::disable_now) {
+      stop_output(now);
+      return supervisor_.cause();
+    }
+    if (action == SafetyAction::ramp_down) phase = DrivePhase::ramping_down;
+
+    const double dt = std::max(hal::to_seconds(now - last_write), dt_nominal);
+    if (phase == DrivePhase::driving) {
+      V = limit_voltage(settings_.limits, waveform_.voltage(t), V, dt);
+    } else {
+      V = step_towards(V, 0.0, supervisor_.settings().ramp_down_V_per_s, dt);
+    }
+    const hal::Status written = io_.drive.write(V);
+    last_write = now;
+    supervisor_.report_drive_write(written);
+    last_V_.store(V, std::memory_order_relaxed);
+
+    // Sync: high for the first drive cycle of each waveform period.
+    const auto waveform_period = static_cast<long>(std::floor(t / settings_.period_s));
+    const bool want_sync = phase == DrivePhase::driving && waveform_period != last_waveform_period;
+    last_waveform_period = waveform_period;
+    if (want_sync != sync_high) {
+      (void)io_.lines.set_sync(want_sync);
+      sync_high = want_sync;
+    }
+    emit(now, V, phase, written);
+
+    if (phase == DrivePhase::ramping_down && V == 0.0) {
+      stop_output(io_.clock.now());
+      return supervisor_.cause();
+    }
+
+    deadline += period;
+    const hal::TimeNs done = io_.clock.now();
+    if (done > deadline) {
+      health_.count(health_.overruns);
+      health_.count(health_.missed_cycles, skip_missed(deadline, done, period));
+    }
+  }
+}
+
+}  // namespace piezo::firmware

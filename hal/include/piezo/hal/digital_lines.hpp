@@ -1,0 +1,32 @@
+#pragma once
+/// @file
+/// The rig's digital lines: amplifier enable (out), a sync pulse per drive
+/// period (out) for a scope or DAQ, and the emergency stop (in, with edge events).
+
+#include "piezo/hal/status.hpp"
+
+namespace piezo::hal {
+
+/// E-stop as seen by one poll: whether it is pressed now and whether any
+/// edge arrived since the last poll (a press released again still counts).
+struct EstopState {
+  bool pressed = false;
+  bool edge_seen = false;
+  Status status = Status::ok;
+};
+
+class DigitalLines {
+ public:
+  DigitalLines() = default;
+  DigitalLines(const DigitalLines&) = delete;
+  DigitalLines& operator=(const DigitalLines&) = delete;
+  virtual ~DigitalLines() = default;
+
+  /// Logical levels (true = asserted); polarity is the backend's business.
+  virtual Status set_amplifier_enable(bool enabled) = 0;
+  virtual Status set_sync(bool high) = 0;
+  /// Non-blocking: drains pending edge events. Called every drive cycle.
+  [[nodiscard]] virtual EstopState poll_estop() = 0;
+};
+
+}  // namespace piezo::hal

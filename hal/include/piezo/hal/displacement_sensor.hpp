@@ -1,0 +1,31 @@
+#pragma once
+/// @file
+/// The displacement sensor (a laser triangulation sensor on the rig).
+
+#include "piezo/hal/clock.hpp"
+#include "piezo/hal/status.hpp"
+
+namespace piezo::hal {
+
+struct DisplacementReading {
+  double displacement_m = 0.0;
+  TimeNs t_request = 0;   ///< when the read was issued
+  TimeNs t_response = 0;  ///< when its answer arrived
+  Status status = Status::ok;
+};
+
+class DisplacementSensor {
+ public:
+  DisplacementSensor() = default;
+  DisplacementSensor(const DisplacementSensor&) = delete;
+  DisplacementSensor& operator=(const DisplacementSensor&) = delete;
+  virtual ~DisplacementSensor() = default;
+
+  /// One blocking read, bounded by the backend's timeout. Called from the
+  /// acquire loop: no allocation, no exceptions.
+  [[nodiscard]] virtual DisplacementReading read() = 0;
+  /// The rate the sensor can deliver new values at [Hz].
+  [[nodiscard]] virtual double rate_hz() const = 0;
+};
+
+}  // namespace piezo::hal

@@ -1,0 +1,29 @@
+#pragma once
+/// @file
+/// The drive: the voltage at the piezo amplifier's output, through whatever
+/// DAC or analog-output module the rig has.
+
+#include "piezo/hal/status.hpp"
+
+namespace piezo::hal {
+
+/// What the drive hardware can produce, in amplifier output volts.
+struct DriveLimits {
+  double V_min = 0.0;
+  double V_max = 0.0;
+};
+
+class Drive {
+ public:
+  Drive() = default;
+  Drive(const Drive&) = delete;
+  Drive& operator=(const Drive&) = delete;
+  virtual ~Drive() = default;
+
+  /// Commands the amplifier output voltage [V]. Called every drive cycle: must be fast.
+  virtual Status write(double volts) = 0;
+  /// The range the hardware can produce; the firmware clamps to it.
+  [[nodiscard]] virtual DriveLimits limits() const = 0;
+};
+
+}  // namespace piezo::hal

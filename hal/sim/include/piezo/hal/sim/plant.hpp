@@ -1,0 +1,71 @@
+#pragma once
+/// @file
+/// The simulated rig's mechanics: the amplifier (gain, output limits, slew)
+/// driving the LuGre motor. The drive thread advances it at every write; the
+/// sensor thread reads the latest published angle without blocking (seqlock).
+
+#include <atomic>
+#include <cstdint>
+
+#include "piezo/hal/clock.hpp"
+#include "piezo/model/lugre_integrator.hpp"
+#include "piezo/model/parameters.hpp"
+
+namespace piezo::hal::sim {
+
+struct AmplifierSettings {
+  double gain = 20.0;            ///< output volts per input volt
+  double V_out_min = 0.0;        ///< output rails [V]
+  double V_out_max = 100.0;      ///< output rails [V]
+  double slew_V_per_s = 50'000;  ///< output slew-rate limit
+  /// Reconstruction of the DAC's steps: each new input is approached
+  /// linearly over this time (one DAC update period interpolates the
+  /// samples, a first-order hold); 0 passes the steps through. Steps at
+  /// 10 kHz would ring the stator's 5.7 kHz mode, which a real signal chain
+  /// filters out.
+  double ramp_time_s = 100e-6;
+};
+
+/// What the sensor sees of the plant.
+struct PlantSnapshot {
+  TimeNs t = 0;
+  double theta = 0.0;  ///< rotor angle [rad]
+  double V_out = 0.0;  ///< amplifier output [V]
+};
+
+class Plant {
+ public:
+  Plant(const model::MotorParameters& motor, const AmplifierSettings& amplifier, TimeNs t0);
+
+  /// Sets the amplifier's input [V] from time t on; the motor is first
+  /// advanced to t under the previous input. Single writer (the drive thread).
+  void set_input(TimeNs t, double V_in);
+  /// Enables or disables the amplifier output (disabled: it slews to 0 V).
+  void set_enabled(TimeNs t, bool enabled);
+  /// The latest published state. Any thread, wait-free for the writer.
+  [[nodiscard]] PlantSnapshot latest() const;
+
+  [[nodiscard]] const AmplifierSettings& amplifier() const { return amplifier_; }
+
+ private:
+  void advance_to(TimeNs t);
+  void start_ramp();
+  void publish();
+  [[nodiscard]] double output_target() const;
+
+  AmplifierSettings amplifier_;
+  model::LuGreIntegrator motor_;
+  TimeNs t_;
+  double V_in_ = 0.0;
+  double V_out_ = 0.0;
+  double slope_ = 0.0;   // of the output's ramp towards its target [V/s]
+  TimeNs ramp_end_ = 0;  // when the target is reached
+  bool enabled_ = false;
+
+  std::atomic<std::uint64_t> sequence_{0};
+  std::atomic<TimeNs> published_t_{0};
+  std::atomic<double> published_theta_{0.0};
+  std::atomic<double> published_V_out_{0.0};
+};
+
+}  // namespace piezo::hal::sim

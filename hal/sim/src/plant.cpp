@@ -1,0 +1,80 @@
+#include "piezo/hal/sim/plant.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace piezo::hal::sim {
+
+Plant::Plant(const model::MotorParameters& motor, const AmplifierSettings& amplifier, TimeNs t0)
+    : amplifier_(amplifier), motor_(motor), t_(t0) {
+  motor_.reset(to_seconds(t0), model::LuGreState{});
+  publish();
+}
+
+double Plant::output_target() const {
+  if (!enabled_) return 0.0;
+  return std::clamp(amplifier_.gain * V_in_, amplifier_.V_out_min, amplifier_.V_out_max);
+}
+
+void Plant::advance_to(TimeNs t) {
+  if (t <= t_) return;
+  // The output ramps until ramp_end_, then holds its target.
+  const double t0 = to_seconds(t_), t1 = to_seconds(t);
+  const TimeNs ramp_stop = std::min(t, std::max(ramp_end_, t_));
+  const double t_ramp = to_seconds(ramp_stop);
+  if (ramp_stop > t_) {
+    motor_.advance({t0, V_out_, slope_}, t_ramp);
+    V_out_ += slope_ * (t_ramp - t0);
+  }
+  if (t > ramp_stop) {
+    V_out_ = output_target();
+    motor_.advance({t_ramp, V_out_, 0.0}, t1);
+  }
+  t_ = t;
+}
+
+void Plant::start_ramp() {
+  const double gap = output_target() - V_out_;
+  const double wanted = amplifier_.ramp_time_s > 0.0 ? gap / amplifier_.ramp_time_s
+                                                     : std::copysign(amplifier_.slew_V_per_s, gap);
+  slope_ = std::clamp(wanted, -amplifier_.slew_V_per_s, amplifier_.slew_V_per_s);
+  ramp_end_ = slope_ == 0.0 ? t_ : t_ + from_seconds(gap / slope_);
+}
+
+void Plant::set_input(TimeNs t, double V_in) {
+  advance_to(t);
+  V_in_ = V_in;
+  start_ramp();
+  publish();
+}
+
+void Plant::set_enabled(TimeNs t, bool enabled) {
+  advance_to(t);
+  enabled_ = enabled;
+  start_ramp();
+  publish();
+}
+
+void Plant::publish() {
+  // Seqlock: odd while writing; the reader retries on an odd or changed count.
+  const std::uint64_t s = sequence_.load(std::memory_order_relaxed);
+  sequence_.store(s + 1, std::memory_order_relaxed);
+  std::atomic_thread_fence(std::memory_order_release);
+  published_t_.store(t_, std::memory_order_relaxed);
+  published_theta_.store(motor_.state()[model::kTheta], std::memory_order_relaxed);
+  published_V_out_.store(V_out_, std::memory_order_relaxed);
+  sequence_.store(s + 2, std::memory_order_release);
+}
+
+PlantSnapshot Plant::latest() const {
+  for (;;) {
+    const std::uint64_t before = sequence_.load(std::memory_order_acquire);
+    PlantSnapshot snap{published_t_.load(std::memory_order_relaxed),
+                       published_theta_.load(std::memory_order_relaxed),
+                       published_V_out_.load(std::memory_order_relaxed)};
+    std::atomic_thread_fence(std::memory_order_acquire);
+    if ((before & 1U) == 0 && sequence_.load(std::memory_order_relaxed) == before) return snap;
+  }
+}
+
+}  // namespace piezo::hal::sim

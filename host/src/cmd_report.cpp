@@ -1,0 +1,175 @@
+// `piezo report RUN_DIR`: plots of a logged run — the measured angle with
+// the model's prediction, a zoom on a few drive periods, and the drive
+// loop's timing histogram.
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "columns.hpp"
+#include "commands.hpp"
+#include "config_error.hpp"
+#include "gnuplot.hpp"
+#include "h5_file.hpp"
+#include "parameters_json.hpp"
+#include "piezo/model/sampled_drive.hpp"
+#include "piezo/model/simulate.hpp"
+
+namespace piezo::host {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ReportOptions {
+  std::string run_dir;
+  bool json = false;
+};
+
+struct Series {
+  std::vector<double> t, value;
+};
+
+/// Good samples only (the log holds NaN where a reading failed).
+Series finite(const std::vector<double>& t, const std::vector<double>& v) {
+  Series s;
+  for (std::size_t i = 0; i < std::min(t.size(), v.size()); ++i) {
+    if (std::isfinite(v[i])) {
+      s.t.push_back(t[i]);
+      s.value.push_back(v[i]);
+    }
+  }
+  return s;
+}
+
+std::vector<double> scaled(const std::vector<double>& v, double k) {
+  std::vector<double> out(v.size());
+  std::transform(v.begin(), v.end(), out.begin(), [k](double x) { return k * x; });
+  return out;
+}
+
+/// The model ([model] of the run) driven by the logged voltages, sampled at `times`.
+std::vector<double> model_prediction(const H5File& log, const std::vector<double>& drive_t,
+                                     const std::vector<double>& drive_V,
+                                     const std::vector<double>& times) {
+  const auto p =
+      parameters_from_json(nlohmann::json::parse(log.attribute("/", "model_parameters")));
+  const model::SampledDrive drive(drive_t, drive_V);
+  std::vector<double> sorted_times;
+  for (double t : times) sorted_times.push_back(std::max(0.0, t));
+  return model::simulate(p.motor, drive, model::FrictionModel::lugre, sorted_times).theta;
+}
+
+int run(const ReportOptions& o) {
+  const fs::path dir(o.run_dir);
+  const fs::path log_path = dir / "run.h5";
+  if (!fs::exists(log_path)) throw ConfigError(o.run_dir, "run.h5", "no run log in this directory");
+  const H5File log = H5File::open(log_path.string());
+  // The last samples of a run may share a time stamp (the stop after the ramp): keep the first.
+  std::vector<double> drive_t, drive_V;
+  {
+    const auto t = log.read("/drive/t"), V = log.read("/drive/V");
+    for (std::size_t i = 0; i < std::min(t.size(), V.size()); ++i) {
+      if (drive_t.empty() || t[i] > drive_t.back()) {
+        drive_t.push_back(t[i]);
+        drive_V.push_back(V[i]);
+      }
+    }
+  }
+  const Series theta = finite(log.read("/sensor/t"), log.read("/sensor/theta"));
+  if (theta.t.size() < 2 || drive_t.size() < 2) {
+    throw std::runtime_error(log_path.string() + ": too few samples to plot");
+  }
+  const std::string status = log.attribute("/", "status");
+
+  const auto predicted = model_prediction(log, drive_t, drive_V, theta.t);
+  double sum_sq = 0.0;
+  for (std::size_t i = 0; i < predicted.size(); ++i) {
+    sum_sq += std::pow(theta.value[i] - predicted[i], 2);
+  }
+  const double rmse = std::sqrt(sum_sq / static_cast<double>(predicted.size()));
+
+  const fs::path out = dir / "report";
+  fs::create_directories(out);
+  const auto theta_mrad = scaled(theta.value, 1e3), predicted_mrad = scaled(predicted, 1e3);
+  const std::string angle_csv = (out / "angle.csv").string();
+  write_csv(angle_csv,
+            {{"t", theta.t}, {"theta_mrad", theta_mrad}, {"model_mrad", predicted_mrad}});
+  const std::string drive_csv = (out / "drive.csv").string();
+  write_csv(drive_csv, {{"t", drive_t}, {"V", drive_V}});
+
+  const std::string title = fmt::format("{} ({})", dir.filename().string(), status);
+  run_gnuplot(fmt::format(
+      "set terminal pngcairo size 1000,600 noenhanced\nset output {}\n"
+      "set title {}\nset xlabel 't [s]'\nset ylabel 'theta [mrad]'\nset key top left\nset grid\n"
+      "plot {} using 1:2 skip 1 with points pt 7 ps 0.2 lc rgb '#1f77b4' title 'measured',"
+      " '' using 1:3 skip 1 with lines lw 2 lc rgb '#d62728' title 'model (LuGre, logged drive)'\n",
+      gnuplot_quote((out / "angle.png").string()), gnuplot_quote(title + ": rotor angle"),
+      gnuplot_quote(angle_csv)));
+
+  // A few drive periods from the middle of the run.
+  const auto period =
+      nlohmann::json::parse(log.attribute("/", "model_parameters")).value("f", 10.0);
+  const double t_mid = 0.5 * theta.t.back();
+  const double t_from = t_mid, t_to = t_mid + 3.0 / period;
+  run_gnuplot(fmt::format(
+      "set terminal pngcairo size 1000,600 noenhanced\nset output {}\n"
+      "set title {}\nset xlabel 't [s]'\nset ylabel 'V [V]'\nset y2label 'theta [mrad]'\n"
+      "set ytics nomirror\nset y2tics\nset xrange [{}:{}]\nset key top left\nset grid\n"
+      "plot {} using 1:2 skip 1 with steps lc rgb '#7f7f7f' title 'drive V' axes x1y1,"
+      " {} using 1:2 skip 1 with points pt 7 ps 0.5 lc rgb '#1f77b4' title 'measured theta' axes "
+      "x1y2,"
+      " '' using 1:3 skip 1 with lines lw 2 lc rgb '#d62728' title 'model theta' axes x1y2\n",
+      gnuplot_quote((out / "zoom.png").string()), gnuplot_quote(title + ": three drive periods"),
+      t_from, t_to, gnuplot_quote(drive_csv), gnuplot_quote(angle_csv), gnuplot_quote(angle_csv)));
+
+  std::string timing_png;
+  if (log.exists("/timing/drive_period_error_us")) {
+    const auto counts = log.read("/timing/drive_period_error_us");
+    std::vector<double> bin_us(counts.size());
+    for (std::size_t i = 0; i < bin_us.size(); ++i) bin_us[i] = static_cast<double>(i) + 0.5;
+    const std::string timing_csv = (out / "timing.csv").string();
+    write_csv(timing_csv, {{"period_error_us", bin_us}, {"cycles", counts}});
+    timing_png = (out / "timing.png").string();
+    run_gnuplot(fmt::format(
+        "set terminal pngcairo size 1000,600 noenhanced\nset output {}\n"
+        "set title {}\nset xlabel 'wake-up lateness [us] (1 us bins)'\nset ylabel 'cycles'\n"
+        "set logscale y\nset xrange [0:*]\nset yrange [0.5:*]\nset grid\n"
+        "plot {} using 1:($2 > 0 ? $2 : NaN) skip 1 with impulses lw 2 lc rgb '#2ca02c' title "
+        "'drive loop'\n",
+        gnuplot_quote(timing_png), gnuplot_quote(title + ": drive loop period error"),
+        gnuplot_quote(timing_csv)));
+  }
+
+  if (o.json) {
+    std::cout << nlohmann::json{{"status", status},
+                                {"rmse_model_rad", rmse},
+                                {"angle_png", (out / "angle.png").string()},
+                                {"zoom_png", (out / "zoom.png").string()},
+                                {"timing_png", timing_png}}
+                     .dump()
+              << "\n";
+  } else {
+    fmt::print("run {}: model RMSE {:.4f} mrad over {} samples\n", status, 1e3 * rmse,
+               predicted.size());
+    fmt::print("plots in {}\n", out.string());
+  }
+  return 0;
+}
+
+}  // namespace
+
+CommandRunner add_report_command(CLI::App& app) {
+  auto o = std::make_shared<ReportOptions>();
+  CLI::App* cmd = app.add_subcommand("report", "Plot a logged run");
+  cmd->add_option("RUN_DIR", o->run_dir, "Run directory (holds run.h5)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
+  return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
+}
+
+}  // namespace piezo::host

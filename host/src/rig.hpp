@@ -1,0 +1,29 @@
+#pragma once
+// The rig a run talks to, built from the config's backend choices: the one
+// place where backends are named. Everything is built and checked before
+// the run directory is created or the amplifier enabled.
+
+#include <memory>
+
+#include "piezo/hal/clock.hpp"
+#include "piezo/hal/digital_lines.hpp"
+#include "piezo/hal/displacement_sensor.hpp"
+#include "piezo/hal/drive.hpp"
+#include "run_config.hpp"
+
+namespace piezo::host {
+
+struct Rig {
+  std::unique_ptr<hal::Clock> clock;
+  hal::TimeNs t0 = 0;  ///< the run's time origin: a moment after the threads are up
+  std::shared_ptr<void> shared_devices;  ///< what the devices share (the simulated plant)
+  std::unique_ptr<hal::Drive> drive;
+  std::unique_ptr<hal::DisplacementSensor> sensor;
+  std::unique_ptr<hal::DigitalLines> lines;
+};
+
+/// Builds the clock and the backends; throws ConfigError when the drive
+/// hardware cannot honour the configured limits.
+[[nodiscard]] Rig build_rig(const RunConfig& config);
+
+}  // namespace piezo::host

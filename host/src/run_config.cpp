@@ -1,0 +1,262 @@
+#include "run_config.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "config_error.hpp"
+#include "model_config.hpp"
+#include "section_reader.hpp"
+
+namespace piezo::host {
+namespace {
+
+std::vector<std::string> drive_keys() {
+  std::vector<std::string> keys{"V0", "f", "C_dr", "e_dr"};
+  keys.insert(keys.end(), kDriveLoopKeys.begin(), kDriveLoopKeys.end());
+  return keys;
+}
+const std::vector<std::string> kSensorKeys{
+    "backend",   "rate_hz",    "r2_m",        "offset_m",
+    "noise_m",   "quantum_m",  "latency_s",   "dropout_probability",
+    "timeout_s", "stall_at_s", "stall_for_s", "seed"};
+const std::vector<std::string> kLinesKeys{"backend", "estop_at_s"};
+const std::vector<std::string> kRunKeys{"duration_s", "clock", "priority", "lock_memory",
+                                        "flush_interval_s"};
+const std::vector<std::string> kSafetyKeys{"sensor_stale_s", "max_sensor_errors",
+                                           "max_drive_errors", "ramp_down_V_per_s"};
+const std::vector<std::string> kRequiredSections{"drive", "sensor", "run"};
+
+constexpr Range kPositive{0.0, kInf, true, true};
+constexpr Range kNonNegative{0.0, kInf, false, true};
+
+void read_drive(const toml::table& t, const std::string& source, DriveSettings& d) {
+  SectionReader r(t, "drive", source);
+  r.reject_unknown(drive_keys());
+  r.choice("backend", d.backend, {"sim"});
+  r.number("rate_hz", d.rate_hz, {100.0, 100'000.0}, "Hz");
+  r.number("V_min", d.limits.V_min, {0.0, 1000.0}, "V");
+  r.number("V_max", d.limits.V_max, {0.0, 1000.0, true}, "V");
+  r.number("slew_V_per_s", d.limits.slew_V_per_s, kPositive, "V/s");
+  r.integer("dac_bits", d.dac.bits, 4, 24);
+  r.number("dac_full_scale_V", d.dac.full_scale_V, {0.0, 100.0, true}, "V");
+  r.number("amplifier_gain", d.amplifier.gain, {0.0, 1000.0, true});
+  r.number("amplifier_V_max", d.amplifier.V_out_max, {0.0, 1000.0, true}, "V");
+  r.number("amplifier_slew_V_per_s", d.amplifier.slew_V_per_s, kPositive, "V/s");
+  // The simulated signal chain interpolates over one DAC update period.
+  d.amplifier.ramp_time_s = 1.0 / d.rate_hz;
+}
+
+void read_sensor(const toml::table& t, const std::string& source, SensorSettings& s) {
+  SectionReader r(t, "sensor", source);
+  r.reject_unknown(kSensorKeys);
+  r.choice("backend", s.backend, {"sim"});
+  r.number("rate_hz", s.sim.rate_hz, {1.0, 100'000.0}, "Hz");
+  r.number("r2_m", s.r2_m, {0.0, 10.0, true}, "m");
+  r.number("offset_m", s.sim.offset_m, {-10.0, 10.0}, "m");
+  r.number("noise_m", s.sim.noise_m, {0.0, 1.0}, "m");
+  r.number("quantum_m", s.sim.quantum_m, {0.0, 1.0}, "m");
+  r.number("latency_s", s.sim.latency_s, {0.0, 1.0}, "s");
+  r.number("dropout_probability", s.sim.dropout_probability, {0.0, 1.0});
+  r.number("timeout_s", s.sim.timeout_s, {0.0, 10.0, true}, "s");
+  r.number("stall_at_s", s.sim.stall_at_s, kNonNegative, "s");
+  r.number("stall_for_s", s.sim.stall_for_s, kPositive, "s");
+  int seed = static_cast<int>(s.sim.seed);
+  r.integer("seed", seed, 0, 1'000'000'000);
+  s.sim.seed = static_cast<unsigned>(seed);
+  s.sim.r2_m = s.r2_m;
+}
+
+void read_lines(const toml::table& t, const std::string& source, LinesSettings& l) {
+  SectionReader r(t, "lines", source);
+  r.reject_unknown(kLinesKeys);
+  r.choice("backend", l.backend, {"sim"});
+  r.number("estop_at_s", l.sim.estop_at_s, kNonNegative, "s");
+}
+
+void read_run(const toml::table& t, const std::string& source, RunSettings& run) {
+  SectionReader r(t, "run", source);
+  r.reject_unknown(kRunKeys);
+  r.number("duration_s", run.duration_s, {0.0, 1e6, true}, "s");
+  r.choice("clock", run.clock, {"realtime", "virtual"});
+  r.integer("priority", run.priority, 0, 99);
+  r.flag("lock_memory", run.lock_memory);
+  r.number("flush_interval_s", run.flush_interval_s, {0.01, 1.0}, "s");
+}
+
+void read_safety(const toml::table& t, const std::string& source, firmware::SafetySettings& s) {
+  SectionReader r(t, "safety", source);
+  r.reject_unknown(kSafetyKeys);
+  r.number("sensor_stale_s", s.sensor_stale_s, {0.0, 60.0, true}, "s");
+  int sensor_errors = static_cast<int>(s.max_sensor_errors);
+  int drive_errors = static_cast<int>(s.max_drive_errors);
+  r.integer("max_sensor_errors", sensor_errors, 1, 1'000'000);
+  r.integer("max_drive_errors", drive_errors, 1, 1'000'000);
+  s.max_sensor_errors = static_cast<std::uint32_t>(sensor_errors);
+  s.max_drive_errors = static_cast<std::uint32_t>(drive_errors);
+  r.number("ramp_down_V_per_s", s.ramp_down_V_per_s, kPositive, "V/s");
+}
+
+/// Everything one table (the file, or one --set) says, read over `c`.
+/// [plant] keys are collected apart: the plant is [model] overlaid with them.
+void read_tables(const toml::table& t, const std::string& source, RunConfig& c,
+                 model::MotorParameters& plant_keys) {
+  for (const auto& [k, node] : t) {
+    const std::string key(k.str());
+    if (std::find(kKnownSections.begin(), kKnownSections.end(), key) == kKnownSections.end()) {
+      throw ConfigError(
+          source, key,
+          fmt::format("unknown section (allowed: {})", fmt::join(kKnownSections, ", ")));
+    }
+  }
+  read_drive(t, source, c.drive);
+  read_model_sections(t, source, c.model, kDriveLoopKeys);
+  read_motor_section(t, "plant", source, plant_keys);
+  read_sensor(t, source, c.sensor);
+  read_lines(t, source, c.lines);
+  read_run(t, source, c.run);
+  read_safety(t, source, c.safety);
+}
+
+/// "SECTION.KEY=VALUE" as a one-key TOML table; VALUE is read as TOML
+/// (numbers, true/false, "strings"), and a bare word as a string.
+toml::table override_table(const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  const auto dot = assignment.find('.');
+  if (eq == std::string::npos || dot == std::string::npos || dot > eq) {
+    throw ConfigError("--set", assignment, "expected SECTION.KEY=VALUE, e.g. drive.V0=70");
+  }
+  const std::string section = assignment.substr(0, dot);
+  const std::string key = assignment.substr(dot + 1, eq - dot - 1);
+  const std::string value = assignment.substr(eq + 1);
+  toml::table parsed;
+  try {
+    parsed = toml::parse("v = " + value);
+  } catch (const toml::parse_error&) {
+    parsed = toml::table{{"v", value}};
+  }
+  toml::table inner;
+  inner.insert(key, *parsed.get("v"));
+  return toml::table{{section, inner}};
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// The plant: [model] with each [plant] key that was given (NaN marks absent).
+model::MotorParameters overlay(const model::MotorParameters& base,
+                               const model::MotorParameters& keys) {
+  model::Parameters out{{}, base};
+  model::Parameters given{{}, keys};
+  for (const auto& spec : model::parameter_specs()) {
+    if (spec.section != "model") continue;
+    if (const double v = spec.ref(given); !std::isnan(v)) spec.ref(out) = v;
+  }
+  return out.motor;
+}
+
+model::MotorParameters all_nan() {
+  model::Parameters p;
+  for (const auto& spec : model::parameter_specs())
+    if (spec.section == "model") spec.ref(p) = std::nan("");
+  return p.motor;
+}
+
+void check_whole(const RunConfig& c, const std::map<std::string, std::string>& source_of) {
+  auto src = [&](const std::string& key) {
+    const auto it = source_of.find(key);
+    return it == source_of.end() ? c.source : it->second;
+  };
+  require_valid(c.model, c.source);
+  model::Parameters plant{c.model.drive, c.plant};
+  if (const auto issues = model::validate(plant); !issues.empty()) {
+    throw ConfigError(c.source, "plant." + issues.front().name, issues.front().message);
+  }
+  const auto& lim = c.drive.limits;
+  if (lim.V_min >= lim.V_max) {
+    throw ConfigError(
+        src("drive.V_min"), "drive.V_min",
+        fmt::format("{:g} V must be below drive.V_max = {:g} V", lim.V_min, lim.V_max));
+  }
+  const auto& d = c.model.drive;
+  if (d.V0 > lim.V_max || lim.V_min > 0.0) {
+    throw ConfigError(src("drive.V0"), "drive.V0",
+                      fmt::format("{:g} V is outside the drive's limits [drive.V_min, drive.V_max]"
+                                  " = [{:g}, {:g}] V (the sawtooth spans 0..V0)",
+                                  d.V0, lim.V_min, lim.V_max));
+  }
+  const double fastest = d.V0 * d.f / std::min(d.D(), 1.0 - d.D());
+  if (fastest > lim.slew_V_per_s) {
+    throw ConfigError(src("drive.slew_V_per_s"), "drive.slew_V_per_s",
+                      fmt::format("{:g} V/s is below the sawtooth's fastest edge, "
+                                  "V0*f/min(D, 1-D) = {:.4g} V/s; allowed: >= {:.4g}",
+                                  lim.slew_V_per_s, fastest, fastest));
+  }
+  if (c.drive.rate_hz < 20.0 * d.f) {
+    throw ConfigError(src("drive.rate_hz"), "drive.rate_hz",
+                      fmt::format("{:g} Hz gives under 20 samples per waveform period at f = "
+                                  "{:g} Hz; allowed: >= {:g} Hz",
+                                  c.drive.rate_hz, d.f, 20.0 * d.f));
+  }
+  if (c.sensor.sim.rate_hz > c.drive.rate_hz) {
+    throw ConfigError(src("sensor.rate_hz"), "sensor.rate_hz",
+                      fmt::format("{:g} Hz exceeds drive.rate_hz = {:g} Hz; allowed: <= {:g}",
+                                  c.sensor.sim.rate_hz, c.drive.rate_hz, c.drive.rate_hz));
+  }
+  if (c.safety.sensor_stale_s <= 1.0 / c.sensor.sim.rate_hz) {
+    throw ConfigError(src("safety.sensor_stale_s"), "safety.sensor_stale_s",
+                      fmt::format("{:g} s must exceed one sensor period ({:g} s)",
+                                  c.safety.sensor_stale_s, 1.0 / c.sensor.sim.rate_hz));
+  }
+}
+
+}  // namespace
+
+RunConfig load_run_config(const std::string& path, const std::vector<std::string>& sets) {
+  const toml::table file = parse_config_file(path);
+  for (const auto& section : kRequiredSections) {
+    if (!file.contains(section)) {
+      throw ConfigError(path, section,
+                        fmt::format("missing section [{}] (required: [{}])", section,
+                                    fmt::join(kRequiredSections, "], [")));
+    }
+  }
+  RunConfig c;
+  c.source = path;
+  c.text = read_text(path);
+  model::MotorParameters plant_keys = all_nan();
+  read_tables(file, path, c, plant_keys);
+
+  std::map<std::string, std::string> source_of;
+  if (!sets.empty()) c.text += "\n# --set overrides\n";
+  for (const auto& s : sets) {
+    const toml::table t = override_table(s);
+    read_tables(t, "--set", c, plant_keys);
+    source_of[s.substr(0, s.find('='))] = "--set";
+    c.text += "# --set " + s + "\n";
+  }
+  c.plant = overlay(c.model.motor, plant_keys);
+  check_whole(c, source_of);
+  return c;
+}
+
+void check_drive_hardware(const RunConfig& c, double hardware_V_min, double hardware_V_max) {
+  const auto& lim = c.drive.limits;
+  if (lim.V_max > hardware_V_max || lim.V_min < hardware_V_min) {
+    throw ConfigError(
+        c.source, "drive.V_max",
+        fmt::format("[{:g}, {:g}] V exceeds what the drive hardware can produce, "
+                    "[{:g}, {:g}] V (DAC full scale x amplifier gain, amplifier rails)",
+                    lim.V_min, lim.V_max, hardware_V_min, hardware_V_max));
+  }
+}
+
+}  // namespace piezo::host

@@ -1,0 +1,69 @@
+#pragma once
+// The configuration of `piezo run`: the drive, sensor, lines, plant, model,
+// run and safety sections of a rig config, read from a TOML file plus
+// --set SECTION.KEY=VALUE overrides and checked as a whole before anything
+// touches the hardware.
+
+#include <string>
+#include <vector>
+
+#include "piezo/firmware/safety_supervisor.hpp"
+#include "piezo/firmware/voltage_limiter.hpp"
+#include "piezo/hal/sim/plant.hpp"
+#include "piezo/hal/sim/sim_drive.hpp"
+#include "piezo/hal/sim/sim_lines.hpp"
+#include "piezo/hal/sim/sim_sensor.hpp"
+#include "piezo/model/parameters.hpp"
+
+namespace piezo::host {
+
+struct DriveSettings {
+  std::string backend = "sim";
+  double rate_hz = 10'000.0;
+  firmware::VoltageLimits limits{0.0, 80.0, 20'000.0};
+  hal::sim::DacSettings dac;
+  hal::sim::AmplifierSettings amplifier;
+};
+
+struct SensorSettings {
+  std::string backend = "sim";
+  double r2_m = 0.062;  ///< reflector radius: theta = (d - d_tare) / r2 (MODEL.md section 4)
+  hal::sim::SimSensorSettings sim;
+};
+
+struct LinesSettings {
+  std::string backend = "sim";
+  hal::sim::SimLinesSettings sim;
+};
+
+struct RunSettings {
+  double duration_s = 4.8;
+  std::string clock = "realtime";  ///< "realtime" or "virtual"
+  int priority = 80;               ///< SCHED_FIFO priority of the drive loop (0: do not ask)
+  bool lock_memory = true;
+  double flush_interval_s = 0.25;  ///< log flush period: the most a crash can lose
+};
+
+struct RunConfig {
+  std::string source;            ///< the config file
+  std::string text;              ///< the file's text plus the --set lines: stored with the log
+  model::Parameters model;       ///< [drive] waveform + [model]
+  model::MotorParameters plant;  ///< [model] overlaid with [plant]
+  DriveSettings drive;
+  SensorSettings sensor;
+  LinesSettings lines;
+  RunSettings run;
+  firmware::SafetySettings safety;
+
+  [[nodiscard]] bool virtual_clock() const { return run.clock == "virtual"; }
+};
+
+/// Reads and checks a rig config. Throws ConfigError naming the key, the
+/// source (the file, or "--set") and what is allowed.
+[[nodiscard]] RunConfig load_run_config(const std::string& path,
+                                        const std::vector<std::string>& sets = {});
+
+/// Checks the drive limits against what the built drive hardware can do.
+void check_drive_hardware(const RunConfig& config, double hardware_V_min, double hardware_V_max);
+
+}  // namespace piezo::host

@@ -1,0 +1,49 @@
+#pragma once
+// The HDF5 log of one run. Samples are buffered by the host and appended
+// every flush interval, each append followed by a flush, so a crash or
+// kill -9 loses at most the samples of the last interval. The root
+// attribute "status" reads "incomplete" until the run closes the log with
+// "completed", "interrupted" or "failed".
+//
+// Layout (all datasets 1-D float64; times in seconds from the run's start):
+//   /drive/t, /drive/V, /drive/phase, /drive/status
+//   /sensor/t (request time), /sensor/t_response, /sensor/displacement_m,
+//   /sensor/theta (NaN where the reading failed), /sensor/status
+//   /timing/drive_period_error_us, /timing/acquire_period_error_us (histogram
+//   counts, 1 us bins), written at the end.
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "h5_file.hpp"
+
+namespace piezo::host {
+
+/// Columns of samples waiting to be appended, keyed by dataset path.
+using ColumnBuffer = std::map<std::string, std::vector<double>>;
+
+class RunLog {
+ public:
+  /// Creates the file, its datasets and the header attributes, and flushes.
+  static RunLog create(const std::string& path, const std::map<std::string, std::string>& header);
+
+  /// Appends the buffered columns, clears them and flushes the file.
+  void append(ColumnBuffer& buffer);
+  /// Writes a dataset whole (e.g. a timing histogram).
+  void write(const std::string& name, std::span<const double> values);
+  void set_attribute(const std::string& name, const std::string& value);
+  /// Marks the log with its final status and flushes.
+  void close(const std::string& status);
+
+  [[nodiscard]] const std::string& path() const { return file_.path(); }
+
+  static const std::vector<std::string>& drive_columns();
+  static const std::vector<std::string>& sensor_columns();
+
+ private:
+  explicit RunLog(H5File file) : file_(std::move(file)) {}
+  H5File file_;
+};
+
+}  // namespace piezo::host

@@ -1,0 +1,204 @@
+#include "run_session.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <thread>
+
+#include "piezo/firmware/acquire_loop.hpp"
+#include "piezo/firmware/drive_loop.hpp"
+#include "piezo/firmware/realtime_setup.hpp"
+#include "piezo/firmware/spsc_ring.hpp"
+#include "piezo/model/waveform.hpp"
+
+namespace piezo::host {
+namespace {
+
+using namespace std::chrono_literals;
+using firmware::DriveSample;
+using firmware::SensorSample;
+
+constexpr auto kDrainPeriod = 5ms;
+constexpr auto kStatusPeriod = 200ms;
+constexpr double kRingSeconds = 2.0;  // ring holds this much of each loop's output
+
+std::size_t ring_capacity(double rate_hz) {
+  return static_cast<std::size_t>(std::max(4096.0, rate_hz * kRingSeconds));
+}
+
+LoopSummary summarise(const firmware::LoopHealth& h) {
+  LoopSummary s;
+  s.samples = h.cycles.load();
+  s.overruns = h.overruns.load();
+  s.missed_cycles = h.missed_cycles.load();
+  s.dropped = h.dropped_samples.load();
+  s.errors = h.errors.load();
+  s.p50_us = h.period_error.quantile_us(0.5);
+  s.p99_us = h.period_error.quantile_us(0.99);
+  s.max_us = h.period_error.max_us();
+  s.mean_us = h.period_error.mean_us();
+  const auto& bins = h.period_error.bins();
+  // Trailing empty bins carry nothing: cut them.
+  std::size_t used = bins.size();
+  while (used > 0 && bins[used - 1] == 0) --used;
+  s.histogram.assign(bins.begin(), bins.begin() + static_cast<std::ptrdiff_t>(used));
+  return s;
+}
+
+/// Turns ring samples into log columns; theta is the displacement change
+/// since the first good reading over r2 (MODEL.md section 4).
+class SampleCollector {
+ public:
+  SampleCollector(hal::TimeNs t0, double r2) : t0_(t0), r2_(r2) {}
+
+  void add(const DriveSample& s) {
+    buffer_["/drive/t"].push_back(hal::to_seconds(s.t - t0_));
+    buffer_["/drive/V"].push_back(s.V);
+    buffer_["/drive/phase"].push_back(static_cast<double>(s.phase));
+    buffer_["/drive/status"].push_back(static_cast<double>(s.status));
+    last_V_ = s.V;
+  }
+
+  void add(const SensorSample& s) {
+    const bool good = s.status == hal::Status::ok;
+    if (good && std::isnan(tare_)) tare_ = s.displacement_m;
+    const double theta =
+        good ? (s.displacement_m - tare_) / r2_ : std::numeric_limits<double>::quiet_NaN();
+    const double t = hal::to_seconds(s.t_request - t0_);
+    buffer_["/sensor/t"].push_back(t);
+    buffer_["/sensor/t_response"].push_back(hal::to_seconds(s.t_response - t0_));
+    buffer_["/sensor/displacement_m"].push_back(s.displacement_m);
+    buffer_["/sensor/theta"].push_back(theta);
+    buffer_["/sensor/status"].push_back(static_cast<double>(s.status));
+    if (good) {
+      last_theta_ = theta;
+      last_good_t_ = t;
+    }
+  }
+
+  ColumnBuffer& buffer() { return buffer_; }
+  [[nodiscard]] double last_theta() const { return last_theta_; }
+  [[nodiscard]] double last_good_t() const { return last_good_t_; }
+  [[nodiscard]] double last_V() const { return last_V_; }
+
+ private:
+  hal::TimeNs t0_;
+  double r2_;
+  double tare_ = std::numeric_limits<double>::quiet_NaN();
+  double last_theta_ = 0.0, last_good_t_ = 0.0, last_V_ = 0.0;
+  ColumnBuffer buffer_;
+};
+
+}  // namespace
+
+std::string RunSummary::status() const {
+  switch (cause) {
+    case firmware::StopCause::completed:
+      return "completed";
+    case firmware::StopCause::interrupted:
+      return "interrupted";
+    default:
+      return "failed";
+  }
+}
+
+RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::atomic<bool>& stop,
+                       const std::function<void(const LiveStatus&)>& on_status) {
+  hal::Clock& clock = *rig.clock;
+  const bool realtime = !c.virtual_clock();
+  RunSummary summary;
+  if (realtime && c.run.lock_memory) {
+    summary.realtime_notes.push_back(firmware::lock_process_memory().note);
+  }
+
+  // The loops watch this, set from `stop` by the host loop below, or when the host fails.
+  std::atomic<bool> stop_loops{false};
+  firmware::SpscRing<DriveSample> drive_ring(ring_capacity(c.drive.rate_hz));
+  firmware::SpscRing<SensorSample> sensor_ring(ring_capacity(c.sensor.sim.rate_hz));
+  firmware::SensorHealth sensor_health;
+  firmware::SafetySupervisor supervisor(c.safety, sensor_health, rig.t0);
+  const model::Sawtooth waveform(c.model.drive.V0, c.model.drive.f, c.model.drive.D());
+  firmware::DriveLoop drive_loop(
+      {c.drive.rate_hz, c.run.duration_s, 1.0 / c.model.drive.f, c.drive.limits}, waveform,
+      supervisor, {clock, *rig.drive, *rig.lines, drive_ring, stop_loops});
+  firmware::AcquireLoop acquire_loop(clock, *rig.sensor, sensor_health, sensor_ring);
+
+  std::atomic<bool> drive_done{false}, acquire_done{false};
+  std::string drive_rt_note, acquire_rt_note;
+  auto realtime_setup = [&](int priority, std::string& note) {
+    firmware::prefault_stack();
+    note =
+        priority > 0 ? firmware::make_thread_fifo(priority).note : "normal priority (priority = 0)";
+  };
+
+  hal::SleeperScope drive_scope(clock), acquire_scope(clock);
+  std::thread drive_thread([&, scope = std::move(drive_scope)]() mutable {
+    const hal::SleeperScope mine(std::move(scope));
+    if (realtime) realtime_setup(c.run.priority, drive_rt_note);
+    summary.cause = drive_loop.run(rig.t0);
+    drive_done.store(true, std::memory_order_release);
+  });
+  std::thread acquire_thread([&, scope = std::move(acquire_scope)]() mutable {
+    const hal::SleeperScope mine(std::move(scope));
+    // The acquire loop runs just below the drive loop.
+    if (realtime) realtime_setup(std::max(0, c.run.priority - 1), acquire_rt_note);
+    acquire_loop.run(rig.t0, drive_done);
+    acquire_done.store(true, std::memory_order_release);
+  });
+
+  SampleCollector collector(rig.t0, c.sensor.r2_m);
+  auto drain = [&] {
+    drive_ring.drain([&](const DriveSample& s) { collector.add(s); });
+    sensor_ring.drain([&](const SensorSample& s) { collector.add(s); });
+  };
+  auto last_flush = std::chrono::steady_clock::now();
+  auto last_status = last_flush;
+  const auto flush_interval = std::chrono::duration<double>(c.run.flush_interval_s);
+  auto host_loop = [&] {
+    while (!acquire_done.load(std::memory_order_acquire)) {
+      std::this_thread::sleep_for(kDrainPeriod);
+      if (stop.load()) stop_loops.store(true);
+      drain();
+      const auto now = std::chrono::steady_clock::now();
+      if (now - last_flush >= flush_interval) {
+        log.append(collector.buffer());
+        last_flush = now;
+      }
+      if (on_status && now - last_status >= kStatusPeriod) {
+        on_status({hal::to_seconds(clock.now() - rig.t0), c.run.duration_s, collector.last_V(),
+                   collector.last_theta(), acquire_loop.health().cycles.load(),
+                   acquire_loop.health().errors.load(), drive_loop.health().overruns.load()});
+        last_status = now;
+      }
+    }
+  };
+  try {
+    host_loop();
+  } catch (...) {
+    // The log failed: stop the drive safely before reporting.
+    stop_loops.store(true);
+    drive_thread.join();
+    acquire_thread.join();
+    throw;
+  }
+  drive_thread.join();
+  acquire_thread.join();
+  drain();
+  log.append(collector.buffer());
+
+  summary.drive = summarise(drive_loop.health());
+  summary.sensor = summarise(acquire_loop.health());
+  summary.theta_end_rad = collector.last_theta();
+  summary.t_end_s = collector.last_good_t();
+  summary.mean_velocity_rad_s =
+      summary.t_end_s > 0.0 ? summary.theta_end_rad / summary.t_end_s : 0.0;
+  if (realtime) {
+    summary.realtime_notes.push_back("drive loop: " + drive_rt_note);
+    summary.realtime_notes.push_back("acquire loop: " + acquire_rt_note);
+  } else {
+    summary.realtime_notes.push_back("virtual clock: no real-time set-up");
+  }
+  return summary;
+}
+
+}  // namespace piezo::host

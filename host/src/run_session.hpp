@@ -1,0 +1,53 @@
+#pragma once
+// One run on a built rig: starts the drive and acquire loops on their own
+// threads, drains their rings into the log while they run, shows a live
+// status line, and summarises loop health and motion at the end.
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "piezo/firmware/period_histogram.hpp"
+#include "piezo/firmware/safety_supervisor.hpp"
+#include "rig.hpp"
+#include "run_config.hpp"
+#include "run_log.hpp"
+
+namespace piezo::host {
+
+struct LoopSummary {
+  std::uint64_t samples = 0;
+  std::uint64_t overruns = 0;
+  std::uint64_t missed_cycles = 0;
+  std::uint64_t dropped = 0;
+  std::uint64_t errors = 0;
+  double p50_us = 0, p99_us = 0, max_us = 0, mean_us = 0;
+  std::vector<double> histogram;  ///< counts per 1 us bin of period error
+};
+
+struct RunSummary {
+  firmware::StopCause cause = firmware::StopCause::none;
+  LoopSummary drive, sensor;
+  double theta_end_rad = 0.0;  ///< last good measured angle
+  double t_end_s = 0.0;        ///< when it was measured
+  double mean_velocity_rad_s = 0.0;
+  std::vector<std::string> realtime_notes;
+
+  /// "completed", "interrupted" or "failed".
+  [[nodiscard]] std::string status() const;
+};
+
+/// What the live status line shows, refreshed a few times a second.
+struct LiveStatus {
+  double t_s, duration_s, V, theta_rad;
+  std::uint64_t sensor_samples, sensor_errors, overruns;
+};
+
+/// Runs until the duration elapses, `stop` is set or the supervisor trips.
+[[nodiscard]] RunSummary execute_run(const RunConfig& config, Rig& rig, RunLog& log,
+                                     const std::atomic<bool>& stop,
+                                     const std::function<void(const LiveStatus&)>& on_status);
+
+}  // namespace piezo::host

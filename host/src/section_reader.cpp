@@ -1,0 +1,92 @@
+#include "section_reader.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "config_error.hpp"
+
+namespace piezo::host {
+
+bool Range::admits(double v) const {
+  if (std::isnan(v)) return false;
+  const bool above_min = min_open ? v > min : v >= min;
+  const bool below_max = max_open ? v < max : v <= max;
+  return above_min && below_max;
+}
+
+std::string Range::text() const {
+  return fmt::format("{}{:g}, {:g}{}", min_open ? "(" : "[", min, max, max_open ? ")" : "]");
+}
+
+SectionReader::SectionReader(const toml::table& root, std::string section, std::string source)
+    : section_(std::move(section)), source_(std::move(source)) {
+  if (const toml::node* node = root.get(section_)) {
+    table_ = node->as_table();
+    if (table_ == nullptr)
+      throw ConfigError(source_, section_, "must be a table ([" + section_ + "])");
+  }
+}
+
+bool SectionReader::has(const std::string& key) const {
+  return table_ != nullptr && table_->contains(key);
+}
+
+void SectionReader::number(const std::string& key, double& value, const Range& allowed,
+                           const std::string& unit) {
+  if (!has(key)) return;
+  const toml::node& node = *table_->get(key);
+  const auto v = node.value<double>();
+  if (!v || !(node.is_floating_point() || node.is_integer())) {
+    throw ConfigError(source_, name(key), "must be a number in " + allowed.text() + " " + unit);
+  }
+  if (!allowed.admits(*v)) {
+    throw ConfigError(source_, name(key),
+                      fmt::format("value {:g}{} is outside the allowed range {}{}", *v,
+                                  unit.empty() ? "" : " " + unit, allowed.text(),
+                                  unit.empty() ? "" : " " + unit));
+  }
+  value = *v;
+}
+
+void SectionReader::integer(const std::string& key, int& value, int min, int max) {
+  if (!has(key)) return;
+  const toml::node& node = *table_->get(key);
+  const auto v = node.value<std::int64_t>();
+  if (!node.is_integer() || !v || *v < min || *v > max) {
+    throw ConfigError(source_, name(key), fmt::format("must be an integer in [{}, {}]", min, max));
+  }
+  value = static_cast<int>(*v);
+}
+
+void SectionReader::choice(const std::string& key, std::string& value,
+                           const std::vector<std::string>& allowed) {
+  if (!has(key)) return;
+  const auto v = table_->get(key)->value<std::string>();
+  if (!v || std::find(allowed.begin(), allowed.end(), *v) == allowed.end()) {
+    throw ConfigError(source_, name(key),
+                      fmt::format("must be one of: \"{}\"", fmt::join(allowed, "\", \"")));
+  }
+  value = *v;
+}
+
+void SectionReader::flag(const std::string& key, bool& value) {
+  if (!has(key)) return;
+  const toml::node& node = *table_->get(key);
+  if (!node.is_boolean()) throw ConfigError(source_, name(key), "must be true or false");
+  value = *node.value<bool>();
+}
+
+void SectionReader::reject_unknown(const std::vector<std::string>& known) const {
+  if (table_ == nullptr) return;
+  for (const auto& [k, node] : *table_) {
+    const std::string key(k.str());
+    if (std::find(known.begin(), known.end(), key) == known.end()) {
+      throw ConfigError(source_, name(key),
+                        fmt::format("unknown key (allowed: {})", fmt::join(known, ", ")));
+    }
+  }
+}
+
+}  // namespace piezo::host
