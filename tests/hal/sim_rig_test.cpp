@@ -1,0 +1,153 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "piezo/hal/sim/plant.hpp"
+#include "piezo/hal/sim/sim_drive.hpp"
+#include "piezo/hal/sim/sim_lines.hpp"
+#include "piezo/hal/sim/sim_sensor.hpp"
+#include "piezo/hal/sim/virtual_clock.hpp"
+#include "piezo/model/simulate.hpp"
+
+namespace piezo::hal::sim {
+namespace {
+
+constexpr TimeNs kMs = 1'000'000;
+
+// The plant fed with the sawtooth's samples at 10 kHz (first-order hold)
+// moves the rotor as the continuous model does, within 0.1 %: what is left
+// is the sampling of the waveform's corners.
+TEST(Plant, SampledSawtoothMovesTheRotorAsTheModelPredicts) {
+  const model::Parameters p;
+  const model::Sawtooth saw(p.drive.V0, p.drive.f, p.drive.D());
+  AmplifierSettings amp;
+  amp.ramp_time_s = 1e-4;
+  Plant plant(p.motor, amp, 0);
+  plant.set_enabled(0, true);
+  for (TimeNs k = 0; k <= 10'000; ++k) {
+    plant.set_input(k * 100'000, saw.voltage(static_cast<double>(k) * 1e-4) / amp.gain);
+  }
+  const double expected = model::final_angle(p.motor, saw, model::FrictionModel::lugre, 1.0);
+  EXPECT_NEAR(plant.latest().theta, expected, 1e-3 * expected);
+  EXPECT_EQ(plant.latest().t, 1'000'000'000);
+}
+
+TEST(Plant, DisabledAmplifierOutputsNothing) {
+  Plant plant(model::MotorParameters{}, AmplifierSettings{}, 0);
+  plant.set_input(0, 4.0);
+  plant.set_input(10 * kMs, 4.0);
+  EXPECT_DOUBLE_EQ(plant.latest().V_out, 0.0);
+  plant.set_enabled(10 * kMs, true);
+  plant.set_input(11 * kMs, 4.0);
+  EXPECT_NEAR(plant.latest().V_out, 50.0, 1e-9) << "50 V/ms slew";
+  plant.set_input(15 * kMs, 4.0);
+  EXPECT_DOUBLE_EQ(plant.latest().V_out, 80.0);
+}
+
+TEST(Plant, OutputSlewsAndClipsAtTheRails) {
+  AmplifierSettings amp;
+  amp.slew_V_per_s = 10'000;  // 10 V per ms
+  amp.V_out_max = 60.0;
+  Plant plant(model::MotorParameters{}, amp, 0);
+  plant.set_enabled(0, true);
+  plant.set_input(0, 4.0);  // asks for 80 V
+  plant.set_input(2 * kMs, 4.0);
+  EXPECT_NEAR(plant.latest().V_out, 20.0, 1e-9);
+  plant.set_input(20 * kMs, 4.0);
+  EXPECT_DOUBLE_EQ(plant.latest().V_out, 60.0);
+}
+
+TEST(SimDrive, QuantisesToTheDacCodeAndRefusesOutOfRange) {
+  VirtualClock clock;
+  Plant plant(model::MotorParameters{}, AmplifierSettings{}, 0);
+  SimDrive drive({.bits = 12, .full_scale_V = 5.0}, plant, clock);
+  EXPECT_EQ(drive.write(40.0), Status::ok);  // 2 V at the DAC
+  EXPECT_EQ(drive.last_code(), 1638u);       // round(2 / 5 * 4095)
+  EXPECT_EQ(drive.write(100.0), Status::ok);
+  EXPECT_EQ(drive.last_code(), 4095u);
+  EXPECT_EQ(drive.write(101.0), Status::out_of_range);
+  EXPECT_EQ(drive.write(-1.0), Status::out_of_range);
+  EXPECT_DOUBLE_EQ(drive.limits().V_max, 100.0);
+}
+
+class SimSensorTest : public ::testing::Test {
+ protected:
+  VirtualClock clock;
+  SleeperScope scope{clock};
+  Plant plant{model::MotorParameters{}, AmplifierSettings{}, 0};
+};
+
+TEST_F(SimSensorTest, NoiseHasTheConfiguredSpreadAndLatencyIsHonoured) {
+  SimSensorSettings s;
+  s.noise_m = 1e-6;
+  s.quantum_m = 0.0;
+  s.latency_s = 300e-6;
+  SimSensor sensor(s, plant, clock, 0);
+  double sum = 0, sum_sq = 0;
+  constexpr int kN = 20'000;
+  for (int i = 0; i < kN; ++i) {
+    const DisplacementReading r = sensor.read();
+    ASSERT_EQ(r.status, Status::ok);
+    ASSERT_EQ(r.t_response - r.t_request, 300'000);
+    sum += r.displacement_m - s.offset_m;
+    sum_sq += std::pow(r.displacement_m - s.offset_m, 2);
+  }
+  EXPECT_NEAR(sum / kN, 0.0, 5 * 1e-6 / std::sqrt(kN));
+  EXPECT_NEAR(std::sqrt(sum_sq / kN), 1e-6, 0.03e-6);
+}
+
+TEST_F(SimSensorTest, QuantisesTheReading) {
+  SimSensorSettings s;
+  s.noise_m = 0.3e-6;
+  s.quantum_m = 1e-6;
+  SimSensor sensor(s, plant, clock, 0);
+  for (int i = 0; i < 100; ++i) {
+    const double steps = sensor.read().displacement_m / 1e-6;
+    EXPECT_NEAR(steps, std::round(steps), 1e-6);
+  }
+}
+
+TEST_F(SimSensorTest, AStalledSensorTimesOutAfterTheTimeout) {
+  SimSensorSettings s;
+  s.stall_at_s = 0.01;
+  s.stall_for_s = 0.1;
+  s.timeout_s = 0.05;
+  SimSensor sensor(s, plant, clock, 0);
+  EXPECT_EQ(sensor.read().status, Status::ok);
+  clock.sleep_until(20 * kMs);
+  const DisplacementReading r = sensor.read();
+  EXPECT_EQ(r.status, Status::timeout);
+  EXPECT_EQ(r.t_response - r.t_request, 50 * kMs);
+  clock.sleep_until(120 * kMs);
+  EXPECT_EQ(sensor.read().status, Status::ok) << "the stall is over";
+}
+
+TEST_F(SimSensorTest, DropoutsAreFlaggedAtTheConfiguredRate) {
+  SimSensorSettings s;
+  s.dropout_probability = 0.1;
+  SimSensor sensor(s, plant, clock, 0);
+  int invalid = 0;
+  for (int i = 0; i < 10'000; ++i) invalid += sensor.read().status == Status::invalid_reading;
+  EXPECT_NEAR(invalid, 1000, 120);
+}
+
+TEST(SimLines, EstopPressesAtItsTimeAndReportsOneEdge) {
+  VirtualClock clock;
+  SleeperScope scope(clock);
+  Plant plant(model::MotorParameters{}, AmplifierSettings{}, 0);
+  SimLines lines({.estop_at_s = 0.5}, plant, clock, 0);
+  EXPECT_FALSE(lines.poll_estop().pressed);
+  clock.sleep_until(500 * kMs);
+  const EstopState first = lines.poll_estop();
+  EXPECT_TRUE(first.pressed);
+  EXPECT_TRUE(first.edge_seen);
+  EXPECT_FALSE(lines.poll_estop().edge_seen);
+  EXPECT_EQ(lines.set_sync(true), Status::ok);
+  EXPECT_EQ(lines.set_sync(false), Status::ok);
+  EXPECT_EQ(lines.set_sync(true), Status::ok);
+  EXPECT_EQ(lines.sync_pulses(), 2);
+}
+
+}  // namespace
+}  // namespace piezo::hal::sim

@@ -1,0 +1,190 @@
+// `piezo run` and `piezo report` as people use them: a run's log read by an
+// independent reader (h5py), bad input refused before anything starts, and
+// runs ended by SIGINT and by kill -9.
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "../support/run_command.hpp"
+#include "../support/spawn.hpp"
+
+namespace piezo::testing {
+namespace {
+
+namespace fs = std::filesystem;
+const std::string kPiezo = PIEZO_BINARY;
+const std::string kSimConfig = std::string(PIEZO_SOURCE_DIR) + "/configs/sim.toml";
+
+/// Checks a log with h5py (Debian's python3-h5py); prints "ok" and facts.
+CommandResult h5py_check(const fs::path& log, const std::string& body) {
+  const fs::path script = log.parent_path() / "check.py";
+  write_file(script, "import h5py, math, sys\nf = h5py.File(sys.argv[1], 'r')\n" + body);
+  return run_command("/usr/bin/python3 " + script.string() + " " + log.string());
+}
+
+TEST(RunCli, VirtualRunWritesALogH5pyReadsAndAReport) {
+  const auto dir = fresh_temp_dir("run-virtual");
+  const auto out = dir / "run1";
+  const auto r = run_command(kPiezo + " run --config " + kSimConfig +
+                             " --set run.clock=virtual --duration 1 --json --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j.at("status"), "completed");
+  EXPECT_GE(j.at("drive").at("samples").get<int>(), 10'000);
+  EXPECT_EQ(j.at("drive").at("overruns").get<int>(), 0);
+  EXPECT_TRUE(j.at("drive").at("period_error_us").contains("p99"));
+  EXPECT_GE(j.at("sensor").at("samples").get<int>(), 1'000);
+  EXPECT_EQ(j.at("sensor").at("errors").get<int>(), 0);
+  EXPECT_EQ(j.at("sensor").at("dropped").get<int>(), 0);
+  EXPECT_GT(j.at("theta_end_rad").get<double>(), 0.0);
+  EXPECT_GT(j.at("mean_velocity_rad_s").get<double>(), 0.0);
+
+  const auto check = h5py_check(out / "run.h5", R"(
+for name in ['drive/t', 'drive/V', 'sensor/t', 'sensor/theta']:
+    d = f[name]
+    assert d.dtype == 'float64' and d.ndim == 1, name
+assert len(f['drive/t']) == len(f['drive/V']) > 10000
+assert len(f['sensor/t']) == len(f['sensor/theta']) >= 1000
+assert f.attrs['status'].decode() == 'completed'
+assert '[drive]' in f.attrs['config'].decode()
+assert abs(f['sensor/theta'][-1] - float(sys.argv[2] if len(sys.argv) > 2 else f['sensor/theta'][-1])) < 1e-12
+assert max(f['drive/V']) <= 80.0
+print('ok')
+)");
+  EXPECT_EQ(check.exit_code, 0) << check.err;
+  EXPECT_EQ(check.out, "ok\n");
+  EXPECT_TRUE(fs::exists(out / "config.toml"));
+  EXPECT_TRUE(fs::exists(dir / "catalogue.csv"));
+
+  const auto report = run_command(kPiezo + " report " + out.string() + " --json");
+  ASSERT_EQ(report.exit_code, 0) << report.err;
+  const auto rj = nlohmann::json::parse(report.out);
+  for (const char* png : {"angle_png", "zoom_png", "timing_png"}) {
+    EXPECT_GT(fs::file_size(rj.at(png).get<std::string>()), 1000u) << png;
+  }
+  EXPECT_LT(rj.at("rmse_model_rad").get<double>(), 20e-6);
+}
+
+struct BadRun {
+  const char* name;
+  std::string args;    // after --config
+  std::string config;  // a config text; empty: configs/sim.toml
+  std::string expect;  // in stderr
+};
+
+void PrintTo(const BadRun& bad, std::ostream* os) {
+  *os << bad.name;
+}
+
+class RunBadInput : public ::testing::TestWithParam<BadRun> {};
+
+TEST_P(RunBadInput, ExitsWithCode2NamesTheKeyAndLeavesNothing) {
+  const BadRun& bad = GetParam();
+  const auto dir = fresh_temp_dir(std::string("run-bad-") + bad.name);
+  std::string config = kSimConfig;
+  if (!bad.config.empty()) {
+    config = (dir / "rig.toml").string();
+    write_file(config, bad.config);
+  }
+  const auto out = dir / "run";
+  const auto r =
+      run_command(kPiezo + " run --config " + config + " " + bad.args + " --out " + out.string());
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find(bad.expect), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out)) << "a refused run leaves no directory";
+  EXPECT_FALSE(fs::exists(dir / "catalogue.csv"));
+}
+
+const std::string kMinimal = "[drive]\n[sensor]\n[run]\nclock = \"virtual\"\n";
+
+INSTANTIATE_TEST_SUITE_P(
+    Cli, RunBadInput,
+    ::testing::Values(
+        BadRun{"V0AboveLimit", "--set drive.V0=90", "",
+               "--set: drive.V0: 90 V is outside the drive's limits [drive.V_min, drive.V_max] = "
+               "[0, 80] V"},
+        BadRun{"DuplicateSection", "", kMinimal + "[drive]\n", "rig.toml: line"},
+        BadRun{"V0AboveLimitInFile", "", "[drive]\nV0 = 95.0\n[sensor]\n[run]\n",
+               "rig.toml: drive.V0: 95 V is outside the drive's limits"},
+        BadRun{"VmaxAboveHardware", "--set drive.V_max=120", "",
+               "drive.V_max: [0, 120] V exceeds what the drive hardware can produce, [0, 100] V"},
+        BadRun{"NaN", "--set sensor.noise_m=nan", "",
+               "--set: sensor.noise_m: value nan m is outside the allowed range [0, 1] m"},
+        BadRun{"Negative", "--set drive.f=-3", "", "--set: drive.f: value -3"},
+        BadRun{"NegativeRate", "--set drive.rate_hz=-10", "",
+               "drive.rate_hz: value -10 Hz is outside the allowed range [100, 100000] Hz"},
+        BadRun{"UnknownKey", "--set sensor.nosie_m=1e-6", "",
+               "--set: sensor.nosie_m: unknown key (allowed: backend, rate_hz"},
+        BadRun{"UnknownKeyInFile", "", kMinimal + "[safety]\nramp = 3\n",
+               "rig.toml: safety.ramp: unknown key"},
+        BadRun{"UnknownSection", "", kMinimal + "[amp]\ngain = 20\n",
+               "rig.toml: amp: unknown section"},
+        BadRun{"MissingSection", "", "[drive]\n[run]\n",
+               "rig.toml: sensor: missing section [sensor] (required: [drive], [sensor], [run])"},
+        BadRun{"NotANumber", "--set drive.V0=high", "", "--set: drive.V0: must be a number"},
+        BadRun{"BadSetSyntax", "--set V0=70", "", "--set: V0=70: expected SECTION.KEY=VALUE"},
+        BadRun{"BadClock", "--set run.clock=fast", "",
+               "run.clock: must be one of: \"realtime\", \"virtual\""},
+        BadRun{"SlewTooLow", "--set drive.slew_V_per_s=1000", "",
+               "drive.slew_V_per_s: 1000 V/s is below the sawtooth's fastest edge"},
+        BadRun{"BadPlant", "--set plant.mu=-0.1", "", "plant.mu"}),
+    [](const auto& param_info) { return std::string(param_info.param.name); });
+
+TEST(RunCli, SigintRampsDownClosesTheLogInterruptedAndExits130) {
+  const auto dir = fresh_temp_dir("run-sigint");
+  const auto out = dir / "run";
+  Spawned run({kPiezo, "run", "--config", kSimConfig, "--set", "run.clock=virtual", "--duration",
+               "100000", "--out", out.string()},
+              (dir / "output.txt").string());
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  run.signal(SIGINT);
+  EXPECT_EQ(run.wait_exit(), 130);
+  const auto check = h5py_check(out / "run.h5", R"(
+assert f.attrs['status'].decode() == 'interrupted', f.attrs['status']
+assert f['drive/V'][-1] == 0.0
+assert f['drive/phase'][-1] == 2  # stopped
+assert len(f['sensor/theta']) > 100
+print('ok')
+)");
+  EXPECT_EQ(check.out, "ok\n") << check.err;
+}
+
+// kill -9 leaves no chance to close the file: what was flushed must read as it is.
+TEST(RunCli, KillNineLeavesAReadableLogMissingAtMostTheLastSecond) {
+  const auto dir = fresh_temp_dir("run-kill9");
+  const auto out = dir / "run";
+  Spawned run({kPiezo, "run", "--config", kSimConfig, "--duration", "60", "--out", out.string()},
+              (dir / "output.txt").string());
+  // Wait until the run has started (the log exists), then let it run 2.5 s.
+  for (int i = 0; i < 200 && !fs::exists(out / "run.h5"); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_TRUE(fs::exists(out / "run.h5"));
+  const auto started = std::chrono::steady_clock::now();
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  const double alive_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  run.signal(SIGKILL);
+  EXPECT_EQ(run.wait_exit(), 128 + SIGKILL);
+  const auto check = h5py_check(out / "run.h5", R"(
+assert f.attrs['status'].decode() == 'incomplete', f.attrs['status']
+t = f['drive/t'][:]
+print(len(t), t[-1] if len(t) else -1, len(f['sensor/t'][:]))
+)");
+  ASSERT_EQ(check.exit_code, 0) << check.err;
+  std::istringstream facts(check.out);
+  long drive_samples = 0, sensor_samples = 0;
+  double last_t = 0;
+  facts >> drive_samples >> last_t >> sensor_samples;
+  // The run's t = 0 is 0.1 s after the log exists; at most 1 s may be lost.
+  EXPECT_GE(last_t, alive_s - 0.1 - 1.0) << check.out;
+  EXPECT_GT(sensor_samples, 0);
+}
+
+}  // namespace
+}  // namespace piezo::testing
