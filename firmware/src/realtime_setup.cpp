@@ -1,13 +1,34 @@
 #include "piezo/firmware/realtime_setup.hpp"
 
+#include <fcntl.h>
 #include <pthread.h>
 #include <sched.h>
 #include <sys/mman.h>
+#include <unistd.h>
 
 #include <cerrno>
+#include <cstdint>
 #include <cstring>
+#include <string>
 
 namespace piezo::firmware {
+
+CpuLatencyRequest::CpuLatencyRequest() {
+  fd_ = open("/dev/cpu_dma_latency", O_WRONLY | O_CLOEXEC);
+  const std::int32_t zero = 0;
+  if (fd_ < 0 || write(fd_, &zero, sizeof zero) != static_cast<ssize_t>(sizeof zero)) {
+    result_ = {false, std::string("CPU idle states not limited: /dev/cpu_dma_latency: ") +
+                          std::strerror(errno)};
+    if (fd_ >= 0) close(fd_);
+    fd_ = -1;
+    return;
+  }
+  result_ = {true, "CPU idle latency held at 0 us"};
+}
+
+CpuLatencyRequest::~CpuLatencyRequest() {
+  if (fd_ >= 0) close(fd_);  // closing releases the request
+}
 
 RealtimeResult lock_process_memory() {
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <thread>
 
 #include "piezo/firmware/acquire_loop.hpp"
@@ -110,6 +111,8 @@ RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::ato
   if (realtime && c.run.lock_memory) {
     summary.realtime_notes.push_back(firmware::lock_process_memory().note);
   }
+  std::optional<firmware::CpuLatencyRequest> cpu_latency;
+  if (realtime) summary.realtime_notes.push_back(cpu_latency.emplace().result().note);
 
   // The loops watch this, set from `stop` by the host loop below, or when the host fails.
   std::atomic<bool> stop_loops{false};

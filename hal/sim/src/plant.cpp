@@ -56,23 +56,23 @@ void Plant::set_enabled(TimeNs t, bool enabled) {
 }
 
 void Plant::publish() {
-  // Seqlock: odd while writing; the reader retries on an odd or changed count.
+  // Seqlock without fences (the thread sanitizer cannot follow fences): the
+  // count turns odd first; each field store is a release, so a reader that
+  // sees a new field also sees the odd count afterwards and retries.
   const std::uint64_t s = sequence_.load(std::memory_order_relaxed);
   sequence_.store(s + 1, std::memory_order_relaxed);
-  std::atomic_thread_fence(std::memory_order_release);
-  published_t_.store(t_, std::memory_order_relaxed);
-  published_theta_.store(motor_.state()[model::kTheta], std::memory_order_relaxed);
-  published_V_out_.store(V_out_, std::memory_order_relaxed);
+  published_t_.store(t_, std::memory_order_release);
+  published_theta_.store(motor_.state()[model::kTheta], std::memory_order_release);
+  published_V_out_.store(V_out_, std::memory_order_release);
   sequence_.store(s + 2, std::memory_order_release);
 }
 
 PlantSnapshot Plant::latest() const {
   for (;;) {
     const std::uint64_t before = sequence_.load(std::memory_order_acquire);
-    PlantSnapshot snap{published_t_.load(std::memory_order_relaxed),
-                       published_theta_.load(std::memory_order_relaxed),
-                       published_V_out_.load(std::memory_order_relaxed)};
-    std::atomic_thread_fence(std::memory_order_acquire);
+    PlantSnapshot snap{published_t_.load(std::memory_order_acquire),
+                       published_theta_.load(std::memory_order_acquire),
+                       published_V_out_.load(std::memory_order_acquire)};
     if ((before & 1U) == 0 && sequence_.load(std::memory_order_relaxed) == before) return snap;
   }
 }

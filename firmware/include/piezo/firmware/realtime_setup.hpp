@@ -14,6 +14,22 @@ struct RealtimeResult {
   std::string note;  ///< what was done, or the warning
 };
 
+/// Keeps the CPUs out of deep idle states while it lives, through
+/// /dev/cpu_dma_latency (as cyclictest does): waking from them costs tens
+/// of microseconds at every deadline.
+class CpuLatencyRequest {
+ public:
+  CpuLatencyRequest();
+  ~CpuLatencyRequest();
+  CpuLatencyRequest(const CpuLatencyRequest&) = delete;
+  CpuLatencyRequest& operator=(const CpuLatencyRequest&) = delete;
+  [[nodiscard]] const RealtimeResult& result() const { return result_; }
+
+ private:
+  int fd_ = -1;
+  RealtimeResult result_;
+};
+
 /// mlockall(MCL_CURRENT | MCL_FUTURE) for the whole process: no page faults later.
 [[nodiscard]] RealtimeResult lock_process_memory();
 

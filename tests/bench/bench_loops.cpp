@@ -1,0 +1,171 @@
+// Bench: the drive loop's period error at 10 kHz on CLOCK_MONOTONIC beside
+// cyclictest (rt-tests) at the same period and priority on this machine,
+// and SPSC ring throughput. Usage: bench_loops [seconds per measurement].
+// Figures, not assertions: the machines are shared and noisy.
+
+#include <fmt/format.h>
+
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "piezo/firmware/drive_loop.hpp"
+#include "piezo/firmware/realtime_setup.hpp"
+#include "piezo/hal/posix/monotonic_clock.hpp"
+#include "piezo/hal/sim/plant.hpp"
+#include "piezo/hal/sim/sim_drive.hpp"
+#include "piezo/hal/sim/sim_lines.hpp"
+
+namespace {
+
+using namespace piezo;
+constexpr int kPriority = 80;
+constexpr double kRateHz = 10'000;
+
+struct Row {
+  std::string name;
+  double p50_us, p99_us, max_us;
+  std::uint64_t cycles;
+  std::string note;
+};
+
+/// A drive that only accepts the value: isolates the loop's own timing.
+class NullDrive final : public hal::Drive {
+ public:
+  hal::Status write(double) override { return hal::Status::ok; }
+  [[nodiscard]] hal::DriveLimits limits() const override { return {0.0, 100.0}; }
+};
+
+Row measure_drive_loop(const std::string& name, hal::Drive& drive, hal::DigitalLines& lines,
+                       double seconds) {
+  hal::posix::MonotonicClock clock;
+  firmware::SpscRing<firmware::DriveSample> ring(1 << 16);
+  firmware::SensorHealth health;  // no sensor here: staleness bound set out of reach
+  firmware::SafetySettings safety;
+  safety.sensor_stale_s = 1e9;
+  const hal::TimeNs t0 = clock.now() + hal::from_seconds(0.05);
+  firmware::SafetySupervisor supervisor(safety, health, t0);
+  const model::Sawtooth saw(80.0, 10.0, 0.95 * 0.789);
+  std::atomic<bool> stop{false};
+  firmware::DriveLoop loop({kRateHz, seconds, 0.1, {0.0, 80.0, 20'000.0}}, saw, supervisor,
+                           {clock, drive, lines, ring, stop});
+  std::string note;
+  std::atomic<bool> done{false};
+  std::thread rt([&] {
+    firmware::prefault_stack();
+    note = firmware::make_thread_fifo(kPriority).note;
+    (void)loop.run(t0);
+    done = true;
+  });
+  while (!done) {  // a consumer, as in a run
+    ring.drain([](const firmware::DriveSample&) {});
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  rt.join();
+  const auto& h = loop.health().period_error;
+  return {name, h.quantile_us(0.5), h.quantile_us(0.99), h.max_us(), h.count(), note};
+}
+
+/// cyclictest at the same period and priority; quantiles from its histogram.
+Row measure_cyclictest(double seconds) {
+  const auto loops = static_cast<long>(seconds * kRateHz);
+  const std::string cmd = fmt::format(
+      "cyclictest --mlockall --priority={} --interval=100 --loops={} --threads=1 --quiet "
+      "--histogram=2000 2>&1",
+      kPriority, loops);
+  FILE* pipe = popen(cmd.c_str(), "r");
+  if (pipe == nullptr) return {"cyclictest", 0, 0, 0, 0, "could not start"};
+  std::vector<std::uint64_t> bins(2000, 0);
+  double max_us = 0;
+  std::array<char, 512> line{};
+  std::string text;
+  while (fgets(line.data(), line.size(), pipe) != nullptr) {
+    const std::string l(line.data());
+    text += l;
+    unsigned long bin = 0, count = 0;
+    if (l[0] != '#' && std::sscanf(l.c_str(), "%lu %lu", &bin, &count) == 2 && bin < bins.size()) {
+      bins[bin] = count;
+    }
+    double m = 0;
+    if (std::sscanf(l.c_str(), "# Max Latencies: %lf", &m) == 1) max_us = m;
+  }
+  if (pclose(pipe) != 0) return {"cyclictest", 0, 0, 0, 0, "failed: " + text.substr(0, 200)};
+  std::uint64_t total = 0;
+  for (auto c : bins) total += c;
+  auto quantile = [&](double q) {
+    const auto rank = static_cast<std::uint64_t>(q * static_cast<double>(total - 1));
+    std::uint64_t seen = 0;
+    for (std::size_t i = 0; i < bins.size(); ++i) {
+      seen += bins[i];
+      if (seen > rank) return static_cast<double>(i + 1);
+    }
+    return max_us;
+  };
+  if (total == 0) return {"cyclictest", 0, 0, 0, 0, "no histogram"};
+  return {"cyclictest (rt-tests)",
+          quantile(0.5),
+          quantile(0.99),
+          max_us,
+          total,
+          fmt::format("SCHED_FIFO {}, mlockall", kPriority)};
+}
+
+double ring_throughput(std::uint64_t count) {
+  firmware::SpscRing<firmware::DriveSample> ring(1 << 14);
+  const auto start = std::chrono::steady_clock::now();
+  std::thread producer([&] {
+    for (std::uint64_t i = 0; i < count; ++i) {
+      const firmware::DriveSample s{static_cast<hal::TimeNs>(i), 1.0, {}, {}};
+      while (!ring.try_push(s)) {
+      }
+    }
+  });
+  std::uint64_t received = 0;
+  firmware::DriveSample s{};
+  while (received < count) received += ring.try_pop(s) ? 1 : 0;
+  producer.join();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return static_cast<double>(count) / seconds;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const double seconds = argc > 1 ? std::stod(argv[1]) : 10.0;
+  fmt::print("{}\n", firmware::lock_process_memory().note);
+  const firmware::CpuLatencyRequest cpu_latency;
+  fmt::print("{}\n", cpu_latency.result().note);
+  fmt::print("period error at {:.0f} Hz, {} s each (wake-up lateness, 1 us bins)\n", kRateHz,
+             seconds);
+
+  std::vector<Row> rows;
+  NullDrive null_drive;
+  hal::posix::MonotonicClock clock;
+  hal::sim::Plant idle_plant(model::MotorParameters{}, {}, clock.now());
+  hal::sim::SimLines null_lines({}, idle_plant, clock, clock.now());
+  rows.push_back(measure_drive_loop("drive loop, null drive", null_drive, null_lines, seconds));
+
+  hal::sim::Plant plant(model::MotorParameters{}, {}, clock.now());
+  hal::sim::SimDrive sim_drive({}, plant, clock);
+  hal::sim::SimLines sim_lines({}, plant, clock, clock.now());
+  rows.push_back(measure_drive_loop("drive loop, simulated plant", sim_drive, sim_lines, seconds));
+  rows.push_back(measure_cyclictest(seconds));
+
+  fmt::print("{:<30} {:>9} {:>9} {:>10} {:>9}  {}\n", "", "p50 [us]", "p99 [us]", "max [us]",
+             "cycles", "scheduling");
+  for (const auto& r : rows) {
+    fmt::print("{:<30} {:>9.0f} {:>9.0f} {:>10.1f} {:>9}  {}\n", r.name, r.p50_us, r.p99_us,
+               r.max_us, r.cycles, r.note);
+  }
+  const double rate = ring_throughput(20'000'000);
+  fmt::print("SPSC ring, DriveSample ({} B), two threads: {:.1f} M samples/s\n",
+             sizeof(firmware::DriveSample), rate / 1e6);
+  return 0;
+}
