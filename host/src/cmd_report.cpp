@@ -57,7 +57,11 @@ std::vector<double> model_prediction(const H5File& log, const std::vector<double
                                      const std::vector<double>& times) {
   const auto p =
       parameters_from_json(nlohmann::json::parse(log.attribute("/", "model_parameters")));
-  const model::SampledDrive drive(drive_t, drive_V);
+  // The signal chain reaches each command over one nominal drive period.
+  std::vector<double> intervals(drive_t.size() - 1);
+  for (std::size_t i = 0; i + 1 < drive_t.size(); ++i) intervals[i] = drive_t[i + 1] - drive_t[i];
+  std::nth_element(intervals.begin(), intervals.begin() + intervals.size() / 2, intervals.end());
+  const model::SampledDrive drive(drive_t, drive_V, intervals[intervals.size() / 2]);
   std::vector<double> sorted_times;
   for (double t : times) sorted_times.push_back(std::max(0.0, t));
   return model::simulate(p.motor, drive, model::FrictionModel::lugre, sorted_times).theta;

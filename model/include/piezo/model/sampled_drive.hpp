@@ -1,8 +1,10 @@
 #pragma once
 /// @file
-/// A logged drive as an excitation: straight lines between the commanded
-/// samples, as the signal chain's reconstruction smooths the DAC's steps.
-/// Lets the model replay any logged run, whatever its waveform.
+/// A logged drive as an excitation: after each commanded sample the output
+/// moves in a straight line from the previous value to the new one over
+/// `ramp_time` and then holds, as the signal chain smooths the DAC's steps
+/// (the simulated amplifier does exactly this). Lets the model replay any
+/// logged run, whatever its waveform and however late its writes came.
 
 #include <span>
 #include <vector>
@@ -13,9 +15,9 @@ namespace piezo::model {
 
 class SampledDrive final : public Excitation {
  public:
-  /// @param t sample times [s], strictly increasing; @param V voltages [V].
-  /// Before the first sample the voltage is 0; after the last it holds.
-  SampledDrive(std::span<const double> t, std::span<const double> V);
+  /// @param t sample times [s], strictly increasing; @param V voltages [V];
+  /// @param ramp_time [s], > 0. Before the first sample the voltage is 0.
+  SampledDrive(std::span<const double> t, std::span<const double> V, double ramp_time);
 
   [[nodiscard]] double voltage(double t) const override { return piece(t).at(t); }
   [[nodiscard]] double next_breakpoint(double t) const override;
@@ -23,6 +25,9 @@ class SampledDrive final : public Excitation {
 
  private:
   std::vector<double> t_, V_;
+  std::vector<double>
+      from_;  // output when sample i arrives: a ramp cut short by an early next sample
+  double ramp_time_;
 };
 
 }  // namespace piezo::model
