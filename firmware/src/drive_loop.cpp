@@ -18,7 +18,6 @@ void DriveLoop::stop_output(hal::TimeNs t) {
   const hal::Status written = io_.drive.write(0.0);
   (void)io_.lines.set_amplifier_enable(false);
   (void)io_.lines.set_sync(false);
-  last_V_.store(0.0, std::memory_order_relaxed);
   emit(t, 0.0, DrivePhase::stopped, written);
 }
 
@@ -29,7 +28,6 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
   (void)io_.lines.set_amplifier_enable(true);
 
   hal::TimeNs deadline = t0;
-  hal::TimeNs last_write = t0 - period;
   double V = 0.0;
   long last_waveform_period = -1;
   bool sync_high = false;
@@ -40,7 +38,9 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
     const hal::TimeNs now = io_.clock.now();
     health_.period_error.record(now - deadline);
     health_.count(health_.cycles);
-    const double t = hal::to_seconds(now - t0);
+    // The value belongs to its deadline: a hardware-timed DAC latches it on
+    // the grid, so wake-up jitter must not shift the waveform's phase.
+    const double t = hal::to_seconds(deadline - t0);
 
     const SafetyAction action = supervisor_.check(
         now, io_.lines.poll_estop(), io_.stop_requested.load(std::memory_order_relaxed),
@@ -51,16 +51,17 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
     }
     if (action == SafetyAction::ramp_down) phase = DrivePhase::ramping_down;
 
-    const double dt = std::max(hal::to_seconds(now - last_write), dt_nominal);
+    // Each step is bounded as the hardware applies it, within about one
+    // update period: after a stall the drive catches up at the slew limit
+    // instead of jumping by all the time it lost.
+    const double dt = dt_nominal;
     if (phase == DrivePhase::driving) {
       V = limit_voltage(settings_.limits, waveform_.voltage(t), V, dt);
     } else {
       V = step_towards(V, 0.0, supervisor_.settings().ramp_down_V_per_s, dt);
     }
     const hal::Status written = io_.drive.write(V);
-    last_write = now;
     supervisor_.report_drive_write(written);
-    last_V_.store(V, std::memory_order_relaxed);
 
     // Sync: high for the first drive cycle of each waveform period.
     const auto waveform_period = static_cast<long>(std::floor(t / settings_.period_s));
@@ -70,7 +71,7 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
       (void)io_.lines.set_sync(want_sync);
       sync_high = want_sync;
     }
-    emit(now, V, phase, written);
+    emit(deadline, V, phase, written);
 
     if (phase == DrivePhase::ramping_down && V == 0.0) {
       stop_output(io_.clock.now());

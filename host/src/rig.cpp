@@ -27,7 +27,7 @@ Rig build_rig(const RunConfig& c) {
   // Only the simulated backends exist so far; the config reader admits no others.
   hal::sim::AmplifierSettings amplifier = c.drive.amplifier;
   auto plant = std::make_shared<hal::sim::Plant>(c.plant, amplifier, rig.clock->now());
-  rig.drive = std::make_unique<hal::sim::SimDrive>(c.drive.dac, *plant, *rig.clock);
+  rig.drive = std::make_unique<hal::sim::SimDrive>(c.drive.dac, *plant, *rig.clock, rig.t0);
   rig.sensor = std::make_unique<hal::sim::SimSensor>(c.sensor.sim, *plant, *rig.clock, rig.t0);
   rig.lines = std::make_unique<hal::sim::SimLines>(c.lines.sim, *plant, *rig.clock, rig.t0);
   rig.shared_devices = plant;

@@ -47,7 +47,9 @@ void read_drive(const toml::table& t, const std::string& source, DriveSettings& 
   r.number("amplifier_gain", d.amplifier.gain, {0.0, 1000.0, true});
   r.number("amplifier_V_max", d.amplifier.V_out_max, {0.0, 1000.0, true}, "V");
   r.number("amplifier_slew_V_per_s", d.amplifier.slew_V_per_s, kPositive, "V/s");
-  // The simulated signal chain interpolates over one DAC update period.
+  // The simulated DAC updates at the drive rate, on its own clock, and the
+  // signal chain interpolates over one update period.
+  d.dac.update_period_s = 1.0 / d.rate_hz;
   d.amplifier.ramp_time_s = 1.0 / d.rate_hz;
 }
 

@@ -71,6 +71,35 @@ TEST(SimDrive, QuantisesToTheDacCodeAndRefusesOutOfRange) {
   EXPECT_DOUBLE_EQ(drive.limits().V_max, 100.0);
 }
 
+// Software writes whenever it wakes; the DAC latches on its own 100 us grid.
+TEST(SimDrive, LatchesEachCodeOnTheNextTickAndTheLastWriteWins) {
+  VirtualClock clock;
+  SleeperScope scope(clock);
+  AmplifierSettings amp;
+  amp.ramp_time_s = 0.0;
+  amp.slew_V_per_s = 1e12;
+  Plant plant(model::MotorParameters{}, amp, 0);
+  plant.set_enabled(0, true);
+  SimDrive drive({.bits = 16, .full_scale_V = 5.0, .update_period_s = 100e-6}, plant, clock, 0);
+  constexpr TimeNs kUs = 1000;
+  clock.sleep_until(30 * kUs);
+  EXPECT_EQ(drive.write(40.0), Status::ok);
+  EXPECT_DOUBLE_EQ(plant.latest().V_out, 0.0) << "not latched before its tick";
+  clock.sleep_until(120 * kUs);
+  EXPECT_EQ(drive.write(20.0), Status::ok);
+  EXPECT_EQ(plant.latest().t, 100 * kUs) << "40 V latched at the 100 us tick";
+  clock.sleep_until(150 * kUs);
+  EXPECT_EQ(drive.write(60.0), Status::ok);  // same tick (200 us): overwrites 20 V
+  clock.sleep_until(230 * kUs);
+  EXPECT_EQ(drive.write(0.0), Status::ok);
+  EXPECT_EQ(plant.latest().t, 200 * kUs);
+  EXPECT_NEAR(plant.latest().V_out, 40.0, 1e-3) << "held from 100 to 200 us";
+  clock.sleep_until(330 * kUs);
+  EXPECT_EQ(drive.write(0.0), Status::ok);
+  EXPECT_EQ(plant.latest().t, 300 * kUs);
+  EXPECT_NEAR(plant.latest().V_out, 60.0, 1e-3) << "the last write before the tick won";
+}
+
 class SimSensorTest : public ::testing::Test {
  protected:
   VirtualClock clock;

@@ -59,6 +59,11 @@ TEST(SimRun, AFullRunMatchesTheModel) {
   EXPECT_EQ(o.sensor_t.size(), o.summary.sensor.samples);
   EXPECT_DOUBLE_EQ(o.drive_t.front(), 0.0);
   EXPECT_DOUBLE_EQ(o.drive_V.back(), 0.0);
+  for (std::size_t i = 1; i < o.drive_V.size(); ++i) {
+    ASSERT_LE(std::abs(o.drive_V[i] - o.drive_V[i - 1]), 20'000 * 1e-4 + 1e-9)
+        << "slew limit per step, at t = " << o.drive_t[i];
+    ASSERT_LE(o.drive_V[i], 80.0);
+  }
 
   // The measured angle against the model, at the sensor's sample times.
   const model::Parameters p;

@@ -47,8 +47,6 @@ class DriveLoop {
 
   [[nodiscard]] LoopHealth& health() { return health_; }
   [[nodiscard]] const LoopHealth& health() const { return health_; }
-  /// Last commanded voltage, for the live status line.
-  [[nodiscard]] double last_voltage() const { return last_V_.load(std::memory_order_relaxed); }
 
  private:
   void emit(hal::TimeNs t, double V, DrivePhase phase, hal::Status status);
@@ -59,7 +57,6 @@ class DriveLoop {
   SafetySupervisor& supervisor_;
   DriveLoopIo io_;
   LoopHealth health_;
-  std::atomic<double> last_V_{0.0};
 };
 
 }  // namespace piezo::firmware

@@ -1,7 +1,10 @@
 #pragma once
 /// @file
 /// The simulated drive chain: a unipolar DAC (resolution, full scale) whose
-/// held output feeds the plant's amplifier.
+/// held output feeds the plant's amplifier. The DAC is hardware-timed: a
+/// written code is latched on the DAC's next update tick (a timer driving
+/// its LDAC input), so the software's wake-up jitter never reaches the
+/// output; a write later than a whole period misses its tick.
 
 #include "piezo/hal/clock.hpp"
 #include "piezo/hal/drive.hpp"
@@ -11,12 +14,14 @@ namespace piezo::hal::sim {
 
 struct DacSettings {
   int bits = 20;
-  double full_scale_V = 5.0;  ///< output at the highest code
+  double full_scale_V = 5.0;     ///< output at the highest code
+  double update_period_s = 0.0;  ///< latch ticks; 0 latches every write at once
 };
 
 class SimDrive final : public Drive {
  public:
-  SimDrive(const DacSettings& dac, Plant& plant, const Clock& clock);
+  /// Latch ticks fall at tick_origin + k * update_period.
+  SimDrive(const DacSettings& dac, Plant& plant, const Clock& clock, TimeNs tick_origin = 0);
 
   Status write(double volts) override;
   [[nodiscard]] DriveLimits limits() const override;
@@ -28,8 +33,16 @@ class SimDrive final : public Drive {
   DacSettings dac_;
   Plant& plant_;
   const Clock& clock_;
+  [[nodiscard]] TimeNs next_tick(TimeNs t) const;
+
   unsigned max_code_;
   unsigned last_code_ = 0;
+  TimeNs period_;
+  TimeNs tick_origin_;
+  // The code written but not yet latched (a DAC's input register).
+  bool pending_ = false;
+  TimeNs pending_tick_ = 0;
+  double pending_V_ = 0.0;
 };
 
 }  // namespace piezo::hal::sim
