@@ -36,8 +36,6 @@ class RunLog {
   /// Marks the log with its final status and flushes.
   void close(const std::string& status);
 
-  [[nodiscard]] const std::string& path() const { return file_.path(); }
-
   static const std::vector<std::string>& drive_columns();
   static const std::vector<std::string>& sensor_columns();
 

@@ -28,7 +28,6 @@ class SectionReader {
   /// A missing section reads as empty: every key keeps its value.
   SectionReader(const toml::table& root, std::string section, std::string source);
 
-  [[nodiscard]] bool present() const { return table_ != nullptr; }
   [[nodiscard]] bool has(const std::string& key) const;
 
   void number(const std::string& key, double& value, const Range& allowed,
@@ -41,7 +40,6 @@ class SectionReader {
   void reject_unknown(const std::vector<std::string>& known) const;
 
   [[nodiscard]] std::string name(const std::string& key) const { return section_ + "." + key; }
-  [[nodiscard]] const std::string& source() const { return source_; }
 
  private:
   const toml::table* table_ = nullptr;

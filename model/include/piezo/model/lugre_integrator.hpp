@@ -39,9 +39,7 @@ class LuGreIntegrator {
     t_ = t_end;
   }
 
-  [[nodiscard]] double time() const { return t_; }
   [[nodiscard]] const LuGreState& state() const { return y_; }
-  [[nodiscard]] const LuGreMotor& motor() const { return motor_; }
 
  private:
   static LuGreState scaled_atol(const MotorParameters& p, double tolerance) {
