@@ -13,5 +13,7 @@ CommandRunner add_simulate_command(CLI::App& app);
 CommandRunner add_sensitivity_command(CLI::App& app);
 CommandRunner add_run_command(CLI::App& app);
 CommandRunner add_report_command(CLI::App& app);
+CommandRunner add_sensor_command(CLI::App& app);
+CommandRunner add_rig_sim_command(CLI::App& app);
 
 }  // namespace piezo::host

@@ -15,10 +15,9 @@ int main(int argc, char** argv) {
   CLI::App app{"piezo: drive, log and model stick-slip piezoelectric rotary motors"};
   app.require_subcommand(1);
   const std::vector<piezo::host::CommandRunner> commands{
-      piezo::host::add_simulate_command(app),
-      piezo::host::add_sensitivity_command(app),
-      piezo::host::add_run_command(app),
-      piezo::host::add_report_command(app),
+      piezo::host::add_simulate_command(app), piezo::host::add_sensitivity_command(app),
+      piezo::host::add_run_command(app),      piezo::host::add_report_command(app),
+      piezo::host::add_sensor_command(app),   piezo::host::add_rig_sim_command(app),
   };
   try {
     app.parse(argc, argv);

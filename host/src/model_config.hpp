@@ -38,12 +38,26 @@ namespace piezo::host {
 
 /// Sections a project config may hold; those other commands own are skipped
 /// by the model reader but an unknown one is an error everywhere.
-inline const std::vector<std::string> kKnownSections{"drive", "model", "plant", "sensor",
-                                                     "lines", "run",   "safety"};
+inline const std::vector<std::string> kKnownSections{"drive", "model", "plant",  "sensor",
+                                                     "lines", "run",   "safety", "rig_sim"};
 /// [drive] keys that belong to the real-time drive, not to the model.
-inline const std::vector<std::string> kDriveLoopKeys{
-    "backend",  "rate_hz",          "V_min",          "V_max",           "slew_V_per_s",
-    "dac_bits", "dac_full_scale_V", "amplifier_gain", "amplifier_V_max", "amplifier_slew_V_per_s"};
+inline const std::vector<std::string> kDriveLoopKeys{"backend",
+                                                     "rate_hz",
+                                                     "V_min",
+                                                     "V_max",
+                                                     "slew_V_per_s",
+                                                     "dac_bits",
+                                                     "dac_full_scale_V",
+                                                     "amplifier_gain",
+                                                     "amplifier_V_max",
+                                                     "amplifier_slew_V_per_s",
+                                                     "ao_host",
+                                                     "ao_port",
+                                                     "ao_unit_id",
+                                                     "ao_address",
+                                                     "ao_counts_per_V",
+                                                     "ao_full_scale_V",
+                                                     "ao_timeout_s"};
 
 /// Parses a TOML file; parse errors become ConfigError with file and line.
 [[nodiscard]] toml::table parse_config_file(const std::string& path);

@@ -1,6 +1,9 @@
 #include "rig.hpp"
 
+#include "piezo/hal/modbus/modbus_analog_output.hpp"
+#include "piezo/hal/modbus/modbus_sensor.hpp"
 #include "piezo/hal/posix/monotonic_clock.hpp"
+#include "piezo/hal/posix/no_lines.hpp"
 #include "piezo/hal/sim/plant.hpp"
 #include "piezo/hal/sim/sim_drive.hpp"
 #include "piezo/hal/sim/sim_lines.hpp"
@@ -13,28 +16,59 @@ namespace {
 // Time for the loop threads to start and set themselves up before t0.
 constexpr double kStartLead_s = 0.1;
 
+std::unique_ptr<hal::Clock> make_clock(const RunConfig& c) {
+  if (c.virtual_clock()) return std::make_unique<hal::sim::VirtualClock>();
+  return std::make_unique<hal::posix::MonotonicClock>();
+}
+
+std::unique_ptr<hal::DisplacementSensor> make_modbus_sensor(const RunConfig& c,
+                                                            const hal::Clock& clock) {
+  return std::make_unique<hal::modbus::ModbusSensor>(c.sensor.link, c.sensor.map,
+                                                     c.sensor.rate_hz(), clock);
+}
+
 }  // namespace
 
 Rig build_rig(const RunConfig& c) {
   Rig rig;
-  if (c.virtual_clock()) {
-    rig.clock = std::make_unique<hal::sim::VirtualClock>();
-  } else {
-    rig.clock = std::make_unique<hal::posix::MonotonicClock>();
-  }
+  rig.clock = make_clock(c);
   rig.t0 = rig.clock->now() + hal::from_seconds(kStartLead_s);
 
-  // Only the simulated backends exist so far; the config reader admits no others.
-  hal::sim::AmplifierSettings amplifier = c.drive.amplifier;
-  auto plant = std::make_shared<hal::sim::Plant>(c.plant, amplifier, rig.clock->now());
-  rig.drive = std::make_unique<hal::sim::SimDrive>(c.drive.dac, *plant, *rig.clock, rig.t0);
-  rig.sensor = std::make_unique<hal::sim::SimSensor>(c.sensor.sim, *plant, *rig.clock, rig.t0);
-  rig.lines = std::make_unique<hal::sim::SimLines>(c.lines.sim, *plant, *rig.clock, rig.t0);
-  rig.shared_devices = plant;
+  // The simulated drive, sensor and lines share one plant (the config
+  // checks that "sim" backends come together).
+  std::shared_ptr<hal::sim::Plant> plant;
+  if (c.drive.backend == "sim") {
+    plant = std::make_shared<hal::sim::Plant>(c.plant, c.drive.amplifier, rig.clock->now());
+    rig.drive = std::make_unique<hal::sim::SimDrive>(c.drive.dac, *plant, *rig.clock, rig.t0);
+    rig.sensor = std::make_unique<hal::sim::SimSensor>(c.sensor.sim, *plant, *rig.clock, rig.t0);
+    rig.shared_devices = plant;
+  } else {
+    rig.drive = std::make_unique<hal::modbus::ModbusAnalogOutput>(c.drive.ao_link, c.drive.ao);
+    rig.sensor = make_modbus_sensor(c, *rig.clock);
+  }
+  if (c.lines.backend == "sim") {
+    rig.lines = std::make_unique<hal::sim::SimLines>(c.lines.sim, *plant, *rig.clock, rig.t0);
+  } else {
+    rig.lines = std::make_unique<hal::posix::NoLines>();
+  }
 
   const hal::DriveLimits hw = rig.drive->limits();
   check_drive_hardware(c, hw.V_min, hw.V_max);
   return rig;
+}
+
+SensorRig build_sensor(const RunConfig& c) {
+  SensorRig s;
+  s.clock = std::make_unique<hal::posix::MonotonicClock>();
+  if (c.sensor.backend == "sim") {
+    auto plant = std::make_shared<hal::sim::Plant>(c.plant, c.drive.amplifier, s.clock->now());
+    s.sensor =
+        std::make_unique<hal::sim::SimSensor>(c.sensor.sim, *plant, *s.clock, s.clock->now());
+    s.shared_devices = plant;
+  } else {
+    s.sensor = make_modbus_sensor(c, *s.clock);
+  }
+  return s;
 }
 
 }  // namespace piezo::host

@@ -23,7 +23,16 @@ struct Rig {
 };
 
 /// Builds the clock and the backends; throws ConfigError when the drive
-/// hardware cannot honour the configured limits.
+/// hardware cannot honour the configured limits, std::runtime_error when a
+/// device cannot be reached.
 [[nodiscard]] Rig build_rig(const RunConfig& config);
+
+/// Just the sensor, on the real clock: for `piezo sensor read`.
+struct SensorRig {
+  std::unique_ptr<hal::Clock> clock;
+  std::shared_ptr<void> shared_devices;
+  std::unique_ptr<hal::DisplacementSensor> sensor;
+};
+[[nodiscard]] SensorRig build_sensor(const RunConfig& config);
 
 }  // namespace piezo::host

@@ -5,10 +5,12 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <sstream>
 
 #include "config_error.hpp"
+#include "modbus_config.hpp"
 #include "model_config.hpp"
 #include "section_reader.hpp"
 
@@ -20,11 +22,13 @@ std::vector<std::string> drive_keys() {
   keys.insert(keys.end(), kDriveLoopKeys.begin(), kDriveLoopKeys.end());
   return keys;
 }
-const std::vector<std::string> kSensorKeys{
-    "backend",   "rate_hz",    "r2_m",        "offset_m",
+const std::vector<std::string> kSimSensorKeys{
+    "backend",   "rate_hz",    "r2_m",        "target_distance_m",
     "noise_m",   "quantum_m",  "latency_s",   "dropout_probability",
     "timeout_s", "stall_at_s", "stall_for_s", "seed"};
 const std::vector<std::string> kLinesKeys{"backend", "estop_at_s"};
+const std::vector<std::string> kRigSimKeys{"response_delay_s", "drop_probability",
+                                           "exception_probability", "disconnect_at_s"};
 const std::vector<std::string> kRunKeys{"duration_s", "clock", "priority", "lock_memory",
                                         "flush_interval_s"};
 const std::vector<std::string> kSafetyKeys{"sensor_stale_s", "max_sensor_errors",
@@ -37,7 +41,7 @@ constexpr Range kNonNegative{0.0, kInf, false, true};
 void read_drive(const toml::table& t, const std::string& source, DriveSettings& d) {
   SectionReader r(t, "drive", source);
   r.reject_unknown(drive_keys());
-  r.choice("backend", d.backend, {"sim"});
+  r.choice("backend", d.backend, {"sim", "modbus-ao"});
   r.number("rate_hz", d.rate_hz, {100.0, 100'000.0}, "Hz");
   r.number("V_min", d.limits.V_min, {0.0, 1000.0}, "V");
   r.number("V_max", d.limits.V_max, {0.0, 1000.0, true}, "V");
@@ -47,6 +51,8 @@ void read_drive(const toml::table& t, const std::string& source, DriveSettings& 
   r.number("amplifier_gain", d.amplifier.gain, {0.0, 1000.0, true});
   r.number("amplifier_V_max", d.amplifier.V_out_max, {0.0, 1000.0, true}, "V");
   r.number("amplifier_slew_V_per_s", d.amplifier.slew_V_per_s, kPositive, "V/s");
+  read_modbus_drive(r, d.ao_link, d.ao);
+  d.ao.amplifier_gain = d.amplifier.gain;
   // The simulated DAC updates at the drive rate, on its own clock, and the
   // signal chain interpolates over one update period.
   d.dac.update_period_s = 1.0 / d.rate_hz;
@@ -55,11 +61,16 @@ void read_drive(const toml::table& t, const std::string& source, DriveSettings& 
 
 void read_sensor(const toml::table& t, const std::string& source, SensorSettings& s) {
   SectionReader r(t, "sensor", source);
-  r.reject_unknown(kSensorKeys);
-  r.choice("backend", s.backend, {"sim"});
+  std::vector<std::string> keys = kSimSensorKeys;
+  keys.insert(keys.end(), kModbusSensorKeys.begin(), kModbusSensorKeys.end());
+  r.reject_unknown(keys);
+  r.choice("backend", s.backend, {"sim", "modbus-tcp", "modbus-rtu"});
+  s.link.transport = s.backend == "modbus-rtu" ? hal::modbus::LinkSettings::Transport::rtu
+                                               : hal::modbus::LinkSettings::Transport::tcp;
+  read_modbus_sensor(r, s.link, s.map);
   r.number("rate_hz", s.sim.rate_hz, {1.0, 100'000.0}, "Hz");
   r.number("r2_m", s.r2_m, {0.0, 10.0, true}, "m");
-  r.number("offset_m", s.sim.offset_m, {-10.0, 10.0}, "m");
+  r.number("target_distance_m", s.sim.offset_m, {-10.0, 10.0}, "m");
   r.number("noise_m", s.sim.noise_m, {0.0, 1.0}, "m");
   r.number("quantum_m", s.sim.quantum_m, {0.0, 1.0}, "m");
   r.number("latency_s", s.sim.latency_s, {0.0, 1.0}, "s");
@@ -76,7 +87,7 @@ void read_sensor(const toml::table& t, const std::string& source, SensorSettings
 void read_lines(const toml::table& t, const std::string& source, LinesSettings& l) {
   SectionReader r(t, "lines", source);
   r.reject_unknown(kLinesKeys);
-  r.choice("backend", l.backend, {"sim"});
+  r.choice("backend", l.backend, {"sim", "none"});
   r.number("estop_at_s", l.sim.estop_at_s, kNonNegative, "s");
 }
 
@@ -88,6 +99,15 @@ void read_run(const toml::table& t, const std::string& source, RunSettings& run)
   r.integer("priority", run.priority, 0, 99);
   r.flag("lock_memory", run.lock_memory);
   r.number("flush_interval_s", run.flush_interval_s, {0.01, 1.0}, "s");
+}
+
+void read_rig_sim(const toml::table& t, const std::string& source, RigSimSettings& f) {
+  SectionReader r(t, "rig_sim", source);
+  r.reject_unknown(kRigSimKeys);
+  r.number("response_delay_s", f.response_delay_s, {0.0, 10.0}, "s");
+  r.number("drop_probability", f.drop_probability, {0.0, 1.0});
+  r.number("exception_probability", f.exception_probability, {0.0, 1.0});
+  r.number("disconnect_at_s", f.disconnect_at_s, kNonNegative, "s");
 }
 
 void read_safety(const toml::table& t, const std::string& source, firmware::SafetySettings& s) {
@@ -122,6 +142,7 @@ void read_tables(const toml::table& t, const std::string& source, RunConfig& c,
   read_lines(t, source, c.lines);
   read_run(t, source, c.run);
   read_safety(t, source, c.safety);
+  read_rig_sim(t, source, c.rig_sim);
 }
 
 /// "SECTION.KEY=VALUE" as a one-key TOML table; VALUE is read as TOML
@@ -172,11 +193,37 @@ model::MotorParameters all_nan() {
   return p.motor;
 }
 
+void check_backends(const RunConfig& c, const std::function<std::string(const std::string&)>& src) {
+  // The simulated drive and sensor share one plant: neither works alone.
+  const bool sim_drive = c.drive.backend == "sim", sim_sensor = c.sensor.backend == "sim";
+  if (sim_drive != sim_sensor) {
+    throw ConfigError(src("sensor.backend"), "sensor.backend",
+                      fmt::format("\"{}\" cannot go with drive.backend = \"{}\": the "
+                                  "simulated drive and sensor share one plant; allowed: both "
+                                  "\"sim\" or neither",
+                                  c.sensor.backend, c.drive.backend));
+  }
+  if (c.lines.backend == "sim" && !sim_drive) {
+    throw ConfigError(src("lines.backend"), "lines.backend",
+                      "\"sim\" needs the simulated drive; allowed here: \"none\"");
+  }
+  if (c.virtual_clock() && !sim_drive) {
+    throw ConfigError(src("run.clock"), "run.clock",
+                      "\"virtual\" needs the simulated rig (backend = \"sim\"); real devices "
+                      "run in real time");
+  }
+  if (c.sensor.backend == "modbus-rtu" && c.sensor.link.device.empty()) {
+    throw ConfigError(src("sensor.device"), "sensor.device",
+                      "missing: modbus-rtu needs the serial device, e.g. \"/dev/ttyUSB0\"");
+  }
+}
+
 void check_whole(const RunConfig& c, const std::map<std::string, std::string>& source_of) {
   auto src = [&](const std::string& key) {
     const auto it = source_of.find(key);
     return it == source_of.end() ? c.source : it->second;
   };
+  check_backends(c, src);
   require_valid(c.model, c.source);
   model::Parameters plant{c.model.drive, c.plant};
   if (const auto issues = model::validate(plant); !issues.empty()) {
@@ -222,16 +269,20 @@ void check_whole(const RunConfig& c, const std::map<std::string, std::string>& s
 
 }  // namespace
 
-RunConfig load_run_config(const std::string& path, const std::vector<std::string>& sets) {
+RunConfig load_run_config(const std::string& path, const std::vector<std::string>& sets,
+                          ConfigScope scope) {
   const toml::table file = parse_config_file(path);
-  for (const auto& section : kRequiredSections) {
+  const std::vector<std::string> required =
+      scope == ConfigScope::rig ? kRequiredSections : std::vector<std::string>{"sensor"};
+  for (const auto& section : required) {
     if (!file.contains(section)) {
       throw ConfigError(path, section,
                         fmt::format("missing section [{}] (required: [{}])", section,
-                                    fmt::join(kRequiredSections, "], [")));
+                                    fmt::join(required, "], [")));
     }
   }
   RunConfig c;
+  apply_baumer_om30(c.sensor.link, c.sensor.map);
   c.source = path;
   c.text = read_text(path);
   model::MotorParameters plant_keys = all_nan();

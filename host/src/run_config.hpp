@@ -4,11 +4,15 @@
 // --set SECTION.KEY=VALUE overrides and checked as a whole before anything
 // touches the hardware.
 
+#include <limits>
 #include <string>
 #include <vector>
 
 #include "piezo/firmware/safety_supervisor.hpp"
 #include "piezo/firmware/voltage_limiter.hpp"
+#include "piezo/hal/modbus/link.hpp"
+#include "piezo/hal/modbus/modbus_analog_output.hpp"
+#include "piezo/hal/modbus/register_map.hpp"
 #include "piezo/hal/sim/plant.hpp"
 #include "piezo/hal/sim/sim_drive.hpp"
 #include "piezo/hal/sim/sim_lines.hpp"
@@ -18,22 +22,36 @@
 namespace piezo::host {
 
 struct DriveSettings {
-  std::string backend = "sim";
+  std::string backend = "sim";  ///< "sim" or "modbus-ao"
   double rate_hz = 10'000.0;
   firmware::VoltageLimits limits{0.0, 80.0, 20'000.0};
   hal::sim::DacSettings dac;
   hal::sim::AmplifierSettings amplifier;
+  hal::modbus::LinkSettings ao_link;
+  hal::modbus::AnalogOutputSettings ao;
 };
 
 struct SensorSettings {
-  std::string backend = "sim";
+  std::string backend = "sim";  ///< "sim", "modbus-tcp" or "modbus-rtu"
   double r2_m = 0.062;  ///< reflector radius: theta = (d - d_tare) / r2 (MODEL.md section 4)
   hal::sim::SimSensorSettings sim;
+  hal::modbus::LinkSettings link;
+  hal::modbus::RegisterMap map;  ///< default: the Baumer OM30 map
+
+  [[nodiscard]] double rate_hz() const { return sim.rate_hz; }
 };
 
 struct LinesSettings {
-  std::string backend = "sim";
+  std::string backend = "sim";  ///< "sim" or "none"
   hal::sim::SimLinesSettings sim;
+};
+
+/// Fault injection of `piezo rig-sim`.
+struct RigSimSettings {
+  double response_delay_s = 0.0;
+  double drop_probability = 0.0;       ///< requests left unanswered
+  double exception_probability = 0.0;  ///< answered with exception 04 (server failure)
+  double disconnect_at_s = std::numeric_limits<double>::infinity();  ///< closes every client
 };
 
 struct RunSettings {
@@ -54,14 +72,19 @@ struct RunConfig {
   LinesSettings lines;
   RunSettings run;
   firmware::SafetySettings safety;
+  RigSimSettings rig_sim;
 
   [[nodiscard]] bool virtual_clock() const { return run.clock == "virtual"; }
 };
 
+/// What a command needs of a config: a whole rig, or only its sensor.
+enum class ConfigScope { rig, sensor };
+
 /// Reads and checks a rig config. Throws ConfigError naming the key, the
 /// source (the file, or "--set") and what is allowed.
 [[nodiscard]] RunConfig load_run_config(const std::string& path,
-                                        const std::vector<std::string>& sets = {});
+                                        const std::vector<std::string>& sets = {},
+                                        ConfigScope scope = ConfigScope::rig);
 
 /// Checks the drive limits against what the built drive hardware can do.
 void check_drive_hardware(const RunConfig& config, double hardware_V_min, double hardware_V_max);

@@ -71,6 +71,13 @@ void SectionReader::choice(const std::string& key, std::string& value,
   value = *v;
 }
 
+void SectionReader::text(const std::string& key, std::string& value) {
+  if (!has(key)) return;
+  const auto v = table_->get(key)->value<std::string>();
+  if (!v || v->empty()) throw ConfigError(source_, name(key), "must be a non-empty string");
+  value = *v;
+}
+
 void SectionReader::flag(const std::string& key, bool& value) {
   if (!has(key)) return;
   const toml::node& node = *table_->get(key);

@@ -35,6 +35,8 @@ class SectionReader {
   void integer(const std::string& key, int& value, int min, int max);
   void choice(const std::string& key, std::string& value, const std::vector<std::string>& allowed);
   void flag(const std::string& key, bool& value);
+  /// Any non-empty string.
+  void text(const std::string& key, std::string& value);
 
   /// Throws for the first key not in `known` (keys read elsewhere included).
   void reject_unknown(const std::vector<std::string>& known) const;

@@ -1,0 +1,86 @@
+#pragma once
+/// @file
+/// One Modbus connection (TCP, or RTU on a serial line) through libmodbus.
+/// Register calls return a Status and never block longer than the response
+/// timeout. A lost connection is re-established by a keeper thread with
+/// back-off, off the real-time path: meanwhile calls return `disconnected`
+/// at once.
+
+#include <modbus.h>
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "piezo/hal/modbus/register_map.hpp"
+#include "piezo/hal/status.hpp"
+
+namespace piezo::hal::modbus {
+
+struct LinkSettings {
+  enum class Transport { tcp, rtu } transport = Transport::tcp;
+  std::string host = "127.0.0.1";
+  int port = 502;
+  std::string device;  ///< e.g. /dev/ttyUSB0, or a pseudo-terminal
+  int baud = 57600;
+  char parity = 'E';  ///< 'N', 'E' or 'O'
+  int data_bits = 8;
+  int stop_bits = 1;
+  bool rs485 = false;  ///< switch the port to RS-485 mode (ioctl TIOCSRS485)
+  double response_timeout_s = 0.05;
+  double byte_timeout_s = 0.01;
+
+  /// "tcp 127.0.0.1:1502" or "rtu /dev/ttyUSB0 57600 8E1", for messages.
+  [[nodiscard]] std::string describe() const;
+};
+
+/// Failures by class, counted on every call (any thread may read them).
+struct LinkErrors {
+  std::atomic<std::uint64_t> timeouts{0}, crc{0}, exceptions{0}, disconnects{0}, other{0};
+  [[nodiscard]] std::uint64_t total() const {
+    return timeouts + crc + exceptions + disconnects + other;
+  }
+};
+
+class Link {
+ public:
+  /// Builds the context and connects. Throws std::runtime_error naming the
+  /// link when the settings are invalid or the first connection fails.
+  explicit Link(const LinkSettings& settings);
+  ~Link();
+  Link(const Link&) = delete;
+  Link& operator=(const Link&) = delete;
+
+  /// Reads `count` registers (function 03 or 04) into `out`. Real-time safe.
+  [[nodiscard]] Status read(Function function, int unit_id, int address, int count,
+                            std::uint16_t* out);
+  /// Writes one holding register (function 06). Real-time safe.
+  [[nodiscard]] Status write(int unit_id, int address, std::uint16_t value);
+
+  [[nodiscard]] const LinkErrors& errors() const { return errors_; }
+  [[nodiscard]] bool connected() const { return up_.load(std::memory_order_acquire); }
+  [[nodiscard]] const LinkSettings& settings() const { return settings_; }
+
+  /// Maps errno after a failed libmodbus call to a Status class.
+  [[nodiscard]] static Status classify(int error);
+
+ private:
+  Status finish(int result, int error);
+  void keep_connected();
+  bool try_connect();
+
+  LinkSettings settings_;
+  modbus_t* ctx_ = nullptr;
+  LinkErrors errors_;
+  // The real-time caller owns ctx_ while up_ is true; the keeper owns it while false.
+  std::atomic<bool> up_{false};
+  std::atomic<bool> stopping_{false};
+  std::mutex keeper_mutex_;  // only for the keeper's sleep; never taken by a caller
+  std::condition_variable keeper_wakeup_;
+  std::thread keeper_;
+};
+
+}  // namespace piezo::hal::modbus

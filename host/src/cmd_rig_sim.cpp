@@ -1,0 +1,76 @@
+// `piezo rig-sim`: the simulated rig as a Modbus device, so that the real
+// Modbus backends (and any Modbus tool) can be exercised over real links.
+
+#include <fmt/format.h>
+
+#include <thread>
+
+#include "commands.hpp"
+#include "config_error.hpp"
+#include "rig_sim_server.hpp"
+#include "run_config.hpp"
+
+namespace piezo::host {
+namespace {
+
+struct RigSimOptions {
+  std::string config;
+  std::vector<std::string> sets;
+  std::string tcp;  // HOST:PORT
+  std::string rtu;  // device
+};
+
+std::pair<std::string, int> split_host_port(const std::string& text) {
+  const auto colon = text.rfind(':');
+  if (colon == std::string::npos) throw ConfigError("--tcp", text, "expected HOST:PORT");
+  try {
+    const int port = std::stoi(text.substr(colon + 1));
+    if (port < 1 || port > 65535) throw std::out_of_range("port");
+    return {text.substr(0, colon), port};
+  } catch (const std::logic_error&) {
+    throw ConfigError("--tcp", text, "port must be a number in [1, 65535]");
+  }
+}
+
+int run(const RigSimOptions& o) {
+  const RunConfig config = load_run_config(o.config, o.sets, ConfigScope::sensor);
+  std::string tcp = o.tcp;
+  if (tcp.empty() && o.rtu.empty()) {
+    tcp = config.sensor.link.host + ":" + std::to_string(config.sensor.link.port);
+  }
+  RigSimServer server(config);
+  fmt::print("rig-sim: {}\n", server.describe());
+  std::thread rtu_thread;
+  if (!o.rtu.empty()) {
+    fmt::print("rig-sim: serving RTU on {} ({} {}{}{})\n", o.rtu, config.sensor.link.baud,
+               config.sensor.link.data_bits, config.sensor.link.parity,
+               config.sensor.link.stop_bits);
+    if (tcp.empty()) {
+      std::fflush(stdout);
+      server.serve_rtu(o.rtu);
+    }
+    rtu_thread = std::thread([&] { server.serve_rtu(o.rtu); });
+  }
+  const auto [host, port] = split_host_port(tcp);
+  fmt::print("rig-sim: listening on tcp {}:{}\n", host, port);
+  std::fflush(stdout);
+  server.serve_tcp(host, port);
+  return 0;
+}
+
+}  // namespace
+
+CommandRunner add_rig_sim_command(CLI::App& app) {
+  auto o = std::make_shared<RigSimOptions>();
+  CLI::App* cmd = app.add_subcommand("rig-sim", "Serve the simulated rig as a Modbus device");
+  cmd->add_option("--config", o->config,
+                  "Rig config: [plant], [sensor] map, [drive] ao_*, [rig_sim]")
+      ->required()
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--set", o->sets, "Override a config key: SECTION.KEY=VALUE");
+  cmd->add_option("--tcp", o->tcp, "Listen on HOST:PORT (default: [sensor] host and port)");
+  cmd->add_option("--rtu", o->rtu, "Serve RTU on this serial device or pseudo-terminal");
+  return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
+}
+
+}  // namespace piezo::host

@@ -1,0 +1,179 @@
+#include "rig_sim_server.hpp"
+
+#include <fmt/format.h>
+#include <sys/select.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <stdexcept>
+#include <thread>
+
+namespace piezo::host {
+namespace {
+
+hal::sim::SimSensorSettings instant_sensor(const RunConfig& c) {
+  hal::sim::SimSensorSettings s = c.sensor.sim;
+  s.latency_s = 0.0;  // the link supplies the latency
+  s.dropout_probability = 0.0;
+  s.stall_at_s = std::numeric_limits<double>::infinity();
+  return s;
+}
+
+hal::sim::AmplifierSettings amplifier(const RunConfig& c) {
+  hal::sim::AmplifierSettings a = c.drive.amplifier;
+  a.ramp_time_s = 1.0 / c.drive.rate_hz;
+  return a;
+}
+
+}  // namespace
+
+RigSimServer::RigSimServer(const RunConfig& config)
+    : config_(config),
+      t_start_(clock_.now()),
+      plant_(config.plant, amplifier(config), t_start_),
+      sensor_(instant_sensor(config), plant_, clock_, t_start_),
+      registers_(modbus_mapping_new(0, 0, 65536, 65536)) {
+  if (registers_ == nullptr) throw std::runtime_error("rig-sim: cannot allocate registers");
+  plant_.set_enabled(t_start_, true);
+}
+
+RigSimServer::~RigSimServer() {
+  modbus_mapping_free(registers_);
+}
+
+std::string RigSimServer::describe() const {
+  const auto& m = config_.sensor.map;
+  return fmt::format(
+      "sensor: {} register {} ({} words, unit {}), scale {:g} m per unit; analog output: holding "
+      "register {} at {:g} counts/V",
+      m.function == hal::modbus::Function::input ? "input" : "holding", m.address,
+      hal::modbus::word_count(m.type), m.unit_id, m.scale, config_.drive.ao.address,
+      config_.drive.ao.counts_per_V);
+}
+
+bool RigSimServer::disconnected() const {
+  return hal::to_seconds(clock_.now() - t_start_) >= config_.rig_sim.disconnect_at_s;
+}
+
+RigSimServer::Fault RigSimServer::prepare_reply() {
+  std::lock_guard lock(mutex_);
+  plant_.set_input(clock_.now(), last_ao_counts_ / config_.drive.ao.counts_per_V);
+  const hal::DisplacementReading r = sensor_.read();
+  const auto& m = config_.sensor.map;
+  std::uint16_t* table = m.function == hal::modbus::Function::input
+                             ? registers_->tab_input_registers
+                             : registers_->tab_registers;
+  hal::modbus::encode(m.type, m.order, (r.displacement_m - m.offset) / m.scale,
+                      std::span<std::uint16_t>(table + m.address, 2));
+  const auto& f = config_.rig_sim;
+  if (f.response_delay_s > 0.0) {
+    std::this_thread::sleep_for(std::chrono::duration<double>(f.response_delay_s));
+  }
+  const double u = uniform_(random_);
+  if (u < f.drop_probability) return Fault::drop;
+  if (u < f.drop_probability + f.exception_probability) return Fault::exception;
+  return Fault::none;
+}
+
+void RigSimServer::after_reply() {
+  std::lock_guard lock(mutex_);
+  const std::uint16_t counts = registers_->tab_registers[config_.drive.ao.address];
+  if (counts != last_ao_counts_) {
+    last_ao_counts_ = counts;
+    plant_.set_input(clock_.now(), counts / config_.drive.ao.counts_per_V);
+  }
+}
+
+void RigSimServer::serve_tcp(const std::string& host, int port) {
+  modbus_t* ctx = modbus_new_tcp(host.c_str(), port);
+  if (ctx == nullptr) throw std::runtime_error("rig-sim: bad address " + host);
+  const int listener = modbus_tcp_listen(ctx, 16);
+  if (listener < 0) {
+    const std::string why = modbus_strerror(errno);
+    modbus_free(ctx);
+    throw std::runtime_error(fmt::format("rig-sim: cannot listen on {}:{}: {}", host, port, why));
+  }
+  std::vector<int> clients;
+  std::uint8_t query[MODBUS_TCP_MAX_ADU_LENGTH];
+  bool listening = true;
+  for (;;) {
+    if (listening && disconnected()) {
+      // The disconnect fault: every client is dropped and nobody gets back in.
+      for (int fd : clients) close(fd);
+      clients.clear();
+      close(listener);
+      listening = false;
+    }
+    fd_set ready;
+    FD_ZERO(&ready);
+    int max_fd = -1;
+    if (listening) {
+      FD_SET(listener, &ready);
+      max_fd = listener;
+    }
+    for (int fd : clients) {
+      FD_SET(fd, &ready);
+      max_fd = std::max(max_fd, fd);
+    }
+    timeval timeout{0, 20'000};
+    if (select(max_fd + 1, &ready, nullptr, nullptr, &timeout) < 0) {
+      if (errno == EINTR) continue;
+      throw std::runtime_error(std::string("rig-sim: select: ") + std::strerror(errno));
+    }
+    if (listening && FD_ISSET(listener, &ready)) {
+      int fd = listener;
+      if (modbus_tcp_accept(ctx, &fd) >= 0) clients.push_back(modbus_get_socket(ctx));
+    }
+    for (auto it = clients.begin(); it != clients.end();) {
+      if (!FD_ISSET(*it, &ready)) {
+        ++it;
+        continue;
+      }
+      modbus_set_socket(ctx, *it);
+      const int length = modbus_receive(ctx, query);
+      if (length < 0) {  // the client has gone
+        close(*it);
+        it = clients.erase(it);
+        continue;
+      }
+      if (length > 0) {
+        const Fault fault = prepare_reply();
+        if (fault == Fault::exception) {
+          modbus_reply_exception(ctx, query, MODBUS_EXCEPTION_SLAVE_OR_SERVER_FAILURE);
+        } else if (fault == Fault::none) {
+          modbus_reply(ctx, query, length, registers_);
+          after_reply();
+        }
+      }
+      ++it;
+    }
+  }
+}
+
+void RigSimServer::serve_rtu(const std::string& device) {
+  const auto& link = config_.sensor.link;
+  modbus_t* ctx =
+      modbus_new_rtu(device.c_str(), link.baud, link.parity, link.data_bits, link.stop_bits);
+  if (ctx == nullptr || modbus_set_slave(ctx, config_.sensor.map.unit_id) != 0 ||
+      modbus_connect(ctx) != 0) {
+    throw std::runtime_error(
+        fmt::format("rig-sim: cannot open {}: {}", device, modbus_strerror(errno)));
+  }
+  std::uint8_t query[MODBUS_RTU_MAX_ADU_LENGTH];
+  for (;;) {
+    const int length = modbus_receive(ctx, query);
+    if (length <= 0) continue;     // a frame for another unit, or line noise
+    if (disconnected()) continue;  // a dead line answers nothing
+    const Fault fault = prepare_reply();
+    if (fault == Fault::exception) {
+      modbus_reply_exception(ctx, query, MODBUS_EXCEPTION_SLAVE_OR_SERVER_FAILURE);
+    } else if (fault == Fault::none) {
+      modbus_reply(ctx, query, length, registers_);
+      after_reply();
+    }
+  }
+}
+
+}  // namespace piezo::host
