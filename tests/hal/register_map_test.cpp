@@ -20,7 +20,7 @@ TEST(RegisterDecoding, BaumerFloatInCdabOrder) {
 
 // The same value 0x428B7C37 (bytes A B C D) in each order.
 TEST(RegisterDecoding, EachWordOrderPlacesTheBytes) {
-  const float expected = 69.74260711669922f;
+  const double expected = static_cast<double>(69.74260711669922f);
   EXPECT_FLOAT_EQ(
       decode(RegisterType::f32, WordOrder::ABCD, std::array<std::uint16_t, 2>{0x428B, 0x7C37}),
       expected);
@@ -59,7 +59,7 @@ TEST(RegisterDecoding, RiftekCountsScaleToTheRange) {
 
 TEST(RegisterEncoding, RoundTripsEveryTypeAndOrder) {
   for (const auto order : {WordOrder::ABCD, WordOrder::CDAB, WordOrder::BADC, WordOrder::DCBA}) {
-    for (const auto [type, value] :
+    for (const auto& [type, value] :
          {std::pair{RegisterType::u16, 54321.0}, std::pair{RegisterType::s16, -1234.0},
           std::pair{RegisterType::u32, 3'000'000'000.0},
           std::pair{RegisterType::s32, -2'000'000'000.0}, std::pair{RegisterType::f32, 69.7426}}) {
