@@ -21,16 +21,16 @@ TEST(RegisterDecoding, BaumerFloatInCdabOrder) {
 // The same value 0x428B7C37 (bytes A B C D) in each order.
 TEST(RegisterDecoding, EachWordOrderPlacesTheBytes) {
   const double expected = static_cast<double>(69.74260711669922f);
-  EXPECT_FLOAT_EQ(
+  EXPECT_DOUBLE_EQ(
       decode(RegisterType::f32, WordOrder::ABCD, std::array<std::uint16_t, 2>{0x428B, 0x7C37}),
       expected);
-  EXPECT_FLOAT_EQ(
+  EXPECT_DOUBLE_EQ(
       decode(RegisterType::f32, WordOrder::CDAB, std::array<std::uint16_t, 2>{0x7C37, 0x428B}),
       expected);
-  EXPECT_FLOAT_EQ(
+  EXPECT_DOUBLE_EQ(
       decode(RegisterType::f32, WordOrder::BADC, std::array<std::uint16_t, 2>{0x8B42, 0x377C}),
       expected);
-  EXPECT_FLOAT_EQ(
+  EXPECT_DOUBLE_EQ(
       decode(RegisterType::f32, WordOrder::DCBA, std::array<std::uint16_t, 2>{0x377C, 0x8B42}),
       expected);
 }
