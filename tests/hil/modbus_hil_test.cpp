@@ -1,0 +1,256 @@
+// The real Modbus backends across real links: `piezo rig-sim` over TCP and
+// over RTU on a socat pty pair, read by our client and by mbpoll; a pymodbus
+// server posing as a sensor, read by our client; and faults injected by
+// rig-sim or by killing it.
+
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "../support/run_command.hpp"
+#include "../support/spawn.hpp"
+
+namespace piezo::testing {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+const std::string kPiezo = PIEZO_BINARY;
+const std::string kConfig = std::string(PIEZO_SOURCE_DIR) + "/configs/modbus-hil.toml";
+const std::string kPymodbusSensor = std::string(PIEZO_SOURCE_DIR) + "/tests/hil/pymodbus_sensor.py";
+
+/// A port of this test process's own (tests run in parallel, one process each).
+int free_port() {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr);
+  socklen_t len = sizeof addr;
+  getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
+  close(fd);
+  return ntohs(addr.sin_port);
+}
+
+bool wait_for_tcp(int port) {
+  for (int i = 0; i < 100; ++i) {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(static_cast<std::uint16_t>(port));
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    const bool ok = connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
+    close(fd);
+    if (ok) return true;
+    std::this_thread::sleep_for(50ms);
+  }
+  return false;
+}
+
+bool wait_for_path(const fs::path& p) {
+  for (int i = 0; i < 100 && !fs::exists(p); ++i) std::this_thread::sleep_for(50ms);
+  return fs::exists(p);
+}
+
+class ModbusHil : public ::testing::Test {
+ protected:
+  fs::path dir = fresh_temp_dir(::testing::UnitTest::GetInstance()->current_test_info()->name());
+  int port = free_port();
+
+  std::unique_ptr<Spawned> start_rig_sim(const std::vector<std::string>& extra = {}) {
+    std::vector<std::string> args{kPiezo,  "rig-sim", "--config",
+                                  kConfig, "--set",   "sensor.port=" + std::to_string(port)};
+    args.insert(args.end(), extra.begin(), extra.end());
+    auto rig = std::make_unique<Spawned>(args, (dir / "rig-sim.txt").string());
+    return rig;
+  }
+
+  /// `piezo sensor read --json` against the port (or the given --set keys).
+  nlohmann::json sensor_read(int count, const std::string& sets, int expected_exit = 0) {
+    const auto r = run_command(kPiezo + " sensor read --config " + kConfig + " --count " +
+                               std::to_string(count) + " --json " + sets);
+    EXPECT_EQ(r.exit_code, expected_exit) << r.err;
+    return r.out.empty() ? nlohmann::json{} : nlohmann::json::parse(r.out);
+  }
+
+  std::string tcp_sets() const { return "--set sensor.port=" + std::to_string(port); }
+};
+
+TEST_F(ModbusHil, OurClientReadsRigSimOverTcp) {
+  auto rig = start_rig_sim();
+  ASSERT_TRUE(wait_for_tcp(port));
+  const auto j = sensor_read(20, tcp_sets());
+  EXPECT_EQ(j.at("errors"), 0);
+  ASSERT_EQ(j.at("readings").size(), 20u);
+  for (const auto& r : j.at("readings")) {
+    EXPECT_EQ(r.at("status"), "ok");
+    EXPECT_NEAR(r.at("displacement_m").get<double>(), 0.07, 5e-6);  // target distance, at rest
+  }
+}
+
+TEST_F(ModbusHil, MbpollReadsRigSimsBaumerRegisters) {
+  auto rig = start_rig_sim();
+  ASSERT_TRUE(wait_for_tcp(port));
+  // mbpoll numbers registers from 1; its default float word order is CDAB.
+  const auto r = run_command("mbpoll -m tcp -a 1 -t 3:float -r 203 -c 1 -1 -p " +
+                             std::to_string(port) + " 127.0.0.1");
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const auto at = r.out.find("[203]:");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  EXPECT_NEAR(std::stod(r.out.substr(at + 6)), 70.0, 0.01) << r.out;
+}
+
+TEST_F(ModbusHil, SeveralClientsAtOnce) {
+  auto rig = start_rig_sim();
+  ASSERT_TRUE(wait_for_tcp(port));
+  std::vector<std::thread> clients;
+  std::vector<int> errors(3, -1);
+  for (int i = 0; i < 3; ++i) {
+    clients.emplace_back([&, i] {
+      const auto r = run_command(kPiezo + " sensor read --config " + kConfig +
+                                 " --count 50 --json " + tcp_sets());
+      if (r.exit_code == 0)
+        errors[static_cast<std::size_t>(i)] = nlohmann::json::parse(r.out)["errors"];
+    });
+  }
+  for (auto& c : clients) c.join();
+  EXPECT_EQ(errors, (std::vector<int>{0, 0, 0}));
+}
+
+TEST_F(ModbusHil, PymodbusSensorOverTcpIsDecodedRight) {
+  Spawned sensor({"/usr/bin/python3", kPymodbusSensor, "tcp", std::to_string(port)},
+                 (dir / "pymodbus.txt").string());
+  ASSERT_TRUE(wait_for_tcp(port));
+  const auto j = sensor_read(3, tcp_sets() + " --set sensor.preset=baumer-om30");
+  for (const auto& r : j.at("readings")) {
+    EXPECT_NEAR(r.at("displacement_m").get<double>(), 0.0697426, 1e-7) << j.dump();
+  }
+}
+
+class ModbusRtu : public ModbusHil {
+ protected:
+  void SetUp() override {
+    pty_pair = std::make_unique<Spawned>(
+        std::vector<std::string>{"/usr/bin/socat", "pty,raw,echo=0,link=" + (dir / "ptyA").string(),
+                                 "pty,raw,echo=0,link=" + (dir / "ptyB").string()},
+        (dir / "socat.txt").string());
+    ASSERT_TRUE(wait_for_path(dir / "ptyA") && wait_for_path(dir / "ptyB"));
+  }
+  std::string rtu_sets(const std::string& parity = "E") const {
+    return "--set sensor.backend=modbus-rtu --set sensor.device=" + (dir / "ptyB").string() +
+           " --set sensor.parity=" + parity;
+  }
+  std::unique_ptr<Spawned> pty_pair;
+};
+
+TEST_F(ModbusRtu, OurClientReadsRigSimOverRtu) {
+  auto rig = start_rig_sim({"--rtu", (dir / "ptyA").string()});
+  std::this_thread::sleep_for(300ms);  // rig-sim opens its end of the pair
+  const auto j = sensor_read(10, rtu_sets());
+  EXPECT_EQ(j.at("errors"), 0) << j.dump();
+  for (const auto& r : j.at("readings")) {
+    EXPECT_NEAR(r.at("displacement_m").get<double>(), 0.07, 5e-6);
+  }
+}
+
+TEST_F(ModbusRtu, PymodbusSensorOverRtuIsDecodedRight) {
+  // pyserial cannot set parity on a pseudo-terminal twice (EINVAL): 8N1 here.
+  Spawned sensor({"/usr/bin/python3", kPymodbusSensor, "rtu", (dir / "ptyA").string(), "N"},
+                 (dir / "pymodbus.txt").string());
+  std::this_thread::sleep_for(1500ms);  // the python server starts slowly
+  const auto j = sensor_read(3, rtu_sets("N") + " --set sensor.preset=baumer-om30" +
+                                    " --set sensor.parity=N --set sensor.response_timeout_s=0.5");
+  EXPECT_EQ(j.at("errors"), 0) << j.dump();
+  for (const auto& r : j.at("readings")) {
+    EXPECT_NEAR(r.at("displacement_m").get<double>(), 0.0697426, 1e-7) << j.dump();
+  }
+}
+
+TEST_F(ModbusHil, RunCompletesAgainstRigSim) {
+  auto rig = start_rig_sim();
+  ASSERT_TRUE(wait_for_tcp(port));
+  const auto r = run_command(kPiezo + " run --config " + kConfig + " --duration 1 --json " +
+                             tcp_sets() + " --set drive.ao_port=" + std::to_string(port) +
+                             " --out " + (dir / "run").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j.at("status"), "completed");
+  // Every 1 kHz deadline in 1 s was either served or counted as missed.
+  EXPECT_GE(j.at("drive").at("samples").get<int>() + j.at("drive").at("missed_cycles").get<int>(),
+            1000);
+  EXPECT_EQ(j.at("drive").at("errors").get<int>(), 0);
+  EXPECT_GE(j.at("sensor").at("samples").get<int>() + j.at("sensor").at("missed_cycles").get<int>(),
+            200);
+  EXPECT_EQ(j.at("sensor").at("errors").get<int>(), 0);
+  EXPECT_GT(j.at("theta_end_rad").get<double>(), 1e-3) << "the drive moved rig-sim's plant";
+}
+
+TEST_F(ModbusHil, ExceptionRepliesAreCountedAsSuch) {
+  auto rig = start_rig_sim({"--set", "rig_sim.exception_probability=1"});
+  ASSERT_TRUE(wait_for_tcp(port));
+  const auto j = sensor_read(5, tcp_sets(), 1);
+  EXPECT_EQ(j.at("errors"), 5);
+  for (const auto& r : j.at("readings")) EXPECT_EQ(r.at("status"), "exception_reply");
+}
+
+TEST_F(ModbusHil, SlowRepliesTimeOut) {
+  auto rig = start_rig_sim({"--set", "rig_sim.response_delay_s=0.2"});
+  ASSERT_TRUE(wait_for_tcp(port));
+  const auto j = sensor_read(3, tcp_sets() + " --set sensor.response_timeout_s=0.05", 1);
+  for (const auto& r : j.at("readings")) EXPECT_EQ(r.at("status"), "timeout");
+}
+
+TEST_F(ModbusHil, DroppedRepliesTimeOut) {
+  auto rig = start_rig_sim({"--set", "rig_sim.drop_probability=1"});
+  ASSERT_TRUE(wait_for_tcp(port));
+  const auto j = sensor_read(3, tcp_sets(), 1);
+  for (const auto& r : j.at("readings")) EXPECT_EQ(r.at("status"), "timeout");
+}
+
+/// A run whose rig-sim dies: the drive ramps down, the log is closed and
+/// marked failed, and the process exits non-zero within a second or two.
+void expect_run_fails_safely(ModbusHil& t, const fs::path& dir, int port,
+                             const std::function<void()>& break_link) {
+  const auto out = dir / "run";
+  Spawned run({kPiezo, "run", "--config", kConfig, "--duration", "30", "--set",
+               "sensor.port=" + std::to_string(port), "--set",
+               "drive.ao_port=" + std::to_string(port), "--json", "--out", out.string()},
+              (dir / "run.txt").string());
+  std::this_thread::sleep_for(1500ms);
+  const auto broken = std::chrono::steady_clock::now();
+  break_link();
+  EXPECT_EQ(run.wait_exit(), 1);
+  const double took =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - broken).count();
+  EXPECT_LT(took, 2.0);
+  const auto check = run_command(
+      "/usr/bin/python3 -c \"import h5py; f = h5py.File('" + (out / "run.h5").string() +
+      "', 'r'); print(f.attrs['status'].decode(), f['drive/V'][-1], f['drive/phase'][-1])\"");
+  EXPECT_EQ(check.out, "failed 0.0 2.0\n") << check.err;
+  (void)t;
+}
+
+TEST_F(ModbusHil, AKilledRigSimEndsTheRunSafely) {
+  auto rig = start_rig_sim();
+  ASSERT_TRUE(wait_for_tcp(port));
+  expect_run_fails_safely(*this, dir, port, [&] { rig->signal(SIGKILL); });
+}
+
+TEST_F(ModbusHil, ADisconnectEndsTheRunSafely) {
+  // rig-sim drops every client 2 s after it starts and lets nobody back in.
+  auto rig = start_rig_sim({"--set", "rig_sim.disconnect_at_s=2.0"});
+  ASSERT_TRUE(wait_for_tcp(port));
+  const auto started = std::chrono::steady_clock::now();
+  expect_run_fails_safely(*this, dir, port, [&] { std::this_thread::sleep_until(started + 2s); });
+}
+
+}  // namespace
+}  // namespace piezo::testing
