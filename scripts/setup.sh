@@ -10,7 +10,7 @@ packages=(
   libeigen3-dev libcli11-dev libtomlplusplus-dev libfmt-dev nlohmann-json3-dev
   libhdf5-dev libgtest-dev libgmock-dev
   gnuplot-nox python3 python3-h5py python3-numpy
-  rt-tests libmodbus-dev mbpoll socat python3-pymodbus python3-serial-asyncio
+  rt-tests libgpiod-dev libmodbus-dev mbpoll socat python3-pymodbus python3-serial-asyncio
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -57,7 +57,12 @@ inline const std::vector<std::string> kDriveLoopKeys{"backend",
                                                      "ao_address",
                                                      "ao_counts_per_V",
                                                      "ao_full_scale_V",
-                                                     "ao_timeout_s"};
+                                                     "ao_timeout_s",
+                                                     "gpio_chip",
+                                                     "dac_data_offsets",
+                                                     "dac_strobe_offset",
+                                                     "dac_data_active_low",
+                                                     "dac_strobe_active_low"};
 
 /// Parses a TOML file; parse errors become ConfigError with file and line.
 [[nodiscard]] toml::table parse_config_file(const std::string& path);

@@ -1,5 +1,8 @@
 #include "rig.hpp"
 
+#include "piezo/hal/gpio/gpio_digital_lines.hpp"
+#include "piezo/hal/gpio/parallel_dac.hpp"
+#include "piezo/hal/gpiod/gpiod_lines.hpp"
 #include "piezo/hal/modbus/modbus_analog_output.hpp"
 #include "piezo/hal/modbus/modbus_sensor.hpp"
 #include "piezo/hal/posix/monotonic_clock.hpp"
@@ -27,6 +30,37 @@ std::unique_ptr<hal::DisplacementSensor> make_modbus_sensor(const RunConfig& c,
                                                      c.sensor.rate_hz(), clock);
 }
 
+constexpr const char* kConsumer = "piezo";
+
+std::vector<unsigned> offsets(std::initializer_list<int> list) {
+  std::vector<unsigned> out;
+  for (int o : list)
+    if (o >= 0) out.push_back(static_cast<unsigned>(o));
+  return out;
+}
+
+std::unique_ptr<hal::Drive> make_gpio_dac(const GpioDacSettings& g, Rig& rig) {
+  std::vector<unsigned> lines(g.data_offsets.begin(), g.data_offsets.end());
+  if (g.strobe_offset >= 0) lines.push_back(static_cast<unsigned>(g.strobe_offset));
+  auto group = std::make_shared<hal::gpiod::GpiodOutputs>(g.chip, lines, kConsumer);
+  rig.parts.push_back(group);
+  return std::make_unique<hal::gpio::ParallelDac>(g.dac, *group);
+}
+
+std::unique_ptr<hal::DigitalLines> make_gpio_lines(const LinesSettings& l, Rig& rig) {
+  auto outputs = std::make_shared<hal::gpiod::GpiodOutputs>(
+      l.chip, offsets({l.enable_offset, l.sync_offset}), kConsumer);
+  rig.parts.push_back(outputs);
+  hal::InputLine* estop = nullptr;
+  if (l.estop_offset >= 0) {
+    auto input = std::make_shared<hal::gpiod::GpiodEdgeInput>(
+        l.chip, static_cast<unsigned>(l.estop_offset), kConsumer);
+    rig.parts.push_back(input);
+    estop = input.get();
+  }
+  return std::make_unique<hal::gpio::GpioDigitalLines>(l.gpio, *outputs, estop);
+}
+
 }  // namespace
 
 Rig build_rig(const RunConfig& c) {
@@ -41,13 +75,17 @@ Rig build_rig(const RunConfig& c) {
     plant = std::make_shared<hal::sim::Plant>(c.plant, c.drive.amplifier, rig.clock->now());
     rig.drive = std::make_unique<hal::sim::SimDrive>(c.drive.dac, *plant, *rig.clock, rig.t0);
     rig.sensor = std::make_unique<hal::sim::SimSensor>(c.sensor.sim, *plant, *rig.clock, rig.t0);
-    rig.shared_devices = plant;
+    rig.parts.push_back(plant);
   } else {
-    rig.drive = std::make_unique<hal::modbus::ModbusAnalogOutput>(c.drive.ao_link, c.drive.ao);
+    rig.drive = c.drive.backend == "gpiod-dac" ? make_gpio_dac(c.drive.gpio_dac, rig)
+                                               : std::make_unique<hal::modbus::ModbusAnalogOutput>(
+                                                     c.drive.ao_link, c.drive.ao);
     rig.sensor = make_modbus_sensor(c, *rig.clock);
   }
   if (c.lines.backend == "sim") {
     rig.lines = std::make_unique<hal::sim::SimLines>(c.lines.sim, *plant, *rig.clock, rig.t0);
+  } else if (c.lines.backend == "gpiod") {
+    rig.lines = make_gpio_lines(c.lines, rig);
   } else {
     rig.lines = std::make_unique<hal::posix::NoLines>();
   }
@@ -64,7 +102,7 @@ SensorRig build_sensor(const RunConfig& c) {
     auto plant = std::make_shared<hal::sim::Plant>(c.plant, c.drive.amplifier, s.clock->now());
     s.sensor =
         std::make_unique<hal::sim::SimSensor>(c.sensor.sim, *plant, *s.clock, s.clock->now());
-    s.shared_devices = plant;
+    s.parts.push_back(plant);
   } else {
     s.sensor = make_modbus_sensor(c, *s.clock);
   }

@@ -4,6 +4,7 @@
 // the run directory is created or the amplifier enabled.
 
 #include <memory>
+#include <vector>
 
 #include "piezo/hal/clock.hpp"
 #include "piezo/hal/digital_lines.hpp"
@@ -16,7 +17,9 @@ namespace piezo::host {
 struct Rig {
   std::unique_ptr<hal::Clock> clock;
   hal::TimeNs t0 = 0;  ///< the run's time origin: a moment after the threads are up
-  std::shared_ptr<void> shared_devices;  ///< what the devices share (the simulated plant)
+  /// What the devices below are built on (the simulated plant, GPIO line
+  /// groups); declared first so that it outlives them.
+  std::vector<std::shared_ptr<void>> parts;
   std::unique_ptr<hal::Drive> drive;
   std::unique_ptr<hal::DisplacementSensor> sensor;
   std::unique_ptr<hal::DigitalLines> lines;
@@ -30,7 +33,7 @@ struct Rig {
 /// Just the sensor, on the real clock: for `piezo sensor read`.
 struct SensorRig {
   std::unique_ptr<hal::Clock> clock;
-  std::shared_ptr<void> shared_devices;
+  std::vector<std::shared_ptr<void>> parts;
   std::unique_ptr<hal::DisplacementSensor> sensor;
 };
 [[nodiscard]] SensorRig build_sensor(const RunConfig& config);

@@ -26,7 +26,10 @@ const std::vector<std::string> kSimSensorKeys{
     "backend",   "rate_hz",    "r2_m",        "target_distance_m",
     "noise_m",   "quantum_m",  "latency_s",   "dropout_probability",
     "timeout_s", "stall_at_s", "stall_for_s", "seed"};
-const std::vector<std::string> kLinesKeys{"backend", "estop_at_s"};
+const std::vector<std::string> kLinesKeys{
+    "backend",           "estop_at_s",      "chip",
+    "enable_offset",     "sync_offset",     "estop_offset",
+    "enable_active_low", "sync_active_low", "estop_active_low"};
 const std::vector<std::string> kRigSimKeys{"response_delay_s", "drop_probability",
                                            "exception_probability", "disconnect_at_s"};
 const std::vector<std::string> kRunKeys{"duration_s", "clock", "priority", "lock_memory",
@@ -41,7 +44,7 @@ constexpr Range kNonNegative{0.0, kInf, false, true};
 void read_drive(const toml::table& t, const std::string& source, DriveSettings& d) {
   SectionReader r(t, "drive", source);
   r.reject_unknown(drive_keys());
-  r.choice("backend", d.backend, {"sim", "modbus-ao"});
+  r.choice("backend", d.backend, {"sim", "modbus-ao", "gpiod-dac"});
   r.number("rate_hz", d.rate_hz, {100.0, 100'000.0}, "Hz");
   r.number("V_min", d.limits.V_min, {0.0, 1000.0}, "V");
   r.number("V_max", d.limits.V_max, {0.0, 1000.0, true}, "V");
@@ -53,6 +56,16 @@ void read_drive(const toml::table& t, const std::string& source, DriveSettings& 
   r.number("amplifier_slew_V_per_s", d.amplifier.slew_V_per_s, kPositive, "V/s");
   read_modbus_drive(r, d.ao_link, d.ao);
   d.ao.amplifier_gain = d.amplifier.gain;
+  auto& g = d.gpio_dac;
+  r.text("gpio_chip", g.chip);
+  r.integer_list("dac_data_offsets", g.data_offsets, 0, 1023);
+  r.integer("dac_strobe_offset", g.strobe_offset, -1, 1023);
+  r.flag("dac_data_active_low", g.dac.data_active_low);
+  r.flag("dac_strobe_active_low", g.dac.strobe_active_low);
+  g.dac.bits = static_cast<int>(g.data_offsets.size());
+  g.dac.has_strobe = g.strobe_offset >= 0;
+  g.dac.full_scale_V = d.dac.full_scale_V;
+  g.dac.amplifier_gain = d.amplifier.gain;
   // The simulated DAC updates at the drive rate, on its own clock, and the
   // signal chain interpolates over one update period.
   d.dac.update_period_s = 1.0 / d.rate_hz;
@@ -87,8 +100,16 @@ void read_sensor(const toml::table& t, const std::string& source, SensorSettings
 void read_lines(const toml::table& t, const std::string& source, LinesSettings& l) {
   SectionReader r(t, "lines", source);
   r.reject_unknown(kLinesKeys);
-  r.choice("backend", l.backend, {"sim", "none"});
+  r.choice("backend", l.backend, {"sim", "gpiod", "none"});
   r.number("estop_at_s", l.sim.estop_at_s, kNonNegative, "s");
+  r.text("chip", l.chip);
+  r.integer("enable_offset", l.enable_offset, 0, 1023);
+  r.integer("sync_offset", l.sync_offset, -1, 1023);
+  r.integer("estop_offset", l.estop_offset, -1, 1023);
+  r.flag("enable_active_low", l.gpio.enable_active_low);
+  r.flag("sync_active_low", l.gpio.sync_active_low);
+  r.flag("estop_active_low", l.gpio.estop_active_low);
+  l.gpio.has_sync = l.sync_offset >= 0;
 }
 
 void read_run(const toml::table& t, const std::string& source, RunSettings& run) {
@@ -211,6 +232,15 @@ void check_backends(const RunConfig& c, const std::function<std::string(const st
     throw ConfigError(src("run.clock"), "run.clock",
                       "\"virtual\" needs the simulated rig (backend = \"sim\"); real devices "
                       "run in real time");
+  }
+  if (c.drive.backend == "gpiod-dac" &&
+      (c.drive.gpio_dac.data_offsets.empty() || c.drive.gpio_dac.data_offsets.size() > 32)) {
+    throw ConfigError(src("drive.dac_data_offsets"), "drive.dac_data_offsets",
+                      "gpiod-dac needs 1 to 32 data line offsets, least significant bit first");
+  }
+  if (c.lines.backend == "gpiod" && c.lines.enable_offset < 0) {
+    throw ConfigError(src("lines.enable_offset"), "lines.enable_offset",
+                      "missing: the gpiod lines need the amplifier-enable line offset");
   }
   if (c.sensor.backend == "modbus-rtu" && c.sensor.link.device.empty()) {
     throw ConfigError(src("sensor.device"), "sensor.device",

@@ -10,6 +10,8 @@
 
 #include "piezo/firmware/safety_supervisor.hpp"
 #include "piezo/firmware/voltage_limiter.hpp"
+#include "piezo/hal/gpio/gpio_digital_lines.hpp"
+#include "piezo/hal/gpio/parallel_dac.hpp"
 #include "piezo/hal/modbus/link.hpp"
 #include "piezo/hal/modbus/modbus_analog_output.hpp"
 #include "piezo/hal/modbus/register_map.hpp"
@@ -21,14 +23,23 @@
 
 namespace piezo::host {
 
+/// A parallel DAC on GPIO lines: where its lines are.
+struct GpioDacSettings {
+  std::string chip = "gpiochip0";
+  std::vector<int> data_offsets;  ///< least significant bit first
+  int strobe_offset = -1;         ///< -1: no strobe line
+  hal::gpio::ParallelDacSettings dac;
+};
+
 struct DriveSettings {
-  std::string backend = "sim";  ///< "sim" or "modbus-ao"
+  std::string backend = "sim";  ///< "sim", "modbus-ao" or "gpiod-dac"
   double rate_hz = 10'000.0;
   firmware::VoltageLimits limits{0.0, 80.0, 20'000.0};
   hal::sim::DacSettings dac;
   hal::sim::AmplifierSettings amplifier;
   hal::modbus::LinkSettings ao_link;
   hal::modbus::AnalogOutputSettings ao;
+  GpioDacSettings gpio_dac;
 };
 
 struct SensorSettings {
@@ -42,8 +53,13 @@ struct SensorSettings {
 };
 
 struct LinesSettings {
-  std::string backend = "sim";  ///< "sim" or "none"
+  std::string backend = "sim";  ///< "sim", "gpiod" or "none"
   hal::sim::SimLinesSettings sim;
+  std::string chip = "gpiochip0";
+  int enable_offset = -1;
+  int sync_offset = -1;   ///< -1: not wired
+  int estop_offset = -1;  ///< -1: not wired
+  hal::gpio::GpioLinesSettings gpio;
 };
 
 /// Fault injection of `piezo rig-sim`.

@@ -71,6 +71,23 @@ void SectionReader::choice(const std::string& key, std::string& value,
   value = *v;
 }
 
+void SectionReader::integer_list(const std::string& key, std::vector<int>& value, int min,
+                                 int max) {
+  if (!has(key)) return;
+  const toml::array* array = table_->get(key)->as_array();
+  const std::string allowed =
+      fmt::format("must be a non-empty array of integers in [{}, {}]", min, max);
+  if (array == nullptr || array->empty()) throw ConfigError(source_, name(key), allowed);
+  std::vector<int> out;
+  for (const toml::node& node : *array) {
+    const auto v = node.value<std::int64_t>();
+    if (!node.is_integer() || !v || *v < min || *v > max)
+      throw ConfigError(source_, name(key), allowed);
+    out.push_back(static_cast<int>(*v));
+  }
+  value = std::move(out);
+}
+
 void SectionReader::text(const std::string& key, std::string& value) {
   if (!has(key)) return;
   const auto v = table_->get(key)->value<std::string>();

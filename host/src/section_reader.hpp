@@ -35,6 +35,8 @@ class SectionReader {
   void integer(const std::string& key, int& value, int min, int max);
   void choice(const std::string& key, std::string& value, const std::vector<std::string>& allowed);
   void flag(const std::string& key, bool& value);
+  /// A non-empty array of integers, each in [min, max].
+  void integer_list(const std::string& key, std::vector<int>& value, int min, int max);
   /// Any non-empty string.
   void text(const std::string& key, std::string& value);
 

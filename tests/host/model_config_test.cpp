@@ -96,3 +96,27 @@ TEST(ParameterOverride, RejectsBadInput) {
 
 }  // namespace
 }  // namespace piezo::host
+
+#include "run_config.hpp"
+
+namespace piezo::host {
+namespace {
+
+// The shipped rig configs are valid as they stand (the devices they name
+// are not opened here).
+TEST(RigConfigs, ShippedConfigsLoad) {
+  for (const char* name : {"sim.toml", "modbus-hil.toml", "rig-example.toml"}) {
+    const std::string path = std::string(PIEZO_SOURCE_DIR) + "/configs/" + name;
+    EXPECT_NO_THROW((void)load_run_config(path)) << name;
+  }
+  const RunConfig rig =
+      load_run_config(std::string(PIEZO_SOURCE_DIR) + "/configs/rig-example.toml");
+  EXPECT_EQ(rig.drive.gpio_dac.dac.bits, 12);
+  EXPECT_TRUE(rig.drive.gpio_dac.dac.has_strobe);
+  EXPECT_EQ(rig.sensor.map.address, 202);
+  EXPECT_EQ(rig.sensor.link.parity, 'E');
+  EXPECT_EQ(rig.lines.estop_offset, 18);
+}
+
+}  // namespace
+}  // namespace piezo::host

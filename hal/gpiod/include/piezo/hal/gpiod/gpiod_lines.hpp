@@ -1,0 +1,48 @@
+#pragma once
+/// @file
+/// The thin libgpiod 1.6 adapter: line groups on a GPIO chip at their
+/// physical levels. Polarity, bit order and sequencing live above it
+/// (hal/gpio). Request errors throw (set-up); register-time calls return a
+/// Status.
+
+#include <gpiod.h>
+
+#include <string>
+#include <vector>
+
+#include "piezo/hal/line_group.hpp"
+
+namespace piezo::hal::gpiod {
+
+/// Outputs requested together: one ioctl sets them all.
+class GpiodOutputs final : public OutputLineGroup {
+ public:
+  /// Requests `offsets` of `chip` (a name like "gpiochip0" or a path) as outputs, all low.
+  GpiodOutputs(const std::string& chip, const std::vector<unsigned>& offsets,
+               const std::string& consumer);
+  ~GpiodOutputs() override;
+
+  Status set_levels(std::span<const int> levels) override;
+  [[nodiscard]] std::size_t size() const override { return size_; }
+
+ private:
+  gpiod_chip* chip_ = nullptr;
+  gpiod_line_bulk bulk_{};
+  std::size_t size_ = 0;
+};
+
+/// An input requested for events on both edges.
+class GpiodEdgeInput final : public InputLine {
+ public:
+  GpiodEdgeInput(const std::string& chip, unsigned offset, const std::string& consumer);
+  ~GpiodEdgeInput() override;
+
+  Status level(int& level) override;
+  Status take_edges(int& count) override;
+
+ private:
+  gpiod_chip* chip_ = nullptr;
+  gpiod_line* line_ = nullptr;
+};
+
+}  // namespace piezo::hal::gpiod

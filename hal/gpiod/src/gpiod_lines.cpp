@@ -1,0 +1,81 @@
+#include "piezo/hal/gpiod/gpiod_lines.hpp"
+
+#include <cerrno>
+#include <cstring>
+#include <ctime>
+#include <stdexcept>
+
+namespace piezo::hal::gpiod {
+namespace {
+
+gpiod_chip* open_chip(const std::string& chip) {
+  gpiod_chip* c = gpiod_chip_open_lookup(chip.c_str());
+  if (c == nullptr) {
+    throw std::runtime_error("gpio: cannot open chip " + chip + ": " + std::strerror(errno));
+  }
+  return c;
+}
+
+}  // namespace
+
+GpiodOutputs::GpiodOutputs(const std::string& chip, const std::vector<unsigned>& offsets,
+                           const std::string& consumer)
+    : chip_(open_chip(chip)), size_(offsets.size()) {
+  if (offsets.empty() || offsets.size() > GPIOD_LINE_BULK_MAX_LINES ||
+      gpiod_chip_get_lines(chip_, const_cast<unsigned*>(offsets.data()),
+                           static_cast<unsigned>(offsets.size()), &bulk_) != 0 ||
+      gpiod_line_request_bulk_output(&bulk_, consumer.c_str(), nullptr) != 0) {
+    const std::string why = std::strerror(errno);
+    gpiod_chip_close(chip_);
+    throw std::runtime_error("gpio: cannot request output lines on " + chip + ": " + why);
+  }
+}
+
+GpiodOutputs::~GpiodOutputs() {
+  gpiod_line_release_bulk(&bulk_);
+  gpiod_chip_close(chip_);
+}
+
+Status GpiodOutputs::set_levels(std::span<const int> levels) {
+  if (levels.size() != size_) return Status::io_error;
+  return gpiod_line_set_value_bulk(&bulk_, levels.data()) == 0 ? Status::ok : Status::io_error;
+}
+
+GpiodEdgeInput::GpiodEdgeInput(const std::string& chip, unsigned offset,
+                               const std::string& consumer)
+    : chip_(open_chip(chip)) {
+  line_ = gpiod_chip_get_line(chip_, offset);
+  if (line_ == nullptr || gpiod_line_request_both_edges_events(line_, consumer.c_str()) != 0) {
+    const std::string why = std::strerror(errno);
+    gpiod_chip_close(chip_);
+    throw std::runtime_error("gpio: cannot request edge events on " + chip + " line " +
+                             std::to_string(offset) + ": " + why);
+  }
+}
+
+GpiodEdgeInput::~GpiodEdgeInput() {
+  gpiod_line_release(line_);
+  gpiod_chip_close(chip_);
+}
+
+Status GpiodEdgeInput::level(int& level) {
+  const int v = gpiod_line_get_value(line_);
+  if (v < 0) return Status::io_error;
+  level = v;
+  return Status::ok;
+}
+
+Status GpiodEdgeInput::take_edges(int& count) {
+  count = 0;
+  const timespec no_wait{0, 0};
+  for (;;) {
+    const int ready = gpiod_line_event_wait(line_, &no_wait);
+    if (ready < 0) return Status::io_error;
+    if (ready == 0) return Status::ok;
+    gpiod_line_event event{};
+    if (gpiod_line_event_read(line_, &event) != 0) return Status::io_error;
+    ++count;
+  }
+}
+
+}  // namespace piezo::hal::gpiod

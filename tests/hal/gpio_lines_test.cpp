@@ -1,0 +1,165 @@
+// The logic above the libgpiod adapter, on simulated lines: DAC codes, bit
+// order, strobe sequence and polarity; enable, sync and e-stop; and an
+// e-stop edge reaching the safety supervisor within one drive period.
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <thread>
+
+#include "piezo/firmware/drive_loop.hpp"
+#include "piezo/hal/gpio/gpio_digital_lines.hpp"
+#include "piezo/hal/gpio/parallel_dac.hpp"
+#include "piezo/hal/sim/sim_line_group.hpp"
+#include "piezo/hal/sim/virtual_clock.hpp"
+
+namespace piezo::hal::gpio {
+namespace {
+
+using sim::RecordingOutputLines;
+using sim::SimInputLine;
+
+std::vector<int> bits_lsb_first(std::uint32_t code, int n) {
+  std::vector<int> out;
+  for (int i = 0; i < n; ++i) out.push_back(static_cast<int>((code >> i) & 1u));
+  return out;
+}
+
+TEST(ParallelDac, CodeGoesOutLsbFirstThenTheStrobePulses) {
+  RecordingOutputLines lines(13);
+  ParallelDac dac({.bits = 12,
+                   .has_strobe = true,
+                   .data_active_low = false,
+                   .strobe_active_low = true,
+                   .full_scale_V = 5.0,
+                   .amplifier_gain = 20.0},
+                  lines);
+  EXPECT_EQ(dac.write(40.0), Status::ok);  // 2 V at the DAC: round(2/5 * 4095) = 1638
+  EXPECT_EQ(dac.code_for(40.0), 1638u);
+  auto data = bits_lsb_first(1638, 12);
+  auto with = [&](int strobe) {
+    auto v = data;
+    v.push_back(strobe);
+    return v;
+  };
+  // Active-low WR: idle high, pulse low, back high (the DAC latches on the rising edge).
+  EXPECT_EQ(lines.writes(), (std::vector<std::vector<int>>{with(1), with(0), with(1)}));
+}
+
+TEST(ParallelDac, MostSignificantBitIsTheLastDataLine) {
+  RecordingOutputLines lines(8);
+  ParallelDac dac({.bits = 8, .has_strobe = false, .full_scale_V = 5.0, .amplifier_gain = 20.0},
+                  lines);
+  EXPECT_EQ(dac.write(100.0 * 128.0 / 255.0), Status::ok);  // code 128: only the MSB
+  ASSERT_EQ(lines.writes().size(), 1u) << "no strobe: one bulk write";
+  EXPECT_EQ(lines.writes()[0], (std::vector<int>{0, 0, 0, 0, 0, 0, 0, 1}));
+}
+
+TEST(ParallelDac, ActiveLowDataInvertsEveryBitAndAnActiveHighStrobePulsesHigh) {
+  RecordingOutputLines lines(5);
+  ParallelDac dac({.bits = 4,
+                   .has_strobe = true,
+                   .data_active_low = true,
+                   .strobe_active_low = false,
+                   .full_scale_V = 5.0,
+                   .amplifier_gain = 20.0},
+                  lines);
+  EXPECT_EQ(dac.write(100.0), Status::ok);  // code 15: all ones, sent as lows
+  EXPECT_EQ(lines.writes(),
+            (std::vector<std::vector<int>>{{0, 0, 0, 0, 0}, {0, 0, 0, 0, 1}, {0, 0, 0, 0, 0}}));
+}
+
+TEST(ParallelDac, RefusesVoltagesOutsideItsRangeWithoutTouchingTheLines) {
+  RecordingOutputLines lines(13);
+  ParallelDac dac({}, lines);
+  EXPECT_EQ(dac.write(-1.0), Status::out_of_range);
+  EXPECT_EQ(dac.write(101.0), Status::out_of_range);
+  EXPECT_TRUE(lines.writes().empty());
+  EXPECT_DOUBLE_EQ(dac.limits().V_max, 100.0);
+}
+
+TEST(ParallelDac, RefusesTheWrongNumberOfLines) {
+  RecordingOutputLines lines(12);
+  EXPECT_THROW(ParallelDac({.bits = 12, .has_strobe = true}, lines), std::invalid_argument);
+}
+
+TEST(GpioDigitalLines, PolarityOfEnableAndSync) {
+  RecordingOutputLines outputs(2);
+  GpioDigitalLines lines({.has_sync = true, .enable_active_low = true, .sync_active_low = false},
+                         outputs, nullptr);
+  EXPECT_EQ(lines.set_amplifier_enable(true), Status::ok);
+  EXPECT_EQ(lines.set_sync(true), Status::ok);
+  EXPECT_EQ(lines.set_sync(false), Status::ok);
+  EXPECT_EQ(lines.set_amplifier_enable(false), Status::ok);
+  EXPECT_EQ(outputs.writes(), (std::vector<std::vector<int>>{{0, 0}, {0, 1}, {0, 0}, {1, 0}}));
+  EXPECT_FALSE(lines.poll_estop().pressed) << "no e-stop wired";
+}
+
+TEST(GpioDigitalLines, EstopLevelAndEdges) {
+  RecordingOutputLines outputs(1);
+  SimInputLine estop(1);  // normally closed, pulled up: released = high
+  GpioDigitalLines lines({.has_sync = false, .estop_active_low = true}, outputs, &estop);
+  EstopState s = lines.poll_estop();
+  EXPECT_FALSE(s.pressed);
+  EXPECT_FALSE(s.edge_seen);
+  estop.drive(0);
+  s = lines.poll_estop();
+  EXPECT_TRUE(s.pressed);
+  EXPECT_TRUE(s.edge_seen);
+  estop.drive(1);  // a press released before the next poll still leaves its edge
+  estop.drive(0);
+  estop.drive(1);
+  s = lines.poll_estop();
+  EXPECT_FALSE(s.pressed);
+  EXPECT_TRUE(s.edge_seen);
+}
+
+/// A drive that accepts everything: the test watches the lines.
+class NullDrive final : public Drive {
+ public:
+  Status write(double) override { return Status::ok; }
+  [[nodiscard]] DriveLimits limits() const override { return {0.0, 100.0}; }
+};
+
+// The e-stop pressed at 0.5 s on the virtual clock: the enable line must
+// fall within one 100 us drive period.
+TEST(GpioDigitalLines, AnEstopEdgeDropsTheEnableLineWithinOneDrivePeriod) {
+  sim::VirtualClock clock;
+  RecordingOutputLines outputs(2, &clock);
+  SimInputLine estop(1);
+  GpioDigitalLines lines({.has_sync = true, .estop_active_low = true}, outputs, &estop);
+  NullDrive drive;
+  firmware::SpscRing<firmware::DriveSample> ring(1 << 14);
+  firmware::SensorHealth health;
+  firmware::SafetySettings safety;
+  safety.sensor_stale_s = 1e9;
+  const TimeNs t0 = 1'000'000;
+  firmware::SafetySupervisor supervisor(safety, health, t0);
+  const model::Sawtooth saw(80.0, 10.0, 0.75);
+  const std::atomic<bool> stop{false};
+  firmware::DriveLoop loop({10'000.0, 10.0, 0.1, {0.0, 80.0, 20'000.0}}, saw, supervisor,
+                           {clock, drive, lines, ring, stop});
+  const TimeNs press_at = t0 + 500'000'000 + 37'000;  // between two drive deadlines
+  SleeperScope loop_scope(clock), presser_scope(clock);
+  std::thread presser([&, scope = std::move(presser_scope)]() mutable {
+    const SleeperScope mine(std::move(scope));
+    clock.sleep_until(press_at);
+    estop.drive(0);
+  });
+  firmware::StopCause cause{};
+  std::thread driver([&, scope = std::move(loop_scope)]() mutable {
+    const SleeperScope mine(std::move(scope));
+    cause = loop.run(t0);
+  });
+  presser.join();
+  driver.join();
+  EXPECT_EQ(cause, firmware::StopCause::estop);
+  ASSERT_FALSE(outputs.writes().empty());
+  EXPECT_EQ(outputs.writes().back()[0], 0) << "enable low (active high)";
+  const TimeNs dropped_at = outputs.times().back();
+  EXPECT_GE(dropped_at, press_at);
+  EXPECT_LE(dropped_at - press_at, 100'000) << "within one drive period";
+}
+
+}  // namespace
+}  // namespace piezo::hal::gpio
