@@ -65,6 +65,7 @@ nlohmann::json loop_json(const LoopSummary& s) {
           {"missed_cycles", s.missed_cycles},
           {"dropped", s.dropped},
           {"errors", s.errors},
+          {"errors_by_class", s.errors_by_class},
           {"period_error_us",
            {{"p50", s.p50_us}, {"p99", s.p99_us}, {"max", s.max_us}, {"mean", s.mean_us}}}};
 }

@@ -53,6 +53,7 @@ class SampleCollector {
   SampleCollector(hal::TimeNs t0, double r2) : t0_(t0), r2_(r2) {}
 
   void add(const DriveSample& s) {
+    if (s.status != hal::Status::ok) ++drive_errors_[std::string(hal::to_string(s.status))];
     buffer_["/drive/t"].push_back(hal::to_seconds(s.t - t0_));
     buffer_["/drive/V"].push_back(s.V);
     buffer_["/drive/phase"].push_back(static_cast<double>(s.phase));
@@ -62,6 +63,7 @@ class SampleCollector {
 
   void add(const SensorSample& s) {
     const bool good = s.status == hal::Status::ok;
+    if (!good) ++sensor_errors_[std::string(hal::to_string(s.status))];
     if (good && std::isnan(tare_)) tare_ = s.displacement_m;
     const double theta =
         good ? (s.displacement_m - tare_) / r2_ : std::numeric_limits<double>::quiet_NaN();
@@ -81,6 +83,12 @@ class SampleCollector {
   [[nodiscard]] double last_theta() const { return last_theta_; }
   [[nodiscard]] double last_good_t() const { return last_good_t_; }
   [[nodiscard]] double last_V() const { return last_V_; }
+  [[nodiscard]] const std::map<std::string, std::uint64_t>& drive_errors() const {
+    return drive_errors_;
+  }
+  [[nodiscard]] const std::map<std::string, std::uint64_t>& sensor_errors() const {
+    return sensor_errors_;
+  }
 
  private:
   hal::TimeNs t0_;
@@ -88,6 +96,7 @@ class SampleCollector {
   double tare_ = std::numeric_limits<double>::quiet_NaN();
   double last_theta_ = 0.0, last_good_t_ = 0.0, last_V_ = 0.0;
   ColumnBuffer buffer_;
+  std::map<std::string, std::uint64_t> drive_errors_, sensor_errors_;
 };
 
 }  // namespace
@@ -191,6 +200,8 @@ RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::ato
 
   summary.drive = summarise(drive_loop.health());
   summary.sensor = summarise(acquire_loop.health());
+  summary.drive.errors_by_class = collector.drive_errors();
+  summary.sensor.errors_by_class = collector.sensor_errors();
   summary.theta_end_rad = collector.last_theta();
   summary.t_end_s = collector.last_good_t();
   summary.mean_velocity_rad_s =

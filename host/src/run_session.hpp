@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -24,7 +25,8 @@ struct LoopSummary {
   std::uint64_t dropped = 0;
   std::uint64_t errors = 0;
   double p50_us = 0, p99_us = 0, max_us = 0, mean_us = 0;
-  std::vector<double> histogram;  ///< counts per 1 us bin of period error
+  std::vector<double> histogram;                         ///< counts per 1 us bin of period error
+  std::map<std::string, std::uint64_t> errors_by_class;  ///< failed samples by HAL status
 };
 
 struct RunSummary {

@@ -94,26 +94,10 @@ void Link::keep_connected() {
 Status Link::finish(int result, int error) {
   if (result >= 0) return Status::ok;
   const Status s = classify(error);
-  switch (s) {
-    case Status::timeout:
-      errors_.timeouts.fetch_add(1, std::memory_order_relaxed);
-      // A reply that comes late must not be taken for the next one.
-      modbus_flush(ctx_);
-      break;
-    case Status::crc_error:
-      errors_.crc.fetch_add(1, std::memory_order_relaxed);
-      break;
-    case Status::exception_reply:
-      errors_.exceptions.fetch_add(1, std::memory_order_relaxed);
-      break;
-    case Status::disconnected:
-      errors_.disconnects.fetch_add(1, std::memory_order_relaxed);
-      up_.store(false, std::memory_order_release);  // hand the context to the keeper
-      break;
-    default:
-      errors_.other.fetch_add(1, std::memory_order_relaxed);
-      break;
-  }
+  // A reply that comes late must not be taken for the next one.
+  if (s == Status::timeout) modbus_flush(ctx_);
+  // Hand the context to the keeper, which reconnects.
+  if (s == Status::disconnected) up_.store(false, std::memory_order_release);
   return s;
 }
 

@@ -1,8 +1,9 @@
 #pragma once
 /// @file
 /// One Modbus connection (TCP, or RTU on a serial line) through libmodbus.
-/// Register calls return a Status and never block longer than the response
-/// timeout. A lost connection is re-established by a keeper thread with
+/// Register calls return a Status that classifies any failure (timeout,
+/// CRC, exception reply, disconnect) and never block longer than the
+/// response timeout. A lost connection is re-established by a keeper thread with
 /// back-off, off the real-time path: meanwhile calls return `disconnected`
 /// at once.
 
@@ -37,14 +38,6 @@ struct LinkSettings {
   [[nodiscard]] std::string describe() const;
 };
 
-/// Failures by class, counted on every call (any thread may read them).
-struct LinkErrors {
-  std::atomic<std::uint64_t> timeouts{0}, crc{0}, exceptions{0}, disconnects{0}, other{0};
-  [[nodiscard]] std::uint64_t total() const {
-    return timeouts + crc + exceptions + disconnects + other;
-  }
-};
-
 class Link {
  public:
   /// Builds the context and connects. Throws std::runtime_error naming the
@@ -60,10 +53,6 @@ class Link {
   /// Writes one holding register (function 06). Real-time safe.
   [[nodiscard]] Status write(int unit_id, int address, std::uint16_t value);
 
-  [[nodiscard]] const LinkErrors& errors() const { return errors_; }
-  [[nodiscard]] bool connected() const { return up_.load(std::memory_order_acquire); }
-  [[nodiscard]] const LinkSettings& settings() const { return settings_; }
-
   /// Maps errno after a failed libmodbus call to a Status class.
   [[nodiscard]] static Status classify(int error);
 
@@ -74,7 +63,6 @@ class Link {
 
   LinkSettings settings_;
   modbus_t* ctx_ = nullptr;
-  LinkErrors errors_;
   // The real-time caller owns ctx_ while up_ is true; the keeper owns it while false.
   std::atomic<bool> up_{false};
   std::atomic<bool> stopping_{false};

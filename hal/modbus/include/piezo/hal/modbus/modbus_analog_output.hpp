@@ -24,8 +24,6 @@ class ModbusAnalogOutput final : public Drive {
   Status write(double volts) override;
   [[nodiscard]] DriveLimits limits() const override;
 
-  [[nodiscard]] const LinkErrors& errors() const { return link_.errors(); }
-
  private:
   Link link_;
   AnalogOutputSettings settings_;

@@ -20,8 +20,6 @@ class ModbusSensor final : public DisplacementSensor {
   [[nodiscard]] DisplacementReading read() override;
   [[nodiscard]] double rate_hz() const override { return rate_hz_; }
 
-  [[nodiscard]] const LinkErrors& errors() const { return link_.errors(); }
-
  private:
   Link link_;
   RegisterMap map_;
