@@ -193,6 +193,36 @@ TEST_F(ModbusHil, RunCompletesAgainstRigSim) {
   EXPECT_GT(j.at("theta_end_rad").get<double>(), 1e-3) << "the drive moved rig-sim's plant";
 }
 
+// The link comes back by itself: reads fail as `disconnected` (at once, not
+// after a timeout) while rig-sim is away, and succeed again once it returns.
+TEST_F(ModbusHil, TheLinkReconnectsAfterTheServerReturns) {
+  auto rig = start_rig_sim();
+  ASSERT_TRUE(wait_for_tcp(port));
+  CommandResult result;
+  std::thread reader([&] {
+    result = run_command(kPiezo + " sensor read --config " + kConfig + " --count 600 --json " +
+                         tcp_sets());  // 3 s at 200 Hz
+  });
+  std::this_thread::sleep_for(700ms);
+  rig->signal(SIGKILL);
+  rig->wait_exit();
+  std::this_thread::sleep_for(500ms);
+  rig = start_rig_sim();
+  reader.join();
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const auto j = nlohmann::json::parse(result.out);
+  const auto& readings = j.at("readings");
+  int disconnected = 0;
+  for (const auto& r : readings) {
+    if (r.at("status") == "disconnected") {
+      ++disconnected;
+      EXPECT_LT(r.at("latency_ms").get<double>(), 5.0) << "no waiting on a dead link";
+    }
+  }
+  EXPECT_GT(disconnected, 10);
+  EXPECT_EQ(readings.back().at("status"), "ok") << "reconnected before the end";
+}
+
 TEST_F(ModbusHil, ExceptionRepliesAreCountedAsSuch) {
   auto rig = start_rig_sim({"--set", "rig_sim.exception_probability=1"});
   ASSERT_TRUE(wait_for_tcp(port));
