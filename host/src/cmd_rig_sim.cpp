@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <cstdlib>
 #include <thread>
 
 #include "commands.hpp"
@@ -49,7 +50,14 @@ int run(const RigSimOptions& o) {
       std::fflush(stdout);
       server.serve_rtu(o.rtu);
     }
-    rtu_thread = std::thread([&] { server.serve_rtu(o.rtu); });
+    rtu_thread = std::thread([&] {
+      try {
+        server.serve_rtu(o.rtu);
+      } catch (const std::exception& e) {
+        fmt::print(stderr, "piezo: error: {}\n", e.what());
+        std::exit(1);
+      }
+    });
   }
   const auto [host, port] = split_host_port(tcp);
   fmt::print("rig-sim: listening on tcp {}:{}\n", host, port);
