@@ -71,7 +71,14 @@ nlohmann::json loop_json(const LoopSummary& s) {
 }
 
 nlohmann::json summary_json(const RunSummary& s, const fs::path& dir, const fs::path& log) {
+  nlohmann::json observer = nullptr;
+  if (s.observer) {
+    observer = {{"samples", s.observer->samples},
+                {"residual_rms_rad", s.observer->residual_rms_rad},
+                {"open_loop_rms_rad", s.observer->open_loop_rms_rad}};
+  }
   return {{"status", s.status()},
+          {"observer", observer},
           {"stop_cause", std::string(firmware::to_string(s.cause))},
           {"run_dir", dir.string()},
           {"log", log.string()},
@@ -94,6 +101,12 @@ void print_summary(const RunSummary& s, const fs::path& log) {
         name, l->samples, l->errors, l->dropped, l->overruns, l->missed_cycles, l->p50_us,
         l->p99_us, l->max_us);
   }
+  if (s.observer) {
+    fmt::print(
+        "  observer   residual {:.2f} urad rms (open-loop model {:.2f} urad rms) over {} samples\n",
+        1e6 * s.observer->residual_rms_rad, 1e6 * s.observer->open_loop_rms_rad,
+        s.observer->samples);
+  }
   for (const auto& note : s.realtime_notes) fmt::print("  real time  {}\n", note);
   fmt::print("  log        {}\n", log.string());
 }
@@ -113,9 +126,10 @@ void show_status(const LiveStatus& st) {
   static const bool tty = isatty(STDERR_FILENO) != 0;
   static auto last_line = std::chrono::steady_clock::time_point{};
   const std::string line = fmt::format(
-      "t {:6.2f}/{:.2f} s  V {:5.1f} V  theta {:8.4f} mrad  sensor {} ({} errors)  overruns {}",
-      st.t_s, st.duration_s, st.V, 1e3 * st.theta_rad, st.sensor_samples, st.sensor_errors,
-      st.overruns);
+      "t {:6.2f}/{:.2f} s  V {:5.1f} V  theta {:8.4f} mrad  residual {:6.1f} urad  sensor {} ({} "
+      "errors)  overruns {}",
+      st.t_s, st.duration_s, st.V, 1e3 * st.theta_rad, 1e6 * st.residual_rad, st.sensor_samples,
+      st.sensor_errors, st.overruns);
   if (tty) {
     fmt::print(stderr, "\r{}\x1b[K", line);
   } else if (std::chrono::steady_clock::now() - last_line > std::chrono::seconds(1)) {

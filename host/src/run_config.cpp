@@ -30,6 +30,7 @@ const std::vector<std::string> kLinesKeys{
     "backend",           "estop_at_s",      "chip",
     "enable_offset",     "sync_offset",     "estop_offset",
     "enable_active_low", "sync_active_low", "estop_active_low"};
+const std::vector<std::string> kObserverKeys{"enabled", "alpha", "beta"};
 const std::vector<std::string> kRigSimKeys{"response_delay_s", "drop_probability",
                                            "exception_probability", "disconnect_at_s"};
 const std::vector<std::string> kRunKeys{"duration_s", "clock", "priority", "lock_memory",
@@ -131,6 +132,14 @@ void read_rig_sim(const toml::table& t, const std::string& source, RigSimSetting
   r.number("disconnect_at_s", f.disconnect_at_s, kNonNegative, "s");
 }
 
+void read_observer(const toml::table& t, const std::string& source, ObserverSettings& o) {
+  SectionReader r(t, "observer", source);
+  r.reject_unknown(kObserverKeys);
+  r.flag("enabled", o.enabled);
+  r.number("alpha", o.gains.alpha, {0.0, 1.0});
+  r.number("beta", o.gains.beta, {0.0, 1.0});
+}
+
 void read_safety(const toml::table& t, const std::string& source, firmware::SafetySettings& s) {
   SectionReader r(t, "safety", source);
   r.reject_unknown(kSafetyKeys);
@@ -164,6 +173,7 @@ void read_tables(const toml::table& t, const std::string& source, RunConfig& c,
   read_run(t, source, c.run);
   read_safety(t, source, c.safety);
   read_rig_sim(t, source, c.rig_sim);
+  read_observer(t, source, c.observer);
 }
 
 /// "SECTION.KEY=VALUE" as a one-key TOML table; VALUE is read as TOML

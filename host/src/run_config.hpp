@@ -19,6 +19,7 @@
 #include "piezo/hal/sim/sim_drive.hpp"
 #include "piezo/hal/sim/sim_lines.hpp"
 #include "piezo/hal/sim/sim_sensor.hpp"
+#include "piezo/model/lugre_observer.hpp"
 #include "piezo/model/parameters.hpp"
 
 namespace piezo::host {
@@ -62,6 +63,11 @@ struct LinesSettings {
   hal::gpio::GpioLinesSettings gpio;
 };
 
+struct ObserverSettings {
+  bool enabled = true;
+  model::ObserverGains gains;
+};
+
 /// Fault injection of `piezo rig-sim`.
 struct RigSimSettings {
   double response_delay_s = 0.0;
@@ -89,6 +95,7 @@ struct RunConfig {
   RunSettings run;
   firmware::SafetySettings safety;
   RigSimSettings rig_sim;
+  ObserverSettings observer;
 
   [[nodiscard]] bool virtual_clock() const { return run.clock == "virtual"; }
 };

@@ -8,6 +8,13 @@ const std::vector<std::string>& RunLog::drive_columns() {
   return names;
 }
 
+const std::vector<std::string>& RunLog::observer_columns() {
+  static const std::vector<std::string> names{
+      "/observer/t",     "/observer/theta_hat", "/observer/theta_dot_hat", "/observer/x_hat",
+      "/observer/z_hat", "/observer/F_hat",     "/observer/residual",      "/observer/theta_open"};
+  return names;
+}
+
 const std::vector<std::string>& RunLog::sensor_columns() {
   static const std::vector<std::string> names{"/sensor/t", "/sensor/t_response",
                                               "/sensor/displacement_m", "/sensor/theta",
@@ -19,6 +26,7 @@ RunLog RunLog::create(const std::string& path, const std::map<std::string, std::
   RunLog log(H5File::create_log(path));
   for (const auto& name : drive_columns()) log.file_.create_growing(name);
   for (const auto& name : sensor_columns()) log.file_.create_growing(name);
+  for (const auto& name : observer_columns()) log.file_.create_growing(name);
   for (const auto& [name, value] : header) log.file_.set_attribute("/", name, value);
   log.file_.set_attribute("/", "status", "incomplete");
   log.file_.flush();

@@ -9,6 +9,8 @@
 //   /drive/t, /drive/V, /drive/phase, /drive/status
 //   /sensor/t (request time), /sensor/t_response, /sensor/displacement_m,
 //   /sensor/theta (NaN where the reading failed), /sensor/status
+//   /observer/t, theta_hat, theta_dot_hat, x_hat, z_hat, F_hat, residual
+//   (measured minus predicted, before correction), theta_open (open loop)
 //   /timing/drive_period_error_us, /timing/acquire_period_error_us (histogram
 //   counts, 1 us bins), written at the end.
 
@@ -38,6 +40,7 @@ class RunLog {
 
   static const std::vector<std::string>& drive_columns();
   static const std::vector<std::string>& sensor_columns();
+  static const std::vector<std::string>& observer_columns();
 
  private:
   explicit RunLog(H5File file) : file_(std::move(file)) {}

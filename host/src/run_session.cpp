@@ -50,11 +50,14 @@ LoopSummary summarise(const firmware::LoopHealth& h) {
 /// since the first good reading over r2 (MODEL.md section 4).
 class SampleCollector {
  public:
-  SampleCollector(hal::TimeNs t0, double r2) : t0_(t0), r2_(r2) {}
+  SampleCollector(hal::TimeNs t0, double r2, ObserverStage* observer)
+      : t0_(t0), r2_(r2), observer_(observer) {}
 
   void add(const DriveSample& s) {
     if (s.status != hal::Status::ok) ++drive_errors_[std::string(hal::to_string(s.status))];
-    buffer_["/drive/t"].push_back(hal::to_seconds(s.t - t0_));
+    const double t = hal::to_seconds(s.t - t0_);
+    if (observer_ != nullptr) observer_->on_drive(t, s.V, buffer_);
+    buffer_["/drive/t"].push_back(t);
     buffer_["/drive/V"].push_back(s.V);
     buffer_["/drive/phase"].push_back(static_cast<double>(s.phase));
     buffer_["/drive/status"].push_back(static_cast<double>(s.status));
@@ -76,6 +79,7 @@ class SampleCollector {
     if (good) {
       last_theta_ = theta;
       last_good_t_ = t;
+      if (observer_ != nullptr) observer_->on_measurement(t, theta, buffer_);
     }
   }
 
@@ -93,6 +97,7 @@ class SampleCollector {
  private:
   hal::TimeNs t0_;
   double r2_;
+  ObserverStage* observer_;
   double tare_ = std::numeric_limits<double>::quiet_NaN();
   double last_theta_ = 0.0, last_good_t_ = 0.0, last_V_ = 0.0;
   ColumnBuffer buffer_;
@@ -158,7 +163,9 @@ RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::ato
     acquire_done.store(true, std::memory_order_release);
   });
 
-  SampleCollector collector(rig.t0, c.sensor.r2_m);
+  std::optional<ObserverStage> observer;
+  if (c.observer.enabled) observer.emplace(c.model.motor, c.observer.gains, 1.0 / c.drive.rate_hz);
+  SampleCollector collector(rig.t0, c.sensor.r2_m, observer ? &*observer : nullptr);
   auto drain = [&] {
     drive_ring.drain([&](const DriveSample& s) { collector.add(s); });
     sensor_ring.drain([&](const SensorSample& s) { collector.add(s); });
@@ -178,8 +185,9 @@ RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::ato
       }
       if (on_status && now - last_status >= kStatusPeriod) {
         on_status({hal::to_seconds(clock.now() - rig.t0), c.run.duration_s, collector.last_V(),
-                   collector.last_theta(), acquire_loop.health().cycles.load(),
-                   acquire_loop.health().errors.load(), drive_loop.health().overruns.load()});
+                   collector.last_theta(), observer ? observer->summary().last_residual_rad : 0.0,
+                   acquire_loop.health().cycles.load(), acquire_loop.health().errors.load(),
+                   drive_loop.health().overruns.load()});
         last_status = now;
       }
     }
@@ -196,12 +204,14 @@ RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::ato
   drive_thread.join();
   acquire_thread.join();
   drain();
+  if (observer) observer->finish(collector.buffer());
   log.append(collector.buffer());
 
   summary.drive = summarise(drive_loop.health());
   summary.sensor = summarise(acquire_loop.health());
   summary.drive.errors_by_class = collector.drive_errors();
   summary.sensor.errors_by_class = collector.sensor_errors();
+  if (observer) summary.observer = observer->summary();
   summary.theta_end_rad = collector.last_theta();
   summary.t_end_s = collector.last_good_t();
   summary.mean_velocity_rad_s =

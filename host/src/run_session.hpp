@@ -7,9 +7,11 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "observer_stage.hpp"
 #include "piezo/firmware/period_histogram.hpp"
 #include "piezo/firmware/safety_supervisor.hpp"
 #include "rig.hpp"
@@ -35,6 +37,7 @@ struct RunSummary {
   double theta_end_rad = 0.0;  ///< last good measured angle
   double t_end_s = 0.0;        ///< when it was measured
   double mean_velocity_rad_s = 0.0;
+  std::optional<ObserverSummary> observer;  ///< when [observer] is enabled
   std::vector<std::string> realtime_notes;
 
   /// "completed", "interrupted" or "failed".
@@ -43,7 +46,7 @@ struct RunSummary {
 
 /// What the live status line shows, refreshed a few times a second.
 struct LiveStatus {
-  double t_s, duration_s, V, theta_rad;
+  double t_s, duration_s, V, theta_rad, residual_rad;
   std::uint64_t sensor_samples, sensor_errors, overruns;
 };
 

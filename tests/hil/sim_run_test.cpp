@@ -97,6 +97,18 @@ TEST(SimRun, AFullRunMatchesTheModel) {
               2e-3 * o.summary.theta_end_rad);
 }
 
+// A plant that differs from the model: the open-loop prediction drifts
+// away, the corrected observer stays within the sensor noise.
+TEST(SimRun, TheObserverTracksAMismatchedPlant) {
+  const Outcome o = run_virtual({"plant.mu=0.12", "plant.sigma0=2000", "run.duration_s=2"});
+  ASSERT_TRUE(o.summary.observer.has_value());
+  const ObserverSummary& obs = *o.summary.observer;
+  EXPECT_GE(obs.samples, 2000u);
+  EXPECT_LT(obs.residual_rms_rad, 2 * 8.1e-6);
+  EXPECT_GT(obs.open_loop_rms_rad, 20 * obs.residual_rms_rad)
+      << "open loop " << obs.open_loop_rms_rad << ", corrected " << obs.residual_rms_rad;
+}
+
 TEST(SimRun, EstopDisablesWithinOneDrivePeriod) {
   const Outcome o = run_virtual({"lines.estop_at_s=1.0"});
   EXPECT_EQ(o.summary.cause, firmware::StopCause::estop);

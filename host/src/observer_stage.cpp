@@ -1,0 +1,72 @@
+#include "observer_stage.hpp"
+
+#include <algorithm>
+#include <limits>
+
+namespace piezo::host {
+
+ObserverStage::ObserverStage(const model::MotorParameters& model, const model::ObserverGains& gains,
+                             double ramp_time)
+    : corrected_(model, gains, ramp_time), open_loop_(model, {0.0, 0.0}, ramp_time) {}
+
+void ObserverStage::feed_commands_until(double t) {
+  while (!pending_commands_.empty() && pending_commands_.front().first <= t) {
+    const auto [t_cmd, V] = pending_commands_.front();
+    corrected_.command(t_cmd, V);
+    open_loop_.command(t_cmd, V);
+    pending_commands_.pop_front();
+  }
+}
+
+void ObserverStage::process_measurements_until(double t, ColumnBuffer& out) {
+  while (!pending_measurements_.empty() && pending_measurements_.front().first <= t) {
+    const auto [t_meas, theta] = pending_measurements_.front();
+    pending_measurements_.pop_front();
+    process(t_meas, theta, out);
+  }
+}
+
+void ObserverStage::on_drive(double t, double V, ColumnBuffer& out) {
+  pending_commands_.emplace_back(t, V);
+  drive_known_until_ = std::max(drive_known_until_, t);
+  process_measurements_until(t, out);
+}
+
+void ObserverStage::on_measurement(double t, double theta, ColumnBuffer& out) {
+  pending_measurements_.emplace_back(t, theta);
+  process_measurements_until(drive_known_until_, out);
+}
+
+void ObserverStage::finish(ColumnBuffer& out) {
+  process_measurements_until(std::numeric_limits<double>::infinity(), out);
+}
+
+void ObserverStage::process(double t, double theta, ColumnBuffer& out) {
+  if (t < corrected_.time()) return;  // before the model's start: nothing to compare
+  feed_commands_until(t);
+  const double residual = corrected_.measure(t, theta);
+  open_loop_.advance_to(t);
+  const double open_error = theta - open_loop_.state()[model::kTheta];
+  ++n_;
+  sum_sq_residual_ += residual * residual;
+  sum_sq_open_ += open_error * open_error;
+  last_residual_ = residual;
+
+  const model::LuGreState& y = corrected_.state();
+  out["/observer/t"].push_back(t);
+  out["/observer/theta_hat"].push_back(y[model::kTheta]);
+  out["/observer/theta_dot_hat"].push_back(y[model::kThetaDot]);
+  out["/observer/x_hat"].push_back(y[model::kX]);
+  out["/observer/z_hat"].push_back(y[model::kZ]);
+  out["/observer/F_hat"].push_back(corrected_.friction());
+  out["/observer/residual"].push_back(residual);
+  out["/observer/theta_open"].push_back(open_loop_.state()[model::kTheta]);
+}
+
+ObserverSummary ObserverStage::summary() const {
+  if (n_ == 0) return {};
+  const double n = static_cast<double>(n_);
+  return {n_, std::sqrt(sum_sq_residual_ / n), std::sqrt(sum_sq_open_ / n), last_residual_};
+}
+
+}  // namespace piezo::host

@@ -1,0 +1,53 @@
+#pragma once
+// The model beside the measurement during a run: the corrected LuGre
+// observer and the open-loop prediction, fed with the drive commands and
+// the measured angles in time order, logged under /observer.
+
+#include <cmath>
+#include <cstdint>
+#include <deque>
+#include <utility>
+
+#include "piezo/model/lugre_observer.hpp"
+#include "run_log.hpp"
+
+namespace piezo::host {
+
+struct ObserverSummary {
+  std::uint64_t samples = 0;
+  double residual_rms_rad = 0.0;   ///< measured minus the observer's prediction, before correction
+  double open_loop_rms_rad = 0.0;  ///< measured minus the open-loop model
+  double last_residual_rad = 0.0;
+};
+
+class ObserverStage {
+ public:
+  ObserverStage(const model::MotorParameters& model, const model::ObserverGains& gains,
+                double ramp_time);
+
+  /// A drive command (deadline time [s], volts). Measurements up to t are
+  /// processed now: the drive is known up to there.
+  void on_drive(double t, double V, ColumnBuffer& out);
+  /// A good angle measurement at time t [s]. The two rings arrive
+  /// independently, so it waits until the drive is known up to t; each
+  /// processed measurement appends a row to `out`.
+  void on_measurement(double t, double theta, ColumnBuffer& out);
+  /// Processes the measurements still waiting (the run has ended).
+  void finish(ColumnBuffer& out);
+
+  [[nodiscard]] ObserverSummary summary() const;
+
+ private:
+  void feed_commands_until(double t);
+  void process(double t, double theta, ColumnBuffer& out);
+  void process_measurements_until(double t, ColumnBuffer& out);
+
+  model::LuGreObserver corrected_;
+  model::LuGreObserver open_loop_;
+  std::deque<std::pair<double, double>> pending_commands_, pending_measurements_;
+  double drive_known_until_ = -1.0;
+  std::uint64_t n_ = 0;
+  double sum_sq_residual_ = 0.0, sum_sq_open_ = 0.0, last_residual_ = 0.0;
+};
+
+}  // namespace piezo::host
