@@ -28,7 +28,7 @@ constexpr int kExitFailed = 1;
 constexpr int kExitInterrupted = 130;  // the shell's code for SIGINT
 
 struct RunOptions {
-  std::string config;
+  std::vector<std::string> config;
   std::vector<std::string> sets;
   double duration = 0.0;  // 0: the config's [run] duration_s
   std::string out;
@@ -203,7 +203,10 @@ int run(const RunOptions& o) {
 CommandRunner add_run_command(CLI::App& app) {
   auto o = std::make_shared<RunOptions>();
   CLI::App* cmd = app.add_subcommand("run", "Drive the rig and log the run");
-  cmd->add_option("--config", o->config, "Rig config (TOML)")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--config", o->config,
+                  "Rig config (TOML); a second one overlays the first (e.g. fitted parameters)")
+      ->required()
+      ->check(CLI::ExistingFile);
   cmd->add_option("--set", o->sets, "Override a config key: SECTION.KEY=VALUE");
   cmd->add_option("--duration", o->duration, "Run time [s] (default: [run] duration_s)")
       ->check(CLI::PositiveNumber);

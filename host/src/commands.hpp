@@ -15,5 +15,7 @@ CommandRunner add_run_command(CLI::App& app);
 CommandRunner add_report_command(CLI::App& app);
 CommandRunner add_sensor_command(CLI::App& app);
 CommandRunner add_rig_sim_command(CLI::App& app);
+CommandRunner add_identify_command(CLI::App& app);
+CommandRunner add_compare_command(CLI::App& app);
 
 }  // namespace piezo::host

@@ -311,22 +311,33 @@ void check_whole(const RunConfig& c, const std::map<std::string, std::string>& s
 
 RunConfig load_run_config(const std::string& path, const std::vector<std::string>& sets,
                           ConfigScope scope) {
-  const toml::table file = parse_config_file(path);
+  return load_run_config(std::vector<std::string>{path}, sets, scope);
+}
+
+RunConfig load_run_config(const std::vector<std::string>& paths,
+                          const std::vector<std::string>& sets, ConfigScope scope) {
+  RunConfig c;
+  apply_baumer_om30(c.sensor.link, c.sensor.map);
+  c.source = paths.front();
+  model::MotorParameters plant_keys = all_nan();
+  std::vector<std::string> present;
+  // Each file overlays the ones before it (e.g. a rig config, then fitted parameters).
+  for (const auto& path : paths) {
+    const toml::table file = parse_config_file(path);
+    for (const auto& [k, node] : file) present.emplace_back(k.str());
+    if (!c.text.empty()) c.text += "\n# ---- " + path + "\n";
+    c.text += read_text(path);
+    read_tables(file, path, c, plant_keys);
+  }
   const std::vector<std::string> required =
       scope == ConfigScope::rig ? kRequiredSections : std::vector<std::string>{"sensor"};
   for (const auto& section : required) {
-    if (!file.contains(section)) {
-      throw ConfigError(path, section,
+    if (std::find(present.begin(), present.end(), section) == present.end()) {
+      throw ConfigError(paths.back(), section,
                         fmt::format("missing section [{}] (required: [{}])", section,
                                     fmt::join(required, "], [")));
     }
   }
-  RunConfig c;
-  apply_baumer_om30(c.sensor.link, c.sensor.map);
-  c.source = path;
-  c.text = read_text(path);
-  model::MotorParameters plant_keys = all_nan();
-  read_tables(file, path, c, plant_keys);
 
   std::map<std::string, std::string> source_of;
   if (!sets.empty()) c.text += "\n# --set overrides\n";

@@ -109,6 +109,11 @@ enum class ConfigScope { rig, sensor };
                                         const std::vector<std::string>& sets = {},
                                         ConfigScope scope = ConfigScope::rig);
 
+/// The same over several files, each overlaying the ones before it.
+[[nodiscard]] RunConfig load_run_config(const std::vector<std::string>& paths,
+                                        const std::vector<std::string>& sets,
+                                        ConfigScope scope = ConfigScope::rig);
+
 /// Checks the drive limits against what the built drive hardware can do.
 void check_drive_hardware(const RunConfig& config, double hardware_V_min, double hardware_V_max);
 

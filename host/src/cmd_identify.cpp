@@ -1,0 +1,89 @@
+// `piezo identify`: fits model parameters to a logged run.
+
+#include <fmt/format.h>
+
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "config_error.hpp"
+#include "fit_io.hpp"
+#include "model_config.hpp"
+
+namespace piezo::host {
+namespace {
+
+struct IdentifyOptions {
+  std::string log;
+  std::string params = "sigma0,sigma1,F_N,d_e";
+  std::string model = "lugre";
+  std::string config;  // start values instead of the log's
+  std::string out;
+  bool json = false;
+};
+
+int run(const IdentifyOptions& o) {
+  const auto friction = model::parse_friction_model(o.model);
+  if (!friction) throw ConfigError("--model", o.model, "allowed: lugre, coulomb");
+  LoadedRun run = load_run_for_fit(o.log);
+  if (!o.config.empty()) run.parameters = load_model_config(o.config);
+  const model::FitResult r =
+      model::identify(run.parameters, run.data,
+                      cli_fit_settings(parse_parameter_list(o.params), *friction, "identify"));
+
+  if (!o.out.empty()) {
+    write_parameters_toml(o.out, r.parameters,
+                          fmt::format("piezo identify --log {} ({} model): RMSE {:.4g} rad", o.log,
+                                      o.model, r.rmse_rad));
+  }
+  if (o.json) {
+    nlohmann::json parameters, errors, intervals;
+    for (const auto& f : r.fitted) {
+      parameters[f.name] = f.value;
+      errors[f.name] = f.standard_error;
+      intervals[f.name] = {f.low95, f.high95};
+    }
+    std::cout << nlohmann::json{{"model", o.model},
+                                {"parameters", parameters},
+                                {"standard_errors", errors},
+                                {"confidence_95", intervals},
+                                {"rmse_rad", r.rmse_rad},
+                                {"initial_rmse_rad", r.initial_rmse_rad},
+                                {"iterations", r.iterations},
+                                {"samples", run.data.t.size()},
+                                {"notes", r.notes}}
+                     .dump()
+              << "\n";
+  } else {
+    fmt::print("{} model on {} ({} samples): RMSE {:.3f} urad (from {:.3f}) after {} iterations\n",
+               o.model, o.log, run.data.t.size(), 1e6 * r.rmse_rad, 1e6 * r.initial_rmse_rad,
+               r.iterations);
+    for (const auto& f : r.fitted) {
+      fmt::print("  {:<7} = {:.6g} +- {:.2g}   (95 %: {:.6g} .. {:.6g})\n", f.name, f.value,
+                 f.standard_error, f.low95, f.high95);
+    }
+    for (const auto& note : r.notes) fmt::print("  note: {}\n", note);
+    if (!o.out.empty()) fmt::print("fitted parameters written to {}\n", o.out);
+  }
+  return 0;
+}
+
+}  // namespace
+
+CommandRunner add_identify_command(CLI::App& app) {
+  auto o = std::make_shared<IdentifyOptions>();
+  CLI::App* cmd = app.add_subcommand("identify", "Fit model parameters to a logged run");
+  cmd->add_option("--log", o->log, "A run log (run.h5) or a CSV with t, V, theta columns")
+      ->required()
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--params", o->params, "Parameters to fit, comma-separated (simulate's keys)")
+      ->capture_default_str();
+  cmd->add_option("--model", o->model, "Friction model: lugre or coulomb")->capture_default_str();
+  cmd->add_option("--config", o->config, "Start values (TOML [drive]/[model]); default: the log's")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--out", o->out, "Write the fitted parameters as TOML");
+  cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
+  return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
+}
+
+}  // namespace piezo::host

@@ -1,0 +1,168 @@
+#include "fit_io.hpp"
+
+#include <toml++/toml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "config_error.hpp"
+#include "h5_file.hpp"
+#include "parameters_json.hpp"
+
+namespace piezo::host {
+namespace {
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() &&
+         s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+double median_interval(const std::vector<double>& t) {
+  std::vector<double> d;
+  for (std::size_t i = 1; i < t.size(); ++i) d.push_back(t[i] - t[i - 1]);
+  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+  return d[d.size() / 2];
+}
+
+/// Drive samples with strictly increasing times (a run's stop record may repeat a time).
+void add_drive(model::FitData& data, const std::vector<double>& t, const std::vector<double>& V) {
+  for (std::size_t i = 0; i < std::min(t.size(), V.size()); ++i) {
+    if (std::isfinite(t[i]) && std::isfinite(V[i]) &&
+        (data.drive_t.empty() || t[i] > data.drive_t.back())) {
+      data.drive_t.push_back(t[i]);
+      data.drive_V.push_back(V[i]);
+    }
+  }
+}
+
+void add_measurements(model::FitData& data, const std::vector<double>& t,
+                      const std::vector<double>& theta) {
+  for (std::size_t i = 0; i < std::min(t.size(), theta.size()); ++i) {
+    if (std::isfinite(t[i]) && std::isfinite(theta[i]) && t[i] >= 0.0) {
+      data.t.push_back(t[i]);
+      data.theta.push_back(theta[i]);
+    }
+  }
+}
+
+LoadedRun load_h5(const std::string& path) {
+  const H5File log = H5File::open(path);
+  for (const char* name : {"/drive/t", "/drive/V", "/sensor/t", "/sensor/theta"}) {
+    if (!log.exists(name)) throw ConfigError(path, name, "missing dataset: not a piezo run log");
+  }
+  LoadedRun run;
+  add_drive(run.data, log.read("/drive/t"), log.read("/drive/V"));
+  add_measurements(run.data, log.read("/sensor/t"), log.read("/sensor/theta"));
+  run.parameters =
+      parameters_from_json(nlohmann::json::parse(log.attribute("/", "model_parameters")));
+  return run;
+}
+
+LoadedRun load_csv(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path, "file", "cannot be read");
+  std::string header;
+  std::getline(in, header);
+  std::vector<std::string> names;
+  std::stringstream hs(header);
+  for (std::string name; std::getline(hs, name, ',');) {
+    name.erase(std::remove_if(name.begin(), name.end(), ::isspace), name.end());
+    names.push_back(name);
+  }
+  auto column = [&](const std::string& n) -> std::size_t {
+    const auto it = std::find(names.begin(), names.end(), n);
+    if (it == names.end()) throw ConfigError(path, n, "missing column (needed: t, V, theta)");
+    return static_cast<std::size_t>(it - names.begin());
+  };
+  const std::size_t it = column("t"), iV = column("V"), itheta = column("theta");
+  std::vector<double> t, V, theta;
+  int line_number = 1;
+  for (std::string line; std::getline(in, line);) {
+    ++line_number;
+    if (line.empty()) continue;
+    std::vector<double> row;
+    std::stringstream ls(line);
+    for (std::string cell; std::getline(ls, cell, ',');) {
+      char* end = nullptr;
+      row.push_back(std::strtod(cell.c_str(), &end));
+      if (end == cell.c_str()) row.back() = std::nan("");
+    }
+    if (row.size() < names.size()) {
+      throw ConfigError(path, "line " + std::to_string(line_number),
+                        "fewer columns than the header");
+    }
+    t.push_back(row[it]);
+    V.push_back(row[iV]);
+    theta.push_back(row[itheta]);
+  }
+  LoadedRun run;
+  add_drive(run.data, t, V);
+  add_measurements(run.data, t, theta);
+  return run;
+}
+
+}  // namespace
+
+LoadedRun load_run_for_fit(const std::string& path) {
+  LoadedRun run = ends_with(path, ".h5") ? load_h5(path) : load_csv(path);
+  if (run.data.drive_t.size() < 2) throw ConfigError(path, "drive", "fewer than two drive samples");
+  if (run.data.t.size() < 10) throw ConfigError(path, "theta", "fewer than ten good angle samples");
+  run.data.ramp_time = median_interval(run.data.drive_t);
+  return run;
+}
+
+void write_parameters_toml(const std::string& path, const model::Parameters& p,
+                           const std::string& comment) {
+  toml::table drive, motor;
+  for (const auto& spec : model::parameter_specs()) {
+    const double v = *model::get_parameter(p, spec.name);
+    (spec.section == "drive" ? drive : motor).insert(std::string(spec.name), v);
+  }
+  std::ofstream out(path);
+  out << "# " << comment << "\n";
+  out << toml::table{{"drive", drive}, {"model", motor}} << "\n";
+  if (!out) throw std::runtime_error("cannot write " + path);
+}
+
+std::vector<std::string> parse_parameter_list(const std::string& list) {
+  std::vector<std::string> names;
+  std::stringstream ss(list);
+  for (std::string name; std::getline(ss, name, ',');) {
+    if (model::find_parameter(name) == nullptr) {
+      std::string allowed;
+      for (const auto& s : model::parameter_specs())
+        allowed += (allowed.empty() ? "" : ", ") + std::string(s.name);
+      throw ConfigError("--params", name, "unknown parameter (allowed: " + allowed + ")");
+    }
+    names.push_back(name);
+  }
+  if (names.empty()) throw ConfigError("--params", list, "no parameter named");
+  return names;
+}
+
+}  // namespace piezo::host
+
+#include <fmt/format.h>
+
+#include "parallel.hpp"
+
+namespace piezo::host {
+
+model::FitSettings cli_fit_settings(const std::vector<std::string>& free,
+                                    model::FrictionModel friction, const std::string& label) {
+  model::FitSettings s;
+  s.free = free;
+  s.model = friction;
+  s.for_each = [](std::size_t n, const std::function<void(std::size_t)>& job) {
+    parallel_for(n, job, [](std::size_t, std::size_t) {});
+  };
+  s.progress = [label](int iteration, double rmse) {
+    fmt::print(stderr, "{}: iteration {}, RMSE {:.3f} urad\n", label, iteration, 1e6 * rmse);
+  };
+  return s;
+}
+
+}  // namespace piezo::host

@@ -1,0 +1,117 @@
+// `piezo identify` and `piezo compare` on a CSV written by the test from a
+// known motor, and their outputs fed back into simulate and run.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "../support/run_command.hpp"
+#include "piezo/model/identify.hpp"
+
+namespace piezo::testing {
+namespace {
+
+namespace fs = std::filesystem;
+const std::string kPiezo = PIEZO_BINARY;
+
+/// t, V, theta at 500 Hz from a LuGre motor with known parameters, 8 urad noise.
+fs::path write_synthetic_csv(const fs::path& dir, const model::Parameters& truth) {
+  model::FitData d;
+  const model::Sawtooth saw(truth.drive.V0, truth.drive.f, truth.drive.D());
+  d.t = model::uniform_times(0.8, 2e-3);
+  for (double t : d.t) {
+    d.drive_t.push_back(t);
+    d.drive_V.push_back(saw.voltage(t));
+  }
+  d.ramp_time = 2e-3;
+  const auto theta = model::predict(truth, d, model::FrictionModel::lugre);
+  std::mt19937 rng(9);
+  std::normal_distribution<double> noise(0.0, 8e-6);
+  const fs::path path = dir / "measured.csv";
+  std::ofstream out(path);
+  out << "t,V,theta\n";
+  out.precision(12);
+  for (std::size_t i = 0; i < d.t.size(); ++i) {
+    out << d.t[i] << "," << d.drive_V[i] << "," << theta[i] + noise(rng) << "\n";
+  }
+  return path;
+}
+
+model::Parameters truth() {
+  model::Parameters p;
+  p.motor.sigma0 = 2100;
+  p.motor.F_N = 5.4e-3;
+  p.motor.d_e = 0.5e-6;
+  return p;
+}
+
+TEST(IdentifyCli, FitsACsvAndTheResultFeedsSimulate) {
+  const auto dir = fresh_temp_dir("identify-cli");
+  const auto csv = write_synthetic_csv(dir, truth());
+  const auto fitted = dir / "fitted.toml";
+  const auto r = run_command(kPiezo + " identify --log " + csv.string() +
+                             " --params sigma0,F_N,d_e --json --out " + fitted.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("identify: iteration 1,"), std::string::npos) << "progress on stderr";
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_LT(j.at("rmse_rad").get<double>(), 10e-6);
+  for (const char* name : {"sigma0", "F_N", "d_e"}) {
+    const double value = j.at("parameters").at(name);
+    const double lo = j.at("confidence_95").at(name)[0], hi = j.at("confidence_95").at(name)[1];
+    const double true_value = *model::get_parameter(truth(), name);
+    EXPECT_LE(lo, true_value) << name << " = " << value;
+    EXPECT_GE(hi, true_value) << name << " = " << value;
+  }
+  const auto sim =
+      run_command(kPiezo + " simulate --config " + fitted.string() + " --duration 0.2 --json");
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  EXPECT_NEAR(nlohmann::json::parse(sim.out).at("parameters").at("sigma0").get<double>(),
+              j.at("parameters").at("sigma0").get<double>(), 1e-6);
+}
+
+TEST(IdentifyCli, NotesWhenMuAndNormalForceAreBothFree) {
+  const auto dir = fresh_temp_dir("identify-notes");
+  const auto csv = write_synthetic_csv(dir, model::Parameters{});
+  const auto r =
+      run_command(kPiezo + " identify --log " + csv.string() + " --params mu,F_N --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto notes = nlohmann::json::parse(r.out).at("notes");
+  ASSERT_FALSE(notes.empty());
+  EXPECT_NE(notes[0].get<std::string>().find("only as their product"), std::string::npos);
+}
+
+TEST(IdentifyCli, BadInputIsNamed) {
+  const auto dir = fresh_temp_dir("identify-bad");
+  const auto csv = write_synthetic_csv(dir, model::Parameters{});
+  auto r = run_command(kPiezo + " identify --log " + csv.string() + " --params sigma9");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--params: sigma9: unknown parameter"), std::string::npos) << r.err;
+  const auto bad_csv = dir / "bad.csv";
+  write_file(bad_csv, "t,V\n0,1\n");
+  r = run_command(kPiezo + " identify --log " + bad_csv.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("theta: missing column"), std::string::npos) << r.err;
+}
+
+TEST(CompareCli, RanksLuGreAheadOnLuGreData) {
+  const auto dir = fresh_temp_dir("compare-cli");
+  const auto csv = write_synthetic_csv(dir, truth());
+  const auto r = run_command(kPiezo + " compare --log " + csv.string() + " --json --out " +
+                             (dir / "plots").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  const double lugre = j.at("lugre").at("rmse_rad"), coulomb = j.at("coulomb").at("rmse_rad");
+  EXPECT_LT(lugre, coulomb);
+  EXPECT_NEAR(j.at("improvement").get<double>(), coulomb / lugre, 1e-9);
+  EXPECT_GT(j.at("improvement").get<double>(), 2.0);
+  EXPECT_TRUE(j.at("lugre").at("parameters").contains("sigma0"));
+  EXPECT_TRUE(j.at("coulomb").at("parameters").contains("F_N"));
+  EXPECT_GT(fs::file_size(dir / "plots" / "compare.png"), 1000u);
+}
+
+}  // namespace
+}  // namespace piezo::testing
