@@ -13,4 +13,5 @@ run_dir="runs/$(date -u +%Y%m%dT%H%M%SZ)"
 mkdir -p out
 "$piezo" simulate --config configs/paper.toml --out out/paper-baseline.csv
 "$piezo" sensitivity --config configs/paper.toml --out out/sensitivity
-echo "main job done: $run_dir (run.h5, report/*.png), out/paper-baseline.csv, out/sensitivity/*.png"
+scripts/worked-example.sh
+echo "main job done: $run_dir (run.h5, report/*.png), out/paper-baseline.csv, out/sensitivity/*.png, out/worked-example/"

@@ -13,10 +13,10 @@
 #include "columns.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
+#include "fit_io.hpp"
 #include "gnuplot.hpp"
 #include "h5_file.hpp"
 #include "parameters_json.hpp"
-#include "piezo/model/sampled_drive.hpp"
 #include "piezo/model/simulate.hpp"
 
 namespace piezo::host {
@@ -29,42 +29,10 @@ struct ReportOptions {
   bool json = false;
 };
 
-struct Series {
-  std::vector<double> t, value;
-};
-
-/// Good samples only (the log holds NaN where a reading failed).
-Series finite(const std::vector<double>& t, const std::vector<double>& v) {
-  Series s;
-  for (std::size_t i = 0; i < std::min(t.size(), v.size()); ++i) {
-    if (std::isfinite(v[i])) {
-      s.t.push_back(t[i]);
-      s.value.push_back(v[i]);
-    }
-  }
-  return s;
-}
-
 std::vector<double> scaled(const std::vector<double>& v, double k) {
   std::vector<double> out(v.size());
   std::transform(v.begin(), v.end(), out.begin(), [k](double x) { return k * x; });
   return out;
-}
-
-/// The model ([model] of the run) driven by the logged voltages, sampled at `times`.
-std::vector<double> model_prediction(const H5File& log, const std::vector<double>& drive_t,
-                                     const std::vector<double>& drive_V,
-                                     const std::vector<double>& times) {
-  const auto p =
-      parameters_from_json(nlohmann::json::parse(log.attribute("/", "model_parameters")));
-  // The signal chain reaches each command over one nominal drive period.
-  std::vector<double> intervals(drive_t.size() - 1);
-  for (std::size_t i = 0; i + 1 < drive_t.size(); ++i) intervals[i] = drive_t[i + 1] - drive_t[i];
-  std::nth_element(intervals.begin(), intervals.begin() + intervals.size() / 2, intervals.end());
-  const model::SampledDrive drive(drive_t, drive_V, intervals[intervals.size() / 2]);
-  std::vector<double> sorted_times;
-  for (double t : times) sorted_times.push_back(std::max(0.0, t));
-  return model::simulate(p.motor, drive, model::FrictionModel::lugre, sorted_times).theta;
 }
 
 int run(const ReportOptions& o) {
@@ -72,24 +40,17 @@ int run(const ReportOptions& o) {
   const fs::path log_path = dir / "run.h5";
   if (!fs::exists(log_path)) throw ConfigError(o.run_dir, "run.h5", "no run log in this directory");
   const H5File log = H5File::open(log_path.string());
-  // The last samples of a run may share a time stamp (the stop after the ramp): keep the first.
-  std::vector<double> drive_t, drive_V;
-  {
-    const auto t = log.read("/drive/t"), V = log.read("/drive/V");
-    for (std::size_t i = 0; i < std::min(t.size(), V.size()); ++i) {
-      if (drive_t.empty() || t[i] > drive_t.back()) {
-        drive_t.push_back(t[i]);
-        drive_V.push_back(V[i]);
-      }
-    }
-  }
-  const Series theta = finite(log.read("/sensor/t"), log.read("/sensor/theta"));
-  if (theta.t.size() < 2 || drive_t.size() < 2) {
-    throw std::runtime_error(log_path.string() + ": too few samples to plot");
-  }
   const std::string status = log.attribute("/", "status");
-
-  const auto predicted = model_prediction(log, drive_t, drive_V, theta.t);
+  // The log as identification reads it: good angles, and the drive as it
+  // reached the output (after the drive's latency, over one period).
+  const LoadedRun run = load_run_for_fit(log_path.string());
+  const auto& drive_t = run.data.drive_t;
+  const auto& drive_V = run.data.drive_V;
+  struct {
+    const std::vector<double>& t;
+    const std::vector<double>& value;
+  } theta{run.data.t, run.data.theta};
+  const auto predicted = model::predict(run.parameters, run.data, model::FrictionModel::lugre);
   double sum_sq = 0.0;
   for (std::size_t i = 0; i < predicted.size(); ++i) {
     sum_sq += std::pow(theta.value[i] - predicted[i], 2);

@@ -161,6 +161,7 @@ int run(const RunOptions& o) {
        {"utc_start", utc_start},
        {"host", host_name()},
        {"clock", config.run.clock},
+       {"drive_latency_s", fmt::format("{:.9g}", rig.drive->output_latency_s())},
        {"time_origin", "seconds from the run's start (first drive deadline)"},
        {"theta", "(displacement - first good displacement) / sensor.r2_m"}});
 

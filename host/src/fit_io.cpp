@@ -54,7 +54,13 @@ LoadedRun load_h5(const std::string& path) {
     if (!log.exists(name)) throw ConfigError(path, name, "missing dataset: not a piezo run log");
   }
   LoadedRun run;
-  add_drive(run.data, log.read("/drive/t"), log.read("/drive/V"));
+  // The output follows each logged command after the drive's latency.
+  std::vector<double> drive_t = log.read("/drive/t");
+  if (log.has_attribute("/", "drive_latency_s")) {
+    const double latency = std::stod(log.attribute("/", "drive_latency_s"));
+    for (double& t : drive_t) t += latency;
+  }
+  add_drive(run.data, drive_t, log.read("/drive/V"));
   add_measurements(run.data, log.read("/sensor/t"), log.read("/sensor/theta"));
   run.parameters =
       parameters_from_json(nlohmann::json::parse(log.attribute("/", "model_parameters")));

@@ -127,6 +127,10 @@ std::vector<double> H5File::read(const std::string& name) const {
   return out;
 }
 
+bool H5File::has_attribute(const std::string& object, const std::string& name) const {
+  return H5Aexists_by_name(file_.get(), object.c_str(), name.c_str(), H5P_DEFAULT) > 0;
+}
+
 std::string H5File::attribute(const std::string& object, const std::string& name) const {
   H5Id attr(
       checked(H5Aopen_by_name(file_.get(), object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT),

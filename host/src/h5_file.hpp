@@ -51,6 +51,7 @@ class H5File {
   /// A whole 1-D float64 dataset.
   [[nodiscard]] std::vector<double> read(const std::string& name) const;
   [[nodiscard]] bool exists(const std::string& name) const;
+  [[nodiscard]] bool has_attribute(const std::string& object, const std::string& name) const;
   /// A string attribute of "/" or of an object.
   [[nodiscard]] std::string attribute(const std::string& object, const std::string& name) const;
 

@@ -6,8 +6,10 @@
 namespace piezo::host {
 
 ObserverStage::ObserverStage(const model::MotorParameters& model, const model::ObserverGains& gains,
-                             double ramp_time)
-    : corrected_(model, gains, ramp_time), open_loop_(model, {0.0, 0.0}, ramp_time) {}
+                             double ramp_time, double latency)
+    : corrected_(model, gains, ramp_time),
+      open_loop_(model, {0.0, 0.0}, ramp_time),
+      latency_(latency) {}
 
 void ObserverStage::feed_commands_until(double t) {
   while (!pending_commands_.empty() && pending_commands_.front().first <= t) {
@@ -27,8 +29,8 @@ void ObserverStage::process_measurements_until(double t, ColumnBuffer& out) {
 }
 
 void ObserverStage::on_drive(double t, double V, ColumnBuffer& out) {
-  pending_commands_.emplace_back(t, V);
-  drive_known_until_ = std::max(drive_known_until_, t);
+  pending_commands_.emplace_back(t + latency_, V);
+  drive_known_until_ = std::max(drive_known_until_, t + latency_);
   process_measurements_until(t, out);
 }
 

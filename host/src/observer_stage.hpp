@@ -22,8 +22,10 @@ struct ObserverSummary {
 
 class ObserverStage {
  public:
+  /// Commands reach the output `latency` [s] after their deadline and take
+  /// `ramp_time` [s] to settle.
   ObserverStage(const model::MotorParameters& model, const model::ObserverGains& gains,
-                double ramp_time);
+                double ramp_time, double latency);
 
   /// A drive command (deadline time [s], volts). Measurements up to t are
   /// processed now: the drive is known up to there.
@@ -46,6 +48,7 @@ class ObserverStage {
   model::LuGreObserver open_loop_;
   std::deque<std::pair<double, double>> pending_commands_, pending_measurements_;
   double drive_known_until_ = -1.0;
+  double latency_;
   std::uint64_t n_ = 0;
   double sum_sq_residual_ = 0.0, sum_sq_open_ = 0.0, last_residual_ = 0.0;
 };

@@ -164,7 +164,10 @@ RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::ato
   });
 
   std::optional<ObserverStage> observer;
-  if (c.observer.enabled) observer.emplace(c.model.motor, c.observer.gains, 1.0 / c.drive.rate_hz);
+  if (c.observer.enabled) {
+    observer.emplace(c.model.motor, c.observer.gains, 1.0 / c.drive.rate_hz,
+                     rig.drive->output_latency_s());
+  }
   SampleCollector collector(rig.t0, c.sensor.r2_m, observer ? &*observer : nullptr);
   auto drain = [&] {
     drive_ring.drain([&](const DriveSample& s) { collector.add(s); });

@@ -63,6 +63,7 @@ void Plant::publish() {
   sequence_.store(s + 1, std::memory_order_relaxed);
   published_t_.store(t_, std::memory_order_release);
   published_theta_.store(motor_.state()[model::kTheta], std::memory_order_release);
+  published_theta_dot_.store(motor_.state()[model::kThetaDot], std::memory_order_release);
   published_V_out_.store(V_out_, std::memory_order_release);
   sequence_.store(s + 2, std::memory_order_release);
 }
@@ -72,6 +73,7 @@ PlantSnapshot Plant::latest() const {
     const std::uint64_t before = sequence_.load(std::memory_order_acquire);
     PlantSnapshot snap{published_t_.load(std::memory_order_acquire),
                        published_theta_.load(std::memory_order_acquire),
+                       published_theta_dot_.load(std::memory_order_acquire),
                        published_V_out_.load(std::memory_order_acquire)};
     if ((before & 1U) == 0 && sequence_.load(std::memory_order_relaxed) == before) return snap;
   }

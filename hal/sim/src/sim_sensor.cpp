@@ -27,8 +27,10 @@ DisplacementReading SimSensor::read() {
     r.status = Status::timeout;
     return r;
   }
+  // The plant was last advanced at a drive write; carry it to the request time.
   const PlantSnapshot snap = plant_.latest();
-  double d = settings_.offset_m + settings_.r2_m * snap.theta;
+  const double theta = snap.theta + snap.theta_dot * to_seconds(r.t_request - snap.t);
+  double d = settings_.offset_m + settings_.r2_m * theta;
   if (settings_.noise_m > 0.0) d += noise_(random_);
   if (settings_.quantum_m > 0.0) d = std::round(d / settings_.quantum_m) * settings_.quantum_m;
   r.displacement_m = d;

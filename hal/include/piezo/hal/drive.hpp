@@ -24,6 +24,10 @@ class Drive {
   virtual Status write(double volts) = 0;
   /// The range the hardware can produce; the firmware clamps to it.
   [[nodiscard]] virtual DriveLimits limits() const = 0;
+  /// Time from a write to the output starting to change [s]: a DAC latched
+  /// on its own clock adds up to one update period. Models replaying a log
+  /// shift the drive by it.
+  [[nodiscard]] virtual double output_latency_s() const { return 0.0; }
 };
 
 }  // namespace piezo::hal

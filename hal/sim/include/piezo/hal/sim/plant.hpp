@@ -29,8 +29,9 @@ struct AmplifierSettings {
 /// What the sensor sees of the plant.
 struct PlantSnapshot {
   TimeNs t = 0;
-  double theta = 0.0;  ///< rotor angle [rad]
-  double V_out = 0.0;  ///< amplifier output [V]
+  double theta = 0.0;      ///< rotor angle [rad]
+  double theta_dot = 0.0;  ///< rotor velocity [rad/s]
+  double V_out = 0.0;      ///< amplifier output [V]
 };
 
 class Plant {
@@ -65,6 +66,7 @@ class Plant {
   std::atomic<std::uint64_t> sequence_{0};
   std::atomic<TimeNs> published_t_{0};
   std::atomic<double> published_theta_{0.0};
+  std::atomic<double> published_theta_dot_{0.0};
   std::atomic<double> published_V_out_{0.0};
 };
 

@@ -25,6 +25,8 @@ class SimDrive final : public Drive {
 
   Status write(double volts) override;
   [[nodiscard]] DriveLimits limits() const override;
+  /// A write in the drive loop's cycle latches on the next tick: one period.
+  [[nodiscard]] double output_latency_s() const override { return dac_.update_period_s; }
 
   /// The DAC code the last write produced.
   [[nodiscard]] unsigned last_code() const { return last_code_; }
