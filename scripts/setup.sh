@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
 # Installs what piezo-rig needs from Debian 12 (apt-get, as root or via sudo)
-# and builds it. Usage: scripts/setup.sh [preset]   (default preset: default)
+# and builds it. Usage: scripts/setup.sh [preset] [--gpio-sim]
+# (default preset: default; --gpio-sim adds what the gpio-sim test needs:
+# qemu, busybox-static, the kernel source and its build tools)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 preset="${1:-default}"
+gpio_sim="${2:-}"
 
 packages=(
   build-essential cmake pkg-config git
@@ -12,6 +15,9 @@ packages=(
   gnuplot-nox python3 python3-h5py python3-numpy
   rt-tests libgpiod-dev libmodbus-dev mbpoll socat python3-pymodbus python3-serial-asyncio
 )
+if [ "$gpio_sim" = "--gpio-sim" ]; then
+  packages+=(qemu-system-x86 busybox-static linux-source-6.1 bc flex bison libelf-dev cpio xz-utils)
+fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -4,7 +4,7 @@
 # AddressSanitizer + UndefinedBehaviorSanitizer, and under ThreadSanitizer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/setup.sh ci
+scripts/setup.sh ci --gpio-sim
 ctest --preset ci -j "$(nproc)"
 cmake --preset asan >/dev/null
 cmake --build --preset asan -j "$(nproc)"

@@ -74,6 +74,7 @@ Status GpiodEdgeInput::take_edges(int& count) {
     if (ready == 0) return Status::ok;
     gpiod_line_event event{};
     if (gpiod_line_event_read(line_, &event) != 0) return Status::io_error;
+    last_edge_ns_ = static_cast<std::int64_t>(event.ts.tv_sec) * 1'000'000'000 + event.ts.tv_nsec;
     ++count;
   }
 }

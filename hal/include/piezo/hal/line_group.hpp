@@ -5,6 +5,7 @@
 /// implements it on the rig; the simulation records it for tests.
 
 #include <cstddef>
+#include <cstdint>
 #include <span>
 
 #include "piezo/hal/status.hpp"
@@ -36,6 +37,8 @@ class InputLine {
   virtual Status level(int& level) = 0;
   /// Edges (either direction) since the last call, without blocking. Real-time safe.
   virtual Status take_edges(int& count) = 0;
+  /// When the latest edge taken happened, on CLOCK_MONOTONIC [ns]; 0 if none.
+  [[nodiscard]] virtual std::int64_t last_edge_ns() const { return 0; }
 };
 
 }  // namespace piezo::hal

@@ -39,10 +39,13 @@ class GpiodEdgeInput final : public InputLine {
 
   Status level(int& level) override;
   Status take_edges(int& count) override;
+  /// The kernel's time stamp of the latest edge (CLOCK_MONOTONIC).
+  [[nodiscard]] std::int64_t last_edge_ns() const override { return last_edge_ns_; }
 
  private:
   gpiod_chip* chip_ = nullptr;
   gpiod_line* line_ = nullptr;
+  std::int64_t last_edge_ns_ = 0;
 };
 
 }  // namespace piezo::hal::gpiod

@@ -1,0 +1,196 @@
+// Runs inside a qemu guest with a gpio-sim bank of 16 lines: the project's
+// real gpiod backend drives the kernel's simulated GPIO chip, and every
+// output is read back from sysfs while the backend still holds its lines.
+// Usage: gpio_sim_check CHIP SYSFS_DIR   (e.g. gpiochip0
+// /sys/devices/platform/gpio-sim.0/gpiochip0) Prints one PASS or FAIL line per check; the exit code
+// is the number of failures.
+//
+// Wiring in the bank: DAC data D0..D7 on lines 0..7, /WR on 8, amplifier
+// enable on 10, sync on 11, e-stop (active low, pulled up) on 12.
+
+#include <fmt/format.h>
+
+#include <atomic>
+#include <chrono>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "piezo/firmware/drive_loop.hpp"
+#include "piezo/hal/gpio/gpio_digital_lines.hpp"
+#include "piezo/hal/gpio/parallel_dac.hpp"
+#include "piezo/hal/gpiod/gpiod_lines.hpp"
+#include "piezo/hal/posix/monotonic_clock.hpp"
+
+namespace {
+
+using namespace piezo;
+
+std::string g_sysfs;
+int g_failures = 0;
+
+void check(bool ok, const std::string& what) {
+  fmt::print("{} {}\n", ok ? "PASS" : "FAIL", what);
+  std::fflush(stdout);
+  if (!ok) ++g_failures;
+}
+
+int read_line(unsigned offset) {
+  std::ifstream in(fmt::format("{}/sim_gpio{}/value", g_sysfs, offset));
+  int v = -1;
+  in >> v;
+  return v;
+}
+
+void set_pull(unsigned offset, const char* pull) {
+  std::ofstream(fmt::format("{}/sim_gpio{}/pull", g_sysfs, offset)) << pull;
+}
+
+/// Forwards to the real lines and reads every line back from sysfs after
+/// each bulk write: the sequence the DAC saw.
+class ReadBack final : public hal::OutputLineGroup {
+ public:
+  ReadBack(hal::OutputLineGroup& real, std::vector<unsigned> offsets)
+      : real_(real), offsets_(std::move(offsets)) {}
+  hal::Status set_levels(std::span<const int> levels) override {
+    const hal::Status s = real_.set_levels(levels);
+    std::vector<int> seen;
+    for (unsigned o : offsets_) seen.push_back(read_line(o));
+    steps.push_back(seen);
+    return s;
+  }
+  [[nodiscard]] std::size_t size() const override { return real_.size(); }
+  std::vector<std::vector<int>> steps;
+
+ private:
+  hal::OutputLineGroup& real_;
+  std::vector<unsigned> offsets_;
+};
+
+void check_dac(const std::string& chip, bool data_active_low) {
+  const std::vector<unsigned> offsets{0, 1, 2, 3, 4, 5, 6, 7, 8};
+  hal::gpiod::GpiodOutputs lines(chip, offsets, "gpio-sim-check");
+  ReadBack readback(lines, offsets);
+  hal::gpio::ParallelDac dac({.bits = 8,
+                              .has_strobe = true,
+                              .data_active_low = data_active_low,
+                              .strobe_active_low = true,
+                              .full_scale_V = 5.0,
+                              .amplifier_gain = 20.0},
+                             readback);
+  // Codes whose bit patterns are not palindromes, so a reversed bit order shows.
+  for (const unsigned code : {0u, 1u, 0x80u, 0x12u, 0xC5u, 0xFFu}) {
+    readback.steps.clear();
+    const double volts = 100.0 * code / 255.0;
+    const bool written = dac.write(volts) == hal::Status::ok && dac.code_for(volts) == code;
+    std::vector<int> data;
+    for (unsigned bit = 0; bit < 8; ++bit) {
+      const int logical = static_cast<int>((code >> bit) & 1u);
+      data.push_back(data_active_low ? 1 - logical : logical);
+    }
+    bool ok = written && readback.steps.size() == 3;
+    const int strobe_expected[3] = {1, 0, 1};  // /WR idle high, pulse low, back high
+    for (std::size_t s = 0; ok && s < 3; ++s) {
+      ok = std::equal(data.begin(), data.end(), readback.steps[s].begin()) &&
+           readback.steps[s][8] == strobe_expected[s];
+    }
+    check(ok,
+          fmt::format("DAC{} code 0x{:02X}: D0..D7 on lines 0..7 (LSB first), /WR high-low-high",
+                      data_active_low ? " (data active low)" : "", code));
+  }
+}
+
+void check_enable_and_sync(const std::string& chip, bool enable_active_low) {
+  hal::gpiod::GpiodOutputs outputs(chip, {10, 11}, "gpio-sim-check");
+  hal::gpio::GpioDigitalLines lines({.has_sync = true, .enable_active_low = enable_active_low},
+                                    outputs, nullptr);
+  const int on = enable_active_low ? 0 : 1;
+  (void)lines.set_amplifier_enable(true);
+  check(read_line(10) == on, fmt::format("enable asserted reads {} (active {})", on,
+                                         enable_active_low ? "low" : "high"));
+  (void)lines.set_amplifier_enable(false);
+  check(read_line(10) == 1 - on, "enable released");
+  (void)lines.set_sync(true);
+  const int sync_high = read_line(11);
+  (void)lines.set_sync(false);
+  check(sync_high == 1 && read_line(11) == 0, "sync pulses high, then low");
+}
+
+/// A drive that accepts every value: this check is about the lines.
+class NullDrive final : public hal::Drive {
+ public:
+  hal::Status write(double) override { return hal::Status::ok; }
+  [[nodiscard]] hal::DriveLimits limits() const override { return {0.0, 100.0}; }
+};
+
+void check_loop_sync_and_estop(const std::string& chip) {
+  set_pull(12, "pull-up");  // e-stop released (normally closed contact, active low)
+  hal::gpiod::GpiodOutputs outputs(chip, {10, 11}, "gpio-sim-check");
+  hal::gpiod::GpiodEdgeInput estop(chip, 12, "gpio-sim-check");
+  hal::gpio::GpioDigitalLines lines({.has_sync = true, .estop_active_low = true}, outputs, &estop);
+  hal::posix::MonotonicClock clock;
+  NullDrive drive;
+  firmware::SpscRing<firmware::DriveSample> ring(1 << 16);
+  firmware::SensorHealth health;
+  firmware::SafetySettings safety;
+  safety.sensor_stale_s = 1e9;  // no sensor in this check
+  constexpr double kRate = 1000.0, kWaveform = 50.0;
+  const hal::TimeNs t0 = clock.now() + hal::from_seconds(0.05);
+  firmware::SafetySupervisor supervisor(safety, health, t0);
+  const model::Sawtooth saw(80.0, kWaveform, 0.75);
+  const std::atomic<bool> stop{false};
+  firmware::DriveLoop loop({kRate, 100.0, 1.0 / kWaveform, {0.0, 80.0, 1e6}}, saw, supervisor,
+                           {clock, drive, lines, ring, stop});
+  firmware::StopCause cause{};
+  std::thread driver([&] { cause = loop.run(t0); });
+
+  // Count sync pulses for 0.3 s (15 waveform periods) by polling the line.
+  std::this_thread::sleep_until(std::chrono::steady_clock::now() + std::chrono::milliseconds(50));
+  const bool enabled_while_running = read_line(10) == 1;
+  int rising = 0, last = read_line(11);
+  const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(300);
+  while (std::chrono::steady_clock::now() < until) {
+    const int v = read_line(11);
+    if (v == 1 && last == 0) ++rising;
+    last = v;
+  }
+  check(enabled_while_running, "enable high while the drive loop runs");
+  check(rising >= 13 && rising <= 17,
+        fmt::format("{} sync pulses in 0.3 s at 50 Hz (15 expected)", rising));
+
+  // Press: the e-stop line goes low; the supervisor must drop enable within
+  // one drive period of the edge (time-stamped by the kernel).
+  set_pull(12, "pull-down");
+  driver.join();
+  firmware::DriveSample s{}, last_sample{};
+  while (ring.try_pop(s)) last_sample = s;
+  const double after_ms = 1e3 * hal::to_seconds(last_sample.t - estop.last_edge_ns());
+  check(cause == firmware::StopCause::estop, "the e-stop edge reached the safety supervisor");
+  check(read_line(10) == 0, "enable low after the e-stop (read while the lines are held)");
+  check(after_ms <= 1e3 / kRate + 0.5,
+        fmt::format("enable dropped {:.3f} ms after the e-stop edge (drive period {:.1f} ms)",
+                    after_ms, 1e3 / kRate));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 3) {
+    fmt::print(stderr, "usage: gpio_sim_check CHIP SYSFS_DIR\n");
+    return 100;
+  }
+  const std::string chip = argv[1];
+  g_sysfs = argv[2];
+  try {
+    check_dac(chip, false);
+    check_dac(chip, true);
+    check_enable_and_sync(chip, false);
+    check_enable_and_sync(chip, true);
+    check_loop_sync_and_estop(chip);
+  } catch (const std::exception& e) {
+    check(false, std::string("exception: ") + e.what());
+  }
+  fmt::print("gpio-sim checks done: {} failed\n", g_failures);
+  return g_failures;
+}

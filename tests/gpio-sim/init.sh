@@ -1,0 +1,18 @@
+#!/bin/sh
+# /init of the gpio-sim guest: a 16-line gpio-sim bank through configfs,
+# then the project's check program against it; the exit code goes to the
+# console, and the guest powers off (qemu runs with -no-reboot).
+mount -t proc none /proc
+mount -t sysfs none /sys
+mount -t devtmpfs none /dev
+mount -t configfs none /sys/kernel/config
+bank=/sys/kernel/config/gpio-sim/rig
+mkdir "$bank" "$bank/bank0"
+echo 16 > "$bank/bank0/num_lines"
+echo 1 > "$bank/live"
+chip=$(cat "$bank/bank0/chip_name")
+device=$(cat "$bank/dev_name")
+echo "gpio-sim: $chip on $device"
+/gpio_sim_check "$chip" "/sys/devices/platform/$device/$chip"
+echo "gpio-sim exit code: $?"
+reboot -f
