@@ -141,6 +141,11 @@ RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::ato
   firmware::AcquireLoop acquire_loop(clock, *rig.sensor, sensor_health, sensor_ring);
 
   std::atomic<bool> drive_done{false}, acquire_done{false};
+  // A virtual clock runs as fast as the host drains the rings: none is let past half full.
+  clock.set_backpressure([&] {
+    return drive_ring.size_approx() > drive_ring.capacity() / 2 ||
+           sensor_ring.size_approx() > sensor_ring.capacity() / 2;
+  });
   std::string drive_rt_note, acquire_rt_note;
   auto realtime_setup = [&](int priority, std::string& note) {
     firmware::prefault_stack();
@@ -202,10 +207,12 @@ RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::ato
     stop_loops.store(true);
     drive_thread.join();
     acquire_thread.join();
+    clock.set_backpressure({});
     throw;
   }
   drive_thread.join();
   acquire_thread.join();
+  clock.set_backpressure({});
   drain();
   if (observer) observer->finish(collector.buffer());
   log.append(collector.buffer());

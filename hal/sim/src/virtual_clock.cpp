@@ -1,6 +1,8 @@
 #include "piezo/hal/sim/virtual_clock.hpp"
 
 #include <algorithm>
+#include <chrono>
+#include <thread>
 
 namespace piezo::hal::sim {
 
@@ -24,7 +26,16 @@ void VirtualClock::remove_sleeper() {
   schedule_next_locked();
 }
 
+void VirtualClock::set_backpressure(std::function<bool()> lagging) {
+  lagging_ = std::move(lagging);
+}
+
 void VirtualClock::sleep_until(TimeNs t) {
+  // Virtual time costs nothing; let the consumer catch up first. Only this
+  // thread runs meanwhile, so the schedule stays the same.
+  if (lagging_) {
+    while (lagging_()) std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
   std::unique_lock lock(mutex_);
   const std::uint64_t ticket = next_ticket_++;
   sleepers_.push_back({t, ticket});

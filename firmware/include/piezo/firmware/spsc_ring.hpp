@@ -61,6 +61,12 @@ class SpscRing {
   }
 
   [[nodiscard]] std::size_t capacity() const { return mask_ + 1; }
+  /// Samples waiting, as seen at this moment from any thread (approximate).
+  [[nodiscard]] std::size_t size_approx() const {
+    // Tail first: the head read after it is never behind it.
+    const std::size_t tail = tail_.load(std::memory_order_acquire);
+    return head_.load(std::memory_order_acquire) - tail;
+  }
 
  private:
   static std::size_t round_up_pow2(std::size_t n) {

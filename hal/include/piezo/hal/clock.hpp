@@ -4,6 +4,7 @@
 /// in simulation so that tests run faster than real time and reproducibly.
 
 #include <cstdint>
+#include <functional>
 
 namespace piezo::hal {
 
@@ -36,6 +37,11 @@ class Clock {
   /// announced thread sleeps. No-ops on a real clock.
   virtual void add_sleeper() {}
   virtual void remove_sleeper() {}
+
+  /// For a clock that runs ahead of real time: while `lagging()` is true,
+  /// sleepers wait in real time before time moves on, so that a consumer
+  /// of their output keeps up and nothing is dropped. No-op on a real clock.
+  virtual void set_backpressure(std::function<bool()> lagging) { (void)lagging; }
 };
 
 /// Announces one sleeping thread to a clock for the lifetime of this object.

@@ -25,6 +25,7 @@ class VirtualClock final : public Clock {
   void sleep_until(TimeNs t) override;
   void add_sleeper() override;
   void remove_sleeper() override;
+  void set_backpressure(std::function<bool()> lagging) override;
 
  private:
   struct Sleeper {
@@ -41,6 +42,7 @@ class VirtualClock final : public Clock {
   std::uint64_t next_ticket_ = 0;
   std::uint64_t released_ = UINT64_MAX;  // ticket allowed to run
   std::vector<Sleeper> sleepers_;        // reserved up front; a handful of threads
+  std::function<bool()> lagging_;        // set before the sleepers start
 };
 
 }  // namespace piezo::hal::sim
