@@ -6,6 +6,15 @@ mount -t proc none /proc
 mount -t sysfs none /sys
 mount -t devtmpfs none /dev
 mount -t configfs none /sys/kernel/config
+# High-resolution timers start only once the refined TSC clocksource has
+# replaced tsc-early (about a second after boot); before that, sleeps are
+# rounded to the 4 ms tick.
+source=/sys/devices/system/clocksource/clocksource0/current_clocksource
+for i in $(seq 1 100); do
+  [ "$(cat $source)" = tsc ] && break
+  sleep 0.1
+done
+echo "gpio-sim: clocksource $(cat $source)"
 bank=/sys/kernel/config/gpio-sim/rig
 mkdir "$bank" "$bank/bank0"
 echo 16 > "$bank/bank0/num_lines"

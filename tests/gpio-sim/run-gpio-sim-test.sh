@@ -25,7 +25,7 @@ root="$work/initramfs"
 rm -rf "$root"
 mkdir -p "$root"/{bin,proc,sys,dev}
 cp /bin/busybox "$root/bin/busybox"
-for applet in sh mount mkdir cat echo reboot; do ln -s busybox "$root/bin/$applet"; done
+for applet in sh mount mkdir cat echo reboot seq sleep; do ln -s busybox "$root/bin/$applet"; done
 cp "$here/init.sh" "$root/init"
 chmod +x "$root/init"
 cp "$check" "$root/gpio_sim_check"
