@@ -86,6 +86,16 @@ void RigSimServer::after_reply() {
   }
 }
 
+void RigSimServer::answer(modbus_t* ctx, const std::uint8_t* query, int length) {
+  const Fault fault = prepare_reply();
+  if (fault == Fault::exception) {
+    modbus_reply_exception(ctx, query, MODBUS_EXCEPTION_SLAVE_OR_SERVER_FAILURE);
+  } else if (fault == Fault::none) {
+    modbus_reply(ctx, query, length, registers_);
+    after_reply();
+  }
+}
+
 void RigSimServer::serve_tcp(const std::string& host, int port) {
   modbus_t* ctx = modbus_new_tcp(host.c_str(), port);
   if (ctx == nullptr) throw std::runtime_error("rig-sim: bad address " + host);
@@ -138,15 +148,7 @@ void RigSimServer::serve_tcp(const std::string& host, int port) {
         it = clients.erase(it);
         continue;
       }
-      if (length > 0) {
-        const Fault fault = prepare_reply();
-        if (fault == Fault::exception) {
-          modbus_reply_exception(ctx, query, MODBUS_EXCEPTION_SLAVE_OR_SERVER_FAILURE);
-        } else if (fault == Fault::none) {
-          modbus_reply(ctx, query, length, registers_);
-          after_reply();
-        }
-      }
+      if (length > 0) answer(ctx, query, length);
       ++it;
     }
   }
@@ -166,13 +168,7 @@ void RigSimServer::serve_rtu(const std::string& device) {
     const int length = modbus_receive(ctx, query);
     if (length <= 0) continue;     // a frame for another unit, or line noise
     if (disconnected()) continue;  // a dead line answers nothing
-    const Fault fault = prepare_reply();
-    if (fault == Fault::exception) {
-      modbus_reply_exception(ctx, query, MODBUS_EXCEPTION_SLAVE_OR_SERVER_FAILURE);
-    } else if (fault == Fault::none) {
-      modbus_reply(ctx, query, length, registers_);
-      after_reply();
-    }
+    answer(ctx, query, length);
   }
 }
 

@@ -43,6 +43,8 @@ class RigSimServer {
   Fault prepare_reply();
   /// Applies a changed analog-output register to the plant.
   void after_reply();
+  /// Replies to one request, or not, as the faults decide.
+  void answer(modbus_t* ctx, const std::uint8_t* query, int length);
   [[nodiscard]] bool disconnected() const;
 
   RunConfig config_;
