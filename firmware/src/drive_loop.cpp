@@ -13,19 +13,51 @@ void DriveLoop::emit(hal::TimeNs t, double V, DrivePhase phase, hal::Status stat
   if (!io_.ring.try_push({t, V, phase, status})) health_.count(health_.dropped_samples);
 }
 
+void DriveLoop::count_failure(hal::Status s) {
+  if (s != hal::Status::ok) health_.count(health_.errors);
+}
+
 void DriveLoop::stop_output(hal::TimeNs t) {
-  // Zero first, then disable: the amplifier is never left enabled at a voltage.
-  const hal::Status written = io_.drive.write(0.0);
-  (void)io_.lines.set_amplifier_enable(false);
-  (void)io_.lines.set_sync(false);
-  emit(t, 0.0, DrivePhase::stopped, written);
+  // The enable drops first: it is the path that works when the drive does
+  // not. Then 0 V, written until the drive acknowledges it or the bound
+  // passes; a drive that times out paces the retries itself.
+  constexpr hal::TimeNs kRetryPause = 2'000'000;
+  outcome_.enable_status = io_.lines.set_amplifier_enable(false);
+  count_failure(outcome_.enable_status);
+  const hal::TimeNs give_up =
+      io_.clock.now() + hal::from_seconds(supervisor_.settings().stop_confirm_s);
+  for (;;) {
+    outcome_.zero_status = io_.drive.write(0.0);
+    ++outcome_.zero_writes;
+    if (outcome_.zero_status == hal::Status::ok || io_.clock.now() >= give_up) break;
+    io_.clock.sleep_until(io_.clock.now() + kRetryPause);
+  }
+  count_failure(outcome_.zero_status);
+  count_failure(io_.lines.set_sync(false));
+  outcome_.zero_confirmed = outcome_.zero_status == hal::Status::ok;
+  outcome_.acknowledged_V = io_.drive.acknowledged_V();
+  // The log holds what the device acknowledged, never a 0 V it did not reach.
+  if (outcome_.zero_confirmed) {
+    emit(t, 0.0, DrivePhase::stopped, outcome_.zero_status);
+  } else {
+    emit(t, outcome_.acknowledged_V, DrivePhase::output_unconfirmed, outcome_.zero_status);
+  }
 }
 
 StopCause DriveLoop::run(hal::TimeNs t0) {
   const auto period = hal::from_seconds(1.0 / settings_.rate_hz);
   const double dt_nominal = 1.0 / settings_.rate_hz;
-  (void)io_.drive.write(0.0);
-  (void)io_.lines.set_amplifier_enable(true);
+  // Enable only once the drive holds 0 V and the e-stop has been looked at.
+  const hal::Status zeroed = io_.drive.write(0.0);
+  supervisor_.report_start(zeroed);
+  if (supervisor_.check(io_.clock.now(), io_.lines.poll_estop(),
+                        io_.stop_requested.load(std::memory_order_relaxed),
+                        false) == SafetyAction::disable_now) {
+    stop_output(io_.clock.now());
+    return supervisor_.cause();
+  }
+  outcome_.enabled_ever = true;
+  count_failure(io_.lines.set_amplifier_enable(true));
 
   hal::TimeNs deadline = t0;
   double V = 0.0;
@@ -68,7 +100,7 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
     const bool want_sync = phase == DrivePhase::driving && waveform_period != last_waveform_period;
     last_waveform_period = waveform_period;
     if (want_sync != sync_high) {
-      (void)io_.lines.set_sync(want_sync);
+      count_failure(io_.lines.set_sync(want_sync));
       sync_high = want_sync;
     }
     emit(deadline, V, phase, written);

@@ -4,6 +4,8 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -70,7 +72,26 @@ nlohmann::json loop_json(const LoopSummary& s) {
            {{"p50", s.p50_us}, {"p99", s.p99_us}, {"max", s.max_us}, {"mean", s.mean_us}}}};
 }
 
-nlohmann::json summary_json(const RunSummary& s, const fs::path& dir, const fs::path& log) {
+/// Writes to a stream whose reader may be gone (a closed pipe, a closed
+/// terminal): a failed write is dropped, the run goes on.
+void write_out(std::FILE* stream, const std::string& text) {
+  (void)std::fputs(text.c_str(), stream);
+  (void)std::fflush(stream);
+}
+
+nlohmann::json output_json(const RunSummary& s) {
+  const auto& o = s.output;
+  return {{"state", s.output_state()},
+          {"zero_confirmed", o.zero_confirmed},
+          {"last_acknowledged_V", std::isnan(o.acknowledged_V) ? nlohmann::json(nullptr)
+                                                               : nlohmann::json(o.acknowledged_V)},
+          {"enable_status", std::string(hal::to_string(o.enable_status))},
+          {"zero_status", std::string(hal::to_string(o.zero_status))},
+          {"zero_writes", o.zero_writes}};
+}
+
+nlohmann::json summary_json(const RunSummary& s, const fs::path& dir, const fs::path& log,
+                            const std::string& signal) {
   nlohmann::json observer = nullptr;
   if (s.observer) {
     observer = {{"samples", s.observer->samples},
@@ -79,7 +100,10 @@ nlohmann::json summary_json(const RunSummary& s, const fs::path& dir, const fs::
   }
   return {{"status", s.status()},
           {"observer", observer},
-          {"stop_cause", std::string(firmware::to_string(s.cause))},
+          {"stop_cause", s.stop_cause()},
+          {"stop_signal", signal.empty() ? nlohmann::json(nullptr) : nlohmann::json(signal)},
+          {"error", s.host_error.empty() ? nlohmann::json(nullptr) : nlohmann::json(s.host_error)},
+          {"output", output_json(s)},
           {"run_dir", dir.string()},
           {"log", log.string()},
           {"drive", loop_json(s.drive)},
@@ -90,25 +114,51 @@ nlohmann::json summary_json(const RunSummary& s, const fs::path& dir, const fs::
           {"realtime", s.realtime_notes}};
 }
 
-void print_summary(const RunSummary& s, const fs::path& log) {
-  fmt::print("run {} ({})\n", s.status(), firmware::to_string(s.cause));
-  fmt::print("  angle      {:.4f} mrad at t = {:.3f} s, mean velocity {:.4f} mrad/s\n",
-             1e3 * s.theta_end_rad, s.t_end_s, 1e3 * s.mean_velocity_rad_s);
+/// The one line that says how the output was left, in plain words.
+std::string output_line(const RunSummary& s) {
+  const auto& o = s.output;
+  if (s.output_state() == "output_unconfirmed") {
+    const std::string last = std::isnan(o.acknowledged_V)
+                                 ? "no value was ever acknowledged"
+                                 : fmt::format("it last acknowledged {:.3f} V", o.acknowledged_V);
+    return fmt::format(
+        "OUTPUT UNCONFIRMED: the drive did not acknowledge 0 V after {} writes ({}); {}. The "
+        "output may still be live: check the amplifier, its enable line and the module's "
+        "watchdog before touching the rig.",
+        o.zero_writes, hal::to_string(o.zero_status), last);
+  }
+  if (s.output_state() == "enable_unconfirmed") {
+    return fmt::format(
+        "ENABLE UNCONFIRMED: 0 V acknowledged, but dropping the amplifier enable "
+        "failed ({})",
+        hal::to_string(o.enable_status));
+  }
+  return "0 V acknowledged by the drive, amplifier disabled";
+}
+
+std::string summary_text(const RunSummary& s, const fs::path& log, const std::string& signal) {
+  std::string out = fmt::format("run {} ({}{})\n", s.status(), s.stop_cause(),
+                                signal.empty() ? "" : ", " + signal);
+  if (!s.host_error.empty()) out += fmt::format("  error      {}\n", s.host_error);
+  out += fmt::format("  output     {}\n", output_line(s));
+  out += fmt::format("  angle      {:.4f} mrad at t = {:.3f} s, mean velocity {:.4f} mrad/s\n",
+                     1e3 * s.theta_end_rad, s.t_end_s, 1e3 * s.mean_velocity_rad_s);
   for (const auto& [name, l] : {std::pair{"drive", &s.drive}, std::pair{"sensor", &s.sensor}}) {
-    fmt::print(
+    out += fmt::format(
         "  {:<7}    {} samples, {} errors, {} dropped, {} overruns ({} missed); "
         "period error p50 {:.0f} us, p99 {:.0f} us, max {:.1f} us\n",
         name, l->samples, l->errors, l->dropped, l->overruns, l->missed_cycles, l->p50_us,
         l->p99_us, l->max_us);
   }
   if (s.observer) {
-    fmt::print(
+    out += fmt::format(
         "  observer   residual {:.2f} urad rms (open-loop model {:.2f} urad rms) over {} samples\n",
         1e6 * s.observer->residual_rms_rad, 1e6 * s.observer->open_loop_rms_rad,
         s.observer->samples);
   }
-  for (const auto& note : s.realtime_notes) fmt::print("  real time  {}\n", note);
-  fmt::print("  log        {}\n", log.string());
+  for (const auto& note : s.realtime_notes) out += fmt::format("  real time  {}\n", note);
+  out += fmt::format("  log        {}\n", log.string());
+  return out;
 }
 
 void append_catalogue(const fs::path& run_dir, const std::string& utc_start,
@@ -118,8 +168,7 @@ void append_catalogue(const fs::path& run_dir, const std::string& utc_start,
   std::ofstream out(catalogue, std::ios::app);
   if (fresh) out << "run_dir,utc_start,status,stop_cause,config,t_end_s,theta_end_rad\n";
   out << fmt::format("{},{},{},{},{},{:.6g},{:.9g}\n", run_dir.filename().string(), utc_start,
-                     s.status(), firmware::to_string(s.cause), config.source, s.t_end_s,
-                     s.theta_end_rad);
+                     s.status(), s.stop_cause(), config.source, s.t_end_s, s.theta_end_rad);
 }
 
 void show_status(const LiveStatus& st) {
@@ -131,22 +180,51 @@ void show_status(const LiveStatus& st) {
       st.t_s, st.duration_s, st.V, 1e3 * st.theta_rad, 1e6 * st.residual_rad, st.sensor_samples,
       st.sensor_errors, st.overruns);
   if (tty) {
-    fmt::print(stderr, "\r{}\x1b[K", line);
+    write_out(stderr, "\r" + line + "\x1b[K");
   } else if (std::chrono::steady_clock::now() - last_line > std::chrono::seconds(1)) {
-    fmt::print(stderr, "{}\n", line);
+    write_out(stderr, line + "\n");
     last_line = std::chrono::steady_clock::now();
   }
 }
 
+/// Writes the end of the log: results, then the final status. A log that
+/// cannot be finished fails the run; what was flushed stays readable.
+void finish_log(RunLog& log, RunSummary& summary, const nlohmann::json& result) {
+  if (log.broken()) {
+    log.abandon();  // a log that failed half-way is not written again
+    return;
+  }
+  try {
+    log.write("/timing/drive_period_error_us", summary.drive.histogram);
+    log.write("/timing/acquire_period_error_us", summary.sensor.histogram);
+    log.set_attribute("summary", result.dump());
+    log.set_attribute("realtime", fmt::format("{}", fmt::join(summary.realtime_notes, "; ")));
+    log.set_attribute("stop_cause", summary.stop_cause());
+    log.set_attribute("output", summary.output_state());
+    log.close(summary.status());
+  } catch (const std::exception& e) {
+    if (summary.host_error.empty()) summary.host_error = e.what();
+    log.abandon();
+  }
+}
+
+int exit_code(const RunSummary& summary) {
+  if (summary.status() == "completed") return 0;
+  if (summary.status() == "interrupted") return kExitInterrupted;
+  return kExitFailed;
+}
+
 int run(const RunOptions& o) {
+  // From here on every stopping signal ends the run through the ramp; one
+  // that comes during set-up stops it before the amplifier is enabled.
+  const StopOnSignals signals;
   std::vector<std::string> sets = o.sets;
   if (o.duration > 0.0) sets.push_back(fmt::format("run.duration_s={}", o.duration));
   const RunConfig config = load_run_config(o.config, sets);
-  Rig rig = build_rig(config);
   const fs::path dir = choose_run_dir(o.out);
+  Rig rig = build_rig(config);
 
   // Everything is checked: only now does the run leave traces.
-  const StopOnSignals signals;
   fs::create_directories(dir);
   std::ofstream(dir / "config.toml") << config.text;
   const std::string utc_start = utc_stamp("%Y-%m-%dT%H:%M:%SZ");
@@ -165,38 +243,27 @@ int run(const RunOptions& o) {
        {"time_origin", "seconds from the run's start (first drive deadline)"},
        {"theta", "(displacement - first good displacement) / sensor.r2_m"}});
 
-  RunSummary summary;
+  RunSummary summary = execute_run(config, rig, log, signals.flag(),
+                                   o.json ? std::function<void(const LiveStatus&)>{} : show_status);
+  if (!o.json && isatty(STDERR_FILENO)) write_out(stderr, "\n");
+
+  finish_log(log, summary, summary_json(summary, dir, log_path, signals.received()));
   try {
-    summary = execute_run(config, rig, log, signals.flag(),
-                          o.json ? std::function<void(const LiveStatus&)>{} : show_status);
-  } catch (...) {
-    log.close("failed");
-    throw;
+    append_catalogue(dir, utc_start, config, summary);
+  } catch (const std::exception& e) {
+    write_out(stderr, fmt::format("piezo: warning: catalogue not updated: {}\n", e.what()));
   }
-  if (!o.json && isatty(STDERR_FILENO)) fmt::print(stderr, "\n");
-
-  log.write("/timing/drive_period_error_us", summary.drive.histogram);
-  log.write("/timing/acquire_period_error_us", summary.sensor.histogram);
-  const nlohmann::json result = summary_json(summary, dir, log_path);
-  log.set_attribute("summary", result.dump());
-  log.set_attribute("realtime", fmt::format("{}", fmt::join(summary.realtime_notes, "; ")));
-  log.set_attribute("stop_cause", std::string(firmware::to_string(summary.cause)));
-  log.close(summary.status());
-  append_catalogue(dir, utc_start, config, summary);
-
-  if (o.json) {
-    std::cout << result.dump() << "\n";
-  } else {
-    print_summary(summary, log_path);
+  // The result, rebuilt: finishing the log may have failed the run.
+  const nlohmann::json result = summary_json(summary, dir, log_path, signals.received());
+  write_out(stdout,
+            o.json ? result.dump() + "\n" : summary_text(summary, log_path, signals.received()));
+  if (summary.output_state() != "confirmed") {
+    write_out(stderr, "piezo: " + output_line(summary) + "\n");
   }
-  switch (summary.cause) {
-    case firmware::StopCause::completed:
-      return 0;
-    case firmware::StopCause::interrupted:
-      return kExitInterrupted;
-    default:
-      return kExitFailed;
+  if (!summary.host_error.empty()) {
+    write_out(stderr, fmt::format("piezo: error: {}\n", summary.host_error));
   }
+  return exit_code(summary);
 }
 
 }  // namespace

@@ -1,8 +1,21 @@
 #include "h5_file.hpp"
 
+#include <cerrno>
+#include <cstring>
 #include <stdexcept>
 
 namespace piezo::host {
+namespace {
+
+// Files are closed by their owners. HDF5's own clean-up at exit would close
+// again a file whose close failed (a full disk) and crash the process
+// (HDF5 1.10, H5F__close_cb): it is turned off before the first HDF5 call.
+const bool kNoCleanupAtExit = [] {
+  H5dont_atexit();
+  return true;
+}();
+
+}  // namespace
 
 H5Id& H5Id::operator=(H5Id&& o) noexcept {
   if (this != &o) {
@@ -101,9 +114,24 @@ void H5File::append(const std::string& name, std::span<const double> values) {
   }
 }
 
+namespace {
+std::string system_reason() {
+  return errno != 0 ? std::string(": ") + std::strerror(errno) : std::string();
+}
+}  // namespace
+
 void H5File::flush() {
+  errno = 0;
   if (H5Fflush(file_.get(), H5F_SCOPE_LOCAL) < 0)
-    throw std::runtime_error("HDF5: cannot flush " + path_);
+    throw std::runtime_error("HDF5: cannot flush " + path_ + system_reason());
+}
+
+void H5File::close() {
+  const hid_t id = file_.release();
+  errno = 0;
+  if (id >= 0 && H5Fclose(id) < 0) {
+    throw std::runtime_error("HDF5: cannot close " + path_ + system_reason());
+  }
 }
 
 bool H5File::exists(const std::string& name) const {

@@ -21,6 +21,12 @@ class H5Id {
   H5Id(H5Id&& o) noexcept : id_(o.id_), close_(o.close_) { o.id_ = H5I_INVALID_HID; }
   H5Id& operator=(H5Id&& o) noexcept;
   ~H5Id() { reset(); }
+  /// Gives up ownership without closing.
+  [[nodiscard]] hid_t release() {
+    const hid_t id = id_;
+    id_ = H5I_INVALID_HID;
+    return id;
+  }
 
   void reset();
   [[nodiscard]] hid_t get() const { return id_; }
@@ -47,6 +53,13 @@ class H5File {
   void append(const std::string& name, std::span<const double> values);
   /// Writes everything buffered to the file.
   void flush();
+  /// Closes the file now; throws, naming the file and the system's reason,
+  /// when the last writes fail (a full disk). The file is closed either way.
+  void close();
+  /// Lets go of a file that can no longer be written, without the flush a
+  /// close would try: HDF5 writes nothing more to it, so the file keeps
+  /// what its last good flush put there. For failure paths only.
+  void abandon() { (void)file_.release(); }
 
   /// A whole 1-D float64 dataset.
   [[nodiscard]] std::vector<double> read(const std::string& name) const;

@@ -1,5 +1,7 @@
 #include "modbus_config.hpp"
 
+#include <fmt/format.h>
+
 #include "config_error.hpp"
 
 namespace piezo::host {
@@ -69,8 +71,8 @@ void read_modbus_sensor(SectionReader& r, LinkSettings& link, RegisterMap& map) 
   r.number("offset", map.offset, {-1e3, 1e3}, "m");
 }
 
-void read_modbus_drive(SectionReader& r, LinkSettings& link,
-                       hal::modbus::AnalogOutputSettings& ao) {
+void read_modbus_drive(SectionReader& r, LinkSettings& link, hal::modbus::AnalogOutputSettings& ao,
+                       AnalogOutputGuard& guard) {
   r.text("ao_host", link.host);
   r.integer("ao_port", link.port, 1, 65535);
   r.integer("ao_unit_id", ao.unit_id, 0, 247);
@@ -78,6 +80,24 @@ void read_modbus_drive(SectionReader& r, LinkSettings& link,
   r.number("ao_counts_per_V", ao.counts_per_V, {0.0, 1e6, true}, "counts/V");
   r.number("ao_full_scale_V", ao.full_scale_V, {0.0, 100.0, true}, "V");
   r.number("ao_timeout_s", link.response_timeout_s, {0.001, 10.0}, "s");
+  // The module's own watchdog: registers and values from its manual.
+  std::vector<int> registers, values;
+  r.integer_list("ao_watchdog_registers", registers, 0, 65535);
+  r.integer_list("ao_watchdog_values", values, 0, 65535);
+  if (registers.size() != values.size()) {
+    throw ConfigError(r.source(), r.name("ao_watchdog_values"),
+                      fmt::format("{} values for {} ao_watchdog_registers; allowed: one value per "
+                                  "register",
+                                  values.size(), registers.size()));
+  }
+  if (!registers.empty() || r.has("ao_watchdog_s")) {
+    ao.watchdog_writes.clear();
+    for (std::size_t i = 0; i < registers.size(); ++i) {
+      ao.watchdog_writes.emplace_back(registers[i], values[i]);
+    }
+  }
+  r.number("ao_watchdog_s", guard.watchdog_s, {0.0, 60.0}, "s");
+  r.flag("ao_link_loss_acknowledged", guard.link_loss_acknowledged);
 }
 
 }  // namespace piezo::host

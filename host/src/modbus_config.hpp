@@ -18,9 +18,12 @@ inline const std::vector<std::string> kModbusSensorKeys{
     "stop_bits",     "rs485",      "unit_id", "preset", "function", "address",
     "type",          "word_order", "scale",   "offset", "range_mm", "response_timeout_s",
     "byte_timeout_s"};
-inline const std::vector<std::string> kModbusDriveKeys{
-    "ao_host",         "ao_port",         "ao_unit_id",  "ao_address",
-    "ao_counts_per_V", "ao_full_scale_V", "ao_timeout_s"};
+
+/// How a Modbus analog output is guarded against a dead link.
+struct AnalogOutputGuard {
+  double watchdog_s = 0.0;              ///< the module watchdog's timeout (0: none configured)
+  bool link_loss_acknowledged = false;  ///< the config accepts a module that holds its value
+};
 
 /// The Baumer OM20/OM30 map: FC04, register 202, f32 CDAB in millimetres, 57600 8E1, unit 1.
 void apply_baumer_om30(hal::modbus::LinkSettings& link, hal::modbus::RegisterMap& map);
@@ -30,6 +33,6 @@ void read_modbus_sensor(SectionReader& r, hal::modbus::LinkSettings& link,
                         hal::modbus::RegisterMap& map);
 /// Reads the ao_* keys of [drive].
 void read_modbus_drive(SectionReader& r, hal::modbus::LinkSettings& link,
-                       hal::modbus::AnalogOutputSettings& ao);
+                       hal::modbus::AnalogOutputSettings& ao, AnalogOutputGuard& guard);
 
 }  // namespace piezo::host

@@ -16,9 +16,6 @@
 namespace piezo::host {
 namespace {
 
-// Time for the loop threads to start and set themselves up before t0.
-constexpr double kStartLead_s = 0.1;
-
 std::unique_ptr<hal::Clock> make_clock(const RunConfig& c) {
   if (c.virtual_clock()) return std::make_unique<hal::sim::VirtualClock>();
   return std::make_unique<hal::posix::MonotonicClock>();
@@ -42,14 +39,18 @@ std::vector<unsigned> offsets(std::initializer_list<int> list) {
 std::unique_ptr<hal::Drive> make_gpio_dac(const GpioDacSettings& g, Rig& rig) {
   std::vector<unsigned> lines(g.data_offsets.begin(), g.data_offsets.end());
   if (g.strobe_offset >= 0) lines.push_back(static_cast<unsigned>(g.strobe_offset));
-  auto group = std::make_shared<hal::gpiod::GpiodOutputs>(g.chip, lines, kConsumer);
+  // Requested at code 0 and strobe idle: never a moment at full scale.
+  auto group = std::make_shared<hal::gpiod::GpiodOutputs>(
+      g.chip, lines, hal::gpio::ParallelDac::idle_levels(g.dac), kConsumer);
   rig.parts.push_back(group);
   return std::make_unique<hal::gpio::ParallelDac>(g.dac, *group);
 }
 
 std::unique_ptr<hal::DigitalLines> make_gpio_lines(const LinesSettings& l, Rig& rig) {
+  // Requested with the amplifier disabled, whatever the polarity.
   auto outputs = std::make_shared<hal::gpiod::GpiodOutputs>(
-      l.chip, offsets({l.enable_offset, l.sync_offset}), kConsumer);
+      l.chip, offsets({l.enable_offset, l.sync_offset}),
+      hal::gpio::GpioDigitalLines::idle_levels(l.gpio), kConsumer);
   rig.parts.push_back(outputs);
   hal::InputLine* estop = nullptr;
   if (l.estop_offset >= 0) {
@@ -66,15 +67,19 @@ std::unique_ptr<hal::DigitalLines> make_gpio_lines(const LinesSettings& l, Rig& 
 Rig build_rig(const RunConfig& c) {
   Rig rig;
   rig.clock = make_clock(c);
-  rig.t0 = rig.clock->now() + hal::from_seconds(kStartLead_s);
+  rig.t0 = rig.clock->now();
 
   // The simulated drive, sensor and lines share one plant (the config
   // checks that "sim" backends come together).
   std::shared_ptr<hal::sim::Plant> plant;
   if (c.drive.backend == "sim") {
     plant = std::make_shared<hal::sim::Plant>(c.plant, c.drive.amplifier, rig.clock->now());
-    rig.drive = std::make_unique<hal::sim::SimDrive>(c.drive.dac, *plant, *rig.clock, rig.t0);
-    rig.sensor = std::make_unique<hal::sim::SimSensor>(c.sensor.sim, *plant, *rig.clock, rig.t0);
+    auto drive = std::make_unique<hal::sim::SimDrive>(c.drive.dac, *plant, *rig.clock, rig.t0);
+    auto sensor = std::make_unique<hal::sim::SimSensor>(c.sensor.sim, *plant, *rig.clock, rig.t0);
+    rig.on_start.emplace_back([d = drive.get()](hal::TimeNs t0) { d->set_time_origin(t0); });
+    rig.on_start.emplace_back([s = sensor.get()](hal::TimeNs t0) { s->set_time_origin(t0); });
+    rig.drive = std::move(drive);
+    rig.sensor = std::move(sensor);
     rig.parts.push_back(plant);
   } else {
     rig.drive = c.drive.backend == "gpiod-dac" ? make_gpio_dac(c.drive.gpio_dac, rig)
@@ -83,7 +88,9 @@ Rig build_rig(const RunConfig& c) {
     rig.sensor = make_modbus_sensor(c, *rig.clock);
   }
   if (c.lines.backend == "sim") {
-    rig.lines = std::make_unique<hal::sim::SimLines>(c.lines.sim, *plant, *rig.clock, rig.t0);
+    auto lines = std::make_unique<hal::sim::SimLines>(c.lines.sim, *plant, *rig.clock, rig.t0);
+    rig.on_start.emplace_back([l = lines.get()](hal::TimeNs t0) { l->set_time_origin(t0); });
+    rig.lines = std::move(lines);
   } else if (c.lines.backend == "gpiod") {
     rig.lines = make_gpio_lines(c.lines, rig);
   } else {

@@ -3,6 +3,7 @@
 // place where backends are named. Everything is built and checked before
 // the run directory is created or the amplifier enabled.
 
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -16,13 +17,22 @@ namespace piezo::host {
 
 struct Rig {
   std::unique_ptr<hal::Clock> clock;
-  hal::TimeNs t0 = 0;  ///< the run's time origin: a moment after the threads are up
+  hal::TimeNs t0 = 0;  ///< the run's time origin, fixed by start_at() once set-up is done
   /// What the devices below are built on (the simulated plant, GPIO line
   /// groups); declared first so that it outlives them.
   std::vector<std::shared_ptr<void>> parts;
   std::unique_ptr<hal::Drive> drive;
   std::unique_ptr<hal::DisplacementSensor> sensor;
   std::unique_ptr<hal::DigitalLines> lines;
+  /// Told the time origin before the run starts (the simulated devices).
+  std::vector<std::function<void(hal::TimeNs)>> on_start;
+
+  /// Fixes the run's time origin: called after every slow set-up step, so
+  /// that the first deadline is not already late.
+  void start_at(hal::TimeNs time_origin) {
+    t0 = time_origin;
+    for (const auto& tell : on_start) tell(t0);
+  }
 };
 
 /// Builds the clock and the backends; throws ConfigError when the drive

@@ -37,6 +37,7 @@ RigSimServer::RigSimServer(const RunConfig& config)
       registers_(modbus_mapping_new(0, 0, 65536, 65536)) {
   if (registers_ == nullptr) throw std::runtime_error("rig-sim: cannot allocate registers");
   plant_.set_enabled(t_start_, true);
+  watchdog_restarted_ = t_start_;
 }
 
 RigSimServer::~RigSimServer() {
@@ -53,32 +54,53 @@ std::string RigSimServer::describe() const {
       config_.drive.ao.counts_per_V);
 }
 
-bool RigSimServer::disconnected() const {
-  return hal::to_seconds(clock_.now() - t_start_) >= config_.rig_sim.disconnect_at_s;
+double RigSimServer::since_start_s() const {
+  return hal::to_seconds(clock_.now() - t_start_);
 }
 
-RigSimServer::Fault RigSimServer::prepare_reply() {
-  std::lock_guard lock(mutex_);
-  plant_.set_input(clock_.now(), last_ao_counts_ / config_.drive.ao.counts_per_V);
+bool RigSimServer::disconnected() const {
+  return since_start_s() >= config_.rig_sim.disconnect_at_s;
+}
+
+bool RigSimServer::hanging() const {
+  const auto& f = config_.rig_sim;
+  const double t = since_start_s();
+  return t >= f.hang_at_s && t < f.hang_at_s + f.hang_for_s;
+}
+
+void RigSimServer::run_watchdog_locked(hal::TimeNs now) {
+  const std::uint16_t tenths = registers_->tab_registers[config_.rig_sim.watchdog_time_address];
+  if (tenths == 0 || now - watchdog_restarted_ < hal::from_seconds(0.1 * tenths)) return;
+  registers_->tab_registers[config_.drive.ao.address] = 0;
+  after_reply_locked();
+}
+
+RigSimServer::Fault RigSimServer::prepare_reply_locked(int function) {
+  const hal::TimeNs now = clock_.now();
+  run_watchdog_locked(now);
+  const std::uint16_t mask = registers_->tab_registers[config_.rig_sim.watchdog_mask_address];
+  if (function >= 1 && function <= 16 && (mask >> (function - 1) & 1U) != 0) {
+    watchdog_restarted_ = now;
+  }
+  plant_.set_input(now, last_ao_counts_ / config_.drive.ao.counts_per_V);
   const hal::DisplacementReading r = sensor_.read();
   const auto& m = config_.sensor.map;
   std::uint16_t* table = m.function == hal::modbus::Function::input
                              ? registers_->tab_input_registers
                              : registers_->tab_registers;
-  hal::modbus::encode(m.type, m.order, (r.displacement_m - m.offset) / m.scale,
-                      std::span<std::uint16_t>(table + m.address, 2));
+  // The config keeps address + words within the table.
+  hal::modbus::encode(
+      m.type, m.order, (r.displacement_m - m.offset) / m.scale,
+      std::span<std::uint16_t>(table + m.address,
+                               static_cast<std::size_t>(hal::modbus::word_count(m.type))));
   const auto& f = config_.rig_sim;
-  if (f.response_delay_s > 0.0) {
-    std::this_thread::sleep_for(std::chrono::duration<double>(f.response_delay_s));
-  }
   const double u = uniform_(random_);
   if (u < f.drop_probability) return Fault::drop;
   if (u < f.drop_probability + f.exception_probability) return Fault::exception;
   return Fault::none;
 }
 
-void RigSimServer::after_reply() {
-  std::lock_guard lock(mutex_);
+void RigSimServer::after_reply_locked() {
   const std::uint16_t counts = registers_->tab_registers[config_.drive.ao.address];
   if (counts != last_ao_counts_) {
     last_ao_counts_ = counts;
@@ -86,13 +108,33 @@ void RigSimServer::after_reply() {
   }
 }
 
+void RigSimServer::idle() {
+  const std::lock_guard lock(mutex_);
+  run_watchdog_locked(clock_.now());
+}
+
 void RigSimServer::answer(modbus_t* ctx, const std::uint8_t* query, int length) {
-  const Fault fault = prepare_reply();
+  if (hanging()) return;  // the module takes the request and never answers
+  const auto& f = config_.rig_sim;
+  double delay_s = f.response_delay_s;
+  {
+    const std::lock_guard lock(mutex_);
+    if (!late_reply_done_ && since_start_s() >= f.late_reply_at_s) {
+      late_reply_done_ = true;
+      delay_s += f.late_reply_s;
+    }
+  }
+  if (delay_s > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(delay_s));
+  const int function = query[modbus_get_header_length(ctx)];
+  // The registers are read by the reply and written by a write request:
+  // both under the lock, as TCP and RTU may be served at once.
+  const std::lock_guard lock(mutex_);
+  const Fault fault = prepare_reply_locked(function);
   if (fault == Fault::exception) {
     modbus_reply_exception(ctx, query, MODBUS_EXCEPTION_SLAVE_OR_SERVER_FAILURE);
   } else if (fault == Fault::none) {
     modbus_reply(ctx, query, length, registers_);
-    after_reply();
+    after_reply_locked();
   }
 }
 
@@ -128,10 +170,12 @@ void RigSimServer::serve_tcp(const std::string& host, int port) {
       max_fd = std::max(max_fd, fd);
     }
     timeval timeout{0, 20'000};
-    if (select(max_fd + 1, &ready, nullptr, nullptr, &timeout) < 0) {
+    const int ready_count = select(max_fd + 1, &ready, nullptr, nullptr, &timeout);
+    if (ready_count < 0) {
       if (errno == EINTR) continue;
       throw std::runtime_error(std::string("rig-sim: select: ") + std::strerror(errno));
     }
+    idle();  // the watchdog runs whether requests come or not
     if (listening && FD_ISSET(listener, &ready)) {
       int fd = listener;
       if (modbus_tcp_accept(ctx, &fd) >= 0) clients.push_back(modbus_get_socket(ctx));
@@ -163,8 +207,11 @@ void RigSimServer::serve_rtu(const std::string& device) {
     throw std::runtime_error(
         fmt::format("rig-sim: cannot open {}: {}", device, modbus_strerror(errno)));
   }
+  // Wake now and then without a request, for the watchdog.
+  modbus_set_indication_timeout(ctx, 0, 20'000);
   std::uint8_t query[MODBUS_RTU_MAX_ADU_LENGTH];
   for (;;) {
+    idle();
     const int length = modbus_receive(ctx, query);
     if (length <= 0) continue;     // a frame for another unit, or line noise
     if (disconnected()) continue;  // a dead line answers nothing

@@ -31,12 +31,15 @@ const std::vector<std::string> kLinesKeys{
     "enable_offset",     "sync_offset",     "estop_offset",
     "enable_active_low", "sync_active_low", "estop_active_low"};
 const std::vector<std::string> kObserverKeys{"enabled", "alpha", "beta"};
-const std::vector<std::string> kRigSimKeys{"response_delay_s", "drop_probability",
-                                           "exception_probability", "disconnect_at_s"};
+const std::vector<std::string> kRigSimKeys{
+    "response_delay_s", "drop_probability", "exception_probability",
+    "disconnect_at_s",  "late_reply_at_s",  "late_reply_s",
+    "hang_at_s",        "hang_for_s"};
 const std::vector<std::string> kRunKeys{"duration_s", "clock", "priority", "lock_memory",
                                         "flush_interval_s"};
 const std::vector<std::string> kSafetyKeys{"sensor_stale_s", "max_sensor_errors",
-                                           "max_drive_errors", "ramp_down_V_per_s"};
+                                           "max_drive_errors", "ramp_down_V_per_s",
+                                           "stop_confirm_s"};
 const std::vector<std::string> kRequiredSections{"drive", "sensor", "run"};
 
 constexpr Range kPositive{0.0, kInf, true, true};
@@ -55,7 +58,7 @@ void read_drive(const toml::table& t, const std::string& source, DriveSettings& 
   r.number("amplifier_gain", d.amplifier.gain, {0.0, 1000.0, true});
   r.number("amplifier_V_max", d.amplifier.V_out_max, {0.0, 1000.0, true}, "V");
   r.number("amplifier_slew_V_per_s", d.amplifier.slew_V_per_s, kPositive, "V/s");
-  read_modbus_drive(r, d.ao_link, d.ao);
+  read_modbus_drive(r, d.ao_link, d.ao, d.ao_guard);
   d.ao.amplifier_gain = d.amplifier.gain;
   auto& g = d.gpio_dac;
   r.text("gpio_chip", g.chip);
@@ -130,6 +133,10 @@ void read_rig_sim(const toml::table& t, const std::string& source, RigSimSetting
   r.number("drop_probability", f.drop_probability, {0.0, 1.0});
   r.number("exception_probability", f.exception_probability, {0.0, 1.0});
   r.number("disconnect_at_s", f.disconnect_at_s, kNonNegative, "s");
+  r.number("late_reply_at_s", f.late_reply_at_s, kNonNegative, "s");
+  r.number("late_reply_s", f.late_reply_s, {0.0, 10.0}, "s");
+  r.number("hang_at_s", f.hang_at_s, kNonNegative, "s");
+  r.number("hang_for_s", f.hang_for_s, {0.0, 3600.0}, "s");
 }
 
 void read_observer(const toml::table& t, const std::string& source, ObserverSettings& o) {
@@ -151,6 +158,7 @@ void read_safety(const toml::table& t, const std::string& source, firmware::Safe
   s.max_sensor_errors = static_cast<std::uint32_t>(sensor_errors);
   s.max_drive_errors = static_cast<std::uint32_t>(drive_errors);
   r.number("ramp_down_V_per_s", s.ramp_down_V_per_s, kPositive, "V/s");
+  r.number("stop_confirm_s", s.stop_confirm_s, {0.01, 30.0}, "s");
 }
 
 /// Everything one table (the file, or one --set) says, read over `c`.
@@ -258,12 +266,46 @@ void check_backends(const RunConfig& c, const std::function<std::string(const st
   }
 }
 
+/// The analog-output module's registers and the guard against a dead link.
+void check_analog_output(const RunConfig& c,
+                         const std::function<std::string(const std::string&)>& src) {
+  const auto& ao = c.drive.ao;
+  const double full_scale_counts = ao.counts_per_V * ao.full_scale_V;
+  if (full_scale_counts > hal::modbus::ModbusAnalogOutput::kMaxCounts) {
+    throw ConfigError(
+        src("drive.ao_counts_per_V"), "drive.ao_counts_per_V",
+        fmt::format("{:g} counts/V x drive.ao_full_scale_V = {:g} V is {:g} counts, beyond the "
+                    "16-bit register's 65535; allowed: ao_counts_per_V <= {:g}",
+                    ao.counts_per_V, ao.full_scale_V, full_scale_counts,
+                    hal::modbus::ModbusAnalogOutput::kMaxCounts / ao.full_scale_V));
+  }
+  if (c.drive.backend != "modbus-ao") return;
+  const auto& guard = c.drive.ao_guard;
+  if (!ao.watchdog_writes.empty() && guard.watchdog_s <= 0.0) {
+    throw ConfigError(src("drive.ao_watchdog_s"), "drive.ao_watchdog_s",
+                      "missing: the timeout the ao_watchdog_registers set, in seconds; allowed: "
+                      "(0, 60]");
+  }
+  // A module that keeps its output when the link dies cannot be reached by
+  // any stop: only its own watchdog or an enable line can end the drive then.
+  if (c.lines.backend == "none" && ao.watchdog_writes.empty() && !guard.link_loss_acknowledged) {
+    throw ConfigError(
+        src("drive.ao_watchdog_registers"), "drive.ao_watchdog_registers",
+        "missing: with drive.backend = \"modbus-ao\" and lines.backend = \"none\" nothing can "
+        "turn the output off when the Modbus link dies; configure the module's communication "
+        "watchdog (ao_watchdog_registers, ao_watchdog_values, ao_watchdog_s), wire an enable "
+        "line ([lines] backend = \"gpiod\"), or accept the risk with "
+        "drive.ao_link_loss_acknowledged = true");
+  }
+}
+
 void check_whole(const RunConfig& c, const std::map<std::string, std::string>& source_of) {
   auto src = [&](const std::string& key) {
     const auto it = source_of.find(key);
     return it == source_of.end() ? c.source : it->second;
   };
   check_backends(c, src);
+  check_analog_output(c, src);
   require_valid(c.model, c.source);
   model::Parameters plant{c.model.drive, c.plant};
   if (const auto issues = model::validate(plant); !issues.empty()) {
@@ -299,6 +341,24 @@ void check_whole(const RunConfig& c, const std::map<std::string, std::string>& s
     throw ConfigError(src("sensor.rate_hz"), "sensor.rate_hz",
                       fmt::format("{:g} Hz exceeds drive.rate_hz = {:g} Hz; allowed: <= {:g}",
                                   c.sensor.sim.rate_hz, c.drive.rate_hz, c.drive.rate_hz));
+  }
+  // A ramp to 0 V that takes longer than this is no stop.
+  constexpr double kLongestRamp_s = 2.0;
+  if (c.safety.ramp_down_V_per_s < lim.V_max / kLongestRamp_s) {
+    throw ConfigError(
+        src("safety.ramp_down_V_per_s"), "safety.ramp_down_V_per_s",
+        fmt::format("{:g} V/s takes {:.3g} s to ramp from drive.V_max = {:g} V; "
+                    "allowed: >= {:g} V/s (at most {:g} s)",
+                    c.safety.ramp_down_V_per_s, lim.V_max / c.safety.ramp_down_V_per_s, lim.V_max,
+                    lim.V_max / kLongestRamp_s, kLongestRamp_s));
+  }
+  const auto& map = c.sensor.map;
+  if (map.address + hal::modbus::word_count(map.type) - 1 > 65535) {
+    throw ConfigError(src("sensor.address"), "sensor.address",
+                      fmt::format("{} with a {}-register value runs past register 65535; "
+                                  "allowed: 0..{}",
+                                  map.address, hal::modbus::word_count(map.type),
+                                  65536 - hal::modbus::word_count(map.type)));
   }
   if (c.safety.sensor_stale_s <= 1.0 / c.sensor.sim.rate_hz) {
     throw ConfigError(src("safety.sensor_stale_s"), "safety.sensor_stale_s",

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "modbus_config.hpp"
 #include "piezo/firmware/safety_supervisor.hpp"
 #include "piezo/firmware/voltage_limiter.hpp"
 #include "piezo/hal/gpio/gpio_digital_lines.hpp"
@@ -40,6 +41,7 @@ struct DriveSettings {
   hal::sim::AmplifierSettings amplifier;
   hal::modbus::LinkSettings ao_link;
   hal::modbus::AnalogOutputSettings ao;
+  AnalogOutputGuard ao_guard;
   GpioDacSettings gpio_dac;
 };
 
@@ -74,6 +76,18 @@ struct RigSimSettings {
   double drop_probability = 0.0;       ///< requests left unanswered
   double exception_probability = 0.0;  ///< answered with exception 04 (server failure)
   double disconnect_at_s = std::numeric_limits<double>::infinity();  ///< closes every client
+  /// One reply, the first after this time, comes late_reply_s late.
+  double late_reply_at_s = std::numeric_limits<double>::infinity();
+  double late_reply_s = 0.0;
+  /// From hang_at_s on, for hang_for_s, requests get no reply (the module's
+  /// watchdog still runs).
+  double hang_at_s = std::numeric_limits<double>::infinity();
+  double hang_for_s = 0.0;
+  /// The simulated module's communication watchdog, as on a WAGO 750-352:
+  /// a holding register with the timeout in 100 ms units (0: off) and one
+  /// with the mask of function codes that restart it (bit n-1: function n).
+  int watchdog_time_address = 0x1000;
+  int watchdog_mask_address = 0x1001;
 };
 
 struct RunSettings {

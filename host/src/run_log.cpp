@@ -1,5 +1,13 @@
 #include "run_log.hpp"
 
+#include <fmt/format.h>
+#include <sys/resource.h>
+#include <sys/statvfs.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <stdexcept>
+
 namespace piezo::host {
 
 const std::vector<std::string>& RunLog::drive_columns() {
@@ -33,12 +41,44 @@ RunLog RunLog::create(const std::string& path, const std::map<std::string, std::
   return log;
 }
 
-void RunLog::append(ColumnBuffer& buffer) {
-  for (auto& [name, values] : buffer) {
-    file_.append(name, values);
-    values.clear();
+void RunLog::check_room(std::uintmax_t bytes) const {
+  // Room for the samples twice over, a new 64 KiB chunk for every dataset
+  // and the close's metadata.
+  constexpr std::uintmax_t kReserve = 2u << 20;
+  const std::uintmax_t needed = 2 * bytes + kReserve;
+  std::error_code error;
+  const std::uintmax_t size = std::filesystem::file_size(file_.path(), error);
+  std::uintmax_t room = UINTMAX_MAX;
+  struct statvfs fs {};
+  if (statvfs(file_.path().c_str(), &fs) == 0) {
+    room = static_cast<std::uintmax_t>(fs.f_bavail) * fs.f_frsize;
   }
-  file_.flush();
+  rlimit limit{};
+  if (getrlimit(RLIMIT_FSIZE, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY && !error) {
+    room = std::min<std::uintmax_t>(room, limit.rlim_cur > size ? limit.rlim_cur - size : 0);
+  }
+  if (room < needed) {
+    throw std::runtime_error(fmt::format(
+        "log {}: {} bytes left on its device or under the file-size limit, {} needed to go on "
+        "safely; the log ends here",
+        file_.path(), room, needed));
+  }
+}
+
+void RunLog::append(ColumnBuffer& buffer) {
+  std::uintmax_t bytes = 0;
+  for (const auto& [name, values] : buffer) bytes += values.size() * sizeof(double);
+  check_room(bytes);
+  try {
+    for (auto& [name, values] : buffer) {
+      file_.append(name, values);
+      values.clear();
+    }
+    file_.flush();
+  } catch (...) {
+    broken_ = true;
+    throw;
+  }
 }
 
 void RunLog::write(const std::string& name, std::span<const double> values) {
@@ -50,8 +90,23 @@ void RunLog::set_attribute(const std::string& name, const std::string& value) {
 }
 
 void RunLog::close(const std::string& status) {
-  file_.set_attribute("/", "status", status);
-  file_.flush();
+  if (broken_) {
+    abandon();
+    throw std::runtime_error("log " + file_.path() + ": not closed after a failed write");
+  }
+  try {
+    file_.set_attribute("/", "status", status);
+    file_.flush();
+  } catch (...) {
+    broken_ = true;
+    abandon();
+    throw;
+  }
+  file_.close();
+}
+
+void RunLog::abandon() noexcept {
+  file_.abandon();
 }
 
 }  // namespace piezo::host

@@ -14,6 +14,7 @@
 //   /timing/drive_period_error_us, /timing/acquire_period_error_us (histogram
 //   counts, 1 us bins), written at the end.
 
+#include <cstdint>
 #include <map>
 #include <string>
 #include <vector>
@@ -31,12 +32,22 @@ class RunLog {
   static RunLog create(const std::string& path, const std::map<std::string, std::string>& header);
 
   /// Appends the buffered columns, clears them and flushes the file.
+  /// Refuses (throws, the file still whole and closable) when the device or
+  /// the file-size limit leaves too little room for it plus a reserve for
+  /// the close: a log that runs out of space half-way through a flush is
+  /// left inconsistent by HDF5. Any other failure marks the log broken.
   void append(ColumnBuffer& buffer);
+  /// True once a write failed half-way: the file must not be written again.
+  [[nodiscard]] bool broken() const { return broken_; }
   /// Writes a dataset whole (e.g. a timing histogram).
   void write(const std::string& name, std::span<const double> values);
   void set_attribute(const std::string& name, const std::string& value);
-  /// Marks the log with its final status and flushes.
+  /// Marks the log with its final status and closes it; throws when that
+  /// fails (the file is closed either way).
   void close(const std::string& status);
+  /// Closes a log that can no longer be written, ignoring failures: what
+  /// was flushed before stays readable, marked "incomplete".
+  void abandon() noexcept;
 
   static const std::vector<std::string>& drive_columns();
   static const std::vector<std::string>& sensor_columns();
@@ -44,7 +55,9 @@ class RunLog {
 
  private:
   explicit RunLog(H5File file) : file_(std::move(file)) {}
+  void check_room(std::uintmax_t bytes) const;
   H5File file_;
+  bool broken_ = false;
 };
 
 }  // namespace piezo::host

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <latch>
 #include <limits>
 #include <optional>
 #include <thread>
@@ -22,6 +23,9 @@ using firmware::SensorSample;
 constexpr auto kDrainPeriod = 5ms;
 constexpr auto kStatusPeriod = 200ms;
 constexpr double kRingSeconds = 2.0;  // ring holds this much of each loop's output
+// From the time origin's fixing to the first deadline: the loop threads are
+// set up and waiting by then, so this only covers their wake-up.
+constexpr double kStartLead_s = 0.02;
 
 std::size_t ring_capacity(double rate_hz) {
   return static_cast<std::size_t>(std::max(4096.0, rate_hz * kRingSeconds));
@@ -106,7 +110,18 @@ class SampleCollector {
 
 }  // namespace
 
+std::string RunSummary::stop_cause() const {
+  return host_error.empty() ? std::string(firmware::to_string(cause)) : "log_failed";
+}
+
+std::string RunSummary::output_state() const {
+  if (!output.zero_confirmed) return "output_unconfirmed";
+  if (output.enable_status != hal::Status::ok) return "enable_unconfirmed";
+  return "confirmed";
+}
+
 std::string RunSummary::status() const {
+  if (!host_error.empty()) return "failed";
   switch (cause) {
     case firmware::StopCause::completed:
       return "completed";
@@ -141,10 +156,12 @@ RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::ato
   firmware::AcquireLoop acquire_loop(clock, *rig.sensor, sensor_health, sensor_ring);
 
   std::atomic<bool> drive_done{false}, acquire_done{false};
-  // A virtual clock runs as fast as the host drains the rings: none is let past half full.
+  // A virtual clock runs as fast as the host drains the rings: none is let
+  // past half full, unless the host has failed and drains no more.
+  std::atomic<bool> host_failed{false};
   clock.set_backpressure([&] {
-    return drive_ring.size_approx() > drive_ring.capacity() / 2 ||
-           sensor_ring.size_approx() > sensor_ring.capacity() / 2;
+    return !host_failed.load() && (drive_ring.size_approx() > drive_ring.capacity() / 2 ||
+                                   sensor_ring.size_approx() > sensor_ring.capacity() / 2);
   });
   std::string drive_rt_note, acquire_rt_note;
   auto realtime_setup = [&](int priority, std::string& note) {
@@ -153,10 +170,15 @@ RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::ato
         priority > 0 ? firmware::make_thread_fifo(priority).note : "normal priority (priority = 0)";
   };
 
+  // The threads set themselves up first; the time origin is fixed once
+  // they are ready, so slow set-up never makes the first cycles late.
+  std::latch threads_ready(2), time_origin_fixed(1);
   hal::SleeperScope drive_scope(clock), acquire_scope(clock);
   std::thread drive_thread([&, scope = std::move(drive_scope)]() mutable {
     const hal::SleeperScope mine(std::move(scope));
     if (realtime) realtime_setup(c.run.priority, drive_rt_note);
+    threads_ready.count_down();
+    time_origin_fixed.wait();
     summary.cause = drive_loop.run(rig.t0);
     drive_done.store(true, std::memory_order_release);
   });
@@ -164,9 +186,15 @@ RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::ato
     const hal::SleeperScope mine(std::move(scope));
     // The acquire loop runs just below the drive loop.
     if (realtime) realtime_setup(std::max(0, c.run.priority - 1), acquire_rt_note);
+    threads_ready.count_down();
+    time_origin_fixed.wait();
     acquire_loop.run(rig.t0, drive_done);
     acquire_done.store(true, std::memory_order_release);
   });
+  threads_ready.wait();
+  rig.start_at(clock.now() + hal::from_seconds(kStartLead_s));
+  supervisor.set_time_origin(rig.t0);
+  time_origin_fixed.count_down();
 
   std::optional<ObserverStage> observer;
   if (c.observer.enabled) {
@@ -174,6 +202,19 @@ RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::ato
                      rig.drive->output_latency_s());
   }
   SampleCollector collector(rig.t0, c.sensor.r2_m, observer ? &*observer : nullptr);
+  bool log_ok = true;
+  auto append_log = [&] {
+    if (!log_ok) return;
+    try {
+      log.append(collector.buffer());
+    } catch (const std::exception& e) {
+      // Stop the drive as on a stop request; the run ends failed.
+      log_ok = false;
+      summary.host_error = e.what();
+      host_failed.store(true);
+      stop_loops.store(true);
+    }
+  };
   auto drain = [&] {
     drive_ring.drain([&](const DriveSample& s) { collector.add(s); });
     sensor_ring.drain([&](const SensorSample& s) { collector.add(s); });
@@ -188,7 +229,7 @@ RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::ato
       drain();
       const auto now = std::chrono::steady_clock::now();
       if (now - last_flush >= flush_interval) {
-        log.append(collector.buffer());
+        append_log();
         last_flush = now;
       }
       if (on_status && now - last_status >= kStatusPeriod) {
@@ -202,20 +243,19 @@ RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::ato
   };
   try {
     host_loop();
-  } catch (...) {
-    // The log failed: stop the drive safely before reporting.
+  } catch (const std::exception& e) {
+    // Whatever failed on the host side, the drive stops safely first.
+    summary.host_error = e.what();
+    host_failed.store(true);
     stop_loops.store(true);
-    drive_thread.join();
-    acquire_thread.join();
-    clock.set_backpressure({});
-    throw;
   }
   drive_thread.join();
   acquire_thread.join();
   clock.set_backpressure({});
   drain();
   if (observer) observer->finish(collector.buffer());
-  log.append(collector.buffer());
+  append_log();
+  summary.output = drive_loop.outcome();
 
   summary.drive = summarise(drive_loop.health());
   summary.sensor = summarise(acquire_loop.health());

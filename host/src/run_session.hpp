@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "observer_stage.hpp"
+#include "piezo/firmware/drive_loop.hpp"
 #include "piezo/firmware/period_histogram.hpp"
 #include "piezo/firmware/safety_supervisor.hpp"
 #include "rig.hpp"
@@ -39,9 +40,16 @@ struct RunSummary {
   double mean_velocity_rad_s = 0.0;
   std::optional<ObserverSummary> observer;  ///< when [observer] is enabled
   std::vector<std::string> realtime_notes;
+  firmware::OutputOutcome output;  ///< how the drive was left, as the device acknowledged
+  std::string host_error;          ///< why the host side failed (the log), if it did
 
-  /// "completed", "interrupted" or "failed".
+  /// "completed", "interrupted" or "failed" (a host failure fails the run).
   [[nodiscard]] std::string status() const;
+  /// The firmware's stop cause, or "log_failed" when the host failed.
+  [[nodiscard]] std::string stop_cause() const;
+  /// "confirmed" (0 V acknowledged, enable dropped), "output_unconfirmed"
+  /// or "enable_unconfirmed" (the enable line's write failed).
+  [[nodiscard]] std::string output_state() const;
 };
 
 /// What the live status line shows, refreshed a few times a second.
@@ -50,7 +58,9 @@ struct LiveStatus {
   std::uint64_t sensor_samples, sensor_errors, overruns;
 };
 
-/// Runs until the duration elapses, `stop` is set or the supervisor trips.
+/// Runs until the duration elapses, `stop` is set, the supervisor trips or
+/// the log fails (then host_error says why; the drive stops as on `stop`).
+/// The run's time origin is fixed here, after the real-time set-up.
 [[nodiscard]] RunSummary execute_run(const RunConfig& config, Rig& rig, RunLog& log,
                                      const std::atomic<bool>& stop,
                                      const std::function<void(const LiveStatus&)>& on_status);

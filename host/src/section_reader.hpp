@@ -44,6 +44,7 @@ class SectionReader {
   void reject_unknown(const std::vector<std::string>& known) const;
 
   [[nodiscard]] std::string name(const std::string& key) const { return section_ + "." + key; }
+  [[nodiscard]] const std::string& source() const { return source_; }
 
  private:
   const toml::table* table_ = nullptr;

@@ -1,17 +1,32 @@
 #include "signals.hpp"
 
+#include <array>
 #include <csignal>
+#include <cstring>
 
 namespace piezo::host {
 namespace {
 
 std::atomic<bool> g_stop_requested{false};
+std::atomic<int> g_first_signal{0};
 static_assert(std::atomic<bool>::is_always_lock_free, "set from a signal handler");
+static_assert(std::atomic<int>::is_always_lock_free, "set from a signal handler");
 
-struct sigaction g_previous_int {
-}, g_previous_term{};
+// Terminating signals a person, a terminal or a session manager sends: each
+// asks for the ordinary stop. SIGTSTP (Ctrl-Z) would freeze the process with
+// the drive holding its last value, so it stops the run instead.
+constexpr std::array kStopping{SIGINT,  SIGTERM, SIGHUP,    SIGQUIT, SIGUSR1, SIGUSR2,
+                               SIGTSTP, SIGALRM, SIGVTALRM, SIGPROF, SIGXCPU};
+// Signals that only report a failed write or a background terminal access:
+// the write fails with EPIPE, EFBIG or EIO instead and the run goes on.
+constexpr std::array kIgnored{SIGPIPE, SIGXFSZ, SIGTTIN, SIGTTOU};
 
-extern "C" void request_stop(int) {
+std::array<struct sigaction, kStopping.size()> g_previous_stopping{};
+std::array<struct sigaction, kIgnored.size()> g_previous_ignored{};
+
+extern "C" void request_stop(int signal) {
+  int none = 0;
+  g_first_signal.compare_exchange_strong(none, signal);
   g_stop_requested.store(true);
 }
 
@@ -19,20 +34,39 @@ extern "C" void request_stop(int) {
 
 StopOnSignals::StopOnSignals() {
   g_stop_requested.store(false);
-  struct sigaction action {};
-  action.sa_handler = request_stop;
-  sigemptyset(&action.sa_mask);
-  sigaction(SIGINT, &action, &g_previous_int);
-  sigaction(SIGTERM, &action, &g_previous_term);
+  g_first_signal.store(0);
+  struct sigaction stop {};
+  stop.sa_handler = request_stop;
+  sigemptyset(&stop.sa_mask);
+  for (std::size_t i = 0; i < kStopping.size(); ++i) {
+    sigaction(kStopping[i], &stop, &g_previous_stopping[i]);
+  }
+  struct sigaction ignore {};
+  ignore.sa_handler = SIG_IGN;
+  sigemptyset(&ignore.sa_mask);
+  for (std::size_t i = 0; i < kIgnored.size(); ++i) {
+    sigaction(kIgnored[i], &ignore, &g_previous_ignored[i]);
+  }
 }
 
 StopOnSignals::~StopOnSignals() {
-  sigaction(SIGINT, &g_previous_int, nullptr);
-  sigaction(SIGTERM, &g_previous_term, nullptr);
+  for (std::size_t i = 0; i < kStopping.size(); ++i) {
+    sigaction(kStopping[i], &g_previous_stopping[i], nullptr);
+  }
+  for (std::size_t i = 0; i < kIgnored.size(); ++i) {
+    sigaction(kIgnored[i], &g_previous_ignored[i], nullptr);
+  }
 }
 
 const std::atomic<bool>& StopOnSignals::flag() const {
   return g_stop_requested;
+}
+
+std::string StopOnSignals::received() const {
+  const int signal = g_first_signal.load();
+  if (signal == 0) return "";
+  const char* abbrev = sigabbrev_np(signal);
+  return abbrev != nullptr ? std::string("SIG") + abbrev : std::to_string(signal);
 }
 
 }  // namespace piezo::host

@@ -1,8 +1,14 @@
 #pragma once
-// SIGINT and SIGTERM ask a run to stop: the handler only sets a flag that
-// the host loop watches, and the drive then ramps down like any other stop.
+// Every signal a user or the terminal can send while the drive runs ends
+// the run the same way: the handler only records which signal came, the
+// host loop asks the firmware to stop, and the drive ramps to 0 V and is
+// disabled like on SIGINT. Signals whose default would stop the process
+// for a reason that is no reason to stop the drive (a closed pipe, a full
+// file, a background terminal write) are ignored: the failing write then
+// returns an error that the caller handles or drops.
 
 #include <atomic>
+#include <string>
 
 namespace piezo::host {
 
@@ -14,7 +20,10 @@ class StopOnSignals {
   StopOnSignals(const StopOnSignals&) = delete;
   StopOnSignals& operator=(const StopOnSignals&) = delete;
 
+  /// Set once any stopping signal has arrived.
   [[nodiscard]] const std::atomic<bool>& flag() const;
+  /// The first stopping signal's name ("SIGHUP"), or "" while none came.
+  [[nodiscard]] std::string received() const;
 };
 
 }  // namespace piezo::host

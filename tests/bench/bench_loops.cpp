@@ -18,6 +18,7 @@
 #include "piezo/firmware/drive_loop.hpp"
 #include "piezo/firmware/realtime_setup.hpp"
 #include "piezo/hal/posix/monotonic_clock.hpp"
+#include "piezo/hal/sim/null_drive.hpp"
 #include "piezo/hal/sim/plant.hpp"
 #include "piezo/hal/sim/sim_drive.hpp"
 #include "piezo/hal/sim/sim_lines.hpp"
@@ -33,13 +34,6 @@ struct Row {
   double p50_us, p99_us, max_us;
   std::uint64_t cycles;
   std::string note;
-};
-
-/// A drive that only accepts the value: isolates the loop's own timing.
-class NullDrive final : public hal::Drive {
- public:
-  hal::Status write(double) override { return hal::Status::ok; }
-  [[nodiscard]] hal::DriveLimits limits() const override { return {0.0, 100.0}; }
 };
 
 Row measure_drive_loop(const std::string& name, hal::Drive& drive, hal::DigitalLines& lines,
@@ -146,8 +140,8 @@ int main(int argc, char** argv) {
              seconds);
 
   std::vector<Row> rows;
-  NullDrive null_drive;
   hal::posix::MonotonicClock clock;
+  hal::sim::NullDrive null_drive(clock);
   hal::sim::Plant idle_plant(model::MotorParameters{}, {}, clock.now());
   hal::sim::SimLines null_lines({}, idle_plant, clock, clock.now());
   rows.push_back(measure_drive_loop("drive loop, null drive", null_drive, null_lines, seconds));

@@ -44,10 +44,20 @@ TEST_F(SafetySupervisorTest, RepeatedSensorErrorsRampDown) {
   EXPECT_EQ(supervisor.cause(), StopCause::sensor_fault);
 }
 
-TEST_F(SafetySupervisorTest, RepeatedDriveErrorsRampDown) {
-  for (int i = 0; i < 3; ++i) supervisor.report_drive_write(hal::Status::io_error);
-  EXPECT_EQ(supervisor.check(kT0 + kMs, kReleased, false, false), SafetyAction::ramp_down);
+TEST_F(SafetySupervisorTest, RepeatedDriveErrorsDisableAtOnce) {
+  // A drive that does not take writes cannot ramp: the enable drops first.
+  for (int i = 0; i < 2; ++i) supervisor.report_drive_write(hal::Status::timeout);
+  EXPECT_EQ(supervisor.check(kT0 + kMs, kReleased, false, false), SafetyAction::run);
+  supervisor.report_drive_write(hal::Status::timeout);
+  EXPECT_EQ(supervisor.check(kT0 + kMs, kReleased, false, false), SafetyAction::disable_now);
   EXPECT_EQ(supervisor.cause(), StopCause::drive_fault);
+}
+
+TEST_F(SafetySupervisorTest, AFailingDriveOverridesARampUnderWay) {
+  EXPECT_EQ(supervisor.check(kT0 + kMs, kReleased, true, false), SafetyAction::ramp_down);
+  for (int i = 0; i < 3; ++i) supervisor.report_drive_write(hal::Status::timeout);
+  EXPECT_EQ(supervisor.check(kT0 + kMs, kReleased, false, false), SafetyAction::disable_now);
+  EXPECT_EQ(supervisor.cause(), StopCause::interrupted);
 }
 
 TEST_F(SafetySupervisorTest, TheFirstCauseSticks) {

@@ -22,6 +22,7 @@
 #include "piezo/hal/gpio/parallel_dac.hpp"
 #include "piezo/hal/gpiod/gpiod_lines.hpp"
 #include "piezo/hal/posix/monotonic_clock.hpp"
+#include "piezo/hal/sim/null_drive.hpp"
 
 namespace {
 
@@ -70,15 +71,23 @@ class ReadBack final : public hal::OutputLineGroup {
 
 void check_dac(const std::string& chip, bool data_active_low) {
   const std::vector<unsigned> offsets{0, 1, 2, 3, 4, 5, 6, 7, 8};
-  hal::gpiod::GpiodOutputs lines(chip, offsets, "gpio-sim-check");
+  const hal::gpio::ParallelDacSettings settings{.bits = 8,
+                                                .has_strobe = true,
+                                                .data_active_low = data_active_low,
+                                                .strobe_active_low = true,
+                                                .full_scale_V = 5.0,
+                                                .amplifier_gain = 20.0};
+  hal::gpiod::GpiodOutputs lines(chip, offsets, hal::gpio::ParallelDac::idle_levels(settings),
+                                 "gpio-sim-check");
+  // Before any write: the kernel holds the requested levels, code 0 (0 V)
+  // and /WR idle, not full scale.
+  bool at_zero = read_line(8) == 1;
+  for (unsigned bit = 0; bit < 8; ++bit)
+    at_zero = at_zero && read_line(bit) == (data_active_low ? 1 : 0);
+  check(at_zero, fmt::format("DAC{} right after the request: code 0 on D0..D7, /WR idle high",
+                             data_active_low ? " (data active low)" : ""));
   ReadBack readback(lines, offsets);
-  hal::gpio::ParallelDac dac({.bits = 8,
-                              .has_strobe = true,
-                              .data_active_low = data_active_low,
-                              .strobe_active_low = true,
-                              .full_scale_V = 5.0,
-                              .amplifier_gain = 20.0},
-                             readback);
+  hal::gpio::ParallelDac dac(settings, readback);
   // Codes whose bit patterns are not palindromes, so a reversed bit order shows.
   for (const unsigned code : {0u, 1u, 0x80u, 0x12u, 0xC5u, 0xFFu}) {
     readback.steps.clear();
@@ -102,10 +111,15 @@ void check_dac(const std::string& chip, bool data_active_low) {
 }
 
 void check_enable_and_sync(const std::string& chip, bool enable_active_low) {
-  hal::gpiod::GpiodOutputs outputs(chip, {10, 11}, "gpio-sim-check");
-  hal::gpio::GpioDigitalLines lines({.has_sync = true, .enable_active_low = enable_active_low},
-                                    outputs, nullptr);
+  const hal::gpio::GpioLinesSettings settings{.has_sync = true,
+                                              .enable_active_low = enable_active_low};
+  hal::gpiod::GpiodOutputs outputs(
+      chip, {10, 11}, hal::gpio::GpioDigitalLines::idle_levels(settings), "gpio-sim-check");
   const int on = enable_active_low ? 0 : 1;
+  check(read_line(10) == 1 - on && read_line(11) == 0,
+        fmt::format("enable (active {}) and sync inactive right after the request",
+                    enable_active_low ? "low" : "high"));
+  hal::gpio::GpioDigitalLines lines(settings, outputs, nullptr);
   (void)lines.set_amplifier_enable(true);
   check(read_line(10) == on, fmt::format("enable asserted reads {} (active {})", on,
                                          enable_active_low ? "low" : "high"));
@@ -117,20 +131,49 @@ void check_enable_and_sync(const std::string& chip, bool enable_active_low) {
   check(sync_high == 1 && read_line(11) == 0, "sync pulses high, then low");
 }
 
-/// A drive that accepts every value: this check is about the lines.
-class NullDrive final : public hal::Drive {
- public:
-  hal::Status write(double) override { return hal::Status::ok; }
-  [[nodiscard]] hal::DriveLimits limits() const override { return {0.0, 100.0}; }
-};
+// A start refused because the e-stop is pressed: the amplifier (enable
+// active low here) must never be enabled, not even for one write.
+void check_refused_start(const std::string& chip) {
+  set_pull(12, "pull-down");  // pressed before the run
+  const hal::gpio::GpioLinesSettings settings{
+      .has_sync = true, .enable_active_low = true, .estop_active_low = true};
+  hal::gpiod::GpiodOutputs real(chip, {10, 11}, hal::gpio::GpioDigitalLines::idle_levels(settings),
+                                "gpio-sim-check");
+  ReadBack outputs(real, {10, 11});
+  hal::gpiod::GpiodEdgeInput estop(chip, 12, "gpio-sim-check");
+  hal::gpio::GpioDigitalLines lines(settings, outputs, &estop);
+  hal::posix::MonotonicClock clock;
+  hal::sim::NullDrive drive(clock);
+  firmware::SpscRing<firmware::DriveSample> ring(1 << 10);
+  firmware::SensorHealth health;
+  firmware::SafetySettings safety;
+  safety.sensor_stale_s = 1e9;
+  const hal::TimeNs t0 = clock.now() + hal::from_seconds(0.01);
+  firmware::SafetySupervisor supervisor(safety, health, t0);
+  const model::Sawtooth saw(80.0, 50.0, 0.75);
+  const std::atomic<bool> stop{false};
+  firmware::DriveLoop loop({1000.0, 1.0, 0.02, {0.0, 80.0, 1e6}}, saw, supervisor,
+                           {clock, drive, lines, ring, stop});
+  const firmware::StopCause cause = loop.run(t0);
+  bool ever_enabled = false;
+  for (const auto& step : outputs.steps) ever_enabled = ever_enabled || step[0] == 0;
+  check(cause == firmware::StopCause::estop && !loop.outcome().enabled_ever && !ever_enabled &&
+            read_line(10) == 1,
+        fmt::format("a start refused by a pressed e-stop never enables (enable line reads {}, "
+                    "held; {} writes, none enabling)",
+                    read_line(10), outputs.steps.size()));
+  set_pull(12, "pull-up");
+}
 
 void check_loop_sync_and_estop(const std::string& chip) {
   set_pull(12, "pull-up");  // e-stop released (normally closed contact, active low)
-  hal::gpiod::GpiodOutputs outputs(chip, {10, 11}, "gpio-sim-check");
+  const hal::gpio::GpioLinesSettings settings{.has_sync = true, .estop_active_low = true};
+  hal::gpiod::GpiodOutputs outputs(
+      chip, {10, 11}, hal::gpio::GpioDigitalLines::idle_levels(settings), "gpio-sim-check");
   hal::gpiod::GpiodEdgeInput estop(chip, 12, "gpio-sim-check");
-  hal::gpio::GpioDigitalLines lines({.has_sync = true, .estop_active_low = true}, outputs, &estop);
+  hal::gpio::GpioDigitalLines lines(settings, outputs, &estop);
   hal::posix::MonotonicClock clock;
-  NullDrive drive;
+  hal::sim::NullDrive drive(clock);
   firmware::SpscRing<firmware::DriveSample> ring(1 << 16);
   firmware::SensorHealth health;
   firmware::SafetySettings safety;
@@ -195,6 +238,7 @@ int main(int argc, char** argv) {
     check_dac(chip, true);
     check_enable_and_sync(chip, false);
     check_enable_and_sync(chip, true);
+    check_refused_start(chip);
     check_loop_sync_and_estop(chip);
   } catch (const std::exception& e) {
     check(false, std::string("exception: ") + e.what());

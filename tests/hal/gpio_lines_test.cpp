@@ -1,15 +1,20 @@
 // The logic above the libgpiod adapter, on simulated lines: DAC codes, bit
-// order, strobe sequence and polarity; enable, sync and e-stop; and an
-// e-stop edge reaching the safety supervisor within one drive period.
+// order, strobe sequence and polarity; the levels lines are requested at;
+// enable, sync and e-stop; an e-stop edge reaching the safety supervisor
+// within one drive period, and dropping the enable line by itself while
+// the drive loop is blocked in a slow drive write.
 
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <thread>
 
 #include "piezo/firmware/drive_loop.hpp"
 #include "piezo/hal/gpio/gpio_digital_lines.hpp"
 #include "piezo/hal/gpio/parallel_dac.hpp"
+#include "piezo/hal/posix/monotonic_clock.hpp"
+#include "piezo/hal/sim/null_drive.hpp"
 #include "piezo/hal/sim/sim_line_group.hpp"
 #include "piezo/hal/sim/virtual_clock.hpp"
 
@@ -114,13 +119,6 @@ TEST(GpioDigitalLines, EstopLevelAndEdges) {
   EXPECT_TRUE(s.edge_seen);
 }
 
-/// A drive that accepts everything: the test watches the lines.
-class NullDrive final : public Drive {
- public:
-  Status write(double) override { return Status::ok; }
-  [[nodiscard]] DriveLimits limits() const override { return {0.0, 100.0}; }
-};
-
 // The e-stop pressed at 0.5 s on the virtual clock: the enable line must
 // fall within one 100 us drive period.
 TEST(GpioDigitalLines, AnEstopEdgeDropsTheEnableLineWithinOneDrivePeriod) {
@@ -128,7 +126,7 @@ TEST(GpioDigitalLines, AnEstopEdgeDropsTheEnableLineWithinOneDrivePeriod) {
   RecordingOutputLines outputs(2, &clock);
   SimInputLine estop(1);
   GpioDigitalLines lines({.has_sync = true, .estop_active_low = true}, outputs, &estop);
-  NullDrive drive;
+  sim::NullDrive drive(clock);
   firmware::SpscRing<firmware::DriveSample> ring(1 << 14);
   firmware::SensorHealth health;
   firmware::SafetySettings safety;
@@ -159,6 +157,72 @@ TEST(GpioDigitalLines, AnEstopEdgeDropsTheEnableLineWithinOneDrivePeriod) {
   const TimeNs dropped_at = outputs.times().back();
   EXPECT_GE(dropped_at, press_at);
   EXPECT_LE(dropped_at - press_at, 100'000) << "within one drive period";
+}
+
+// Lines are requested at these levels: nothing enabled, 0 V, strobe idle,
+// in every polarity (what the gpiod adapter hands the kernel).
+TEST(GpioLevels, IdleLevelsAreInactiveInEveryPolarity) {
+  EXPECT_EQ(GpioDigitalLines::idle_levels({.has_sync = true}), (std::vector<int>{0, 0}));
+  EXPECT_EQ(GpioDigitalLines::idle_levels(
+                {.has_sync = true, .enable_active_low = true, .sync_active_low = true}),
+            (std::vector<int>{1, 1}));
+  EXPECT_EQ(GpioDigitalLines::idle_levels({.has_sync = false, .enable_active_low = true}),
+            (std::vector<int>{1}));
+  EXPECT_EQ(
+      ParallelDac::idle_levels(
+          {.bits = 4, .has_strobe = true, .data_active_low = false, .strobe_active_low = true}),
+      (std::vector<int>{0, 0, 0, 0, 1}));
+  EXPECT_EQ(
+      ParallelDac::idle_levels(
+          {.bits = 4, .has_strobe = true, .data_active_low = true, .strobe_active_low = false}),
+      (std::vector<int>{1, 1, 1, 1, 0}));
+  // The idle data levels are the code for 0 V.
+  RecordingOutputLines lines(5);
+  ParallelDac dac({.bits = 4, .has_strobe = true, .data_active_low = true}, lines);
+  ASSERT_EQ(dac.write(0.0), Status::ok);
+  EXPECT_EQ(lines.writes().back(),
+            ParallelDac::idle_levels({.bits = 4, .has_strobe = true, .data_active_low = true}));
+}
+
+// A drive whose writes block 300 ms (a slow analog-output module): the
+// e-stop must not wait for the write. Its watcher drops the enable line
+// (active low: physical high) while the loop is still inside the write.
+TEST(GpioDigitalLines, AnEstopDropsTheEnableLineWhileTheDriveWriteBlocks) {
+  posix::MonotonicClock clock;
+  RecordingOutputLines outputs(2, &clock);
+  SimInputLine estop(1);
+  GpioDigitalLines lines({.has_sync = true, .enable_active_low = true, .estop_active_low = true},
+                         outputs, &estop);
+  constexpr double kWriteLatency_s = 0.3;
+  sim::NullDrive drive(clock, kWriteLatency_s);
+  firmware::SpscRing<firmware::DriveSample> ring(1 << 10);
+  firmware::SensorHealth health;
+  firmware::SafetySettings safety;
+  safety.sensor_stale_s = 1e9;
+  const TimeNs t0 = clock.now();
+  firmware::SafetySupervisor supervisor(safety, health, t0);
+  const model::Sawtooth saw(80.0, 10.0, 0.75);
+  const std::atomic<bool> stop{false};
+  firmware::DriveLoop loop({1000.0, 10.0, 0.1, {0.0, 80.0, 1e6}}, saw, supervisor,
+                           {clock, drive, lines, ring, stop});
+  std::thread driver([&] { (void)loop.run(t0); });
+  // The first write (0 V before enabling) and the enable, then the loop's
+  // first cycle blocks in its write for 300 ms: press in the middle of it.
+  while (outputs.level(0) != 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  const TimeNs pressed_at = clock.now();
+  estop.drive(0);
+  while (outputs.level(0) != 1) std::this_thread::sleep_for(std::chrono::microseconds(100));
+  const TimeNs disabled_at = clock.now();
+  const std::size_t ring_before = ring.size_approx();
+  driver.join();
+  EXPECT_EQ(outputs.level(0), 1) << "enable released (active low: high) at the end";
+  // The enable fell before the blocked write could return: the drive loop
+  // pushed nothing in between and needed the rest of its write to notice.
+  EXPECT_EQ(ring_before, 0u) << "the loop was still inside its first cycle's write";
+  EXPECT_EQ(supervisor.cause(), firmware::StopCause::estop);
+  std::printf("press to enable low: %.3f ms with a %.0f ms drive write\n",
+              1e3 * to_seconds(disabled_at - pressed_at), 1e3 * kWriteLatency_s);
 }
 
 }  // namespace

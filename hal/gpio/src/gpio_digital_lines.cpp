@@ -1,8 +1,26 @@
 #include "piezo/hal/gpio/gpio_digital_lines.hpp"
 
+#include <chrono>
 #include <stdexcept>
 
 namespace piezo::hal::gpio {
+namespace {
+
+// How often the watcher re-reads the level when no edge comes: a pressed
+// e-stop whose edge was lost still trips within this time.
+constexpr std::int64_t kWatchPeriodNs = 20'000'000;
+
+int level_of(bool asserted, bool active_low) {
+  return asserted != active_low ? 1 : 0;
+}
+
+}  // namespace
+
+std::vector<int> GpioDigitalLines::idle_levels(const GpioLinesSettings& s) {
+  std::vector<int> levels{level_of(false, s.enable_active_low)};
+  if (s.has_sync) levels.push_back(level_of(false, s.sync_active_low));
+  return levels;
+}
 
 GpioDigitalLines::GpioDigitalLines(const GpioLinesSettings& settings, OutputLineGroup& outputs,
                                    InputLine* estop)
@@ -10,12 +28,26 @@ GpioDigitalLines::GpioDigitalLines(const GpioLinesSettings& settings, OutputLine
   if (outputs.size() != (settings.has_sync ? 2u : 1u)) {
     throw std::invalid_argument("digital lines: expected enable and, if configured, sync");
   }
+  if (estop_ != nullptr) {
+    check_estop();  // a press held at start is seen before anything is enabled
+    watcher_ = std::thread([this] { watch(); });
+  }
+}
+
+GpioDigitalLines::~GpioDigitalLines() {
+  stopping_.store(true);
+  if (watcher_.joinable()) watcher_.join();
 }
 
 Status GpioDigitalLines::apply() {
-  levels_[0] = enabled_ != settings_.enable_active_low ? 1 : 0;
-  levels_[1] = sync_ != settings_.sync_active_low ? 1 : 0;
-  return outputs_.set_levels(std::span<const int>(levels_.data(), outputs_.size()));
+  const bool enable = enabled_ && !tripped_.load();
+  levels_[0] = level_of(enable, settings_.enable_active_low);
+  levels_[1] = level_of(sync_, settings_.sync_active_low);
+  const Status s = outputs_.set_levels(std::span<const int>(levels_.data(), outputs_.size()));
+  // The watcher may have tripped between the check and the write: it wrote
+  // enable off before or after ours; writing again settles it off.
+  if (enable && tripped_.load()) return apply();
+  return s;
 }
 
 Status GpioDigitalLines::set_amplifier_enable(bool enabled) {
@@ -29,14 +61,43 @@ Status GpioDigitalLines::set_sync(bool high) {
   return apply();
 }
 
+void GpioDigitalLines::trip() {
+  if (tripped_.exchange(true)) return;
+  // Enable off, sync idle, written from this thread: the drive loop may be
+  // blocked in a drive write for a long time.
+  std::array<int, 2> off{level_of(false, settings_.enable_active_low),
+                         level_of(false, settings_.sync_active_low)};
+  (void)outputs_.set_levels(std::span<const int>(off.data(), outputs_.size()));
+}
+
+void GpioDigitalLines::check_estop() {
+  // A line that cannot be read counts as pressed: fail safe.
+  (void)poll_estop();
+}
+
+void GpioDigitalLines::watch() {
+  while (!stopping_.load()) {
+    bool ready = false;
+    const Status waited = estop_->wait_for_edge(kWatchPeriodNs, ready);
+    if (waited != Status::ok) {
+      trip();
+      std::this_thread::sleep_for(std::chrono::nanoseconds(kWatchPeriodNs));
+      continue;
+    }
+    check_estop();
+  }
+}
+
 EstopState GpioDigitalLines::poll_estop() {
   if (estop_ == nullptr) return {};
+  // The loop looks too: whichever of the two sees the press first trips.
   EstopState state;
   int edges = 0, level = 0;
   state.status = estop_->take_edges(edges);
   if (state.status == Status::ok) state.status = estop_->level(level);
-  state.edge_seen = edges > 0;
-  state.pressed = (level == 0) == settings_.estop_active_low;
+  state.pressed = state.status == Status::ok && pressed(level);
+  if (state.status != Status::ok || edges > 0 || state.pressed) trip();
+  state.edge_seen = tripped_.load();
   return state;
 }
 

@@ -19,6 +19,12 @@ ParallelDac::ParallelDac(const ParallelDacSettings& settings, OutputLineGroup& l
   }
 }
 
+std::vector<int> ParallelDac::idle_levels(const ParallelDacSettings& s) {
+  std::vector<int> levels(static_cast<std::size_t>(s.bits), s.data_active_low ? 1 : 0);
+  if (s.has_strobe) levels.push_back(s.strobe_active_low ? 1 : 0);
+  return levels;
+}
+
 DriveLimits ParallelDac::limits() const {
   return {0.0, settings_.full_scale_V * settings_.amplifier_gain};
 }
@@ -47,10 +53,16 @@ Status ParallelDac::write(double volts) {
   const std::uint32_t code = code_for(volts);
   // Data settle with the strobe idle, then the strobe pulses: the DAC
   // latches on the pulse's trailing edge, with every bit already stable.
-  if (const Status s = put(code, false); s != Status::ok) return s;
-  if (!settings_.has_strobe) return Status::ok;
-  if (const Status s = put(code, true); s != Status::ok) return s;
-  return put(code, false);
+  Status s = put(code, false);
+  if (s == Status::ok && settings_.has_strobe) {
+    s = put(code, true);
+    if (s == Status::ok) s = put(code, false);
+  }
+  if (s == Status::ok) {
+    acknowledged_V_ = static_cast<double>(code) / static_cast<double>(max_code_) *
+                      settings_.full_scale_V * settings_.amplifier_gain;
+  }
+  return s;
 }
 
 }  // namespace piezo::hal::gpio

@@ -1,9 +1,14 @@
 #include "piezo/hal/modbus/link.hpp"
 
+#include <sys/select.h>
+#include <unistd.h>
+
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <stdexcept>
+#include <system_error>
 
 namespace piezo::hal::modbus {
 namespace {
@@ -50,7 +55,14 @@ Link::Link(const LinkSettings& settings) : settings_(settings) {
     modbus_free(ctx_);
     throw std::runtime_error("modbus " + settings.describe() + ": cannot connect: " + why);
   }
-  keeper_ = std::thread([this] { keep_connected(); });
+  try {
+    keeper_ = std::thread([this] { keep_connected(); });
+  } catch (const std::system_error& e) {
+    modbus_close(ctx_);
+    modbus_free(ctx_);
+    throw std::runtime_error("modbus " + settings.describe() +
+                             ": cannot start the link keeper: " + e.what());
+  }
 }
 
 Link::~Link() {
@@ -75,34 +87,83 @@ bool Link::try_connect() {
   return true;
 }
 
-// Waits for a lost link, then reconnects with back-off from 50 ms to 2 s.
+bool Link::drain_until_silent() {
+  // Bounded: a device that never falls silent is reconnected instead.
+  constexpr auto kLongest = std::chrono::seconds(2);
+  const auto give_up = std::chrono::steady_clock::now() + kLongest;
+  const int fd = modbus_get_socket(ctx_);
+  const auto quiet_us = static_cast<long>(2.0 * settings_.response_timeout_s * 1e6);
+  while (fd >= 0 && std::chrono::steady_clock::now() < give_up) {
+    fd_set readable;
+    FD_ZERO(&readable);
+    FD_SET(fd, &readable);
+    timeval quiet{quiet_us / 1'000'000, quiet_us % 1'000'000};
+    const int ready = select(fd + 1, &readable, nullptr, nullptr, &quiet);
+    if (ready == 0) return true;
+    if (ready < 0 && errno == EINTR) continue;
+    std::uint8_t discard[256];
+    if (ready < 0 || ::read(fd, discard, sizeof discard) <= 0) return false;
+  }
+  return false;
+}
+
+// Waits for a lost or unsynchronised link: drains an RTU line that may
+// still carry a late reply; reconnects a lost link with back-off from 50 ms
+// to 2 s, and a TCP link to resynchronise it at once.
 void Link::keep_connected() {
   using namespace std::chrono_literals;
   std::unique_lock lock(keeper_mutex_);
   auto backoff = 50ms;
   while (!stopping_) {
-    keeper_wakeup_.wait_for(lock, up_.load() ? 20ms : backoff);
+    if (!resync_.load()) keeper_wakeup_.wait_for(lock, up_.load() ? 20ms : backoff);
     if (stopping_ || up_.load(std::memory_order_acquire)) {
       backoff = 50ms;
       continue;
     }
+    const bool rtu = settings_.transport == LinkSettings::Transport::rtu;
+    if (resync_.exchange(false) && rtu && drain_until_silent()) {
+      up_.store(true, std::memory_order_release);
+      resyncing_.store(false);
+      continue;
+    }
     modbus_close(ctx_);
     if (!try_connect()) backoff = std::min(backoff * 2, std::chrono::milliseconds(2000));
+    resyncing_.store(false);
   }
+}
+
+bool Link::usable() {
+  if (up_.load(std::memory_order_acquire)) return true;
+  if (!resyncing_.load()) return false;
+  // Wait as long as a request could, rather than fail every call meanwhile.
+  const auto wait_until = std::chrono::steady_clock::now() +
+                          std::chrono::duration<double>(settings_.response_timeout_s);
+  const timespec step{0, 1'000'000};
+  while (resyncing_.load() && std::chrono::steady_clock::now() < wait_until) {
+    nanosleep(&step, nullptr);
+  }
+  return up_.load(std::memory_order_acquire);
 }
 
 Status Link::finish(int result, int error) {
   if (result >= 0) return Status::ok;
   const Status s = classify(error);
-  // A reply that comes late must not be taken for the next one.
-  if (s == Status::timeout) modbus_flush(ctx_);
+  // A reply may still be on its way (timeout), or one already came for an
+  // earlier request (a mismatched reply): hand the context to the keeper,
+  // which drains the line before the next request goes out.
+  if (s == Status::timeout || s == Status::io_error || s == Status::crc_error) {
+    resyncing_.store(true);
+    resync_.store(true);
+    up_.store(false, std::memory_order_release);
+    keeper_wakeup_.notify_one();
+  }
   // Hand the context to the keeper, which reconnects.
   if (s == Status::disconnected) up_.store(false, std::memory_order_release);
   return s;
 }
 
 Status Link::read(Function function, int unit_id, int address, int count, std::uint16_t* out) {
-  if (!up_.load(std::memory_order_acquire)) return Status::disconnected;
+  if (!usable()) return Status::disconnected;
   modbus_set_slave(ctx_, unit_id);
   const int n = function == Function::input ? modbus_read_input_registers(ctx_, address, count, out)
                                             : modbus_read_registers(ctx_, address, count, out);
@@ -110,7 +171,7 @@ Status Link::read(Function function, int unit_id, int address, int count, std::u
 }
 
 Status Link::write(int unit_id, int address, std::uint16_t value) {
-  if (!up_.load(std::memory_order_acquire)) return Status::disconnected;
+  if (!usable()) return Status::disconnected;
   modbus_set_slave(ctx_, unit_id);
   const int n = modbus_write_register(ctx_, address, value);
   return finish(n, n >= 0 ? 0 : errno);

@@ -51,6 +51,7 @@ void Plant::set_input(TimeNs t, double V_in) {
 void Plant::set_enabled(TimeNs t, bool enabled) {
   advance_to(t);
   enabled_ = enabled;
+  published_enabled_.store(enabled);
   start_ramp();
   publish();
 }

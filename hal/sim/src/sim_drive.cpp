@@ -30,6 +30,7 @@ Status SimDrive::write(double volts) {
   const double code = std::round(V_dac / dac_.full_scale_V * max_code_);
   last_code_ = static_cast<unsigned>(std::min(code, static_cast<double>(max_code_)));
   const double V_out = last_code_ * dac_.full_scale_V / max_code_;
+  acknowledged_V_ = V_out * plant_.amplifier().gain;
   const TimeNs now = clock_.now();
   if (period_ <= 0) {
     plant_.set_input(now, V_out);

@@ -7,6 +7,8 @@
 /// locks, throws nothing and does no I/O beyond the HAL.
 
 #include <atomic>
+#include <cstdint>
+#include <limits>
 
 #include "piezo/firmware/loop_health.hpp"
 #include "piezo/firmware/safety_supervisor.hpp"
@@ -36,14 +38,32 @@ struct DriveLoopIo {
   const std::atomic<bool>& stop_requested;
 };
 
+/// How the drive was left when the loop returned: what the device
+/// acknowledged, never what was only commanded.
+struct OutputOutcome {
+  bool enabled_ever = false;    ///< the amplifier was enabled at some point
+  bool zero_confirmed = false;  ///< the drive acknowledged 0 V at the stop
+  /// The last output the drive acknowledged [V] (NaN: none ever).
+  double acknowledged_V = std::numeric_limits<double>::quiet_NaN();
+  hal::Status enable_status = hal::Status::ok;  ///< of dropping the enable line
+  hal::Status zero_status = hal::Status::ok;    ///< of the last 0 V write
+  std::uint32_t zero_writes = 0;                ///< 0 V writes the stop took
+};
+
 class DriveLoop {
  public:
   DriveLoop(const DriveLoopSettings& settings, const model::Excitation& waveform,
             SafetySupervisor& supervisor, DriveLoopIo io);
 
   /// Runs from t0 (the run's time origin, a future time on the clock) until
-  /// the supervisor stops it; returns with the amplifier disabled.
+  /// the supervisor stops it; returns with the amplifier disabled. The
+  /// amplifier is enabled only after 0 V is acknowledged and the e-stop
+  /// polled; the stop drops the enable first, then writes 0 V until the
+  /// drive acknowledges it or safety.stop_confirm_s passes (see outcome()).
   StopCause run(hal::TimeNs t0);
+
+  /// Valid once run() has returned.
+  [[nodiscard]] const OutputOutcome& outcome() const { return outcome_; }
 
   [[nodiscard]] LoopHealth& health() { return health_; }
   [[nodiscard]] const LoopHealth& health() const { return health_; }
@@ -51,12 +71,14 @@ class DriveLoop {
  private:
   void emit(hal::TimeNs t, double V, DrivePhase phase, hal::Status status);
   void stop_output(hal::TimeNs t);
+  void count_failure(hal::Status s);
 
   DriveLoopSettings settings_;
   const model::Excitation& waveform_;
   SafetySupervisor& supervisor_;
   DriveLoopIo io_;
   LoopHealth health_;
+  OutputOutcome outcome_;
 };
 
 }  // namespace piezo::firmware

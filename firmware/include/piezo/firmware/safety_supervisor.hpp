@@ -1,8 +1,9 @@
 #pragma once
 /// @file
-/// Decides, every drive cycle, whether the drive may go on: an e-stop
-/// disables the amplifier at once; a stale or failing sensor, failing drive
-/// writes, a stop request or the end of the run ramp the drive to 0 V first.
+/// Decides, every drive cycle, whether the drive may go on: an e-stop or
+/// failing drive writes disable the amplifier at once (a drive that does not
+/// answer cannot ramp); a stale or failing sensor, a stop request or the end
+/// of the run ramp the drive to 0 V first.
 
 #include <algorithm>
 #include <cstdint>
@@ -18,6 +19,9 @@ struct SafetySettings {
   std::uint32_t max_sensor_errors = 20;  ///< consecutive failed reads tolerated
   std::uint32_t max_drive_errors = 3;    ///< consecutive failed writes tolerated
   double ramp_down_V_per_s = 1000.0;     ///< slew of the ramp to 0 V
+  /// How long the stop keeps writing 0 V until the drive acknowledges it;
+  /// past it the output is reported unconfirmed.
+  double stop_confirm_s = 1.0;
 };
 
 /// Why the drive stopped; `none` while it runs.
@@ -55,8 +59,8 @@ class SafetySupervisor {
   SafetySupervisor(const SafetySettings& settings, const SensorHealth& sensor, hal::TimeNs t0)
       : settings_(settings), sensor_(sensor), t0_(t0) {}
 
-  /// One check per drive cycle. The first cause found sticks; an e-stop
-  /// overrides a ramp already under way.
+  /// One check per drive cycle. The first cause found sticks; an e-stop or a
+  /// failing drive overrides a ramp already under way.
   [[nodiscard]] SafetyAction check(hal::TimeNs now, const hal::EstopState& estop,
                                    bool stop_requested, bool duration_elapsed) {
     if (estop.pressed || estop.edge_seen || estop.status != hal::Status::ok) {
@@ -64,6 +68,8 @@ class SafetySupervisor {
       return SafetyAction::disable_now;
     }
     if (cause_ == StopCause::none) cause_ = find_cause(now, stop_requested, duration_elapsed);
+    // A drive that does not take writes cannot ramp, whatever stopped it.
+    if (drive_failing()) return SafetyAction::disable_now;
     return cause_ == StopCause::none ? SafetyAction::run : SafetyAction::ramp_down;
   }
 
@@ -71,6 +77,15 @@ class SafetySupervisor {
   void report_drive_write(hal::Status s) {
     drive_errors_ = s == hal::Status::ok ? 0 : drive_errors_ + 1;
   }
+  /// Reports the 0 V write before the amplifier is enabled: a drive that
+  /// does not take it never gets the amplifier enabled.
+  void report_start(hal::Status zero_written) {
+    if (zero_written != hal::Status::ok) drive_errors_ = settings_.max_drive_errors;
+  }
+
+  /// Moves the time origin (the first sensor reading is due after it),
+  /// before the run starts.
+  void set_time_origin(hal::TimeNs t0) { t0_ = t0; }
 
   [[nodiscard]] StopCause cause() const { return cause_; }
   [[nodiscard]] const SafetySettings& settings() const { return settings_; }
@@ -78,16 +93,18 @@ class SafetySupervisor {
  private:
   [[nodiscard]] StopCause find_cause(hal::TimeNs now, bool stop_requested,
                                      bool duration_elapsed) const {
-    if (drive_errors_ >= settings_.max_drive_errors) return StopCause::drive_fault;
+    if (drive_failing()) return StopCause::drive_fault;
+    if (stop_requested) return StopCause::interrupted;
     const hal::TimeNs last_good = std::max(sensor_.last_good.load(std::memory_order_acquire), t0_);
     if (hal::to_seconds(now - last_good) > settings_.sensor_stale_s ||
         sensor_.consecutive_errors.load(std::memory_order_relaxed) >= settings_.max_sensor_errors) {
       return StopCause::sensor_fault;
     }
-    if (stop_requested) return StopCause::interrupted;
     if (duration_elapsed) return StopCause::completed;
     return StopCause::none;
   }
+
+  [[nodiscard]] bool drive_failing() const { return drive_errors_ >= settings_.max_drive_errors; }
 
   SafetySettings settings_;
   const SensorHealth& sensor_;

@@ -11,14 +11,16 @@ namespace piezo::firmware {
 
 /// The drive's phase of a run, logged with every drive sample.
 enum class DrivePhase : std::uint8_t {
-  driving = 0,   ///< following the waveform
-  ramping_down,  ///< stop requested or fault: slewing to 0 V
-  stopped,       ///< amplifier disabled
+  driving = 0,         ///< following the waveform
+  ramping_down,        ///< stop requested or fault: slewing to 0 V
+  stopped,             ///< amplifier disabled, 0 V acknowledged by the drive
+  output_unconfirmed,  ///< stopped, but the drive never acknowledged 0 V:
+                       ///< V is the last value it did acknowledge
 };
 
 struct DriveSample {
   hal::TimeNs t;  ///< when the voltage was written
-  double V;       ///< commanded amplifier output [V]
+  double V;       ///< commanded amplifier output [V] (see output_unconfirmed)
   DrivePhase phase;
   hal::Status status;  ///< of the write
 };

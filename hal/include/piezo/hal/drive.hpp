@@ -22,6 +22,10 @@ class Drive {
 
   /// Commands the amplifier output voltage [V]. Called every drive cycle: must be fast.
   virtual Status write(double volts) = 0;
+  /// The output the device last acknowledged taking [V] (a write that
+  /// returned ok); NaN before the first. What a stop reports when it cannot
+  /// confirm 0 V: never the command, only what the device confirmed.
+  [[nodiscard]] virtual double acknowledged_V() const = 0;
   /// The range the hardware can produce; the firmware clamps to it.
   [[nodiscard]] virtual DriveLimits limits() const = 0;
   /// Time from a write to the output starting to change [s]: a DAC latched

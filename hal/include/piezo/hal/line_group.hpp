@@ -37,6 +37,9 @@ class InputLine {
   virtual Status level(int& level) = 0;
   /// Edges (either direction) since the last call, without blocking. Real-time safe.
   virtual Status take_edges(int& count) = 0;
+  /// Blocks until an edge is pending (`ready` true) or `timeout_ns` passes.
+  /// For a line's own watcher thread, never for the real-time loop.
+  virtual Status wait_for_edge(std::int64_t timeout_ns, bool& ready) = 0;
   /// When the latest edge taken happened, on CLOCK_MONOTONIC [ns]; 0 if none.
   [[nodiscard]] virtual std::int64_t last_edge_ns() const { return 0; }
 };

@@ -3,8 +3,16 @@
 /// The rig's digital lines on GPIO: amplifier enable and sync as one output
 /// group, e-stop as an input with edge events, each line's polarity from
 /// config.
+///
+/// The e-stop has a path of its own: a watcher thread blocks on the input's
+/// edge events and drops the enable line itself, however long the drive
+/// loop is blocked in a drive write. Once tripped, the enable stays off for
+/// the lifetime of the lines, whatever the loop asks.
 
 #include <array>
+#include <atomic>
+#include <thread>
+#include <vector>
 
 #include "piezo/hal/digital_lines.hpp"
 #include "piezo/hal/line_group.hpp"
@@ -20,15 +28,30 @@ struct GpioLinesSettings {
 
 class GpioDigitalLines final : public DigitalLines {
  public:
-  /// `outputs`: enable, then sync if any. `estop` may be null (no e-stop wired).
+  /// The physical levels of the outputs (enable, then sync if any) with
+  /// both inactive: what the lines must be requested at.
+  [[nodiscard]] static std::vector<int> idle_levels(const GpioLinesSettings& settings);
+
+  /// `outputs`: enable, then sync if any, requested at idle_levels().
+  /// `estop` may be null (no e-stop wired); when given, its watcher starts
+  /// here and reads the line once before returning.
   GpioDigitalLines(const GpioLinesSettings& settings, OutputLineGroup& outputs, InputLine* estop);
+  ~GpioDigitalLines() override;
+  GpioDigitalLines(const GpioDigitalLines&) = delete;
+  GpioDigitalLines& operator=(const GpioDigitalLines&) = delete;
 
   Status set_amplifier_enable(bool enabled) override;
   Status set_sync(bool high) override;
+  /// The level now, and whether the watcher has tripped since the start.
   [[nodiscard]] EstopState poll_estop() override;
 
  private:
   Status apply();
+  /// Reads the input; trips on a press, an edge or a failing line.
+  void check_estop();
+  void trip();
+  void watch();
+  [[nodiscard]] bool pressed(int level) const { return (level == 0) == settings_.estop_active_low; }
 
   GpioLinesSettings settings_;
   OutputLineGroup& outputs_;
@@ -36,6 +59,9 @@ class GpioDigitalLines final : public DigitalLines {
   bool enabled_ = false;
   bool sync_ = false;
   std::array<int, 2> levels_{};
+  std::atomic<bool> tripped_{false};
+  std::atomic<bool> stopping_{false};
+  std::thread watcher_;
 };
 
 }  // namespace piezo::hal::gpio

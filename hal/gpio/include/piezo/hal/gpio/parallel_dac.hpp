@@ -7,6 +7,8 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
+#include <vector>
 
 #include "piezo/hal/drive.hpp"
 #include "piezo/hal/line_group.hpp"
@@ -26,10 +28,15 @@ class ParallelDac final : public Drive {
  public:
   static constexpr int kMaxLines = 33;  // 32 data bits and the strobe
 
+  /// The physical levels of the data lines (code 0, for 0 V) and the strobe
+  /// (idle): what the lines must be requested at.
+  [[nodiscard]] static std::vector<int> idle_levels(const ParallelDacSettings& settings);
+
   /// `lines` holds the data lines in bit order (LSB first), then the strobe if any.
   ParallelDac(const ParallelDacSettings& settings, OutputLineGroup& lines);
 
   Status write(double volts) override;
+  [[nodiscard]] double acknowledged_V() const override { return acknowledged_V_; }
   [[nodiscard]] DriveLimits limits() const override;
 
   /// The code for amplifier output `volts` (clamped to the DAC's range).
@@ -42,6 +49,7 @@ class ParallelDac final : public Drive {
   OutputLineGroup& lines_;
   std::uint32_t max_code_;
   std::array<int, kMaxLines> levels_{};
+  double acknowledged_V_ = std::numeric_limits<double>::quiet_NaN();
 };
 
 }  // namespace piezo::hal::gpio

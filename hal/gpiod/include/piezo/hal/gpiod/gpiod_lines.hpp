@@ -17,9 +17,11 @@ namespace piezo::hal::gpiod {
 /// Outputs requested together: one ioctl sets them all.
 class GpiodOutputs final : public OutputLineGroup {
  public:
-  /// Requests `offsets` of `chip` (a name like "gpiochip0" or a path) as outputs, all low.
+  /// Requests `offsets` of `chip` (a name like "gpiochip0" or a path) as
+  /// outputs that start at `initial_levels` (physical, one per offset): the
+  /// kernel drives them so from the request on, before any write.
   GpiodOutputs(const std::string& chip, const std::vector<unsigned>& offsets,
-               const std::string& consumer);
+               const std::vector<int>& initial_levels, const std::string& consumer);
   ~GpiodOutputs() override;
 
   Status set_levels(std::span<const int> levels) override;
@@ -39,6 +41,7 @@ class GpiodEdgeInput final : public InputLine {
 
   Status level(int& level) override;
   Status take_edges(int& count) override;
+  Status wait_for_edge(std::int64_t timeout_ns, bool& ready) override;
   /// The kernel's time stamp of the latest edge (CLOCK_MONOTONIC).
   [[nodiscard]] std::int64_t last_edge_ns() const override { return last_edge_ns_; }
 

@@ -5,7 +5,15 @@
 /// CRC, exception reply, disconnect) and never block longer than the
 /// response timeout. A lost connection is re-established by a keeper thread with
 /// back-off, off the real-time path: meanwhile calls return `disconnected`
-/// at once.
+/// at once. After a timeout or a reply that does not fit its request (a
+/// TCP transaction id or an RTU frame that does not match), a reply may
+/// still be on its way and must not be taken for the next request's: the
+/// keeper resynchronises the link. On TCP it reconnects at once (a late
+/// reply goes to the closed connection); on RTU, which has no transaction
+/// id and where a late reply would be taken silently, it reads and discards
+/// until the line has been silent for two response timeouts. A call
+/// meanwhile waits for the resync, up to one response timeout, then
+/// returns `disconnected`.
 
 #include <modbus.h>
 
@@ -60,13 +68,19 @@ class Link {
   Status finish(int result, int error);
   void keep_connected();
   bool try_connect();
+  /// Reads and discards until the line is silent; false if it closed or errs.
+  bool drain_until_silent();
+  /// True when the caller owns the link, waiting out a drain under way.
+  bool usable();
 
   LinkSettings settings_;
   modbus_t* ctx_ = nullptr;
   // The real-time caller owns ctx_ while up_ is true; the keeper owns it while false.
   std::atomic<bool> up_{false};
   std::atomic<bool> stopping_{false};
-  std::mutex keeper_mutex_;  // only for the keeper's sleep; never taken by a caller
+  std::atomic<bool> resync_{false};     // asks the keeper to resynchronise
+  std::atomic<bool> resyncing_{false};  // from the ask until the resync has ended
+  std::mutex keeper_mutex_;             // only for the keeper's sleep; never taken by a caller
   std::condition_variable keeper_wakeup_;
   std::thread keeper_;
 };

@@ -47,6 +47,8 @@ class Plant {
   [[nodiscard]] PlantSnapshot latest() const;
 
   [[nodiscard]] const AmplifierSettings& amplifier() const { return amplifier_; }
+  /// Whether the amplifier's output is enabled (any thread).
+  [[nodiscard]] bool enabled() const { return published_enabled_.load(); }
 
  private:
   void advance_to(TimeNs t);
@@ -68,6 +70,7 @@ class Plant {
   std::atomic<double> published_theta_{0.0};
   std::atomic<double> published_theta_dot_{0.0};
   std::atomic<double> published_V_out_{0.0};
+  std::atomic<bool> published_enabled_{false};
 };
 
 }  // namespace piezo::hal::sim

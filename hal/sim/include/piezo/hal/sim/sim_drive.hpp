@@ -6,6 +6,8 @@
 /// its LDAC input), so the software's wake-up jitter never reaches the
 /// output; a write later than a whole period misses its tick.
 
+#include <limits>
+
 #include "piezo/hal/clock.hpp"
 #include "piezo/hal/drive.hpp"
 #include "piezo/hal/sim/plant.hpp"
@@ -24,12 +26,16 @@ class SimDrive final : public Drive {
   SimDrive(const DacSettings& dac, Plant& plant, const Clock& clock, TimeNs tick_origin = 0);
 
   Status write(double volts) override;
+  /// The value of the code the DAC took last (it takes every valid write).
+  [[nodiscard]] double acknowledged_V() const override { return acknowledged_V_; }
   [[nodiscard]] DriveLimits limits() const override;
   /// A write in the drive loop's cycle latches on the next tick: one period.
   [[nodiscard]] double output_latency_s() const override { return dac_.update_period_s; }
 
   /// The DAC code the last write produced.
   [[nodiscard]] unsigned last_code() const { return last_code_; }
+  /// Moves the latch ticks' grid to the run's time origin, before the run starts.
+  void set_time_origin(TimeNs t0) { tick_origin_ = t0; }
 
  private:
   DacSettings dac_;
@@ -45,6 +51,7 @@ class SimDrive final : public Drive {
   bool pending_ = false;
   TimeNs pending_tick_ = 0;
   double pending_V_ = 0.0;
+  double acknowledged_V_ = std::numeric_limits<double>::quiet_NaN();
 };
 
 }  // namespace piezo::hal::sim

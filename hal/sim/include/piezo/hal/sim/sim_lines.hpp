@@ -29,6 +29,8 @@ class SimLines final : public DigitalLines {
   void press_estop() { estop_pressed_.store(true, std::memory_order_release); }
   [[nodiscard]] bool amplifier_enabled() const { return enabled_.load(); }
   [[nodiscard]] long sync_pulses() const { return sync_pulses_.load(); }
+  /// Moves the time origin of estop_at_s, before the run starts.
+  void set_time_origin(TimeNs t0) { t0_ = t0; }
 
  private:
   SimLinesSettings settings_;

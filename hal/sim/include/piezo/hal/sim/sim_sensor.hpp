@@ -34,6 +34,9 @@ class SimSensor final : public DisplacementSensor {
   [[nodiscard]] DisplacementReading read() override;
   [[nodiscard]] double rate_hz() const override { return settings_.rate_hz; }
 
+  /// Moves the time origin of the settings' times, before the run starts.
+  void set_time_origin(TimeNs t0) { t0_ = t0; }
+
  private:
   [[nodiscard]] bool stalled(TimeNs t) const;
 

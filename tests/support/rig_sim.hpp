@@ -1,0 +1,104 @@
+#pragma once
+// `piezo rig-sim` for tests over real links: a free loopback port, waiting
+// for the server or a pty, and a fixture that starts rig-sim with the
+// Modbus HIL config and reads it with the independent peers.
+
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "run_command.hpp"
+#include "spawn.hpp"
+
+namespace piezo::testing {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+inline const std::string kPiezo = PIEZO_BINARY;
+inline const std::string kConfig = std::string(PIEZO_SOURCE_DIR) + "/configs/modbus-hil.toml";
+
+/// A port of this test process's own (tests run in parallel, one process each).
+inline int free_port() {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr);
+  socklen_t len = sizeof addr;
+  getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
+  close(fd);
+  return ntohs(addr.sin_port);
+}
+
+inline bool wait_for_tcp(int port) {
+  for (int i = 0; i < 100; ++i) {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(static_cast<std::uint16_t>(port));
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    const bool ok = connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
+    close(fd);
+    if (ok) return true;
+    std::this_thread::sleep_for(50ms);
+  }
+  return false;
+}
+
+inline bool wait_for_path(const fs::path& p) {
+  for (int i = 0; i < 100 && !fs::exists(p); ++i) std::this_thread::sleep_for(50ms);
+  return fs::exists(p);
+}
+
+class ModbusHil : public ::testing::Test {
+ protected:
+  fs::path dir = fresh_temp_dir(::testing::UnitTest::GetInstance()->current_test_info()->name());
+  int port = free_port();
+
+  std::unique_ptr<Spawned> start_rig_sim(const std::vector<std::string>& extra = {}) {
+    std::vector<std::string> args{kPiezo,  "rig-sim", "--config",
+                                  kConfig, "--set",   "sensor.port=" + std::to_string(port)};
+    args.insert(args.end(), extra.begin(), extra.end());
+    auto rig = std::make_unique<Spawned>(args, (dir / "rig-sim.txt").string());
+    return rig;
+  }
+
+  /// `piezo sensor read --json` against the port (or the given --set keys).
+  nlohmann::json sensor_read(int count, const std::string& sets, int expected_exit = 0) {
+    const auto r = run_command(kPiezo + " sensor read --config " + kConfig + " --count " +
+                               std::to_string(count) + " --json " + sets);
+    EXPECT_EQ(r.exit_code, expected_exit) << r.err;
+    return r.out.empty() ? nlohmann::json{} : nlohmann::json::parse(r.out);
+  }
+
+  std::string tcp_sets() const { return "--set sensor.port=" + std::to_string(port); }
+};
+
+class ModbusRtu : public ModbusHil {
+ protected:
+  void SetUp() override {
+    pty_pair = std::make_unique<Spawned>(
+        std::vector<std::string>{"/usr/bin/socat", "pty,raw,echo=0,link=" + (dir / "ptyA").string(),
+                                 "pty,raw,echo=0,link=" + (dir / "ptyB").string()},
+        (dir / "socat.txt").string());
+    ASSERT_TRUE(wait_for_path(dir / "ptyA") && wait_for_path(dir / "ptyB"));
+  }
+  std::string rtu_sets(const std::string& parity = "E") const {
+    return "--set sensor.backend=modbus-rtu --set sensor.device=" + (dir / "ptyB").string() +
+           " --set sensor.parity=" + parity;
+  }
+  std::unique_ptr<Spawned> pty_pair;
+};
+
+}  // namespace piezo::testing
