@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "piezo/hal/modbus/link.hpp"
+#include "piezo/hal/modbus/modbus_analog_output.hpp"
 
 namespace piezo::hal::modbus {
 namespace {
@@ -79,6 +80,17 @@ TEST(LinkErrors, LibmodbusErrorsMapToStatusClasses) {
   EXPECT_EQ(Link::classify(ECONNRESET), Status::disconnected);
   EXPECT_EQ(Link::classify(EPIPE), Status::disconnected);
   EXPECT_EQ(Link::classify(EMBBADDATA), Status::io_error);
+}
+
+// Full scale past the 16-bit register must clamp, never wrap (65106 -> 637
+// in one step would be a jump no slew limit saw).
+TEST(AnalogOutputCounts, ClampToTheRegisterInsteadOfWrapping) {
+  const AnalogOutputSettings big{.counts_per_V = 10'000, .full_scale_V = 10, .amplifier_gain = 20};
+  EXPECT_EQ(counts_for(big, 130.2), 65'100);
+  EXPECT_EQ(counts_for(big, 200.0), 65'535);
+  EXPECT_EQ(counts_for(big, -5.0), 0);
+  const AnalogOutputSettings usual{.counts_per_V = 1000, .full_scale_V = 10, .amplifier_gain = 20};
+  EXPECT_EQ(counts_for(usual, 51.2), 2'560);
 }
 
 }  // namespace

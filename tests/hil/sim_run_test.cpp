@@ -5,12 +5,14 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <thread>
 
 #include "../support/run_command.hpp"
 #include "h5_file.hpp"
 #include "piezo/firmware/samples.hpp"
+#include "piezo/hal/sim/plant.hpp"
 #include "piezo/model/sampled_drive.hpp"
 #include "piezo/model/simulate.hpp"
 #include "rig.hpp"
@@ -23,6 +25,8 @@ namespace {
 
 struct Outcome {
   RunSummary summary;
+  bool amplifier_enabled_at_end = true;  ///< the simulated amplifier, read after the run
+  double amplifier_V_at_end = -1.0;
   std::vector<double> drive_t, drive_V, drive_phase, sensor_t, theta;
 };
 
@@ -37,6 +41,10 @@ Outcome run_virtual(std::vector<std::string> sets, const std::atomic<bool>* stop
   static const std::atomic<bool> never{false};
   Outcome out;
   out.summary = execute_run(config, rig, log, stop ? *stop : never, {});
+  // The device side: the simulated amplifier the drive and lines act on.
+  const auto plant = std::static_pointer_cast<hal::sim::Plant>(rig.parts.front());
+  out.amplifier_enabled_at_end = plant->enabled();
+  out.amplifier_V_at_end = plant->latest().V_out;
   log.close(out.summary.status());
   const H5File file = H5File::open(path);
   out.drive_t = file.read("/drive/t");
@@ -107,6 +115,31 @@ TEST(SimRun, TheObserverTracksAMismatchedPlant) {
   EXPECT_LT(obs.residual_rms_rad, 2 * 8.1e-6);
   EXPECT_GT(obs.open_loop_rms_rad, 20 * obs.residual_rms_rad)
       << "open loop " << obs.open_loop_rms_rad << ", corrected " << obs.residual_rms_rad;
+}
+
+TEST(SimRun, EveryEndLeavesTheSimulatedAmplifierDisabled) {
+  for (const auto& end : {"lines.estop_at_s=0.3", "sensor.stall_at_s=0.3", "run.duration_s=0.3"}) {
+    const Outcome o = run_virtual({end, "run.duration_s=1"});
+    EXPECT_FALSE(o.amplifier_enabled_at_end) << end;
+    EXPECT_EQ(o.summary.output_state(), "confirmed") << end;
+    EXPECT_NEAR(o.amplifier_V_at_end, 0.0, 1.0) << end << ": disabled, slewing down";
+  }
+}
+
+// Slow set-up (a Modbus connection, a log on a slow disk, mlockall) between
+// building the rig and starting: the time origin is fixed after it, so the
+// first cycles are not late and the sensor is not taken for stale.
+TEST(SimRun, SlowSetUpBeforeTheStartIsNoSensorFault) {
+  const RunConfig config =
+      load_run_config(PIEZO_SOURCE_DIR "/configs/sim.toml",
+                      {"run.duration_s=0.3", "run.lock_memory=false", "run.priority=0"});
+  Rig rig = build_rig(config);
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));
+  const auto dir = testing::fresh_temp_dir("hil-slow-setup");
+  RunLog log = RunLog::create((dir / "run.h5").string(), {{"config", config.text}});
+  const std::atomic<bool> never{false};
+  const RunSummary s = execute_run(config, rig, log, never, {});
+  EXPECT_EQ(s.cause, firmware::StopCause::completed);
 }
 
 TEST(SimRun, EstopDisablesWithinOneDrivePeriod) {

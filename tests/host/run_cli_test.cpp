@@ -132,8 +132,36 @@ INSTANTIATE_TEST_SUITE_P(
                "run.clock: must be one of: \"realtime\", \"virtual\""},
         BadRun{"SlewTooLow", "--set drive.slew_V_per_s=1000", "",
                "drive.slew_V_per_s: 1000 V/s is below the sawtooth's fastest edge"},
-        BadRun{"BadPlant", "--set plant.mu=-0.1", "", "plant.mu"}),
+        BadRun{"BadPlant", "--set plant.mu=-0.1", "", "plant.mu"},
+        BadRun{"RampTooSlow", "--set safety.ramp_down_V_per_s=1e-3", "",
+               "safety.ramp_down_V_per_s: 0.001 V/s takes 8e+04 s to ramp from drive.V_max = 80 "
+               "V; allowed: >= 40 V/s"},
+        BadRun{"StopConfirmTooLong", "--set safety.stop_confirm_s=100", "",
+               "safety.stop_confirm_s"},
+        BadRun{"SensorRegisterPastTheTable", "--set sensor.type=\"f32\" --set sensor.address=65535",
+               "", "sensor.address: 65535 with a 2-register value runs past register 65535"}),
     [](const auto& param_info) { return std::string(param_info.param.name); });
+
+// A log that cannot grow (a file-size limit) on the virtual clock: the
+// drive stops, nothing hangs (the loops no longer wait for a host that has
+// stopped draining), the process exits 1 naming the cause, and the log is
+// closed, marked failed and readable.
+TEST(RunCli, AFullDiskOnTheVirtualClockStopsTheRunWithExit1) {
+  const auto dir = fresh_temp_dir("run-full-disk");
+  const fs::path script = dir / "full-disk.sh";
+  write_file(script, "ulimit -f 6000\n" + kPiezo + " run --config " + kSimConfig +
+                         " --set run.clock=virtual --duration 60 --json --out " +
+                         (dir / "run").string() + "\n");
+  const auto r = run_command("timeout 120 bash " + script.string());
+  ASSERT_EQ(r.exit_code, 1) << "124 would be a hang: " << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j.at("stop_cause"), "log_failed");
+  EXPECT_EQ(j.at("output").at("state"), "confirmed");
+  EXPECT_LT(j.at("t_end_s").get<double>(), 60.0);
+  const auto check = h5py_check(dir / "run" / "run.h5",
+                                "print(f.attrs['status'].decode(), len(f['drive/V']) > 0)\n");
+  EXPECT_EQ(check.out, "failed True\n") << check.err;
+}
 
 TEST(RunCli, SigintRampsDownClosesTheLogInterruptedAndExits130) {
   const auto dir = fresh_temp_dir("run-sigint");
