@@ -67,7 +67,9 @@ void GpioDigitalLines::trip() {
   // blocked in a drive write for a long time.
   std::array<int, 2> off{level_of(false, settings_.enable_active_low),
                          level_of(false, settings_.sync_active_low)};
-  (void)outputs_.set_levels(std::span<const int>(off.data(), outputs_.size()));
+  if (outputs_.set_levels(std::span<const int>(off.data(), outputs_.size())) != Status::ok) {
+    trip_write_failed_.store(true);  // reported by every later poll
+  }
 }
 
 void GpioDigitalLines::check_estop() {
@@ -98,6 +100,7 @@ EstopState GpioDigitalLines::poll_estop() {
   state.pressed = state.status == Status::ok && pressed(level);
   if (state.status != Status::ok || edges > 0 || state.pressed) trip();
   state.edge_seen = tripped_.load();
+  if (trip_write_failed_.load()) state.status = Status::io_error;
   return state;
 }
 

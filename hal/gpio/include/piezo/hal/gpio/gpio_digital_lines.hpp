@@ -60,6 +60,7 @@ class GpioDigitalLines final : public DigitalLines {
   bool sync_ = false;
   std::array<int, 2> levels_{};
   std::atomic<bool> tripped_{false};
+  std::atomic<bool> trip_write_failed_{false};
   std::atomic<bool> stopping_{false};
   std::thread watcher_;
 };
