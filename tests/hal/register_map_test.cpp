@@ -85,11 +85,14 @@ TEST(LinkErrors, LibmodbusErrorsMapToStatusClasses) {
 // Full scale past the 16-bit register must clamp, never wrap (65106 -> 637
 // in one step would be a jump no slew limit saw).
 TEST(AnalogOutputCounts, ClampToTheRegisterInsteadOfWrapping) {
-  const AnalogOutputSettings big{.counts_per_V = 10'000, .full_scale_V = 10, .amplifier_gain = 20};
+  AnalogOutputSettings big;
+  big.counts_per_V = 10'000;
+  big.full_scale_V = 10;
+  big.amplifier_gain = 20;
   EXPECT_EQ(counts_for(big, 130.2), 65'100);
   EXPECT_EQ(counts_for(big, 200.0), 65'535);
   EXPECT_EQ(counts_for(big, -5.0), 0);
-  const AnalogOutputSettings usual{.counts_per_V = 1000, .full_scale_V = 10, .amplifier_gain = 20};
+  AnalogOutputSettings usual;  // 1000 counts/V, 10 V, gain 20
   EXPECT_EQ(counts_for(usual, 51.2), 2'560);
 }
 
