@@ -94,7 +94,9 @@ TEST_P(StoppingSignal, RampsDownAndLeavesTheOutputAtZero) {
 
 INSTANTIATE_TEST_SUITE_P(Signals, StoppingSignal,
                          ::testing::Values(SIGHUP, SIGQUIT, SIGTSTP, SIGUSR1),
-                         [](const auto& info) { return std::string(sigabbrev_np(info.param)); });
+                         [](const auto& signal_info) {
+                           return std::string(sigabbrev_np(signal_info.param));
+                         });
 
 // `piezo run ... 2>&1 | head -n1`: the reader goes away after one line. The
 // run must not die of SIGPIPE mid-drive; it goes on to its end.
