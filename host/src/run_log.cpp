@@ -41,6 +41,20 @@ RunLog RunLog::create(const std::string& path, const std::map<std::string, std::
   return log;
 }
 
+namespace {
+
+// Slice `slice` of `slices` over `size` rows: the same rows of every column
+// of one group, so the groups' columns stay equally long after each slice.
+std::size_t slice_begin(std::size_t size, std::size_t slices, std::size_t slice) {
+  return size * slice / slices;
+}
+
+std::size_t slice_length(std::size_t size, std::size_t slices, std::size_t slice) {
+  return slice_begin(size, slices, slice + 1) - slice_begin(size, slices, slice);
+}
+
+}  // namespace
+
 void RunLog::check_room(std::uintmax_t bytes) const {
   // Room for the samples twice over, a new 64 KiB chunk for every dataset
   // and the close's metadata.
@@ -58,7 +72,7 @@ void RunLog::check_room(std::uintmax_t bytes) const {
     room = std::min<std::uintmax_t>(room, limit.rlim_cur > size ? limit.rlim_cur - size : 0);
   }
   if (room < needed) {
-    throw std::runtime_error(fmt::format(
+    throw RoomError(fmt::format(
         "log {}: {} bytes left on its device or under the file-size limit, {} needed to go on "
         "safely; the log ends here",
         file_.path(), room, needed));
@@ -66,19 +80,43 @@ void RunLog::check_room(std::uintmax_t bytes) const {
 }
 
 void RunLog::append(ColumnBuffer& buffer) {
-  std::uintmax_t bytes = 0;
-  for (const auto& [name, values] : buffer) bytes += values.size() * sizeof(double);
-  check_room(bytes);
-  try {
+  // Written in slices, each checked for room first, so a log that meets a
+  // full disk or a file-size limit keeps every slice that fitted instead of
+  // losing the whole flush interval.
+  constexpr std::size_t kSliceBytes = 512u << 10;
+  std::size_t total = 0;
+  for (const auto& [name, values] : buffer) total += values.size() * sizeof(double);
+  const std::size_t slices = std::max<std::size_t>(1, (total + kSliceBytes - 1) / kSliceBytes);
+  std::size_t written = 0;
+  const auto drop_written = [&] {
     for (auto& [name, values] : buffer) {
-      file_.append(name, values);
-      values.clear();
+      values.erase(values.begin(),
+                   values.begin() + static_cast<std::ptrdiff_t>(
+                                        slice_begin(values.size(), slices, written)));
     }
-    file_.flush();
+  };
+  try {
+    for (; written < slices; ++written) {
+      std::uintmax_t bytes = 0;
+      for (const auto& [name, values] : buffer) {
+        bytes += slice_length(values.size(), slices, written) * sizeof(double);
+      }
+      check_room(bytes);
+      for (auto& [name, values] : buffer) {
+        file_.append(name, std::span<const double>(values).subspan(
+                               slice_begin(values.size(), slices, written),
+                               slice_length(values.size(), slices, written)));
+      }
+      file_.flush();
+    }
+  } catch (const RoomError&) {
+    drop_written();  // the refused slice wrote nothing: the log stays whole
+    throw;
   } catch (...) {
     broken_ = true;
     throw;
   }
+  for (auto& [name, values] : buffer) values.clear();
 }
 
 void RunLog::write(const std::string& name, std::span<const double> values) {

@@ -16,6 +16,8 @@
 
 #include <cstdint>
 #include <map>
+#include <span>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -26,16 +28,24 @@ namespace piezo::host {
 /// Columns of samples waiting to be appended, keyed by dataset path.
 using ColumnBuffer = std::map<std::string, std::vector<double>>;
 
+/// The log refused a write for want of room; the file is still whole.
+class RoomError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 class RunLog {
  public:
   /// Creates the file, its datasets and the header attributes, and flushes.
   static RunLog create(const std::string& path, const std::map<std::string, std::string>& header);
 
-  /// Appends the buffered columns, clears them and flushes the file.
-  /// Refuses (throws, the file still whole and closable) when the device or
-  /// the file-size limit leaves too little room for it plus a reserve for
-  /// the close: a log that runs out of space half-way through a flush is
-  /// left inconsistent by HDF5. Any other failure marks the log broken.
+  /// Appends the buffered columns, clears them and flushes the file, in
+  /// slices. Refuses a slice (throws RoomError, the file still whole and
+  /// closable, the slices before it written and removed from the buffer)
+  /// when the device or the file-size limit leaves too little room for it
+  /// plus a reserve for the close: a log that runs out of space half-way
+  /// through a flush is left inconsistent by HDF5. Any other failure marks
+  /// the log broken.
   void append(ColumnBuffer& buffer);
   /// True once a write failed half-way: the file must not be written again.
   [[nodiscard]] bool broken() const { return broken_; }
