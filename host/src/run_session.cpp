@@ -2,15 +2,11 @@
 
 #include <chrono>
 #include <cmath>
-#include <latch>
 #include <limits>
 #include <optional>
 #include <thread>
 
-#include "piezo/firmware/acquire_loop.hpp"
-#include "piezo/firmware/drive_loop.hpp"
-#include "piezo/firmware/realtime_setup.hpp"
-#include "piezo/firmware/spsc_ring.hpp"
+#include "piezo/firmware/loop_runner.hpp"
 #include "piezo/model/waveform.hpp"
 
 namespace piezo::host {
@@ -22,15 +18,6 @@ using firmware::SensorSample;
 
 constexpr auto kDrainPeriod = 5ms;
 constexpr auto kStatusPeriod = 200ms;
-constexpr double kRingSeconds = 2.0;  // ring holds this much of each loop's output
-// From the time origin's fixing to the first deadline: the loop threads are
-// set up and waiting by then, so this only covers their wake-up.
-constexpr double kStartLead_s = 0.02;
-
-std::size_t ring_capacity(double rate_hz) {
-  return static_cast<std::size_t>(std::max(4096.0, rate_hz * kRingSeconds));
-}
-
 LoopSummary summarise(const firmware::LoopHealth& h) {
   LoopSummary s;
   s.samples = h.cycles.load();
@@ -135,66 +122,17 @@ std::string RunSummary::status() const {
 RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::atomic<bool>& stop,
                        const std::function<void(const LiveStatus&)>& on_status) {
   hal::Clock& clock = *rig.clock;
-  const bool realtime = !c.virtual_clock();
   RunSummary summary;
-  if (realtime && c.run.lock_memory) {
-    summary.realtime_notes.push_back(firmware::lock_process_memory().note);
-  }
-  std::optional<firmware::CpuLatencyRequest> cpu_latency;
-  if (realtime) summary.realtime_notes.push_back(cpu_latency.emplace().result().note);
-
-  // The loops watch this, set from `stop` by the host loop below, or when the host fails.
-  std::atomic<bool> stop_loops{false};
-  firmware::SpscRing<DriveSample> drive_ring(ring_capacity(c.drive.rate_hz));
-  firmware::SpscRing<SensorSample> sensor_ring(ring_capacity(c.sensor.sim.rate_hz));
-  firmware::SensorHealth sensor_health;
-  firmware::SafetySupervisor supervisor(c.safety, sensor_health, rig.t0);
   const model::Sawtooth waveform(c.model.drive.V0, c.model.drive.f, c.model.drive.D());
-  firmware::DriveLoop drive_loop(
-      {c.drive.rate_hz, c.run.duration_s, 1.0 / c.model.drive.f, c.drive.limits}, waveform,
-      supervisor, {clock, *rig.drive, *rig.lines, drive_ring, stop_loops});
-  firmware::AcquireLoop acquire_loop(clock, *rig.sensor, sensor_health, sensor_ring);
-
-  std::atomic<bool> drive_done{false}, acquire_done{false};
-  // A virtual clock runs as fast as the host drains the rings: none is let
-  // past half full, unless the host has failed and drains no more.
-  std::atomic<bool> host_failed{false};
-  clock.set_backpressure([&] {
-    return !host_failed.load() && (drive_ring.size_approx() > drive_ring.capacity() / 2 ||
-                                   sensor_ring.size_approx() > sensor_ring.capacity() / 2);
-  });
-  std::string drive_rt_note, acquire_rt_note;
-  auto realtime_setup = [&](int priority, std::string& note) {
-    firmware::prefault_stack();
-    note =
-        priority > 0 ? firmware::make_thread_fifo(priority).note : "normal priority (priority = 0)";
-  };
-
-  // The threads set themselves up first; the time origin is fixed once
-  // they are ready, so slow set-up never makes the first cycles late.
-  std::latch threads_ready(2), time_origin_fixed(1);
-  hal::SleeperScope drive_scope(clock), acquire_scope(clock);
-  std::thread drive_thread([&, scope = std::move(drive_scope)]() mutable {
-    const hal::SleeperScope mine(std::move(scope));
-    if (realtime) realtime_setup(c.run.priority, drive_rt_note);
-    threads_ready.count_down();
-    time_origin_fixed.wait();
-    summary.cause = drive_loop.run(rig.t0);
-    drive_done.store(true, std::memory_order_release);
-  });
-  std::thread acquire_thread([&, scope = std::move(acquire_scope)]() mutable {
-    const hal::SleeperScope mine(std::move(scope));
-    // The acquire loop runs just below the drive loop.
-    if (realtime) realtime_setup(std::max(0, c.run.priority - 1), acquire_rt_note);
-    threads_ready.count_down();
-    time_origin_fixed.wait();
-    acquire_loop.run(rig.t0, drive_done);
-    acquire_done.store(true, std::memory_order_release);
-  });
-  threads_ready.wait();
-  rig.start_at(clock.now() + hal::from_seconds(kStartLead_s));
-  supervisor.set_time_origin(rig.t0);
-  time_origin_fixed.count_down();
+  firmware::LoopRunner runner(
+      {{c.drive.rate_hz, c.run.duration_s, 1.0 / c.model.drive.f, c.drive.limits},
+       c.safety,
+       c.sensor.rate_hz(),
+       !c.virtual_clock(),
+       c.run.priority,
+       c.run.lock_memory},
+      waveform, {clock, *rig.drive, *rig.sensor, *rig.lines});
+  runner.start([&](hal::TimeNs t0) { rig.start_at(t0); });
 
   std::optional<ObserverStage> observer;
   if (c.observer.enabled) {
@@ -211,21 +149,20 @@ RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::ato
       // Stop the drive as on a stop request; the run ends failed.
       log_ok = false;
       summary.host_error = e.what();
-      host_failed.store(true);
-      stop_loops.store(true);
+      runner.consumer_failed();
     }
   };
   auto drain = [&] {
-    drive_ring.drain([&](const DriveSample& s) { collector.add(s); });
-    sensor_ring.drain([&](const SensorSample& s) { collector.add(s); });
+    runner.drain([&](const DriveSample& s) { collector.add(s); },
+                 [&](const SensorSample& s) { collector.add(s); });
   };
   auto last_flush = std::chrono::steady_clock::now();
   auto last_status = last_flush;
   const auto flush_interval = std::chrono::duration<double>(c.run.flush_interval_s);
   auto host_loop = [&] {
-    while (!acquire_done.load(std::memory_order_acquire)) {
+    while (!runner.finished()) {
       std::this_thread::sleep_for(kDrainPeriod);
-      if (stop.load()) stop_loops.store(true);
+      if (stop.load()) runner.request_stop();
       drain();
       const auto now = std::chrono::steady_clock::now();
       if (now - last_flush >= flush_interval) {
@@ -235,8 +172,8 @@ RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::ato
       if (on_status && now - last_status >= kStatusPeriod) {
         on_status({hal::to_seconds(clock.now() - rig.t0), c.run.duration_s, collector.last_V(),
                    collector.last_theta(), observer ? observer->summary().last_residual_rad : 0.0,
-                   acquire_loop.health().cycles.load(), acquire_loop.health().errors.load(),
-                   drive_loop.health().overruns.load()});
+                   runner.sensor_health().cycles.load(), runner.sensor_health().errors.load(),
+                   runner.drive_health().overruns.load()});
         last_status = now;
       }
     }
@@ -246,19 +183,17 @@ RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::ato
   } catch (const std::exception& e) {
     // Whatever failed on the host side, the drive stops safely first.
     summary.host_error = e.what();
-    host_failed.store(true);
-    stop_loops.store(true);
+    runner.consumer_failed();
   }
-  drive_thread.join();
-  acquire_thread.join();
-  clock.set_backpressure({});
+  runner.join();
   drain();
   if (observer) observer->finish(collector.buffer());
   append_log();
-  summary.output = drive_loop.outcome();
+  summary.cause = runner.cause();
+  summary.output = runner.outcome();
 
-  summary.drive = summarise(drive_loop.health());
-  summary.sensor = summarise(acquire_loop.health());
+  summary.drive = summarise(runner.drive_health());
+  summary.sensor = summarise(runner.sensor_health());
   summary.drive.errors_by_class = collector.drive_errors();
   summary.sensor.errors_by_class = collector.sensor_errors();
   if (observer) summary.observer = observer->summary();
@@ -266,12 +201,7 @@ RunSummary execute_run(const RunConfig& c, Rig& rig, RunLog& log, const std::ato
   summary.t_end_s = collector.last_good_t();
   summary.mean_velocity_rad_s =
       summary.t_end_s > 0.0 ? summary.theta_end_rad / summary.t_end_s : 0.0;
-  if (realtime) {
-    summary.realtime_notes.push_back("drive loop: " + drive_rt_note);
-    summary.realtime_notes.push_back("acquire loop: " + acquire_rt_note);
-  } else {
-    summary.realtime_notes.push_back("virtual clock: no real-time set-up");
-  }
+  summary.realtime_notes = runner.realtime_notes();
   return summary;
 }
 

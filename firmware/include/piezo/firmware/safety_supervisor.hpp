@@ -6,7 +6,9 @@
 /// of the run ramp the drive to 0 V first.
 
 #include <algorithm>
+#include <atomic>
 #include <cstdint>
+#include <limits>
 #include <string_view>
 
 #include "piezo/firmware/sensor_health.hpp"
@@ -32,6 +34,16 @@ enum class StopCause : std::uint8_t {
   estop,
   sensor_fault,
   drive_fault,
+  link_lost,  ///< the controlling client's lease expired (host gone, network down)
+};
+
+/// What a remote client may do to a running drive, set from the daemon's
+/// network thread and read by the drive loop every cycle (lock-free).
+struct RemoteControl {
+  /// Board-clock time after which the drive stops with link_lost; the
+  /// controlling client pushes it forward with each lease renewal.
+  std::atomic<hal::TimeNs> lease_deadline{std::numeric_limits<hal::TimeNs>::max()};
+  std::atomic<bool> estop{false};  ///< operator e-stop: disable at once
 };
 
 [[nodiscard]] constexpr std::string_view to_string(StopCause c) {
@@ -48,6 +60,8 @@ enum class StopCause : std::uint8_t {
       return "sensor_fault";
     case StopCause::drive_fault:
       return "drive_fault";
+    case StopCause::link_lost:
+      return "link_lost";
   }
   return "unknown";
 }
@@ -63,7 +77,8 @@ class SafetySupervisor {
   /// failing drive overrides a ramp already under way.
   [[nodiscard]] SafetyAction check(hal::TimeNs now, const hal::EstopState& estop,
                                    bool stop_requested, bool duration_elapsed) {
-    if (estop.pressed || estop.edge_seen || estop.status != hal::Status::ok) {
+    if (estop.pressed || estop.edge_seen || estop.status != hal::Status::ok ||
+        (remote_ != nullptr && remote_->estop.load(std::memory_order_relaxed))) {
       cause_ = StopCause::estop;
       return SafetyAction::disable_now;
     }
@@ -83,6 +98,9 @@ class SafetySupervisor {
     if (zero_written != hal::Status::ok) drive_errors_ = settings_.max_drive_errors;
   }
 
+  /// Adds a remote client's lease and e-stop to the checks (piezod).
+  void set_remote(const RemoteControl* remote) { remote_ = remote; }
+
   /// Moves the time origin (the first sensor reading is due after it),
   /// before the run starts.
   void set_time_origin(hal::TimeNs t0) { t0_ = t0; }
@@ -95,6 +113,9 @@ class SafetySupervisor {
                                      bool duration_elapsed) const {
     if (drive_failing()) return StopCause::drive_fault;
     if (stop_requested) return StopCause::interrupted;
+    if (remote_ != nullptr && now > remote_->lease_deadline.load(std::memory_order_relaxed)) {
+      return StopCause::link_lost;
+    }
     const hal::TimeNs last_good = std::max(sensor_.last_good.load(std::memory_order_acquire), t0_);
     if (hal::to_seconds(now - last_good) > settings_.sensor_stale_s ||
         sensor_.consecutive_errors.load(std::memory_order_relaxed) >= settings_.max_sensor_errors) {
@@ -109,6 +130,7 @@ class SafetySupervisor {
   SafetySettings settings_;
   const SensorHealth& sensor_;
   hal::TimeNs t0_;
+  const RemoteControl* remote_ = nullptr;
   StopCause cause_ = StopCause::none;
   std::uint32_t drive_errors_ = 0;
 };

@@ -11,7 +11,7 @@
 #include "piezo/hal/modbus/register_map.hpp"
 #include "section_reader.hpp"
 
-namespace piezo::host {
+namespace piezo::config {
 
 inline const std::vector<std::string> kModbusSensorKeys{
     "host",          "port",       "device",  "baud",   "parity",   "data_bits",
@@ -35,4 +35,9 @@ void read_modbus_sensor(SectionReader& r, hal::modbus::LinkSettings& link,
 void read_modbus_drive(SectionReader& r, hal::modbus::LinkSettings& link,
                        hal::modbus::AnalogOutputSettings& ao, AnalogOutputGuard& guard);
 
+}  // namespace piezo::config
+
+// The host reads rig configs through the same names.
+namespace piezo::host {
+using namespace piezo::config;  // NOLINT(google-build-using-namespace)
 }  // namespace piezo::host

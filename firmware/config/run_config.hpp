@@ -23,7 +23,7 @@
 #include "piezo/model/lugre_observer.hpp"
 #include "piezo/model/parameters.hpp"
 
-namespace piezo::host {
+namespace piezo::config {
 
 /// A parallel DAC on GPIO lines: where its lines are.
 struct GpioDacSettings {
@@ -131,4 +131,9 @@ enum class ConfigScope { rig, sensor };
 /// Checks the drive limits against what the built drive hardware can do.
 void check_drive_hardware(const RunConfig& config, double hardware_V_min, double hardware_V_max);
 
+}  // namespace piezo::config
+
+// The host reads rig configs through the same names.
+namespace piezo::host {
+using namespace piezo::config;  // NOLINT(google-build-using-namespace)
 }  // namespace piezo::host

@@ -13,7 +13,7 @@
 #include "piezo/hal/drive.hpp"
 #include "run_config.hpp"
 
-namespace piezo::host {
+namespace piezo::config {
 
 struct Rig {
   std::unique_ptr<hal::Clock> clock;
@@ -48,4 +48,9 @@ struct SensorRig {
 };
 [[nodiscard]] SensorRig build_sensor(const RunConfig& config);
 
+}  // namespace piezo::config
+
+// The host reads rig configs through the same names.
+namespace piezo::host {
+using namespace piezo::config;  // NOLINT(google-build-using-namespace)
 }  // namespace piezo::host

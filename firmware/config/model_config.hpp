@@ -10,7 +10,7 @@
 
 #include "piezo/model/parameters.hpp"
 
-namespace piezo::host {
+namespace piezo::config {
 
 /// Reads [drive] V0, f, C_dr, e_dr and [model] d_e ... sigma2 from `table`
 /// into `p` (keys absent keep their value). Keys in those sections that are
@@ -32,9 +32,9 @@ void apply_parameter_override(const std::string& assignment, model::Parameters& 
 /// Throws ConfigError for the first issue of model::validate, naming `source`.
 void require_valid(const model::Parameters& p, const std::string& source);
 
-}  // namespace piezo::host
+}  // namespace piezo::config
 
-namespace piezo::host {
+namespace piezo::config {
 
 /// Sections a project config may hold; those other commands own are skipped
 /// by the model reader but an unknown one is an error everywhere.
@@ -74,4 +74,9 @@ inline const std::vector<std::string> kDriveLoopKeys{"backend",
 /// Table 1 defaults overlaid with a config file's [drive] and [model].
 [[nodiscard]] model::Parameters load_model_config(const std::string& path);
 
+}  // namespace piezo::config
+
+// The host reads rig configs through the same names.
+namespace piezo::host {
+using namespace piezo::config;  // NOLINT(google-build-using-namespace)
 }  // namespace piezo::host

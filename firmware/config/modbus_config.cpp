@@ -4,7 +4,7 @@
 
 #include "config_error.hpp"
 
-namespace piezo::host {
+namespace piezo::config {
 namespace {
 
 using hal::modbus::Function;
@@ -100,4 +100,4 @@ void read_modbus_drive(SectionReader& r, LinkSettings& link, hal::modbus::Analog
   r.flag("ao_link_loss_acknowledged", guard.link_loss_acknowledged);
 }
 
-}  // namespace piezo::host
+}  // namespace piezo::config

@@ -14,7 +14,7 @@
 #include "model_config.hpp"
 #include "section_reader.hpp"
 
-namespace piezo::host {
+namespace piezo::config {
 namespace {
 
 std::vector<std::string> drive_keys() {
@@ -423,4 +423,4 @@ void check_drive_hardware(const RunConfig& c, double hardware_V_min, double hard
   }
 }
 
-}  // namespace piezo::host
+}  // namespace piezo::config

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-namespace piezo::host {
+namespace piezo::config {
 
 /// An allowed interval; open ends exclude the bound.
 struct Range {
@@ -52,4 +52,9 @@ class SectionReader {
   std::string source_;
 };
 
+}  // namespace piezo::config
+
+// The host reads rig configs through the same names.
+namespace piezo::host {
+using namespace piezo::config;  // NOLINT(google-build-using-namespace)
 }  // namespace piezo::host

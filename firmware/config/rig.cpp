@@ -13,7 +13,7 @@
 #include "piezo/hal/sim/sim_sensor.hpp"
 #include "piezo/hal/sim/virtual_clock.hpp"
 
-namespace piezo::host {
+namespace piezo::config {
 namespace {
 
 std::unique_ptr<hal::Clock> make_clock(const RunConfig& c) {
@@ -116,4 +116,4 @@ SensorRig build_sensor(const RunConfig& c) {
   return s;
 }
 
-}  // namespace piezo::host
+}  // namespace piezo::config

@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <string>
 
-namespace piezo::host {
+namespace piezo::config {
 
 class ConfigError : public std::runtime_error {
  public:
@@ -20,4 +20,9 @@ class ConfigError : public std::runtime_error {
   std::string key_;
 };
 
+}  // namespace piezo::config
+
+// The host reads rig configs through the same names.
+namespace piezo::host {
+using namespace piezo::config;  // NOLINT(google-build-using-namespace)
 }  // namespace piezo::host

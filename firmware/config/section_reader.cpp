@@ -7,7 +7,7 @@
 
 #include "config_error.hpp"
 
-namespace piezo::host {
+namespace piezo::config {
 
 bool Range::admits(double v) const {
   if (std::isnan(v)) return false;
@@ -113,4 +113,4 @@ void SectionReader::reject_unknown(const std::vector<std::string>& known) const 
   }
 }
 
-}  // namespace piezo::host
+}  // namespace piezo::config

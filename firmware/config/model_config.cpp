@@ -9,7 +9,7 @@
 
 #include "config_error.hpp"
 
-namespace piezo::host {
+namespace piezo::config {
 namespace {
 
 double number_from_node(const toml::node& node, const std::string& source, const std::string& key) {
@@ -130,4 +130,4 @@ void require_valid(const model::Parameters& p, const std::string& source) {
   if (!issues.empty()) throw ConfigError(source, issues.front().name, issues.front().message);
 }
 
-}  // namespace piezo::host
+}  // namespace piezo::config
