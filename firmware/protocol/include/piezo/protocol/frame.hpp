@@ -1,0 +1,56 @@
+#pragma once
+/// @file
+/// Sample batches on the wire (docs/protocol.md, "Sample frames"): a
+/// versioned little-endian binary frame, the same on every architecture
+/// because every field is written byte by byte, never as a struct.
+///
+///   offset size  field
+///   0      4     magic "PZSB"
+///   4      2     version (1)
+///   6      2     stream (1 drive, 2 sensor)
+///   8      8     first sequence number
+///   16     4     count
+///   20     4     record size in bytes (24 drive, 32 sensor)
+///   24     ...   count records
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "piezo/firmware/samples.hpp"
+#include "piezo/protocol/error.hpp"
+
+namespace piezo::protocol {
+
+inline constexpr std::string_view kFrameMagic = "PZSB";
+inline constexpr std::uint16_t kFrameVersion = 1;
+inline constexpr std::size_t kFrameHeaderBytes = 24;
+inline constexpr std::size_t kDriveRecordBytes = 24;
+inline constexpr std::size_t kSensorRecordBytes = 32;
+
+enum class Stream : std::uint16_t { drive = 1, sensor = 2 };
+
+[[nodiscard]] std::string_view to_string(Stream s);
+/// "drive" or "sensor"; throws ProtocolError (bad_argument, key) otherwise.
+[[nodiscard]] Stream stream_from_string(std::string_view name, std::string_view key);
+
+struct FrameHeader {
+  Stream stream = Stream::drive;
+  std::uint64_t first_seq = 0;
+  std::uint32_t count = 0;
+};
+
+[[nodiscard]] std::string encode_frame(std::uint64_t first_seq,
+                                       std::span<const firmware::DriveSample> samples);
+[[nodiscard]] std::string encode_frame(std::uint64_t first_seq,
+                                       std::span<const firmware::SensorSample> samples);
+
+/// Checks magic, version, stream, record size and length; throws
+/// ProtocolError ("bad_frame") naming the field that is wrong.
+[[nodiscard]] FrameHeader decode_header(std::string_view frame);
+[[nodiscard]] std::vector<firmware::DriveSample> decode_drive(std::string_view frame);
+[[nodiscard]] std::vector<firmware::SensorSample> decode_sensor(std::string_view frame);
+
+}  // namespace piezo::protocol

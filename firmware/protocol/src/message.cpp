@@ -1,0 +1,134 @@
+#include "piezo/protocol/message.hpp"
+
+#include <fmt/format.h>
+
+namespace piezo::protocol {
+namespace {
+
+using nlohmann::json;
+
+json parse_msgpack(std::string_view bytes) {
+  if (bytes.size() > kMaxMessageBytes) {
+    throw ProtocolError(code::too_large, "",
+                        fmt::format("message of {} bytes; at most {} are read", bytes.size(),
+                                    kMaxMessageBytes));
+  }
+  json j = json::from_msgpack(bytes.begin(), bytes.end(), true, false);
+  if (j.is_discarded()) {
+    throw ProtocolError(code::malformed, "", "not a MessagePack value (or truncated)");
+  }
+  if (!j.is_object()) throw ProtocolError(code::malformed, "", "not a MessagePack map");
+  return j;
+}
+
+std::string to_bytes(const json& j) {
+  const std::vector<std::uint8_t> bytes = json::to_msgpack(j);
+  return {bytes.begin(), bytes.end()};
+}
+
+const json* find(const json& args, const std::string& key) {
+  const auto it = args.find(key);
+  return it == args.end() || it->is_null() ? nullptr : &*it;
+}
+
+ProtocolError wrong_type(const std::string& key, const char* wanted, const json& got) {
+  return {code::bad_argument, key,
+          fmt::format("{}: must be {}, got {}", key, wanted, got.type_name())};
+}
+
+ProtocolError missing(const std::string& key) {
+  return {code::bad_argument, key, fmt::format("{}: missing", key)};
+}
+
+}  // namespace
+
+std::string encode_request(const Request& r) {
+  return to_bytes(json{{"id", r.id}, {"cmd", r.cmd}, {"args", r.args}});
+}
+
+Request decode_request(std::string_view bytes, std::optional<std::uint64_t>& id_out) {
+  const json j = parse_msgpack(bytes);
+  Request r;
+  const json* id = find(j, "id");
+  if (id == nullptr) throw missing("id");
+  if (!id->is_number_unsigned()) throw wrong_type("id", "an unsigned integer", *id);
+  r.id = id->get<std::uint64_t>();
+  id_out = r.id;
+  const json* cmd = find(j, "cmd");
+  if (cmd == nullptr) throw missing("cmd");
+  if (!cmd->is_string()) throw wrong_type("cmd", "a string", *cmd);
+  r.cmd = cmd->get<std::string>();
+  if (const json* args = find(j, "args"); args != nullptr) {
+    if (!args->is_object()) throw wrong_type("args", "a map", *args);
+    r.args = *args;
+  }
+  return r;
+}
+
+std::string encode_reply(std::uint64_t id, const json& result) {
+  return to_bytes(json{{"id", id}, {"ok", true}, {"result", result}});
+}
+
+std::string encode_error(std::optional<std::uint64_t> id, const ErrorBody& e) {
+  json j{{"ok", false}, {"error", {{"code", e.code}, {"key", e.key}, {"message", e.message}}}};
+  j["id"] = id ? json(*id) : json(nullptr);
+  return to_bytes(j);
+}
+
+Reply decode_reply(std::string_view bytes) {
+  const json j = parse_msgpack(bytes);
+  Reply r;
+  if (const json* id = find(j, "id"); id != nullptr && id->is_number_unsigned()) {
+    r.id = id->get<std::uint64_t>();
+  }
+  const json* ok = find(j, "ok");
+  if (ok == nullptr || !ok->is_boolean()) throw ProtocolError(code::malformed, "ok", "reply without \"ok\"");
+  r.ok = ok->get<bool>();
+  if (r.ok) {
+    if (const json* result = find(j, "result"); result != nullptr) r.result = *result;
+  } else {
+    const json* e = find(j, "error");
+    if (e == nullptr || !e->is_object()) {
+      throw ProtocolError(code::malformed, "error", "error reply without \"error\"");
+    }
+    r.error = {e->value("code", ""), e->value("key", ""), e->value("message", "")};
+  }
+  return r;
+}
+
+std::string encode_map(const json& map) { return to_bytes(map); }
+json decode_map(std::string_view bytes) { return parse_msgpack(bytes); }
+
+double number_arg(const json& args, const std::string& key, std::optional<double> fallback) {
+  const json* v = find(args, key);
+  if (v == nullptr) {
+    if (fallback) return *fallback;
+    throw missing(key);
+  }
+  if (!v->is_number()) throw wrong_type(key, "a number", *v);
+  return v->get<double>();
+}
+
+std::uint64_t uint_arg(const json& args, const std::string& key,
+                       std::optional<std::uint64_t> fallback) {
+  const json* v = find(args, key);
+  if (v == nullptr) {
+    if (fallback) return *fallback;
+    throw missing(key);
+  }
+  if (!v->is_number_unsigned()) throw wrong_type(key, "an unsigned integer", *v);
+  return v->get<std::uint64_t>();
+}
+
+std::string string_arg(const json& args, const std::string& key,
+                       std::optional<std::string> fallback) {
+  const json* v = find(args, key);
+  if (v == nullptr) {
+    if (fallback) return *fallback;
+    throw missing(key);
+  }
+  if (!v->is_string()) throw wrong_type(key, "a string", *v);
+  return v->get<std::string>();
+}
+
+}  // namespace piezo::protocol
