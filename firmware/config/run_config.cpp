@@ -40,6 +40,9 @@ const std::vector<std::string> kRunKeys{"duration_s", "clock", "priority", "lock
 const std::vector<std::string> kSafetyKeys{"sensor_stale_s", "max_sensor_errors",
                                            "max_drive_errors", "ramp_down_V_per_s",
                                            "stop_confirm_s"};
+const std::vector<std::string> kDaemonKeys{"listen",        "lease_s",         "lease_max_s",
+                                           "recorder_s",    "duration_max_s",  "secret_key_file",
+                                           "authorized_keys_file", "insecure"};
 const std::vector<std::string> kRequiredSections{"drive", "sensor", "run"};
 
 constexpr Range kPositive{0.0, kInf, true, true};
@@ -147,6 +150,27 @@ void read_observer(const toml::table& t, const std::string& source, ObserverSett
   r.number("beta", o.gains.beta, {0.0, 1.0});
 }
 
+void read_daemon(const toml::table& t, const std::string& source, DaemonSettings& d) {
+  SectionReader r(t, "piezod", source);
+  r.reject_unknown(kDaemonKeys);
+  r.text("listen", d.listen);
+  r.number("lease_s", d.lease_s, {0.05, 60.0}, "s");
+  r.number("lease_max_s", d.lease_max_s, {0.05, 600.0}, "s");
+  r.number("recorder_s", d.recorder_s, {1.0, 3600.0}, "s");
+  r.number("duration_max_s", d.duration_max_s, {0.0, 1e7, true}, "s");
+  r.text("secret_key_file", d.secret_key_file);
+  r.text("authorized_keys_file", d.authorized_keys_file);
+  r.flag("insecure", d.insecure);
+}
+
+void read_rig(const toml::table& t, const std::string& source, RigAddress& a) {
+  SectionReader r(t, "rig", source);
+  r.reject_unknown({"address", "server_public_key_file", "client_secret_key_file"});
+  r.text("address", a.address);
+  r.text("server_public_key_file", a.server_public_key_file);
+  r.text("client_secret_key_file", a.client_secret_key_file);
+}
+
 void read_safety(const toml::table& t, const std::string& source, firmware::SafetySettings& s) {
   SectionReader r(t, "safety", source);
   r.reject_unknown(kSafetyKeys);
@@ -182,6 +206,8 @@ void read_tables(const toml::table& t, const std::string& source, RunConfig& c,
   read_safety(t, source, c.safety);
   read_rig_sim(t, source, c.rig_sim);
   read_observer(t, source, c.observer);
+  read_daemon(t, source, c.daemon);
+  read_rig(t, source, c.rig);
 }
 
 /// "SECTION.KEY=VALUE" as a one-key TOML table; VALUE is read as TOML

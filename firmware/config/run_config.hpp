@@ -98,6 +98,28 @@ struct RunSettings {
   double flush_interval_s = 0.25;  ///< log flush period: the most a crash can lose
 };
 
+/// The board's daemon ([piezod]): where it listens, what a client may ask.
+struct DaemonSettings {
+  std::string listen = "tcp://127.0.0.1:5555";  ///< command socket; the stream is on port + 1
+  double lease_s = 0.5;           ///< a start's lease when the client names none
+  double lease_max_s = 10.0;      ///< the longest lease a client may ask for
+  double recorder_s = 120.0;      ///< samples kept on the board, at the configured rates
+  double duration_max_s = 86'400.0;
+  /// Network binds need CURVE: the server's secret key (Z85, from `piezod
+  /// keygen`) and the clients' public keys, one per line.
+  std::string secret_key_file;
+  std::string authorized_keys_file;
+  bool insecure = false;  ///< plain text on a network address (logged)
+};
+
+/// The host's side ([rig]): which piezod to drive. Empty address: the
+/// one-machine default, the firmware started by the host itself.
+struct RigAddress {
+  std::string address;
+  std::string server_public_key_file;  ///< CURVE: the board's public key (Z85)
+  std::string client_secret_key_file;  ///< CURVE: this host's key pair, from `piezod keygen`
+};
+
 struct RunConfig {
   std::string source;            ///< the config file
   std::string text;              ///< the file's text plus the --set lines: stored with the log
@@ -110,6 +132,8 @@ struct RunConfig {
   firmware::SafetySettings safety;
   RigSimSettings rig_sim;
   ObserverSettings observer;
+  DaemonSettings daemon;
+  RigAddress rig;
 
   [[nodiscard]] bool virtual_clock() const { return run.clock == "virtual"; }
 };

@@ -1,0 +1,121 @@
+#include "curve.hpp"
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <array>
+#include <fstream>
+#include <stdexcept>
+#include <toml++/toml.h>
+#include <zmq_addon.hpp>
+
+namespace piezo::daemon {
+namespace {
+
+bool is_z85_key(const std::string& k) {
+  std::array<std::uint8_t, 32> raw{};
+  return k.size() == 40 && zmq_z85_decode(raw.data(), k.c_str()) != nullptr;
+}
+
+}  // namespace
+
+KeyPair generate_keypair() {
+  std::array<char, 41> pub{}, sec{};
+  if (zmq_curve_keypair(pub.data(), sec.data()) != 0) {
+    throw std::runtime_error("cannot make a CURVE key pair: libzmq was built without CURVE");
+  }
+  return {pub.data(), sec.data()};
+}
+
+void write_keypair(const KeyPair& keys, const std::string& dir, const std::string& name) {
+  const std::string secret_path = dir + "/" + name + ".key";
+  const std::string public_path = dir + "/" + name + ".pub";
+  {
+    std::ofstream out(secret_path);
+    if (!out) throw std::runtime_error(secret_path + ": cannot write");
+    ::chmod(secret_path.c_str(), 0600);
+    out << "# CURVE key pair (piezod keygen): keep this file secret\n"
+        << "public-key = \"" << keys.public_key << "\"\n"
+        << "secret-key = \"" << keys.secret_key << "\"\n";
+  }
+  std::ofstream out(public_path);
+  if (!out) throw std::runtime_error(public_path + ": cannot write");
+  out << "# CURVE public key (piezod keygen): give it to the peer\n"
+      << "public-key = \"" << keys.public_key << "\"\n";
+}
+
+std::string read_key(const std::string& path, const std::string& entry) {
+  toml::table t;
+  try {
+    t = toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    throw std::runtime_error(path + ": not a key file (" + std::string(e.description()) + ")");
+  }
+  const auto key = t[entry].value<std::string>();
+  if (!key) throw std::runtime_error(path + ": " + entry + ": missing");
+  if (!is_z85_key(*key)) throw std::runtime_error(path + ": " + entry + ": not a 40-character Z85 key");
+  return *key;
+}
+
+std::vector<std::string> read_authorized_keys(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot read the authorized keys");
+  std::vector<std::string> keys;
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    line = line.substr(0, line.find('#'));
+    line.erase(std::remove_if(line.begin(), line.end(), [](unsigned char c) { return std::isspace(c); }),
+               line.end());
+    if (line.starts_with("public-key=")) line = line.substr(11);
+    line.erase(std::remove(line.begin(), line.end(), '"'), line.end());
+    if (line.empty()) continue;
+    if (!is_z85_key(line)) {
+      throw std::runtime_error(path + ": line " + std::to_string(n) +
+                               ": not a 40-character Z85 public key");
+    }
+    keys.push_back(line);
+  }
+  return keys;
+}
+
+ZapHandler::ZapHandler(zmq::context_t& context, std::vector<std::string> authorized,
+                       std::ostream& log)
+    : socket_(context, zmq::socket_type::rep), authorized_(std::move(authorized)), log_(log) {
+  socket_.bind("inproc://zeromq.zap.01");
+}
+
+void ZapHandler::handle() {
+  std::vector<zmq::message_t> request;
+  if (!zmq::recv_multipart(socket_, std::back_inserter(request), zmq::recv_flags::dontwait)) return;
+  // version, request id, domain, address, routing id, mechanism, credentials
+  std::string status = "400", text = "malformed ZAP request", user;
+  if (request.size() >= 6) {
+    const std::string mechanism = request[5].to_string();
+    const std::string address = request[3].to_string();
+    if (mechanism == "CURVE" && request.size() >= 7 && request[6].size() == 32) {
+      std::array<char, 41> z85{};
+      zmq_z85_encode(z85.data(), request[6].data<std::uint8_t>(), 32);
+      user = z85.data();
+      if (std::find(authorized_.begin(), authorized_.end(), user) != authorized_.end()) {
+        status = "200";
+        text = "OK";
+      } else {
+        text = "client key not authorized";
+        log_ << "piezod: refused a client from " << address << ": its key " << user
+             << " is not in the authorized keys\n"
+             << std::flush;
+      }
+    } else {
+      text = "only CURVE clients are admitted";
+      log_ << "piezod: refused a client from " << address << " using " << mechanism << "\n"
+           << std::flush;
+    }
+  }
+  std::array<zmq::const_buffer, 6> reply{
+      zmq::str_buffer("1.0"), zmq::buffer(request.size() > 1 ? request[1].to_string_view() : ""),
+      zmq::buffer(status),    zmq::buffer(text),
+      zmq::buffer(user),      zmq::str_buffer("")};
+  zmq::send_multipart(socket_, reply);
+}
+
+}  // namespace piezo::daemon

@@ -1,0 +1,613 @@
+#include "daemon.hpp"
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <cmath>
+#include <zmq_addon.hpp>
+
+#include "endpoints.hpp"
+#include "piezo/protocol/frame.hpp"
+#include "piezo/protocol/message.hpp"
+
+namespace piezo::daemon {
+namespace {
+
+using nlohmann::json;
+using protocol::ProtocolError;
+namespace code = protocol::code;
+using Clock = std::chrono::steady_clock;
+
+constexpr std::size_t kMaxBatch = 2000;       // samples per published frame
+constexpr std::uint64_t kMaxFetch = 100'000;  // samples per fetch reply
+constexpr auto kPollPeriod = std::chrono::milliseconds(2);
+constexpr auto kHealthPeriod = std::chrono::milliseconds(250);
+// Samples published but not yet acknowledged by the controller's lease
+// renewals hold the virtual clock back past this share of the recorder.
+constexpr double kVirtualAckWindow = 0.5;
+
+json health_json(const firmware::LoopHealth& h) {
+  json j{{"cycles", h.cycles.load()},
+         {"overruns", h.overruns.load()},
+         {"missed_cycles", h.missed_cycles.load()},
+         {"dropped", h.dropped_samples.load()},
+         {"errors", h.errors.load()}};
+  return j;
+}
+
+/// After the loop has ended: the period-error statistics and histogram too.
+json final_health_json(const firmware::LoopHealth& h) {
+  json j = health_json(h);
+  j["p50_us"] = h.period_error.quantile_us(0.5);
+  j["p99_us"] = h.period_error.quantile_us(0.99);
+  j["max_us"] = h.period_error.max_us();
+  j["mean_us"] = h.period_error.mean_us();
+  const auto& bins = h.period_error.bins();
+  std::size_t used = bins.size();
+  while (used > 0 && bins[used - 1] == 0) --used;
+  j["histogram_us"] = std::vector<double>(bins.begin(), bins.begin() + static_cast<long>(used));
+  return j;
+}
+
+std::string output_state(const firmware::OutputOutcome& o) {
+  if (!o.zero_confirmed) return "output_unconfirmed";
+  if (o.enable_status != hal::Status::ok) return "enable_unconfirmed";
+  return "confirmed";
+}
+
+bool latches(firmware::StopCause c) {
+  return c != firmware::StopCause::completed && c != firmware::StopCause::interrupted &&
+         c != firmware::StopCause::none;
+}
+
+ProtocolError out_of_limits(const std::string& key, const std::string& message) {
+  return {code::out_of_limits, key, key + ": " + message};
+}
+
+}  // namespace
+
+const char* to_string(State s) {
+  switch (s) {
+    case State::idle:
+      return "idle";
+    case State::running:
+      return "running";
+    case State::ramping_down:
+      return "ramping_down";
+    case State::fault:
+      return "fault";
+  }
+  return "unknown";
+}
+
+struct Daemon::Run {
+  std::uint64_t id = 0;
+  RunRequest request;
+  model::Sawtooth waveform;
+  firmware::RemoteControl remote;
+  std::unique_ptr<firmware::LoopRunner> runner;
+  hal::TimeNs t0 = 0;
+  double lease_s = 0.5;
+  bool finished = false;
+  json summary;  ///< once finished
+  // The virtual clock's lease runs on wall time, checked by the network thread.
+  std::atomic<std::int64_t> lease_renewed_ns{0};
+  std::atomic<std::uint64_t> drive_acked{0}, drive_recorded{0};
+
+  explicit Run(const RunRequest& r)
+      : request(r), waveform(r.drive.V0, r.drive.f, r.drive.D()) {}
+};
+
+Daemon::Daemon(const config::RunConfig& board, zmq::context_t& context, const std::string& listen,
+               std::ostream& log)
+    : board_(board),
+      log_(log),
+      rig_(config::build_rig(board)),
+      context_(context),
+      commands_(context, zmq::socket_type::router),
+      stream_(context, zmq::socket_type::pub),
+      command_endpoint_(listen.empty() ? board.daemon.listen : listen),
+      drive_recorder_(static_cast<std::size_t>(board.daemon.recorder_s * board.drive.rate_hz)),
+      sensor_recorder_(static_cast<std::size_t>(board.daemon.recorder_s * board.sensor.rate_hz())) {
+  stream_endpoint_ = daemon::stream_endpoint(command_endpoint_);
+  const bool network = is_network_endpoint(command_endpoint_);
+  const auto& d = board_.daemon;
+  if (network && d.secret_key_file.empty() && !d.insecure) {
+    throw std::runtime_error(fmt::format(
+        "listen = \"{}\" is a network address: set piezod.secret_key_file and "
+        "piezod.authorized_keys_file (CURVE, keys from `piezod keygen`), or bind to 127.0.0.1; "
+        "plain text on a network needs --insecure",
+        command_endpoint_));
+  }
+  if (!d.secret_key_file.empty()) {
+    const std::string secret = read_key(d.secret_key_file, "secret-key");
+    if (d.authorized_keys_file.empty()) {
+      throw std::runtime_error("piezod.authorized_keys_file: missing (CURVE needs the clients' "
+                               "public keys)");
+    }
+    zap_ = std::make_unique<ZapHandler>(context_, read_authorized_keys(d.authorized_keys_file),
+                                        log_);
+    for (auto* s : {&commands_, &stream_}) {
+      s->set(zmq::sockopt::curve_server, 1);
+      s->set(zmq::sockopt::curve_secretkey, secret);
+      s->set(zmq::sockopt::zap_domain, "piezod");
+    }
+    log_event("CURVE on: only authorized clients are admitted");
+  } else if (network) {
+    log_event("WARNING: --insecure: plain text on a network address, any peer may connect");
+  }
+  commands_.set(zmq::sockopt::router_mandatory, 0);
+  commands_.set(zmq::sockopt::maxmsgsize, static_cast<std::int64_t>(protocol::kMaxMessageBytes));
+  commands_.set(zmq::sockopt::linger, 0);
+  stream_.set(zmq::sockopt::sndhwm, 100'000);
+  stream_.set(zmq::sockopt::linger, 0);
+  try {
+    commands_.bind(command_endpoint_);
+    stream_.bind(stream_endpoint_);
+  } catch (const zmq::error_t& e) {
+    throw std::runtime_error(fmt::format("cannot listen on {} / {}: {}", command_endpoint_,
+                                         stream_endpoint_, e.what()));
+  }
+  last_health_ = Clock::now();
+  log_event(fmt::format("listening: commands {}, stream {}; drive {}, sensor {}, lines {}",
+                        command_endpoint_, stream_endpoint_, board_.drive.backend,
+                        board_.sensor.backend, board_.lines.backend));
+}
+
+Daemon::~Daemon() = default;
+
+void Daemon::log_event(const std::string& line) {
+  log_ << fmt::format("piezod [{:.6f}] {}\n", hal::to_seconds(rig_.clock->now()), line)
+       << std::flush;
+}
+
+bool Daemon::running() const { return run_ && !run_->finished; }
+
+void Daemon::serve(const std::atomic<bool>& stop) {
+  bool stopping = false;
+  while (true) {
+    if (stop.load() && !stopping) {
+      stopping = true;
+      if (running()) {
+        log_event("shutting down: stopping the run first");
+        run_->runner->request_stop();
+      }
+    }
+    if (stopping && !running()) break;
+    poll_once();
+  }
+  log_event("stopped");
+}
+
+void Daemon::poll_once() {
+  std::array<zmq::pollitem_t, 2> items{
+      zmq::pollitem_t{commands_.handle(), 0, ZMQ_POLLIN, 0},
+      zmq::pollitem_t{zap_ ? zap_->socket().handle() : nullptr, 0, ZMQ_POLLIN, 0}};
+  try {
+    zmq::poll(items.data(), zap_ ? 2 : 1, kPollPeriod);
+  } catch (const zmq::error_t& e) {
+    if (e.num() != EINTR) throw;
+    return;  // a signal: serve() looks at the stop flag
+  }
+  if (zap_ && (items[1].revents & ZMQ_POLLIN) != 0) zap_->handle();
+  if ((items[0].revents & ZMQ_POLLIN) != 0) {
+    for (int i = 0; i < 64; ++i) {
+      std::vector<zmq::message_t> frames;
+      if (!zmq::recv_multipart(commands_, std::back_inserter(frames), zmq::recv_flags::dontwait)) {
+        break;
+      }
+      on_command(frames);
+    }
+  }
+  check_lease_on_wall_clock();
+  pump_samples();
+  if (run_ && !run_->finished && run_->runner->finished()) finish_run();
+  if (Clock::now() - last_health_ >= kHealthPeriod) {
+    publish_health();
+    last_health_ = Clock::now();
+  }
+}
+
+void Daemon::on_command(std::vector<zmq::message_t>& frames) {
+  // [routing id, body] from a DEALER; [routing id, "", body] from a REQ.
+  if (frames.size() < 2) return;
+  const std::string client = frames.front().to_string();
+  const bool req_envelope = frames.size() == 3 && frames[1].size() == 0;
+  std::optional<std::uint64_t> id;
+  std::string reply;
+  try {
+    if (frames.size() != (req_envelope ? 3u : 2u)) {
+      throw ProtocolError(code::malformed, "", "a request is one frame");
+    }
+    const auto request = protocol::decode_request(frames.back().to_string_view(), id);
+    reply = protocol::encode_reply(request.id, handle(client, request.cmd, request.args));
+  } catch (const ProtocolError& e) {
+    reply = protocol::encode_error(id, {e.code(), e.key(), e.what()});
+  } catch (const std::exception& e) {
+    // A failure of the daemon's own: the client hears it, the daemon goes on.
+    reply = protocol::encode_error(id, {code::internal, "", e.what()});
+    log_event(fmt::format("internal error: {}", e.what()));
+  }
+  std::vector<zmq::const_buffer> out{zmq::buffer(client)};
+  if (req_envelope) out.push_back(zmq::str_buffer(""));
+  out.push_back(zmq::buffer(reply));
+  (void)zmq::send_multipart(commands_, out, zmq::send_flags::dontwait);
+}
+
+json Daemon::handle(const std::string& client, const std::string& cmd, const json& args) {
+  if (cmd == "hello") return hello();
+  if (cmd == "status") return status(client);
+  if (cmd == "clock") return {{"board_ns", rig_.clock->now()}};
+  if (cmd == "configure") return configure(client, args);
+  if (cmd == "start") return start(client, args);
+  if (cmd == "stop") return stop_run(client);
+  if (cmd == "estop") return estop(client);
+  if (cmd == "reset_fault") return reset_fault();
+  if (cmd == "lease") return renew_lease(client, args);
+  if (cmd == "fetch") return fetch(args);
+  throw ProtocolError(code::unknown_command, "cmd",
+                      fmt::format("cmd: \"{}\" is not a command (allowed: hello, status, clock, "
+                                  "configure, start, stop, estop, reset_fault, lease, fetch)",
+                                  cmd));
+}
+
+json Daemon::hello() const {
+  const auto& lim = board_.drive.limits;
+  return {{"protocol", protocol::kProtocolVersion},
+          {"frame_version", protocol::kFrameVersion},
+          {"daemon", PIEZO_VERSION},
+          {"stream", stream_endpoint_},
+          {"clock", board_.run.clock},
+          {"backends",
+           {{"drive", board_.drive.backend},
+            {"sensor", board_.sensor.backend},
+            {"lines", board_.lines.backend}}},
+          {"limits",
+           {{"V_min", lim.V_min},
+            {"V_max", lim.V_max},
+            {"slew_V_per_s", lim.slew_V_per_s},
+            {"ramp_down_V_per_s", board_.safety.ramp_down_V_per_s},
+            {"sensor_stale_s", board_.safety.sensor_stale_s},
+            {"f_max_hz", board_.drive.rate_hz / 20.0},
+            {"duration_max_s", board_.daemon.duration_max_s},
+            {"lease_max_s", board_.daemon.lease_max_s}}},
+          {"drive_rate_hz", board_.drive.rate_hz},
+          {"sensor_rate_hz", board_.sensor.rate_hz()},
+          {"output_latency_s", rig_.drive->output_latency_s()},
+          {"lease_s", board_.daemon.lease_s},
+          {"recorder_s", board_.daemon.recorder_s}};
+}
+
+json Daemon::status(const std::string& client) const {
+  json j{{"state", to_string(state_)},
+         {"board_ns", rig_.clock->now()},
+         {"controller", !controller_.empty() && controller_ == client},
+         {"controlled", !controller_.empty()},
+         {"fault", state_ == State::fault ? json(firmware::to_string(fault_cause_)) : json(nullptr)},
+         {"recorder",
+          {{"drive", {{"first", drive_recorder_.first()}, {"next", drive_recorder_.next()}}},
+           {"sensor", {{"first", sensor_recorder_.first()}, {"next", sensor_recorder_.next()}}}}}};
+  if (configured_) {
+    j["configured"] = {{"V0", configured_->drive.V0},
+                       {"f", configured_->drive.f},
+                       {"C_dr", configured_->drive.C_dr},
+                       {"e_dr", configured_->drive.e_dr},
+                       {"duration_s", configured_->duration_s}};
+  }
+  if (run_) {
+    json r{{"id", run_->id},
+           {"t0_ns", run_->t0},
+           {"duration_s", run_->request.duration_s},
+           {"lease_s", run_->lease_s},
+           {"finished", run_->finished},
+           {"drive", health_json(run_->runner->drive_health())},
+           {"sensor", health_json(run_->runner->sensor_health())}};
+    if (run_->finished) r["summary"] = run_->summary;
+    j["run"] = r;
+  }
+  return j;
+}
+
+json Daemon::configure(const std::string& client, const json& args) {
+  if (running()) require_controller(client, "configure");
+  if (running()) throw ProtocolError(code::bad_state, "", "configure: a run is under way");
+  RunRequest r;
+  r.drive.V0 = protocol::number_arg(args, "V0");
+  r.drive.f = protocol::number_arg(args, "f");
+  r.drive.C_dr = protocol::number_arg(args, "C_dr", r.drive.C_dr);
+  r.drive.e_dr = protocol::number_arg(args, "e_dr", r.drive.e_dr);
+  r.duration_s = protocol::number_arg(args, "duration_s");
+  const auto& lim = board_.drive.limits;
+  if (!(r.drive.V0 > 0.0 && r.drive.V0 <= lim.V_max && lim.V_min <= 0.0)) {
+    throw out_of_limits("V0", fmt::format("{:g} V is outside the board's limits; allowed: (0, {:g}] V",
+                                          r.drive.V0, lim.V_max));
+  }
+  const double f_max = board_.drive.rate_hz / 20.0;
+  if (!(r.drive.f > 0.0 && r.drive.f <= f_max)) {
+    throw out_of_limits("f", fmt::format("{:g} Hz gives under 20 drive samples per period at the "
+                                         "board's {:g} Hz; allowed: (0, {:g}] Hz",
+                                         r.drive.f, board_.drive.rate_hz, f_max));
+  }
+  if (!(r.drive.C_dr > 0.0 && r.drive.C_dr <= 1.0)) {
+    throw out_of_limits("C_dr", fmt::format("{:g}; allowed: (0, 1]", r.drive.C_dr));
+  }
+  if (!(r.drive.e_dr >= 0.0 && r.drive.e_dr < 1.0)) {
+    throw out_of_limits("e_dr", fmt::format("{:g}; allowed: [0, 1)", r.drive.e_dr));
+  }
+  const double D = r.drive.D();
+  if (!(D > 0.0 && D < 1.0)) {
+    throw out_of_limits("e_dr", fmt::format("with C_dr = {:g} the rise fraction D = {:g} is not "
+                                            "inside (0, 1)",
+                                            r.drive.C_dr, D));
+  }
+  const double fastest = r.drive.V0 * r.drive.f / std::min(D, 1.0 - D);
+  if (fastest > lim.slew_V_per_s) {
+    throw out_of_limits(
+        "V0", fmt::format("the sawtooth's fastest edge, V0*f/min(D, 1-D) = {:.4g} V/s, exceeds "
+                          "the board's slew limit {:g} V/s; allowed: V0*f <= {:.4g} V/s",
+                          fastest, lim.slew_V_per_s, lim.slew_V_per_s * std::min(D, 1.0 - D)));
+  }
+  if (!(r.duration_s > 0.0 && r.duration_s <= board_.daemon.duration_max_s)) {
+    throw out_of_limits("duration_s", fmt::format("{:g} s; allowed: (0, {:g}] s", r.duration_s,
+                                                  board_.daemon.duration_max_s));
+  }
+  configured_ = r;
+  return {{"V0", r.drive.V0}, {"f", r.drive.f}, {"C_dr", r.drive.C_dr}, {"e_dr", r.drive.e_dr},
+          {"D", D},           {"duration_s", r.duration_s}};
+}
+
+void Daemon::require_controller(const std::string& client, const char* cmd) const {
+  if (!controller_.empty() && controller_ != client) {
+    throw ProtocolError(code::not_controller, "",
+                        fmt::format("{}: another client controls the rig; watch the stream or "
+                                    "ask status, or estop",
+                                    cmd));
+  }
+}
+
+json Daemon::start(const std::string& client, const json& args) {
+  if (state_ == State::fault) {
+    throw ProtocolError(code::fault_latched, "",
+                        fmt::format("start: the fault {} is latched; send reset_fault first",
+                                    firmware::to_string(fault_cause_)));
+  }
+  if (running()) {
+    require_controller(client, "start");
+    throw ProtocolError(code::bad_state, "", "start: a run is under way");
+  }
+  if (!configured_) throw ProtocolError(code::bad_state, "", "start: send configure first");
+  const double lease_s = protocol::number_arg(args, "lease_s", board_.daemon.lease_s);
+  if (!(lease_s > 0.0 && lease_s <= board_.daemon.lease_max_s)) {
+    throw out_of_limits("lease_s", fmt::format("{:g} s; allowed: (0, {:g}] s", lease_s,
+                                               board_.daemon.lease_max_s));
+  }
+  run_.reset();  // the last run's runner (joined) goes; its samples are overwritten below
+  auto run = std::make_unique<Run>(*configured_);
+  run->id = ++run_count_;
+  run->lease_s = lease_s;
+  drive_recorder_.clear();
+  sensor_recorder_.clear();
+  drive_published_ = sensor_published_ = 0;
+  const bool virtual_clock = board_.virtual_clock();
+  firmware::LoopRunnerSettings settings{
+      {board_.drive.rate_hz, run->request.duration_s, 1.0 / run->request.drive.f,
+       board_.drive.limits},
+      board_.safety,
+      board_.sensor.rate_hz(),
+      !virtual_clock,
+      board_.run.priority,
+      board_.run.lock_memory};
+  run->runner = std::make_unique<firmware::LoopRunner>(
+      settings, run->waveform,
+      firmware::LoopDevices{*rig_.clock, *rig_.drive, *rig_.sensor, *rig_.lines}, &run->remote);
+  const auto now_ns = [] {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch())
+        .count();
+  };
+  run->lease_renewed_ns = now_ns();
+  std::function<bool()> lagging;
+  if (virtual_clock) {
+    // Time waits for a controller that is alive but behind.
+    Run* r = run.get();
+    const auto window = static_cast<std::uint64_t>(kVirtualAckWindow *
+                                                   static_cast<double>(drive_recorder_.capacity()));
+    const auto lease_ns = static_cast<std::int64_t>(lease_s * 1e9);
+    lagging = [r, window, lease_ns, now_ns] {
+      return now_ns() - r->lease_renewed_ns.load() < lease_ns &&
+             r->drive_recorded.load() > r->drive_acked.load() + window;
+    };
+  } else {
+    run->remote.lease_deadline = rig_.clock->now() + hal::from_seconds(lease_s);
+  }
+  run->t0 = run->runner->start([this](hal::TimeNs t0) { rig_.start_at(t0); }, lagging);
+  controller_ = client;
+  run_ = std::move(run);
+  state_ = State::running;
+  log_event(fmt::format("run {} started: V0 {:g} V, f {:g} Hz, {:g} s, lease {:g} s", run_->id,
+                        run_->request.drive.V0, run_->request.drive.f, run_->request.duration_s,
+                        lease_s));
+  publish_state();
+  return {{"run", run_->id},
+          {"t0_ns", run_->t0},
+          {"lease_s", lease_s},
+          {"duration_s", run_->request.duration_s}};
+}
+
+json Daemon::stop_run(const std::string& client) {
+  if (!running()) return {{"state", to_string(state_)}};
+  require_controller(client, "stop");
+  run_->runner->request_stop();
+  log_event(fmt::format("run {}: stop requested", run_->id));
+  return {{"state", to_string(state_)}};
+}
+
+json Daemon::estop(const std::string& client) {
+  // Anyone may press it: it only ever makes the rig safer.
+  if (running()) {
+    run_->remote.estop.store(true);
+  } else {
+    state_ = State::fault;
+    fault_cause_ = firmware::StopCause::estop;
+    publish_state();
+  }
+  log_event(fmt::format("e-stop from a client{}", controller_ == client ? " (the controller)" : ""));
+  return {{"state", to_string(state_)}};
+}
+
+json Daemon::reset_fault() {
+  if (running()) throw ProtocolError(code::bad_state, "", "reset_fault: a run is under way");
+  if (state_ == State::fault) {
+    log_event(fmt::format("fault {} reset", firmware::to_string(fault_cause_)));
+    state_ = State::idle;
+    fault_cause_ = firmware::StopCause::none;
+    publish_state();
+  }
+  return {{"state", to_string(state_)}};
+}
+
+json Daemon::renew_lease(const std::string& client, const json& args) {
+  if (!running()) throw ProtocolError(code::bad_state, "", "lease: no run is under way");
+  if (controller_ != client) {
+    throw ProtocolError(code::not_controller, "", "lease: only the controlling client renews it");
+  }
+  if (args.contains("drive_received")) {
+    run_->drive_acked = protocol::uint_arg(args, "drive_received");
+  }
+  if (board_.virtual_clock()) {
+    run_->lease_renewed_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                 Clock::now().time_since_epoch())
+                                 .count();
+  } else {
+    run_->remote.lease_deadline = rig_.clock->now() + hal::from_seconds(run_->lease_s);
+  }
+  return {{"lease_s", run_->lease_s}};
+}
+
+void Daemon::check_lease_on_wall_clock() {
+  if (!running() || !board_.virtual_clock()) return;
+  const auto now = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                       Clock::now().time_since_epoch())
+                       .count();
+  if (static_cast<double>(now - run_->lease_renewed_ns.load()) > run_->lease_s * 1e9) {
+    // Expire it on the board clock: the drive loop stops with link_lost.
+    run_->remote.lease_deadline.store(0);
+  }
+}
+
+json Daemon::fetch(const json& args) const {
+  const auto stream = protocol::stream_from_string(protocol::string_arg(args, "stream"), "stream");
+  const std::uint64_t first = protocol::uint_arg(args, "first");
+  const std::uint64_t count = protocol::uint_arg(args, "count");
+  if (count > kMaxFetch) {
+    throw out_of_limits("count", fmt::format("{}; allowed: at most {} per fetch", count, kMaxFetch));
+  }
+  const auto check = [&](std::uint64_t held_first, std::uint64_t held_next) {
+    if (first < held_first || first > held_next) {
+      throw ProtocolError(code::not_available, "first",
+                          fmt::format("first: {} is not recorded; the recorder holds [{}, {})",
+                                      first, held_first, held_next));
+    }
+  };
+  std::string frame;
+  if (stream == protocol::Stream::drive) {
+    check(drive_recorder_.first(), drive_recorder_.next());
+    std::vector<firmware::DriveSample> samples;
+    drive_recorder_.copy(first, count, samples);
+    frame = protocol::encode_frame(first, samples);
+  } else {
+    check(sensor_recorder_.first(), sensor_recorder_.next());
+    std::vector<firmware::SensorSample> samples;
+    sensor_recorder_.copy(first, count, samples);
+    frame = protocol::encode_frame(first, samples);
+  }
+  return {{"frame", json::binary(std::vector<std::uint8_t>(frame.begin(), frame.end()))}};
+}
+
+void Daemon::pump_samples() {
+  if (!run_) return;
+  bool ramping = false;
+  run_->runner->drain(
+      [&](const firmware::DriveSample& s) {
+        drive_recorder_.push(s);
+        ramping = ramping || s.phase == firmware::DrivePhase::ramping_down;
+      },
+      [this](const firmware::SensorSample& s) { sensor_recorder_.push(s); });
+  run_->drive_recorded = drive_recorder_.next();
+  // The drive's own phase says when the stop began.
+  if (ramping && state_ == State::running) {
+    state_ = State::ramping_down;
+    publish_state();
+  }
+  const auto publish = [this](const char* topic, auto& recorder, std::uint64_t& published) {
+    using Sample = typename std::decay_t<decltype(recorder)>::value_type;
+    std::vector<Sample> batch;
+    while (published < recorder.next()) {
+      published = std::max(published, recorder.first());
+      recorder.copy(published, kMaxBatch, batch);
+      if (batch.empty()) break;
+      const std::string frame = protocol::encode_frame(published, batch);
+      std::array<zmq::const_buffer, 2> parts{zmq::buffer(std::string_view(topic)),
+                                             zmq::buffer(frame)};
+      (void)zmq::send_multipart(stream_, parts, zmq::send_flags::dontwait);
+      published += batch.size();
+    }
+  };
+  publish("drive", drive_recorder_, drive_published_);
+  publish("sensor", sensor_recorder_, sensor_published_);
+}
+
+void Daemon::finish_run() {
+  auto& run = *run_;
+  run.runner->join();
+  pump_samples();
+  run.finished = true;
+  const auto cause = run.runner->cause();
+  const auto& out = run.runner->outcome();
+  run.summary = {
+      {"cause", firmware::to_string(cause)},
+      {"output",
+       {{"state", output_state(out)},
+        {"zero_confirmed", out.zero_confirmed},
+        {"acknowledged_V", std::isnan(out.acknowledged_V) ? json(nullptr) : json(out.acknowledged_V)},
+        {"zero_writes", out.zero_writes},
+        {"enable_status", hal::to_string(out.enable_status)}}},
+      {"drive", final_health_json(run.runner->drive_health())},
+      {"sensor", final_health_json(run.runner->sensor_health())},
+      {"realtime", run.runner->realtime_notes()},
+      {"samples", {{"drive", drive_recorder_.next()}, {"sensor", sensor_recorder_.next()}}}};
+  if (latches(cause) || output_state(out) != "confirmed") {
+    state_ = State::fault;
+    fault_cause_ = latches(cause) ? cause : firmware::StopCause::drive_fault;
+  } else {
+    state_ = State::idle;
+  }
+  controller_.clear();
+  log_event(fmt::format("run {} ended: {}, output {}{}", run.id, firmware::to_string(cause),
+                        output_state(out),
+                        state_ == State::fault ? " (fault latched: reset_fault to go on)" : ""));
+  publish_state();
+}
+
+void Daemon::publish_state() {
+  json j{{"state", to_string(state_)},
+         {"board_ns", rig_.clock->now()},
+         {"run", run_ ? json(run_->id) : json(nullptr)},
+         {"fault", state_ == State::fault ? json(firmware::to_string(fault_cause_)) : json(nullptr)}};
+  if (run_ && run_->finished) j["summary"] = run_->summary;
+  const std::string body = protocol::encode_map(j);
+  std::array<zmq::const_buffer, 2> parts{zmq::str_buffer("state"), zmq::buffer(body)};
+  (void)zmq::send_multipart(stream_, parts, zmq::send_flags::dontwait);
+}
+
+void Daemon::publish_health() {
+  json j{{"state", to_string(state_)}, {"board_ns", rig_.clock->now()}};
+  if (running()) {
+    j["drive"] = health_json(run_->runner->drive_health());
+    j["sensor"] = health_json(run_->runner->sensor_health());
+  }
+  const std::string body = protocol::encode_map(j);
+  std::array<zmq::const_buffer, 2> parts{zmq::str_buffer("health"), zmq::buffer(body)};
+  (void)zmq::send_multipart(stream_, parts, zmq::send_flags::dontwait);
+}
+
+}  // namespace piezo::daemon

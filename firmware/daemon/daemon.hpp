@@ -1,0 +1,96 @@
+#pragma once
+// piezod's core: owns the rig built from the board config, serves the
+// command socket (ROUTER) and the sample stream (PUB), runs the state
+// machine, the recorder and the lease. One network thread does all of it;
+// the real-time loops run under a LoopRunner beside it.
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <vector>
+#include <zmq.hpp>
+
+#include "curve.hpp"
+#include "piezo/firmware/loop_runner.hpp"
+#include "piezo/model/waveform.hpp"
+#include "recorder.hpp"
+#include "rig.hpp"
+#include "run_config.hpp"
+
+namespace piezo::daemon {
+
+enum class State { idle, running, ramping_down, fault };
+[[nodiscard]] const char* to_string(State s);
+
+class Daemon {
+ public:
+  /// Builds the rig (opens the hardware) and binds both sockets; throws
+  /// with a clear message when either fails. `listen` overrides the
+  /// config's address; `log` receives one line per event.
+  Daemon(const config::RunConfig& board, zmq::context_t& context, const std::string& listen,
+         std::ostream& log);
+  ~Daemon();
+  Daemon(const Daemon&) = delete;
+  Daemon& operator=(const Daemon&) = delete;
+
+  /// Serves until `stop` is set; a run under way is stopped (ramp to 0 V,
+  /// amplifier disabled) before it returns.
+  void serve(const std::atomic<bool>& stop);
+
+  [[nodiscard]] const std::string& command_endpoint() const { return command_endpoint_; }
+  [[nodiscard]] const std::string& stream_endpoint() const { return stream_endpoint_; }
+
+ private:
+  struct RunRequest {
+    model::DriveParameters drive;
+    double duration_s = 0.0;
+  };
+  struct Run;  // the run under way, or the last one
+
+  void poll_once();
+  void on_command(std::vector<zmq::message_t>& frames);
+  nlohmann::json handle(const std::string& client, const std::string& cmd,
+                        const nlohmann::json& args);
+  nlohmann::json hello() const;
+  nlohmann::json status(const std::string& client) const;
+  nlohmann::json configure(const std::string& client, const nlohmann::json& args);
+  nlohmann::json start(const std::string& client, const nlohmann::json& args);
+  nlohmann::json stop_run(const std::string& client);
+  nlohmann::json estop(const std::string& client);
+  nlohmann::json reset_fault();
+  nlohmann::json renew_lease(const std::string& client, const nlohmann::json& args);
+  nlohmann::json fetch(const nlohmann::json& args) const;
+  void require_controller(const std::string& client, const char* cmd) const;
+  void pump_samples();
+  void publish_state();
+  void publish_health();
+  void finish_run();
+  void check_lease_on_wall_clock();
+  void log_event(const std::string& line);
+  [[nodiscard]] bool running() const;
+
+  config::RunConfig board_;
+  std::ostream& log_;
+  config::Rig rig_;
+  zmq::context_t& context_;
+  zmq::socket_t commands_, stream_;
+  std::unique_ptr<ZapHandler> zap_;
+  std::string command_endpoint_, stream_endpoint_;
+  State state_ = State::idle;
+  firmware::StopCause fault_cause_ = firmware::StopCause::none;
+  std::optional<RunRequest> configured_;
+  std::unique_ptr<Run> run_;
+  std::uint64_t run_count_ = 0;
+  std::string controller_;  ///< routing id of the controlling client, while a run is on
+  Recorder<firmware::DriveSample> drive_recorder_;
+  Recorder<firmware::SensorSample> sensor_recorder_;
+  std::uint64_t drive_published_ = 0, sensor_published_ = 0;
+  std::chrono::steady_clock::time_point last_health_;
+};
+
+}  // namespace piezo::daemon

@@ -1,0 +1,34 @@
+#include "endpoints.hpp"
+
+#include <stdexcept>
+
+namespace piezo::daemon {
+
+std::string stream_endpoint(const std::string& e) {
+  if (e.starts_with("ipc://") || e.starts_with("inproc://")) return e + "-stream";
+  if (e.starts_with("tcp://")) {
+    const auto colon = e.rfind(':');
+    if (colon != std::string::npos && colon > 5) {
+      try {
+        std::size_t used = 0;
+        const int port = std::stoi(e.substr(colon + 1), &used);
+        if (used == e.size() - colon - 1 && port > 0 && port < 65535) {
+          return e.substr(0, colon + 1) + std::to_string(port + 1);
+        }
+      } catch (const std::exception&) {
+      }
+    }
+  }
+  throw std::invalid_argument(
+      "\"" + e +
+      "\" is not an address piezod serves (allowed: tcp://HOST:PORT with PORT 1..65534, "
+      "ipc://PATH, inproc://NAME)");
+}
+
+bool is_network_endpoint(const std::string& e) {
+  if (!e.starts_with("tcp://")) return false;
+  const std::string host = e.substr(6, e.rfind(':') - 6);
+  return host != "127.0.0.1" && host != "localhost" && host != "[::1]";
+}
+
+}  // namespace piezo::daemon

@@ -1,0 +1,16 @@
+#pragma once
+// Where piezod's two sockets are: commands at the address the client is
+// given, the sample stream next to it (docs/protocol.md, "Transport").
+
+#include <string>
+
+namespace piezo::daemon {
+
+/// tcp://HOST:PORT -> tcp://HOST:PORT+1; ipc://PATH and inproc://NAME get
+/// "-stream" appended. Throws std::invalid_argument on anything else.
+[[nodiscard]] std::string stream_endpoint(const std::string& command_endpoint);
+
+/// True for addresses other peers can reach: TCP on anything but loopback.
+[[nodiscard]] bool is_network_endpoint(const std::string& endpoint);
+
+}  // namespace piezo::daemon
