@@ -6,7 +6,7 @@
 #include <cmath>
 #include <zmq_addon.hpp>
 
-#include "endpoints.hpp"
+#include "piezo/protocol/endpoints.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "piezo/protocol/message.hpp"
 
@@ -109,8 +109,8 @@ Daemon::Daemon(const config::RunConfig& board, zmq::context_t& context, const st
       command_endpoint_(listen.empty() ? board.daemon.listen : listen),
       drive_recorder_(static_cast<std::size_t>(board.daemon.recorder_s * board.drive.rate_hz)),
       sensor_recorder_(static_cast<std::size_t>(board.daemon.recorder_s * board.sensor.rate_hz())) {
-  stream_endpoint_ = daemon::stream_endpoint(command_endpoint_);
-  const bool network = is_network_endpoint(command_endpoint_);
+  stream_endpoint_ = protocol::stream_endpoint(command_endpoint_);
+  const bool network = protocol::is_network_endpoint(command_endpoint_);
   const auto& d = board_.daemon;
   if (network && d.secret_key_file.empty() && !d.insecure) {
     throw std::runtime_error(fmt::format(

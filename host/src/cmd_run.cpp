@@ -11,10 +11,13 @@
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "commands.hpp"
 #include "config_error.hpp"
 #include "parameters_json.hpp"
+#include "remote_run.hpp"
+#include "rig_client.hpp"
 #include "rig.hpp"
 #include "run_config.hpp"
 #include "run_log.hpp"
@@ -34,6 +37,7 @@ struct RunOptions {
   std::vector<std::string> sets;
   double duration = 0.0;  // 0: the config's [run] duration_s
   std::string out;
+  std::string rig;  // piezod's address; empty: the config's [rig] address, or in-process
   bool json = false;
 };
 
@@ -220,9 +224,23 @@ int run(const RunOptions& o) {
   const StopOnSignals signals;
   std::vector<std::string> sets = o.sets;
   if (o.duration > 0.0) sets.push_back(fmt::format("run.duration_s={}", o.duration));
-  const RunConfig config = load_run_config(o.config, sets);
+  RunConfig config = load_run_config(o.config, sets);
+  if (!o.rig.empty()) config.rig.address = o.rig;
   const fs::path dir = choose_run_dir(o.out);
-  Rig rig = build_rig(config);
+  // The rig: piezod at an address, or the firmware in this process.
+  std::optional<Rig> rig;
+  std::optional<RigClient> client;
+  nlohmann::json hello;
+  double drive_latency_s = 0.0;
+  if (config.rig.address.empty()) {
+    rig.emplace(build_rig(config));
+    drive_latency_s = rig->drive->output_latency_s();
+  } else {
+    client.emplace(config.rig);
+    hello = client->call("hello");
+    configure_remote(config, *client);
+    drive_latency_s = hello.at("output_latency_s").get<double>();
+  }
 
   // Everything is checked: only now does the run leave traces.
   fs::create_directories(dir);
@@ -238,13 +256,15 @@ int run(const RunOptions& o) {
        {"version", PIEZO_VERSION},
        {"utc_start", utc_start},
        {"host", host_name()},
-       {"clock", config.run.clock},
-       {"drive_latency_s", fmt::format("{:.9g}", rig.drive->output_latency_s())},
+       {"clock", client ? hello.value("clock", std::string()) : config.run.clock},
+       {"drive_latency_s", fmt::format("{:.9g}", drive_latency_s)},
        {"time_origin", "seconds from the run's start (first drive deadline)"},
        {"theta", "(displacement - first good displacement) / sensor.r2_m"}});
 
-  RunSummary summary = execute_run(config, rig, log, signals.flag(),
-                                   o.json ? std::function<void(const LiveStatus&)>{} : show_status);
+  const auto status_line = o.json ? std::function<void(const LiveStatus&)>{} : show_status;
+  RunSummary summary =
+      client ? execute_remote_run(config, *client, hello, log, signals.flag(), status_line)
+             : execute_run(config, *rig, log, signals.flag(), status_line);
   if (!o.json && isatty(STDERR_FILENO)) write_out(stderr, "\n");
 
   finish_log(log, summary, summary_json(summary, dir, log_path, signals.received()));
@@ -279,6 +299,9 @@ CommandRunner add_run_command(CLI::App& app) {
   cmd->add_option("--duration", o->duration, "Run time [s] (default: [run] duration_s)")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--out", o->out, "Run directory (default: runs/<UTC time>)");
+  cmd->add_option("--rig", o->rig,
+                  "piezod's address, e.g. tcp://board:5555 (default: [rig] address, or the "
+                  "firmware in this process)");
   cmd->add_flag("--json", o->json, "Print one JSON summary on stdout");
   return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
 }

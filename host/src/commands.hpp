@@ -17,5 +17,6 @@ CommandRunner add_sensor_command(CLI::App& app);
 CommandRunner add_rig_sim_command(CLI::App& app);
 CommandRunner add_identify_command(CLI::App& app);
 CommandRunner add_compare_command(CLI::App& app);
+CommandRunner add_board_commands(CLI::App& app);
 
 }  // namespace piezo::host

@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
       piezo::host::add_run_command(app),      piezo::host::add_report_command(app),
       piezo::host::add_sensor_command(app),   piezo::host::add_rig_sim_command(app),
       piezo::host::add_identify_command(app), piezo::host::add_compare_command(app),
+      piezo::host::add_board_commands(app),
   };
   try {
     app.parse(argc, argv);

@@ -1,8 +1,8 @@
-#include "endpoints.hpp"
+#include "piezo/protocol/endpoints.hpp"
 
 #include <stdexcept>
 
-namespace piezo::daemon {
+namespace piezo::protocol {
 
 std::string stream_endpoint(const std::string& e) {
   if (e.starts_with("ipc://") || e.starts_with("inproc://")) return e + "-stream";
@@ -31,4 +31,4 @@ bool is_network_endpoint(const std::string& e) {
   return host != "127.0.0.1" && host != "localhost" && host != "[::1]";
 }
 
-}  // namespace piezo::daemon
+}  // namespace piezo::protocol

@@ -4,7 +4,7 @@
 
 #include <string>
 
-namespace piezo::daemon {
+namespace piezo::protocol {
 
 /// tcp://HOST:PORT -> tcp://HOST:PORT+1; ipc://PATH and inproc://NAME get
 /// "-stream" appended. Throws std::invalid_argument on anything else.
@@ -13,4 +13,4 @@ namespace piezo::daemon {
 /// True for addresses other peers can reach: TCP on anything but loopback.
 [[nodiscard]] bool is_network_endpoint(const std::string& endpoint);
 
-}  // namespace piezo::daemon
+}  // namespace piezo::protocol

@@ -1,0 +1,85 @@
+// `piezo status | stop | estop | reset-fault --rig ADDRESS`: talk to a
+// running piezod from any terminal (docs/protocol.md).
+
+#include <fmt/format.h>
+
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "rig_client.hpp"
+
+namespace piezo::host {
+namespace {
+
+struct BoardOptions {
+  config::RigAddress rig;
+  bool json = false;
+};
+
+std::string status_text(const nlohmann::json& s) {
+  std::string out = fmt::format("state      {}", s.at("state").get<std::string>());
+  if (!s.at("fault").is_null()) out += fmt::format(" (fault: {})", s.at("fault").get<std::string>());
+  out += "\n";
+  if (s.contains("run")) {
+    const auto& r = s.at("run");
+    out += fmt::format("run        {} ({:g} s, lease {:g} s){}\n", r.at("id").get<int>(),
+                       r.at("duration_s").get<double>(), r.at("lease_s").get<double>(),
+                       r.at("finished").get<bool>() ? ", finished" : "");
+    if (r.contains("summary")) {
+      const auto& sum = r.at("summary");
+      out += fmt::format("stop cause {}\noutput     {}\n", sum.at("cause").get<std::string>(),
+                         sum.at("output").at("state").get<std::string>());
+    }
+    out += fmt::format("samples    drive {}, sensor {}\n", r.at("drive").at("cycles").get<long>(),
+                       r.at("sensor").at("cycles").get<long>());
+  }
+  out += fmt::format("controlled {}\n", s.at("controlled").get<bool>() ? "yes" : "no");
+  return out;
+}
+
+int call(const BoardOptions& o, const std::string& cmd) {
+  RigClient client(o.rig);
+  const nlohmann::json result = client.call(cmd == "reset-fault" ? "reset_fault" : cmd);
+  if (o.json) {
+    std::cout << result.dump() << "\n";
+  } else if (cmd == "status") {
+    std::cout << status_text(result);
+  } else {
+    std::cout << fmt::format("{}: sent; state {}\n", cmd, result.at("state").get<std::string>());
+  }
+  return 0;
+}
+
+}  // namespace
+
+CommandRunner add_board_commands(CLI::App& app) {
+  struct Entry {
+    std::string name;
+    CLI::App* cmd;
+    std::shared_ptr<BoardOptions> options;
+  };
+  auto entries = std::make_shared<std::vector<Entry>>();
+  for (const auto& [name, help] : std::vector<std::pair<std::string, std::string>>{
+           {"status", "Print piezod's state, fault and run"},
+           {"stop", "Stop the run (ramp to 0 V); the controlling client only"},
+           {"estop", "Emergency stop: disable the amplifier at once, latch the fault"},
+           {"reset-fault", "Clear a latched fault (link_lost, estop, ...)"}}) {
+    auto o = std::make_shared<BoardOptions>();
+    CLI::App* cmd = app.add_subcommand(name, help);
+    cmd->add_option("--rig", o->rig.address, "piezod's address, e.g. tcp://127.0.0.1:5555")
+        ->required();
+    cmd->add_option("--server-key", o->rig.server_public_key_file, "CURVE: the board's .pub file");
+    cmd->add_option("--client-key", o->rig.client_secret_key_file, "CURVE: this host's .key file");
+    cmd->add_flag("--json", o->json, "Print the reply as JSON");
+    entries->push_back({name, cmd, o});
+  }
+  return [entries]() {
+    for (const auto& e : *entries) {
+      if (e.cmd->parsed()) return call(*e.options, e.name);
+    }
+    return -1;
+  };
+}
+
+}  // namespace piezo::host

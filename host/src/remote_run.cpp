@@ -1,0 +1,273 @@
+#include "remote_run.hpp"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <optional>
+#include <zmq_addon.hpp>
+
+#include "piezo/protocol/frame.hpp"
+#include "piezo/protocol/message.hpp"
+#include "config_error.hpp"
+#include "sample_collector.hpp"
+
+namespace piezo::host {
+namespace {
+
+using nlohmann::json;
+using SteadyClock = std::chrono::steady_clock;
+using namespace std::chrono_literals;
+
+constexpr auto kStatusPeriod = 200ms;
+constexpr auto kQuietBeforeAsking = 500ms;  // no state event: ask for the status
+constexpr std::uint64_t kFetchChunk = 50'000;
+
+std::int64_t host_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             SteadyClock::now().time_since_epoch())
+      .count();
+}
+
+LoopSummary loop_summary(const json& j) {
+  LoopSummary s;
+  s.samples = j.value("cycles", std::uint64_t{0});
+  s.overruns = j.value("overruns", std::uint64_t{0});
+  s.missed_cycles = j.value("missed_cycles", std::uint64_t{0});
+  s.dropped = j.value("dropped", std::uint64_t{0});
+  s.errors = j.value("errors", std::uint64_t{0});
+  s.p50_us = j.value("p50_us", 0.0);
+  s.p99_us = j.value("p99_us", 0.0);
+  s.max_us = j.value("max_us", 0.0);
+  s.mean_us = j.value("mean_us", 0.0);
+  s.histogram = j.value("histogram_us", std::vector<double>{});
+  return s;
+}
+
+/// Keeps each stream in sequence: frames that skip ahead have their gap
+/// fetched from the recorder first; repeats are dropped.
+class StreamCursor {
+ public:
+  StreamCursor(RigClient& client, SampleCollector& collector, std::vector<std::string>& gaps)
+      : client_(client), collector_(collector), gaps_(gaps) {}
+
+  void on_frame(std::string_view frame) {
+    const auto header = protocol::decode_header(frame);
+    std::uint64_t& next = header.stream == protocol::Stream::drive ? drive_next_ : sensor_next_;
+    if (header.first_seq > next) {
+      gaps_.push_back(fmt::format("{} [{}, {})", protocol::to_string(header.stream), next,
+                                  header.first_seq));
+      fetch(header.stream, header.first_seq);
+    }
+    add(frame, header);
+  }
+
+  /// Fetches everything up to `end` not yet received.
+  void fetch(protocol::Stream stream, std::uint64_t end) {
+    std::uint64_t& next = stream == protocol::Stream::drive ? drive_next_ : sensor_next_;
+    while (next < end) {
+      const json r = client_.call(
+          "fetch", {{"stream", protocol::to_string(stream)},
+                    {"first", next},
+                    {"count", std::min(kFetchChunk, end - next)}},
+          5s);
+      const auto& bytes = r.at("frame").get_binary();
+      const std::string frame(bytes.begin(), bytes.end());
+      const auto header = protocol::decode_header(frame);
+      if (header.count == 0) break;
+      add(frame, header);
+    }
+  }
+
+  [[nodiscard]] std::uint64_t drive_next() const { return drive_next_; }
+  [[nodiscard]] std::uint64_t sensor_next() const { return sensor_next_; }
+
+ private:
+  void add(std::string_view frame, const protocol::FrameHeader& h) {
+    std::uint64_t& next = h.stream == protocol::Stream::drive ? drive_next_ : sensor_next_;
+    if (h.first_seq > next || h.first_seq + h.count <= next) return;  // a gap left, or a repeat
+    const std::size_t skip = next - h.first_seq;
+    if (h.stream == protocol::Stream::drive) {
+      const auto samples = protocol::decode_drive(frame);
+      for (std::size_t i = skip; i < samples.size(); ++i) collector_.add(samples[i]);
+    } else {
+      const auto samples = protocol::decode_sensor(frame);
+      for (std::size_t i = skip; i < samples.size(); ++i) collector_.add(samples[i]);
+    }
+    next = h.first_seq + h.count;
+  }
+
+  RigClient& client_;
+  SampleCollector& collector_;
+  std::vector<std::string>& gaps_;
+  std::uint64_t drive_next_ = 0, sensor_next_ = 0;
+};
+
+}  // namespace
+
+firmware::StopCause stop_cause_from(const std::string& name) {
+  using firmware::StopCause;
+  for (auto c : {StopCause::none, StopCause::completed, StopCause::interrupted, StopCause::estop,
+                 StopCause::sensor_fault, StopCause::drive_fault, StopCause::link_lost}) {
+    if (firmware::to_string(c) == name) return c;
+  }
+  return StopCause::drive_fault;
+}
+
+void configure_remote(const RunConfig& c, RigClient& client) {
+  const auto& d = c.model.drive;
+  try {
+    (void)client.call("configure", {{"V0", d.V0},
+                                    {"f", d.f},
+                                    {"C_dr", d.C_dr},
+                                    {"e_dr", d.e_dr},
+                                    {"duration_s", c.run.duration_s}});
+  } catch (const RemoteError& e) {
+    const std::string key = e.key() == "duration_s" ? "run.duration_s" : "drive." + e.key();
+    throw ConfigError("piezod at " + client.address(), key,
+                      fmt::format("refused by the board ({}): {}", e.code(), e.what()));
+  }
+}
+
+ClockMapping estimate_clock_offset(RigClient& client, int round_trips) {
+  ClockMapping best{0, std::numeric_limits<std::int64_t>::max()};
+  for (int i = 0; i < round_trips; ++i) {
+    const std::int64_t sent = host_ns();
+    const auto board = client.call("clock").at("board_ns").get<std::int64_t>();
+    const std::int64_t received = host_ns();
+    // The fastest round trip bounds the offset most tightly.
+    if (received - sent < best.round_trip_ns) {
+      best = {board - (sent + received) / 2, received - sent};
+    }
+  }
+  return best;
+}
+
+RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json& hello,
+                              RunLog& log, const std::atomic<bool>& stop,
+                              const std::function<void(const LiveStatus&)>& on_status) {
+  RunSummary summary;
+  const ClockMapping clock = estimate_clock_offset(client);
+  log.set_attribute("board_clock_offset_ns", std::to_string(clock.offset_ns));
+  log.set_attribute("board_clock_round_trip_ns", std::to_string(clock.round_trip_ns));
+  client.subscribe({"drive", "sensor", "state"});
+  std::this_thread::sleep_for(100ms);  // let the subscription reach the board first
+
+  const json started = client.call("start");
+  const auto t0 = started.at("t0_ns").get<hal::TimeNs>();
+  const double lease_s = started.at("lease_s").get<double>();
+  log.set_attribute("board_t0_ns", std::to_string(t0));
+  log.set_attribute("rig", client.address());
+
+  std::optional<ObserverStage> observer;
+  if (c.observer.enabled) {
+    observer.emplace(c.model.motor, c.observer.gains, 1.0 / hello.at("drive_rate_hz").get<double>(),
+                     hello.at("output_latency_s").get<double>());
+  }
+  SampleCollector collector(t0, c.sensor.r2_m, observer ? &*observer : nullptr);
+  std::vector<std::string> gaps;
+  StreamCursor cursor(client, collector, gaps);
+
+  bool log_ok = true;
+  bool stop_sent = false;
+  auto append_log = [&] {
+    if (!log_ok) return;
+    try {
+      log.append(collector.buffer());
+    } catch (const std::exception& e) {
+      log_ok = false;
+      summary.host_error = e.what();
+    }
+  };
+  const auto lease_period = std::chrono::duration<double>(lease_s / 4.0);
+  const auto flush_interval = std::chrono::duration<double>(c.run.flush_interval_s);
+  auto last_lease = SteadyClock::now(), last_flush = last_lease, last_status = last_lease,
+       last_heard = last_lease;
+  std::optional<json> final_state;
+  while (!final_state) {
+    if ((stop.load() || !log_ok) && !stop_sent) {
+      try {
+        (void)client.call("stop", json::object(), 1s);
+        stop_sent = true;
+      } catch (const LinkTimeout&) {
+      }  // the lease stops the board by itself
+    }
+    zmq::pollitem_t item{client.stream().handle(), 0, ZMQ_POLLIN, 0};
+    zmq::poll(&item, 1, 5ms);
+    for (int i = 0; i < 256 && (item.revents & ZMQ_POLLIN) != 0; ++i) {
+      std::vector<zmq::message_t> parts;
+      if (!zmq::recv_multipart(client.stream(), std::back_inserter(parts),
+                               zmq::recv_flags::dontwait) || parts.size() != 2) {
+        break;
+      }
+      last_heard = SteadyClock::now();
+      if (parts[0].to_string_view() == "state") {
+        const json state = protocol::decode_map(parts[1].to_string_view());
+        if (state.contains("summary") && state.value("run", json()) == started.at("run")) {
+          final_state = state;
+        }
+      } else {
+        cursor.on_frame(parts[1].to_string_view());
+      }
+    }
+    const auto now = SteadyClock::now();
+    if (now - last_lease >= lease_period) {
+      client.send("lease", {{"drive_received", cursor.drive_next()}});
+      last_lease = now;
+    }
+    if (now - last_heard >= kQuietBeforeAsking) {
+      // Quiet stream: the link may be down, or the run's end went unheard.
+      try {
+        const json s = client.call("status", json::object(), 500ms);
+        const json& run = s.value("run", json::object());
+        if (run.value("id", json()) == started.at("run") && run.value("finished", false)) {
+          final_state = json{{"summary", run.at("summary")}};
+        }
+        last_heard = SteadyClock::now();
+      } catch (const LinkTimeout&) {
+        last_heard = SteadyClock::now();  // ZeroMQ reconnects with back-off; ask again later
+      }
+    }
+    if (now - last_flush >= flush_interval) {
+      append_log();
+      last_flush = now;
+    }
+    if (on_status && now - last_status >= kStatusPeriod) {
+      on_status({hal::to_seconds(host_ns() + clock.offset_ns - t0), c.run.duration_s,
+                 collector.last_V(), collector.last_theta(),
+                 observer ? observer->summary().last_residual_rad : 0.0, cursor.sensor_next(), 0,
+                 0});
+      last_status = now;
+    }
+  }
+  const json& board = final_state->at("summary");
+  // The stream's tail may still be in flight or lost: the recorder has it all.
+  cursor.fetch(protocol::Stream::drive, board.at("samples").at("drive").get<std::uint64_t>());
+  cursor.fetch(protocol::Stream::sensor, board.at("samples").at("sensor").get<std::uint64_t>());
+  if (observer) observer->finish(collector.buffer());
+  append_log();
+  log.set_attribute("stream_gaps_fetched", gaps.empty() ? "none" : fmt::format("{}", fmt::join(gaps, "; ")));
+
+  summary.cause = stop_cause_from(board.at("cause").get<std::string>());
+  const json& out = board.at("output");
+  summary.output.enabled_ever = true;
+  summary.output.zero_confirmed = out.at("zero_confirmed").get<bool>();
+  summary.output.acknowledged_V =
+      out.at("acknowledged_V").is_null() ? std::nan("") : out.at("acknowledged_V").get<double>();
+  summary.output.zero_writes = out.at("zero_writes").get<std::uint32_t>();
+  summary.output.enable_status =
+      out.at("enable_status") == "ok" ? hal::Status::ok : hal::Status::io_error;
+  summary.drive = loop_summary(board.at("drive"));
+  summary.sensor = loop_summary(board.at("sensor"));
+  summary.drive.errors_by_class = collector.drive_errors();
+  summary.sensor.errors_by_class = collector.sensor_errors();
+  if (observer) summary.observer = observer->summary();
+  summary.theta_end_rad = collector.last_theta();
+  summary.t_end_s = collector.last_good_t();
+  summary.mean_velocity_rad_s =
+      summary.t_end_s > 0.0 ? summary.theta_end_rad / summary.t_end_s : 0.0;
+  summary.realtime_notes = board.value("realtime", std::vector<std::string>{});
+  summary.realtime_notes.push_back("board " + client.address());
+  return summary;
+}
+
+}  // namespace piezo::host

@@ -1,0 +1,79 @@
+#include "rig_client.hpp"
+
+#include <fmt/format.h>
+
+#include <zmq_addon.hpp>
+
+#include "curve.hpp"
+#include "piezo/protocol/endpoints.hpp"
+#include "piezo/protocol/message.hpp"
+
+namespace piezo::host {
+
+RigClient::RigClient(const config::RigAddress& rig)
+    : address_(rig.address),
+      commands_(context_, zmq::socket_type::dealer),
+      stream_(context_, zmq::socket_type::sub) {
+  const std::string stream_address = protocol::stream_endpoint(address_);
+  if (!rig.server_public_key_file.empty() || !rig.client_secret_key_file.empty()) {
+    if (rig.server_public_key_file.empty() || rig.client_secret_key_file.empty()) {
+      throw std::runtime_error("rig: CURVE needs both server_public_key_file and "
+                               "client_secret_key_file");
+    }
+    const std::string server = daemon::read_key(rig.server_public_key_file, "public-key");
+    const std::string mine = daemon::read_key(rig.client_secret_key_file, "public-key");
+    const std::string secret = daemon::read_key(rig.client_secret_key_file, "secret-key");
+    for (auto* s : {&commands_, &stream_}) {
+      s->set(zmq::sockopt::curve_serverkey, server);
+      s->set(zmq::sockopt::curve_publickey, mine);
+      s->set(zmq::sockopt::curve_secretkey, secret);
+    }
+  }
+  for (auto* s : {&commands_, &stream_}) {
+    s->set(zmq::sockopt::linger, 0);
+    s->set(zmq::sockopt::reconnect_ivl, 100);
+    s->set(zmq::sockopt::reconnect_ivl_max, 2000);  // back-off after an outage
+  }
+  stream_.set(zmq::sockopt::rcvhwm, 100'000);
+  try {
+    commands_.connect(address_);
+    stream_.connect(stream_address);
+  } catch (const zmq::error_t& e) {
+    throw std::runtime_error(fmt::format("rig address \"{}\": {}", address_, e.what()));
+  }
+}
+
+void RigClient::send(const std::string& cmd, const nlohmann::json& args) {
+  const std::string body = protocol::encode_request({next_id_++, cmd, args});
+  (void)commands_.send(zmq::buffer(body), zmq::send_flags::dontwait);
+}
+
+nlohmann::json RigClient::call(const std::string& cmd, const nlohmann::json& args,
+                               std::chrono::milliseconds timeout) {
+  const std::uint64_t id = next_id_;
+  send(cmd, args);
+  const auto give_up = std::chrono::steady_clock::now() + timeout;
+  for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        give_up - std::chrono::steady_clock::now());
+    if (left.count() <= 0) {
+      throw LinkTimeout(fmt::format("{}: no reply from piezod at {} within {} ms", cmd, address_,
+                                    timeout.count()));
+    }
+    zmq::pollitem_t item{commands_.handle(), 0, ZMQ_POLLIN, 0};
+    zmq::poll(&item, 1, left);
+    if ((item.revents & ZMQ_POLLIN) == 0) continue;
+    zmq::message_t message;
+    if (!commands_.recv(message, zmq::recv_flags::dontwait)) continue;
+    const auto reply = protocol::decode_reply(message.to_string_view());
+    if (reply.id != id) continue;  // a late reply to an earlier command
+    if (!reply.ok) throw RemoteError(reply.error.code, reply.error.key, reply.error.message);
+    return reply.result;
+  }
+}
+
+void RigClient::subscribe(std::initializer_list<const char*> topics) {
+  for (const char* t : topics) stream_.set(zmq::sockopt::subscribe, t);
+}
+
+}  // namespace piezo::host

@@ -1,0 +1,59 @@
+#pragma once
+// A client of piezod (docs/protocol.md): a DEALER for commands, each
+// matched to its reply by id, and a SUB on the sample stream next to it.
+
+#include <chrono>
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <string>
+#include <zmq.hpp>
+
+#include "run_config.hpp"
+
+namespace piezo::host {
+
+/// An error reply: the daemon refused the command.
+class RemoteError : public std::runtime_error {
+ public:
+  RemoteError(std::string code, std::string key, const std::string& message)
+      : std::runtime_error(message), code_(std::move(code)), key_(std::move(key)) {}
+  [[nodiscard]] const std::string& code() const { return code_; }
+  [[nodiscard]] const std::string& key() const { return key_; }
+
+ private:
+  std::string code_, key_;
+};
+
+/// No reply within the timeout: the link or the daemon is down.
+class LinkTimeout : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class RigClient {
+ public:
+  /// Connects both sockets (ZeroMQ reconnects by itself after an outage);
+  /// with CURVE key files in `rig`, as an authorized client.
+  explicit RigClient(const config::RigAddress& rig);
+
+  /// Sends a command and waits for its reply; replies to earlier commands
+  /// that arrive meanwhile are dropped. Throws RemoteError or LinkTimeout.
+  nlohmann::json call(const std::string& cmd, const nlohmann::json& args = nlohmann::json::object(),
+                      std::chrono::milliseconds timeout = std::chrono::milliseconds(2000));
+  /// Sends a command without waiting (lease renewals); its reply is dropped.
+  void send(const std::string& cmd, const nlohmann::json& args = nlohmann::json::object());
+
+  /// Subscribes the stream to the given topics ("drive", "sensor", "state", "health").
+  void subscribe(std::initializer_list<const char*> topics);
+  [[nodiscard]] zmq::socket_t& stream() { return stream_; }
+  [[nodiscard]] const std::string& address() const { return address_; }
+
+ private:
+  std::string address_;
+  zmq::context_t context_;
+  zmq::socket_t commands_, stream_;
+  std::uint64_t next_id_ = 1;
+};
+
+}  // namespace piezo::host

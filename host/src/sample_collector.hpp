@@ -1,0 +1,78 @@
+#pragma once
+// Samples from the firmware (a ring in-process, or frames from piezod) to
+// log columns, with the observer fed as they come.
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <string>
+
+#include "observer_stage.hpp"
+#include "piezo/firmware/samples.hpp"
+#include "run_log.hpp"
+
+namespace piezo::host {
+
+using firmware::DriveSample;
+using firmware::SensorSample;
+
+/// Turns ring samples into log columns; theta is the displacement change
+/// since the first good reading over r2 (MODEL.md section 4).
+class SampleCollector {
+ public:
+  SampleCollector(hal::TimeNs t0, double r2, ObserverStage* observer)
+      : t0_(t0), r2_(r2), observer_(observer) {}
+
+  void add(const DriveSample& s) {
+    if (s.status != hal::Status::ok) ++drive_errors_[std::string(hal::to_string(s.status))];
+    const double t = hal::to_seconds(s.t - t0_);
+    if (observer_ != nullptr) observer_->on_drive(t, s.V, buffer_);
+    buffer_["/drive/t"].push_back(t);
+    buffer_["/drive/V"].push_back(s.V);
+    buffer_["/drive/phase"].push_back(static_cast<double>(s.phase));
+    buffer_["/drive/status"].push_back(static_cast<double>(s.status));
+    last_V_ = s.V;
+  }
+
+  void add(const SensorSample& s) {
+    const bool good = s.status == hal::Status::ok;
+    if (!good) ++sensor_errors_[std::string(hal::to_string(s.status))];
+    if (good && std::isnan(tare_)) tare_ = s.displacement_m;
+    const double theta =
+        good ? (s.displacement_m - tare_) / r2_ : std::numeric_limits<double>::quiet_NaN();
+    const double t = hal::to_seconds(s.t_request - t0_);
+    buffer_["/sensor/t"].push_back(t);
+    buffer_["/sensor/t_response"].push_back(hal::to_seconds(s.t_response - t0_));
+    buffer_["/sensor/displacement_m"].push_back(s.displacement_m);
+    buffer_["/sensor/theta"].push_back(theta);
+    buffer_["/sensor/status"].push_back(static_cast<double>(s.status));
+    if (good) {
+      last_theta_ = theta;
+      last_good_t_ = t;
+      if (observer_ != nullptr) observer_->on_measurement(t, theta, buffer_);
+    }
+  }
+
+  ColumnBuffer& buffer() { return buffer_; }
+  [[nodiscard]] double last_theta() const { return last_theta_; }
+  [[nodiscard]] double last_good_t() const { return last_good_t_; }
+  [[nodiscard]] double last_V() const { return last_V_; }
+  [[nodiscard]] const std::map<std::string, std::uint64_t>& drive_errors() const {
+    return drive_errors_;
+  }
+  [[nodiscard]] const std::map<std::string, std::uint64_t>& sensor_errors() const {
+    return sensor_errors_;
+  }
+
+ private:
+  hal::TimeNs t0_;
+  double r2_;
+  ObserverStage* observer_;
+  double tare_ = std::numeric_limits<double>::quiet_NaN();
+  double last_theta_ = 0.0, last_good_t_ = 0.0, last_V_ = 0.0;
+  ColumnBuffer buffer_;
+  std::map<std::string, std::uint64_t> drive_errors_, sensor_errors_;
+};
+
+}  // namespace piezo::host
