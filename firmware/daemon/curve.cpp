@@ -63,9 +63,11 @@ std::vector<std::string> read_authorized_keys(const std::string& path) {
   std::vector<std::string> keys;
   std::string line;
   for (int n = 1; std::getline(in, line); ++n) {
-    line = line.substr(0, line.find('#'));
-    line.erase(std::remove_if(line.begin(), line.end(), [](unsigned char c) { return std::isspace(c); }),
+    // '#' is a Z85 character too: only a line that starts with it is a comment.
+    line.erase(std::remove_if(line.begin(), line.end(),
+                              [](unsigned char c) { return std::isspace(c); }),
                line.end());
+    if (line.starts_with("#")) continue;
     if (line.starts_with("public-key=")) line = line.substr(11);
     line.erase(std::remove(line.begin(), line.end(), '"'), line.end());
     if (line.empty()) continue;

@@ -1,0 +1,180 @@
+// piezod as its own process on loopback, with real clients: `piezo run
+// --rig`, an independent Python client written from docs/protocol.md, a
+// host killed with -9 (the board stops itself), and CURVE.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <regex>
+#include <sstream>
+
+#include "rig_sim.hpp"
+
+namespace piezo::testing {
+namespace {
+
+const std::string kPiezod = PIEZOD_BINARY;
+const std::string kSource = PIEZO_SOURCE_DIR;
+const std::string kSimConfig = kSource + "/configs/sim.toml";
+
+std::string read_all(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// piezod on the simulated rig, on a free loopback port, with extra
+/// [piezod]/[run] lines.
+class Piezod : public ::testing::Test {
+ protected:
+  void start(const std::string& extra_toml = "", const std::vector<std::string>& extra_args = {}) {
+    dir_ = fresh_temp_dir("piezod");
+    port_ = free_port();
+    while (port_ >= 65534) port_ = free_port();
+    address_ = "tcp://127.0.0.1:" + std::to_string(port_);
+    // Extra [piezod] keys go right under the section's header.
+    std::string board = read_all(kSource + "/configs/piezod-sim.toml");
+    board.insert(board.find("[piezod]\n") + 9, extra_toml);
+    write_file(dir_ / "board.toml", board);
+    std::vector<std::string> argv{kPiezod, "--config", (dir_ / "board.toml").string(), "--listen",
+                                  address_};
+    argv.insert(argv.end(), extra_args.begin(), extra_args.end());
+    daemon_ = std::make_unique<Spawned>(argv, (dir_ / "piezod.log").string());
+    ASSERT_TRUE(wait_for_tcp(port_)) << read_all(dir_ / "piezod.log");
+  }
+  [[nodiscard]] std::string log() const { return read_all(dir_ / "piezod.log"); }
+  nlohmann::json status() {
+    const auto r = run_command(kPiezo + " status --json --rig " + address_);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return nlohmann::json::parse(r.out);
+  }
+
+  fs::path dir_;
+  int port_ = 0;
+  std::string address_;
+  std::unique_ptr<Spawned> daemon_;
+};
+
+TEST_F(Piezod, RunOverTheProtocolMatchesTheInProcessRun) {
+  start();
+  const auto remote = run_command(kPiezo + " run --config " + kSimConfig + " --rig " + address_ +
+                                  " --json --out " + (dir_ / "remote").string());
+  ASSERT_EQ(remote.exit_code, 0) << remote.err;
+  const auto local = run_command(kPiezo + " run --config " + kSimConfig + " --json --out " +
+                                 (dir_ / "local").string());
+  ASSERT_EQ(local.exit_code, 0) << local.err;
+  const auto r = nlohmann::json::parse(remote.out), l = nlohmann::json::parse(local.out);
+  EXPECT_EQ(r.at("status"), "completed");
+  EXPECT_EQ(r.at("output").at("state"), "confirmed");
+  // Same plant, same waveform: the angles agree within the sensor's noise
+  // and a few drive periods of timing (both in real time).
+  const double theta_r = r.at("theta_end_rad"), theta_l = l.at("theta_end_rad");
+  EXPECT_NEAR(theta_r, theta_l, 0.02 * theta_l);
+  EXPECT_EQ(r.at("sensor").at("samples"), l.at("sensor").at("samples"));
+  // h5py reads the host's log: every sample, in sequence, with the clock mapping.
+  const auto check = run_command(
+      "/usr/bin/python3 -c \"import h5py, numpy as np; f = h5py.File('" +
+      (dir_ / "remote" / "run.h5").string() +
+      "'); t = f['sensor/t'][:]; print(f.attrs['status'].decode(), len(t), "
+      "bool(np.all(np.diff(t) > 0)), 'board_clock_offset_ns' in f.attrs, "
+      "f.attrs['stream_gaps_fetched'].decode())\"");
+  EXPECT_EQ(check.out, "completed 4801 True True none\n") << check.err;
+}
+
+TEST_F(Piezod, ARequestBeyondTheBoardsLimitsIsRefusedNamingTheKey) {
+  start();
+  const auto r = run_command(kPiezo + " run --config " + kSimConfig +
+                             " --set drive.V_max=100 --set drive.V0=90 --rig " + address_ +
+                             " --out " + (dir_ / "refused").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("drive.V0"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("allowed: (0, 80] V"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "refused"));
+  EXPECT_EQ(status().at("state"), "idle");
+}
+
+TEST_F(Piezod, AnIndependentPythonClientRunsFromTheProtocolDocument) {
+  start();
+  const auto r = run_command("/usr/bin/python3 " + kSource + "/tests/protocol/protocol_client.py " +
+                             address_);
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err << log();
+  EXPECT_EQ(r.out.substr(0, 3), "ok ") << r.out;
+  EXPECT_EQ(status().at("state"), "idle");  // the malformed input did not stop the daemon
+}
+
+// The host dies mid-run: nothing renews the lease, and the board ramps to
+// 0 V, disables and latches link_lost by itself. Checked on the board's
+// recorder: the drive's own samples, as the simulated drive acknowledged.
+TEST_F(Piezod, KillNineOfTheHostStopsTheBoardAndLatchesLinkLost) {
+  start();
+  Spawned host({kPiezo, "run", "--config", kSimConfig, "--rig", address_, "--duration", "60",
+                "--out", (dir_ / "killed").string()},
+               (dir_ / "host.log").string());
+  std::this_thread::sleep_for(1500ms);
+  host.signal(SIGKILL);
+  EXPECT_EQ(host.wait_exit(), 128 + SIGKILL);
+  std::this_thread::sleep_for(1500ms);
+  const auto s = status();
+  EXPECT_EQ(s.at("state"), "fault");
+  EXPECT_EQ(s.at("fault"), "link_lost");
+  const auto& summary = s.at("run").at("summary");
+  EXPECT_EQ(summary.at("cause"), "link_lost");
+  EXPECT_EQ(summary.at("output").at("state"), "confirmed");
+  EXPECT_NE(log().find("ended: link_lost"), std::string::npos) << log();
+  // Within the lease plus the ramp, on the board's clock: from the last
+  // sample still driving to the stop.
+  const auto fetch = run_command(
+      "/usr/bin/python3 -c \"import zmq, msgpack, struct; c = zmq.Context().socket(zmq.DEALER); "
+      "c.connect('" + address_ + "'); n = " + std::to_string(summary.at("samples").at("drive").get<long>()) +
+      "; c.send(msgpack.packb({'id': 1, 'cmd': 'fetch', 'args': {'stream': 'drive', 'first': "
+      "n - 5000, 'count': 5000}})); f = msgpack.unpackb(c.recv())['result']['frame']; "
+      "r = [struct.unpack_from('<qdBB', f, 24 + 24 * i) for i in range(5000)]; "
+      "ramp = [x for x in r if x[2] == 1]; print(len(ramp) > 0, (r[-1][0] - ramp[0][0]) * 1e-9, "
+      "r[-1][1], r[-1][2])\"");
+  std::istringstream in(fetch.out);
+  std::string ramped;
+  double stop_s = 0, last_V = -1;
+  int last_phase = -1;
+  in >> ramped >> stop_s >> last_V >> last_phase;
+  EXPECT_EQ(ramped, "True") << fetch.out << fetch.err;
+  EXPECT_LT(stop_s, 80.0 / 1000.0 + 0.05);  // V_max / ramp_down_V_per_s, plus the stop's confirm
+  EXPECT_EQ(last_V, 0.0);
+  EXPECT_EQ(last_phase, 2);  // stopped
+  // Nothing resumes by itself: a new start is refused until reset_fault.
+  const auto again = run_command(kPiezo + " run --config " + kSimConfig + " --rig " + address_ +
+                                 " --duration 0.2 --out " + (dir_ / "again").string());
+  EXPECT_NE(again.exit_code, 0);
+  EXPECT_NE(again.err.find("reset_fault"), std::string::npos) << again.err;
+  EXPECT_EQ(run_command(kPiezo + " reset-fault --rig " + address_).exit_code, 0);
+  EXPECT_EQ(status().at("state"), "idle");
+}
+
+TEST_F(Piezod, ANetworkAddressNeedsCurveAndRefusesUnknownClients) {
+  const auto keys = fresh_temp_dir("piezod-keys");
+  for (const char* name : {"board", "host", "stranger"}) {
+    ASSERT_EQ(run_command(kPiezod + " keygen --out " + keys.string() + " --name " + name).exit_code,
+              0);
+  }
+  write_file(keys / "authorized_keys", read_all(keys / "host.pub"));
+  start("secret_key_file = \"" + (keys / "board.key").string() + "\"\n" +
+            "authorized_keys_file = \"" + (keys / "authorized_keys").string() + "\"\n",
+        {});
+  const std::string curve = " --server-key " + (keys / "board.pub").string() + " --client-key ";
+  const auto ok = run_command(kPiezo + " status --json --rig " + address_ + curve +
+                              (keys / "host.key").string());
+  EXPECT_EQ(ok.exit_code, 0) << ok.err;
+  const auto refused = run_command(kPiezo + " status --rig " + address_ + curve +
+                                   (keys / "stranger.key").string());
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.err.find("no reply"), std::string::npos) << refused.err;
+  EXPECT_NE(log().find("is not in the authorized keys"), std::string::npos) << log();
+  // Without keys, a network address is refused at start.
+  const auto plain = run_command(kPiezod + " --config " + kSource +
+                                 "/configs/piezod-sim.toml --listen tcp://0.0.0.0:" +
+                                 std::to_string(free_port()));
+  EXPECT_EQ(plain.exit_code, 1);
+  EXPECT_NE(plain.err.find("CURVE"), std::string::npos) << plain.err;
+}
+
+}  // namespace
+}  // namespace piezo::testing
