@@ -100,9 +100,13 @@ struct Daemon::Run {
 
 Daemon::Daemon(const config::RunConfig& board, zmq::context_t& context, const std::string& listen,
                std::ostream& log)
+    : Daemon(board, config::build_rig(board), context, listen, log) {}
+
+Daemon::Daemon(const config::RunConfig& board, config::Rig rig, zmq::context_t& context,
+               const std::string& listen, std::ostream& log)
     : board_(board),
       log_(log),
-      rig_(config::build_rig(board)),
+      rig_(std::move(rig)),
       context_(context),
       commands_(context, zmq::socket_type::router),
       stream_(context, zmq::socket_type::pub),
@@ -570,6 +574,8 @@ void Daemon::finish_run() {
         {"zero_confirmed", out.zero_confirmed},
         {"acknowledged_V", std::isnan(out.acknowledged_V) ? json(nullptr) : json(out.acknowledged_V)},
         {"zero_writes", out.zero_writes},
+        {"zero_status", hal::to_string(out.zero_status)},
+        {"enabled_ever", out.enabled_ever},
         {"enable_status", hal::to_string(out.enable_status)}}},
       {"drive", final_health_json(run.runner->drive_health())},
       {"sensor", final_health_json(run.runner->sensor_health())},

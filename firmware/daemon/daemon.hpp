@@ -34,6 +34,10 @@ class Daemon {
   /// config's address; `log` receives one line per event.
   Daemon(const config::RunConfig& board, zmq::context_t& context, const std::string& listen,
          std::ostream& log);
+  /// The same on a rig built by the caller (the host's one-machine default,
+  /// tests that look at the simulated devices afterwards).
+  Daemon(const config::RunConfig& board, config::Rig rig, zmq::context_t& context,
+         const std::string& listen, std::ostream& log);
   ~Daemon();
   Daemon(const Daemon&) = delete;
   Daemon& operator=(const Daemon&) = delete;

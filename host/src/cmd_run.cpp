@@ -264,7 +264,7 @@ int run(const RunOptions& o) {
   const auto status_line = o.json ? std::function<void(const LiveStatus&)>{} : show_status;
   RunSummary summary =
       client ? execute_remote_run(config, *client, hello, log, signals.flag(), status_line)
-             : execute_run(config, *rig, log, signals.flag(), status_line);
+             : execute_run(config, std::move(*rig), log, signals.flag(), status_line);
   if (!o.json && isatty(STDERR_FILENO)) write_out(stderr, "\n");
 
   finish_log(log, summary, summary_json(summary, dir, log_path, signals.received()));

@@ -28,6 +28,13 @@ std::int64_t host_ns() {
       .count();
 }
 
+hal::Status status_from(const std::string& name) {
+  for (std::uint8_t i = 0; i <= static_cast<std::uint8_t>(hal::Status::out_of_range); ++i) {
+    if (hal::to_string(static_cast<hal::Status>(i)) == name) return static_cast<hal::Status>(i);
+  }
+  return hal::Status::io_error;
+}
+
 LoopSummary loop_summary(const json& j) {
   LoopSummary s;
   s.samples = j.value("cycles", std::uint64_t{0});
@@ -144,15 +151,24 @@ ClockMapping estimate_clock_offset(RigClient& client, int round_trips) {
 
 RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json& hello,
                               RunLog& log, const std::atomic<bool>& stop,
-                              const std::function<void(const LiveStatus&)>& on_status) {
+                              const std::function<void(const LiveStatus&)>& on_status,
+                              std::optional<double> lease) {
   RunSummary summary;
+  if (stop.load()) {
+    // Stopped during set-up: the drive is never started.
+    summary.cause = firmware::StopCause::interrupted;
+    summary.output.zero_confirmed = true;
+    summary.realtime_notes.push_back("stopped before the start");
+    return summary;
+  }
   const ClockMapping clock = estimate_clock_offset(client);
   log.set_attribute("board_clock_offset_ns", std::to_string(clock.offset_ns));
   log.set_attribute("board_clock_round_trip_ns", std::to_string(clock.round_trip_ns));
-  client.subscribe({"drive", "sensor", "state"});
+  client.subscribe({"drive", "sensor", "state", "health"});
   std::this_thread::sleep_for(100ms);  // let the subscription reach the board first
 
-  const json started = client.call("start");
+  const json started =
+      client.call("start", lease ? json{{"lease_s", *lease}} : json::object());
   const auto t0 = started.at("t0_ns").get<hal::TimeNs>();
   const double lease_s = started.at("lease_s").get<double>();
   log.set_attribute("board_t0_ns", std::to_string(t0));
@@ -183,6 +199,7 @@ RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json&
   auto last_lease = SteadyClock::now(), last_flush = last_lease, last_status = last_lease,
        last_heard = last_lease;
   std::optional<json> final_state;
+  json health = json::object();
   while (!final_state) {
     if ((stop.load() || !log_ok) && !stop_sent) {
       try {
@@ -191,16 +208,17 @@ RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json&
       } catch (const LinkTimeout&) {
       }  // the lease stops the board by itself
     }
-    zmq::pollitem_t item{client.stream().handle(), 0, ZMQ_POLLIN, 0};
-    zmq::poll(&item, 1, 5ms);
-    for (int i = 0; i < 256 && (item.revents & ZMQ_POLLIN) != 0; ++i) {
+    const bool ready = poll_in(client.stream(), 5ms);
+    for (int i = 0; i < 256 && ready; ++i) {
       std::vector<zmq::message_t> parts;
       if (!zmq::recv_multipart(client.stream(), std::back_inserter(parts),
                                zmq::recv_flags::dontwait) || parts.size() != 2) {
         break;
       }
       last_heard = SteadyClock::now();
-      if (parts[0].to_string_view() == "state") {
+      if (parts[0].to_string_view() == "health") {
+        health = protocol::decode_map(parts[1].to_string_view());
+      } else if (parts[0].to_string_view() == "state") {
         const json state = protocol::decode_map(parts[1].to_string_view());
         if (state.contains("summary") && state.value("run", json()) == started.at("run")) {
           final_state = state;
@@ -232,10 +250,11 @@ RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json&
       last_flush = now;
     }
     if (on_status && now - last_status >= kStatusPeriod) {
-      on_status({hal::to_seconds(host_ns() + clock.offset_ns - t0), c.run.duration_s,
-                 collector.last_V(), collector.last_theta(),
-                 observer ? observer->summary().last_residual_rad : 0.0, cursor.sensor_next(), 0,
-                 0});
+      const json sensor = health.value("sensor", json::object());
+      const json drive = health.value("drive", json::object());
+      on_status({collector.last_t(), c.run.duration_s, collector.last_V(), collector.last_theta(),
+                 observer ? observer->summary().last_residual_rad : 0.0, cursor.sensor_next(),
+                 sensor.value("errors", std::uint64_t{0}), drive.value("overruns", std::uint64_t{0})});
       last_status = now;
     }
   }
@@ -249,13 +268,13 @@ RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json&
 
   summary.cause = stop_cause_from(board.at("cause").get<std::string>());
   const json& out = board.at("output");
-  summary.output.enabled_ever = true;
+  summary.output.enabled_ever = out.value("enabled_ever", true);
   summary.output.zero_confirmed = out.at("zero_confirmed").get<bool>();
+  summary.output.zero_status = status_from(out.value("zero_status", "ok"));
   summary.output.acknowledged_V =
       out.at("acknowledged_V").is_null() ? std::nan("") : out.at("acknowledged_V").get<double>();
   summary.output.zero_writes = out.at("zero_writes").get<std::uint32_t>();
-  summary.output.enable_status =
-      out.at("enable_status") == "ok" ? hal::Status::ok : hal::Status::io_error;
+  summary.output.enable_status = status_from(out.at("enable_status").get<std::string>());
   summary.drive = loop_summary(board.at("drive"));
   summary.sensor = loop_summary(board.at("sensor"));
   summary.drive.errors_by_class = collector.drive_errors();
@@ -266,7 +285,9 @@ RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json&
   summary.mean_velocity_rad_s =
       summary.t_end_s > 0.0 ? summary.theta_end_rad / summary.t_end_s : 0.0;
   summary.realtime_notes = board.value("realtime", std::vector<std::string>{});
-  summary.realtime_notes.push_back("board " + client.address());
+  if (!client.address().starts_with("inproc://")) {
+    summary.realtime_notes.push_back("board " + client.address());
+  }
   return summary;
 }
 

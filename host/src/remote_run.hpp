@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <functional>
+#include <optional>
 #include <nlohmann/json.hpp>
 
 #include "rig_client.hpp"
@@ -31,7 +32,8 @@ void configure_remote(const RunConfig& config, RigClient& client);
 [[nodiscard]] RunSummary execute_remote_run(const RunConfig& config, RigClient& client,
                                             const nlohmann::json& hello, RunLog& log,
                                             const std::atomic<bool>& stop,
-                                            const std::function<void(const LiveStatus&)>& on_status);
+                                            const std::function<void(const LiveStatus&)>& on_status,
+                                            std::optional<double> lease_s = std::nullopt);
 
 /// The StopCause named by the protocol's text ("completed", "link_lost", ...).
 [[nodiscard]] firmware::StopCause stop_cause_from(const std::string& name);

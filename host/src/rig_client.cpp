@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <cerrno>
+
 #include <zmq_addon.hpp>
 
 #include "curve.hpp"
@@ -11,9 +13,16 @@
 namespace piezo::host {
 
 RigClient::RigClient(const config::RigAddress& rig)
+    : RigClient(rig, std::make_shared<zmq::context_t>()) {}
+
+RigClient::RigClient(const config::RigAddress& rig, zmq::context_t& shared)
+    : RigClient(rig, std::shared_ptr<zmq::context_t>(&shared, [](zmq::context_t*) {})) {}
+
+RigClient::RigClient(const config::RigAddress& rig, std::shared_ptr<zmq::context_t> context)
     : address_(rig.address),
-      commands_(context_, zmq::socket_type::dealer),
-      stream_(context_, zmq::socket_type::sub) {
+      context_(std::move(context)),
+      commands_(*context_, zmq::socket_type::dealer),
+      stream_(*context_, zmq::socket_type::sub) {
   const std::string stream_address = protocol::stream_endpoint(address_);
   if (!rig.server_public_key_file.empty() || !rig.client_secret_key_file.empty()) {
     if (rig.server_public_key_file.empty() || rig.client_secret_key_file.empty()) {
@@ -43,6 +52,17 @@ RigClient::RigClient(const config::RigAddress& rig)
   }
 }
 
+bool poll_in(zmq::socket_t& socket, std::chrono::milliseconds timeout) {
+  zmq::pollitem_t item{socket.handle(), 0, ZMQ_POLLIN, 0};
+  try {
+    zmq::poll(&item, 1, timeout);
+  } catch (const zmq::error_t& e) {
+    if (e.num() == EINTR) return false;
+    throw;
+  }
+  return (item.revents & ZMQ_POLLIN) != 0;
+}
+
 void RigClient::send(const std::string& cmd, const nlohmann::json& args) {
   const std::string body = protocol::encode_request({next_id_++, cmd, args});
   (void)commands_.send(zmq::buffer(body), zmq::send_flags::dontwait);
@@ -60,9 +80,7 @@ nlohmann::json RigClient::call(const std::string& cmd, const nlohmann::json& arg
       throw LinkTimeout(fmt::format("{}: no reply from piezod at {} within {} ms", cmd, address_,
                                     timeout.count()));
     }
-    zmq::pollitem_t item{commands_.handle(), 0, ZMQ_POLLIN, 0};
-    zmq::poll(&item, 1, left);
-    if ((item.revents & ZMQ_POLLIN) == 0) continue;
+    if (!poll_in(commands_, left)) continue;
     zmq::message_t message;
     if (!commands_.recv(message, zmq::recv_flags::dontwait)) continue;
     const auto reply = protocol::decode_reply(message.to_string_view());

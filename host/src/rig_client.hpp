@@ -3,6 +3,8 @@
 // matched to its reply by id, and a SUB on the sample stream next to it.
 
 #include <chrono>
+#include <memory>
+#include <optional>
 #include <cstdint>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
@@ -31,11 +33,17 @@ class LinkTimeout : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// zmq::poll on one socket; false on timeout or when a signal interrupts it
+/// (the caller looks at its stop flag and polls again).
+bool poll_in(zmq::socket_t& socket, std::chrono::milliseconds timeout);
+
 class RigClient {
  public:
   /// Connects both sockets (ZeroMQ reconnects by itself after an outage);
   /// with CURVE key files in `rig`, as an authorized client.
   explicit RigClient(const config::RigAddress& rig);
+  /// On a context shared with an in-process piezod (inproc:// addresses).
+  RigClient(const config::RigAddress& rig, zmq::context_t& shared);
 
   /// Sends a command and waits for its reply; replies to earlier commands
   /// that arrive meanwhile are dropped. Throws RemoteError or LinkTimeout.
@@ -50,8 +58,10 @@ class RigClient {
   [[nodiscard]] const std::string& address() const { return address_; }
 
  private:
+  RigClient(const config::RigAddress& rig, std::shared_ptr<zmq::context_t> context);
+
   std::string address_;
-  zmq::context_t context_;
+  std::shared_ptr<zmq::context_t> context_;  ///< its own, or a shared one (not owned)
   zmq::socket_t commands_, stream_;
   std::uint64_t next_id_ = 1;
 };

@@ -58,10 +58,11 @@ struct LiveStatus {
   std::uint64_t sensor_samples, sensor_errors, overruns;
 };
 
-/// Runs until the duration elapses, `stop` is set, the supervisor trips or
-/// the log fails (then host_error says why; the drive stops as on `stop`).
-/// The run's time origin is fixed here, after the real-time set-up.
-[[nodiscard]] RunSummary execute_run(const RunConfig& config, Rig& rig, RunLog& log,
+/// The one-machine default: serves `rig` by an in-process piezod and runs
+/// through the protocol as a remote run does (execute_remote_run), until
+/// the duration elapses, `stop` is set, the supervisor trips or the log
+/// fails (then host_error says why; the drive stops as on `stop`).
+[[nodiscard]] RunSummary execute_run(const RunConfig& config, Rig rig, RunLog& log,
                                      const std::atomic<bool>& stop,
                                      const std::function<void(const LiveStatus&)>& on_status);
 

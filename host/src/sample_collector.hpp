@@ -33,6 +33,7 @@ class SampleCollector {
     buffer_["/drive/phase"].push_back(static_cast<double>(s.phase));
     buffer_["/drive/status"].push_back(static_cast<double>(s.status));
     last_V_ = s.V;
+    last_t_ = t;
   }
 
   void add(const SensorSample& s) {
@@ -58,6 +59,8 @@ class SampleCollector {
   [[nodiscard]] double last_theta() const { return last_theta_; }
   [[nodiscard]] double last_good_t() const { return last_good_t_; }
   [[nodiscard]] double last_V() const { return last_V_; }
+  /// Run time of the newest drive sample [s].
+  [[nodiscard]] double last_t() const { return last_t_; }
   [[nodiscard]] const std::map<std::string, std::uint64_t>& drive_errors() const {
     return drive_errors_;
   }
@@ -70,7 +73,7 @@ class SampleCollector {
   double r2_;
   ObserverStage* observer_;
   double tare_ = std::numeric_limits<double>::quiet_NaN();
-  double last_theta_ = 0.0, last_good_t_ = 0.0, last_V_ = 0.0;
+  double last_theta_ = 0.0, last_good_t_ = 0.0, last_V_ = 0.0, last_t_ = 0.0;
   ColumnBuffer buffer_;
   std::map<std::string, std::uint64_t> drive_errors_, sensor_errors_;
 };

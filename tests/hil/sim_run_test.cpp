@@ -40,9 +40,10 @@ Outcome run_virtual(std::vector<std::string> sets, const std::atomic<bool>* stop
   RunLog log = RunLog::create(path, {{"config", config.text}});
   static const std::atomic<bool> never{false};
   Outcome out;
-  out.summary = execute_run(config, rig, log, stop ? *stop : never, {});
-  // The device side: the simulated amplifier the drive and lines act on.
+  // The device side: the simulated amplifier the drive and lines act on,
+  // kept here while the rig goes to the in-process piezod.
   const auto plant = std::static_pointer_cast<hal::sim::Plant>(rig.parts.front());
+  out.summary = execute_run(config, std::move(rig), log, stop ? *stop : never, {});
   out.amplifier_enabled_at_end = plant->enabled();
   out.amplifier_V_at_end = plant->latest().V_out;
   log.close(out.summary.status());
@@ -138,7 +139,7 @@ TEST(SimRun, SlowSetUpBeforeTheStartIsNoSensorFault) {
   const auto dir = testing::fresh_temp_dir("hil-slow-setup");
   RunLog log = RunLog::create((dir / "run.h5").string(), {{"config", config.text}});
   const std::atomic<bool> never{false};
-  const RunSummary s = execute_run(config, rig, log, never, {});
+  const RunSummary s = execute_run(config, std::move(rig), log, never, {});
   EXPECT_EQ(s.cause, firmware::StopCause::completed);
 }
 
