@@ -165,8 +165,9 @@ void read_daemon(const toml::table& t, const std::string& source, DaemonSettings
 
 void read_rig(const toml::table& t, const std::string& source, RigAddress& a) {
   SectionReader r(t, "rig", source);
-  r.reject_unknown({"address", "server_public_key_file", "client_secret_key_file"});
+  r.reject_unknown({"address", "server_public_key_file", "client_secret_key_file", "lease_s"});
   r.text("address", a.address);
+  r.number("lease_s", a.lease_s, {0.0, 600.0}, "s");
   r.text("server_public_key_file", a.server_public_key_file);
   r.text("client_secret_key_file", a.client_secret_key_file);
 }

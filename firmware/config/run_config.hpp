@@ -118,6 +118,7 @@ struct RigAddress {
   std::string address;
   std::string server_public_key_file;  ///< CURVE: the board's public key (Z85)
   std::string client_secret_key_file;  ///< CURVE: this host's key pair, from `piezod keygen`
+  double lease_s = 0.0;  ///< the lease a run asks for; 0: the board's default
 };
 
 struct RunConfig {

@@ -263,7 +263,9 @@ int run(const RunOptions& o) {
 
   const auto status_line = o.json ? std::function<void(const LiveStatus&)>{} : show_status;
   RunSummary summary =
-      client ? execute_remote_run(config, *client, hello, log, signals.flag(), status_line)
+      client ? execute_remote_run(config, *client, hello, log, signals.flag(), status_line,
+                                  config.rig.lease_s > 0.0 ? std::optional(config.rig.lease_s)
+                                                           : std::nullopt)
              : execute_run(config, std::move(*rig), log, signals.flag(), status_line);
   if (!o.json && isatty(STDERR_FILENO)) write_out(stderr, "\n");
 

@@ -60,17 +60,14 @@ class StreamCursor {
   void on_frame(std::string_view frame) {
     const auto header = protocol::decode_header(frame);
     std::uint64_t& next = header.stream == protocol::Stream::drive ? drive_next_ : sensor_next_;
-    if (header.first_seq > next) {
-      gaps_.push_back(fmt::format("{} [{}, {})", protocol::to_string(header.stream), next,
-                                  header.first_seq));
-      fetch(header.stream, header.first_seq);
-    }
+    if (header.first_seq > next) fetch(header.stream, header.first_seq);
     add(frame, header);
   }
 
-  /// Fetches everything up to `end` not yet received.
+  /// Fetches everything up to `end` not yet received, and notes the gap.
   void fetch(protocol::Stream stream, std::uint64_t end) {
     std::uint64_t& next = stream == protocol::Stream::drive ? drive_next_ : sensor_next_;
+    if (next < end) gaps_.push_back(fmt::format("{} [{}, {})", protocol::to_string(stream), next, end));
     while (next < end) {
       const json r = client_.call(
           "fetch", {{"stream", protocol::to_string(stream)},
@@ -200,6 +197,13 @@ RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json&
        last_heard = last_lease;
   std::optional<json> final_state;
   json health = json::object();
+  // Spans with nothing heard from the board, on the board's run time.
+  std::vector<std::string> outages;
+  double quiet_since_s = std::nan("");  // NaN: heard recently
+  const bool virtual_clock = hello.value("clock", std::string()) == "virtual";
+  const auto board_run_s = [&] {
+    return virtual_clock ? collector.last_t() : hal::to_seconds(host_ns() + clock.offset_ns - t0);
+  };
   while (!final_state) {
     if ((stop.load() || !log_ok) && !stop_sent) {
       try {
@@ -216,6 +220,10 @@ RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json&
         break;
       }
       last_heard = SteadyClock::now();
+      if (!std::isnan(quiet_since_s)) {
+        outages.push_back(fmt::format("[{:.3f}, {:.3f}] s", quiet_since_s, board_run_s()));
+        quiet_since_s = std::nan("");
+      }
       if (parts[0].to_string_view() == "health") {
         health = protocol::decode_map(parts[1].to_string_view());
       } else if (parts[0].to_string_view() == "state") {
@@ -232,8 +240,15 @@ RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json&
       client.send("lease", {{"drive_received", cursor.drive_next()}});
       last_lease = now;
     }
-    if (now - last_heard >= kQuietBeforeAsking) {
+    // The board is idle or faulted but its end-of-run event went unheard
+    // (published while the link was down): ask for it.
+    const std::string board_state = health.value("state", std::string("running"));
+    const bool board_done = board_state == "idle" || board_state == "fault";
+    if (board_done || now - last_heard >= kQuietBeforeAsking) {
       // Quiet stream: the link may be down, or the run's end went unheard.
+      if (std::isnan(quiet_since_s)) {
+        quiet_since_s = board_run_s() - std::chrono::duration<double>(now - last_heard).count();
+      }
       try {
         const json s = client.call("status", json::object(), 500ms);
         const json& run = s.value("run", json::object());
@@ -264,6 +279,10 @@ RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json&
   cursor.fetch(protocol::Stream::sensor, board.at("samples").at("sensor").get<std::uint64_t>());
   if (observer) observer->finish(collector.buffer());
   append_log();
+  if (!std::isnan(quiet_since_s)) {
+    outages.push_back(fmt::format("[{:.3f}, end of run]", quiet_since_s));
+  }
+  log.set_attribute("link_outages", outages.empty() ? "none" : fmt::format("{}", fmt::join(outages, "; ")));
   log.set_attribute("stream_gaps_fetched", gaps.empty() ? "none" : fmt::format("{}", fmt::join(gaps, "; ")));
 
   summary.cause = stop_cause_from(board.at("cause").get<std::string>());

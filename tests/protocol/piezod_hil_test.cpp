@@ -153,6 +153,76 @@ TEST_F(Piezod, KillNineOfTheHostStopsTheBoardAndLatchesLinkLost) {
   EXPECT_EQ(status().at("state"), "idle");
 }
 
+/// A 2 s link outage mid-run through a proxy that drops every connection
+/// and refuses new ones (link_proxy.py). Returns the host's summary.
+struct OutageRun {
+  nlohmann::json summary;
+  std::string log_facts;  ///< status, samples, in order, outages marked, gaps fetched
+};
+
+OutageRun run_through_an_outage(const Piezod& board, int board_port, const fs::path& dir,
+                                 const std::string& extra) {
+  int port = free_port();
+  while (port >= 65534) port = free_port();
+  Spawned proxy({"/usr/bin/python3", kSource + "/tests/protocol/link_proxy.py", std::to_string(port),
+                 std::to_string(board_port), "2.0"},
+                (dir / "proxy.log").string());
+  EXPECT_TRUE(wait_for_tcp(port));
+  (void)board;
+  Spawned host({kPiezo, "run", "--config", kSimConfig, "--rig",
+                "tcp://127.0.0.1:" + std::to_string(port), "--duration", "5", "--json", "--out",
+                (dir / "outage").string(), "--set", extra},
+               (dir / "host.txt").string());
+  std::this_thread::sleep_for(1500ms);
+  proxy.signal(SIGUSR1);
+  (void)host.wait_exit();
+  OutageRun out;
+  std::istringstream lines(read_all(dir / "host.txt"));
+  for (std::string line; std::getline(lines, line);) {
+    if (!line.empty() && line.front() == '{') out.summary = nlohmann::json::parse(line);
+  }
+  out.log_facts =
+      run_command("/usr/bin/python3 -c \"import h5py, numpy as np; f = h5py.File('" +
+                  (dir / "outage" / "run.h5").string() +
+                  "'); a = f.attrs; t = f['sensor/t'][:]; d = f['drive/t'][:]; "
+                  "print(a['status'].decode(), len(t), len(d), bool(np.all(np.diff(t) > 0)), "
+                  "bool(np.all(np.diff(d) > 0)), a['link_outages'].decode() != 'none', "
+                  "a['stream_gaps_fetched'].decode() != 'none')\"")
+          .out;
+  return out;
+}
+
+// With a lease longer than the outage the run goes on, and the host's log
+// has every sample the board recorded: the gap was fetched and marked.
+TEST_F(Piezod, ATwoSecondOutageUnderALongerLeaseLosesNothing) {
+  start();
+  const auto r = run_through_an_outage(*this, port_, dir_, "rig.lease_s=5");
+  ASSERT_FALSE(r.summary.is_null()) << read_all(dir_ / "host.txt");
+  EXPECT_EQ(r.summary.at("status"), "completed") << read_all(dir_ / "host.txt");
+  const auto board = status();
+  const auto& recorded = board.at("run").at("summary").at("samples");
+  EXPECT_EQ(r.log_facts, fmt::format("completed {} {} True True True True\n",
+                                     recorded.at("sensor").get<long>(),
+                                     recorded.at("drive").get<long>()));
+}
+
+// With the default 0.5 s lease the board stops by itself (link_lost), and
+// after the link returns the host still completes its log up to the stop.
+TEST_F(Piezod, ATwoSecondOutageUnderTheDefaultLeaseStopsTheBoard) {
+  start();
+  const auto r = run_through_an_outage(*this, port_, dir_, "run.flush_interval_s=0.25");
+  ASSERT_FALSE(r.summary.is_null()) << read_all(dir_ / "host.txt");
+  EXPECT_EQ(r.summary.at("stop_cause"), "link_lost");
+  EXPECT_EQ(r.summary.at("output").at("state"), "confirmed");
+  EXPECT_LT(r.summary.at("t_end_s").get<double>(), 2.5);
+  const auto board = status();
+  EXPECT_EQ(board.at("fault"), "link_lost");
+  const auto& recorded = board.at("run").at("summary").at("samples");
+  EXPECT_EQ(r.log_facts, fmt::format("failed {} {} True True True True\n",
+                                     recorded.at("sensor").get<long>(),
+                                     recorded.at("drive").get<long>()));
+}
+
 TEST_F(Piezod, ANetworkAddressNeedsCurveAndRefusesUnknownClients) {
   const auto keys = fresh_temp_dir("piezod-keys");
   for (const char* name : {"board", "host", "stranger"}) {

@@ -7,8 +7,8 @@ namespace {
 
 using nlohmann::json;
 
-json parse_msgpack(std::string_view bytes) {
-  if (bytes.size() > kMaxMessageBytes) {
+json parse_msgpack(std::string_view bytes, bool limited = true) {
+  if (limited && bytes.size() > kMaxMessageBytes) {
     throw ProtocolError(code::too_large, "",
                         fmt::format("message of {} bytes; at most {} are read", bytes.size(),
                                     kMaxMessageBytes));
@@ -76,7 +76,8 @@ std::string encode_error(std::optional<std::uint64_t> id, const ErrorBody& e) {
 }
 
 Reply decode_reply(std::string_view bytes) {
-  const json j = parse_msgpack(bytes);
+  // Replies are not limited: a fetch carries up to 100000 samples.
+  const json j = parse_msgpack(bytes, false);
   Reply r;
   if (const json* id = find(j, "id"); id != nullptr && id->is_number_unsigned()) {
     r.id = id->get<std::uint64_t>();
@@ -97,7 +98,7 @@ Reply decode_reply(std::string_view bytes) {
 }
 
 std::string encode_map(const json& map) { return to_bytes(map); }
-json decode_map(std::string_view bytes) { return parse_msgpack(bytes); }
+json decode_map(std::string_view bytes) { return parse_msgpack(bytes, false); }
 
 double number_arg(const json& args, const std::string& key, std::optional<double> fallback) {
   const json* v = find(args, key);

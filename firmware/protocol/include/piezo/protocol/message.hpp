@@ -17,7 +17,8 @@
 namespace piezo::protocol {
 
 inline constexpr std::uint32_t kProtocolVersion = 1;
-/// Larger commands are refused unread (no command needs more).
+/// Larger commands are refused unread (no command needs more); replies
+/// and stream messages are not limited.
 inline constexpr std::size_t kMaxMessageBytes = 64 * 1024;
 
 struct Request {
