@@ -1,7 +1,7 @@
 // piezod: the firmware as its own program on the rig's board. Owns the
 // hardware named in its config, keeps it within the board's limits by
 // itself, and serves the protocol of docs/protocol.md.
-//   piezod [--config FILE] [--listen ADDRESS] [--insecure]
+//   piezod [--config FILE] [--set SECTION.KEY=VALUE]... [--listen ADDRESS] [--insecure]
 //   piezod keygen --out DIR [--name NAME]
 #include <CLI/CLI.hpp>
 #include <csignal>
@@ -34,10 +34,12 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("piezod ") + PIEZO_VERSION);
   std::string config_path = "/etc/piezod.toml", listen;
   bool insecure = false;
+  std::vector<std::string> sets;
   app.add_option("--config", config_path, "board config (backends, safety limits, listen address)");
   app.add_option("--listen", listen,
                  "command address, e.g. tcp://127.0.0.1:5555 or ipc:///run/piezod/cmd "
                  "(the stream listens next to it)");
+  app.add_option("--set", sets, "override a config key: SECTION.KEY=VALUE");
   app.add_flag("--insecure", insecure, "allow plain text on a network address (logged)");
   auto* keygen = app.add_subcommand("keygen", "write a CURVE key pair (NAME.key, NAME.pub)");
   std::string key_dir = ".", key_name = "piezod";
@@ -52,7 +54,7 @@ int main(int argc, char** argv) {
                 << key_name << ".pub\n";
       return 0;
     }
-    auto board = piezo::config::load_run_config(config_path);
+    auto board = piezo::config::load_run_config(config_path, sets);
     if (insecure) board.daemon.insecure = true;
     zmq::context_t context;
     piezo::daemon::Daemon daemon(board, context, listen, std::cerr);

@@ -248,5 +248,41 @@ TEST_F(ModbusRtu, ALateRtuReplyIsNeverTakenForTheNextOne) {
   expect_no_shifted_replies(settings);
 }
 
+// piezod on the Modbus backends against rig-sim, driven over the protocol
+// by `piezo run --rig`: the run completes and the module holds 0 V; then a
+// host killed with -9 leaves the board to stop by itself, and the module's
+// register -- not the firmware's belief -- shows 0 V with link_lost latched.
+TEST_F(ModbusSafety, PiezodOnModbusStopsItselfWhenTheHostDies) {
+  auto rig = start_rig_sim();
+  ASSERT_TRUE(wait_for_tcp(port));
+  int board_port = free_port();
+  while (board_port >= 65534) board_port = free_port();
+  const std::string address = "tcp://127.0.0.1:" + std::to_string(board_port);
+  Spawned board({PIEZOD_BINARY, "--config", kConfig, "--set", "sensor.port=" + std::to_string(port),
+                 "--set", "drive.ao_port=" + std::to_string(port), "--listen", address},
+                (dir / "piezod.txt").string());
+  ASSERT_TRUE(wait_for_tcp(board_port));
+
+  const auto r = run_command(kPiezo + " run --config " + kConfig + " --rig " + address +
+                             " --duration 2 --json --out " + (dir / "run").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out).at("status"), "completed");
+  EXPECT_EQ(ao_register(), 0);
+  EXPECT_EQ(log_ending(), "completed confirmed 0.0 2.0\n");
+
+  Spawned host({kPiezo, "run", "--config", kConfig, "--rig", address, "--duration", "30", "--out",
+                (dir / "killed").string()},
+               (dir / "host.txt").string());
+  std::this_thread::sleep_for(1500ms);
+  ASSERT_GT(ao_register(), 0) << "driving before the kill";
+  host.signal(SIGKILL);
+  (void)host.wait_exit();
+  std::this_thread::sleep_for(1500ms);
+  EXPECT_EQ(ao_register(), 0) << "the module holds 0 V";
+  const auto s = run_command(kPiezo + " status --json --rig " + address);
+  ASSERT_EQ(s.exit_code, 0) << s.err;
+  EXPECT_EQ(nlohmann::json::parse(s.out).at("fault"), "link_lost");
+}
+
 }  // namespace
 }  // namespace piezo::testing
