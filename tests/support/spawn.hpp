@@ -38,6 +38,7 @@ class Spawned {
   }
 
   void signal(int sig) const { kill(pid_, sig); }
+  [[nodiscard]] pid_t pid() const { return pid_; }
 
   /// The exit code, or 128 + signal number when killed.
   int wait_exit() {
