@@ -14,7 +14,7 @@ packages=(
   libhdf5-dev libgtest-dev libgmock-dev
   gnuplot-nox python3 python3-h5py python3-numpy
   rt-tests libgpiod-dev libmodbus-dev mbpoll socat python3-pymodbus python3-serial-asyncio
-  libzmq3-dev cppzmq-dev python3-zmq python3-msgpack
+  libzmq3-dev cppzmq-dev python3-zmq python3-msgpack clang libclang-rt-14-dev
 )
 if [ "$gpio_sim" = "--gpio-sim" ]; then
   packages+=(qemu-system-x86 busybox-static linux-source-6.1 bc flex bison libelf-dev cpio xz-utils)

@@ -138,6 +138,9 @@ TEST(Message, MalformedRequestsAreNamed) {
   EXPECT_EQ(refuse(encode_map({{"id", 5}, {"cmd", 3}})).key(), "cmd");
   EXPECT_EQ(refuse(encode_map({{"id", 5}, {"cmd", "x"}, {"args", 1}})).key(), "args");
   EXPECT_EQ(refuse(std::string(kMaxMessageBytes + 1, '\x90')).code(), code::too_large);
+  // Nesting that would overflow the parser's stack (found by the fuzzer).
+  EXPECT_STREQ(refuse(std::string(60'000, '\x91')).what(), "nested deeper than 32 levels");
+  EXPECT_THROW((void)decode_reply(std::string(60'000, '\x91')), ProtocolError);
 }
 
 TEST(Message, ArgumentsOfTheWrongTypeAreNamed) {

@@ -7,14 +7,51 @@ namespace {
 
 using nlohmann::json;
 
+// No message nests deeper than this; the parser recurses once per level,
+// so a few kilobytes of nested arrays would otherwise overflow the stack
+// (found by tests/fuzz).
+constexpr std::size_t kMaxDepth = 32;
+
+/// nlohmann's DOM builder, refusing to go deeper than kMaxDepth.
+class BoundedDomParser : public nlohmann::detail::json_sax_dom_parser<json> {
+ public:
+  explicit BoundedDomParser(json& result) : json_sax_dom_parser(result, false) {}
+  bool start_object(std::size_t n) { return deeper() && json_sax_dom_parser::start_object(n); }
+  bool start_array(std::size_t n) { return deeper() && json_sax_dom_parser::start_array(n); }
+  bool end_object() {
+    --depth_;
+    return json_sax_dom_parser::end_object();
+  }
+  bool end_array() {
+    --depth_;
+    return json_sax_dom_parser::end_array();
+  }
+  [[nodiscard]] bool too_deep() const { return too_deep_; }
+
+ private:
+  bool deeper() {
+    too_deep_ = ++depth_ > kMaxDepth;
+    return !too_deep_;
+  }
+  std::size_t depth_ = 0;
+  bool too_deep_ = false;
+};
+
 json parse_msgpack(std::string_view bytes, bool limited = true) {
   if (limited && bytes.size() > kMaxMessageBytes) {
     throw ProtocolError(code::too_large, "",
                         fmt::format("message of {} bytes; at most {} are read", bytes.size(),
                                     kMaxMessageBytes));
   }
-  json j = json::from_msgpack(bytes.begin(), bytes.end(), true, false);
-  if (j.is_discarded()) {
+  json j;
+  BoundedDomParser sax(j);
+  const bool parsed =
+      json::sax_parse(bytes.begin(), bytes.end(), &sax, json::input_format_t::msgpack, true);
+  if (sax.too_deep()) {
+    throw ProtocolError(code::malformed, "",
+                        fmt::format("nested deeper than {} levels", kMaxDepth));
+  }
+  if (!parsed || sax.is_errored()) {
     throw ProtocolError(code::malformed, "", "not a MessagePack value (or truncated)");
   }
   if (!j.is_object()) throw ProtocolError(code::malformed, "", "not a MessagePack map");
