@@ -54,8 +54,9 @@ LoopSummary loop_summary(const json& j) {
 /// fetched from the recorder first; repeats are dropped.
 class StreamCursor {
  public:
-  StreamCursor(RigClient& client, SampleCollector& collector, std::vector<std::string>& gaps)
-      : client_(client), collector_(collector), gaps_(gaps) {}
+  StreamCursor(RigClient& client, SampleCollector& collector, std::vector<std::string>& gaps,
+               std::function<double()> received_s)
+      : client_(client), collector_(collector), gaps_(gaps), received_s_(std::move(received_s)) {}
 
   void on_frame(std::string_view frame) {
     const auto header = protocol::decode_header(frame);
@@ -90,6 +91,7 @@ class StreamCursor {
     std::uint64_t& next = h.stream == protocol::Stream::drive ? drive_next_ : sensor_next_;
     if (h.first_seq > next || h.first_seq + h.count <= next) return;  // a gap left, or a repeat
     const std::size_t skip = next - h.first_seq;
+    collector_.set_received(received_s_());
     if (h.stream == protocol::Stream::drive) {
       const auto samples = protocol::decode_drive(frame);
       for (std::size_t i = skip; i < samples.size(); ++i) collector_.add(samples[i]);
@@ -103,6 +105,7 @@ class StreamCursor {
   RigClient& client_;
   SampleCollector& collector_;
   std::vector<std::string>& gaps_;
+  std::function<double()> received_s_;
   std::uint64_t drive_next_ = 0, sensor_next_ = 0;
 };
 
@@ -178,7 +181,12 @@ RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json&
   }
   SampleCollector collector(t0, c.sensor.r2_m, observer ? &*observer : nullptr);
   std::vector<std::string> gaps;
-  StreamCursor cursor(client, collector, gaps);
+  const std::int64_t host_start = host_ns();
+  const bool virtual_clock = hello.value("clock", std::string()) == "virtual";
+  StreamCursor cursor(client, collector, gaps, [&] {
+    return virtual_clock ? 1e-9 * static_cast<double>(host_ns() - host_start)
+                         : hal::to_seconds(host_ns() + clock.offset_ns - t0);
+  });
 
   bool log_ok = true;
   bool stop_sent = false;
@@ -200,7 +208,6 @@ RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json&
   // Spans with nothing heard from the board, on the board's run time.
   std::vector<std::string> outages;
   double quiet_since_s = std::nan("");  // NaN: heard recently
-  const bool virtual_clock = hello.value("clock", std::string()) == "virtual";
   const auto board_run_s = [&] {
     return virtual_clock ? collector.last_t() : hal::to_seconds(host_ns() + clock.offset_ns - t0);
   };

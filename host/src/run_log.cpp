@@ -12,7 +12,7 @@ namespace piezo::host {
 
 const std::vector<std::string>& RunLog::drive_columns() {
   static const std::vector<std::string> names{"/drive/t", "/drive/V", "/drive/phase",
-                                              "/drive/status"};
+                                              "/drive/status", "/drive/t_received"};
   return names;
 }
 
@@ -26,7 +26,7 @@ const std::vector<std::string>& RunLog::observer_columns() {
 const std::vector<std::string>& RunLog::sensor_columns() {
   static const std::vector<std::string> names{"/sensor/t", "/sensor/t_response",
                                               "/sensor/displacement_m", "/sensor/theta",
-                                              "/sensor/status"};
+                                              "/sensor/status", "/sensor/t_received"};
   return names;
 }
 

@@ -9,6 +9,9 @@
 //   /drive/t, /drive/V, /drive/phase, /drive/status
 //   /sensor/t (request time), /sensor/t_response, /sensor/displacement_m,
 //   /sensor/theta (NaN where the reading failed), /sensor/status
+//   /drive/t_received, /sensor/t_received: when the host received each
+//   sample, mapped onto the board's clock (attribute board_clock_offset_ns;
+//   on the virtual clock: the host's wall time since the start)
 //   /observer/t, theta_hat, theta_dot_hat, x_hat, z_hat, F_hat, residual
 //   (measured minus predicted, before correction), theta_open (open loop)
 //   /timing/drive_period_error_us, /timing/acquire_period_error_us (histogram

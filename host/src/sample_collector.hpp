@@ -32,6 +32,7 @@ class SampleCollector {
     buffer_["/drive/V"].push_back(s.V);
     buffer_["/drive/phase"].push_back(static_cast<double>(s.phase));
     buffer_["/drive/status"].push_back(static_cast<double>(s.status));
+    buffer_["/drive/t_received"].push_back(received_s_);
     last_V_ = s.V;
     last_t_ = t;
   }
@@ -48,12 +49,17 @@ class SampleCollector {
     buffer_["/sensor/displacement_m"].push_back(s.displacement_m);
     buffer_["/sensor/theta"].push_back(theta);
     buffer_["/sensor/status"].push_back(static_cast<double>(s.status));
+    buffer_["/sensor/t_received"].push_back(received_s_);
     if (good) {
       last_theta_ = theta;
       last_good_t_ = t;
       if (observer_ != nullptr) observer_->on_measurement(t, theta, buffer_);
     }
   }
+
+  /// When the host received the samples added next: host time mapped onto
+  /// the board's run time by the clock mapping [s].
+  void set_received(double t_received_s) { received_s_ = t_received_s; }
 
   ColumnBuffer& buffer() { return buffer_; }
   [[nodiscard]] double last_theta() const { return last_theta_; }
@@ -74,6 +80,7 @@ class SampleCollector {
   ObserverStage* observer_;
   double tare_ = std::numeric_limits<double>::quiet_NaN();
   double last_theta_ = 0.0, last_good_t_ = 0.0, last_V_ = 0.0, last_t_ = 0.0;
+  double received_s_ = std::numeric_limits<double>::quiet_NaN();
   ColumnBuffer buffer_;
   std::map<std::string, std::uint64_t> drive_errors_, sensor_errors_;
 };
