@@ -42,7 +42,8 @@ const std::vector<std::string> kSafetyKeys{"sensor_stale_s", "max_sensor_errors"
                                            "stop_confirm_s"};
 const std::vector<std::string> kDaemonKeys{"listen",        "lease_s",         "lease_max_s",
                                            "recorder_s",    "duration_max_s",  "secret_key_file",
-                                           "authorized_keys_file", "insecure"};
+                                           "authorized_keys_file", "insecure",
+                                           "spill_file"};
 const std::vector<std::string> kRequiredSections{"drive", "sensor", "run"};
 
 constexpr Range kPositive{0.0, kInf, true, true};
@@ -157,6 +158,7 @@ void read_daemon(const toml::table& t, const std::string& source, DaemonSettings
   r.number("lease_s", d.lease_s, {0.05, 60.0}, "s");
   r.number("lease_max_s", d.lease_max_s, {0.05, 600.0}, "s");
   r.number("recorder_s", d.recorder_s, {1.0, 3600.0}, "s");
+  r.text("spill_file", d.spill_file);
   r.number("duration_max_s", d.duration_max_s, {0.0, 1e7, true}, "s");
   r.text("secret_key_file", d.secret_key_file);
   r.text("authorized_keys_file", d.authorized_keys_file);

@@ -104,6 +104,9 @@ struct DaemonSettings {
   double lease_s = 0.5;           ///< a start's lease when the client names none
   double lease_max_s = 10.0;      ///< the longest lease a client may ask for
   double recorder_s = 120.0;      ///< samples kept on the board, at the configured rates
+  /// Every sample of the current run also goes to this file (empty: none),
+  /// so a fetch reaches past the memory ring.
+  std::string spill_file;
   double duration_max_s = 86'400.0;
   /// Network binds need CURVE: the server's secret key (Z85, from `piezod
   /// keygen`) and the clients' public keys, one per line.

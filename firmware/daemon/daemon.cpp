@@ -152,6 +152,7 @@ Daemon::Daemon(const config::RunConfig& board, config::Rig rig, zmq::context_t& 
     throw std::runtime_error(fmt::format("cannot listen on {} / {}: {}", command_endpoint_,
                                          stream_endpoint_, e.what()));
   }
+  if (!board_.daemon.spill_file.empty()) spill_.emplace(board_.daemon.spill_file);
   last_health_ = Clock::now();
   log_event(fmt::format("listening: commands {}, stream {}; drive {}, sensor {}, lines {}",
                         command_endpoint_, stream_endpoint_, board_.drive.backend,
@@ -391,6 +392,7 @@ json Daemon::start(const std::string& client, const json& args) {
   run->lease_s = lease_s;
   drive_recorder_.clear();
   sensor_recorder_.clear();
+  if (spill_) spill_->clear();
   drive_published_ = sensor_published_ = 0;
   const bool virtual_clock = board_.virtual_clock();
   firmware::LoopRunnerSettings settings{
@@ -498,12 +500,22 @@ void Daemon::check_lease_on_wall_clock() {
   }
 }
 
-json Daemon::fetch(const json& args) const {
+json Daemon::fetch(const json& args) {
   const auto stream = protocol::stream_from_string(protocol::string_arg(args, "stream"), "stream");
   const std::uint64_t first = protocol::uint_arg(args, "first");
   const std::uint64_t count = protocol::uint_arg(args, "count");
   if (count > kMaxFetch) {
     throw out_of_limits("count", fmt::format("{}; allowed: at most {} per fetch", count, kMaxFetch));
+  }
+  if (spill_) {
+    const auto held = stream == protocol::Stream::drive ? drive_recorder_.first()
+                                                        : sensor_recorder_.first();
+    if (first < held) {
+      // Past the memory ring: the spill file has it.
+      if (auto frame = spill_->fetch(stream, first, count)) {
+        return {{"frame", json::binary(std::vector<std::uint8_t>(frame->begin(), frame->end()))}};
+      }
+    }
   }
   const auto check = [&](std::uint64_t held_first, std::uint64_t held_next) {
     if (first < held_first || first > held_next) {
@@ -550,6 +562,7 @@ void Daemon::pump_samples() {
       recorder.copy(published, kMaxBatch, batch);
       if (batch.empty()) break;
       const std::string frame = protocol::encode_frame(published, batch);
+      if (spill_) spill_->append(frame);
       std::array<zmq::const_buffer, 2> parts{zmq::buffer(std::string_view(topic)),
                                              zmq::buffer(frame)};
       (void)zmq::send_multipart(stream_, parts, zmq::send_flags::dontwait);

@@ -19,6 +19,7 @@
 #include "piezo/firmware/loop_runner.hpp"
 #include "piezo/model/waveform.hpp"
 #include "recorder.hpp"
+#include "spill_file.hpp"
 #include "rig.hpp"
 #include "run_config.hpp"
 
@@ -68,7 +69,7 @@ class Daemon {
   nlohmann::json estop(const std::string& client);
   nlohmann::json reset_fault();
   nlohmann::json renew_lease(const std::string& client, const nlohmann::json& args);
-  nlohmann::json fetch(const nlohmann::json& args) const;
+  nlohmann::json fetch(const nlohmann::json& args);
   void require_controller(const std::string& client, const char* cmd) const;
   void pump_samples();
   void publish_state();
@@ -93,6 +94,7 @@ class Daemon {
   std::string controller_;  ///< routing id of the controlling client, while a run is on
   Recorder<firmware::DriveSample> drive_recorder_;
   Recorder<firmware::SensorSample> sensor_recorder_;
+  std::optional<SpillFile> spill_;
   std::uint64_t drive_published_ = 0, sensor_published_ = 0;
   std::chrono::steady_clock::time_point last_health_;
 };

@@ -34,8 +34,15 @@ class Piezod : public ::testing::Test {
     port_ = free_port();
     while (port_ >= 65534) port_ = free_port();
     address_ = "tcp://127.0.0.1:" + std::to_string(port_);
-    // Extra [piezod] keys go right under the section's header.
+    // Extra [piezod] keys go right under the section's header, in place of
+    // the file's own lines for the same keys.
     std::string board = read_all(kSource + "/configs/piezod-sim.toml");
+    std::istringstream extra_lines(extra_toml);
+    for (std::string line; std::getline(extra_lines, line);) {
+      const std::string key = line.substr(0, line.find(' '));
+      const auto at = board.find("\n" + key + " ");
+      if (at != std::string::npos) board.erase(at + 1, board.find('\n', at + 1) - at);
+    }
     board.insert(board.find("[piezod]\n") + 9, extra_toml);
     write_file(dir_ / "board.toml", board);
     std::vector<std::string> argv{kPiezod, "--config", (dir_ / "board.toml").string(), "--listen",
@@ -221,6 +228,33 @@ TEST_F(Piezod, ATwoSecondOutageUnderTheDefaultLeaseStopsTheBoard) {
   EXPECT_EQ(r.log_facts, fmt::format("failed {} {} True True True True\n",
                                      recorded.at("sensor").get<long>(),
                                      recorded.at("drive").get<long>()));
+}
+
+// A 2 s run into a 1 s memory ring: the start is gone from memory, and the
+// spill file still serves it; without one, the fetch is refused by name.
+std::string fetch_the_first_samples(const std::string& address) {
+  return run_command(
+             "/usr/bin/python3 -c \"import zmq, msgpack, time, struct\n"
+             "c = zmq.Context().socket(zmq.DEALER); c.connect('" + address + "')\n"
+             "def call(i, cmd, **a):\n"
+             "    c.send(msgpack.packb({'id': i, 'cmd': cmd, 'args': a})); return msgpack.unpackb(c.recv())\n"
+             "call(1, 'configure', V0=50.0, f=10.0, duration_s=2.0)\n"
+             "call(2, 'start', lease_s=5.0)\n"
+             "while not call(3, 'status')['result']['run']['finished']: time.sleep(0.1)\n"
+             "r = call(4, 'fetch', stream='drive', first=0, count=100)\n"
+             "print(struct.unpack_from('<QI', r['result']['frame'], 8) if r['ok'] else r['error']['code'])\"")
+      .out;
+}
+
+TEST_F(Piezod, TheSpillFileServesWhatTheMemoryRingNoLongerHolds) {
+  start("recorder_s = 1.0\nspill_file = \"" + (fresh_temp_dir("spill") / "recorder.bin").string() +
+        "\"\n");
+  EXPECT_EQ(fetch_the_first_samples(address_), "(0, 100)\n") << log();
+}
+
+TEST_F(Piezod, WithoutASpillFileOldSamplesAreRefusedByName) {
+  start("recorder_s = 1.0\n");
+  EXPECT_EQ(fetch_the_first_samples(address_), "not_available\n") << log();
 }
 
 TEST_F(Piezod, ANetworkAddressNeedsCurveAndRefusesUnknownClients) {
