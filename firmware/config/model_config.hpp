@@ -38,9 +38,9 @@ namespace piezo::config {
 
 /// Sections a project config may hold; those other commands own are skipped
 /// by the model reader but an unknown one is an error everywhere.
-inline const std::vector<std::string> kKnownSections{
-    "drive", "model", "plant", "sensor", "lines", "run", "safety", "rig_sim", "observer",
-    "piezod", "rig"};
+inline const std::vector<std::string> kKnownSections{"drive",    "model",  "plant",  "sensor",
+                                                     "lines",    "run",    "safety", "rig_sim",
+                                                     "observer", "piezod", "rig"};
 /// [drive] keys that belong to the real-time drive, not to the model.
 inline const std::vector<std::string> kDriveLoopKeys{"backend",
                                                      "rate_hz",

@@ -40,10 +40,10 @@ const std::vector<std::string> kRunKeys{"duration_s", "clock", "priority", "lock
 const std::vector<std::string> kSafetyKeys{"sensor_stale_s", "max_sensor_errors",
                                            "max_drive_errors", "ramp_down_V_per_s",
                                            "stop_confirm_s"};
-const std::vector<std::string> kDaemonKeys{"listen",        "lease_s",         "lease_max_s",
-                                           "recorder_s",    "duration_max_s",  "secret_key_file",
-                                           "authorized_keys_file", "insecure",
-                                           "spill_file"};
+const std::vector<std::string> kDaemonKeys{
+    "listen",         "lease_s",         "lease_max_s",          "recorder_s",
+    "duration_max_s", "secret_key_file", "authorized_keys_file", "insecure",
+    "spill_file"};
 const std::vector<std::string> kRequiredSections{"drive", "sensor", "run"};
 
 constexpr Range kPositive{0.0, kInf, true, true};

@@ -101,9 +101,9 @@ struct RunSettings {
 /// The board's daemon ([piezod]): where it listens, what a client may ask.
 struct DaemonSettings {
   std::string listen = "tcp://127.0.0.1:5555";  ///< command socket; the stream is on port + 1
-  double lease_s = 0.5;           ///< a start's lease when the client names none
-  double lease_max_s = 10.0;      ///< the longest lease a client may ask for
-  double recorder_s = 120.0;      ///< samples kept on the board, at the configured rates
+  double lease_s = 0.5;                         ///< a start's lease when the client names none
+  double lease_max_s = 10.0;                    ///< the longest lease a client may ask for
+  double recorder_s = 120.0;  ///< samples kept on the board, at the configured rates
   /// Every sample of the current run also goes to this file (empty: none),
   /// so a fetch reaches past the memory ring.
   std::string spill_file;
@@ -121,7 +121,7 @@ struct RigAddress {
   std::string address;
   std::string server_public_key_file;  ///< CURVE: the board's public key (Z85)
   std::string client_secret_key_file;  ///< CURVE: this host's key pair, from `piezod keygen`
-  double lease_s = 0.0;  ///< the lease a run asks for; 0: the board's default
+  double lease_s = 0.0;                ///< the lease a run asks for; 0: the board's default
 };
 
 struct RunConfig {

@@ -1,12 +1,12 @@
 #include "curve.hpp"
 
 #include <sys/stat.h>
+#include <toml++/toml.h>
 
 #include <algorithm>
 #include <array>
 #include <fstream>
 #include <stdexcept>
-#include <toml++/toml.h>
 #include <zmq_addon.hpp>
 
 namespace piezo::daemon {
@@ -53,7 +53,8 @@ std::string read_key(const std::string& path, const std::string& entry) {
   }
   const auto key = t[entry].value<std::string>();
   if (!key) throw std::runtime_error(path + ": " + entry + ": missing");
-  if (!is_z85_key(*key)) throw std::runtime_error(path + ": " + entry + ": not a 40-character Z85 key");
+  if (!is_z85_key(*key))
+    throw std::runtime_error(path + ": " + entry + ": not a 40-character Z85 key");
   return *key;
 }
 
@@ -64,9 +65,9 @@ std::vector<std::string> read_authorized_keys(const std::string& path) {
   std::string line;
   for (int n = 1; std::getline(in, line); ++n) {
     // '#' is a Z85 character too: only a line that starts with it is a comment.
-    line.erase(std::remove_if(line.begin(), line.end(),
-                              [](unsigned char c) { return std::isspace(c); }),
-               line.end());
+    line.erase(
+        std::remove_if(line.begin(), line.end(), [](unsigned char c) { return std::isspace(c); }),
+        line.end());
     if (line.starts_with("#")) continue;
     if (line.starts_with("public-key=")) line = line.substr(11);
     line.erase(std::remove(line.begin(), line.end(), '"'), line.end());

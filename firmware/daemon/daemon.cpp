@@ -49,12 +49,6 @@ json final_health_json(const firmware::LoopHealth& h) {
   return j;
 }
 
-std::string output_state(const firmware::OutputOutcome& o) {
-  if (!o.zero_confirmed) return "output_unconfirmed";
-  if (o.enable_status != hal::Status::ok) return "enable_unconfirmed";
-  return "confirmed";
-}
-
 bool latches(firmware::StopCause c) {
   return c != firmware::StopCause::completed && c != firmware::StopCause::interrupted &&
          c != firmware::StopCause::none;
@@ -94,8 +88,7 @@ struct Daemon::Run {
   std::atomic<std::int64_t> lease_renewed_ns{0};
   std::atomic<std::uint64_t> drive_acked{0}, drive_recorded{0};
 
-  explicit Run(const RunRequest& r)
-      : request(r), waveform(r.drive.V0, r.drive.f, r.drive.D()) {}
+  explicit Run(const RunRequest& r) : request(r), waveform(r.drive.V0, r.drive.f, r.drive.D()) {}
 };
 
 Daemon::Daemon(const config::RunConfig& board, zmq::context_t& context, const std::string& listen,
@@ -126,11 +119,12 @@ Daemon::Daemon(const config::RunConfig& board, config::Rig rig, zmq::context_t& 
   if (!d.secret_key_file.empty()) {
     const std::string secret = read_key(d.secret_key_file, "secret-key");
     if (d.authorized_keys_file.empty()) {
-      throw std::runtime_error("piezod.authorized_keys_file: missing (CURVE needs the clients' "
-                               "public keys)");
+      throw std::runtime_error(
+          "piezod.authorized_keys_file: missing (CURVE needs the clients' "
+          "public keys)");
     }
-    zap_ = std::make_unique<ZapHandler>(context_, read_authorized_keys(d.authorized_keys_file),
-                                        log_);
+    zap_ =
+        std::make_unique<ZapHandler>(context_, read_authorized_keys(d.authorized_keys_file), log_);
     for (auto* s : {&commands_, &stream_}) {
       s->set(zmq::sockopt::curve_server, 1);
       s->set(zmq::sockopt::curve_secretkey, secret);
@@ -149,8 +143,8 @@ Daemon::Daemon(const config::RunConfig& board, config::Rig rig, zmq::context_t& 
     commands_.bind(command_endpoint_);
     stream_.bind(stream_endpoint_);
   } catch (const zmq::error_t& e) {
-    throw std::runtime_error(fmt::format("cannot listen on {} / {}: {}", command_endpoint_,
-                                         stream_endpoint_, e.what()));
+    throw std::runtime_error(
+        fmt::format("cannot listen on {} / {}: {}", command_endpoint_, stream_endpoint_, e.what()));
   }
   if (!board_.daemon.spill_file.empty()) spill_.emplace(board_.daemon.spill_file);
   last_health_ = Clock::now();
@@ -166,7 +160,9 @@ void Daemon::log_event(const std::string& line) {
        << std::flush;
 }
 
-bool Daemon::running() const { return run_ && !run_->finished; }
+bool Daemon::running() const {
+  return run_ && !run_->finished;
+}
 
 void Daemon::serve(const std::atomic<bool>& stop) {
   bool stopping = false;
@@ -284,14 +280,15 @@ json Daemon::hello() const {
 }
 
 json Daemon::status(const std::string& client) const {
-  json j{{"state", to_string(state_)},
-         {"board_ns", rig_.clock->now()},
-         {"controller", !controller_.empty() && controller_ == client},
-         {"controlled", !controller_.empty()},
-         {"fault", state_ == State::fault ? json(firmware::to_string(fault_cause_)) : json(nullptr)},
-         {"recorder",
-          {{"drive", {{"first", drive_recorder_.first()}, {"next", drive_recorder_.next()}}},
-           {"sensor", {{"first", sensor_recorder_.first()}, {"next", sensor_recorder_.next()}}}}}};
+  json j{
+      {"state", to_string(state_)},
+      {"board_ns", rig_.clock->now()},
+      {"controller", !controller_.empty() && controller_ == client},
+      {"controlled", !controller_.empty()},
+      {"fault", state_ == State::fault ? json(firmware::to_string(fault_cause_)) : json(nullptr)},
+      {"recorder",
+       {{"drive", {{"first", drive_recorder_.first()}, {"next", drive_recorder_.next()}}},
+        {"sensor", {{"first", sensor_recorder_.first()}, {"next", sensor_recorder_.next()}}}}}};
   if (configured_) {
     j["configured"] = {{"V0", configured_->drive.V0},
                        {"f", configured_->drive.f},
@@ -324,8 +321,9 @@ json Daemon::configure(const std::string& client, const json& args) {
   r.duration_s = protocol::number_arg(args, "duration_s");
   const auto& lim = board_.drive.limits;
   if (!(r.drive.V0 > 0.0 && r.drive.V0 <= lim.V_max && lim.V_min <= 0.0)) {
-    throw out_of_limits("V0", fmt::format("{:g} V is outside the board's limits; allowed: (0, {:g}] V",
-                                          r.drive.V0, lim.V_max));
+    throw out_of_limits(
+        "V0", fmt::format("{:g} V is outside the board's limits; allowed: (0, {:g}] V", r.drive.V0,
+                          lim.V_max));
   }
   const double f_max = board_.drive.rate_hz / 20.0;
   if (!(r.drive.f > 0.0 && r.drive.f <= f_max)) {
@@ -357,8 +355,8 @@ json Daemon::configure(const std::string& client, const json& args) {
                                                   board_.daemon.duration_max_s));
   }
   configured_ = r;
-  return {{"V0", r.drive.V0}, {"f", r.drive.f}, {"C_dr", r.drive.C_dr}, {"e_dr", r.drive.e_dr},
-          {"D", D},           {"duration_s", r.duration_s}};
+  return {{"V0", r.drive.V0},     {"f", r.drive.f}, {"C_dr", r.drive.C_dr},
+          {"e_dr", r.drive.e_dr}, {"D", D},         {"duration_s", r.duration_s}};
 }
 
 void Daemon::require_controller(const std::string& client, const char* cmd) const {
@@ -383,8 +381,8 @@ json Daemon::start(const std::string& client, const json& args) {
   if (!configured_) throw ProtocolError(code::bad_state, "", "start: send configure first");
   const double lease_s = protocol::number_arg(args, "lease_s", board_.daemon.lease_s);
   if (!(lease_s > 0.0 && lease_s <= board_.daemon.lease_max_s)) {
-    throw out_of_limits("lease_s", fmt::format("{:g} s; allowed: (0, {:g}] s", lease_s,
-                                               board_.daemon.lease_max_s));
+    throw out_of_limits(
+        "lease_s", fmt::format("{:g} s; allowed: (0, {:g}] s", lease_s, board_.daemon.lease_max_s));
   }
   run_.reset();  // the last run's runner (joined) goes; its samples are overwritten below
   auto run = std::make_unique<Run>(*configured_);
@@ -395,14 +393,13 @@ json Daemon::start(const std::string& client, const json& args) {
   if (spill_) spill_->clear();
   drive_published_ = sensor_published_ = 0;
   const bool virtual_clock = board_.virtual_clock();
-  firmware::LoopRunnerSettings settings{
-      {board_.drive.rate_hz, run->request.duration_s, 1.0 / run->request.drive.f,
-       board_.drive.limits},
-      board_.safety,
-      board_.sensor.rate_hz(),
-      !virtual_clock,
-      board_.run.priority,
-      board_.run.lock_memory};
+  firmware::LoopRunnerSettings settings{{board_.drive.rate_hz, run->request.duration_s,
+                                         1.0 / run->request.drive.f, board_.drive.limits},
+                                        board_.safety,
+                                        board_.sensor.rate_hz(),
+                                        !virtual_clock,
+                                        board_.run.priority,
+                                        board_.run.lock_memory};
   run->runner = std::make_unique<firmware::LoopRunner>(
       settings, run->waveform,
       firmware::LoopDevices{*rig_.clock, *rig_.drive, *rig_.sensor, *rig_.lines}, &run->remote);
@@ -456,7 +453,8 @@ json Daemon::estop(const std::string& client) {
     fault_cause_ = firmware::StopCause::estop;
     publish_state();
   }
-  log_event(fmt::format("e-stop from a client{}", controller_ == client ? " (the controller)" : ""));
+  log_event(
+      fmt::format("e-stop from a client{}", controller_ == client ? " (the controller)" : ""));
   return {{"state", to_string(state_)}};
 }
 
@@ -480,9 +478,9 @@ json Daemon::renew_lease(const std::string& client, const json& args) {
     run_->drive_acked = protocol::uint_arg(args, "drive_received");
   }
   if (board_.virtual_clock()) {
-    run_->lease_renewed_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                 Clock::now().time_since_epoch())
-                                 .count();
+    run_->lease_renewed_ns =
+        std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch())
+            .count();
   } else {
     run_->remote.lease_deadline = rig_.clock->now() + hal::from_seconds(run_->lease_s);
   }
@@ -491,9 +489,8 @@ json Daemon::renew_lease(const std::string& client, const json& args) {
 
 void Daemon::check_lease_on_wall_clock() {
   if (!running() || !board_.virtual_clock()) return;
-  const auto now = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                       Clock::now().time_since_epoch())
-                       .count();
+  const auto now =
+      std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
   if (static_cast<double>(now - run_->lease_renewed_ns.load()) > run_->lease_s * 1e9) {
     // Expire it on the board clock: the drive loop stops with link_lost.
     run_->remote.lease_deadline.store(0);
@@ -505,11 +502,12 @@ json Daemon::fetch(const json& args) {
   const std::uint64_t first = protocol::uint_arg(args, "first");
   const std::uint64_t count = protocol::uint_arg(args, "count");
   if (count > kMaxFetch) {
-    throw out_of_limits("count", fmt::format("{}; allowed: at most {} per fetch", count, kMaxFetch));
+    throw out_of_limits("count",
+                        fmt::format("{}; allowed: at most {} per fetch", count, kMaxFetch));
   }
   if (spill_) {
-    const auto held = stream == protocol::Stream::drive ? drive_recorder_.first()
-                                                        : sensor_recorder_.first();
+    const auto held =
+        stream == protocol::Stream::drive ? drive_recorder_.first() : sensor_recorder_.first();
     if (first < held) {
       // Past the memory ring: the spill file has it.
       if (auto frame = spill_->fetch(stream, first, count)) {
@@ -583,9 +581,10 @@ void Daemon::finish_run() {
   run.summary = {
       {"cause", firmware::to_string(cause)},
       {"output",
-       {{"state", output_state(out)},
+       {{"state", firmware::output_state(out)},
         {"zero_confirmed", out.zero_confirmed},
-        {"acknowledged_V", std::isnan(out.acknowledged_V) ? json(nullptr) : json(out.acknowledged_V)},
+        {"acknowledged_V",
+         std::isnan(out.acknowledged_V) ? json(nullptr) : json(out.acknowledged_V)},
         {"zero_writes", out.zero_writes},
         {"zero_status", hal::to_string(out.zero_status)},
         {"enabled_ever", out.enabled_ever},
@@ -594,7 +593,7 @@ void Daemon::finish_run() {
       {"sensor", final_health_json(run.runner->sensor_health())},
       {"realtime", run.runner->realtime_notes()},
       {"samples", {{"drive", drive_recorder_.next()}, {"sensor", sensor_recorder_.next()}}}};
-  if (latches(cause) || output_state(out) != "confirmed") {
+  if (latches(cause) || std::string_view(firmware::output_state(out)) != "confirmed") {
     state_ = State::fault;
     fault_cause_ = latches(cause) ? cause : firmware::StopCause::drive_fault;
   } else {
@@ -602,16 +601,17 @@ void Daemon::finish_run() {
   }
   controller_.clear();
   log_event(fmt::format("run {} ended: {}, output {}{}", run.id, firmware::to_string(cause),
-                        output_state(out),
+                        firmware::output_state(out),
                         state_ == State::fault ? " (fault latched: reset_fault to go on)" : ""));
   publish_state();
 }
 
 void Daemon::publish_state() {
-  json j{{"state", to_string(state_)},
-         {"board_ns", rig_.clock->now()},
-         {"run", run_ ? json(run_->id) : json(nullptr)},
-         {"fault", state_ == State::fault ? json(firmware::to_string(fault_cause_)) : json(nullptr)}};
+  json j{
+      {"state", to_string(state_)},
+      {"board_ns", rig_.clock->now()},
+      {"run", run_ ? json(run_->id) : json(nullptr)},
+      {"fault", state_ == State::fault ? json(firmware::to_string(fault_cause_)) : json(nullptr)}};
   if (run_ && run_->finished) j["summary"] = run_->summary;
   const std::string body = protocol::encode_map(j);
   std::array<zmq::const_buffer, 2> parts{zmq::str_buffer("state"), zmq::buffer(body)};

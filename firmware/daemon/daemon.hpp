@@ -19,9 +19,9 @@
 #include "piezo/firmware/loop_runner.hpp"
 #include "piezo/model/waveform.hpp"
 #include "recorder.hpp"
-#include "spill_file.hpp"
 #include "rig.hpp"
 #include "run_config.hpp"
+#include "spill_file.hpp"
 
 namespace piezo::daemon {
 

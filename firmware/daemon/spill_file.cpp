@@ -5,7 +5,9 @@
 
 namespace piezo::daemon {
 
-SpillFile::SpillFile(std::string path) : path_(std::move(path)) { clear(); }
+SpillFile::SpillFile(std::string path) : path_(std::move(path)) {
+  clear();
+}
 
 void SpillFile::clear() {
   file_.close();
@@ -24,7 +26,7 @@ void SpillFile::append(std::string_view frame) {
 }
 
 std::optional<std::string> SpillFile::fetch(protocol::Stream stream, std::uint64_t first,
-                                             std::uint64_t count) {
+                                            std::uint64_t count) {
   file_.clear();
   file_.seekg(0);
   std::vector<firmware::DriveSample> drive;

@@ -19,7 +19,8 @@ struct BoardOptions {
 
 std::string status_text(const nlohmann::json& s) {
   std::string out = fmt::format("state      {}", s.at("state").get<std::string>());
-  if (!s.at("fault").is_null()) out += fmt::format(" (fault: {})", s.at("fault").get<std::string>());
+  if (!s.at("fault").is_null())
+    out += fmt::format(" (fault: {})", s.at("fault").get<std::string>());
   out += "\n";
   if (s.contains("run")) {
     const auto& r = s.at("run");

@@ -17,8 +17,8 @@
 #include "config_error.hpp"
 #include "parameters_json.hpp"
 #include "remote_run.hpp"
-#include "rig_client.hpp"
 #include "rig.hpp"
+#include "rig_client.hpp"
 #include "run_config.hpp"
 #include "run_log.hpp"
 #include "run_session.hpp"
@@ -263,9 +263,9 @@ int run(const RunOptions& o) {
 
   const auto status_line = o.json ? std::function<void(const LiveStatus&)>{} : show_status;
   RunSummary summary =
-      client ? execute_remote_run(config, *client, hello, log, signals.flag(), status_line,
-                                  config.rig.lease_s > 0.0 ? std::optional(config.rig.lease_s)
-                                                           : std::nullopt)
+      client ? execute_remote_run(
+                   config, *client, hello, log, signals.flag(), status_line,
+                   config.rig.lease_s > 0.0 ? std::optional(config.rig.lease_s) : std::nullopt)
              : execute_run(config, std::move(*rig), log, signals.flag(), status_line);
   if (!o.json && isatty(STDERR_FILENO)) write_out(stderr, "\n");
 

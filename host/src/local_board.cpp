@@ -27,13 +27,17 @@ LocalBoard::LocalBoard(const RunConfig& config, Rig rig)
                                                address_, events_)),
       thread_([this] { daemon_->serve(stop_); }) {}
 
-LocalBoard::~LocalBoard() { stop(); }
+LocalBoard::~LocalBoard() {
+  stop();
+}
 
 void LocalBoard::stop() {
   stop_.store(true);
   if (thread_.joinable()) thread_.join();
 }
 
-std::string LocalBoard::events() const { return events_.str(); }
+std::string LocalBoard::events() const {
+  return events_.str();
+}
 
 }  // namespace piezo::host

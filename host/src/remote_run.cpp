@@ -6,9 +6,9 @@
 #include <optional>
 #include <zmq_addon.hpp>
 
+#include "config_error.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "piezo/protocol/message.hpp"
-#include "config_error.hpp"
 #include "sample_collector.hpp"
 
 namespace piezo::host {
@@ -23,8 +23,7 @@ constexpr auto kQuietBeforeAsking = 500ms;  // no state event: ask for the statu
 constexpr std::uint64_t kFetchChunk = 50'000;
 
 std::int64_t host_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             SteadyClock::now().time_since_epoch())
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(SteadyClock::now().time_since_epoch())
       .count();
 }
 
@@ -68,13 +67,14 @@ class StreamCursor {
   /// Fetches everything up to `end` not yet received, and notes the gap.
   void fetch(protocol::Stream stream, std::uint64_t end) {
     std::uint64_t& next = stream == protocol::Stream::drive ? drive_next_ : sensor_next_;
-    if (next < end) gaps_.push_back(fmt::format("{} [{}, {})", protocol::to_string(stream), next, end));
+    if (next < end)
+      gaps_.push_back(fmt::format("{} [{}, {})", protocol::to_string(stream), next, end));
     while (next < end) {
-      const json r = client_.call(
-          "fetch", {{"stream", protocol::to_string(stream)},
-                    {"first", next},
-                    {"count", std::min(kFetchChunk, end - next)}},
-          5s);
+      const json r = client_.call("fetch",
+                                  {{"stream", protocol::to_string(stream)},
+                                   {"first", next},
+                                   {"count", std::min(kFetchChunk, end - next)}},
+                                  5s);
       const auto& bytes = r.at("frame").get_binary();
       const std::string frame(bytes.begin(), bytes.end());
       const auto header = protocol::decode_header(frame);
@@ -149,8 +149,8 @@ ClockMapping estimate_clock_offset(RigClient& client, int round_trips) {
   return best;
 }
 
-RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json& hello,
-                              RunLog& log, const std::atomic<bool>& stop,
+RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json& hello, RunLog& log,
+                              const std::atomic<bool>& stop,
                               const std::function<void(const LiveStatus&)>& on_status,
                               std::optional<double> lease) {
   RunSummary summary;
@@ -167,8 +167,7 @@ RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json&
   client.subscribe({"drive", "sensor", "state", "health"});
   std::this_thread::sleep_for(100ms);  // let the subscription reach the board first
 
-  const json started =
-      client.call("start", lease ? json{{"lease_s", *lease}} : json::object());
+  const json started = client.call("start", lease ? json{{"lease_s", *lease}} : json::object());
   const auto t0 = started.at("t0_ns").get<hal::TimeNs>();
   const double lease_s = started.at("lease_s").get<double>();
   log.set_attribute("board_t0_ns", std::to_string(t0));
@@ -223,7 +222,8 @@ RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json&
     for (int i = 0; i < 256 && ready; ++i) {
       std::vector<zmq::message_t> parts;
       if (!zmq::recv_multipart(client.stream(), std::back_inserter(parts),
-                               zmq::recv_flags::dontwait) || parts.size() != 2) {
+                               zmq::recv_flags::dontwait) ||
+          parts.size() != 2) {
         break;
       }
       last_heard = SteadyClock::now();
@@ -276,7 +276,8 @@ RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json&
       const json drive = health.value("drive", json::object());
       on_status({collector.last_t(), c.run.duration_s, collector.last_V(), collector.last_theta(),
                  observer ? observer->summary().last_residual_rad : 0.0, cursor.sensor_next(),
-                 sensor.value("errors", std::uint64_t{0}), drive.value("overruns", std::uint64_t{0})});
+                 sensor.value("errors", std::uint64_t{0}),
+                 drive.value("overruns", std::uint64_t{0})});
       last_status = now;
     }
   }
@@ -289,8 +290,10 @@ RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json&
   if (!std::isnan(quiet_since_s)) {
     outages.push_back(fmt::format("[{:.3f}, end of run]", quiet_since_s));
   }
-  log.set_attribute("link_outages", outages.empty() ? "none" : fmt::format("{}", fmt::join(outages, "; ")));
-  log.set_attribute("stream_gaps_fetched", gaps.empty() ? "none" : fmt::format("{}", fmt::join(gaps, "; ")));
+  log.set_attribute("link_outages",
+                    outages.empty() ? "none" : fmt::format("{}", fmt::join(outages, "; ")));
+  log.set_attribute("stream_gaps_fetched",
+                    gaps.empty() ? "none" : fmt::format("{}", fmt::join(gaps, "; ")));
 
   summary.cause = stop_cause_from(board.at("cause").get<std::string>());
   const json& out = board.at("output");

@@ -6,8 +6,8 @@
 
 #include <atomic>
 #include <functional>
-#include <optional>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "rig_client.hpp"
 #include "run_config.hpp"

@@ -3,7 +3,6 @@
 #include <fmt/format.h>
 
 #include <cerrno>
-
 #include <zmq_addon.hpp>
 
 #include "curve.hpp"
@@ -26,8 +25,9 @@ RigClient::RigClient(const config::RigAddress& rig, std::shared_ptr<zmq::context
   const std::string stream_address = protocol::stream_endpoint(address_);
   if (!rig.server_public_key_file.empty() || !rig.client_secret_key_file.empty()) {
     if (rig.server_public_key_file.empty() || rig.client_secret_key_file.empty()) {
-      throw std::runtime_error("rig: CURVE needs both server_public_key_file and "
-                               "client_secret_key_file");
+      throw std::runtime_error(
+          "rig: CURVE needs both server_public_key_file and "
+          "client_secret_key_file");
     }
     const std::string server = daemon::read_key(rig.server_public_key_file, "public-key");
     const std::string mine = daemon::read_key(rig.client_secret_key_file, "public-key");

@@ -3,28 +3,23 @@
 // matched to its reply by id, and a SUB on the sample stream next to it.
 
 #include <chrono>
-#include <memory>
-#include <optional>
 #include <cstdint>
+#include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <zmq.hpp>
 
+#include "piezo/protocol/error.hpp"
 #include "run_config.hpp"
 
 namespace piezo::host {
 
-/// An error reply: the daemon refused the command.
-class RemoteError : public std::runtime_error {
+/// An error reply: the daemon refused the command ({code, key, message}).
+class RemoteError : public protocol::ProtocolError {
  public:
-  RemoteError(std::string code, std::string key, const std::string& message)
-      : std::runtime_error(message), code_(std::move(code)), key_(std::move(key)) {}
-  [[nodiscard]] const std::string& code() const { return code_; }
-  [[nodiscard]] const std::string& key() const { return key_; }
-
- private:
-  std::string code_, key_;
+  using ProtocolError::ProtocolError;
 };
 
 /// No reply within the timeout: the link or the daemon is down.

@@ -24,9 +24,9 @@ const std::vector<std::string>& RunLog::observer_columns() {
 }
 
 const std::vector<std::string>& RunLog::sensor_columns() {
-  static const std::vector<std::string> names{"/sensor/t", "/sensor/t_response",
-                                              "/sensor/displacement_m", "/sensor/theta",
-                                              "/sensor/status", "/sensor/t_received"};
+  static const std::vector<std::string> names{
+      "/sensor/t",     "/sensor/t_response", "/sensor/displacement_m",
+      "/sensor/theta", "/sensor/status",     "/sensor/t_received"};
   return names;
 }
 
@@ -90,9 +90,8 @@ void RunLog::append(ColumnBuffer& buffer) {
   std::size_t written = 0;
   const auto drop_written = [&] {
     for (auto& [name, values] : buffer) {
-      values.erase(values.begin(),
-                   values.begin() + static_cast<std::ptrdiff_t>(
-                                        slice_begin(values.size(), slices, written)));
+      values.erase(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(slice_begin(
+                                                        values.size(), slices, written)));
     }
   };
   try {

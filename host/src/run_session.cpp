@@ -18,9 +18,7 @@ std::string RunSummary::stop_cause() const {
 }
 
 std::string RunSummary::output_state() const {
-  if (!output.zero_confirmed) return "output_unconfirmed";
-  if (output.enable_status != hal::Status::ok) return "enable_unconfirmed";
-  return "confirmed";
+  return firmware::output_state(output);
 }
 
 std::string RunSummary::status() const {

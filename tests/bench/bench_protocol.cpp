@@ -65,11 +65,11 @@ void print_row(const std::string& name, const Latencies& l, const std::string& c
 }
 
 Latencies over_the_protocol(double seconds, double& cpu_percent) {
-  const int port = piezo::testing::free_port();
+  const int port = piezo::testing::free_port_pair();
   const std::string address = "tcp://127.0.0.1:" + std::to_string(port);
-  piezo::testing::Spawned board({PIEZOD_BINARY, "--config", PIEZO_SOURCE_DIR "/configs/piezod-sim.toml",
-                           "--listen", address},
-                          "/dev/null");
+  piezo::testing::Spawned board(
+      {PIEZOD_BINARY, "--config", PIEZO_SOURCE_DIR "/configs/piezod-sim.toml", "--listen", address},
+      "/dev/null");
   piezo::testing::wait_for_tcp(port);
   host::RigClient client({address, "", ""});
   (void)client.call("configure", {{"V0", 80.0}, {"f", 10.0}, {"duration_s", seconds}});
@@ -104,7 +104,8 @@ Latencies over_the_protocol(double seconds, double& cpu_percent) {
       last_lease = std::chrono::steady_clock::now();
     }
   }
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_before).count();
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_before).count();
   cpu_percent = 100.0 * (cpu_seconds(pid) - cpu_before) / wall;
   return l;
 }
@@ -113,20 +114,26 @@ Latencies in_process(double seconds) {
   auto config = config::load_run_config(PIEZO_SOURCE_DIR "/configs/sim.toml");
   config::Rig rig = config::build_rig(config);
   const model::Sawtooth waveform(80.0, 10.0, config.model.drive.D());
-  firmware::LoopRunner runner(
-      {{config.drive.rate_hz, seconds, 0.1, config.drive.limits}, config.safety,
-       config.sensor.rate_hz(), true, config.run.priority, config.run.lock_memory},
-      waveform, {*rig.clock, *rig.drive, *rig.sensor, *rig.lines});
+  firmware::LoopRunner runner({{config.drive.rate_hz, seconds, 0.1, config.drive.limits},
+                               config.safety,
+                               config.sensor.rate_hz(),
+                               true,
+                               config.run.priority,
+                               config.run.lock_memory},
+                              waveform, {*rig.clock, *rig.drive, *rig.sensor, *rig.lines});
   runner.start([&](hal::TimeNs t0) { rig.start_at(t0); });
   Latencies l;
   // Drained as often as piezod's network thread does (every 2 ms).
   while (!runner.finished()) {
     std::this_thread::sleep_for(2ms);
     const std::int64_t now = monotonic_ns();
-    runner.drain([&](const firmware::DriveSample& s) { l.drive_us.push_back(1e-3 * static_cast<double>(now - s.t)); },
-                 [&](const firmware::SensorSample& s) {
-                   l.sensor_us.push_back(1e-3 * static_cast<double>(now - s.t_response));
-                 });
+    runner.drain(
+        [&](const firmware::DriveSample& s) {
+          l.drive_us.push_back(1e-3 * static_cast<double>(now - s.t));
+        },
+        [&](const firmware::SensorSample& s) {
+          l.sensor_us.push_back(1e-3 * static_cast<double>(now - s.t_response));
+        });
   }
   runner.join();
   return l;
@@ -136,9 +143,10 @@ Latencies in_process(double seconds) {
 
 int main(int argc, char** argv) {
   const double seconds = argc > 1 ? std::stod(argv[1]) : 5.0;
-  fmt::print("stream latency, board stamp to host receipt [us], {:g} s at 10 kHz drive + 1 kHz "
-             "sensor (simulated rig, real time)\n",
-             seconds);
+  fmt::print(
+      "stream latency, board stamp to host receipt [us], {:g} s at 10 kHz drive + 1 kHz "
+      "sensor (simulated rig, real time)\n",
+      seconds);
   fmt::print("{:<28} {:>10} {:>10} {:>10} {:>10} {:>10}  {}\n", "path", "drive p50", "drive p99",
              "sensor p50", "sensor p99", "drive n", "piezod CPU");
   double cpu = 0.0;

@@ -255,8 +255,7 @@ TEST_F(ModbusRtu, ALateRtuReplyIsNeverTakenForTheNextOne) {
 TEST_F(ModbusSafety, PiezodOnModbusStopsItselfWhenTheHostDies) {
   auto rig = start_rig_sim();
   ASSERT_TRUE(wait_for_tcp(port));
-  int board_port = free_port();
-  while (board_port >= 65534) board_port = free_port();
+  const int board_port = free_port_pair();
   const std::string address = "tcp://127.0.0.1:" + std::to_string(board_port);
   Spawned board({PIEZOD_BINARY, "--config", kConfig, "--set", "sensor.port=" + std::to_string(port),
                  "--set", "drive.ao_port=" + std::to_string(port), "--listen", address},

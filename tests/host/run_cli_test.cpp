@@ -149,9 +149,11 @@ INSTANTIATE_TEST_SUITE_P(
 TEST(RunCli, AFullDiskOnTheVirtualClockStopsTheRunWithExit1) {
   const auto dir = fresh_temp_dir("run-full-disk");
   const fs::path script = dir / "full-disk.sh";
-  write_file(script, "ulimit -f 6000\n" + kPiezo + " run --config " + kSimConfig +
-                         " --set run.clock=virtual --set run.flush_interval_s=1 --duration 60 --json --out " +
-                         (dir / "run").string() + "\n");
+  write_file(
+      script,
+      "ulimit -f 6000\n" + kPiezo + " run --config " + kSimConfig +
+          " --set run.clock=virtual --set run.flush_interval_s=1 --duration 60 --json --out " +
+          (dir / "run").string() + "\n");
   const auto r = run_command("timeout 120 bash " + script.string());
   ASSERT_EQ(r.exit_code, 1) << "124 would be a hang: " << r.err;
   const auto j = nlohmann::json::parse(r.out);

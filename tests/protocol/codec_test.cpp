@@ -48,17 +48,17 @@ TEST(Frame, SensorSamplesRoundTrip) {
 // The documented layout, checked on bytes written by hand: a peer on any
 // architecture reads the same thing.
 TEST(Frame, LayoutIsTheDocumentedLittleEndianOne) {
-  const std::vector<DriveSample> in{{0x0102030405060708, 1.0, DrivePhase::ramping_down,
-                                     hal::Status::io_error}};
+  const std::vector<DriveSample> in{
+      {0x0102030405060708, 1.0, DrivePhase::ramping_down, hal::Status::io_error}};
   const std::string f = encode_frame(0x1122334455667788, in);
   EXPECT_EQ(f.substr(0, 4), "PZSB");
   EXPECT_EQ(f[4], 1);  // version, low byte first
   EXPECT_EQ(f[5], 0);
-  EXPECT_EQ(f[6], 1);  // stream drive
+  EXPECT_EQ(f[6], 1);                                 // stream drive
   EXPECT_EQ(static_cast<unsigned char>(f[8]), 0x88);  // first_seq, low byte first
   EXPECT_EQ(static_cast<unsigned char>(f[15]), 0x11);
-  EXPECT_EQ(f[16], 1);   // count
-  EXPECT_EQ(f[20], 24);  // record size
+  EXPECT_EQ(f[16], 1);     // count
+  EXPECT_EQ(f[20], 24);    // record size
   EXPECT_EQ(f[24], 0x08);  // t, low byte first
   EXPECT_EQ(f[31], 0x01);
   EXPECT_EQ(static_cast<unsigned char>(f[32 + 6]), 0xF0);  // 1.0 = 0x3FF0000000000000
@@ -79,8 +79,8 @@ class MalformedFrame : public testing::TestWithParam<BadFrame> {};
 
 TEST_P(MalformedFrame, IsRefusedNamingTheField) {
   const auto& p = GetParam();
-  std::string f = encode_frame(1, std::vector<DriveSample>{{1, 2.0, DrivePhase::driving,
-                                                            hal::Status::ok}});
+  std::string f =
+      encode_frame(1, std::vector<DriveSample>{{1, 2.0, DrivePhase::driving, hal::Status::ok}});
   if (p.cut) {
     f.resize(p.offset);
   } else {
@@ -95,19 +95,18 @@ TEST_P(MalformedFrame, IsRefusedNamingTheField) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Frame, MalformedFrame,
-    testing::Values(BadFrame{"Empty", 0, 0, true, "length"},
-                    BadFrame{"TruncatedHeader", 23, 0, true, "length"},
-                    BadFrame{"TruncatedRecord", 40, 0, true, "count"},
-                    BadFrame{"Magic", 0, 'X', false, "magic"},
-                    BadFrame{"Version", 4, 2, false, "version"},
-                    BadFrame{"Stream", 6, 9, false, "stream"},
-                    BadFrame{"RecordSize", 20, 16, false, "record_bytes"},
-                    BadFrame{"CountTooLarge", 16, 2, false, "count"},
-                    BadFrame{"Phase", 40, 9, false, "phase"},
-                    BadFrame{"Status", 41, 100, false, "status"}),
-    [](const auto& param_info) { return std::string(param_info.param.name); });
+INSTANTIATE_TEST_SUITE_P(Frame, MalformedFrame,
+                         testing::Values(BadFrame{"Empty", 0, 0, true, "length"},
+                                         BadFrame{"TruncatedHeader", 23, 0, true, "length"},
+                                         BadFrame{"TruncatedRecord", 40, 0, true, "count"},
+                                         BadFrame{"Magic", 0, 'X', false, "magic"},
+                                         BadFrame{"Version", 4, 2, false, "version"},
+                                         BadFrame{"Stream", 6, 9, false, "stream"},
+                                         BadFrame{"RecordSize", 20, 16, false, "record_bytes"},
+                                         BadFrame{"CountTooLarge", 16, 2, false, "count"},
+                                         BadFrame{"Phase", 40, 9, false, "phase"},
+                                         BadFrame{"Status", 41, 100, false, "status"}),
+                         [](const auto& param_info) { return std::string(param_info.param.name); });
 
 TEST(Message, RequestRoundTrips) {
   std::optional<std::uint64_t> id;

@@ -1,9 +1,8 @@
 // piezod as its own process on loopback, with real clients: `piezo run
 // --rig`, an independent Python client written from docs/protocol.md, a
 // host killed with -9 (the board stops itself), and CURVE.
-#include <gtest/gtest.h>
-
 #include <fmt/format.h>
+#include <gtest/gtest.h>
 
 #include <fstream>
 #include <regex>
@@ -31,8 +30,7 @@ class Piezod : public ::testing::Test {
  protected:
   void start(const std::string& extra_toml = "", const std::vector<std::string>& extra_args = {}) {
     dir_ = fresh_temp_dir("piezod");
-    port_ = free_port();
-    while (port_ >= 65534) port_ = free_port();
+    port_ = free_port_pair();
     address_ = "tcp://127.0.0.1:" + std::to_string(port_);
     // Extra [piezod] keys go right under the section's header, in place of
     // the file's own lines for the same keys.
@@ -81,14 +79,14 @@ TEST_F(Piezod, RunOverTheProtocolMatchesTheInProcessRun) {
   EXPECT_NEAR(theta_r, theta_l, 0.05 * theta_l);
   // h5py reads the host's log: every sample the board recorded, in
   // sequence, with the clock mapping.
-  const auto check = run_command(
-      "/usr/bin/python3 -c \"import h5py, numpy as np; f = h5py.File('" +
-      (dir_ / "remote" / "run.h5").string() +
-      "'); t = f['sensor/t'][:]; print(f.attrs['status'].decode(), len(t), "
-      "bool(np.all(np.diff(t) > 0)), 'board_clock_offset_ns' in f.attrs, "
-      "f.attrs['stream_gaps_fetched'].decode())\"");
-  EXPECT_EQ(check.out, fmt::format("completed {} True True none\n",
-                                   r.at("sensor").at("samples").get<long>()))
+  const auto check =
+      run_command("/usr/bin/python3 -c \"import h5py, numpy as np; f = h5py.File('" +
+                  (dir_ / "remote" / "run.h5").string() +
+                  "'); t = f['sensor/t'][:]; print(f.attrs['status'].decode(), len(t), "
+                  "bool(np.all(np.diff(t) > 0)), 'board_clock_offset_ns' in f.attrs, "
+                  "f.attrs['stream_gaps_fetched'].decode())\"");
+  EXPECT_EQ(check.out,
+            fmt::format("completed {} True True none\n", r.at("sensor").at("samples").get<long>()))
       << check.err;
 }
 
@@ -106,8 +104,8 @@ TEST_F(Piezod, ARequestBeyondTheBoardsLimitsIsRefusedNamingTheKey) {
 
 TEST_F(Piezod, AnIndependentPythonClientRunsFromTheProtocolDocument) {
   start();
-  const auto r = run_command("/usr/bin/python3 " + kSource + "/tests/protocol/protocol_client.py " +
-                             address_);
+  const auto r =
+      run_command("/usr/bin/python3 " + kSource + "/tests/protocol/protocol_client.py " + address_);
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err << log();
   EXPECT_EQ(r.out.substr(0, 3), "ok ") << r.out;
   EXPECT_EQ(status().at("state"), "idle");  // the malformed input did not stop the daemon
@@ -136,7 +134,8 @@ TEST_F(Piezod, KillNineOfTheHostStopsTheBoardAndLatchesLinkLost) {
   // sample still driving to the stop.
   const auto fetch = run_command(
       "/usr/bin/python3 -c \"import zmq, msgpack, struct; c = zmq.Context().socket(zmq.DEALER); "
-      "c.connect('" + address_ + "'); n = " + std::to_string(summary.at("samples").at("drive").get<long>()) +
+      "c.connect('" +
+      address_ + "'); n = " + std::to_string(summary.at("samples").at("drive").get<long>()) +
       "; c.send(msgpack.packb({'id': 1, 'cmd': 'fetch', 'args': {'stream': 'drive', 'first': "
       "n - 5000, 'count': 5000}})); f = msgpack.unpackb(c.recv())['result']['frame']; "
       "r = [struct.unpack_from('<qdBB', f, 24 + 24 * i) for i in range(5000)]; "
@@ -168,18 +167,17 @@ struct OutageRun {
 };
 
 OutageRun run_through_an_outage(const Piezod& board, int board_port, const fs::path& dir,
-                                 const std::string& extra) {
-  int port = free_port();
-  while (port >= 65534) port = free_port();
-  Spawned proxy({"/usr/bin/python3", kSource + "/tests/protocol/link_proxy.py", std::to_string(port),
-                 std::to_string(board_port), "2.0"},
+                                const std::string& extra) {
+  const int port = free_port_pair();
+  Spawned proxy({"/usr/bin/python3", kSource + "/tests/protocol/link_proxy.py",
+                 std::to_string(port), std::to_string(board_port), "2.0"},
                 (dir / "proxy.log").string());
   EXPECT_TRUE(wait_for_tcp(port));
   (void)board;
-  Spawned host({kPiezo, "run", "--config", kSimConfig, "--rig",
-                "tcp://127.0.0.1:" + std::to_string(port), "--duration", "5", "--json", "--out",
-                (dir / "outage").string(), "--set", extra},
-               (dir / "host.txt").string());
+  Spawned host(
+      {kPiezo, "run", "--config", kSimConfig, "--rig", "tcp://127.0.0.1:" + std::to_string(port),
+       "--duration", "5", "--json", "--out", (dir / "outage").string(), "--set", extra},
+      (dir / "host.txt").string());
   std::this_thread::sleep_for(1500ms);
   proxy.signal(SIGUSR1);
   (void)host.wait_exit();
@@ -208,9 +206,9 @@ TEST_F(Piezod, ATwoSecondOutageUnderALongerLeaseLosesNothing) {
   EXPECT_EQ(r.summary.at("status"), "completed") << read_all(dir_ / "host.txt");
   const auto board = status();
   const auto& recorded = board.at("run").at("summary").at("samples");
-  EXPECT_EQ(r.log_facts, fmt::format("completed {} {} True True True True\n",
-                                     recorded.at("sensor").get<long>(),
-                                     recorded.at("drive").get<long>()));
+  EXPECT_EQ(r.log_facts,
+            fmt::format("completed {} {} True True True True\n", recorded.at("sensor").get<long>(),
+                        recorded.at("drive").get<long>()));
 }
 
 // With the default 0.5 s lease the board stops by itself (link_lost), and
@@ -225,9 +223,9 @@ TEST_F(Piezod, ATwoSecondOutageUnderTheDefaultLeaseStopsTheBoard) {
   const auto board = status();
   EXPECT_EQ(board.at("fault"), "link_lost");
   const auto& recorded = board.at("run").at("summary").at("samples");
-  EXPECT_EQ(r.log_facts, fmt::format("failed {} {} True True True True\n",
-                                     recorded.at("sensor").get<long>(),
-                                     recorded.at("drive").get<long>()));
+  EXPECT_EQ(r.log_facts,
+            fmt::format("failed {} {} True True True True\n", recorded.at("sensor").get<long>(),
+                        recorded.at("drive").get<long>()));
 }
 
 // A 2 s run into a 1 s memory ring: the start is gone from memory, and the
@@ -235,14 +233,18 @@ TEST_F(Piezod, ATwoSecondOutageUnderTheDefaultLeaseStopsTheBoard) {
 std::string fetch_the_first_samples(const std::string& address) {
   return run_command(
              "/usr/bin/python3 -c \"import zmq, msgpack, time, struct\n"
-             "c = zmq.Context().socket(zmq.DEALER); c.connect('" + address + "')\n"
+             "c = zmq.Context().socket(zmq.DEALER); c.connect('" +
+             address +
+             "')\n"
              "def call(i, cmd, **a):\n"
-             "    c.send(msgpack.packb({'id': i, 'cmd': cmd, 'args': a})); return msgpack.unpackb(c.recv())\n"
+             "    c.send(msgpack.packb({'id': i, 'cmd': cmd, 'args': a})); return "
+             "msgpack.unpackb(c.recv())\n"
              "call(1, 'configure', V0=50.0, f=10.0, duration_s=2.0)\n"
              "call(2, 'start', lease_s=5.0)\n"
              "while not call(3, 'status')['result']['run']['finished']: time.sleep(0.1)\n"
              "r = call(4, 'fetch', stream='drive', first=0, count=100)\n"
-             "print(struct.unpack_from('<QI', r['result']['frame'], 8) if r['ok'] else r['error']['code'])\"")
+             "print(struct.unpack_from('<QI', r['result']['frame'], 8) if r['ok'] else "
+             "r['error']['code'])\"")
       .out;
 }
 
@@ -271,15 +273,15 @@ TEST_F(Piezod, ANetworkAddressNeedsCurveAndRefusesUnknownClients) {
   const auto ok = run_command(kPiezo + " status --json --rig " + address_ + curve +
                               (keys / "host.key").string());
   EXPECT_EQ(ok.exit_code, 0) << ok.err;
-  const auto refused = run_command(kPiezo + " status --rig " + address_ + curve +
-                                   (keys / "stranger.key").string());
+  const auto refused =
+      run_command(kPiezo + " status --rig " + address_ + curve + (keys / "stranger.key").string());
   EXPECT_NE(refused.exit_code, 0);
   EXPECT_NE(refused.err.find("no reply"), std::string::npos) << refused.err;
   EXPECT_NE(log().find("is not in the authorized keys"), std::string::npos) << log();
   // Without keys, a network address is refused at start.
-  const auto plain = run_command(kPiezod + " --config " + kSource +
-                                 "/configs/piezod-sim.toml --listen tcp://0.0.0.0:" +
-                                 std::to_string(free_port()));
+  const auto plain = run_command(
+      kPiezod + " --config " + kSource +
+      "/configs/piezod-sim.toml --listen tcp://0.0.0.0:" + std::to_string(free_port_pair()));
   EXPECT_EQ(plain.exit_code, 1);
   EXPECT_NE(plain.err.find("CURVE"), std::string::npos) << plain.err;
 }

@@ -41,6 +41,22 @@ inline int free_port() {
   return ntohs(addr.sin_port);
 }
 
+/// A port P with P + 1 free as well (piezod's command and stream sockets).
+inline int free_port_pair() {
+  for (;;) {
+    const int port = free_port();
+    if (port >= 65534) continue;
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(static_cast<std::uint16_t>(port + 1));
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    const bool free = bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
+    close(fd);
+    if (free) return port;
+  }
+}
+
 inline bool wait_for_tcp(int port) {
   for (int i = 0; i < 100; ++i) {
     const int fd = socket(AF_INET, SOCK_STREAM, 0);

@@ -1,8 +1,9 @@
 #include "piezo/protocol/frame.hpp"
 
+#include <fmt/format.h>
+
 #include <bit>
 #include <cstring>
-#include <fmt/format.h>
 
 namespace piezo::protocol {
 namespace {
@@ -19,21 +20,28 @@ template <typename U>
 U get(std::string_view in, std::size_t offset) {
   U value = 0;
   for (std::size_t i = 0; i < sizeof(U); ++i) {
-    value = static_cast<U>(value | (static_cast<U>(static_cast<std::uint8_t>(in[offset + i])) << (8 * i)));
+    value = static_cast<U>(value |
+                           (static_cast<U>(static_cast<std::uint8_t>(in[offset + i])) << (8 * i)));
   }
   return value;
 }
 
-void put_f64(std::string& out, double v) { put(out, std::bit_cast<std::uint64_t>(v)); }
+void put_f64(std::string& out, double v) {
+  put(out, std::bit_cast<std::uint64_t>(v));
+}
 double get_f64(std::string_view in, std::size_t offset) {
   return std::bit_cast<double>(get<std::uint64_t>(in, offset));
 }
-void put_i64(std::string& out, std::int64_t v) { put(out, static_cast<std::uint64_t>(v)); }
+void put_i64(std::string& out, std::int64_t v) {
+  put(out, static_cast<std::uint64_t>(v));
+}
 std::int64_t get_i64(std::string_view in, std::size_t offset) {
   return static_cast<std::int64_t>(get<std::uint64_t>(in, offset));
 }
 
-void pad(std::string& out, std::size_t n) { out.append(n, '\0'); }
+void pad(std::string& out, std::size_t n) {
+  out.append(n, '\0');
+}
 
 std::string header(Stream stream, std::uint64_t first_seq, std::size_t count,
                    std::size_t record_bytes) {
@@ -65,14 +73,16 @@ hal::Status status_from(std::uint8_t raw, const char* key) {
 
 }  // namespace
 
-std::string_view to_string(Stream s) { return s == Stream::drive ? "drive" : "sensor"; }
+std::string_view to_string(Stream s) {
+  return s == Stream::drive ? "drive" : "sensor";
+}
 
 Stream stream_from_string(std::string_view name, std::string_view key) {
   if (name == "drive") return Stream::drive;
   if (name == "sensor") return Stream::sensor;
-  throw ProtocolError(code::bad_argument, std::string(key),
-                      fmt::format("{}: \"{}\" is not a stream (allowed: \"drive\", \"sensor\")",
-                                  key, name));
+  throw ProtocolError(
+      code::bad_argument, std::string(key),
+      fmt::format("{}: \"{}\" is not a stream (allowed: \"drive\", \"sensor\")", key, name));
 }
 
 std::string encode_frame(std::uint64_t first_seq, std::span<const firmware::DriveSample> samples) {
@@ -107,8 +117,8 @@ FrameHeader decode_header(std::string_view frame) {
   if (frame.substr(0, 4) != kFrameMagic) throw bad("magic", "magic is not \"PZSB\"");
   const auto version = get<std::uint16_t>(frame, 4);
   if (version != kFrameVersion) {
-    throw bad("version", fmt::format("version {} (this side reads version {})", version,
-                                     kFrameVersion));
+    throw bad("version",
+              fmt::format("version {} (this side reads version {})", version, kFrameVersion));
   }
   const auto raw_stream = get<std::uint16_t>(frame, 6);
   if (raw_stream != 1 && raw_stream != 2) {
@@ -118,9 +128,9 @@ FrameHeader decode_header(std::string_view frame) {
                 get<std::uint32_t>(frame, 16)};
   const auto record_bytes = get<std::uint32_t>(frame, 20);
   if (record_bytes != record_bytes_of(h.stream)) {
-    throw bad("record_bytes", fmt::format("record size {} for the {} stream (expected {})",
-                                          record_bytes, to_string(h.stream),
-                                          record_bytes_of(h.stream)));
+    throw bad("record_bytes",
+              fmt::format("record size {} for the {} stream (expected {})", record_bytes,
+                          to_string(h.stream), record_bytes_of(h.stream)));
   }
   const std::size_t expected = kFrameHeaderBytes + std::size_t{h.count} * record_bytes;
   if (frame.size() != expected) {

@@ -39,9 +39,9 @@ class BoundedDomParser : public nlohmann::detail::json_sax_dom_parser<json> {
 
 json parse_msgpack(std::string_view bytes, bool limited = true) {
   if (limited && bytes.size() > kMaxMessageBytes) {
-    throw ProtocolError(code::too_large, "",
-                        fmt::format("message of {} bytes; at most {} are read", bytes.size(),
-                                    kMaxMessageBytes));
+    throw ProtocolError(
+        code::too_large, "",
+        fmt::format("message of {} bytes; at most {} are read", bytes.size(), kMaxMessageBytes));
   }
   json j;
   BoundedDomParser sax(j);
@@ -120,7 +120,8 @@ Reply decode_reply(std::string_view bytes) {
     r.id = id->get<std::uint64_t>();
   }
   const json* ok = find(j, "ok");
-  if (ok == nullptr || !ok->is_boolean()) throw ProtocolError(code::malformed, "ok", "reply without \"ok\"");
+  if (ok == nullptr || !ok->is_boolean())
+    throw ProtocolError(code::malformed, "ok", "reply without \"ok\"");
   r.ok = ok->get<bool>();
   if (r.ok) {
     if (const json* result = find(j, "result"); result != nullptr) r.result = *result;
@@ -134,8 +135,12 @@ Reply decode_reply(std::string_view bytes) {
   return r;
 }
 
-std::string encode_map(const json& map) { return to_bytes(map); }
-json decode_map(std::string_view bytes) { return parse_msgpack(bytes, false); }
+std::string encode_map(const json& map) {
+  return to_bytes(map);
+}
+json decode_map(std::string_view bytes) {
+  return parse_msgpack(bytes, false);
+}
 
 double number_arg(const json& args, const std::string& key, std::optional<double> fallback) {
   const json* v = find(args, key);

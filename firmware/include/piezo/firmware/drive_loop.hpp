@@ -50,6 +50,14 @@ struct OutputOutcome {
   std::uint32_t zero_writes = 0;                ///< 0 V writes the stop took
 };
 
+/// "confirmed" (0 V acknowledged, enable dropped), "output_unconfirmed" or
+/// "enable_unconfirmed" (the enable line's write failed).
+[[nodiscard]] inline const char* output_state(const OutputOutcome& o) {
+  if (!o.zero_confirmed) return "output_unconfirmed";
+  if (o.enable_status != hal::Status::ok) return "enable_unconfirmed";
+  return "confirmed";
+}
+
 class DriveLoop {
  public:
   DriveLoop(const DriveLoopSettings& settings, const model::Excitation& waveform,

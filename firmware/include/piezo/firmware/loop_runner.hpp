@@ -31,11 +31,11 @@ struct LoopRunnerSettings {
   DriveLoopSettings drive;
   SafetySettings safety;
   double sensor_rate_hz = 1000.0;
-  bool realtime = true;      ///< real-time set-up (false on the virtual clock)
-  int priority = 80;         ///< SCHED_FIFO priority of the drive loop (0: do not ask);
-                             ///< the acquire loop runs one below
-  bool lock_memory = true;   ///< mlockall before the loops start
-  double ring_s = 2.0;       ///< each ring holds this much of its loop's output
+  bool realtime = true;     ///< real-time set-up (false on the virtual clock)
+  int priority = 80;        ///< SCHED_FIFO priority of the drive loop (0: do not ask);
+                            ///< the acquire loop runs one below
+  bool lock_memory = true;  ///< mlockall before the loops start
+  double ring_s = 2.0;      ///< each ring holds this much of its loop's output
 };
 
 /// The devices a run works with; all outlive the runner.

@@ -9,17 +9,18 @@ namespace piezo::protocol {
 
 /// Error codes (docs/protocol.md, "Errors").
 namespace code {
-inline constexpr const char* malformed = "malformed";            ///< not a request at all
-inline constexpr const char* too_large = "too_large";            ///< over kMaxMessageBytes
+inline constexpr const char* malformed = "malformed";  ///< not a request at all
+inline constexpr const char* too_large = "too_large";  ///< over kMaxMessageBytes
 inline constexpr const char* unknown_command = "unknown_command";
-inline constexpr const char* bad_argument = "bad_argument";      ///< wrong type or missing
-inline constexpr const char* out_of_limits = "out_of_limits";    ///< beyond the board's limits
-inline constexpr const char* bad_state = "bad_state";            ///< not now (e.g. start while running)
-inline constexpr const char* fault_latched = "fault_latched";    ///< reset_fault first
-inline constexpr const char* not_controller = "not_controller";  ///< another client controls the rig
-inline constexpr const char* not_available = "not_available";    ///< samples no longer recorded
-inline constexpr const char* bad_frame = "bad_frame";            ///< a sample frame that does not decode
-inline constexpr const char* internal = "internal";              ///< the daemon failed; it goes on
+inline constexpr const char* bad_argument = "bad_argument";    ///< wrong type or missing
+inline constexpr const char* out_of_limits = "out_of_limits";  ///< beyond the board's limits
+inline constexpr const char* bad_state = "bad_state";  ///< not now (e.g. start while running)
+inline constexpr const char* fault_latched = "fault_latched";  ///< reset_fault first
+inline constexpr const char* not_controller =
+    "not_controller";                                          ///< another client controls the rig
+inline constexpr const char* not_available = "not_available";  ///< samples no longer recorded
+inline constexpr const char* bad_frame = "bad_frame";  ///< a sample frame that does not decode
+inline constexpr const char* internal = "internal";    ///< the daemon failed; it goes on
 }  // namespace code
 
 class ProtocolError : public std::runtime_error {
