@@ -15,14 +15,6 @@ using hal::modbus::WordOrder;
 
 constexpr double kRiftekCounts = 16384.0;  // RF602: X = D * range / 16384
 
-template <class Enum>
-void read_enum(SectionReader& r, const std::string& key, Enum& value,
-               const std::vector<std::string>& names, auto parse) {
-  std::string text;
-  r.choice(key, text, names);
-  if (!text.empty()) value = *parse(text);
-}
-
 }  // namespace
 
 void apply_baumer_om30(LinkSettings& link, RegisterMap& map) {
@@ -61,12 +53,20 @@ void read_modbus_sensor(SectionReader& r, LinkSettings& link, RegisterMap& map) 
   r.number("response_timeout_s", link.response_timeout_s, {0.001, 10.0}, "s");
   r.number("byte_timeout_s", link.byte_timeout_s, {0.0001, 1.0}, "s");
   r.integer("unit_id", map.unit_id, 0, 247);
-  read_enum(r, "function", map.function, {"input", "holding"}, hal::modbus::parse_function);
+  r.choice("function", map.function,
+           {{"input", Function::input}, {"holding", Function::holding}});
   r.integer("address", map.address, 0, 65535);
-  read_enum(r, "type", map.type, {"u16", "s16", "u32", "s32", "f32"},
-            hal::modbus::parse_register_type);
-  read_enum(r, "word_order", map.order, {"ABCD", "CDAB", "BADC", "DCBA"},
-            hal::modbus::parse_word_order);
+  r.choice("type", map.type,
+           {{"u16", RegisterType::u16},
+            {"s16", RegisterType::s16},
+            {"u32", RegisterType::u32},
+            {"s32", RegisterType::s32},
+            {"f32", RegisterType::f32}});
+  r.choice("word_order", map.order,
+           {{"ABCD", WordOrder::ABCD},
+            {"CDAB", WordOrder::CDAB},
+            {"BADC", WordOrder::BADC},
+            {"DCBA", WordOrder::DCBA}});
   r.number("scale", map.scale, {-1e6, 1e6}, "m per raw unit");
   r.number("offset", map.offset, {-1e3, 1e3}, "m");
 }

@@ -13,12 +13,6 @@
 
 namespace piezo::config {
 
-inline const std::vector<std::string> kModbusSensorKeys{
-    "host",          "port",       "device",  "baud",   "parity",   "data_bits",
-    "stop_bits",     "rs485",      "unit_id", "preset", "function", "address",
-    "type",          "word_order", "scale",   "offset", "range_mm", "response_timeout_s",
-    "byte_timeout_s"};
-
 /// How a Modbus analog output is guarded against a dead link.
 struct AnalogOutputGuard {
   double watchdog_s = 0.0;              ///< the module watchdog's timeout (0: none configured)

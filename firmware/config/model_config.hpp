@@ -9,19 +9,17 @@
 #include <vector>
 
 #include "piezo/model/parameters.hpp"
+#include "section_reader.hpp"
 
 namespace piezo::config {
 
-/// Reads [drive] V0, f, C_dr, e_dr and [model] d_e ... sigma2 from `table`
-/// into `p` (keys absent keep their value). Keys in those sections that are
-/// not parameters are errors unless listed in `extra_drive_keys`; other
-/// sections are left to the caller.
-void read_model_sections(const toml::table& table, const std::string& source, model::Parameters& p,
-                         const std::vector<std::string>& extra_drive_keys = {});
+/// Reads the waveform keys of [drive] (V0, f, C_dr, e_dr) into `p`; keys
+/// absent keep their value.
+void read_waveform(SectionReader& drive, model::Parameters& p);
 
-/// Reads one section of parameter keys (e.g. [plant]) into the motor part of `p`.
-void read_motor_section(const toml::table& table, const std::string& section,
-                        const std::string& source, model::MotorParameters& motor);
+/// Reads the motor parameters (d_e ... sigma2) of a section such as [model]
+/// or [plant] into `motor`; keys absent keep their value.
+void read_motor(SectionReader& section, model::MotorParameters& motor);
 
 /// Parses a number strictly: the whole text, finite. Throws ConfigError.
 double parse_number(const std::string& text, const std::string& source, const std::string& key);
@@ -36,44 +34,9 @@ void require_valid(const model::Parameters& p, const std::string& source);
 
 namespace piezo::config {
 
-/// Sections a project config may hold; those other commands own are skipped
-/// by the model reader but an unknown one is an error everywhere.
-inline const std::vector<std::string> kKnownSections{"drive",    "model",  "plant",  "sensor",
-                                                     "lines",    "run",    "safety", "rig_sim",
-                                                     "observer", "piezod", "rig"};
-/// [drive] keys that belong to the real-time drive, not to the model.
-inline const std::vector<std::string> kDriveLoopKeys{"backend",
-                                                     "rate_hz",
-                                                     "V_min",
-                                                     "V_max",
-                                                     "slew_V_per_s",
-                                                     "dac_bits",
-                                                     "dac_full_scale_V",
-                                                     "amplifier_gain",
-                                                     "amplifier_V_max",
-                                                     "amplifier_slew_V_per_s",
-                                                     "ao_host",
-                                                     "ao_port",
-                                                     "ao_unit_id",
-                                                     "ao_address",
-                                                     "ao_counts_per_V",
-                                                     "ao_full_scale_V",
-                                                     "ao_timeout_s",
-                                                     "ao_watchdog_registers",
-                                                     "ao_watchdog_values",
-                                                     "ao_watchdog_s",
-                                                     "ao_link_loss_acknowledged",
-                                                     "gpio_chip",
-                                                     "dac_data_offsets",
-                                                     "dac_strobe_offset",
-                                                     "dac_data_active_low",
-                                                     "dac_strobe_active_low"};
-
 /// Parses a TOML file; parse errors become ConfigError with file and line.
 [[nodiscard]] toml::table parse_config_file(const std::string& path);
 
-/// Table 1 defaults overlaid with a config file's [drive] and [model].
-[[nodiscard]] model::Parameters load_model_config(const std::string& path);
 
 }  // namespace piezo::config
 

@@ -72,7 +72,7 @@ Rig build_rig(const RunConfig& c) {
   // The simulated drive, sensor and lines share one plant (the config
   // checks that "sim" backends come together).
   std::shared_ptr<hal::sim::Plant> plant;
-  if (c.drive.backend == "sim") {
+  if (c.drive.backend == DriveBackend::sim) {
     plant = std::make_shared<hal::sim::Plant>(c.plant, c.drive.amplifier, rig.clock->now());
     auto drive = std::make_unique<hal::sim::SimDrive>(c.drive.dac, *plant, *rig.clock, rig.t0);
     auto sensor = std::make_unique<hal::sim::SimSensor>(c.sensor.sim, *plant, *rig.clock, rig.t0);
@@ -82,16 +82,16 @@ Rig build_rig(const RunConfig& c) {
     rig.sensor = std::move(sensor);
     rig.parts.push_back(plant);
   } else {
-    rig.drive = c.drive.backend == "gpiod-dac" ? make_gpio_dac(c.drive.gpio_dac, rig)
+    rig.drive = c.drive.backend == DriveBackend::gpiod_dac ? make_gpio_dac(c.drive.gpio_dac, rig)
                                                : std::make_unique<hal::modbus::ModbusAnalogOutput>(
                                                      c.drive.ao_link, c.drive.ao);
     rig.sensor = make_modbus_sensor(c, *rig.clock);
   }
-  if (c.lines.backend == "sim") {
+  if (c.lines.backend == LinesBackend::sim) {
     auto lines = std::make_unique<hal::sim::SimLines>(c.lines.sim, *plant, *rig.clock, rig.t0);
     rig.on_start.emplace_back([l = lines.get()](hal::TimeNs t0) { l->set_time_origin(t0); });
     rig.lines = std::move(lines);
-  } else if (c.lines.backend == "gpiod") {
+  } else if (c.lines.backend == LinesBackend::gpiod) {
     rig.lines = make_gpio_lines(c.lines, rig);
   } else {
     rig.lines = std::make_unique<hal::posix::NoLines>();
@@ -105,7 +105,7 @@ Rig build_rig(const RunConfig& c) {
 SensorRig build_sensor(const RunConfig& c) {
   SensorRig s;
   s.clock = std::make_unique<hal::posix::MonotonicClock>();
-  if (c.sensor.backend == "sim") {
+  if (c.sensor.backend == SensorBackend::sim) {
     auto plant = std::make_shared<hal::sim::Plant>(c.plant, c.drive.amplifier, s.clock->now());
     s.sensor =
         std::make_unique<hal::sim::SimSensor>(c.sensor.sim, *plant, *s.clock, s.clock->now());

@@ -17,42 +17,17 @@
 namespace piezo::config {
 namespace {
 
-std::vector<std::string> drive_keys() {
-  std::vector<std::string> keys{"V0", "f", "C_dr", "e_dr"};
-  keys.insert(keys.end(), kDriveLoopKeys.begin(), kDriveLoopKeys.end());
-  return keys;
-}
-const std::vector<std::string> kSimSensorKeys{
-    "backend",   "rate_hz",    "r2_m",        "target_distance_m",
-    "noise_m",   "quantum_m",  "latency_s",   "dropout_probability",
-    "timeout_s", "stall_at_s", "stall_for_s", "seed"};
-const std::vector<std::string> kLinesKeys{
-    "backend",           "estop_at_s",      "chip",
-    "enable_offset",     "sync_offset",     "estop_offset",
-    "enable_active_low", "sync_active_low", "estop_active_low"};
-const std::vector<std::string> kObserverKeys{"enabled", "alpha", "beta"};
-const std::vector<std::string> kRigSimKeys{
-    "response_delay_s", "drop_probability", "exception_probability",
-    "disconnect_at_s",  "late_reply_at_s",  "late_reply_s",
-    "hang_at_s",        "hang_for_s"};
-const std::vector<std::string> kRunKeys{"duration_s", "clock", "priority", "lock_memory",
-                                        "flush_interval_s"};
-const std::vector<std::string> kSafetyKeys{"sensor_stale_s", "max_sensor_errors",
-                                           "max_drive_errors", "ramp_down_V_per_s",
-                                           "stop_confirm_s"};
-const std::vector<std::string> kDaemonKeys{
-    "listen",         "lease_s",         "lease_max_s",          "recorder_s",
-    "duration_max_s", "secret_key_file", "authorized_keys_file", "insecure",
-    "spill_file"};
 const std::vector<std::string> kRequiredSections{"drive", "sensor", "run"};
 
 constexpr Range kPositive{0.0, kInf, true, true};
 constexpr Range kNonNegative{0.0, kInf, false, true};
 
-void read_drive(const toml::table& t, const std::string& source, DriveSettings& d) {
-  SectionReader r(t, "drive", source);
-  r.reject_unknown(drive_keys());
-  r.choice("backend", d.backend, {"sim", "modbus-ao", "gpiod-dac"});
+void read_drive(SectionReader r, DriveSettings& d, model::Parameters& waveform) {
+  r.choice("backend", d.backend,
+           {{"sim", DriveBackend::sim},
+            {"modbus-ao", DriveBackend::modbus_ao},
+            {"gpiod-dac", DriveBackend::gpiod_dac}});
+  read_waveform(r, waveform);
   r.number("rate_hz", d.rate_hz, {100.0, 100'000.0}, "Hz");
   r.number("V_min", d.limits.V_min, {0.0, 1000.0}, "V");
   r.number("V_max", d.limits.V_max, {0.0, 1000.0, true}, "V");
@@ -78,18 +53,19 @@ void read_drive(const toml::table& t, const std::string& source, DriveSettings& 
   // signal chain interpolates over one update period.
   d.dac.update_period_s = 1.0 / d.rate_hz;
   d.amplifier.ramp_time_s = 1.0 / d.rate_hz;
+  r.finish();
 }
 
-void read_sensor(const toml::table& t, const std::string& source, SensorSettings& s) {
-  SectionReader r(t, "sensor", source);
-  std::vector<std::string> keys = kSimSensorKeys;
-  keys.insert(keys.end(), kModbusSensorKeys.begin(), kModbusSensorKeys.end());
-  r.reject_unknown(keys);
-  r.choice("backend", s.backend, {"sim", "modbus-tcp", "modbus-rtu"});
-  s.link.transport = s.backend == "modbus-rtu" ? hal::modbus::LinkSettings::Transport::rtu
-                                               : hal::modbus::LinkSettings::Transport::tcp;
-  read_modbus_sensor(r, s.link, s.map);
+void read_sensor(SectionReader r, SensorSettings& s) {
+  r.choice("backend", s.backend,
+           {{"sim", SensorBackend::sim},
+            {"modbus-tcp", SensorBackend::modbus_tcp},
+            {"modbus-rtu", SensorBackend::modbus_rtu}});
   r.number("rate_hz", s.sim.rate_hz, {1.0, 100'000.0}, "Hz");
+  s.link.transport = s.backend == SensorBackend::modbus_rtu
+                         ? hal::modbus::LinkSettings::Transport::rtu
+                         : hal::modbus::LinkSettings::Transport::tcp;
+  read_modbus_sensor(r, s.link, s.map);
   r.number("r2_m", s.r2_m, {0.0, 10.0, true}, "m");
   r.number("target_distance_m", s.sim.offset_m, {-10.0, 10.0}, "m");
   r.number("noise_m", s.sim.noise_m, {0.0, 1.0}, "m");
@@ -103,12 +79,12 @@ void read_sensor(const toml::table& t, const std::string& source, SensorSettings
   r.integer("seed", seed, 0, 1'000'000'000);
   s.sim.seed = static_cast<unsigned>(seed);
   s.sim.r2_m = s.r2_m;
+  r.finish();
 }
 
-void read_lines(const toml::table& t, const std::string& source, LinesSettings& l) {
-  SectionReader r(t, "lines", source);
-  r.reject_unknown(kLinesKeys);
-  r.choice("backend", l.backend, {"sim", "gpiod", "none"});
+void read_lines(SectionReader r, LinesSettings& l) {
+  r.choice("backend", l.backend,
+           {{"sim", LinesBackend::sim}, {"gpiod", LinesBackend::gpiod}, {"none", LinesBackend::none}});
   r.number("estop_at_s", l.sim.estop_at_s, kNonNegative, "s");
   r.text("chip", l.chip);
   r.integer("enable_offset", l.enable_offset, 0, 1023);
@@ -118,21 +94,20 @@ void read_lines(const toml::table& t, const std::string& source, LinesSettings& 
   r.flag("sync_active_low", l.gpio.sync_active_low);
   r.flag("estop_active_low", l.gpio.estop_active_low);
   l.gpio.has_sync = l.sync_offset >= 0;
+  r.finish();
 }
 
-void read_run(const toml::table& t, const std::string& source, RunSettings& run) {
-  SectionReader r(t, "run", source);
-  r.reject_unknown(kRunKeys);
+void read_run(SectionReader r, RunSettings& run) {
   r.number("duration_s", run.duration_s, {0.0, 1e6, true}, "s");
-  r.choice("clock", run.clock, {"realtime", "virtual"});
+  r.choice("clock", run.clock,
+           {{"realtime", RunClock::realtime}, {"virtual", RunClock::virtual_time}});
   r.integer("priority", run.priority, 0, 99);
   r.flag("lock_memory", run.lock_memory);
   r.number("flush_interval_s", run.flush_interval_s, {0.01, 1.0}, "s");
+  r.finish();
 }
 
-void read_rig_sim(const toml::table& t, const std::string& source, RigSimSettings& f) {
-  SectionReader r(t, "rig_sim", source);
-  r.reject_unknown(kRigSimKeys);
+void read_rig_sim(SectionReader r, RigSimSettings& f) {
   r.number("response_delay_s", f.response_delay_s, {0.0, 10.0}, "s");
   r.number("drop_probability", f.drop_probability, {0.0, 1.0});
   r.number("exception_probability", f.exception_probability, {0.0, 1.0});
@@ -141,19 +116,17 @@ void read_rig_sim(const toml::table& t, const std::string& source, RigSimSetting
   r.number("late_reply_s", f.late_reply_s, {0.0, 10.0}, "s");
   r.number("hang_at_s", f.hang_at_s, kNonNegative, "s");
   r.number("hang_for_s", f.hang_for_s, {0.0, 3600.0}, "s");
+  r.finish();
 }
 
-void read_observer(const toml::table& t, const std::string& source, ObserverSettings& o) {
-  SectionReader r(t, "observer", source);
-  r.reject_unknown(kObserverKeys);
+void read_observer(SectionReader r, ObserverSettings& o) {
   r.flag("enabled", o.enabled);
   r.number("alpha", o.gains.alpha, {0.0, 1.0});
   r.number("beta", o.gains.beta, {0.0, 1.0});
+  r.finish();
 }
 
-void read_daemon(const toml::table& t, const std::string& source, DaemonSettings& d) {
-  SectionReader r(t, "piezod", source);
-  r.reject_unknown(kDaemonKeys);
+void read_daemon(SectionReader r, DaemonSettings& d) {
   r.text("listen", d.listen);
   r.number("lease_s", d.lease_s, {0.05, 60.0}, "s");
   r.number("lease_max_s", d.lease_max_s, {0.05, 600.0}, "s");
@@ -163,20 +136,18 @@ void read_daemon(const toml::table& t, const std::string& source, DaemonSettings
   r.text("secret_key_file", d.secret_key_file);
   r.text("authorized_keys_file", d.authorized_keys_file);
   r.flag("insecure", d.insecure);
+  r.finish();
 }
 
-void read_rig(const toml::table& t, const std::string& source, RigAddress& a) {
-  SectionReader r(t, "rig", source);
-  r.reject_unknown({"address", "server_public_key_file", "client_secret_key_file", "lease_s"});
+void read_rig(SectionReader r, RigAddress& a) {
   r.text("address", a.address);
   r.number("lease_s", a.lease_s, {0.0, 600.0}, "s");
   r.text("server_public_key_file", a.server_public_key_file);
   r.text("client_secret_key_file", a.client_secret_key_file);
+  r.finish();
 }
 
-void read_safety(const toml::table& t, const std::string& source, firmware::SafetySettings& s) {
-  SectionReader r(t, "safety", source);
-  r.reject_unknown(kSafetyKeys);
+void read_safety(SectionReader r, firmware::SafetySettings& s) {
   r.number("sensor_stale_s", s.sensor_stale_s, {0.0, 60.0, true}, "s");
   int sensor_errors = static_cast<int>(s.max_sensor_errors);
   int drive_errors = static_cast<int>(s.max_drive_errors);
@@ -186,31 +157,30 @@ void read_safety(const toml::table& t, const std::string& source, firmware::Safe
   s.max_drive_errors = static_cast<std::uint32_t>(drive_errors);
   r.number("ramp_down_V_per_s", s.ramp_down_V_per_s, kPositive, "V/s");
   r.number("stop_confirm_s", s.stop_confirm_s, {0.01, 30.0}, "s");
+  r.finish();
 }
 
 /// Everything one table (the file, or one --set) says, read over `c`.
 /// [plant] keys are collected apart: the plant is [model] overlaid with them.
 void read_tables(const toml::table& t, const std::string& source, RunConfig& c,
                  model::MotorParameters& plant_keys) {
-  for (const auto& [k, node] : t) {
-    const std::string key(k.str());
-    if (std::find(kKnownSections.begin(), kKnownSections.end(), key) == kKnownSections.end()) {
-      throw ConfigError(
-          source, key,
-          fmt::format("unknown section (allowed: {})", fmt::join(kKnownSections, ", ")));
-    }
-  }
-  read_drive(t, source, c.drive);
-  read_model_sections(t, source, c.model, kDriveLoopKeys);
-  read_motor_section(t, "plant", source, plant_keys);
-  read_sensor(t, source, c.sensor);
-  read_lines(t, source, c.lines);
-  read_run(t, source, c.run);
-  read_safety(t, source, c.safety);
-  read_rig_sim(t, source, c.rig_sim);
-  read_observer(t, source, c.observer);
-  read_daemon(t, source, c.daemon);
-  read_rig(t, source, c.rig);
+  TableReader file(t, source);
+  read_drive(file.section("drive"), c.drive, c.model);
+  SectionReader model = file.section("model");
+  read_motor(model, c.model.motor);
+  model.finish();
+  SectionReader plant = file.section("plant");
+  read_motor(plant, plant_keys);
+  plant.finish();
+  read_sensor(file.section("sensor"), c.sensor);
+  read_lines(file.section("lines"), c.lines);
+  read_run(file.section("run"), c.run);
+  read_safety(file.section("safety"), c.safety);
+  read_rig_sim(file.section("rig_sim"), c.rig_sim);
+  read_observer(file.section("observer"), c.observer);
+  read_daemon(file.section("piezod"), c.daemon);
+  read_rig(file.section("rig"), c.rig);
+  file.finish();
 }
 
 /// "SECTION.KEY=VALUE" as a one-key TOML table; VALUE is read as TOML
@@ -263,15 +233,16 @@ model::MotorParameters all_nan() {
 
 void check_backends(const RunConfig& c, const std::function<std::string(const std::string&)>& src) {
   // The simulated drive and sensor share one plant: neither works alone.
-  const bool sim_drive = c.drive.backend == "sim", sim_sensor = c.sensor.backend == "sim";
+  const bool sim_drive = c.drive.backend == DriveBackend::sim,
+             sim_sensor = c.sensor.backend == SensorBackend::sim;
   if (sim_drive != sim_sensor) {
     throw ConfigError(src("sensor.backend"), "sensor.backend",
                       fmt::format("\"{}\" cannot go with drive.backend = \"{}\": the "
                                   "simulated drive and sensor share one plant; allowed: both "
                                   "\"sim\" or neither",
-                                  c.sensor.backend, c.drive.backend));
+                                  name(c.sensor.backend), name(c.drive.backend)));
   }
-  if (c.lines.backend == "sim" && !sim_drive) {
+  if (c.lines.backend == LinesBackend::sim && !sim_drive) {
     throw ConfigError(src("lines.backend"), "lines.backend",
                       "\"sim\" needs the simulated drive; allowed here: \"none\"");
   }
@@ -280,16 +251,16 @@ void check_backends(const RunConfig& c, const std::function<std::string(const st
                       "\"virtual\" needs the simulated rig (backend = \"sim\"); real devices "
                       "run in real time");
   }
-  if (c.drive.backend == "gpiod-dac" &&
+  if (c.drive.backend == DriveBackend::gpiod_dac &&
       (c.drive.gpio_dac.data_offsets.empty() || c.drive.gpio_dac.data_offsets.size() > 32)) {
     throw ConfigError(src("drive.dac_data_offsets"), "drive.dac_data_offsets",
                       "gpiod-dac needs 1 to 32 data line offsets, least significant bit first");
   }
-  if (c.lines.backend == "gpiod" && c.lines.enable_offset < 0) {
+  if (c.lines.backend == LinesBackend::gpiod && c.lines.enable_offset < 0) {
     throw ConfigError(src("lines.enable_offset"), "lines.enable_offset",
                       "missing: the gpiod lines need the amplifier-enable line offset");
   }
-  if (c.sensor.backend == "modbus-rtu" && c.sensor.link.device.empty()) {
+  if (c.sensor.backend == SensorBackend::modbus_rtu && c.sensor.link.device.empty()) {
     throw ConfigError(src("sensor.device"), "sensor.device",
                       "missing: modbus-rtu needs the serial device, e.g. \"/dev/ttyUSB0\"");
   }
@@ -308,7 +279,7 @@ void check_analog_output(const RunConfig& c,
                     ao.counts_per_V, ao.full_scale_V, full_scale_counts,
                     hal::modbus::ModbusAnalogOutput::kMaxCounts / ao.full_scale_V));
   }
-  if (c.drive.backend != "modbus-ao") return;
+  if (c.drive.backend != DriveBackend::modbus_ao) return;
   const auto& guard = c.drive.ao_guard;
   if (!ao.watchdog_writes.empty() && guard.watchdog_s <= 0.0) {
     throw ConfigError(src("drive.ao_watchdog_s"), "drive.ao_watchdog_s",
@@ -317,7 +288,7 @@ void check_analog_output(const RunConfig& c,
   }
   // A module that keeps its output when the link dies cannot be reached by
   // any stop: only its own watchdog or an enable line can end the drive then.
-  if (c.lines.backend == "none" && ao.watchdog_writes.empty() && !guard.link_loss_acknowledged) {
+  if (c.lines.backend == LinesBackend::none && ao.watchdog_writes.empty() && !guard.link_loss_acknowledged) {
     throw ConfigError(
         src("drive.ao_watchdog_registers"), "drive.ao_watchdog_registers",
         "missing: with drive.backend = \"modbus-ao\" and lines.backend = \"none\" nothing can "
@@ -439,6 +410,51 @@ RunConfig load_run_config(const std::vector<std::string>& paths,
   c.plant = overlay(c.model.motor, plant_keys);
   check_whole(c, source_of);
   return c;
+}
+
+std::string_view name(DriveBackend b) {
+  switch (b) {
+    case DriveBackend::sim: return "sim";
+    case DriveBackend::modbus_ao: return "modbus-ao";
+    case DriveBackend::gpiod_dac: return "gpiod-dac";
+  }
+  return "?";
+}
+
+std::string_view name(SensorBackend b) {
+  switch (b) {
+    case SensorBackend::sim: return "sim";
+    case SensorBackend::modbus_tcp: return "modbus-tcp";
+    case SensorBackend::modbus_rtu: return "modbus-rtu";
+  }
+  return "?";
+}
+
+std::string_view name(LinesBackend b) {
+  switch (b) {
+    case LinesBackend::sim: return "sim";
+    case LinesBackend::gpiod: return "gpiod";
+    case LinesBackend::none: return "none";
+  }
+  return "?";
+}
+
+std::string_view name(RunClock c) {
+  switch (c) {
+    case RunClock::realtime: return "realtime";
+    case RunClock::virtual_time: return "virtual";
+  }
+  return "?";
+}
+
+model::Parameters load_model_config(const std::string& path) {
+  // Every section is read (and so checked), whatever command asks: one
+  // reader per section, one meaning per key.
+  RunConfig c;
+  model::MotorParameters plant_keys = all_nan();
+  read_tables(parse_config_file(path), path, c, plant_keys);
+  require_valid(c.model, path);
+  return c.model;
 }
 
 void check_drive_hardware(const RunConfig& c, double hardware_V_min, double hardware_V_max) {

@@ -6,6 +6,7 @@
 
 #include <limits>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "modbus_config.hpp"
@@ -25,6 +26,18 @@
 
 namespace piezo::config {
 
+enum class DriveBackend { sim, modbus_ao, gpiod_dac };
+enum class SensorBackend { sim, modbus_tcp, modbus_rtu };
+enum class LinesBackend { sim, gpiod, none };
+/// The run's clock: the board's, or the simulated rig's virtual one.
+enum class RunClock { realtime, virtual_time };
+
+/// The names the config and the protocol use.
+[[nodiscard]] std::string_view name(DriveBackend b);
+[[nodiscard]] std::string_view name(SensorBackend b);
+[[nodiscard]] std::string_view name(LinesBackend b);
+[[nodiscard]] std::string_view name(RunClock c);
+
 /// A parallel DAC on GPIO lines: where its lines are.
 struct GpioDacSettings {
   std::string chip = "gpiochip0";
@@ -34,7 +47,7 @@ struct GpioDacSettings {
 };
 
 struct DriveSettings {
-  std::string backend = "sim";  ///< "sim", "modbus-ao" or "gpiod-dac"
+  DriveBackend backend = DriveBackend::sim;
   double rate_hz = 10'000.0;
   firmware::VoltageLimits limits{0.0, 80.0, 20'000.0};
   hal::sim::DacSettings dac;
@@ -46,7 +59,7 @@ struct DriveSettings {
 };
 
 struct SensorSettings {
-  std::string backend = "sim";  ///< "sim", "modbus-tcp" or "modbus-rtu"
+  SensorBackend backend = SensorBackend::sim;
   double r2_m = 0.062;  ///< reflector radius: theta = (d - d_tare) / r2 (MODEL.md section 4)
   hal::sim::SimSensorSettings sim;
   hal::modbus::LinkSettings link;
@@ -56,7 +69,7 @@ struct SensorSettings {
 };
 
 struct LinesSettings {
-  std::string backend = "sim";  ///< "sim", "gpiod" or "none"
+  LinesBackend backend = LinesBackend::sim;
   hal::sim::SimLinesSettings sim;
   std::string chip = "gpiochip0";
   int enable_offset = -1;
@@ -92,7 +105,7 @@ struct RigSimSettings {
 
 struct RunSettings {
   double duration_s = 4.8;
-  std::string clock = "realtime";  ///< "realtime" or "virtual"
+  RunClock clock = RunClock::realtime;
   int priority = 80;               ///< SCHED_FIFO priority of the drive loop (0: do not ask)
   bool lock_memory = true;
   double flush_interval_s = 0.25;  ///< log flush period: the most a crash can lose
@@ -139,7 +152,7 @@ struct RunConfig {
   DaemonSettings daemon;
   RigAddress rig;
 
-  [[nodiscard]] bool virtual_clock() const { return run.clock == "virtual"; }
+  [[nodiscard]] bool virtual_clock() const { return run.clock == RunClock::virtual_time; }
 };
 
 /// What a command needs of a config: a whole rig, or only its sensor.
@@ -155,6 +168,10 @@ enum class ConfigScope { rig, sensor };
 [[nodiscard]] RunConfig load_run_config(const std::vector<std::string>& paths,
                                         const std::vector<std::string>& sets,
                                         ConfigScope scope = ConfigScope::rig);
+
+/// Table 1 defaults overlaid with a config file's [drive] waveform and
+/// [model]; a rig config's other sections are read and checked too.
+[[nodiscard]] model::Parameters load_model_config(const std::string& path);
 
 /// Checks the drive limits against what the built drive hardware can do.
 void check_drive_hardware(const RunConfig& config, double hardware_V_min, double hardware_V_max);

@@ -29,12 +29,17 @@ SectionReader::SectionReader(const toml::table& root, std::string section, std::
   }
 }
 
+void SectionReader::note(const std::string& key) {
+  if (std::find(read_.begin(), read_.end(), key) == read_.end()) read_.push_back(key);
+}
+
 bool SectionReader::has(const std::string& key) const {
   return table_ != nullptr && table_->contains(key);
 }
 
 void SectionReader::number(const std::string& key, double& value, const Range& allowed,
                            const std::string& unit) {
+  note(key);
   if (!has(key)) return;
   const toml::node& node = *table_->get(key);
   const auto v = node.value<double>();
@@ -51,6 +56,7 @@ void SectionReader::number(const std::string& key, double& value, const Range& a
 }
 
 void SectionReader::integer(const std::string& key, int& value, int min, int max) {
+  note(key);
   if (!has(key)) return;
   const toml::node& node = *table_->get(key);
   const auto v = node.value<std::int64_t>();
@@ -62,6 +68,7 @@ void SectionReader::integer(const std::string& key, int& value, int min, int max
 
 void SectionReader::choice(const std::string& key, std::string& value,
                            const std::vector<std::string>& allowed) {
+  note(key);
   if (!has(key)) return;
   const auto v = table_->get(key)->value<std::string>();
   if (!v || std::find(allowed.begin(), allowed.end(), *v) == allowed.end()) {
@@ -73,6 +80,7 @@ void SectionReader::choice(const std::string& key, std::string& value,
 
 void SectionReader::integer_list(const std::string& key, std::vector<int>& value, int min,
                                  int max) {
+  note(key);
   if (!has(key)) return;
   const toml::array* array = table_->get(key)->as_array();
   const std::string allowed =
@@ -89,6 +97,7 @@ void SectionReader::integer_list(const std::string& key, std::vector<int>& value
 }
 
 void SectionReader::text(const std::string& key, std::string& value) {
+  note(key);
   if (!has(key)) return;
   const auto v = table_->get(key)->value<std::string>();
   if (!v || v->empty()) throw ConfigError(source_, name(key), "must be a non-empty string");
@@ -96,19 +105,35 @@ void SectionReader::text(const std::string& key, std::string& value) {
 }
 
 void SectionReader::flag(const std::string& key, bool& value) {
+  note(key);
   if (!has(key)) return;
   const toml::node& node = *table_->get(key);
   if (!node.is_boolean()) throw ConfigError(source_, name(key), "must be true or false");
   value = *node.value<bool>();
 }
 
-void SectionReader::reject_unknown(const std::vector<std::string>& known) const {
+void SectionReader::finish() const {
   if (table_ == nullptr) return;
   for (const auto& [k, node] : *table_) {
     const std::string key(k.str());
-    if (std::find(known.begin(), known.end(), key) == known.end()) {
+    if (std::find(read_.begin(), read_.end(), key) == read_.end()) {
       throw ConfigError(source_, name(key),
-                        fmt::format("unknown key (allowed: {})", fmt::join(known, ", ")));
+                        fmt::format("unknown key (allowed: {})", fmt::join(read_, ", ")));
+    }
+  }
+}
+
+SectionReader TableReader::section(const std::string& name) {
+  if (std::find(read_.begin(), read_.end(), name) == read_.end()) read_.push_back(name);
+  return {root_, name, source_};
+}
+
+void TableReader::finish() const {
+  for (const auto& [k, node] : root_) {
+    const std::string name(k.str());
+    if (std::find(read_.begin(), read_.end(), name) == read_.end()) {
+      throw ConfigError(source_, name,
+                        fmt::format("unknown section (allowed: {})", fmt::join(read_, ", ")));
     }
   }
 }

@@ -1,11 +1,16 @@
 #pragma once
 // Typed, range-checked reading of one TOML section. Every error names the
-// source (file or "--set"), the key as SECTION.KEY and what is allowed.
+// source (file or "--set"), the key as SECTION.KEY and what is allowed. The
+// reader remembers the keys it was asked for, so finish() can refuse any
+// other: the allowed keys are the ones read, declared once, where they are read.
 
 #include <toml++/toml.h>
 
+#include <initializer_list>
 #include <limits>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 namespace piezo::config {
@@ -34,22 +39,52 @@ class SectionReader {
               const std::string& unit = "");
   void integer(const std::string& key, int& value, int min, int max);
   void choice(const std::string& key, std::string& value, const std::vector<std::string>& allowed);
+  /// One of a fixed set of names, each standing for an enum value.
+  template <class Enum>
+  void choice(const std::string& key, Enum& value,
+              std::initializer_list<std::pair<std::string_view, Enum>> names) {
+    std::vector<std::string> allowed;
+    for (const auto& [name, e] : names) allowed.emplace_back(name);
+    std::string text;
+    choice(key, text, allowed);
+    for (const auto& [name, e] : names)
+      if (name == text) value = e;
+  }
   void flag(const std::string& key, bool& value);
   /// A non-empty array of integers, each in [min, max].
   void integer_list(const std::string& key, std::vector<int>& value, int min, int max);
   /// Any non-empty string.
   void text(const std::string& key, std::string& value);
 
-  /// Throws for the first key not in `known` (keys read elsewhere included).
-  void reject_unknown(const std::vector<std::string>& known) const;
+  /// Throws for the first key of the section that no call above asked for.
+  void finish() const;
 
   [[nodiscard]] std::string name(const std::string& key) const { return section_ + "." + key; }
   [[nodiscard]] const std::string& source() const { return source_; }
 
  private:
+  void note(const std::string& key);
+
   const toml::table* table_ = nullptr;
   std::string section_;
   std::string source_;
+  std::vector<std::string> read_;  ///< every key asked for, in order
+};
+
+/// The sections of one table (a file, or one --set): section() hands out a
+/// reader per section and finish() refuses a section no one asked for.
+class TableReader {
+ public:
+  TableReader(const toml::table& root, std::string source)
+      : root_(root), source_(std::move(source)) {}
+
+  [[nodiscard]] SectionReader section(const std::string& name);
+  void finish() const;
+
+ private:
+  const toml::table& root_;
+  std::string source_;
+  std::vector<std::string> read_;
 };
 
 }  // namespace piezo::config

@@ -149,8 +149,8 @@ Daemon::Daemon(const config::RunConfig& board, config::Rig rig, zmq::context_t& 
   if (!board_.daemon.spill_file.empty()) spill_.emplace(board_.daemon.spill_file);
   last_health_ = Clock::now();
   log_event(fmt::format("listening: commands {}, stream {}; drive {}, sensor {}, lines {}",
-                        command_endpoint_, stream_endpoint_, board_.drive.backend,
-                        board_.sensor.backend, board_.lines.backend));
+                        command_endpoint_, stream_endpoint_, config::name(board_.drive.backend),
+                        config::name(board_.sensor.backend), config::name(board_.lines.backend)));
 }
 
 Daemon::~Daemon() = default;
@@ -258,11 +258,11 @@ json Daemon::hello() const {
           {"frame_version", protocol::kFrameVersion},
           {"daemon", PIEZO_VERSION},
           {"stream", stream_endpoint_},
-          {"clock", board_.run.clock},
+          {"clock", config::name(board_.run.clock)},
           {"backends",
-           {{"drive", board_.drive.backend},
-            {"sensor", board_.sensor.backend},
-            {"lines", board_.lines.backend}}},
+           {{"drive", config::name(board_.drive.backend)},
+            {"sensor", config::name(board_.sensor.backend)},
+            {"lines", config::name(board_.lines.backend)}}},
           {"limits",
            {{"V_min", lim.V_min},
             {"V_max", lim.V_max},

@@ -256,7 +256,7 @@ int run(const RunOptions& o) {
        {"version", PIEZO_VERSION},
        {"utc_start", utc_start},
        {"host", host_name()},
-       {"clock", client ? hello.value("clock", std::string()) : config.run.clock},
+       {"clock", client ? hello.value("clock", std::string()) : std::string(name(config.run.clock))},
        {"drive_latency_s", fmt::format("{:.9g}", drive_latency_s)},
        {"time_origin", "seconds from the run's start (first drive deadline)"},
        {"theta", "(displacement - first good displacement) / sensor.r2_m"}});

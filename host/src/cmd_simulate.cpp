@@ -10,6 +10,7 @@
 #include "config_error.hpp"
 #include "h5_file.hpp"
 #include "model_config.hpp"
+#include "run_config.hpp"
 #include "parameters_json.hpp"
 #include "piezo/model/simulate.hpp"
 

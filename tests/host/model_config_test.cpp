@@ -4,6 +4,7 @@
 
 #include "../support/run_command.hpp"
 #include "config_error.hpp"
+#include "run_config.hpp"
 
 namespace piezo::host {
 namespace {
