@@ -53,8 +53,7 @@ void read_modbus_sensor(SectionReader& r, LinkSettings& link, RegisterMap& map) 
   r.number("response_timeout_s", link.response_timeout_s, {0.001, 10.0}, "s");
   r.number("byte_timeout_s", link.byte_timeout_s, {0.0001, 1.0}, "s");
   r.integer("unit_id", map.unit_id, 0, 247);
-  r.choice("function", map.function,
-           {{"input", Function::input}, {"holding", Function::holding}});
+  r.choice("function", map.function, {{"input", Function::input}, {"holding", Function::holding}});
   r.integer("address", map.address, 0, 65535);
   r.choice("type", map.type,
            {{"u16", RegisterType::u16},

@@ -43,7 +43,9 @@ double parse_number(const std::string& text, const std::string& source, const st
   return value;
 }
 
-void read_waveform(SectionReader& drive, model::Parameters& p) { read_specs(drive, "drive", p); }
+void read_waveform(SectionReader& drive, model::Parameters& p) {
+  read_specs(drive, "drive", p);
+}
 
 void read_motor(SectionReader& section, model::MotorParameters& motor) {
   model::Parameters p;

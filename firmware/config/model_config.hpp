@@ -37,7 +37,6 @@ namespace piezo::config {
 /// Parses a TOML file; parse errors become ConfigError with file and line.
 [[nodiscard]] toml::table parse_config_file(const std::string& path);
 
-
 }  // namespace piezo::config
 
 // The host reads rig configs through the same names.

@@ -1,16 +1,16 @@
 #pragma once
 // The rig a run talks to, built from the config's backend choices: the one
-// place where backends are named. Everything is built and checked before
-// the run directory is created or the amplifier enabled.
+// place where backends are chosen (each builds itself in hal/). Everything
+// is built and checked before the run directory is created or the
+// amplifier enabled.
 
-#include <functional>
 #include <memory>
-#include <vector>
 
 #include "piezo/hal/clock.hpp"
 #include "piezo/hal/digital_lines.hpp"
 #include "piezo/hal/displacement_sensor.hpp"
 #include "piezo/hal/drive.hpp"
+#include "piezo/hal/sim/sim_rig.hpp"
 #include "run_config.hpp"
 
 namespace piezo::config {
@@ -18,20 +18,22 @@ namespace piezo::config {
 struct Rig {
   std::unique_ptr<hal::Clock> clock;
   hal::TimeNs t0 = 0;  ///< the run's time origin, fixed by start_at() once set-up is done
-  /// What the devices below are built on (the simulated plant, GPIO line
-  /// groups); declared first so that it outlives them.
-  std::vector<std::shared_ptr<void>> parts;
-  std::unique_ptr<hal::Drive> drive;
-  std::unique_ptr<hal::DisplacementSensor> sensor;
-  std::unique_ptr<hal::DigitalLines> lines;
-  /// Told the time origin before the run starts (the simulated devices).
-  std::vector<std::function<void(hal::TimeNs)>> on_start;
+  /// The simulated rig when the backends are "sim"; shared so that a check
+  /// can keep reading the device side after the run has taken the rig.
+  std::shared_ptr<hal::sim::SimRig> sim;
+  std::unique_ptr<hal::Drive> own_drive;
+  std::unique_ptr<hal::DisplacementSensor> own_sensor;
+  std::unique_ptr<hal::DigitalLines> own_lines;
+  /// The run's devices: the simulated rig's, or the ones owned above.
+  hal::Drive* drive = nullptr;
+  hal::DisplacementSensor* sensor = nullptr;
+  hal::DigitalLines* lines = nullptr;
 
   /// Fixes the run's time origin: called after every slow set-up step, so
   /// that the first deadline is not already late.
   void start_at(hal::TimeNs time_origin) {
     t0 = time_origin;
-    for (const auto& tell : on_start) tell(t0);
+    if (sim) sim->set_time_origin(t0);
   }
 };
 
@@ -43,8 +45,9 @@ struct Rig {
 /// Just the sensor, on the real clock: for `piezo sensor read`.
 struct SensorRig {
   std::unique_ptr<hal::Clock> clock;
-  std::vector<std::shared_ptr<void>> parts;
-  std::unique_ptr<hal::DisplacementSensor> sensor;
+  std::unique_ptr<hal::sim::SimRig> sim;
+  std::unique_ptr<hal::DisplacementSensor> own_sensor;
+  hal::DisplacementSensor* sensor = nullptr;
 };
 [[nodiscard]] SensorRig build_sensor(const RunConfig& config);
 

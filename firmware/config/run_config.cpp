@@ -83,17 +83,19 @@ void read_sensor(SectionReader r, SensorSettings& s) {
 }
 
 void read_lines(SectionReader r, LinesSettings& l) {
-  r.choice("backend", l.backend,
-           {{"sim", LinesBackend::sim}, {"gpiod", LinesBackend::gpiod}, {"none", LinesBackend::none}});
+  r.choice(
+      "backend", l.backend,
+      {{"sim", LinesBackend::sim}, {"gpiod", LinesBackend::gpiod}, {"none", LinesBackend::none}});
   r.number("estop_at_s", l.sim.estop_at_s, kNonNegative, "s");
-  r.text("chip", l.chip);
-  r.integer("enable_offset", l.enable_offset, 0, 1023);
-  r.integer("sync_offset", l.sync_offset, -1, 1023);
-  r.integer("estop_offset", l.estop_offset, -1, 1023);
-  r.flag("enable_active_low", l.gpio.enable_active_low);
-  r.flag("sync_active_low", l.gpio.sync_active_low);
-  r.flag("estop_active_low", l.gpio.estop_active_low);
-  l.gpio.has_sync = l.sync_offset >= 0;
+  auto& g = l.gpiod;
+  r.text("chip", g.chip);
+  r.integer("enable_offset", g.enable_offset, 0, 1023);
+  r.integer("sync_offset", g.sync_offset, -1, 1023);
+  r.integer("estop_offset", g.estop_offset, -1, 1023);
+  r.flag("enable_active_low", g.gpio.enable_active_low);
+  r.flag("sync_active_low", g.gpio.sync_active_low);
+  r.flag("estop_active_low", g.gpio.estop_active_low);
+  g.gpio.has_sync = g.sync_offset >= 0;
   r.finish();
 }
 
@@ -107,7 +109,7 @@ void read_run(SectionReader r, RunSettings& run) {
   r.finish();
 }
 
-void read_rig_sim(SectionReader r, RigSimSettings& f) {
+void read_rig_sim(SectionReader r, hal::sim::ModbusDeviceFaults& f) {
   r.number("response_delay_s", f.response_delay_s, {0.0, 10.0}, "s");
   r.number("drop_probability", f.drop_probability, {0.0, 1.0});
   r.number("exception_probability", f.exception_probability, {0.0, 1.0});
@@ -256,7 +258,7 @@ void check_backends(const RunConfig& c, const std::function<std::string(const st
     throw ConfigError(src("drive.dac_data_offsets"), "drive.dac_data_offsets",
                       "gpiod-dac needs 1 to 32 data line offsets, least significant bit first");
   }
-  if (c.lines.backend == LinesBackend::gpiod && c.lines.enable_offset < 0) {
+  if (c.lines.backend == LinesBackend::gpiod && c.lines.gpiod.enable_offset < 0) {
     throw ConfigError(src("lines.enable_offset"), "lines.enable_offset",
                       "missing: the gpiod lines need the amplifier-enable line offset");
   }
@@ -288,7 +290,8 @@ void check_analog_output(const RunConfig& c,
   }
   // A module that keeps its output when the link dies cannot be reached by
   // any stop: only its own watchdog or an enable line can end the drive then.
-  if (c.lines.backend == LinesBackend::none && ao.watchdog_writes.empty() && !guard.link_loss_acknowledged) {
+  if (c.lines.backend == LinesBackend::none && ao.watchdog_writes.empty() &&
+      !guard.link_loss_acknowledged) {
     throw ConfigError(
         src("drive.ao_watchdog_registers"), "drive.ao_watchdog_registers",
         "missing: with drive.backend = \"modbus-ao\" and lines.backend = \"none\" nothing can "
@@ -414,35 +417,46 @@ RunConfig load_run_config(const std::vector<std::string>& paths,
 
 std::string_view name(DriveBackend b) {
   switch (b) {
-    case DriveBackend::sim: return "sim";
-    case DriveBackend::modbus_ao: return "modbus-ao";
-    case DriveBackend::gpiod_dac: return "gpiod-dac";
+    case DriveBackend::sim:
+      return "sim";
+    case DriveBackend::modbus_ao:
+      return "modbus-ao";
+    case DriveBackend::gpiod_dac:
+      return "gpiod-dac";
   }
   return "?";
 }
 
 std::string_view name(SensorBackend b) {
   switch (b) {
-    case SensorBackend::sim: return "sim";
-    case SensorBackend::modbus_tcp: return "modbus-tcp";
-    case SensorBackend::modbus_rtu: return "modbus-rtu";
+    case SensorBackend::sim:
+      return "sim";
+    case SensorBackend::modbus_tcp:
+      return "modbus-tcp";
+    case SensorBackend::modbus_rtu:
+      return "modbus-rtu";
   }
   return "?";
 }
 
 std::string_view name(LinesBackend b) {
   switch (b) {
-    case LinesBackend::sim: return "sim";
-    case LinesBackend::gpiod: return "gpiod";
-    case LinesBackend::none: return "none";
+    case LinesBackend::sim:
+      return "sim";
+    case LinesBackend::gpiod:
+      return "gpiod";
+    case LinesBackend::none:
+      return "none";
   }
   return "?";
 }
 
 std::string_view name(RunClock c) {
   switch (c) {
-    case RunClock::realtime: return "realtime";
-    case RunClock::virtual_time: return "virtual";
+    case RunClock::realtime:
+      return "realtime";
+    case RunClock::virtual_time:
+      return "virtual";
   }
   return "?";
 }

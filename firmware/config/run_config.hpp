@@ -12,11 +12,11 @@
 #include "modbus_config.hpp"
 #include "piezo/firmware/safety_supervisor.hpp"
 #include "piezo/firmware/voltage_limiter.hpp"
-#include "piezo/hal/gpio/gpio_digital_lines.hpp"
-#include "piezo/hal/gpio/parallel_dac.hpp"
+#include "piezo/hal/gpiod/gpiod_rig.hpp"
 #include "piezo/hal/modbus/link.hpp"
 #include "piezo/hal/modbus/modbus_analog_output.hpp"
 #include "piezo/hal/modbus/register_map.hpp"
+#include "piezo/hal/sim/modbus_rig_device.hpp"
 #include "piezo/hal/sim/plant.hpp"
 #include "piezo/hal/sim/sim_drive.hpp"
 #include "piezo/hal/sim/sim_lines.hpp"
@@ -38,14 +38,6 @@ enum class RunClock { realtime, virtual_time };
 [[nodiscard]] std::string_view name(LinesBackend b);
 [[nodiscard]] std::string_view name(RunClock c);
 
-/// A parallel DAC on GPIO lines: where its lines are.
-struct GpioDacSettings {
-  std::string chip = "gpiochip0";
-  std::vector<int> data_offsets;  ///< least significant bit first
-  int strobe_offset = -1;         ///< -1: no strobe line
-  hal::gpio::ParallelDacSettings dac;
-};
-
 struct DriveSettings {
   DriveBackend backend = DriveBackend::sim;
   double rate_hz = 10'000.0;
@@ -55,7 +47,7 @@ struct DriveSettings {
   hal::modbus::LinkSettings ao_link;
   hal::modbus::AnalogOutputSettings ao;
   AnalogOutputGuard ao_guard;
-  GpioDacSettings gpio_dac;
+  hal::gpiod::GpiodDacSettings gpio_dac;
 };
 
 struct SensorSettings {
@@ -71,11 +63,7 @@ struct SensorSettings {
 struct LinesSettings {
   LinesBackend backend = LinesBackend::sim;
   hal::sim::SimLinesSettings sim;
-  std::string chip = "gpiochip0";
-  int enable_offset = -1;
-  int sync_offset = -1;   ///< -1: not wired
-  int estop_offset = -1;  ///< -1: not wired
-  hal::gpio::GpioLinesSettings gpio;
+  hal::gpiod::GpiodLinesSettings gpiod;
 };
 
 struct ObserverSettings {
@@ -83,30 +71,10 @@ struct ObserverSettings {
   model::ObserverGains gains;
 };
 
-/// Fault injection of `piezo rig-sim`.
-struct RigSimSettings {
-  double response_delay_s = 0.0;
-  double drop_probability = 0.0;       ///< requests left unanswered
-  double exception_probability = 0.0;  ///< answered with exception 04 (server failure)
-  double disconnect_at_s = std::numeric_limits<double>::infinity();  ///< closes every client
-  /// One reply, the first after this time, comes late_reply_s late.
-  double late_reply_at_s = std::numeric_limits<double>::infinity();
-  double late_reply_s = 0.0;
-  /// From hang_at_s on, for hang_for_s, requests get no reply (the module's
-  /// watchdog still runs).
-  double hang_at_s = std::numeric_limits<double>::infinity();
-  double hang_for_s = 0.0;
-  /// The simulated module's communication watchdog, as on a WAGO 750-352:
-  /// a holding register with the timeout in 100 ms units (0: off) and one
-  /// with the mask of function codes that restart it (bit n-1: function n).
-  int watchdog_time_address = 0x1000;
-  int watchdog_mask_address = 0x1001;
-};
-
 struct RunSettings {
   double duration_s = 4.8;
   RunClock clock = RunClock::realtime;
-  int priority = 80;               ///< SCHED_FIFO priority of the drive loop (0: do not ask)
+  int priority = 80;  ///< SCHED_FIFO priority of the drive loop (0: do not ask)
   bool lock_memory = true;
   double flush_interval_s = 0.25;  ///< log flush period: the most a crash can lose
 };
@@ -147,7 +115,7 @@ struct RunConfig {
   LinesSettings lines;
   RunSettings run;
   firmware::SafetySettings safety;
-  RigSimSettings rig_sim;
+  hal::sim::ModbusDeviceFaults rig_sim;  ///< the faults `piezo rig-sim` shows
   ObserverSettings observer;
   DaemonSettings daemon;
   RigAddress rig;

@@ -2,12 +2,16 @@
 
 namespace piezo::firmware {
 
-AcquireLoop::AcquireLoop(hal::Clock& clock, hal::DisplacementSensor& sensor,
+AcquireLoop::AcquireLoop(hal::Clock& clock, hal::DisplacementSensor& sensor, double rate_hz,
                          SensorHealth& sensor_health, SpscRing<SensorSample>& ring)
-    : clock_(clock), sensor_(sensor), sensor_health_(sensor_health), ring_(ring) {}
+    : clock_(clock),
+      sensor_(sensor),
+      period_(hal::from_seconds(1.0 / rate_hz)),
+      sensor_health_(sensor_health),
+      ring_(ring) {}
 
 void AcquireLoop::run(hal::TimeNs t0, const std::atomic<bool>& stop) {
-  const auto period = hal::from_seconds(1.0 / sensor_.rate_hz());
+  const hal::TimeNs period = period_;
   hal::TimeNs deadline = t0;
   while (!stop.load(std::memory_order_acquire)) {
     clock_.sleep_until(deadline);

@@ -24,7 +24,8 @@ LoopRunner::LoopRunner(const LoopRunnerSettings& settings, const model::Excitati
       supervisor_(settings.safety, sensor_health_, devices.clock.now()),
       drive_loop_(settings.drive, waveform, supervisor_,
                   {devices.clock, devices.drive, devices.lines, drive_ring_, stop_}),
-      acquire_loop_(devices.clock, devices.sensor, sensor_health_, sensor_ring_) {
+      acquire_loop_(devices.clock, devices.sensor, settings.sensor_rate_hz, sensor_health_,
+                    sensor_ring_) {
   supervisor_.set_remote(remote);
 }
 

@@ -8,7 +8,7 @@
 
 #include "commands.hpp"
 #include "config_error.hpp"
-#include "rig_sim_server.hpp"
+#include "piezo/hal/sim/modbus_rig_device.hpp"
 #include "run_config.hpp"
 
 namespace piezo::host {
@@ -33,13 +33,27 @@ std::pair<std::string, int> split_host_port(const std::string& text) {
   }
 }
 
+hal::sim::ModbusRigDeviceSettings device_settings(const RunConfig& c) {
+  hal::sim::ModbusRigDeviceSettings s;
+  s.plant = c.plant;
+  s.amplifier = c.drive.amplifier;
+  s.amplifier.ramp_time_s = 1.0 / c.drive.rate_hz;
+  s.sensor = c.sensor.sim;
+  s.sensor_map = c.sensor.map;
+  s.serial = c.sensor.link;
+  s.ao_address = c.drive.ao.address;
+  s.ao_counts_per_V = c.drive.ao.counts_per_V;
+  s.faults = c.rig_sim;
+  return s;
+}
+
 int run(const RigSimOptions& o) {
   const RunConfig config = load_run_config(o.config, o.sets, ConfigScope::sensor);
   std::string tcp = o.tcp;
   if (tcp.empty() && o.rtu.empty()) {
     tcp = config.sensor.link.host + ":" + std::to_string(config.sensor.link.port);
   }
-  RigSimServer server(config);
+  hal::sim::ModbusRigDevice server(device_settings(config));
   fmt::print("rig-sim: {}\n", server.describe());
   std::thread rtu_thread;
   if (!o.rtu.empty()) {

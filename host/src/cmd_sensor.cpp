@@ -24,7 +24,7 @@ int run(const SensorReadOptions& o) {
   const RunConfig config = load_run_config(o.config, o.sets, ConfigScope::sensor);
   SensorRig rig = build_sensor(config);
   hal::Clock& clock = *rig.clock;
-  const auto period = hal::from_seconds(1.0 / rig.sensor->rate_hz());
+  const auto period = hal::from_seconds(1.0 / config.sensor.rate_hz());
   const hal::TimeNs t0 = clock.now();
   nlohmann::json readings = nlohmann::json::array();
   int errors = 0;

@@ -1,7 +1,8 @@
 // Bench: the drive loop's period error at 10 kHz on CLOCK_MONOTONIC beside
 // cyclictest (rt-tests) at the same period and priority on this machine,
-// and SPSC ring throughput. Usage: bench_loops [seconds per measurement].
-// Figures, not assertions: the machines are shared and noisy.
+// and SPSC ring throughput. The loops run as in piezod, through
+// firmware::LoopRunner, with a null sensor at 1 kHz beside the drive. Usage: bench_loops [seconds
+// per measurement]. Figures, not assertions: the machines are shared and noisy.
 
 #include <fmt/format.h>
 
@@ -15,10 +16,10 @@
 #include <thread>
 #include <vector>
 
-#include "piezo/firmware/drive_loop.hpp"
-#include "piezo/firmware/realtime_setup.hpp"
+#include "piezo/firmware/loop_runner.hpp"
 #include "piezo/hal/posix/monotonic_clock.hpp"
 #include "piezo/hal/sim/null_drive.hpp"
+#include "piezo/hal/sim/null_sensor.hpp"
 #include "piezo/hal/sim/plant.hpp"
 #include "piezo/hal/sim/sim_drive.hpp"
 #include "piezo/hal/sim/sim_lines.hpp"
@@ -39,31 +40,23 @@ struct Row {
 Row measure_drive_loop(const std::string& name, hal::Drive& drive, hal::DigitalLines& lines,
                        double seconds) {
   hal::posix::MonotonicClock clock;
-  firmware::SpscRing<firmware::DriveSample> ring(1 << 16);
-  firmware::SensorHealth health;  // no sensor here: staleness bound set out of reach
-  firmware::SafetySettings safety;
-  safety.sensor_stale_s = 1e9;
-  const hal::TimeNs t0 = clock.now() + hal::from_seconds(0.05);
-  firmware::SafetySupervisor supervisor(safety, health, t0);
+  hal::sim::NullSensor sensor(clock);
+  firmware::LoopRunnerSettings settings;
+  settings.drive = {kRateHz, seconds, 0.1, {0.0, 80.0, 20'000.0}};
+  settings.priority = kPriority;
   const model::Sawtooth saw(80.0, 10.0, 0.95 * 0.789);
-  std::atomic<bool> stop{false};
-  firmware::DriveLoop loop({kRateHz, seconds, 0.1, {0.0, 80.0, 20'000.0}}, saw, supervisor,
-                           {clock, drive, lines, ring, stop});
-  std::string note;
-  std::atomic<bool> done{false};
-  std::thread rt([&] {
-    firmware::prefault_stack();
-    note = firmware::make_thread_fifo(kPriority).note;
-    (void)loop.run(t0);
-    done = true;
-  });
-  while (!done) {  // a consumer, as in a run
-    ring.drain([](const firmware::DriveSample&) {});
+  firmware::LoopRunner runner(settings, saw, {clock, drive, sensor, lines});
+  (void)runner.start({});
+  while (!runner.finished()) {  // a consumer, as in a run
+    runner.drain([](const firmware::DriveSample&) {}, [](const firmware::SensorSample&) {});
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
-  rt.join();
-  const auto& h = loop.health().period_error;
-  return {name, h.quantile_us(0.5), h.quantile_us(0.99), h.max_us(), h.count(), note};
+  runner.join();
+  const auto notes = runner.realtime_notes();
+  for (const auto& note : notes) fmt::print("  {}: {}\n", name, note);
+  const auto& h = runner.drive_health().period_error;
+  return {name,       h.quantile_us(0.5), h.quantile_us(0.99),
+          h.max_us(), h.count(),          "as in piezod (LoopRunner)"};
 }
 
 /// cyclictest at the same period and priority; quantiles from its histogram.
@@ -133,9 +126,6 @@ double ring_throughput(std::uint64_t count) {
 
 int main(int argc, char** argv) {
   const double seconds = argc > 1 ? std::stod(argv[1]) : 10.0;
-  fmt::print("{}\n", firmware::lock_process_memory().note);
-  const firmware::CpuLatencyRequest cpu_latency;
-  fmt::print("{}\n", cpu_latency.result().note);
   fmt::print("period error at {:.0f} Hz, {} s each (wake-up lateness, 1 us bins)\n", kRateHz,
              seconds);
 

@@ -54,7 +54,7 @@ Result measure(const hal::modbus::LinkSettings& link, double seconds) {
                                   1e-3,
                                   0.0,
                                   1};
-  hal::modbus::ModbusSensor sensor(link, baumer, 1e6, clock);
+  hal::modbus::ModbusSensor sensor(link, baumer, clock);
   const auto end = clock.now() + hal::from_seconds(seconds);
   std::uint64_t n = 0, errors = 0;
   double latency = 0;

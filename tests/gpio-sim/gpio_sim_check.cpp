@@ -17,12 +17,14 @@
 #include <thread>
 #include <vector>
 
-#include "piezo/firmware/drive_loop.hpp"
+#include "piezo/firmware/loop_runner.hpp"
 #include "piezo/hal/gpio/gpio_digital_lines.hpp"
 #include "piezo/hal/gpio/parallel_dac.hpp"
 #include "piezo/hal/gpiod/gpiod_lines.hpp"
+#include "piezo/hal/gpiod/gpiod_rig.hpp"
 #include "piezo/hal/posix/monotonic_clock.hpp"
 #include "piezo/hal/sim/null_drive.hpp"
+#include "piezo/hal/sim/null_sensor.hpp"
 
 namespace {
 
@@ -46,6 +48,16 @@ int read_line(unsigned offset) {
 
 void set_pull(unsigned offset, const char* pull) {
   std::ofstream(fmt::format("{}/sim_gpio{}/pull", g_sysfs, offset)) << pull;
+}
+
+/// The run's loops as piezod starts them, on a null drive and sensor: only
+/// the lines are real here. Real-time set-up is off: the guest is emulated.
+firmware::LoopRunnerSettings loop_settings(double rate_hz, double duration_s, double period_s) {
+  firmware::LoopRunnerSettings s;
+  s.drive = {rate_hz, duration_s, period_s, {0.0, 80.0, 1e6}};
+  s.sensor_rate_hz = 100.0;
+  s.realtime = false;
+  return s;
 }
 
 /// Forwards to the real lines and reads every line back from sysfs after
@@ -131,6 +143,35 @@ void check_enable_and_sync(const std::string& chip, bool enable_active_low) {
   check(sync_high == 1 && read_line(11) == 0, "sync pulses high, then low");
 }
 
+// The devices as the config builds them (hal::gpiod's own line requests).
+void check_rig_devices(const std::string& chip) {
+  set_pull(12, "pull-up");
+  hal::gpiod::GpiodDacSettings dac_settings{
+      .chip = chip, .data_offsets = {0, 1, 2, 3, 4, 5, 6, 7}, .strobe_offset = 8, .dac = {}};
+  dac_settings.dac = {.bits = 8,
+                      .has_strobe = true,
+                      .data_active_low = false,
+                      .strobe_active_low = true,
+                      .full_scale_V = 5.0,
+                      .amplifier_gain = 20.0};
+  hal::gpiod::GpiodParallelDac dac(dac_settings, "gpio-sim-check");
+  const bool written = dac.write(100.0 * 0xC5 / 255.0) == hal::Status::ok;
+  bool ok = written && read_line(8) == 1;
+  for (unsigned bit = 0; bit < 8; ++bit)
+    ok = ok && read_line(bit) == static_cast<int>((0xC5u >> bit) & 1u);
+  check(ok, "GpiodParallelDac (as built from a config) latches code 0xC5 on lines 0..7");
+
+  hal::gpiod::GpiodLinesSettings line_settings{
+      .chip = chip, .enable_offset = 10, .sync_offset = 11, .estop_offset = 12, .gpio = {}};
+  hal::gpiod::GpiodRigLines lines(line_settings, "gpio-sim-check");
+  const bool idle = read_line(10) == 0;
+  (void)lines.set_amplifier_enable(true);
+  const bool enabled = read_line(10) == 1;
+  (void)lines.set_amplifier_enable(false);
+  check(idle && enabled && read_line(10) == 0,
+        "GpiodRigLines (as built from a config): enable requested off, asserted, released");
+}
+
 // A start refused because the e-stop is pressed: the amplifier (enable
 // active low here) must never be enabled, not even for one write.
 void check_refused_start(const std::string& chip) {
@@ -144,20 +185,15 @@ void check_refused_start(const std::string& chip) {
   hal::gpio::GpioDigitalLines lines(settings, outputs, &estop);
   hal::posix::MonotonicClock clock;
   hal::sim::NullDrive drive(clock);
-  firmware::SpscRing<firmware::DriveSample> ring(1 << 10);
-  firmware::SensorHealth health;
-  firmware::SafetySettings safety;
-  safety.sensor_stale_s = 1e9;
-  const hal::TimeNs t0 = clock.now() + hal::from_seconds(0.01);
-  firmware::SafetySupervisor supervisor(safety, health, t0);
+  hal::sim::NullSensor sensor(clock);
   const model::Sawtooth saw(80.0, 50.0, 0.75);
-  const std::atomic<bool> stop{false};
-  firmware::DriveLoop loop({1000.0, 1.0, 0.02, {0.0, 80.0, 1e6}}, saw, supervisor,
-                           {clock, drive, lines, ring, stop});
-  const firmware::StopCause cause = loop.run(t0);
+  firmware::LoopRunner runner(loop_settings(1000.0, 1.0, 0.02), saw, {clock, drive, sensor, lines});
+  (void)runner.start({});
+  runner.join();
+  const firmware::StopCause cause = runner.cause();
   bool ever_enabled = false;
   for (const auto& step : outputs.steps) ever_enabled = ever_enabled || step[0] == 0;
-  check(cause == firmware::StopCause::estop && !loop.outcome().enabled_ever && !ever_enabled &&
+  check(cause == firmware::StopCause::estop && !runner.outcome().enabled_ever && !ever_enabled &&
             read_line(10) == 1,
         fmt::format("a start refused by a pressed e-stop never enables (enable line reads {}, "
                     "held; {} writes, none enabling)",
@@ -174,19 +210,12 @@ void check_loop_sync_and_estop(const std::string& chip) {
   hal::gpio::GpioDigitalLines lines(settings, outputs, &estop);
   hal::posix::MonotonicClock clock;
   hal::sim::NullDrive drive(clock);
-  firmware::SpscRing<firmware::DriveSample> ring(1 << 16);
-  firmware::SensorHealth health;
-  firmware::SafetySettings safety;
-  safety.sensor_stale_s = 1e9;  // no sensor in this check
+  hal::sim::NullSensor sensor(clock);
   constexpr double kRate = 1000.0, kWaveform = 50.0;
-  const hal::TimeNs t0 = clock.now() + hal::from_seconds(0.05);
-  firmware::SafetySupervisor supervisor(safety, health, t0);
   const model::Sawtooth saw(80.0, kWaveform, 0.75);
-  const std::atomic<bool> stop{false};
-  firmware::DriveLoop loop({kRate, 100.0, 1.0 / kWaveform, {0.0, 80.0, 1e6}}, saw, supervisor,
-                           {clock, drive, lines, ring, stop});
-  firmware::StopCause cause{};
-  std::thread driver([&] { cause = loop.run(t0); });
+  firmware::LoopRunner runner(loop_settings(kRate, 100.0, 1.0 / kWaveform), saw,
+                              {clock, drive, sensor, lines});
+  (void)runner.start({});
 
   // Count sync pulses for 0.3 s (15 waveform periods) by polling the line.
   std::this_thread::sleep_until(std::chrono::steady_clock::now() + std::chrono::milliseconds(50));
@@ -208,15 +237,19 @@ void check_loop_sync_and_estop(const std::string& chip) {
   // whose deadline follows the edge may still drive. Wall time is reported
   // too; under software emulation the guest's own wake-ups wander.
   set_pull(12, "pull-down");
-  driver.join();
+  // The rings hold 2 s: the run is drained once it has stopped.
+  runner.join();
   const hal::TimeNs edge = estop.last_edge_ns();
-  firmware::DriveSample s{}, last_sample{};
+  firmware::DriveSample last_sample{};
   int driving_after_edge = 0;
-  while (ring.try_pop(s)) {
-    if (s.phase == firmware::DrivePhase::driving && s.t > edge) ++driving_after_edge;
-    last_sample = s;
-  }
-  check(cause == firmware::StopCause::estop, "the e-stop edge reached the safety supervisor");
+  runner.drain(
+      [&](const firmware::DriveSample& s) {
+        if (s.phase == firmware::DrivePhase::driving && s.t > edge) ++driving_after_edge;
+        last_sample = s;
+      },
+      [](const firmware::SensorSample&) {});
+  check(runner.cause() == firmware::StopCause::estop,
+        "the e-stop edge reached the safety supervisor");
   check(read_line(10) == 0, "enable low after the e-stop (read while the lines are held)");
   check(edge > 0 && driving_after_edge == 0 && last_sample.phase == firmware::DrivePhase::stopped,
         fmt::format("enable dropped in the first drive cycle after the edge ({} cycles drove past "
@@ -238,6 +271,7 @@ int main(int argc, char** argv) {
     check_dac(chip, true);
     check_enable_and_sync(chip, false);
     check_enable_and_sync(chip, true);
+    check_rig_devices(chip);
     check_refused_start(chip);
     check_loop_sync_and_estop(chip);
   } catch (const std::exception& e) {

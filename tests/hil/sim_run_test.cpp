@@ -42,10 +42,10 @@ Outcome run_virtual(std::vector<std::string> sets, const std::atomic<bool>* stop
   Outcome out;
   // The device side: the simulated amplifier the drive and lines act on,
   // kept here while the rig goes to the in-process piezod.
-  const auto plant = std::static_pointer_cast<hal::sim::Plant>(rig.parts.front());
+  const std::shared_ptr<const hal::sim::SimRig> device = rig.sim;
   out.summary = execute_run(config, std::move(rig), log, stop ? *stop : never, {});
-  out.amplifier_enabled_at_end = plant->enabled();
-  out.amplifier_V_at_end = plant->latest().V_out;
+  out.amplifier_enabled_at_end = device->plant().enabled();
+  out.amplifier_V_at_end = device->plant().latest().V_out;
   log.close(out.summary.status());
   const H5File file = H5File::open(path);
   out.drive_t = file.read("/drive/t");

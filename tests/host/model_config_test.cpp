@@ -116,7 +116,7 @@ TEST(RigConfigs, ShippedConfigsLoad) {
   EXPECT_TRUE(rig.drive.gpio_dac.dac.has_strobe);
   EXPECT_EQ(rig.sensor.map.address, 202);
   EXPECT_EQ(rig.sensor.link.parity, 'E');
-  EXPECT_EQ(rig.lines.estop_offset, 18);
+  EXPECT_EQ(rig.lines.gpiod.estop_offset, 18);
 }
 
 }  // namespace

@@ -5,9 +5,9 @@
 
 namespace piezo::hal::modbus {
 
-ModbusSensor::ModbusSensor(const LinkSettings& link, const RegisterMap& map, double rate_hz,
+ModbusSensor::ModbusSensor(const LinkSettings& link, const RegisterMap& map,
                            const Clock& clock)
-    : link_(link), map_(map), rate_hz_(rate_hz), clock_(clock) {}
+    : link_(link), map_(map), clock_(clock) {}
 
 DisplacementReading ModbusSensor::read() {
   std::array<std::uint16_t, 2> words{};

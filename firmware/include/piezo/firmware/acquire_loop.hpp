@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// The acquire loop: at the sensor's rate it issues one blocking read,
+/// The acquire loop: at its configured rate it issues one blocking read,
 /// reports the outcome to the safety supervisor (through SensorHealth) and
 /// pushes a timestamped SensorSample. Same rules as the drive loop: no
 /// allocation, locks, exceptions or I/O beyond the HAL inside it.
@@ -18,8 +18,8 @@ namespace piezo::firmware {
 
 class AcquireLoop {
  public:
-  AcquireLoop(hal::Clock& clock, hal::DisplacementSensor& sensor, SensorHealth& sensor_health,
-              SpscRing<SensorSample>& ring);
+  AcquireLoop(hal::Clock& clock, hal::DisplacementSensor& sensor, double rate_hz,
+              SensorHealth& sensor_health, SpscRing<SensorSample>& ring);
 
   /// Samples from t0 until `stop` is set (the drive loop has finished).
   void run(hal::TimeNs t0, const std::atomic<bool>& stop);
@@ -30,6 +30,7 @@ class AcquireLoop {
  private:
   hal::Clock& clock_;
   hal::DisplacementSensor& sensor_;
+  hal::TimeNs period_;
   SensorHealth& sensor_health_;
   SpscRing<SensorSample>& ring_;
   LoopHealth health_;

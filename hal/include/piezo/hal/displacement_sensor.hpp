@@ -24,8 +24,6 @@ class DisplacementSensor {
   /// One blocking read, bounded by the backend's timeout. Called from the
   /// acquire loop: no allocation, no exceptions.
   [[nodiscard]] virtual DisplacementReading read() = 0;
-  /// The rate the sensor can deliver new values at [Hz].
-  [[nodiscard]] virtual double rate_hz() const = 0;
 };
 
 }  // namespace piezo::hal

@@ -14,16 +14,14 @@ namespace piezo::hal::modbus {
 
 class ModbusSensor final : public DisplacementSensor {
  public:
-  ModbusSensor(const LinkSettings& link, const RegisterMap& map, double rate_hz,
+  ModbusSensor(const LinkSettings& link, const RegisterMap& map,
                const Clock& clock);
 
   [[nodiscard]] DisplacementReading read() override;
-  [[nodiscard]] double rate_hz() const override { return rate_hz_; }
 
  private:
   Link link_;
   RegisterMap map_;
-  double rate_hz_;
   const Clock& clock_;
 };
 

@@ -32,7 +32,6 @@ class SimSensor final : public DisplacementSensor {
   SimSensor(const SimSensorSettings& settings, const Plant& plant, Clock& clock, TimeNs t0);
 
   [[nodiscard]] DisplacementReading read() override;
-  [[nodiscard]] double rate_hz() const override { return settings_.rate_hz; }
 
   /// Moves the time origin of the settings' times, before the run starts.
   void set_time_origin(TimeNs t0) { t0_ = t0; }

@@ -1,4 +1,4 @@
-#include "rig_sim_server.hpp"
+#include "piezo/hal/sim/modbus_rig_device.hpp"
 
 #include <fmt/format.h>
 #include <sys/select.h>
@@ -10,112 +10,103 @@
 #include <stdexcept>
 #include <thread>
 
-namespace piezo::host {
+namespace piezo::hal::sim {
 namespace {
 
-hal::sim::SimSensorSettings instant_sensor(const RunConfig& c) {
-  hal::sim::SimSensorSettings s = c.sensor.sim;
+SimSensorSettings instant_sensor(SimSensorSettings s) {
   s.latency_s = 0.0;  // the link supplies the latency
   s.dropout_probability = 0.0;
   s.stall_at_s = std::numeric_limits<double>::infinity();
   return s;
 }
 
-hal::sim::AmplifierSettings amplifier(const RunConfig& c) {
-  hal::sim::AmplifierSettings a = c.drive.amplifier;
-  a.ramp_time_s = 1.0 / c.drive.rate_hz;
-  return a;
-}
-
 }  // namespace
 
-RigSimServer::RigSimServer(const RunConfig& config)
-    : config_(config),
+ModbusRigDevice::ModbusRigDevice(const ModbusRigDeviceSettings& settings)
+    : settings_(settings),
       t_start_(clock_.now()),
-      plant_(config.plant, amplifier(config), t_start_),
-      sensor_(instant_sensor(config), plant_, clock_, t_start_),
+      plant_(settings.plant, settings.amplifier, t_start_),
+      sensor_(instant_sensor(settings.sensor), plant_, clock_, t_start_),
       registers_(modbus_mapping_new(0, 0, 65536, 65536)) {
   if (registers_ == nullptr) throw std::runtime_error("rig-sim: cannot allocate registers");
   plant_.set_enabled(t_start_, true);
   watchdog_restarted_ = t_start_;
 }
 
-RigSimServer::~RigSimServer() {
+ModbusRigDevice::~ModbusRigDevice() {
   modbus_mapping_free(registers_);
 }
 
-std::string RigSimServer::describe() const {
-  const auto& m = config_.sensor.map;
+std::string ModbusRigDevice::describe() const {
+  const auto& m = settings_.sensor_map;
   return fmt::format(
       "sensor: {} register {} ({} words, unit {}), scale {:g} m per unit; analog output: holding "
       "register {} at {:g} counts/V",
-      m.function == hal::modbus::Function::input ? "input" : "holding", m.address,
-      hal::modbus::word_count(m.type), m.unit_id, m.scale, config_.drive.ao.address,
-      config_.drive.ao.counts_per_V);
+      m.function == modbus::Function::input ? "input" : "holding", m.address,
+      modbus::word_count(m.type), m.unit_id, m.scale, settings_.ao_address,
+      settings_.ao_counts_per_V);
 }
 
-double RigSimServer::since_start_s() const {
-  return hal::to_seconds(clock_.now() - t_start_);
+double ModbusRigDevice::since_start_s() const {
+  return to_seconds(clock_.now() - t_start_);
 }
 
-bool RigSimServer::disconnected() const {
-  return since_start_s() >= config_.rig_sim.disconnect_at_s;
+bool ModbusRigDevice::disconnected() const {
+  return since_start_s() >= settings_.faults.disconnect_at_s;
 }
 
-bool RigSimServer::hanging() const {
-  const auto& f = config_.rig_sim;
+bool ModbusRigDevice::hanging() const {
+  const auto& f = settings_.faults;
   const double t = since_start_s();
   return t >= f.hang_at_s && t < f.hang_at_s + f.hang_for_s;
 }
 
-void RigSimServer::run_watchdog_locked(hal::TimeNs now) {
-  const std::uint16_t tenths = registers_->tab_registers[config_.rig_sim.watchdog_time_address];
-  if (tenths == 0 || now - watchdog_restarted_ < hal::from_seconds(0.1 * tenths)) return;
-  registers_->tab_registers[config_.drive.ao.address] = 0;
+void ModbusRigDevice::run_watchdog_locked(TimeNs now) {
+  const std::uint16_t tenths = registers_->tab_registers[settings_.faults.watchdog_time_address];
+  if (tenths == 0 || now - watchdog_restarted_ < from_seconds(0.1 * tenths)) return;
+  registers_->tab_registers[settings_.ao_address] = 0;
   after_reply_locked();
 }
 
-RigSimServer::Fault RigSimServer::prepare_reply_locked(int function) {
-  const hal::TimeNs now = clock_.now();
+ModbusRigDevice::Fault ModbusRigDevice::prepare_reply_locked(int function) {
+  const TimeNs now = clock_.now();
   run_watchdog_locked(now);
-  const std::uint16_t mask = registers_->tab_registers[config_.rig_sim.watchdog_mask_address];
+  const std::uint16_t mask = registers_->tab_registers[settings_.faults.watchdog_mask_address];
   if (function >= 1 && function <= 16 && (mask >> (function - 1) & 1U) != 0) {
     watchdog_restarted_ = now;
   }
-  plant_.set_input(now, last_ao_counts_ / config_.drive.ao.counts_per_V);
-  const hal::DisplacementReading r = sensor_.read();
-  const auto& m = config_.sensor.map;
-  std::uint16_t* table = m.function == hal::modbus::Function::input
-                             ? registers_->tab_input_registers
-                             : registers_->tab_registers;
-  // The config keeps address + words within the table.
-  hal::modbus::encode(
-      m.type, m.order, (r.displacement_m - m.offset) / m.scale,
-      std::span<std::uint16_t>(table + m.address,
-                               static_cast<std::size_t>(hal::modbus::word_count(m.type))));
-  const auto& f = config_.rig_sim;
+  plant_.set_input(now, last_ao_counts_ / settings_.ao_counts_per_V);
+  const DisplacementReading r = sensor_.read();
+  const auto& m = settings_.sensor_map;
+  std::uint16_t* table = m.function == modbus::Function::input ? registers_->tab_input_registers
+                                                               : registers_->tab_registers;
+  // The caller keeps address + words within the table.
+  modbus::encode(m.type, m.order, (r.displacement_m - m.offset) / m.scale,
+                 std::span<std::uint16_t>(table + m.address,
+                                          static_cast<std::size_t>(modbus::word_count(m.type))));
+  const auto& f = settings_.faults;
   const double u = uniform_(random_);
   if (u < f.drop_probability) return Fault::drop;
   if (u < f.drop_probability + f.exception_probability) return Fault::exception;
   return Fault::none;
 }
 
-void RigSimServer::after_reply_locked() {
-  const std::uint16_t counts = registers_->tab_registers[config_.drive.ao.address];
+void ModbusRigDevice::after_reply_locked() {
+  const std::uint16_t counts = registers_->tab_registers[settings_.ao_address];
   if (counts != last_ao_counts_) {
     last_ao_counts_ = counts;
-    plant_.set_input(clock_.now(), counts / config_.drive.ao.counts_per_V);
+    plant_.set_input(clock_.now(), counts / settings_.ao_counts_per_V);
   }
 }
 
-void RigSimServer::idle() {
+void ModbusRigDevice::idle() {
   const std::lock_guard lock(mutex_);
   run_watchdog_locked(clock_.now());
 }
 
-void RigSimServer::answer(modbus_t* ctx, const std::uint8_t* query, int length) {
+void ModbusRigDevice::answer(modbus_t* ctx, const std::uint8_t* query, int length) {
   if (hanging()) return;  // the module takes the request and never answers
-  const auto& f = config_.rig_sim;
+  const auto& f = settings_.faults;
   double delay_s = f.response_delay_s;
   {
     const std::lock_guard lock(mutex_);
@@ -138,7 +129,7 @@ void RigSimServer::answer(modbus_t* ctx, const std::uint8_t* query, int length) 
   }
 }
 
-void RigSimServer::serve_tcp(const std::string& host, int port) {
+void ModbusRigDevice::serve_tcp(const std::string& host, int port) {
   modbus_t* ctx = modbus_new_tcp(host.c_str(), port);
   if (ctx == nullptr) throw std::runtime_error("rig-sim: bad address " + host);
   const int listener = modbus_tcp_listen(ctx, 16);
@@ -198,11 +189,11 @@ void RigSimServer::serve_tcp(const std::string& host, int port) {
   }
 }
 
-void RigSimServer::serve_rtu(const std::string& device) {
-  const auto& link = config_.sensor.link;
+void ModbusRigDevice::serve_rtu(const std::string& device) {
+  const auto& link = settings_.serial;
   modbus_t* ctx =
       modbus_new_rtu(device.c_str(), link.baud, link.parity, link.data_bits, link.stop_bits);
-  if (ctx == nullptr || modbus_set_slave(ctx, config_.sensor.map.unit_id) != 0 ||
+  if (ctx == nullptr || modbus_set_slave(ctx, settings_.sensor_map.unit_id) != 0 ||
       modbus_connect(ctx) != 0) {
     throw std::runtime_error(
         fmt::format("rig-sim: cannot open {}: {}", device, modbus_strerror(errno)));
@@ -219,4 +210,4 @@ void RigSimServer::serve_rtu(const std::string& device) {
   }
 }
 
-}  // namespace piezo::host
+}  // namespace piezo::hal::sim

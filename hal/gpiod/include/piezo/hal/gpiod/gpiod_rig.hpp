@@ -1,0 +1,65 @@
+#pragma once
+/// @file
+/// The rig's GPIO devices on a libgpiod chip, each owning the lines it
+/// requests: the parallel DAC (data lines and strobe) and the digital lines
+/// (amplifier enable, sync, e-stop). Lines are requested at their safe
+/// levels (code 0, amplifier disabled), never for a moment elsewhere.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "piezo/hal/digital_lines.hpp"
+#include "piezo/hal/drive.hpp"
+#include "piezo/hal/gpio/gpio_digital_lines.hpp"
+#include "piezo/hal/gpio/parallel_dac.hpp"
+#include "piezo/hal/gpiod/gpiod_lines.hpp"
+
+namespace piezo::hal::gpiod {
+
+/// A parallel DAC on GPIO lines: where its lines are.
+struct GpiodDacSettings {
+  std::string chip = "gpiochip0";
+  std::vector<int> data_offsets;  ///< least significant bit first
+  int strobe_offset = -1;         ///< -1: no strobe line
+  gpio::ParallelDacSettings dac;
+};
+
+struct GpiodLinesSettings {
+  std::string chip = "gpiochip0";
+  int enable_offset = -1;
+  int sync_offset = -1;   ///< -1: not wired
+  int estop_offset = -1;  ///< -1: not wired
+  gpio::GpioLinesSettings gpio;
+};
+
+class GpiodParallelDac final : public Drive {
+ public:
+  GpiodParallelDac(const GpiodDacSettings& settings, const std::string& consumer);
+
+  Status write(double volts) override { return dac_.write(volts); }
+  [[nodiscard]] double acknowledged_V() const override { return dac_.acknowledged_V(); }
+  [[nodiscard]] DriveLimits limits() const override { return dac_.limits(); }
+
+ private:
+  GpiodOutputs lines_;
+  gpio::ParallelDac dac_;
+};
+
+class GpiodRigLines final : public DigitalLines {
+ public:
+  GpiodRigLines(const GpiodLinesSettings& settings, const std::string& consumer);
+
+  Status set_amplifier_enable(bool enabled) override {
+    return lines_.set_amplifier_enable(enabled);
+  }
+  Status set_sync(bool high) override { return lines_.set_sync(high); }
+  [[nodiscard]] EstopState poll_estop() override { return lines_.poll_estop(); }
+
+ private:
+  GpiodOutputs outputs_;
+  std::unique_ptr<GpiodEdgeInput> estop_;  ///< null: no e-stop wired
+  gpio::GpioDigitalLines lines_;
+};
+
+}  // namespace piezo::hal::gpiod

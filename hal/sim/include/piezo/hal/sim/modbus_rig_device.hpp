@@ -1,0 +1,108 @@
+#pragma once
+// The simulated rig as a Modbus device: the plant advances in real time,
+// the sensor's registers report its rotor (the config's register map, by
+// default the Baumer OM30 one), and a holding register takes the drive
+// voltage the way an analog-output module would. Serves several TCP clients
+// at once and/or RTU on a serial device or pseudo-terminal, with the faults
+// of ModbusDeviceFaults injected. Like an I/O module, it has a communication
+// watchdog (WAGO 750-352 style registers): armed, it sets the analog output
+// to 0 when no restarting request came for its timeout.
+
+#include <modbus.h>
+
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "piezo/hal/modbus/link.hpp"
+#include "piezo/hal/modbus/register_map.hpp"
+#include "piezo/hal/posix/monotonic_clock.hpp"
+#include "piezo/hal/sim/plant.hpp"
+#include "piezo/hal/sim/sim_sensor.hpp"
+#include "piezo/model/parameters.hpp"
+
+namespace piezo::hal::sim {
+
+/// Faults the device can be told to show.
+struct ModbusDeviceFaults {
+  double response_delay_s = 0.0;
+  double drop_probability = 0.0;       ///< requests left unanswered
+  double exception_probability = 0.0;  ///< answered with exception 04 (server failure)
+  double disconnect_at_s = std::numeric_limits<double>::infinity();  ///< closes every client
+  /// One reply, the first after this time, comes late_reply_s late.
+  double late_reply_at_s = std::numeric_limits<double>::infinity();
+  double late_reply_s = 0.0;
+  /// From hang_at_s on, for hang_for_s, requests get no reply (the module's
+  /// watchdog still runs).
+  double hang_at_s = std::numeric_limits<double>::infinity();
+  double hang_for_s = 0.0;
+  /// The simulated module's communication watchdog, as on a WAGO 750-352:
+  /// a holding register with the timeout in 100 ms units (0: off) and one
+  /// with the mask of function codes that restart it (bit n-1: function n).
+  int watchdog_time_address = 0x1000;
+  int watchdog_mask_address = 0x1001;
+};
+
+struct ModbusRigDeviceSettings {
+  model::MotorParameters plant;
+  AmplifierSettings amplifier;
+  /// The sensor behind the registers; its latency, dropouts and stalls are
+  /// off here: the link and the faults supply them.
+  SimSensorSettings sensor;
+  modbus::RegisterMap sensor_map;
+  modbus::LinkSettings serial;  ///< RTU: baud, parity, data and stop bits
+  int ao_address = 0;           ///< the analog output's holding register
+  double ao_counts_per_V = 1.0;
+  ModbusDeviceFaults faults;
+};
+
+class ModbusRigDevice {
+ public:
+  explicit ModbusRigDevice(const ModbusRigDeviceSettings& settings);
+  ~ModbusRigDevice();
+  ModbusRigDevice(const ModbusRigDevice&) = delete;
+  ModbusRigDevice& operator=(const ModbusRigDevice&) = delete;
+
+  /// Serves Modbus TCP on host:port until the process ends.
+  void serve_tcp(const std::string& host, int port);
+  /// Serves Modbus RTU on `device` at the sensor link's serial settings.
+  void serve_rtu(const std::string& device);
+
+  /// What the register map and the analog output are, for the start-up line.
+  [[nodiscard]] std::string describe() const;
+
+ private:
+  enum class Fault { none, drop, exception };
+  /// Brings the registers up to now and decides this request's fault.
+  Fault prepare_reply_locked(int function);
+  /// Applies a changed analog-output register to the plant.
+  void after_reply_locked();
+  /// Zeroes the output once the armed watchdog has expired.
+  void run_watchdog_locked(TimeNs now);
+  /// Replies to one request, or not, as the faults decide.
+  void answer(modbus_t* ctx, const std::uint8_t* query, int length);
+  /// Runs the watchdog while no request comes.
+  void idle();
+  [[nodiscard]] bool disconnected() const;
+  [[nodiscard]] bool hanging() const;
+  [[nodiscard]] double since_start_s() const;
+
+  ModbusRigDeviceSettings settings_;
+  posix::MonotonicClock clock_;
+  TimeNs t_start_;
+  Plant plant_;
+  SimSensor sensor_;
+  modbus_mapping_t* registers_;
+  std::uint16_t last_ao_counts_ = 0;
+  TimeNs watchdog_restarted_ = 0;
+  bool late_reply_done_ = false;
+  std::mutex mutex_;  // TCP and RTU may serve at once: registers and plant are shared
+  std::mt19937_64 random_{7};
+  std::uniform_real_distribution<double> uniform_{0.0, 1.0};
+};
+
+}  // namespace piezo::hal::sim
