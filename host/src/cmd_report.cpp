@@ -16,6 +16,7 @@
 #include "fit_io.hpp"
 #include "gnuplot.hpp"
 #include "h5_file.hpp"
+#include "log_schema.hpp"
 #include "parameters_json.hpp"
 #include "piezo/model/simulate.hpp"
 
@@ -40,7 +41,7 @@ int run(const ReportOptions& o) {
   const fs::path log_path = dir / "run.h5";
   if (!fs::exists(log_path)) throw ConfigError(o.run_dir, "run.h5", "no run log in this directory");
   const H5File log = H5File::open(log_path.string());
-  const std::string status = log.attribute("/", "status");
+  const std::string status = log.attribute("/", log_schema::kStatus);
   // The log as identification reads it: good angles, and the drive as it
   // reached the output (after the drive's latency, over one period).
   const LoadedRun run = load_run_for_fit(log_path.string());
@@ -77,7 +78,7 @@ int run(const ReportOptions& o) {
 
   // A few drive periods from the middle of the run.
   const auto period =
-      nlohmann::json::parse(log.attribute("/", "model_parameters")).value("f", 10.0);
+      nlohmann::json::parse(log.attribute("/", log_schema::kModelParameters)).value("f", 10.0);
   const double t_mid = 0.5 * theta.t.back();
   const double t_from = t_mid, t_to = t_mid + 3.0 / period;
   run_gnuplot(fmt::format(
@@ -92,8 +93,8 @@ int run(const ReportOptions& o) {
       t_from, t_to, gnuplot_quote(drive_csv), gnuplot_quote(angle_csv), gnuplot_quote(angle_csv)));
 
   std::string timing_png;
-  if (log.exists("/timing/drive_period_error_us")) {
-    const auto counts = log.read("/timing/drive_period_error_us");
+  if (log.exists(log_schema::kDrivePeriodErrorUs)) {
+    const auto counts = log.read(log_schema::kDrivePeriodErrorUs);
     std::vector<double> bin_us(counts.size());
     for (std::size_t i = 0; i < bin_us.size(); ++i) bin_us[i] = static_cast<double>(i) + 0.5;
     const std::string timing_csv = (out / "timing.csv").string();

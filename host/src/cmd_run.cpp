@@ -15,6 +15,7 @@
 
 #include "commands.hpp"
 #include "config_error.hpp"
+#include "log_schema.hpp"
 #include "parameters_json.hpp"
 #include "remote_run.hpp"
 #include "rig.hpp"
@@ -199,8 +200,8 @@ void finish_log(RunLog& log, RunSummary& summary, const nlohmann::json& result) 
     return;
   }
   try {
-    log.write("/timing/drive_period_error_us", summary.drive.histogram);
-    log.write("/timing/acquire_period_error_us", summary.sensor.histogram);
+    log.write(log_schema::kDrivePeriodErrorUs, summary.drive.histogram);
+    log.write(log_schema::kAcquirePeriodErrorUs, summary.sensor.histogram);
     log.set_attribute("summary", result.dump());
     log.set_attribute("realtime", fmt::format("{}", fmt::join(summary.realtime_notes, "; ")));
     log.set_attribute("stop_cause", summary.stop_cause());
@@ -251,13 +252,14 @@ int run(const RunOptions& o) {
       log_path.string(),
       {{"config", config.text},
        {"config_source", config.source},
-       {"model_parameters", to_json(config.model).dump()},
+       {log_schema::kModelParameters, to_json(config.model).dump()},
        {"plant_parameters", to_json(model::Parameters{config.model.drive, config.plant}).dump()},
        {"version", PIEZO_VERSION},
        {"utc_start", utc_start},
        {"host", host_name()},
-       {"clock", client ? hello.value("clock", std::string()) : std::string(name(config.run.clock))},
-       {"drive_latency_s", fmt::format("{:.9g}", drive_latency_s)},
+       {"clock",
+        client ? hello.value("clock", std::string()) : std::string(name(config.run.clock))},
+       {log_schema::kDriveLatency, fmt::format("{:.9g}", drive_latency_s)},
        {"time_origin", "seconds from the run's start (first drive deadline)"},
        {"theta", "(displacement - first good displacement) / sensor.r2_m"}});
 

@@ -12,9 +12,9 @@
 #include "config_error.hpp"
 #include "gnuplot.hpp"
 #include "model_config.hpp"
-#include "run_config.hpp"
 #include "parallel.hpp"
 #include "piezo/model/sensitivity.hpp"
+#include "run_config.hpp"
 
 namespace piezo::host {
 namespace {

@@ -51,8 +51,9 @@ int run(const SensorReadOptions& o) {
   if (o.json) {
     std::cout << nlohmann::json{{"readings", readings}, {"errors", errors}}.dump() << "\n";
   } else {
-    fmt::print("{} readings, {} errors ({} sensor, {})\n", o.count, errors, name(config.sensor.backend),
-               config.sensor.backend == SensorBackend::sim ? "simulated" : config.sensor.link.describe());
+    fmt::print(
+        "{} readings, {} errors ({} sensor, {})\n", o.count, errors, name(config.sensor.backend),
+        config.sensor.backend == SensorBackend::sim ? "simulated" : config.sensor.link.describe());
   }
   return errors == o.count ? 1 : 0;
 }

@@ -10,9 +10,9 @@
 #include "config_error.hpp"
 #include "h5_file.hpp"
 #include "model_config.hpp"
-#include "run_config.hpp"
 #include "parameters_json.hpp"
 #include "piezo/model/simulate.hpp"
+#include "run_config.hpp"
 
 namespace piezo::host {
 namespace {

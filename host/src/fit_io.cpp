@@ -10,6 +10,7 @@
 
 #include "config_error.hpp"
 #include "h5_file.hpp"
+#include "log_schema.hpp"
 #include "parameters_json.hpp"
 
 namespace piezo::host {
@@ -50,20 +51,26 @@ void add_measurements(model::FitData& data, const std::vector<double>& t,
 
 LoadedRun load_h5(const std::string& path) {
   const H5File log = H5File::open(path);
-  for (const char* name : {"/drive/t", "/drive/V", "/sensor/t", "/sensor/theta"}) {
+  using log_schema::DriveRows;
+  using log_schema::SensorRows;
+  const std::string drive_t_path = log_schema::path(&DriveRows::t);
+  const std::string drive_V_path = log_schema::path(&DriveRows::V);
+  const std::string sensor_t_path = log_schema::path(&SensorRows::t);
+  const std::string theta_path = log_schema::path(&SensorRows::theta);
+  for (const auto& name : {drive_t_path, drive_V_path, sensor_t_path, theta_path}) {
     if (!log.exists(name)) throw ConfigError(path, name, "missing dataset: not a piezo run log");
   }
   LoadedRun run;
   // The output follows each logged command after the drive's latency.
-  std::vector<double> drive_t = log.read("/drive/t");
-  if (log.has_attribute("/", "drive_latency_s")) {
-    const double latency = std::stod(log.attribute("/", "drive_latency_s"));
+  std::vector<double> drive_t = log.read(drive_t_path);
+  if (log.has_attribute("/", log_schema::kDriveLatency)) {
+    const double latency = std::stod(log.attribute("/", log_schema::kDriveLatency));
     for (double& t : drive_t) t += latency;
   }
-  add_drive(run.data, drive_t, log.read("/drive/V"));
-  add_measurements(run.data, log.read("/sensor/t"), log.read("/sensor/theta"));
+  add_drive(run.data, drive_t, log.read(drive_V_path));
+  add_measurements(run.data, log.read(sensor_t_path), log.read(theta_path));
   run.parameters =
-      parameters_from_json(nlohmann::json::parse(log.attribute("/", "model_parameters")));
+      parameters_from_json(nlohmann::json::parse(log.attribute("/", log_schema::kModelParameters)));
   return run;
 }
 

@@ -20,7 +20,7 @@ void ObserverStage::feed_commands_until(double t) {
   }
 }
 
-void ObserverStage::process_measurements_until(double t, ColumnBuffer& out) {
+void ObserverStage::process_measurements_until(double t, log_schema::ObserverRows& out) {
   while (!pending_measurements_.empty() && pending_measurements_.front().first <= t) {
     const auto [t_meas, theta] = pending_measurements_.front();
     pending_measurements_.pop_front();
@@ -28,22 +28,22 @@ void ObserverStage::process_measurements_until(double t, ColumnBuffer& out) {
   }
 }
 
-void ObserverStage::on_drive(double t, double V, ColumnBuffer& out) {
+void ObserverStage::on_drive(double t, double V, log_schema::ObserverRows& out) {
   pending_commands_.emplace_back(t + latency_, V);
   drive_known_until_ = std::max(drive_known_until_, t + latency_);
   process_measurements_until(t, out);
 }
 
-void ObserverStage::on_measurement(double t, double theta, ColumnBuffer& out) {
+void ObserverStage::on_measurement(double t, double theta, log_schema::ObserverRows& out) {
   pending_measurements_.emplace_back(t, theta);
   process_measurements_until(drive_known_until_, out);
 }
 
-void ObserverStage::finish(ColumnBuffer& out) {
+void ObserverStage::finish(log_schema::ObserverRows& out) {
   process_measurements_until(std::numeric_limits<double>::infinity(), out);
 }
 
-void ObserverStage::process(double t, double theta, ColumnBuffer& out) {
+void ObserverStage::process(double t, double theta, log_schema::ObserverRows& out) {
   if (t < corrected_.time()) return;  // before the model's start: nothing to compare
   feed_commands_until(t);
   const double residual = corrected_.measure(t, theta);
@@ -55,14 +55,14 @@ void ObserverStage::process(double t, double theta, ColumnBuffer& out) {
   last_residual_ = residual;
 
   const model::LuGreState& y = corrected_.state();
-  out["/observer/t"].push_back(t);
-  out["/observer/theta_hat"].push_back(y[model::kTheta]);
-  out["/observer/theta_dot_hat"].push_back(y[model::kThetaDot]);
-  out["/observer/x_hat"].push_back(y[model::kX]);
-  out["/observer/z_hat"].push_back(y[model::kZ]);
-  out["/observer/F_hat"].push_back(corrected_.friction());
-  out["/observer/residual"].push_back(residual);
-  out["/observer/theta_open"].push_back(open_loop_.state()[model::kTheta]);
+  out.t.push_back(t);
+  out.theta_hat.push_back(y[model::kTheta]);
+  out.theta_dot_hat.push_back(y[model::kThetaDot]);
+  out.x_hat.push_back(y[model::kX]);
+  out.z_hat.push_back(y[model::kZ]);
+  out.F_hat.push_back(corrected_.friction());
+  out.residual.push_back(residual);
+  out.theta_open.push_back(open_loop_.state()[model::kTheta]);
 }
 
 ObserverSummary ObserverStage::summary() const {

@@ -8,8 +8,8 @@
 #include <deque>
 #include <utility>
 
+#include "log_schema.hpp"
 #include "piezo/model/lugre_observer.hpp"
-#include "run_log.hpp"
 
 namespace piezo::host {
 
@@ -29,20 +29,20 @@ class ObserverStage {
 
   /// A drive command (deadline time [s], volts). Measurements up to t are
   /// processed now: the drive is known up to there.
-  void on_drive(double t, double V, ColumnBuffer& out);
+  void on_drive(double t, double V, log_schema::ObserverRows& out);
   /// A good angle measurement at time t [s]. The two rings arrive
   /// independently, so it waits until the drive is known up to t; each
   /// processed measurement appends a row to `out`.
-  void on_measurement(double t, double theta, ColumnBuffer& out);
+  void on_measurement(double t, double theta, log_schema::ObserverRows& out);
   /// Processes the measurements still waiting (the run has ended).
-  void finish(ColumnBuffer& out);
+  void finish(log_schema::ObserverRows& out);
 
   [[nodiscard]] ObserverSummary summary() const;
 
  private:
   void feed_commands_until(double t);
-  void process(double t, double theta, ColumnBuffer& out);
-  void process_measurements_until(double t, ColumnBuffer& out);
+  void process(double t, double theta, log_schema::ObserverRows& out);
+  void process_measurements_until(double t, log_schema::ObserverRows& out);
 
   model::LuGreObserver corrected_;
   model::LuGreObserver open_loop_;

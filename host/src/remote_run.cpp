@@ -192,7 +192,7 @@ RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json&
   auto append_log = [&] {
     if (!log_ok) return;
     try {
-      log.append(collector.buffer());
+      log.append(collector.rows());
     } catch (const std::exception& e) {
       log_ok = false;
       summary.host_error = e.what();
@@ -285,7 +285,7 @@ RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json&
   // The stream's tail may still be in flight or lost: the recorder has it all.
   cursor.fetch(protocol::Stream::drive, board.at("samples").at("drive").get<std::uint64_t>());
   cursor.fetch(protocol::Stream::sensor, board.at("samples").at("sensor").get<std::uint64_t>());
-  if (observer) observer->finish(collector.buffer());
+  if (observer) observer->finish(collector.rows().observer);
   append_log();
   if (!std::isnan(quiet_since_s)) {
     outages.push_back(fmt::format("[{:.3f}, end of run]", quiet_since_s));

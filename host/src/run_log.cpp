@@ -10,33 +10,14 @@
 
 namespace piezo::host {
 
-const std::vector<std::string>& RunLog::drive_columns() {
-  static const std::vector<std::string> names{"/drive/t", "/drive/V", "/drive/phase",
-                                              "/drive/status", "/drive/t_received"};
-  return names;
-}
-
-const std::vector<std::string>& RunLog::observer_columns() {
-  static const std::vector<std::string> names{
-      "/observer/t",     "/observer/theta_hat", "/observer/theta_dot_hat", "/observer/x_hat",
-      "/observer/z_hat", "/observer/F_hat",     "/observer/residual",      "/observer/theta_open"};
-  return names;
-}
-
-const std::vector<std::string>& RunLog::sensor_columns() {
-  static const std::vector<std::string> names{
-      "/sensor/t",     "/sensor/t_response", "/sensor/displacement_m",
-      "/sensor/theta", "/sensor/status",     "/sensor/t_received"};
-  return names;
-}
-
 RunLog RunLog::create(const std::string& path, const std::map<std::string, std::string>& header) {
   RunLog log(H5File::create_log(path));
-  for (const auto& name : drive_columns()) log.file_.create_growing(name);
-  for (const auto& name : sensor_columns()) log.file_.create_growing(name);
-  for (const auto& name : observer_columns()) log.file_.create_growing(name);
+  LogRows none;
+  log_schema::for_each_column(none, [&](std::string_view path, const auto&) {
+    log.file_.create_growing(std::string(path));
+  });
   for (const auto& [name, value] : header) log.file_.set_attribute("/", name, value);
-  log.file_.set_attribute("/", "status", "incomplete");
+  log.file_.set_attribute("/", log_schema::kStatus, "incomplete");
   log.file_.flush();
   return log;
 }
@@ -79,32 +60,36 @@ void RunLog::check_room(std::uintmax_t bytes) const {
   }
 }
 
-void RunLog::append(ColumnBuffer& buffer) {
+void RunLog::append(LogRows& rows) {
   // Written in slices, each checked for room first, so a log that meets a
   // full disk or a file-size limit keeps every slice that fitted instead of
   // losing the whole flush interval.
   constexpr std::size_t kSliceBytes = 512u << 10;
+  std::vector<std::pair<std::string, log_schema::Column*>> buffer;
+  log_schema::for_each_column(rows, [&](std::string_view path, log_schema::Column& column) {
+    buffer.emplace_back(path, &column);
+  });
   std::size_t total = 0;
-  for (const auto& [name, values] : buffer) total += values.size() * sizeof(double);
+  for (const auto& [name, values] : buffer) total += values->size() * sizeof(double);
   const std::size_t slices = std::max<std::size_t>(1, (total + kSliceBytes - 1) / kSliceBytes);
   std::size_t written = 0;
   const auto drop_written = [&] {
     for (auto& [name, values] : buffer) {
-      values.erase(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(slice_begin(
-                                                        values.size(), slices, written)));
+      values->erase(values->begin(), values->begin() + static_cast<std::ptrdiff_t>(slice_begin(
+                                                           values->size(), slices, written)));
     }
   };
   try {
     for (; written < slices; ++written) {
       std::uintmax_t bytes = 0;
       for (const auto& [name, values] : buffer) {
-        bytes += slice_length(values.size(), slices, written) * sizeof(double);
+        bytes += slice_length(values->size(), slices, written) * sizeof(double);
       }
       check_room(bytes);
       for (auto& [name, values] : buffer) {
-        file_.append(name, std::span<const double>(values).subspan(
-                               slice_begin(values.size(), slices, written),
-                               slice_length(values.size(), slices, written)));
+        file_.append(name, std::span<const double>(*values).subspan(
+                               slice_begin(values->size(), slices, written),
+                               slice_length(values->size(), slices, written)));
       }
       file_.flush();
     }
@@ -115,7 +100,7 @@ void RunLog::append(ColumnBuffer& buffer) {
     broken_ = true;
     throw;
   }
-  for (auto& [name, values] : buffer) values.clear();
+  for (auto& [name, values] : buffer) values->clear();
 }
 
 void RunLog::write(const std::string& name, std::span<const double> values) {
@@ -132,7 +117,7 @@ void RunLog::close(const std::string& status) {
     throw std::runtime_error("log " + file_.path() + ": not closed after a failed write");
   }
   try {
-    file_.set_attribute("/", "status", status);
+    file_.set_attribute("/", log_schema::kStatus, status);
     file_.flush();
   } catch (...) {
     broken_ = true;

@@ -5,17 +5,7 @@
 // attribute "status" reads "incomplete" until the run closes the log with
 // "completed", "interrupted" or "failed".
 //
-// Layout (all datasets 1-D float64; times in seconds from the run's start):
-//   /drive/t, /drive/V, /drive/phase, /drive/status
-//   /sensor/t (request time), /sensor/t_response, /sensor/displacement_m,
-//   /sensor/theta (NaN where the reading failed), /sensor/status
-//   /drive/t_received, /sensor/t_received: when the host received each
-//   sample, mapped onto the board's clock (attribute board_clock_offset_ns;
-//   on the virtual clock: the host's wall time since the start)
-//   /observer/t, theta_hat, theta_dot_hat, x_hat, z_hat, F_hat, residual
-//   (measured minus predicted, before correction), theta_open (open loop)
-//   /timing/drive_period_error_us, /timing/acquire_period_error_us (histogram
-//   counts, 1 us bins), written at the end.
+// The layout is log_schema.hpp's.
 
 #include <cstdint>
 #include <map>
@@ -25,11 +15,11 @@
 #include <vector>
 
 #include "h5_file.hpp"
+#include "log_schema.hpp"
 
 namespace piezo::host {
 
-/// Columns of samples waiting to be appended, keyed by dataset path.
-using ColumnBuffer = std::map<std::string, std::vector<double>>;
+using log_schema::LogRows;
 
 /// The log refused a write for want of room; the file is still whole.
 class RoomError : public std::runtime_error {
@@ -49,7 +39,7 @@ class RunLog {
   /// plus a reserve for the close: a log that runs out of space half-way
   /// through a flush is left inconsistent by HDF5. Any other failure marks
   /// the log broken.
-  void append(ColumnBuffer& buffer);
+  void append(LogRows& rows);
   /// True once a write failed half-way: the file must not be written again.
   [[nodiscard]] bool broken() const { return broken_; }
   /// Writes a dataset whole (e.g. a timing histogram).
@@ -61,10 +51,6 @@ class RunLog {
   /// Closes a log that can no longer be written, ignoring failures: what
   /// was flushed before stays readable, marked "incomplete".
   void abandon() noexcept;
-
-  static const std::vector<std::string>& drive_columns();
-  static const std::vector<std::string>& sensor_columns();
-  static const std::vector<std::string>& observer_columns();
 
  private:
   explicit RunLog(H5File file) : file_(std::move(file)) {}

@@ -27,12 +27,13 @@ class SampleCollector {
   void add(const DriveSample& s) {
     if (s.status != hal::Status::ok) ++drive_errors_[std::string(hal::to_string(s.status))];
     const double t = hal::to_seconds(s.t - t0_);
-    if (observer_ != nullptr) observer_->on_drive(t, s.V, buffer_);
-    buffer_["/drive/t"].push_back(t);
-    buffer_["/drive/V"].push_back(s.V);
-    buffer_["/drive/phase"].push_back(static_cast<double>(s.phase));
-    buffer_["/drive/status"].push_back(static_cast<double>(s.status));
-    buffer_["/drive/t_received"].push_back(received_s_);
+    if (observer_ != nullptr) observer_->on_drive(t, s.V, rows_.observer);
+    auto& d = rows_.drive;
+    d.t.push_back(t);
+    d.V.push_back(s.V);
+    d.phase.push_back(static_cast<double>(s.phase));
+    d.status.push_back(static_cast<double>(s.status));
+    d.t_received.push_back(received_s_);
     last_V_ = s.V;
     last_t_ = t;
   }
@@ -44,16 +45,17 @@ class SampleCollector {
     const double theta =
         good ? (s.displacement_m - tare_) / r2_ : std::numeric_limits<double>::quiet_NaN();
     const double t = hal::to_seconds(s.t_request - t0_);
-    buffer_["/sensor/t"].push_back(t);
-    buffer_["/sensor/t_response"].push_back(hal::to_seconds(s.t_response - t0_));
-    buffer_["/sensor/displacement_m"].push_back(s.displacement_m);
-    buffer_["/sensor/theta"].push_back(theta);
-    buffer_["/sensor/status"].push_back(static_cast<double>(s.status));
-    buffer_["/sensor/t_received"].push_back(received_s_);
+    auto& r = rows_.sensor;
+    r.t.push_back(t);
+    r.t_response.push_back(hal::to_seconds(s.t_response - t0_));
+    r.displacement_m.push_back(s.displacement_m);
+    r.theta.push_back(theta);
+    r.status.push_back(static_cast<double>(s.status));
+    r.t_received.push_back(received_s_);
     if (good) {
       last_theta_ = theta;
       last_good_t_ = t;
-      if (observer_ != nullptr) observer_->on_measurement(t, theta, buffer_);
+      if (observer_ != nullptr) observer_->on_measurement(t, theta, rows_.observer);
     }
   }
 
@@ -61,7 +63,7 @@ class SampleCollector {
   /// the board's run time by the clock mapping [s].
   void set_received(double t_received_s) { received_s_ = t_received_s; }
 
-  ColumnBuffer& buffer() { return buffer_; }
+  LogRows& rows() { return rows_; }
   [[nodiscard]] double last_theta() const { return last_theta_; }
   [[nodiscard]] double last_good_t() const { return last_good_t_; }
   [[nodiscard]] double last_V() const { return last_V_; }
@@ -81,7 +83,7 @@ class SampleCollector {
   double tare_ = std::numeric_limits<double>::quiet_NaN();
   double last_theta_ = 0.0, last_good_t_ = 0.0, last_V_ = 0.0, last_t_ = 0.0;
   double received_s_ = std::numeric_limits<double>::quiet_NaN();
-  ColumnBuffer buffer_;
+  LogRows rows_;
   std::map<std::string, std::uint64_t> drive_errors_, sensor_errors_;
 };
 

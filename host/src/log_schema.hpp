@@ -1,0 +1,113 @@
+#pragma once
+// The run log's layout, declared once: each dataset's path beside the
+// buffer column it is written from. The writer (RunLog) creates and
+// appends exactly these; the readers (identify, compare, report) find a
+// dataset's path by its column, never by a string of their own.
+//
+// All datasets are 1-D float64; times in seconds from the run's start.
+//   /drive/t, /drive/V, /drive/phase, /drive/status
+//   /sensor/t (request time), /sensor/t_response, /sensor/displacement_m,
+//   /sensor/theta (NaN where the reading failed), /sensor/status
+//   /drive/t_received, /sensor/t_received: when the host received each
+//   sample, mapped onto the board's clock (attribute board_clock_offset_ns;
+//   on the virtual clock: the host's wall time since the start)
+//   /observer/t, theta_hat, theta_dot_hat, x_hat, z_hat, F_hat, residual
+//   (measured minus predicted, before correction), theta_open (open loop)
+//   /timing/drive_period_error_us, /timing/acquire_period_error_us (histogram
+//   counts, 1 us bins), written whole at the end.
+
+#include <array>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace piezo::host::log_schema {
+
+using Column = std::vector<double>;
+
+struct DriveRows {
+  Column t, V, phase, status, t_received;
+};
+struct SensorRows {
+  Column t, t_response, displacement_m, theta, status, t_received;
+};
+struct ObserverRows {
+  Column t, theta_hat, theta_dot_hat, x_hat, z_hat, F_hat, residual, theta_open;
+};
+
+/// Samples waiting to be appended: one typed column per dataset, so adding
+/// a sample is a push_back, not a lookup.
+struct LogRows {
+  DriveRows drive;
+  SensorRows sensor;
+  ObserverRows observer;
+};
+
+template <class Rows>
+struct Dataset {
+  std::string_view path;
+  Column Rows::*column;
+};
+
+inline constexpr std::array kDrive{
+    Dataset<DriveRows>{"/drive/t", &DriveRows::t},
+    Dataset<DriveRows>{"/drive/V", &DriveRows::V},
+    Dataset<DriveRows>{"/drive/phase", &DriveRows::phase},
+    Dataset<DriveRows>{"/drive/status", &DriveRows::status},
+    Dataset<DriveRows>{"/drive/t_received", &DriveRows::t_received},
+};
+inline constexpr std::array kSensor{
+    Dataset<SensorRows>{"/sensor/t", &SensorRows::t},
+    Dataset<SensorRows>{"/sensor/t_response", &SensorRows::t_response},
+    Dataset<SensorRows>{"/sensor/displacement_m", &SensorRows::displacement_m},
+    Dataset<SensorRows>{"/sensor/theta", &SensorRows::theta},
+    Dataset<SensorRows>{"/sensor/status", &SensorRows::status},
+    Dataset<SensorRows>{"/sensor/t_received", &SensorRows::t_received},
+};
+inline constexpr std::array kObserver{
+    Dataset<ObserverRows>{"/observer/t", &ObserverRows::t},
+    Dataset<ObserverRows>{"/observer/theta_hat", &ObserverRows::theta_hat},
+    Dataset<ObserverRows>{"/observer/theta_dot_hat", &ObserverRows::theta_dot_hat},
+    Dataset<ObserverRows>{"/observer/x_hat", &ObserverRows::x_hat},
+    Dataset<ObserverRows>{"/observer/z_hat", &ObserverRows::z_hat},
+    Dataset<ObserverRows>{"/observer/F_hat", &ObserverRows::F_hat},
+    Dataset<ObserverRows>{"/observer/residual", &ObserverRows::residual},
+    Dataset<ObserverRows>{"/observer/theta_open", &ObserverRows::theta_open},
+};
+
+constexpr const auto& datasets(const DriveRows*) {
+  return kDrive;
+}
+constexpr const auto& datasets(const SensorRows*) {
+  return kSensor;
+}
+constexpr const auto& datasets(const ObserverRows*) {
+  return kObserver;
+}
+
+/// The path of the dataset written from `column`, e.g. path(&DriveRows::V).
+template <class Rows>
+std::string path(Column Rows::*column) {
+  for (const auto& d : datasets(static_cast<const Rows*>(nullptr)))
+    if (d.column == column) return std::string(d.path);
+  return {};
+}
+
+/// Calls f(path, column) for every dataset of `rows`, group by group.
+template <class F>
+void for_each_column(LogRows& rows, F&& f) {
+  for (const auto& d : kDrive) f(d.path, rows.drive.*d.column);
+  for (const auto& d : kSensor) f(d.path, rows.sensor.*d.column);
+  for (const auto& d : kObserver) f(d.path, rows.observer.*d.column);
+}
+
+// Written whole at the end of a run.
+inline constexpr const char* kDrivePeriodErrorUs = "/timing/drive_period_error_us";
+inline constexpr const char* kAcquirePeriodErrorUs = "/timing/acquire_period_error_us";
+
+// Root attributes the readers use.
+inline constexpr const char* kStatus = "status";
+inline constexpr const char* kModelParameters = "model_parameters";
+inline constexpr const char* kDriveLatency = "drive_latency_s";
+
+}  // namespace piezo::host::log_schema
