@@ -21,8 +21,3 @@ class ConfigError : public std::runtime_error {
 };
 
 }  // namespace piezo::config
-
-// The host reads rig configs through the same names.
-namespace piezo::host {
-using namespace piezo::config;  // NOLINT(google-build-using-namespace)
-}  // namespace piezo::host

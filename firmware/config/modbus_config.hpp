@@ -30,8 +30,3 @@ void read_modbus_drive(SectionReader& r, hal::modbus::LinkSettings& link,
                        hal::modbus::AnalogOutputSettings& ao, AnalogOutputGuard& guard);
 
 }  // namespace piezo::config
-
-// The host reads rig configs through the same names.
-namespace piezo::host {
-using namespace piezo::config;  // NOLINT(google-build-using-namespace)
-}  // namespace piezo::host

@@ -38,8 +38,3 @@ namespace piezo::config {
 [[nodiscard]] toml::table parse_config_file(const std::string& path);
 
 }  // namespace piezo::config
-
-// The host reads rig configs through the same names.
-namespace piezo::host {
-using namespace piezo::config;  // NOLINT(google-build-using-namespace)
-}  // namespace piezo::host

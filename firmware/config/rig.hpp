@@ -52,8 +52,3 @@ struct SensorRig {
 [[nodiscard]] SensorRig build_sensor(const RunConfig& config);
 
 }  // namespace piezo::config
-
-// The host reads rig configs through the same names.
-namespace piezo::host {
-using namespace piezo::config;  // NOLINT(google-build-using-namespace)
-}  // namespace piezo::host

@@ -145,8 +145,3 @@ enum class ConfigScope { rig, sensor };
 void check_drive_hardware(const RunConfig& config, double hardware_V_min, double hardware_V_max);
 
 }  // namespace piezo::config
-
-// The host reads rig configs through the same names.
-namespace piezo::host {
-using namespace piezo::config;  // NOLINT(google-build-using-namespace)
-}  // namespace piezo::host

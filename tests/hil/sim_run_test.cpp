@@ -33,8 +33,8 @@ struct Outcome {
 Outcome run_virtual(std::vector<std::string> sets, const std::atomic<bool>* stop = nullptr,
                     const std::string& tag = "hil") {
   sets.push_back("run.clock=virtual");
-  const RunConfig config = load_run_config(PIEZO_SOURCE_DIR "/configs/sim.toml", sets);
-  Rig rig = build_rig(config);
+  const config::RunConfig config = config::load_run_config(PIEZO_SOURCE_DIR "/configs/sim.toml", sets);
+  config::Rig rig = config::build_rig(config);
   const auto dir = testing::fresh_temp_dir(tag);
   const std::string path = (dir / "run.h5").string();
   RunLog log = RunLog::create(path, {{"config", config.text}});
@@ -131,10 +131,10 @@ TEST(SimRun, EveryEndLeavesTheSimulatedAmplifierDisabled) {
 // building the rig and starting: the time origin is fixed after it, so the
 // first cycles are not late and the sensor is not taken for stale.
 TEST(SimRun, SlowSetUpBeforeTheStartIsNoSensorFault) {
-  const RunConfig config =
-      load_run_config(PIEZO_SOURCE_DIR "/configs/sim.toml",
+  const config::RunConfig config =
+      config::load_run_config(PIEZO_SOURCE_DIR "/configs/sim.toml",
                       {"run.duration_s=0.3", "run.lock_memory=false", "run.priority=0"});
-  Rig rig = build_rig(config);
+  config::Rig rig = config::build_rig(config);
   std::this_thread::sleep_for(std::chrono::milliseconds(400));
   const auto dir = testing::fresh_temp_dir("hil-slow-setup");
   RunLog log = RunLog::create((dir / "run.h5").string(), {{"config", config.text}});

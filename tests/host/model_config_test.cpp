@@ -6,7 +6,7 @@
 #include "config_error.hpp"
 #include "run_config.hpp"
 
-namespace piezo::host {
+namespace piezo::config {
 namespace {
 
 using piezo::testing::fresh_temp_dir;
@@ -96,11 +96,11 @@ TEST(ParameterOverride, RejectsBadInput) {
 }
 
 }  // namespace
-}  // namespace piezo::host
+}  // namespace piezo::config
 
 #include "run_config.hpp"
 
-namespace piezo::host {
+namespace piezo::config {
 namespace {
 
 // The shipped rig configs are valid as they stand (the devices they name
@@ -120,4 +120,4 @@ TEST(RigConfigs, ShippedConfigsLoad) {
 }
 
 }  // namespace
-}  // namespace piezo::host
+}  // namespace piezo::config

@@ -94,11 +94,11 @@ void write_outputs(const std::string& dir, const std::vector<model::SweepResult>
 }
 
 int run(const SensitivityOptions& o) {
-  model::Parameters base = o.config.empty() ? model::Parameters{} : load_model_config(o.config);
-  for (const auto& s : o.sets) apply_parameter_override(s, base);
-  require_valid(base, o.sets.empty() ? "config" : "--set");
+  model::Parameters base = o.config.empty() ? model::Parameters{} : config::load_model_config(o.config);
+  for (const auto& s : o.sets) config::apply_parameter_override(s, base);
+  config::require_valid(base, o.sets.empty() ? "config" : "--set");
   const auto friction = model::parse_friction_model(o.model);
-  if (!friction) throw ConfigError("--model", o.model, "allowed: lugre, coulomb");
+  if (!friction) throw config::ConfigError("--model", o.model, "allowed: lugre, coulomb");
 
   const auto sweeps = model::paper_sweeps();
   std::vector<LevelRun> runs;
@@ -108,7 +108,7 @@ int run(const SensitivityOptions& o) {
   // Validate every level before spending time on any run.
   for (const auto& run : runs) {
     const auto& sw = sweeps[run.sweep];
-    require_valid(model::with_level(base, sw.name, sw.levels[run.level]),
+    config::require_valid(model::with_level(base, sw.name, sw.levels[run.level]),
                   fmt::format("sweep {}={}", sw.name, sw.levels[run.level]));
   }
   const auto times = model::uniform_times(model::kSensitivityRuntime, kTraceInterval);

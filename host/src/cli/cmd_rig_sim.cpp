@@ -23,17 +23,17 @@ struct RigSimOptions {
 
 std::pair<std::string, int> split_host_port(const std::string& text) {
   const auto colon = text.rfind(':');
-  if (colon == std::string::npos) throw ConfigError("--tcp", text, "expected HOST:PORT");
+  if (colon == std::string::npos) throw config::ConfigError("--tcp", text, "expected HOST:PORT");
   try {
     const int port = std::stoi(text.substr(colon + 1));
     if (port < 1 || port > 65535) throw std::out_of_range("port");
     return {text.substr(0, colon), port};
   } catch (const std::logic_error&) {
-    throw ConfigError("--tcp", text, "port must be a number in [1, 65535]");
+    throw config::ConfigError("--tcp", text, "port must be a number in [1, 65535]");
   }
 }
 
-hal::sim::ModbusRigDeviceSettings device_settings(const RunConfig& c) {
+hal::sim::ModbusRigDeviceSettings device_settings(const config::RunConfig& c) {
   hal::sim::ModbusRigDeviceSettings s;
   s.plant = c.plant;
   s.amplifier = c.drive.amplifier;
@@ -48,7 +48,7 @@ hal::sim::ModbusRigDeviceSettings device_settings(const RunConfig& c) {
 }
 
 int run(const RigSimOptions& o) {
-  const RunConfig config = load_run_config(o.config, o.sets, ConfigScope::sensor);
+  const config::RunConfig config = config::load_run_config(o.config, o.sets, config::ConfigScope::sensor);
   std::string tcp = o.tcp;
   if (tcp.empty() && o.rtu.empty()) {
     tcp = config.sensor.link.host + ":" + std::to_string(config.sensor.link.port);

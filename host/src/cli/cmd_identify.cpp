@@ -25,9 +25,9 @@ struct IdentifyOptions {
 
 int run(const IdentifyOptions& o) {
   const auto friction = model::parse_friction_model(o.model);
-  if (!friction) throw ConfigError("--model", o.model, "allowed: lugre, coulomb");
+  if (!friction) throw config::ConfigError("--model", o.model, "allowed: lugre, coulomb");
   LoadedRun run = load_run_for_fit(o.log);
-  if (!o.config.empty()) run.parameters = load_model_config(o.config);
+  if (!o.config.empty()) run.parameters = config::load_model_config(o.config);
   const model::FitResult r =
       model::identify(run.parameters, run.data,
                       cli_fit_settings(parse_parameter_list(o.params), *friction, "identify"));

@@ -26,10 +26,10 @@ struct ClockMapping {
 
 /// Asks the board for the config's waveform and duration; a refusal (beyond
 /// the board's limits) becomes a ConfigError naming the key.
-void configure_remote(const RunConfig& config, RigClient& client);
+void configure_remote(const config::RunConfig& config, RigClient& client);
 
 /// Runs what configure_remote set up; `hello` is the daemon's hello.
-[[nodiscard]] RunSummary execute_remote_run(const RunConfig& config, RigClient& client,
+[[nodiscard]] RunSummary execute_remote_run(const config::RunConfig& config, RigClient& client,
                                             const nlohmann::json& hello, RunLog& log,
                                             const std::atomic<bool>& stop,
                                             const std::function<void(const LiveStatus&)>& on_status,

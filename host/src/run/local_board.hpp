@@ -19,7 +19,7 @@ namespace piezo::host {
 class LocalBoard {
  public:
   /// Serves `rig` with the config's own limits as the board's.
-  LocalBoard(const RunConfig& config, Rig rig);
+  LocalBoard(const config::RunConfig& config, config::Rig rig);
   /// Stops the daemon (a run under way ramps down first) and joins it.
   ~LocalBoard();
   LocalBoard(const LocalBoard&) = delete;

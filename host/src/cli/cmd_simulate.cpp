@@ -52,13 +52,13 @@ void write_trajectory(const std::string& path, const model::Trajectory& tr,
 }
 
 int run(const SimulateOptions& o) {
-  model::Parameters p = o.config.empty() ? model::Parameters{} : load_model_config(o.config);
-  for (const auto& s : o.sets) apply_parameter_override(s, p);
-  require_valid(p, o.sets.empty() ? (o.config.empty() ? "defaults" : o.config) : "--set");
+  model::Parameters p = o.config.empty() ? model::Parameters{} : config::load_model_config(o.config);
+  for (const auto& s : o.sets) config::apply_parameter_override(s, p);
+  config::require_valid(p, o.sets.empty() ? (o.config.empty() ? "defaults" : o.config) : "--set");
   const auto friction = model::parse_friction_model(o.model);
-  if (!friction) throw ConfigError("--model", o.model, "allowed: lugre, coulomb");
+  if (!friction) throw config::ConfigError("--model", o.model, "allowed: lugre, coulomb");
   if (!o.out.empty() && !ends_with(o.out, ".csv") && !ends_with(o.out, ".h5")) {
-    throw ConfigError("--out", o.out, "must end in .csv or .h5");
+    throw config::ConfigError("--out", o.out, "must end in .csv or .h5");
   }
 
   const model::Sawtooth drive(p.drive.V0, p.drive.f, p.drive.D());

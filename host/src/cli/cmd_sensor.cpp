@@ -21,8 +21,8 @@ struct SensorReadOptions {
 };
 
 int run(const SensorReadOptions& o) {
-  const RunConfig config = load_run_config(o.config, o.sets, ConfigScope::sensor);
-  SensorRig rig = build_sensor(config);
+  const config::RunConfig config = config::load_run_config(o.config, o.sets, config::ConfigScope::sensor);
+  config::SensorRig rig = config::build_sensor(config);
   hal::Clock& clock = *rig.clock;
   const auto period = hal::from_seconds(1.0 / config.sensor.rate_hz());
   const hal::TimeNs t0 = clock.now();
@@ -53,7 +53,7 @@ int run(const SensorReadOptions& o) {
   } else {
     fmt::print(
         "{} readings, {} errors ({} sensor, {})\n", o.count, errors, name(config.sensor.backend),
-        config.sensor.backend == SensorBackend::sim ? "simulated" : config.sensor.link.describe());
+        config.sensor.backend == config::SensorBackend::sim ? "simulated" : config.sensor.link.describe());
   }
   return errors == o.count ? 1 : 0;
 }

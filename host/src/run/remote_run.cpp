@@ -120,7 +120,7 @@ firmware::StopCause stop_cause_from(const std::string& name) {
   return StopCause::drive_fault;
 }
 
-void configure_remote(const RunConfig& c, RigClient& client) {
+void configure_remote(const config::RunConfig& c, RigClient& client) {
   const auto& d = c.model.drive;
   try {
     (void)client.call("configure", {{"V0", d.V0},
@@ -130,7 +130,7 @@ void configure_remote(const RunConfig& c, RigClient& client) {
                                     {"duration_s", c.run.duration_s}});
   } catch (const RemoteError& e) {
     const std::string key = e.key() == "duration_s" ? "run.duration_s" : "drive." + e.key();
-    throw ConfigError("piezod at " + client.address(), key,
+    throw config::ConfigError("piezod at " + client.address(), key,
                       fmt::format("refused by the board ({}): {}", e.code(), e.what()));
   }
 }
@@ -149,7 +149,7 @@ ClockMapping estimate_clock_offset(RigClient& client, int round_trips) {
   return best;
 }
 
-RunSummary execute_remote_run(const RunConfig& c, RigClient& client, const json& hello, RunLog& log,
+RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, const json& hello, RunLog& log,
                               const std::atomic<bool>& stop,
                               const std::function<void(const LiveStatus&)>& on_status,
                               std::optional<double> lease) {

@@ -35,7 +35,7 @@ int main(int argc, char** argv) {
     for (const auto& command : commands) {
       if (const int code = command(); code >= 0) return code;
     }
-  } catch (const piezo::host::ConfigError& e) {
+  } catch (const piezo::config::ConfigError& e) {
     fmt::print(stderr, "piezo: error: {}\n", e.what());
     return kExitBadInput;
   } catch (const std::exception& e) {

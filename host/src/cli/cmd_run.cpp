@@ -61,7 +61,7 @@ std::string host_name() {
 fs::path choose_run_dir(const std::string& out) {
   const fs::path dir = out.empty() ? fs::path("runs") / utc_stamp("%Y%m%dT%H%M%SZ") : fs::path(out);
   if (fs::exists(dir) && !(fs::is_directory(dir) && fs::is_empty(dir))) {
-    throw ConfigError("--out", dir.string(), "exists and is not an empty directory");
+    throw config::ConfigError("--out", dir.string(), "exists and is not an empty directory");
   }
   return dir;
 }
@@ -167,7 +167,7 @@ std::string summary_text(const RunSummary& s, const fs::path& log, const std::st
 }
 
 void append_catalogue(const fs::path& run_dir, const std::string& utc_start,
-                      const RunConfig& config, const RunSummary& s) {
+                      const config::RunConfig& config, const RunSummary& s) {
   const fs::path catalogue = fs::absolute(run_dir).parent_path() / "catalogue.csv";
   const bool fresh = !fs::exists(catalogue);
   std::ofstream out(catalogue, std::ios::app);
@@ -225,16 +225,16 @@ int run(const RunOptions& o) {
   const StopOnSignals signals;
   std::vector<std::string> sets = o.sets;
   if (o.duration > 0.0) sets.push_back(fmt::format("run.duration_s={}", o.duration));
-  RunConfig config = load_run_config(o.config, sets);
+  config::RunConfig config = config::load_run_config(o.config, sets);
   if (!o.rig.empty()) config.rig.address = o.rig;
   const fs::path dir = choose_run_dir(o.out);
   // The rig: piezod at an address, or the firmware in this process.
-  std::optional<Rig> rig;
+  std::optional<config::Rig> rig;
   std::optional<RigClient> client;
   nlohmann::json hello;
   double drive_latency_s = 0.0;
   if (config.rig.address.empty()) {
-    rig.emplace(build_rig(config));
+    rig.emplace(config::build_rig(config));
     drive_latency_s = rig->drive->output_latency_s();
   } else {
     client.emplace(config.rig);
