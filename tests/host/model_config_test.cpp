@@ -55,6 +55,15 @@ TEST_F(ModelConfig, UnknownKeyIsNamed) {
   expect_error(file("[model]\nsigma3 = 1\n"), "model.sigma3", "unknown key");
 }
 
+// The allowed keys are the ones the section's reader asked for: the error
+// lists them, and a rig key read by the model commands is checked too.
+TEST_F(ModelConfig, TheUnknownKeysErrorListsWhatTheReaderRead) {
+  expect_error(file("[plant]\nmuu = 1\n"), "plant.muu", "allowed: d_e, M, J, C, K, r, mu, F_N");
+  expect_error(file("[drive]\nV0 = 60\nrate_hz = 10\n"), "drive.rate_hz", "[100, 100000] Hz");
+  expect_error(file("[sensor]\nbackend = \"laser\"\n"), "sensor.backend",
+               "\"sim\", \"modbus-tcp\", \"modbus-rtu\"");
+}
+
 TEST_F(ModelConfig, UnknownSectionIsNamed) {
   expect_error(file("[modle]\nM = 1\n"), "modle", "unknown section");
 }
