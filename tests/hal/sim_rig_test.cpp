@@ -195,7 +195,9 @@ TEST(SimRig, DriveLinesAndSensorShareOnePlant) {
   const double d0 = rig.sensor().read().displacement_m;
   const model::Sawtooth saw(80.0, 10.0, 0.75);
   for (TimeNs k = 0; k < 2000; ++k) {  // 0.2 s at 10 kHz, the first 0.1 s disabled
-    if (k == 1000) ASSERT_EQ(rig.lines().set_amplifier_enable(true), Status::ok);
+    if (k == 1000) {
+      ASSERT_EQ(rig.lines().set_amplifier_enable(true), Status::ok);
+    }
     clock.sleep_until(k * 100'000);
     ASSERT_EQ(rig.drive().write(saw.voltage(static_cast<double>(k) * 1e-4)), Status::ok);
     if (k == 999) {

@@ -13,8 +13,8 @@ namespace piezo::host {
 RunLog RunLog::create(const std::string& path, const std::map<std::string, std::string>& header) {
   RunLog log(H5File::create_log(path));
   LogRows none;
-  log_schema::for_each_column(none, [&](std::string_view path, const auto&) {
-    log.file_.create_growing(std::string(path));
+  log_schema::for_each_column(none, [&](std::string_view dataset, const auto&) {
+    log.file_.create_growing(std::string(dataset));
   });
   for (const auto& [name, value] : header) log.file_.set_attribute("/", name, value);
   log.file_.set_attribute("/", log_schema::kStatus, "incomplete");
