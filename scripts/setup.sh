@@ -1,12 +1,25 @@
 #!/usr/bin/env bash
 # Installs what piezo-rig needs from Debian 12 (apt-get, as root or via sudo)
-# and builds it. Usage: scripts/setup.sh [preset] [--gpio-sim]
+# and builds it. Usage: scripts/setup.sh [preset] [--gpio-sim] [--arm64]
 # (default preset: default; --gpio-sim adds what the gpio-sim test needs:
-# qemu, busybox-static, the kernel source and its build tools)
+# qemu, busybox-static, the kernel source and its build tools; --arm64, or
+# the preset arm64, adds Debian's arm64 cross toolchain, the :arm64 -dev
+# packages (dpkg --add-architecture arm64) and qemu-user, and builds the
+# board build in build/arm64 as well)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-preset="${1:-default}"
-gpio_sim="${2:-}"
+preset="default"
+gpio_sim=""
+arm64=""
+for arg in "$@"; do
+  case "$arg" in
+    --gpio-sim) gpio_sim=yes ;;
+    --arm64) arm64=yes ;;
+    -*) echo "setup: unknown option $arg" >&2; exit 2 ;;
+    *) preset="$arg" ;;
+  esac
+done
+[ "$preset" = arm64 ] && arm64=yes
 
 packages=(
   build-essential cmake pkg-config git
@@ -15,21 +28,37 @@ packages=(
   gnuplot-nox python3 python3-h5py python3-numpy
   rt-tests libgpiod-dev libmodbus-dev mbpoll socat python3-pymodbus python3-serial-asyncio
   libzmq3-dev cppzmq-dev python3-zmq python3-msgpack clang libclang-rt-14-dev
+  libsystemd-dev debootstrap iproute2
 )
-if [ "$gpio_sim" = "--gpio-sim" ]; then
+if [ -n "$arm64" ]; then
+  packages+=(g++-aarch64-linux-gnu qemu-user)
+  for p in libzmq3-dev cppzmq-dev libmodbus-dev libgpiod-dev libfmt-dev libgtest-dev \
+           libtomlplusplus-dev libsystemd-dev; do
+    packages+=("$p:arm64")
+  done
+fi
+if [ -n "$gpio_sim" ]; then
   packages+=(qemu-system-x86 busybox-static linux-source-6.1 bc flex bison libelf-dev cpio xz-utils)
 fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
+sudo_cmd=()
+[ "$(id -u)" -eq 0 ] || sudo_cmd=(sudo)
+if [ -n "$arm64" ] && ! dpkg --print-foreign-architectures | grep -qx arm64; then
+  echo "setup: dpkg --add-architecture arm64"
+  "${sudo_cmd[@]}" dpkg --add-architecture arm64
+fi
 if ((${#missing[@]})); then
   echo "setup: installing ${missing[*]}"
-  sudo_cmd=()
-  [ "$(id -u)" -eq 0 ] || sudo_cmd=(sudo)
   "${sudo_cmd[@]}" apt-get update -q
   DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
 
+if [ -n "$arm64" ] && [ "$preset" != arm64 ]; then
+  cmake --preset arm64 >/dev/null
+  cmake --build --preset arm64 -j "$(nproc)"
+fi
 cmake --preset "$preset" >/dev/null
 cmake --build --preset "$preset" -j "$(nproc)"

@@ -1,12 +1,17 @@
 #!/usr/bin/env bash
 # Quick start, second command: set up, then build and run the whole test
-# suite in the optimised build (warnings as errors) and under
-# AddressSanitizer + UndefinedBehaviorSanitizer, and the threaded suites
-# under ThreadSanitizer.
+# suite in the optimised build (warnings as errors, with the deploy tests:
+# packages, systemd notify, the netns link cut, the arm64 piezod under
+# qemu-aarch64 against the native host), the board build's own tests under
+# qemu-aarch64, the whole suite under AddressSanitizer +
+# UndefinedBehaviorSanitizer, and the threaded suites under ThreadSanitizer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/setup.sh ci --gpio-sim
+scripts/setup.sh ci --gpio-sim --arm64
 ctest --preset ci -j "$(nproc)"
+# The board build's tests run under the emulator: the command line shows it.
+ctest --test-dir build/arm64 -R piezod_version -V | grep -E "Test command|^[0-9]+: piezod"
+ctest --preset arm64 -j "$(nproc)"
 cmake --preset asan >/dev/null
 cmake --build --preset asan -j "$(nproc)"
 ctest --preset asan -j "$(nproc)"

@@ -164,7 +164,18 @@ bool Daemon::running() const {
   return run_ && !run_->finished;
 }
 
-void Daemon::serve(const std::atomic<bool>& stop) {
+bool Daemon::drive_loop_progressing() {
+  const auto now = Clock::now();
+  const std::uint64_t cycles = running() ? run_->runner->drive_health().cycles.load() : 0;
+  if (!running() || cycles != last_drive_cycles_ || board_.virtual_clock()) {
+    last_drive_cycles_ = cycles;
+    last_drive_progress_ = now;
+    return true;
+  }
+  return now - last_drive_progress_ < std::chrono::seconds(1);
+}
+
+void Daemon::serve(const std::atomic<bool>& stop, const std::function<void()>& alive) {
   bool stopping = false;
   while (true) {
     if (stop.load() && !stopping) {
@@ -176,6 +187,7 @@ void Daemon::serve(const std::atomic<bool>& stop) {
     }
     if (stopping && !running()) break;
     poll_once();
+    if (alive && drive_loop_progressing()) alive();
   }
   log_event("stopped");
 }
@@ -419,10 +431,19 @@ json Daemon::start(const std::string& client, const json& args) {
       return now_ns() - r->lease_renewed_ns.load() < lease_ns &&
              r->drive_recorded.load() > r->drive_acked.load() + window;
     };
-  } else {
-    run->remote.lease_deadline = rig_.clock->now() + hal::from_seconds(lease_s);
   }
-  run->t0 = run->runner->start([this](hal::TimeNs t0) { rig_.start_at(t0); }, lagging);
+  // The lease counts from the time origin, fixed once the loops are set up:
+  // the real-time set-up (mlockall, thread priorities) may take longer than
+  // a lease on a slow board, and the client renews only once it has the
+  // start's reply.
+  Run* starting = run.get();
+  run->t0 = run->runner->start(
+      [this, starting, virtual_clock, lease_s, now_ns](hal::TimeNs t0) {
+        rig_.start_at(t0);
+        starting->lease_renewed_ns = now_ns();
+        if (!virtual_clock) starting->remote.lease_deadline = t0 + hal::from_seconds(lease_s);
+      },
+      lagging);
   controller_ = client;
   run_ = std::move(run);
   state_ = State::running;

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -44,8 +45,10 @@ class Daemon {
   Daemon& operator=(const Daemon&) = delete;
 
   /// Serves until `stop` is set; a run under way is stopped (ramp to 0 V,
-  /// amplifier disabled) before it returns.
-  void serve(const std::atomic<bool>& stop);
+  /// amplifier disabled) before it returns. `alive` is called from every
+  /// turn of the loop while the daemon and a run's drive loop make progress
+  /// (the service watchdog): a hung daemon or drive loop stops calling it.
+  void serve(const std::atomic<bool>& stop, const std::function<void()>& alive = {});
 
   [[nodiscard]] const std::string& command_endpoint() const { return command_endpoint_; }
   [[nodiscard]] const std::string& stream_endpoint() const { return stream_endpoint_; }
@@ -78,6 +81,9 @@ class Daemon {
   void check_lease_on_wall_clock();
   void log_event(const std::string& line);
   [[nodiscard]] bool running() const;
+  /// False once a run's drive loop has counted no cycle for a second on
+  /// the real clock.
+  [[nodiscard]] bool drive_loop_progressing();
 
   config::RunConfig board_;
   std::ostream& log_;
@@ -97,6 +103,8 @@ class Daemon {
   std::optional<SpillFile> spill_;
   std::uint64_t drive_published_ = 0, sensor_published_ = 0;
   std::chrono::steady_clock::time_point last_health_;
+  std::uint64_t last_drive_cycles_ = 0;
+  std::chrono::steady_clock::time_point last_drive_progress_;
 };
 
 }  // namespace piezo::daemon

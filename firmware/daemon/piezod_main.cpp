@@ -11,6 +11,7 @@
 #include "curve.hpp"
 #include "daemon.hpp"
 #include "run_config.hpp"
+#include "service_manager.hpp"
 
 namespace {
 
@@ -59,8 +60,11 @@ int main(int argc, char** argv) {
     auto board = piezo::config::load_run_config(config_path, sets);
     if (insecure) board.daemon.insecure = true;
     zmq::context_t context;
+    piezo::daemon::ServiceManager service;
     piezo::daemon::Daemon daemon(board, context, listen, std::cerr);
-    daemon.serve(g_stop);
+    service.ready();  // the hardware is open and the sockets bound
+    daemon.serve(g_stop, [&service] { service.alive(); });
+    service.stopping();
     return 0;
   } catch (const piezo::config::ConfigError& e) {
     std::cerr << "piezod: " << e.what() << "\n";

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <thread>
 
+#include "../support/emulation.hpp"
 #include "piezo/firmware/drive_loop.hpp"
 #include "piezo/hal/gpio/gpio_digital_lines.hpp"
 #include "piezo/hal/gpio/parallel_dac.hpp"
@@ -188,6 +189,7 @@ TEST(GpioLevels, IdleLevelsAreInactiveInEveryPolarity) {
 // e-stop must not wait for the write. Its watcher drops the enable line
 // (active low: physical high) while the loop is still inside the write.
 TEST(GpioDigitalLines, AnEstopDropsTheEnableLineWhileTheDriveWriteBlocks) {
+  PIEZO_SKIP_TIMING_UNDER_EMULATION();
   posix::MonotonicClock clock;
   RecordingOutputLines outputs(2, &clock);
   SimInputLine estop(1);

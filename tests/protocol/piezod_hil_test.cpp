@@ -84,9 +84,10 @@ TEST_F(Piezod, RunOverTheProtocolMatchesTheInProcessRun) {
                   (dir_ / "remote" / "run.h5").string() +
                   "'); t = f['sensor/t'][:]; print(f.attrs['status'].decode(), len(t), "
                   "bool(np.all(np.diff(t) > 0)), 'board_clock_offset_ns' in f.attrs, "
-                  "f.attrs['stream_gaps_fetched'].decode())\"");
-  EXPECT_EQ(check.out,
-            fmt::format("completed {} True True none\n", r.at("sensor").at("samples").get<long>()))
+                  "f.attrs['stream_gaps_fetched'].decode(), f.attrs['link_outages'].decode())\"");
+  // No gap and no outage on an undisturbed link.
+  EXPECT_EQ(check.out, fmt::format("completed {} True True none none\n",
+                                   r.at("sensor").at("samples").get<long>()))
       << check.err;
 }
 

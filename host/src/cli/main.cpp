@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
+#include <string>
 
 #include "commands.hpp"
 #include "config_error.hpp"
@@ -13,6 +14,7 @@ constexpr int kExitBadInput = 2;
 
 int main(int argc, char** argv) {
   CLI::App app{"piezo: drive, log and model stick-slip piezoelectric rotary motors"};
+  app.set_version_flag("--version", std::string("piezo ") + PIEZO_VERSION);
   app.require_subcommand(1);
   const std::vector<piezo::host::CommandRunner> commands{
       piezo::host::add_simulate_command(app), piezo::host::add_sensitivity_command(app),
@@ -26,6 +28,8 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     app.exit(e);

@@ -131,7 +131,7 @@ void configure_remote(const config::RunConfig& c, RigClient& client) {
   } catch (const RemoteError& e) {
     const std::string key = e.key() == "duration_s" ? "run.duration_s" : "drive." + e.key();
     throw config::ConfigError("piezod at " + client.address(), key,
-                      fmt::format("refused by the board ({}): {}", e.code(), e.what()));
+                              fmt::format("refused by the board ({}): {}", e.code(), e.what()));
   }
 }
 
@@ -149,8 +149,8 @@ ClockMapping estimate_clock_offset(RigClient& client, int round_trips) {
   return best;
 }
 
-RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, const json& hello, RunLog& log,
-                              const std::atomic<bool>& stop,
+RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, const json& hello,
+                              RunLog& log, const std::atomic<bool>& stop,
                               const std::function<void(const LiveStatus&)>& on_status,
                               std::optional<double> lease) {
   RunSummary summary;
@@ -251,9 +251,12 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
     // (published while the link was down): ask for it.
     const std::string board_state = health.value("state", std::string("running"));
     const bool board_done = board_state == "idle" || board_state == "fault";
-    if (board_done || now - last_heard >= kQuietBeforeAsking) {
+    const bool quiet = now - last_heard >= kQuietBeforeAsking;
+    if (board_done || quiet) {
       // Quiet stream: the link may be down, or the run's end went unheard.
-      if (std::isnan(quiet_since_s)) {
+      // Only silence is an outage: a board that looks done (the health
+      // published before the start may still say idle) is just asked.
+      if (quiet && std::isnan(quiet_since_s)) {
         quiet_since_s = board_run_s() - std::chrono::duration<double>(now - last_heard).count();
       }
       try {

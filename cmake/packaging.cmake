@@ -1,0 +1,55 @@
+# Debian packages through CPack: `piezod` (the board: daemon, /etc/piezod.toml
+# as a conffile, the systemd unit, its user) and, where the host is built,
+# `piezo` (the host tools). `cpack -G DEB` in a build directory writes them.
+include(GNUInstallDirs)
+
+install(TARGETS piezod RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT piezod)
+# The board's config starts as the simulated rig: the service runs at once,
+# touching no hardware, until the researcher names the real backends.
+install(FILES ${PROJECT_SOURCE_DIR}/configs/piezod-sim.toml DESTINATION /etc
+        RENAME piezod.toml COMPONENT piezod)
+install(FILES ${PROJECT_SOURCE_DIR}/firmware/daemon/systemd/piezod.service
+        DESTINATION lib/systemd/system COMPONENT piezod)
+install(FILES ${PROJECT_SOURCE_DIR}/docs/protocol.md
+        DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/piezod COMPONENT piezod)
+install(FILES ${PROJECT_SOURCE_DIR}/configs/rig-example.toml
+        DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/piezod/examples COMPONENT piezod)
+if(PIEZO_HOST)
+  install(TARGETS piezo RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT piezo)
+  install(FILES ${PROJECT_SOURCE_DIR}/README.md ${PROJECT_SOURCE_DIR}/configs/sim.toml
+          ${PROJECT_SOURCE_DIR}/configs/modbus-hil.toml ${PROJECT_SOURCE_DIR}/configs/paper.toml
+          DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/piezo COMPONENT piezo)
+endif()
+
+set(CPACK_GENERATOR DEB)
+set(CPACK_PACKAGE_NAME piezo-rig)
+set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})
+set(CPACK_PACKAGE_CONTACT "piezo-rig maintainers <piezo-rig@localhost>")
+set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
+set(CPACK_DEB_COMPONENT_INSTALL ON)
+set(CPACK_STRIP_FILES ON)
+set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
+set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
+set(CPACK_DEBIAN_PACKAGE_SECTION science)
+if(CMAKE_SYSTEM_PROCESSOR STREQUAL "aarch64")
+  set(CPACK_DEBIAN_PACKAGE_ARCHITECTURE arm64)
+endif()
+set(CPACK_COMPONENTS_ALL piezod)
+if(PIEZO_HOST)
+  list(APPEND CPACK_COMPONENTS_ALL piezo)
+endif()
+set(CPACK_DEBIAN_PIEZOD_PACKAGE_NAME piezod)
+set(CPACK_DEBIAN_PIEZOD_DESCRIPTION
+    "piezo-rig board daemon: the drive-and-acquire firmware of a stick-slip piezo motor rig")
+set(CPACK_DEBIAN_PIEZOD_PACKAGE_DEPENDS "passwd")
+set(CPACK_DEBIAN_PIEZOD_PACKAGE_CONTROL_EXTRA
+    ${PROJECT_SOURCE_DIR}/firmware/daemon/debian/conffiles
+    ${PROJECT_SOURCE_DIR}/firmware/daemon/debian/postinst
+    ${PROJECT_SOURCE_DIR}/firmware/daemon/debian/prerm
+    ${PROJECT_SOURCE_DIR}/firmware/daemon/debian/postrm)
+set(CPACK_DEBIAN_PIEZOD_PACKAGE_CONTROL_STRICT_PERMISSION ON)
+set(CPACK_DEBIAN_PIEZO_PACKAGE_NAME piezo)
+set(CPACK_DEBIAN_PIEZO_DESCRIPTION
+    "piezo-rig host tools: runs, logs, observer, identification and sensitivity of the rig")
+set(CPACK_DEBIAN_PIEZO_PACKAGE_DEPENDS "gnuplot-nox")
+include(CPack)
