@@ -30,20 +30,26 @@ struct Outcome {
   std::vector<double> drive_t, drive_V, drive_phase, sensor_t, theta;
 };
 
-Outcome run_virtual(std::vector<std::string> sets, const std::atomic<bool>* stop = nullptr,
+/// With `stop_at_s`, the host is asked to stop once the run has reached that
+/// time (as a user pressing Ctrl-C mid-run), whatever the set-up took.
+Outcome run_virtual(std::vector<std::string> sets, double stop_at_s = -1.0,
                     const std::string& tag = "hil") {
   sets.push_back("run.clock=virtual");
-  const config::RunConfig config = config::load_run_config(PIEZO_SOURCE_DIR "/configs/sim.toml", sets);
+  const config::RunConfig config =
+      config::load_run_config(PIEZO_SOURCE_DIR "/configs/sim.toml", sets);
   config::Rig rig = config::build_rig(config);
   const auto dir = testing::fresh_temp_dir(tag);
   const std::string path = (dir / "run.h5").string();
   RunLog log = RunLog::create(path, {{"config", config.text}});
-  static const std::atomic<bool> never{false};
+  std::atomic<bool> stop{false};
+  const auto on_status = [&stop, stop_at_s](const LiveStatus& status) {
+    if (stop_at_s >= 0.0 && status.t_s >= stop_at_s) stop.store(true);
+  };
   Outcome out;
   // The device side: the simulated amplifier the drive and lines act on,
   // kept here while the rig goes to the in-process piezod.
   const std::shared_ptr<const hal::sim::SimRig> device = rig.sim;
-  out.summary = execute_run(config, std::move(rig), log, stop ? *stop : never, {});
+  out.summary = execute_run(config, std::move(rig), log, stop, on_status);
   out.amplifier_enabled_at_end = device->plant().enabled();
   out.amplifier_V_at_end = device->plant().latest().V_out;
   log.close(out.summary.status());
@@ -133,7 +139,7 @@ TEST(SimRun, EveryEndLeavesTheSimulatedAmplifierDisabled) {
 TEST(SimRun, SlowSetUpBeforeTheStartIsNoSensorFault) {
   const config::RunConfig config =
       config::load_run_config(PIEZO_SOURCE_DIR "/configs/sim.toml",
-                      {"run.duration_s=0.3", "run.lock_memory=false", "run.priority=0"});
+                              {"run.duration_s=0.3", "run.lock_memory=false", "run.priority=0"});
   config::Rig rig = config::build_rig(config);
   std::this_thread::sleep_for(std::chrono::milliseconds(400));
   const auto dir = testing::fresh_temp_dir("hil-slow-setup");
@@ -181,15 +187,11 @@ TEST(SimRun, DropoutsAreCountedAndTheRunGoesOn) {
 }
 
 TEST(SimRun, AStopRequestRampsDownAndEndsInterrupted) {
-  std::atomic<bool> stop{false};
-  std::thread stopper([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    stop.store(true);
-  });
-  const Outcome o = run_virtual({"run.duration_s=10000"}, &stop, "hil-stop");
-  stopper.join();
+  const Outcome o = run_virtual({"run.duration_s=10000"}, 0.2, "hil-stop");
   EXPECT_EQ(o.summary.cause, firmware::StopCause::interrupted);
   EXPECT_EQ(o.summary.status(), "interrupted");
+  ASSERT_FALSE(o.drive_V.empty());
+  EXPECT_GE(o.drive_t.back(), 0.2);
   EXPECT_DOUBLE_EQ(o.drive_V.back(), 0.0);
   EXPECT_LT(o.drive_t.back(), 10000.0);
 }
