@@ -137,5 +137,31 @@ TEST(SensitivityCli, BadBaselineIsRejectedBeforeRunning) {
   EXPECT_EQ(r.err.find("runs done"), std::string::npos);
 }
 
+// The broader frequency range: both models side by side, a table and a
+// plot, and the fall of stick-slip past the stator's useful range named.
+TEST(SweepCli, FrequencySweepWritesBothModelsAndAPlot) {
+  const auto dir = fresh_temp_dir("cli-sweep");
+  const auto r = run_command(kPiezo + " sweep --param f --from 1 --to 2000 --points 8 --log " +
+                             "--periods 10 --json --out " + dir.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j.at("values").size(), 8u);
+  for (const char* m : {"lugre", "coulomb"}) {
+    const auto& v = j.at(m).at("mean_velocity_rad_s");
+    ASSERT_EQ(v.size(), 8u) << m;
+    EXPECT_LT(std::abs(v.at(0).get<double>()), 1e-5) << m << ": at 1 Hz both edges stick";
+    EXPECT_FALSE(j.at(m).at("stops_working_at").is_null()) << m;
+  }
+  EXPECT_TRUE(std::filesystem::exists(dir / "sweep.png"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "sweep.csv"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST(SweepCli, AnUnknownParameterIsRefused) {
+  const auto r = run_command(kPiezo + " sweep --param fq --from 1 --to 10");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--param: fq"), std::string::npos) << r.err;
+}
+
 }  // namespace
 }  // namespace piezo::testing

@@ -11,6 +11,7 @@ using CommandRunner = std::function<int()>;
 
 CommandRunner add_simulate_command(CLI::App& app);
 CommandRunner add_sensitivity_command(CLI::App& app);
+CommandRunner add_sweep_command(CLI::App& app);
 CommandRunner add_run_command(CLI::App& app);
 CommandRunner add_report_command(CLI::App& app);
 CommandRunner add_sensor_command(CLI::App& app);
