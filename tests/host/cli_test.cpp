@@ -137,6 +137,49 @@ TEST(SensitivityCli, BadBaselineIsRejectedBeforeRunning) {
   EXPECT_EQ(r.err.find("runs done"), std::string::npos);
 }
 
+// Global sensitivity on the motor: the Sobol' indices of four parameters
+// varied at once, checked against OpenTURNS on the very same design and
+// outputs, and the Morris screening ranking them in the same order.
+TEST(SensitivityCli, SobolAgreesWithOpenTurnsAndMorrisRanksTheSame) {
+  const auto dir = fresh_temp_dir("cli-sobol");
+  const std::string common = " --params V0,f,mu,D --runtime 0.5 --seed 3 --json";
+  const auto sobol = run_command(kPiezo + " sensitivity --method sobol --samples 256" + common +
+                                 " --out " + (dir / "sobol").string());
+  ASSERT_EQ(sobol.exit_code, 0) << sobol.err;
+  const auto s = nlohmann::json::parse(sobol.out);
+  EXPECT_EQ(s.at("runs"), 256 * 6);
+  std::vector<std::string> sobol_order, morris_order;
+  for (const auto& p : s.at("parameters")) {
+    sobol_order.push_back(p.at("name"));
+    EXPECT_LE(p.at("ST_interval").at(0).get<double>(), p.at("ST").get<double>());
+    EXPECT_GE(p.at("ST_interval").at(1).get<double>(), p.at("ST").get<double>());
+  }
+  for (const char* file : {"sobol.csv", "design.csv", "sobol.png", "convergence.png"}) {
+    EXPECT_TRUE(std::filesystem::exists(dir / "sobol" / file)) << file;
+  }
+  const auto ot = run_command("/usr/bin/python3 " + std::string(PIEZO_SOURCE_DIR) +
+                              "/tests/host/openturns_check.py " + (dir / "sobol").string());
+  EXPECT_EQ(ot.exit_code, 0) << ot.out << ot.err;
+
+  const auto morris = run_command(kPiezo + " sensitivity --method morris --samples 20" + common +
+                                  " --out " + (dir / "morris").string());
+  ASSERT_EQ(morris.exit_code, 0) << morris.err;
+  const auto m = nlohmann::json::parse(morris.out);
+  for (const auto& p : m.at("parameters")) morris_order.push_back(p.at("name"));
+  EXPECT_EQ(morris_order, sobol_order);
+  EXPECT_TRUE(std::filesystem::exists(dir / "morris" / "morris.png"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST(SensitivityCli, AnUnknownMethodOrParameterIsRefused) {
+  auto r = run_command(kPiezo + " sensitivity --method anova");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--method: anova"), std::string::npos) << r.err;
+  r = run_command(kPiezo + " sensitivity --method sobol --params V0,Q");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--params: Q"), std::string::npos) << r.err;
+}
+
 // The broader frequency range: both models side by side, a table and a
 // plot, and the fall of stick-slip past the stator's useful range named.
 TEST(SweepCli, FrequencySweepWritesBothModelsAndAPlot) {

@@ -10,6 +10,7 @@
 #include "columns.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
+#include "global_sensitivity_study.hpp"
 #include "gnuplot.hpp"
 #include "model_config.hpp"
 #include "parallel.hpp"
@@ -25,6 +26,9 @@ struct SensitivityOptions {
   std::string model = "lugre";
   std::string out;
   bool json = false;
+  std::string method = "oat";
+  std::string params;  // comma-separated
+  GlobalStudyOptions global;
 };
 
 constexpr double kTraceInterval = 1e-3;  // angle traces for the plots [s]
@@ -94,11 +98,28 @@ void write_outputs(const std::string& dir, const std::vector<model::SweepResult>
 }
 
 int run(const SensitivityOptions& o) {
-  model::Parameters base = o.config.empty() ? model::Parameters{} : config::load_model_config(o.config);
+  model::Parameters base =
+      o.config.empty() ? model::Parameters{} : config::load_model_config(o.config);
   for (const auto& s : o.sets) config::apply_parameter_override(s, base);
   config::require_valid(base, o.sets.empty() ? "config" : "--set");
   const auto friction = model::parse_friction_model(o.model);
   if (!friction) throw config::ConfigError("--model", o.model, "allowed: lugre, coulomb");
+  if (o.method == "morris" || o.method == "sobol") {
+    GlobalStudyOptions g = o.global;
+    g.method = o.method;
+    g.model = *friction;
+    g.out = o.out;
+    g.json = o.json;
+    for (std::size_t at = 0; at < o.params.size();) {
+      const std::size_t comma = std::min(o.params.find(',', at), o.params.size());
+      if (comma > at) g.params.push_back(o.params.substr(at, comma - at));
+      at = comma + 1;
+    }
+    return run_global_study(base, g);
+  }
+  if (o.method != "oat") {
+    throw config::ConfigError("--method", o.method, "allowed: oat, morris, sobol");
+  }
 
   const auto sweeps = model::paper_sweeps();
   std::vector<LevelRun> runs;
@@ -109,7 +130,7 @@ int run(const SensitivityOptions& o) {
   for (const auto& run : runs) {
     const auto& sw = sweeps[run.sweep];
     config::require_valid(model::with_level(base, sw.name, sw.levels[run.level]),
-                  fmt::format("sweep {}={}", sw.name, sw.levels[run.level]));
+                          fmt::format("sweep {}={}", sw.name, sw.levels[run.level]));
   }
   const auto times = model::uniform_times(model::kSensitivityRuntime, kTraceInterval);
   parallel_for(
@@ -174,6 +195,24 @@ CommandRunner add_sensitivity_command(CLI::App& app) {
   cmd->add_option("--model", o->model, "Friction model: lugre or coulomb")->capture_default_str();
   cmd->add_option("--out", o->out, "Directory for CSV tables and PNG plots");
   cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
+  cmd->add_option("--method", o->method,
+                  "oat (the paper's study), morris (elementary effects) or sobol (indices)")
+      ->capture_default_str();
+  cmd->add_option("--params", o->params,
+                  "morris/sobol: comma-separated parameters (default: every Table 1 symbol)");
+  cmd->add_option("--range", o->global.range_pct, "morris/sobol: each parameter varies by ± this %")
+      ->capture_default_str();
+  cmd->add_option("--samples", o->global.samples,
+                  "sobol: N (runs: N (k + 2), default 1024); morris: trajectories (default 20)");
+  cmd->add_option("--seed", o->global.seed, "morris/sobol: design and bootstrap seed")
+      ->capture_default_str();
+  cmd->add_option("--output", o->global.output, "morris/sobol: velocity, step or backslip")
+      ->capture_default_str();
+  cmd->add_option("--runtime", o->global.runtime_s, "morris/sobol: simulated time per run [s]")
+      ->capture_default_str();
+  cmd->add_option("--bootstrap", o->global.bootstrap,
+                  "sobol: bootstrap resamples for the intervals")
+      ->capture_default_str();
   return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
 }
 

@@ -1,0 +1,31 @@
+#pragma once
+// `piezo sensitivity --method morris|sobol`: every chosen parameter varied
+// at once over ±P % of its baseline, the motor simulated on each row of the
+// design (all cores, progress on stderr), the indices with their plots.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "piezo/model/parameters.hpp"
+#include "piezo/model/simulate.hpp"
+
+namespace piezo::host {
+
+struct GlobalStudyOptions {
+  std::string method;               ///< "morris" or "sobol"
+  std::vector<std::string> params;  ///< empty: every Table 1 parameter
+  double range_pct = 10.0;
+  std::size_t samples = 0;  ///< Sobol' N, or Morris trajectories (0: 1024 / 20)
+  std::uint64_t seed = 1;
+  std::string output = "velocity";  ///< velocity, step or backslip
+  double runtime_s = 4.8;
+  int bootstrap = 200;
+  model::FrictionModel model = model::FrictionModel::lugre;
+  std::string out;
+  bool json = false;
+};
+
+int run_global_study(const model::Parameters& base, const GlobalStudyOptions& o);
+
+}  // namespace piezo::host
