@@ -28,7 +28,7 @@ packages=(
   gnuplot-nox python3 python3-h5py python3-numpy
   rt-tests libgpiod-dev libmodbus-dev mbpoll socat python3-pymodbus python3-serial-asyncio
   libzmq3-dev cppzmq-dev python3-zmq python3-msgpack clang libclang-rt-14-dev
-  libsystemd-dev debootstrap iproute2 libboost-dev python3-openturns
+  libsystemd-dev debootstrap iproute2 libboost-dev python3-openturns libopenmpi-dev openmpi-bin
 )
 if [ -n "$arm64" ]; then
   packages+=(g++-aarch64-linux-gnu qemu-user)

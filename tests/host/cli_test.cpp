@@ -171,6 +171,24 @@ TEST(SensitivityCli, SobolAgreesWithOpenTurnsAndMorrisRanksTheSame) {
   std::filesystem::remove_all(dir);
 }
 
+// Beyond one machine: the same study under mpirun on two ranks gives the
+// very same numbers as one process (rank 0 gathers and writes).
+TEST(SensitivityCli, TwoMpiRanksGiveTheSameResultAsOneProcess) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  GTEST_SKIP() << "MPI's own allocations are not the sanitizers' business: run in the ci build";
+#endif
+  if (run_command("command -v mpirun").exit_code != 0) GTEST_SKIP() << "mpirun not installed";
+  const std::string study =
+      " sensitivity --method sobol --params V0,f,mu,D --runtime 0.3 --samples 32 --json";
+  const auto single = run_command(kPiezo + study);
+  ASSERT_EQ(single.exit_code, 0) << single.err;
+  const auto ranks =
+      run_command("mpirun -n 2 --oversubscribe --allow-run-as-root " + kPiezo + study);
+  ASSERT_EQ(ranks.exit_code, 0) << ranks.err;
+  EXPECT_NE(ranks.err.find("on rank 0 of 2"), std::string::npos) << ranks.err;
+  EXPECT_EQ(ranks.out, single.out);
+}
+
 TEST(SensitivityCli, AnUnknownMethodOrParameterIsRefused) {
   auto r = run_command(kPiezo + " sensitivity --method anova");
   EXPECT_EQ(r.exit_code, 2);

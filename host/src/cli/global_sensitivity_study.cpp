@@ -11,6 +11,7 @@
 #include "config_error.hpp"
 #include "gnuplot.hpp"
 #include "model_config.hpp"
+#include "mpi_ranks.hpp"
 #include "parallel.hpp"
 #include "piezo/model/frequency_sweep.hpp"
 #include "piezo/model/global_sensitivity.hpp"
@@ -69,15 +70,24 @@ std::vector<double> evaluate(const model::Parameters& base, const std::vector<mo
   for (const auto& row : rows) {  // every row checked before any is simulated
     config::require_valid(at(base, f, row), "--range");
   }
-  std::vector<double> y(rows.size());
+  // Under MPI each rank takes every size-th row; rank 0 gathers them all.
+  const MpiRanks& mpi = MpiRanks::get();
+  std::vector<std::size_t> mine;
+  for (std::size_t i = static_cast<std::size_t>(mpi.rank()); i < rows.size();
+       i += static_cast<std::size_t>(mpi.size())) {
+    mine.push_back(i);
+  }
+  std::vector<double> y(rows.size(), 0.0);
   parallel_for(
-      rows.size(), [&](std::size_t i) { y[i] = output(at(base, f, rows[i]), o); },
+      mine.size(), [&](std::size_t j) { y[mine[j]] = output(at(base, f, rows[mine[j]]), o); },
       [&](std::size_t done, std::size_t total) {
-        if (done % 64 == 0 || done == total) {
-          fmt::print(stderr, "\rsensitivity ({}): {}/{} runs done", o.method, done, total);
+        if (mpi.root() && (done % 64 == 0 || done == total)) {
+          fmt::print(stderr, "\rsensitivity ({}): {}/{} runs done{}", o.method, done, total,
+                     mpi.size() > 1 ? fmt::format(" on rank 0 of {}", mpi.size()) : "");
           if (done == total) fmt::print(stderr, "\n");
         }
       });
+  mpi.gather_to_root(y);
   return y;
 }
 
@@ -98,6 +108,7 @@ int sobol(const model::Parameters& base, const GlobalStudyOptions& o) {
   const std::size_t k = f.size();
   const auto rows = model::saltelli_design(f, n, o.seed);
   const auto y = evaluate(base, f, rows, o);
+  if (!MpiRanks::get().root()) return 0;  // rank 0 computes and writes
   const auto s = model::sobol_indices(y, n, k, n, o.bootstrap, o.seed);
   std::vector<std::size_t> order(k);
   for (std::size_t i = 0; i < k; ++i) order[i] = i;
@@ -187,6 +198,7 @@ int morris(const model::Parameters& base, const GlobalStudyOptions& o) {
   const std::size_t r = o.samples == 0 ? 20 : o.samples;
   const auto d = model::morris_design(f, r, o.seed);
   const auto y = evaluate(base, f, d.rows, o);
+  if (!MpiRanks::get().root()) return 0;
   const auto m = model::morris_indices(d, f.size(), y);
   std::vector<std::size_t> order(f.size());
   for (std::size_t i = 0; i < f.size(); ++i) order[i] = i;

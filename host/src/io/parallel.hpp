@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstddef>
+#include <cstdlib>
 #include <exception>
 #include <functional>
 #include <mutex>
@@ -33,8 +34,12 @@ inline void parallel_for(std::size_t count, const std::function<void(std::size_t
       ++done;
     }
   };
-  const std::size_t n_threads =
-      std::max<std::size_t>(1, std::min<std::size_t>(count, std::thread::hardware_concurrency()));
+  // PIEZO_THREADS caps the threads (e.g. one per MPI rank on a shared node).
+  std::size_t cores = std::thread::hardware_concurrency();
+  if (const char* cap = std::getenv("PIEZO_THREADS"); cap != nullptr && std::atoi(cap) > 0) {
+    cores = static_cast<std::size_t>(std::atoi(cap));
+  }
+  const std::size_t n_threads = std::max<std::size_t>(1, std::min<std::size_t>(count, cores));
   std::vector<std::thread> threads;
   for (std::size_t t = 0; t < n_threads; ++t) threads.emplace_back(worker);
   std::size_t reported = 0;
