@@ -218,6 +218,23 @@ TEST(SweepCli, FrequencySweepWritesBothModelsAndAPlot) {
   std::filesystem::remove_all(dir);
 }
 
+// Two parameters: a map per model, one row per value of the first.
+TEST(SweepCli, TwoParametersMakeAMap) {
+  const auto dir = fresh_temp_dir("cli-map");
+  const auto r = run_command(kPiezo + " sweep --param f --from 5 --to 50 --points 3 --param2 D " +
+                             "--from2 0.6 --to2 0.9 --points2 2 --periods 6 --model lugre --json " +
+                             "--out " + dir.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  const auto& v = j.at("lugre").at("mean_velocity_rad_s");
+  ASSERT_EQ(v.size(), 3u);
+  ASSERT_EQ(v.at(0).size(), 2u);
+  EXPECT_GT(v.at(2).at(1).get<double>(), v.at(2).at(0).get<double>()) << "faster with larger D";
+  EXPECT_TRUE(std::filesystem::exists(dir / "map.png"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "map_lugre.csv"));
+  std::filesystem::remove_all(dir);
+}
+
 TEST(SweepCli, AnUnknownParameterIsRefused) {
   const auto r = run_command(kPiezo + " sweep --param fq --from 1 --to 10");
   EXPECT_EQ(r.exit_code, 2);

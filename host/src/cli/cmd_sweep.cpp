@@ -32,6 +32,11 @@ struct SweepOptions {
   std::string model = "both";
   std::string out;
   bool json = false;
+  // A second parameter makes a 2-D map.
+  std::string param2;
+  double from2 = 0.0, to2 = 0.0;
+  int points2 = 20;
+  bool log2 = false;
 };
 
 struct Curve {
@@ -99,6 +104,98 @@ void write_outputs(const SweepOptions& o, const std::vector<double>& values,
       o.param, panels));
 }
 
+/// Two parameters: the mean velocity (and the per-period figures) over the
+/// grid, one map per model, as CSV blocks and a colour map.
+int run_map(const SweepOptions& o, const model::Parameters& base,
+            const std::vector<model::FrictionModel>& models, const std::vector<double>& values) {
+  if (o.param2 != "D" && model::find_parameter(o.param2) == nullptr) {
+    throw config::ConfigError("--param2", o.param2,
+                              "allowed: a Table 1 symbol (V0, f, mu, ...) or D");
+  }
+  if (o.points2 < 1 || o.points2 > 1000) {
+    throw config::ConfigError("--points2", std::to_string(o.points2), "allowed: [1, 1000]");
+  }
+  if (o.log2 && !(o.from2 > 0.0 && o.to2 > 0.0)) {
+    throw config::ConfigError("--from2", fmt::format("{:g}", o.from2),
+                              "a --log2 sweep needs positive --from2 and --to2");
+  }
+  const auto values2 = model::sweep_values(o.from2, o.to2, o.points2, o.log2);
+  const auto at = [&](std::size_t i, std::size_t j) {
+    return model::with_level(model::with_level(base, o.param, values[i]), o.param2, values2[j]);
+  };
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    for (std::size_t j = 0; j < values2.size(); ++j) {
+      config::require_valid(at(i, j), fmt::format("--param {}={:g}, --param2 {}={:g}", o.param,
+                                                  values[i], o.param2, values2[j]));
+    }
+  }
+  const std::size_t cells = values.size() * values2.size();
+  std::vector<std::vector<model::StepMetrics>> maps(models.size(),
+                                                    std::vector<model::StepMetrics>(cells));
+  const model::PeriodSettings settings{o.periods, 2, 200};
+  parallel_for(
+      cells * models.size(),
+      [&](std::size_t job) {
+        const std::size_t m = job % models.size(), cell = job / models.size();
+        maps[m][cell] = model::period_metrics(at(cell / values2.size(), cell % values2.size()),
+                                              models[m], settings);
+      },
+      [](std::size_t done, std::size_t total) {
+        fmt::print(stderr, "\rsweep map: {}/{} points done", done, total);
+        if (done == total) fmt::print(stderr, "\n");
+      });
+  nlohmann::json result{{"param", o.param},
+                        {"values", values},
+                        {"param2", o.param2},
+                        {"values2", values2},
+                        {"periods", o.periods}};
+  std::string plots;
+  for (std::size_t m = 0; m < models.size(); ++m) {
+    const std::string name(model::to_string(models[m]));
+    nlohmann::json rows = nlohmann::json::array();
+    std::string csv =
+        fmt::format("{},{},velocity_mrad_s,step_urad,backslip_urad\n", o.param, o.param2);
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      nlohmann::json row = nlohmann::json::array();
+      for (std::size_t j = 0; j < values2.size(); ++j) {
+        const auto& c = maps[m][i * values2.size() + j];
+        row.push_back(c.mean_velocity_rad_s);
+        csv += fmt::format("{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n", values[i], values2[j],
+                           1e3 * c.mean_velocity_rad_s, 1e6 * c.step_rad, 1e6 * c.backslip_rad);
+      }
+      rows.push_back(row);
+      csv += "\n";  // gnuplot: one block per value of the first parameter
+    }
+    result[name] = {{"mean_velocity_rad_s", rows}};
+    if (!o.out.empty()) {
+      std::filesystem::create_directories(o.out);
+      const std::string path = fmt::format("{}/map_{}.csv", o.out, name);
+      std::FILE* file = std::fopen(path.c_str(), "w");
+      if (file == nullptr) throw std::runtime_error("cannot write " + path);
+      std::fputs(csv.c_str(), file);
+      std::fclose(file);
+      plots += fmt::format(
+          "set title '{}: mean velocity [mrad/s]'\nsplot {} skip 1 using 1:2:3 with pm3d notitle\n",
+          name, gnuplot_quote(path));
+    }
+  }
+  if (!o.out.empty()) {
+    run_gnuplot(fmt::format(
+        "set terminal pngcairo size {},600\nset output {}\nset datafile separator ','\n"
+        "set view map\nset autoscale xfix\nset autoscale yfix\nset palette rgb 33,13,10\nset "
+        "xlabel '{}'\nset ylabel '{}'\n{}{}"
+        "set multiplot layout 1,{}\n{}unset multiplot\n",
+        550 * models.size(), gnuplot_quote(o.out + "/map.png"), o.param, o.param2,
+        o.log ? "set logscale x\n" : "", o.log2 ? "set logscale y\n" : "", models.size(), plots));
+  }
+  if (o.json) {
+    std::cout << result.dump() << "\n";
+  } else if (!o.out.empty()) {
+    fmt::print("map_*.csv and map.png written to {}\n", o.out);
+  }
+  return 0;
+}
+
 int run(const SweepOptions& o) {
   model::Parameters base =
       o.config.empty() ? model::Parameters{} : config::load_model_config(o.config);
@@ -127,6 +224,7 @@ int run(const SweepOptions& o) {
     throw config::ConfigError("--model", o.model, "allowed: lugre, coulomb, both");
   }
   const auto values = model::sweep_values(o.from, o.to, o.points, o.log);
+  if (!o.param2.empty()) return run_map(o, base, models, values);
   // Every point is checked before any is simulated.
   for (double v : values) {
     config::require_valid(model::with_level(base, o.param, v),
@@ -199,7 +297,12 @@ CommandRunner add_sweep_command(CLI::App& app) {
   cmd->add_option("--periods", o->periods, "Drive periods simulated per point")
       ->capture_default_str();
   cmd->add_option("--model", o->model, "lugre, coulomb or both")->capture_default_str();
-  cmd->add_option("--out", o->out, "Directory for sweep.csv and sweep.png");
+  cmd->add_option("--param2", o->param2, "A second parameter: a 2-D map of the two");
+  cmd->add_option("--from2", o->from2, "First value of --param2");
+  cmd->add_option("--to2", o->to2, "Last value of --param2");
+  cmd->add_option("--points2", o->points2, "Number of values of --param2")->capture_default_str();
+  cmd->add_flag("--log2", o->log2, "Space --param2's values geometrically");
+  cmd->add_option("--out", o->out, "Directory for sweep.csv and sweep.png (map_*.csv, map.png)");
   cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
   return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
 }
