@@ -33,6 +33,17 @@ TEST(SimulateCli, ConfigAndSetCombine) {
             nlohmann::json::parse(base.out)["theta_end_rad"].get<double>());
 }
 
+TEST(SimulateCli, ReverseReportsTheBackwardVelocity) {
+  const auto r = run_command(kPiezo + " simulate --direction reverse --duration 1 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j.at("direction"), "reverse");
+  EXPECT_LT(j.at("mean_velocity_rad_s").get<double>(), 0.0);
+  const auto bad = run_command(kPiezo + " simulate --direction sideways");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--direction: sideways"), std::string::npos) << bad.err;
+}
+
 TEST(SimulateCli, CoulombModelRuns) {
   const auto r = run_command(kPiezo + " simulate --model coulomb --duration 0.5 --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;

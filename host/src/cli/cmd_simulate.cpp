@@ -26,6 +26,7 @@ struct SimulateOptions {
   double tolerance = model::IntegratorSettings{}.tolerance;
   std::string out;
   bool json = false;
+  std::string direction = "forward";
 };
 
 bool ends_with(const std::string& s, const std::string& suffix) {
@@ -52,7 +53,8 @@ void write_trajectory(const std::string& path, const model::Trajectory& tr,
 }
 
 int run(const SimulateOptions& o) {
-  model::Parameters p = o.config.empty() ? model::Parameters{} : config::load_model_config(o.config);
+  model::Parameters p =
+      o.config.empty() ? model::Parameters{} : config::load_model_config(o.config);
   for (const auto& s : o.sets) config::apply_parameter_override(s, p);
   config::require_valid(p, o.sets.empty() ? (o.config.empty() ? "defaults" : o.config) : "--set");
   const auto friction = model::parse_friction_model(o.model);
@@ -61,7 +63,12 @@ int run(const SimulateOptions& o) {
     throw config::ConfigError("--out", o.out, "must end in .csv or .h5");
   }
 
-  const model::Sawtooth drive(p.drive.V0, p.drive.f, p.drive.D());
+  if (o.direction != "forward" && o.direction != "reverse") {
+    throw config::ConfigError("--direction", o.direction, "allowed: forward, reverse");
+  }
+  const auto direction =
+      o.direction == "forward" ? model::Direction::forward : model::Direction::reverse;
+  const model::Sawtooth drive(p.drive.V0, p.drive.f, model::rise_fraction(p.drive.D(), direction));
   const auto times = model::uniform_times(o.duration, o.sample_interval);
   const model::Trajectory tr =
       model::simulate(p.motor, drive, *friction, times, {.tolerance = o.tolerance});
@@ -71,6 +78,7 @@ int run(const SimulateOptions& o) {
   const double mean_velocity = theta_end / o.duration;
   if (o.json) {
     nlohmann::json j{{"model", o.model},
+                     {"direction", o.direction},
                      {"duration_s", o.duration},
                      {"theta_end_rad", theta_end},
                      {"mean_velocity_rad_s", mean_velocity},
@@ -83,8 +91,8 @@ int run(const SimulateOptions& o) {
                        {"mode_switches", tr.stats.mode_switches}}}};
     std::cout << j.dump() << "\n";
   } else {
-    fmt::print("model {}  duration {} s  theta_end {:.6g} rad  mean velocity {:.6g} rad/s\n",
-               o.model, o.duration, theta_end, mean_velocity);
+    fmt::print("model {}  {}  duration {} s  theta_end {:.6g} rad  mean velocity {:.6g} rad/s\n",
+               o.model, o.direction, o.duration, theta_end, mean_velocity);
     if (!o.out.empty()) fmt::print("trajectory written to {}\n", o.out);
   }
   return 0;
@@ -110,6 +118,9 @@ CommandRunner add_simulate_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--out", o->out, "Write the trajectory: FILE.csv or FILE.h5");
   cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
+  cmd->add_option("--direction", o->direction,
+                  "forward (slow rise, fast fall) or reverse (the mirrored sawtooth)")
+      ->capture_default_str();
   return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
 }
 

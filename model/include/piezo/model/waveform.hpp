@@ -44,4 +44,14 @@ class Sawtooth final : public Excitation {
   double D_;
 };
 
+/// Which way the sawtooth turns the rotor: forward is the paper's slow rise
+/// and fast fall; reverse mirrors it in time (fast rise, slow fall: the rise
+/// fraction D becomes 1 - D), so the rotor slips the other way.
+enum class Direction { forward, reverse };
+
+/// The rise fraction that drives the rotor in `direction` with a drive of rise fraction D.
+[[nodiscard]] inline double rise_fraction(double D, Direction direction) {
+  return direction == Direction::forward ? D : 1.0 - D;
+}
+
 }  // namespace piezo::model
