@@ -5,8 +5,7 @@
 
 namespace piezo::hal::modbus {
 
-ModbusSensor::ModbusSensor(const LinkSettings& link, const RegisterMap& map,
-                           const Clock& clock)
+ModbusSensor::ModbusSensor(const LinkSettings& link, const RegisterMap& map, const Clock& clock)
     : link_(link), map_(map), clock_(clock) {}
 
 DisplacementReading ModbusSensor::read() {

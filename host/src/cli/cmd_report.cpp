@@ -39,7 +39,8 @@ std::vector<double> scaled(const std::vector<double>& v, double k) {
 int run(const ReportOptions& o) {
   const fs::path dir(o.run_dir);
   const fs::path log_path = dir / "run.h5";
-  if (!fs::exists(log_path)) throw config::ConfigError(o.run_dir, "run.h5", "no run log in this directory");
+  if (!fs::exists(log_path))
+    throw config::ConfigError(o.run_dir, "run.h5", "no run log in this directory");
   const H5File log = H5File::open(log_path.string());
   const std::string status = log.attribute("/", log_schema::kStatus);
   // The log as identification reads it: good angles, and the drive as it

@@ -48,7 +48,8 @@ hal::sim::ModbusRigDeviceSettings device_settings(const config::RunConfig& c) {
 }
 
 int run(const RigSimOptions& o) {
-  const config::RunConfig config = config::load_run_config(o.config, o.sets, config::ConfigScope::sensor);
+  const config::RunConfig config =
+      config::load_run_config(o.config, o.sets, config::ConfigScope::sensor);
   std::string tcp = o.tcp;
   if (tcp.empty() && o.rtu.empty()) {
     tcp = config.sensor.link.host + ":" + std::to_string(config.sensor.link.port);

@@ -21,7 +21,8 @@ struct SensorReadOptions {
 };
 
 int run(const SensorReadOptions& o) {
-  const config::RunConfig config = config::load_run_config(o.config, o.sets, config::ConfigScope::sensor);
+  const config::RunConfig config =
+      config::load_run_config(o.config, o.sets, config::ConfigScope::sensor);
   config::SensorRig rig = config::build_sensor(config);
   hal::Clock& clock = *rig.clock;
   const auto period = hal::from_seconds(1.0 / config.sensor.rate_hz());
@@ -51,9 +52,10 @@ int run(const SensorReadOptions& o) {
   if (o.json) {
     std::cout << nlohmann::json{{"readings", readings}, {"errors", errors}}.dump() << "\n";
   } else {
-    fmt::print(
-        "{} readings, {} errors ({} sensor, {})\n", o.count, errors, name(config.sensor.backend),
-        config.sensor.backend == config::SensorBackend::sim ? "simulated" : config.sensor.link.describe());
+    fmt::print("{} readings, {} errors ({} sensor, {})\n", o.count, errors,
+               name(config.sensor.backend),
+               config.sensor.backend == config::SensorBackend::sim ? "simulated"
+                                                                   : config.sensor.link.describe());
   }
   return errors == o.count ? 1 : 0;
 }

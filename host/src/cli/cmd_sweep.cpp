@@ -170,10 +170,7 @@ int run_map(const SweepOptions& o, const model::Parameters& base,
     if (!o.out.empty()) {
       std::filesystem::create_directories(o.out);
       const std::string path = fmt::format("{}/map_{}.csv", o.out, name);
-      std::FILE* file = std::fopen(path.c_str(), "w");
-      if (file == nullptr) throw std::runtime_error("cannot write " + path);
-      std::fputs(csv.c_str(), file);
-      std::fclose(file);
+      write_text(path, csv);
       plots += fmt::format(
           "set title '{}: mean velocity [mrad/s]'\nsplot {} skip 1 using 1:2:3 with pm3d notitle\n",
           name, gnuplot_quote(path));

@@ -123,10 +123,7 @@ int sobol(const model::Parameters& base, const GlobalStudyOptions& o) {
           fmt::format("{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}\n", f[i].name, s.first[i],
                       s.first_low[i], s.first_high[i], s.total[i], s.total_low[i], s.total_high[i]);
     }
-    std::FILE* file = std::fopen((o.out + "/sobol.csv").c_str(), "w");
-    if (file == nullptr) throw std::runtime_error("cannot write " + o.out + "/sobol.csv");
-    std::fputs(table.c_str(), file);
-    std::fclose(file);
+    write_text(o.out + "/sobol.csv", table);
     // Convergence: the indices from the first N/16 ... N points of the same design.
     std::string conv = "N";
     for (const auto& factor : f) conv += fmt::format(",S1_{0},ST_{0}", factor.name);
@@ -138,10 +135,7 @@ int sobol(const model::Parameters& base, const GlobalStudyOptions& o) {
         conv += fmt::format(",{:.6g},{:.6g}", c.first[i], c.total[i]);
       conv += "\n";
     }
-    file = std::fopen((o.out + "/convergence.csv").c_str(), "w");
-    if (file == nullptr) throw std::runtime_error("cannot write convergence.csv");
-    std::fputs(conv.c_str(), file);
-    std::fclose(file);
+    write_text(o.out + "/convergence.csv", conv);
     const std::string csv = gnuplot_quote(o.out + "/sobol.csv");
     run_gnuplot(fmt::format(
         "set terminal pngcairo size 1000,600 noenhanced\nset output {}\nset datafile separator "
@@ -212,10 +206,7 @@ int morris(const model::Parameters& base, const GlobalStudyOptions& o) {
       table +=
           fmt::format("{},{:.6g},{:.6g},{:.6g}\n", f[i].name, m.mu[i], m.mu_star[i], m.sigma[i]);
     }
-    std::FILE* file = std::fopen((o.out + "/morris.csv").c_str(), "w");
-    if (file == nullptr) throw std::runtime_error("cannot write " + o.out + "/morris.csv");
-    std::fputs(table.c_str(), file);
-    std::fclose(file);
+    write_text(o.out + "/morris.csv", table);
     run_gnuplot(fmt::format(
         "set terminal pngcairo size 900,700 noenhanced\nset output {}\nset datafile separator ','\n"
         "set grid\nunset key\nset xlabel 'mu* (mean |elementary effect|)'\nset ylabel 'sigma'\n"

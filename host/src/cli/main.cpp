@@ -18,11 +18,10 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   const std::vector<piezo::host::CommandRunner> commands{
       piezo::host::add_simulate_command(app), piezo::host::add_sensitivity_command(app),
-      piezo::host::add_sweep_command(app),
-      piezo::host::add_run_command(app),      piezo::host::add_report_command(app),
-      piezo::host::add_sensor_command(app),   piezo::host::add_rig_sim_command(app),
-      piezo::host::add_identify_command(app), piezo::host::add_compare_command(app),
-      piezo::host::add_board_commands(app),
+      piezo::host::add_sweep_command(app),    piezo::host::add_run_command(app),
+      piezo::host::add_report_command(app),   piezo::host::add_sensor_command(app),
+      piezo::host::add_rig_sim_command(app),  piezo::host::add_identify_command(app),
+      piezo::host::add_compare_command(app),  piezo::host::add_board_commands(app),
   };
   try {
     app.parse(argc, argv);

@@ -26,4 +26,12 @@ void write_csv(const std::string& path, const std::vector<Column>& columns) {
   if (std::ferror(file.get())) throw std::runtime_error("error writing " + path);
 }
 
+void write_text(const std::string& path, const std::string& text) {
+  std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(path.c_str(), "w"), std::fclose);
+  if (!file) throw std::runtime_error("cannot write " + path);
+  if (std::fputs(text.c_str(), file.get()) < 0 || std::fflush(file.get()) != 0) {
+    throw std::runtime_error("error writing " + path);
+  }
+}
+
 }  // namespace piezo::host

@@ -16,4 +16,8 @@ struct Column {
 /// Writes a CSV with a header row of column names; throws on I/O failure.
 void write_csv(const std::string& path, const std::vector<Column>& columns);
 
+/// Writes text already formatted (e.g. a table with a column of names);
+/// throws on I/O failure.
+void write_text(const std::string& path, const std::string& text);
+
 }  // namespace piezo::host

@@ -58,7 +58,8 @@ LoadedRun load_h5(const std::string& path) {
   const std::string sensor_t_path = log_schema::path(&SensorRows::t);
   const std::string theta_path = log_schema::path(&SensorRows::theta);
   for (const auto& name : {drive_t_path, drive_V_path, sensor_t_path, theta_path}) {
-    if (!log.exists(name)) throw config::ConfigError(path, name, "missing dataset: not a piezo run log");
+    if (!log.exists(name))
+      throw config::ConfigError(path, name, "missing dataset: not a piezo run log");
   }
   LoadedRun run;
   // The output follows each logged command after the drive's latency.
@@ -87,7 +88,8 @@ LoadedRun load_csv(const std::string& path) {
   }
   auto column = [&](const std::string& n) -> std::size_t {
     const auto it = std::find(names.begin(), names.end(), n);
-    if (it == names.end()) throw config::ConfigError(path, n, "missing column (needed: t, V, theta)");
+    if (it == names.end())
+      throw config::ConfigError(path, n, "missing column (needed: t, V, theta)");
     return static_cast<std::size_t>(it - names.begin());
   };
   const std::size_t it = column("t"), iV = column("V"), itheta = column("theta");
@@ -105,7 +107,7 @@ LoadedRun load_csv(const std::string& path) {
     }
     if (row.size() < names.size()) {
       throw config::ConfigError(path, "line " + std::to_string(line_number),
-                        "fewer columns than the header");
+                                "fewer columns than the header");
     }
     t.push_back(row[it]);
     V.push_back(row[iV]);
@@ -121,8 +123,10 @@ LoadedRun load_csv(const std::string& path) {
 
 LoadedRun load_run_for_fit(const std::string& path) {
   LoadedRun run = ends_with(path, ".h5") ? load_h5(path) : load_csv(path);
-  if (run.data.drive_t.size() < 2) throw config::ConfigError(path, "drive", "fewer than two drive samples");
-  if (run.data.t.size() < 10) throw config::ConfigError(path, "theta", "fewer than ten good angle samples");
+  if (run.data.drive_t.size() < 2)
+    throw config::ConfigError(path, "drive", "fewer than two drive samples");
+  if (run.data.t.size() < 10)
+    throw config::ConfigError(path, "theta", "fewer than ten good angle samples");
   run.data.ramp_time = median_interval(run.data.drive_t);
   return run;
 }

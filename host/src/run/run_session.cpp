@@ -33,7 +33,8 @@ std::string RunSummary::status() const {
   }
 }
 
-RunSummary execute_run(const config::RunConfig& c, config::Rig rig, RunLog& log, const std::atomic<bool>& stop,
+RunSummary execute_run(const config::RunConfig& c, config::Rig rig, RunLog& log,
+                       const std::atomic<bool>& stop,
                        const std::function<void(const LiveStatus&)>& on_status) {
   // Declared first, destroyed last: the client's sockets close before the
   // daemon's context ends.

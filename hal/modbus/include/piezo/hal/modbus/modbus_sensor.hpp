@@ -14,8 +14,7 @@ namespace piezo::hal::modbus {
 
 class ModbusSensor final : public DisplacementSensor {
  public:
-  ModbusSensor(const LinkSettings& link, const RegisterMap& map,
-               const Clock& clock);
+  ModbusSensor(const LinkSettings& link, const RegisterMap& map, const Clock& clock);
 
   [[nodiscard]] DisplacementReading read() override;
 
