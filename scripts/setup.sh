@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs what piezo-rig needs from Debian 12 (apt-get, as root or via sudo)
-# and builds it. Usage: scripts/setup.sh [preset] [--gpio-sim] [--arm64]
+# and the npm registry (uPlot, for the web view), and builds it.
+# Usage: scripts/setup.sh [preset] [--gpio-sim] [--arm64]
 # (default preset: default; --gpio-sim adds what the gpio-sim test needs:
 # qemu, busybox-static, the kernel source and its build tools; --arm64, or
 # the preset arm64, adds Debian's arm64 cross toolchain, the :arm64 -dev
@@ -29,7 +30,11 @@ packages=(
   rt-tests libgpiod-dev libmodbus-dev mbpoll socat python3-pymodbus python3-serial-asyncio
   libzmq3-dev cppzmq-dev python3-zmq python3-msgpack clang libclang-rt-14-dev
   libsystemd-dev debootstrap iproute2 libboost-dev python3-openturns libopenmpi-dev openmpi-bin
+  libcpp-httplib-dev chromium chromium-driver python3-selenium fonts-dejavu-core
 )
+# The web view's plots (uPlot) come from the npm registry; npm from Debian
+# unless a Node.js install already brings its own.
+command -v npm > /dev/null || packages+=(npm)
 if [ -n "$arm64" ]; then
   packages+=(g++-aarch64-linux-gnu qemu-user)
   for p in libzmq3-dev cppzmq-dev libmodbus-dev libgpiod-dev libfmt-dev libgtest-dev \
@@ -54,6 +59,12 @@ if ((${#missing[@]})); then
   echo "setup: installing ${missing[*]}"
   "${sudo_cmd[@]}" apt-get update -q
   DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
+fi
+
+uplot_version=1.6.32
+if [ ! -f build/web-vendor/node_modules/uplot/dist/uPlot.iife.min.js ]; then
+  echo "setup: npm install uplot@$uplot_version (the web view's plots)"
+  npm install --prefix build/web-vendor "uplot@$uplot_version" --no-audit --no-fund --loglevel=error
 fi
 
 if [ -n "$arm64" ] && [ "$preset" != arm64 ]; then

@@ -302,18 +302,22 @@ void check_analog_output(const RunConfig& c,
   }
 }
 
-void check_whole(const RunConfig& c, const std::map<std::string, std::string>& source_of) {
+void check_whole(const RunConfig& c, const std::map<std::string, std::string>& source_of,
+                 ConfigScope scope) {
   auto src = [&](const std::string& key) {
     const auto it = source_of.find(key);
     return it == source_of.end() ? c.source : it->second;
   };
-  check_backends(c, src);
-  check_analog_output(c, src);
   require_valid(c.model, c.source);
   model::Parameters plant{c.model.drive, c.plant};
   if (const auto issues = model::validate(plant); !issues.empty()) {
     throw ConfigError(c.source, "plant." + issues.front().name, issues.front().message);
   }
+  // A sensor-only tool (`piezo sensor read`, rig-sim) uses no drive: how the
+  // drive would pair with the sensor, or its limits, are not its business.
+  if (scope == ConfigScope::sensor) return;
+  check_backends(c, src);
+  check_analog_output(c, src);
   const auto& lim = c.drive.limits;
   if (lim.V_min >= lim.V_max) {
     throw ConfigError(
@@ -381,7 +385,8 @@ RunConfig load_run_config(const std::vector<std::string>& paths,
                           const std::vector<std::string>& sets, ConfigScope scope) {
   RunConfig c;
   apply_baumer_om30(c.sensor.link, c.sensor.map);
-  c.source = paths.front();
+  // No file: the defaults (a host whose rig is a board with its own config).
+  c.source = paths.empty() ? std::string("defaults") : paths.front();
   model::MotorParameters plant_keys = all_nan();
   std::vector<std::string> present;
   // Each file overlays the ones before it (e.g. a rig config, then fitted parameters).
@@ -394,7 +399,7 @@ RunConfig load_run_config(const std::vector<std::string>& paths,
   }
   const std::vector<std::string> required =
       scope == ConfigScope::rig ? kRequiredSections : std::vector<std::string>{"sensor"};
-  for (const auto& section : required) {
+  for (const auto& section : paths.empty() ? std::vector<std::string>{} : required) {
     if (std::find(present.begin(), present.end(), section) == present.end()) {
       throw ConfigError(paths.back(), section,
                         fmt::format("missing section [{}] (required: [{}])", section,
@@ -411,7 +416,7 @@ RunConfig load_run_config(const std::vector<std::string>& paths,
     c.text += "# --set " + s + "\n";
   }
   c.plant = overlay(c.model.motor, plant_keys);
-  check_whole(c, source_of);
+  check_whole(c, source_of, scope);
   return c;
 }
 

@@ -4,6 +4,8 @@
 // --set SECTION.KEY=VALUE overrides and checked as a whole before anything
 // touches the hardware.
 
+#include <cstdint>
+#include <optional>
 #include <limits>
 #include <string>
 #include <string_view>
@@ -77,6 +79,18 @@ struct RunSettings {
   int priority = 80;  ///< SCHED_FIFO priority of the drive loop (0: do not ask)
   bool lock_memory = true;
   double flush_interval_s = 0.25;  ///< log flush period: the most a crash can lose
+  /// Not a file key: `piezo step` sets it to run this many whole drive
+  /// periods through the protocol's `step` (0: a timed run, `start`).
+  std::uint64_t step_periods = 0;
+  /// Not a file key: `piezo move` sets it to run a closed-loop move (the
+  /// protocol's `move_to`) instead of the waveform.
+  struct Move {
+    double target_rad = 0.0;
+    double tolerance_rad = 25e-6;
+    double settle_s = 0.1;
+    double timeout_s = 30.0;
+  };
+  std::optional<Move> move;
 };
 
 /// The board's daemon ([piezod]): where it listens, what a client may ask.

@@ -4,8 +4,10 @@
 
 #include <cerrno>
 #include <cmath>
+#include <limits>
 #include <zmq_addon.hpp>
 
+#include "piezo/model/simulate.hpp"
 #include "piezo/protocol/endpoints.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "piezo/protocol/message.hpp"
@@ -35,14 +37,15 @@ json health_json(const firmware::LoopHealth& h) {
   return j;
 }
 
-/// After the loop has ended: the period-error statistics and histogram too.
-json final_health_json(const firmware::LoopHealth& h) {
+/// The period-error statistics and histogram too (the histogram's counters
+/// may be read while the loop runs).
+json health_with_timing_json(const firmware::LoopHealth& h) {
   json j = health_json(h);
   j["p50_us"] = h.period_error.quantile_us(0.5);
   j["p99_us"] = h.period_error.quantile_us(0.99);
   j["max_us"] = h.period_error.max_us();
   j["mean_us"] = h.period_error.mean_us();
-  const auto& bins = h.period_error.bins();
+  const auto bins = h.period_error.bins();
   std::size_t used = bins.size();
   while (used > 0 && bins[used - 1] == 0) --used;
   j["histogram_us"] = std::vector<double>(bins.begin(), bins.begin() + static_cast<long>(used));
@@ -83,12 +86,14 @@ struct Daemon::Run {
   hal::TimeNs t0 = 0;
   double lease_s = 0.5;
   bool finished = false;
-  json summary;  ///< once finished
+  json summary;                                    ///< once finished
+  firmware::PositionFeed feed;                     ///< the acquire loop's readings, for a move
+  std::unique_ptr<firmware::MoveController> move;  ///< a closed-loop move's program, if it is one
   // The virtual clock's lease runs on wall time, checked by the network thread.
   std::atomic<std::int64_t> lease_renewed_ns{0};
   std::atomic<std::uint64_t> drive_acked{0}, drive_recorded{0};
 
-  explicit Run(const RunRequest& r) : request(r), waveform(r.drive.V0, r.drive.f, r.drive.D()) {}
+  explicit Run(const RunRequest& r) : request(r), waveform(r.drive.V0, r.drive.f, r.drive.rise()) {}
 };
 
 Daemon::Daemon(const config::RunConfig& board, zmq::context_t& context, const std::string& listen,
@@ -253,6 +258,9 @@ json Daemon::handle(const std::string& client, const std::string& cmd, const jso
   if (cmd == "clock") return {{"board_ns", rig_.clock->now()}};
   if (cmd == "configure") return configure(client, args);
   if (cmd == "start") return start(client, args);
+  if (cmd == "step") return step(client, args);
+  if (cmd == "move_to") return move_to(client, args);
+  if (cmd == "zero") return set_zero();
   if (cmd == "stop") return stop_run(client);
   if (cmd == "estop") return estop(client);
   if (cmd == "reset_fault") return reset_fault();
@@ -260,7 +268,8 @@ json Daemon::handle(const std::string& client, const std::string& cmd, const jso
   if (cmd == "fetch") return fetch(args);
   throw ProtocolError(code::unknown_command, "cmd",
                       fmt::format("cmd: \"{}\" is not a command (allowed: hello, status, clock, "
-                                  "configure, start, stop, estop, reset_fault, lease, fetch)",
+                                  "configure, start, step, move_to, zero, stop, estop, "
+                                  "reset_fault, lease, fetch)",
                                   cmd));
 }
 
@@ -300,12 +309,14 @@ json Daemon::status(const std::string& client) const {
       {"fault", state_ == State::fault ? json(firmware::to_string(fault_cause_)) : json(nullptr)},
       {"recorder",
        {{"drive", {{"first", drive_recorder_.first()}, {"next", drive_recorder_.next()}}},
-        {"sensor", {{"first", sensor_recorder_.first()}, {"next", sensor_recorder_.next()}}}}}};
+        {"sensor", {{"first", sensor_recorder_.first()}, {"next", sensor_recorder_.next()}}}}},
+      {"position", position_json()}};
   if (configured_) {
     j["configured"] = {{"V0", configured_->drive.V0},
                        {"f", configured_->drive.f},
                        {"C_dr", configured_->drive.C_dr},
                        {"e_dr", configured_->drive.e_dr},
+                       {"direction", model::name(configured_->drive.direction)},
                        {"duration_s", configured_->duration_s}};
   }
   if (run_) {
@@ -317,6 +328,7 @@ json Daemon::status(const std::string& client) const {
            {"drive", health_json(run_->runner->drive_health())},
            {"sensor", health_json(run_->runner->sensor_health())}};
     if (run_->finished) r["summary"] = run_->summary;
+    if (run_->move) r["move"] = move_json(*run_);
     j["run"] = r;
   }
   return j;
@@ -331,6 +343,13 @@ json Daemon::configure(const std::string& client, const json& args) {
   r.drive.C_dr = protocol::number_arg(args, "C_dr", r.drive.C_dr);
   r.drive.e_dr = protocol::number_arg(args, "e_dr", r.drive.e_dr);
   r.duration_s = protocol::number_arg(args, "duration_s");
+  const std::string direction = protocol::string_arg(args, "direction", "forward");
+  if (const auto d = model::parse_direction(direction)) {
+    r.drive.direction = *d;
+  } else {
+    throw ProtocolError(code::bad_argument, "direction",
+                        fmt::format("direction: \"{}\"; allowed: forward, reverse", direction));
+  }
   const auto& lim = board_.drive.limits;
   if (!(r.drive.V0 > 0.0 && r.drive.V0 <= lim.V_max && lim.V_min <= 0.0)) {
     throw out_of_limits(
@@ -367,8 +386,10 @@ json Daemon::configure(const std::string& client, const json& args) {
                                                   board_.daemon.duration_max_s));
   }
   configured_ = r;
-  return {{"V0", r.drive.V0},     {"f", r.drive.f}, {"C_dr", r.drive.C_dr},
-          {"e_dr", r.drive.e_dr}, {"D", D},         {"duration_s", r.duration_s}};
+  return {
+      {"V0", r.drive.V0},          {"f", r.drive.f}, {"C_dr", r.drive.C_dr},
+      {"e_dr", r.drive.e_dr},      {"D", D},         {"direction", model::name(r.drive.direction)},
+      {"duration_s", r.duration_s}};
 }
 
 void Daemon::require_controller(const std::string& client, const char* cmd) const {
@@ -380,7 +401,8 @@ void Daemon::require_controller(const std::string& client, const char* cmd) cons
   }
 }
 
-json Daemon::start(const std::string& client, const json& args) {
+json Daemon::start(const std::string& client, const json& args,
+                   const std::optional<firmware::MoveSettings>& move) {
   if (state_ == State::fault) {
     throw ProtocolError(code::fault_latched, "",
                         fmt::format("start: the fault {} is latched; send reset_fault first",
@@ -412,9 +434,15 @@ json Daemon::start(const std::string& client, const json& args) {
                                         !virtual_clock,
                                         board_.run.priority,
                                         board_.run.lock_memory};
-  run->runner = std::make_unique<firmware::LoopRunner>(
-      settings, run->waveform,
-      firmware::LoopDevices{*rig_.clock, *rig_.drive, *rig_.sensor, *rig_.lines}, &run->remote);
+  const firmware::LoopDevices devices{*rig_.clock, *rig_.drive, *rig_.sensor, *rig_.lines};
+  if (move) {
+    run->move = std::make_unique<firmware::MoveController>(*move, run->feed);
+    run->runner = std::make_unique<firmware::LoopRunner>(settings, *run->move, devices,
+                                                         &run->remote, &run->feed);
+  } else {
+    run->runner =
+        std::make_unique<firmware::LoopRunner>(settings, run->waveform, devices, &run->remote);
+  }
   const auto now_ns = [] {
     return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch())
         .count();
@@ -455,6 +483,146 @@ json Daemon::start(const std::string& client, const json& args) {
           {"t0_ns", run_->t0},
           {"lease_s", lease_s},
           {"duration_s", run_->request.duration_s}};
+}
+
+json Daemon::step(const std::string& client, const json& args) {
+  // A step is a run of whole drive periods: each period ends at 0 V (after
+  // the fast edge forward, the slow edge in reverse), so the run ends there
+  // with nothing left to ramp and the rotor is not pulled back.
+  const std::uint64_t count = protocol::uint_arg(args, "count");
+  json configure_args = args;
+  configure_args.erase("count");
+  configure_args.erase("lease_s");
+  const double f = protocol::number_arg(args, "f");
+  const double max_count = std::floor(board_.daemon.duration_max_s * f);
+  if (count < 1 || !(static_cast<double>(count) <= max_count)) {
+    throw out_of_limits(
+        "count", fmt::format("{} periods at {:g} Hz; allowed: [1, {:g}] (the "
+                             "board's longest run, {:g} s)",
+                             count, f, std::max(max_count, 0.0), board_.daemon.duration_max_s));
+  }
+  configure_args["duration_s"] = static_cast<double>(count) / f;
+  const json configured = configure(client, configure_args);
+  json started =
+      start(client, args.contains("lease_s") ? json{{"lease_s", args["lease_s"]}} : json::object());
+  started["count"] = count;
+  started["direction"] = configured.at("direction");
+  return started;
+}
+
+json Daemon::move_to(const std::string& client, const json& args) {
+  firmware::MoveSettings m;
+  m.target_rad = protocol::number_arg(args, "target_rad");
+  m.tolerance_rad = protocol::number_arg(args, "tolerance_rad", m.tolerance_rad);
+  m.settle_s = protocol::number_arg(args, "settle_s", m.settle_s);
+  const double timeout_s = protocol::number_arg(args, "timeout_s", 30.0);
+  if (!(std::abs(m.target_rad) <= 10.0)) {
+    throw out_of_limits("target_rad",
+                        fmt::format("{:g} rad; allowed: [-10, 10] rad", m.target_rad));
+  }
+  if (!(m.tolerance_rad > 0.0 && m.tolerance_rad <= 0.1)) {
+    throw out_of_limits("tolerance_rad",
+                        fmt::format("{:g} rad; allowed: (0, 0.1] rad", m.tolerance_rad));
+  }
+  if (!(m.settle_s >= 0.0 && m.settle_s <= 10.0)) {
+    throw out_of_limits("settle_s", fmt::format("{:g} s; allowed: [0, 10] s", m.settle_s));
+  }
+  if (!(timeout_s > 0.0 && timeout_s <= board_.daemon.duration_max_s)) {
+    throw out_of_limits("timeout_s", fmt::format("{:g} s; allowed: (0, {:g}] s", timeout_s,
+                                                 board_.daemon.duration_max_s));
+  }
+  // The coarse steps' waveform: the caller's, or the board's [drive] values.
+  const auto& d0 = board_.model.drive;
+  const json configure_args{{"V0", protocol::number_arg(args, "V0", d0.V0)},
+                            {"f", protocol::number_arg(args, "f", d0.f)},
+                            {"C_dr", protocol::number_arg(args, "C_dr", d0.C_dr)},
+                            {"e_dr", protocol::number_arg(args, "e_dr", d0.e_dr)},
+                            {"duration_s", timeout_s}};
+  (void)configure(client, configure_args);
+  const auto& d = configured_->drive;
+  const auto& motor = board_.model.motor;
+  m.zero_displacement_m = zero_displacement_m_.value_or(std::numeric_limits<double>::quiet_NaN());
+  m.r2_m = board_.sensor.r2_m;
+  m.V0 = d.V0;
+  m.f = d.f;
+  m.D = d.D();
+  // The model's (or a fitted config's) view of the motor: what one step
+  // gives at V0 each way, and the angle per volt while the rotor sticks.
+  m.rad_per_V = motor.d_e / motor.r;
+  const double T = 1.0 / d.f;
+  for (std::size_t i = 0; i < firmware::MoveSettings::kStepFractions.size(); ++i) {
+    // One period from rest at each amplitude, each way. A prediction of
+    // (almost) nothing still gets a try: the measured steps correct it.
+    const double V = firmware::MoveSettings::kStepFractions[i] * d.V0;
+    const double floor = 1e-3 * m.rad_per_V * V;
+    m.step_forward_rad[i] = std::max(
+        floor,
+        model::final_angle(motor, model::Sawtooth(V, d.f, d.D()), model::FrictionModel::lugre, T));
+    m.step_reverse_rad[i] =
+        std::max(floor, -model::final_angle(motor, model::Sawtooth(V, d.f, 1.0 - d.D()),
+                                            model::FrictionModel::lugre, T));
+  }
+  m.fine_V_max = 0.8 * board_.drive.limits.V_max;
+  m.fast_slew_V_per_s = board_.drive.limits.slew_V_per_s;
+  json started = start(
+      client, args.contains("lease_s") ? json{{"lease_s", args["lease_s"]}} : json::object(), m);
+  started["target_rad"] = m.target_rad;
+  started["tolerance_rad"] = m.tolerance_rad;
+  started["settle_s"] = m.settle_s;
+  started["timeout_s"] = timeout_s;
+  return started;
+}
+
+std::optional<double> Daemon::recent_displacement_m() const {
+  if (recent_readings_.empty()) return std::nullopt;
+  double sum = 0.0;
+  for (double d : recent_readings_) sum += d;
+  return sum / static_cast<double>(recent_readings_.size());
+}
+
+json Daemon::set_zero() {
+  const auto last = recent_displacement_m();
+  if (!last) {
+    throw ProtocolError(code::bad_state, "",
+                        "zero: no sensor reading yet; the zero is the first reading of the "
+                        "next run or move until then");
+  }
+  zero_displacement_m_ = last;
+  zero_readings_.clear();
+  log_event(fmt::format("zero set at {:.9g} m", *zero_displacement_m_));
+  return position_json();
+}
+
+json Daemon::position_json() const {
+  const auto last = recent_displacement_m();
+  const bool known = zero_displacement_m_ && last;
+  return {
+      {"position_rad",
+       known ? json((*last - *zero_displacement_m_) / board_.sensor.r2_m) : json(nullptr)},
+      {"zero_displacement_m", zero_displacement_m_ ? json(*zero_displacement_m_) : json(nullptr)}};
+}
+
+json Daemon::move_json(const Run& run) const {
+  const firmware::MoveController& m = *run.move;
+  const double position = m.position_rad();
+  const bool on_target = m.state() == firmware::MoveState::on_target;
+  json j{{"state", firmware::to_string(m.state())},
+         {"target_rad", m.settings().target_rad},
+         {"tolerance_rad", m.settings().tolerance_rad},
+         {"position_rad", std::isnan(position) ? json(nullptr) : json(position)},
+         {"error_rad",
+          std::isnan(position) ? json(nullptr) : json(m.settings().target_rad - position)},
+         {"on_target", on_target},
+         {"on_target_at_s", on_target ? json(m.on_target_at_s()) : json(nullptr)},
+         {"steps", m.steps()}};
+  if (run.finished) {
+    const auto cause = run.runner->cause();
+    j["stop_cause"] = on_target ? std::string("on_target")
+                      : cause == firmware::StopCause::completed
+                          ? std::string("timeout")
+                          : std::string(firmware::to_string(cause));
+  }
+  return j;
 }
 
 json Daemon::stop_run(const std::string& client) {
@@ -566,7 +734,21 @@ void Daemon::pump_samples() {
         drive_recorder_.push(s);
         ramping = ramping || s.phase == firmware::DrivePhase::ramping_down;
       },
-      [this](const firmware::SensorSample& s) { sensor_recorder_.push(s); });
+      [this](const firmware::SensorSample& s) {
+        sensor_recorder_.push(s);
+        if (s.status != hal::Status::ok) return;
+        recent_readings_.push_back(s.displacement_m);
+        if (recent_readings_.size() > kZeroReadings) recent_readings_.pop_front();
+        // No zero yet: the mean of the first readings (as a move takes it).
+        if (!zero_displacement_m_ && zero_readings_.size() < kZeroReadings) {
+          zero_readings_.push_back(s.displacement_m);
+          if (zero_readings_.size() == kZeroReadings) {
+            double sum = 0.0;
+            for (double d : zero_readings_) sum += d;
+            zero_displacement_m_ = sum / static_cast<double>(kZeroReadings);
+          }
+        }
+      });
   run_->drive_recorded = drive_recorder_.next();
   // The drive's own phase says when the stop began.
   if (ramping && state_ == State::running) {
@@ -610,10 +792,15 @@ void Daemon::finish_run() {
         {"zero_status", hal::to_string(out.zero_status)},
         {"enabled_ever", out.enabled_ever},
         {"enable_status", hal::to_string(out.enable_status)}}},
-      {"drive", final_health_json(run.runner->drive_health())},
-      {"sensor", final_health_json(run.runner->sensor_health())},
+      {"drive", health_with_timing_json(run.runner->drive_health())},
+      {"sensor", health_with_timing_json(run.runner->sensor_health())},
       {"realtime", run.runner->realtime_notes()},
       {"samples", {{"drive", drive_recorder_.next()}, {"sensor", sensor_recorder_.next()}}}};
+  if (run.move) {
+    run.summary["move"] = move_json(run);
+    // The move's own zero, to the last bit, when it took one.
+    if (const double z = run.move->zero_displacement_m(); !std::isnan(z)) zero_displacement_m_ = z;
+  }
   if (latches(cause) || std::string_view(firmware::output_state(out)) != "confirmed") {
     state_ = State::fault;
     fault_cause_ = latches(cause) ? cause : firmware::StopCause::drive_fault;
@@ -642,8 +829,9 @@ void Daemon::publish_state() {
 void Daemon::publish_health() {
   json j{{"state", to_string(state_)}, {"board_ns", rig_.clock->now()}};
   if (running()) {
-    j["drive"] = health_json(run_->runner->drive_health());
-    j["sensor"] = health_json(run_->runner->sensor_health());
+    j["drive"] = health_with_timing_json(run_->runner->drive_health());
+    j["sensor"] = health_with_timing_json(run_->runner->sensor_health());
+    if (run_->move) j["move"] = move_json(*run_);
   }
   const std::string body = protocol::encode_map(j);
   std::array<zmq::const_buffer, 2> parts{zmq::str_buffer("health"), zmq::buffer(body)};

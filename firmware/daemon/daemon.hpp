@@ -7,6 +7,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -19,6 +20,7 @@
 #include "curve.hpp"
 #include "piezo/firmware/loop_runner.hpp"
 #include "piezo/model/waveform.hpp"
+#include "piezo/firmware/move_controller.hpp"
 #include "recorder.hpp"
 #include "rig.hpp"
 #include "run_config.hpp"
@@ -67,7 +69,14 @@ class Daemon {
   nlohmann::json hello() const;
   nlohmann::json status(const std::string& client) const;
   nlohmann::json configure(const std::string& client, const nlohmann::json& args);
-  nlohmann::json start(const std::string& client, const nlohmann::json& args);
+  /// With `move`, the run is a closed-loop move instead of the configured waveform.
+  nlohmann::json start(const std::string& client, const nlohmann::json& args,
+                       const std::optional<firmware::MoveSettings>& move = std::nullopt);
+  nlohmann::json step(const std::string& client, const nlohmann::json& args);
+  nlohmann::json move_to(const std::string& client, const nlohmann::json& args);
+  nlohmann::json set_zero();
+  nlohmann::json position_json() const;
+  nlohmann::json move_json(const Run& run) const;
   nlohmann::json stop_run(const std::string& client);
   nlohmann::json estop(const std::string& client);
   nlohmann::json reset_fault();
@@ -102,6 +111,13 @@ class Daemon {
   Recorder<firmware::SensorSample> sensor_recorder_;
   std::optional<SpillFile> spill_;
   std::uint64_t drive_published_ = 0, sensor_published_ = 0;
+  /// The user's zero of the angle (a displacement [m]): set by `zero`, or
+  /// else the first good reading since the daemon started.
+  std::optional<double> zero_displacement_m_;
+  static constexpr std::size_t kZeroReadings = 8;  ///< averaged for a zero or a position
+  std::vector<double> zero_readings_;  ///< toward the zero at the start
+  std::deque<double> recent_readings_;  ///< the last good readings of any run
+  [[nodiscard]] std::optional<double> recent_displacement_m() const;
   std::chrono::steady_clock::time_point last_health_;
   std::uint64_t last_drive_cycles_ = 0;
   std::chrono::steady_clock::time_point last_drive_progress_;

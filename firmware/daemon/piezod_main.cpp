@@ -34,7 +34,8 @@ void install_signal_handlers() {
 int main(int argc, char** argv) {
   install_signal_handlers();
   CLI::App app{"piezod: drive-and-acquire firmware of the piezo rig (docs/protocol.md)"};
-  app.set_version_flag("--version", std::string("piezod ") + PIEZO_VERSION);
+  app.set_version_flag("--version",
+                       std::string("piezod ") + PIEZO_VERSION + " (" + PIEZO_BUILD_INFO + ")");
   std::string config_path = "/etc/piezod.toml", listen;
   bool insecure = false;
   std::vector<std::string> sets;

@@ -3,12 +3,14 @@
 namespace piezo::firmware {
 
 AcquireLoop::AcquireLoop(hal::Clock& clock, hal::DisplacementSensor& sensor, double rate_hz,
-                         SensorHealth& sensor_health, SpscRing<SensorSample>& ring)
+                         SensorHealth& sensor_health, SpscRing<SensorSample>& ring,
+                         PositionFeed* feed)
     : clock_(clock),
       sensor_(sensor),
       period_(hal::from_seconds(1.0 / rate_hz)),
       sensor_health_(sensor_health),
-      ring_(ring) {}
+      ring_(ring),
+      feed_(feed) {}
 
 void AcquireLoop::run(hal::TimeNs t0, const std::atomic<bool>& stop) {
   const hal::TimeNs period = period_;
@@ -23,6 +25,7 @@ void AcquireLoop::run(hal::TimeNs t0, const std::atomic<bool>& stop) {
     const bool good = r.status == hal::Status::ok;
     sensor_health_.report(good, r.t_response);
     if (!good) health_.count(health_.errors);
+    if (good && feed_ != nullptr) feed_->publish(r.displacement_m);
     if (!ring_.try_push({r.t_request, r.t_response, r.displacement_m, r.status})) {
       health_.count(health_.dropped_samples);
     }

@@ -4,13 +4,15 @@
 
 namespace piezo::firmware {
 
-DriveLoop::DriveLoop(const DriveLoopSettings& settings, const model::Excitation& waveform,
+DriveLoop::DriveLoop(const DriveLoopSettings& settings, DriveProgram& program,
                      SafetySupervisor& supervisor, DriveLoopIo io)
-    : settings_(settings), waveform_(waveform), supervisor_(supervisor), io_(io) {}
+    : settings_(settings), program_(program), supervisor_(supervisor), io_(io) {}
 
 void DriveLoop::emit(hal::TimeNs t, double V, DrivePhase phase, hal::Status status) {
   if (status != hal::Status::ok) health_.count(health_.errors);
-  if (!io_.ring.try_push({t, V, phase, status})) health_.count(health_.dropped_samples);
+  if (!io_.ring.try_push({t, V, phase, status, program_.state_code()})) {
+    health_.count(health_.dropped_samples);
+  }
 }
 
 void DriveLoop::count_failure(hal::Status s) {
@@ -76,7 +78,7 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
 
     const SafetyAction action = supervisor_.check(
         now, io_.lines.poll_estop(), io_.stop_requested.load(std::memory_order_relaxed),
-        t >= settings_.duration_s);
+        t >= settings_.duration_s || program_.finished());
     if (action == SafetyAction::disable_now) {
       stop_output(now);
       return supervisor_.cause();
@@ -88,7 +90,7 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
     // instead of jumping by all the time it lost.
     const double dt = dt_nominal;
     if (phase == DrivePhase::driving) {
-      V = limit_voltage(settings_.limits, waveform_.voltage(t), V, dt);
+      V = limit_voltage(settings_.limits, program_.next_voltage(t, dt), V, dt);
     } else {
       V = step_towards(V, 0.0, supervisor_.settings().ramp_down_V_per_s, dt);
     }

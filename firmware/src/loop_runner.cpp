@@ -17,15 +17,26 @@ std::size_t ring_capacity(double rate_hz, double seconds) {
 
 LoopRunner::LoopRunner(const LoopRunnerSettings& settings, const model::Excitation& waveform,
                        LoopDevices devices, const RemoteControl* remote)
+    : LoopRunner(settings, nullptr, &waveform, devices, remote, nullptr) {}
+
+LoopRunner::LoopRunner(const LoopRunnerSettings& settings, DriveProgram& program,
+                       LoopDevices devices, const RemoteControl* remote, PositionFeed* feed)
+    : LoopRunner(settings, &program, nullptr, devices, remote, feed) {}
+
+LoopRunner::LoopRunner(const LoopRunnerSettings& settings, DriveProgram* program,
+                       const model::Excitation* waveform, LoopDevices devices,
+                       const RemoteControl* remote, PositionFeed* feed)
     : settings_(settings),
       devices_(devices),
       drive_ring_(ring_capacity(settings.drive.rate_hz, settings.ring_s)),
       sensor_ring_(ring_capacity(settings.sensor_rate_hz, settings.ring_s)),
       supervisor_(settings.safety, sensor_health_, devices.clock.now()),
-      drive_loop_(settings.drive, waveform, supervisor_,
+      waveform_program_(waveform != nullptr ? std::optional<WaveformProgram>(std::in_place, *waveform)
+                                            : std::nullopt),
+      drive_loop_(settings.drive, program != nullptr ? *program : *waveform_program_, supervisor_,
                   {devices.clock, devices.drive, devices.lines, drive_ring_, stop_}),
       acquire_loop_(devices.clock, devices.sensor, settings.sensor_rate_hz, sensor_health_,
-                    sensor_ring_) {
+                    sensor_ring_, feed) {
   supervisor_.set_remote(remote);
 }
 

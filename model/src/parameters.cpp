@@ -12,30 +12,32 @@ constexpr double inf = std::numeric_limits<double>::infinity();
 
 // Bounds are physical admissibility, not plausibility: a researcher may well
 // explore a stiffer stack or a lighter rotor, but a zero mass is meaningless.
+// Each symbol's range is what a stick-slip rotary inertia motor physically
+// allows, with room for any rig this project could meet (the paper's value
+// sits well inside); beyond it a value is a typo, and the model's numbers
+// would be nonsense (mu = 1e308 runs and ranks).
 const std::array<ParameterSpec, 15> kSpecs{{
-    {"V0", "drive", "V", 0, inf, true, false, [](Parameters& p) -> double& { return p.drive.V0; }},
-    {"f", "drive", "Hz", 0, inf, false, false, [](Parameters& p) -> double& { return p.drive.f; }},
+    {"V0", "drive", "V", 0, 1000, true, true, [](Parameters& p) -> double& { return p.drive.V0; }},
+    {"f", "drive", "Hz", 0, 1e5, false, true, [](Parameters& p) -> double& { return p.drive.f; }},
     {"C_dr", "drive", "-", 0, 1, false, true,
      [](Parameters& p) -> double& { return p.drive.C_dr; }},
-    {"e_dr", "drive", "-", 0, inf, false, false,
+    {"e_dr", "drive", "-", 0, 10, false, true,
      [](Parameters& p) -> double& { return p.drive.e_dr; }},
-    {"d_e", "model", "m/V", 0, inf, false, false,
+    {"d_e", "model", "m/V", 0, 1e-4, false, true,
      [](Parameters& p) -> double& { return p.motor.d_e; }},
-    {"M", "model", "kg", 0, inf, false, false, [](Parameters& p) -> double& { return p.motor.M; }},
-    {"J", "model", "kg m^2", 0, inf, false, false,
-     [](Parameters& p) -> double& { return p.motor.J; }},
-    {"C", "model", "N s/m", 0, inf, true, false,
-     [](Parameters& p) -> double& { return p.motor.C; }},
-    {"K", "model", "N/m", 0, inf, false, false, [](Parameters& p) -> double& { return p.motor.K; }},
-    {"r", "model", "m", 0, inf, false, false, [](Parameters& p) -> double& { return p.motor.r; }},
-    {"mu", "model", "-", 0, inf, false, false, [](Parameters& p) -> double& { return p.motor.mu; }},
-    {"F_N", "model", "N", 0, inf, false, false,
+    {"M", "model", "kg", 0, 100, false, true, [](Parameters& p) -> double& { return p.motor.M; }},
+    {"J", "model", "kg m^2", 0, 1, false, true, [](Parameters& p) -> double& { return p.motor.J; }},
+    {"C", "model", "N s/m", 0, 1e6, true, true, [](Parameters& p) -> double& { return p.motor.C; }},
+    {"K", "model", "N/m", 0, 1e12, false, true, [](Parameters& p) -> double& { return p.motor.K; }},
+    {"r", "model", "m", 0, 1, false, true, [](Parameters& p) -> double& { return p.motor.r; }},
+    {"mu", "model", "-", 0, 2, false, true, [](Parameters& p) -> double& { return p.motor.mu; }},
+    {"F_N", "model", "N", 0, 1e4, false, true,
      [](Parameters& p) -> double& { return p.motor.F_N; }},
-    {"sigma0", "model", "N/m", 0, inf, false, false,
+    {"sigma0", "model", "N/m", 0, 1e12, false, true,
      [](Parameters& p) -> double& { return p.motor.sigma0; }},
-    {"sigma1", "model", "N s/m", 0, inf, true, false,
+    {"sigma1", "model", "N s/m", 0, 1e6, true, true,
      [](Parameters& p) -> double& { return p.motor.sigma1; }},
-    {"sigma2", "model", "N s/m", 0, inf, true, false,
+    {"sigma2", "model", "N s/m", 0, 1e6, true, true,
      [](Parameters& p) -> double& { return p.motor.sigma2; }},
 }};
 

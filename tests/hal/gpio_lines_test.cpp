@@ -136,7 +136,8 @@ TEST(GpioDigitalLines, AnEstopEdgeDropsTheEnableLineWithinOneDrivePeriod) {
   firmware::SafetySupervisor supervisor(safety, health, t0);
   const model::Sawtooth saw(80.0, 10.0, 0.75);
   const std::atomic<bool> stop{false};
-  firmware::DriveLoop loop({10'000.0, 10.0, 0.1, {0.0, 80.0, 20'000.0}}, saw, supervisor,
+  firmware::WaveformProgram program(saw);
+  firmware::DriveLoop loop({10'000.0, 10.0, 0.1, {0.0, 80.0, 20'000.0}}, program, supervisor,
                            {clock, drive, lines, ring, stop});
   const TimeNs press_at = t0 + 500'000'000 + 37'000;  // between two drive deadlines
   SleeperScope loop_scope(clock), presser_scope(clock);
@@ -205,7 +206,8 @@ TEST(GpioDigitalLines, AnEstopDropsTheEnableLineWhileTheDriveWriteBlocks) {
   firmware::SafetySupervisor supervisor(safety, health, t0);
   const model::Sawtooth saw(80.0, 10.0, 0.75);
   const std::atomic<bool> stop{false};
-  firmware::DriveLoop loop({1000.0, 10.0, 0.1, {0.0, 80.0, 1e6}}, saw, supervisor,
+  firmware::WaveformProgram program(saw);
+  firmware::DriveLoop loop({1000.0, 10.0, 0.1, {0.0, 80.0, 1e6}}, program, supervisor,
                            {clock, drive, lines, ring, stop});
   std::thread driver([&] { (void)loop.run(t0); });
   // The first write (0 V before enabling) and the enable, then the loop's

@@ -198,7 +198,7 @@ void expect_run_fails_safely(ModbusHil& t, const fs::path& dir, int port,
   const auto check = run_command(
       "/usr/bin/python3 -c \"import h5py, json; f = h5py.File('" + (out / "run.h5").string() +
       "', 'r'); o = json.loads(f.attrs['summary'])['output']; "
-      "print(f.attrs['status'].decode(), f.attrs['output'].decode(), f['drive/phase'][-1], "
+      "print(f.attrs['status'].decode(), f.attrs['output'].decode(), float(f['drive/phase'][-1]), "
       "f['drive/V'][-1] == o['last_acknowledged_V'], o['last_acknowledged_V'] is not None)\"");
   EXPECT_EQ(check.out, "failed output_unconfirmed 3.0 True True\n") << check.err;
   (void)t;

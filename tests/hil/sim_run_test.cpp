@@ -27,16 +27,27 @@ struct Outcome {
   RunSummary summary;
   bool amplifier_enabled_at_end = true;  ///< the simulated amplifier, read after the run
   double amplifier_V_at_end = -1.0;
-  std::vector<double> drive_t, drive_V, drive_phase, sensor_t, theta;
+  double rotor_theta_at_end = 0.0;  ///< the simulated rotor's own angle
+  std::vector<double> drive_t, drive_V, drive_phase, move_state, sensor_t, theta;
 };
 
 /// With `stop_at_s`, the host is asked to stop once the run has reached that
 /// time (as a user pressing Ctrl-C mid-run), whatever the set-up took.
+/// With `step_periods`, a step (`piezo step`): that many whole periods;
+/// with `move`, a closed-loop move (`piezo move`).
 Outcome run_virtual(std::vector<std::string> sets, double stop_at_s = -1.0,
-                    const std::string& tag = "hil") {
+                    const std::string& tag = "hil", std::uint64_t step_periods = 0,
+                    std::optional<config::RunSettings::Move> move = std::nullopt) {
   sets.push_back("run.clock=virtual");
-  const config::RunConfig config =
-      config::load_run_config(PIEZO_SOURCE_DIR "/configs/sim.toml", sets);
+  config::RunConfig config = config::load_run_config(PIEZO_SOURCE_DIR "/configs/sim.toml", sets);
+  if (step_periods > 0) {
+    config.run.step_periods = step_periods;
+    config.run.duration_s = static_cast<double>(step_periods) / config.model.drive.f;
+  }
+  if (move) {
+    config.run.move = move;
+    config.run.duration_s = move->timeout_s;
+  }
   config::Rig rig = config::build_rig(config);
   const auto dir = testing::fresh_temp_dir(tag);
   const std::string path = (dir / "run.h5").string();
@@ -52,11 +63,13 @@ Outcome run_virtual(std::vector<std::string> sets, double stop_at_s = -1.0,
   out.summary = execute_run(config, std::move(rig), log, stop, on_status);
   out.amplifier_enabled_at_end = device->plant().enabled();
   out.amplifier_V_at_end = device->plant().latest().V_out;
+  out.rotor_theta_at_end = device->plant().latest().theta;
   log.close(out.summary.status());
   const H5File file = H5File::open(path);
   out.drive_t = file.read("/drive/t");
   out.drive_V = file.read("/drive/V");
   out.drive_phase = file.read("/drive/phase");
+  out.move_state = file.read("/drive/move_state");
   out.sensor_t = file.read("/sensor/t");
   out.theta = file.read("/sensor/theta");
   return out;
@@ -110,6 +123,123 @@ TEST(SimRun, AFullRunMatchesTheModel) {
   EXPECT_NEAR(o.summary.theta_end_rad,
               model::final_angle(p.motor, saw, model::FrictionModel::lugre, 4.8),
               2e-3 * o.summary.theta_end_rad);
+}
+
+// The protocol's `step`: exactly N whole periods, each ending at 0 V, so
+// the run ends there; the mirrored sawtooth turns the simulated rotor back.
+TEST(SimRun, StepsRunWholePeriodsAndReverseTurnsTheRotorBack) {
+  constexpr std::uint64_t kSteps = 5;
+  const model::Parameters p;
+  const double T = 1.0 / p.drive.f;
+  for (const auto direction : {model::Direction::forward, model::Direction::reverse}) {
+    const std::string name(model::name(direction));
+    const Outcome o = run_virtual({"drive.direction=" + name}, -1.0, "hil-step", kSteps);
+    EXPECT_EQ(o.summary.status(), "completed") << name;
+    EXPECT_FALSE(o.amplifier_enabled_at_end) << name;
+    // The last period ends at 0 V; the amplifier's own lag leaves a fraction of a volt.
+    EXPECT_NEAR(o.amplifier_V_at_end, 0.0, 0.5) << name;
+    // Driving samples cover [0, N T) at 10 kHz, and nothing is left to ramp.
+    std::size_t driving = 0;
+    for (std::size_t i = 0; i < o.drive_t.size(); ++i) {
+      if (o.drive_phase[i] != static_cast<double>(firmware::DrivePhase::driving)) continue;
+      ++driving;
+      EXPECT_LT(o.drive_t[i], kSteps * T - 1e-6) << name;
+    }
+    EXPECT_EQ(driving, static_cast<std::size_t>(kSteps * T * 1e4 + 0.5)) << name;
+    // The stop follows within a few cycles (the 0 V write confirmed), not a ramp.
+    EXPECT_LE(o.drive_t.back(), kSteps * T + 5e-4) << name << ": no ramp after the last period";
+    // The device's rotor went the commanded way, as far as the model says.
+    const model::Sawtooth saw(p.drive.V0, p.drive.f, model::rise_fraction(p.drive.D(), direction));
+    const double expected =
+        model::final_angle(p.motor, saw, model::FrictionModel::lugre, kSteps * T);
+    EXPECT_EQ(std::signbit(o.rotor_theta_at_end), direction == model::Direction::reverse) << name;
+    EXPECT_NEAR(o.rotor_theta_at_end, expected, 0.02 * std::abs(expected)) << name;
+    // The measured travel: the last reading comes up to a sensor period
+    // before the rotor's final state.
+    EXPECT_NEAR(o.summary.theta_end_rad, o.rotor_theta_at_end, 0.01 * std::abs(expected))
+        << name << ": sensor";
+  }
+}
+
+// Closed-loop moves on a plant whose friction and piezo coefficient differ
+// from the model the controller predicts with (mu +25 %, d_e -24 %, sigma0
+// +21 %): every move ends on target, checked on the simulated rotor itself,
+// within 3x the sensor's noise (0.5 um at r2 = 62 mm: 8.1 urad), with the
+// drive at 0 V and the amplifier disabled; "on target" comes only after the
+// settle time at 0 V, never while passing through.
+TEST(SimRun, MovesEndOnTargetOnAMismatchedPlantBothWays) {
+  const std::vector<std::string> mismatch{"plant.mu=0.125", "plant.d_e=0.42e-6",
+                                          "plant.sigma0=2000", "drive.f=40"};
+  constexpr double kNoise = 0.5e-6 / 0.062;
+  for (const double target : {1e-4, 1e-3, 1e-2, 1e-1, -1e-4, -1e-3, -1e-2, -1e-1}) {
+    config::RunSettings::Move move{.target_rad = target, .tolerance_rad = 15e-6,
+                                   .settle_s = 0.1, .timeout_s = 30.0};
+    const Outcome o = run_virtual(mismatch, -1.0, "hil-move", 0, move);
+    const auto& m = o.summary.move;
+    ASSERT_TRUE(m.is_object()) << target;
+    EXPECT_EQ(m.at("stop_cause"), "on_target") << target;
+    EXPECT_TRUE(m.at("on_target").get<bool>()) << target;
+    EXPECT_EQ(o.summary.status(), "completed") << target;
+    EXPECT_NEAR(o.rotor_theta_at_end, target, 3 * kNoise) << target << ": the rotor itself";
+    EXPECT_FALSE(o.amplifier_enabled_at_end) << target;
+    EXPECT_DOUBLE_EQ(o.drive_V.back(), 0.0) << target;
+    // On target once, at the end, at 0 V, after settle_s within tolerance.
+    const double on_at = m.at("on_target_at_s").get<double>();
+    std::size_t first_on = o.move_state.size();
+    for (std::size_t i = 0; i < o.move_state.size(); ++i) {
+      if (o.move_state[i] == 5.0 && first_on == o.move_state.size()) first_on = i;
+      if (first_on < o.move_state.size()) {
+        ASSERT_EQ(o.move_state[i], 5.0) << target << ": left on_target at " << o.drive_t[i];
+      }
+      if (o.drive_t[i] > on_at - move.settle_s && o.drive_t[i] <= on_at) {
+        ASSERT_EQ(o.drive_V[i], 0.0) << target << ": settling at 0 V";
+      }
+    }
+    ASSERT_LT(first_on, o.move_state.size()) << target;
+    double sum = 0.0;
+    int n = 0;
+    for (std::size_t i = 0; i < o.sensor_t.size(); ++i) {
+      if (o.sensor_t[i] > on_at - move.settle_s && o.sensor_t[i] <= on_at &&
+          std::isfinite(o.theta[i])) {
+        sum += o.theta[i];
+        ++n;
+      }
+    }
+    ASSERT_GT(n, 50) << target;
+    EXPECT_NEAR(sum / n, target, move.tolerance_rad) << target << ": the settle window's readings";
+  }
+}
+
+// A move that cannot finish: the sensor stalls, or the e-stop is pressed.
+// Either ends the move with its cause, the drive at 0 V and the amplifier
+// disabled, on the simulated amplifier itself.
+TEST(SimRun, AMoveIntoAStalledSensorOrAnEstopStopsAtZeroVolts) {
+  config::RunSettings::Move far{.target_rad = 0.05, .tolerance_rad = 15e-6, .settle_s = 0.1,
+                                .timeout_s = 10.0};
+  for (const auto& [fault, cause] :
+       {std::pair{std::string("sensor.stall_at_s=0.3"), std::string("sensor_fault")},
+        std::pair{std::string("lines.estop_at_s=0.3"), std::string("estop")}}) {
+    const Outcome o = run_virtual({fault, "safety.sensor_stale_s=0.05"}, -1.0, "hil-move-fault",
+                                  0, far);
+    EXPECT_EQ(o.summary.move.at("stop_cause"), cause) << fault;
+    EXPECT_FALSE(o.summary.move.at("on_target").get<bool>()) << fault;
+    EXPECT_FALSE(o.amplifier_enabled_at_end) << fault;
+    // The e-stop disables at once, mid-step (the simulated amplifier's last
+    // sample still shows the voltage it was cut at); the stalled sensor
+    // ramps the drive down first.
+    if (cause == "sensor_fault") {
+      EXPECT_NEAR(o.amplifier_V_at_end, 0.0, 1.0) << fault;
+    }
+    EXPECT_DOUBLE_EQ(o.drive_V.back(), 0.0) << fault;
+    EXPECT_LT(o.drive_t.back(), 0.6) << fault;
+  }
+  // A target out of reach within the timeout ends as such, at 0 V.
+  config::RunSettings::Move unreachable{.target_rad = 1.0, .tolerance_rad = 15e-6,
+                                        .settle_s = 0.1, .timeout_s = 0.5};
+  const Outcome o = run_virtual({}, -1.0, "hil-move-timeout", 0, unreachable);
+  EXPECT_EQ(o.summary.move.at("stop_cause"), "timeout");
+  EXPECT_FALSE(o.amplifier_enabled_at_end);
+  EXPECT_DOUBLE_EQ(o.drive_V.back(), 0.0);
 }
 
 // A plant that differs from the model: the open-loop prediction drifts

@@ -98,12 +98,16 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(BadInvocation{"UnknownSetKey", "--set sigma9=1", "sigma9"},
                       BadInvocation{"SetNotANumber", "--set M=heavy", "M: 'heavy' is not a number"},
                       BadInvocation{"SetNaN", "--set mu=nan", "mu: 'nan' is not finite"},
-                      BadInvocation{"SetOutOfRange", "--set K=-5", "allowed range (0, inf)"},
+                      BadInvocation{"SetOutOfRange", "--set K=-5", "allowed range (0, 1e+12]"},
                       BadInvocation{"SetMissingValue", "--set K", "expected KEY=VALUE"},
                       BadInvocation{"RiseFractionAboveOne", "--set C_dr=1 --set e_dr=1.5", "C_dr"},
                       BadInvocation{"UnknownModel", "--model stribeck", "allowed: lugre, coulomb"},
                       BadInvocation{"BadOutSuffix", "--out run.txt", "--out"},
-                      BadInvocation{"NegativeDuration", "--duration -1", "--duration"},
+                      BadInvocation{"NegativeDuration", "--duration -1", "allowed: (0, 3600] s"},
+                      BadInvocation{"EndlessDuration", "--duration 1e300", "allowed: (0, 3600] s"},
+                      BadInvocation{"AbsurdFriction", "--set mu=1e308", "allowed range (0, 2]"},
+                      BadInvocation{"UnwritableOut", "--out /proc/piezo-test.csv",
+                                    "--out: /proc/piezo-test.csv: cannot be written"},
                       BadInvocation{"MissingConfig", "--config /nonexistent/x.toml", "--config"}),
     [](const auto& test_info) { return test_info.param.name; });
 
@@ -115,7 +119,7 @@ TEST(SimulateCli, BadConfigFileNamesFileAndKey) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find(path), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("model.sigma0"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find("(0, inf)"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("(0, 1e+12]"), std::string::npos) << r.err;
   std::filesystem::remove_all(dir);
 }
 
@@ -250,6 +254,38 @@ TEST(SweepCli, AnUnknownParameterIsRefused) {
   const auto r = run_command(kPiezo + " sweep --param fq --from 1 --to 10");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("--param: fq"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace piezo::testing
+
+namespace piezo::testing {
+namespace {
+
+// What a new user tries first: the version says where the build came from;
+// a short range, not a 300-digit one, for a bad duration.
+TEST(Cli, VersionNamesTheRevisionAndBuildType) {
+  const auto r = run_command(kPiezo + " --version");
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_NE(r.out.find("piezo 0."), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("(git "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(" build)"), std::string::npos) << r.out;
+  const auto d = run_command(kPiezo + " simulate --duration -1");
+  EXPECT_LT(d.err.size(), 300u) << d.err;
+}
+
+// `piezo sensor read` uses the sensor alone: a simulated drive beside a
+// Modbus sensor is not its business (it fails on the missing sensor, not
+// on the pairing).
+TEST(Cli, SensorReadChecksOnlyTheSensorsSections) {
+  const auto dir = fresh_temp_dir("sensor-only");
+  const auto path = (dir / "rig.toml").string();
+  write_file(path,
+             "[drive]\nbackend = \"sim\"\n[sensor]\nbackend = \"modbus-tcp\"\n"
+             "host = \"127.0.0.1\"\nport = 1\nresponse_timeout_s = 0.05\n[run]\n");
+  const auto r = run_command(kPiezo + " sensor read --config " + path + " --count 1");
+  EXPECT_EQ(r.err.find("cannot go with"), std::string::npos) << r.err;
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -73,6 +73,52 @@ TEST(IdentifyCli, FitsACsvAndTheResultFeedsSimulate) {
               j.at("parameters").at("sigma0").get<double>(), 1e-6);
 }
 
+// Logs from other tools: the same measurement as a MATLAB v7.3 .mat (HDF5
+// behind a 512-byte user block, column vectors stored 1 x N, MATLAB_class
+// attributes) and as a plain HDF5 file with names of its own, both written
+// by h5py; identify reads each through --t/--V/--theta and fits it as the
+// CSV. A dataset that is not there is named, exit 2.
+TEST(IdentifyCli, ReadsMatlabAndForeignHdf5FilesByDatasetPath) {
+  const auto dir = fresh_temp_dir("identify-foreign");
+  const auto csv = write_synthetic_csv(dir, truth());
+  const auto mat = dir / "measured.mat", h5 = dir / "foreign.h5";
+  const auto written = run_command(
+      "/usr/bin/python3 -c \"import h5py, numpy as np; d = np.genfromtxt('" + csv.string() +
+      "', delimiter=',', names=True)\n"
+      "with h5py.File('" +
+      mat.string() +
+      "', 'w', userblock_size=512) as f:\n"
+      "    for k in ('t', 'V', 'theta'):\n"
+      "        ds = f.create_dataset(k, data=d[k].reshape(1, -1)); "
+      "ds.attrs['MATLAB_class'] = np.bytes_('double')\n"
+      "with h5py.File('" +
+      h5.string() +
+      "', 'w') as f:\n"
+      "    f['rig/time'] = d['t']; f['rig/drive'] = d['V']; f['rig/angle'] = d['theta']\"");
+  ASSERT_EQ(written.exit_code, 0) << written.err;
+  for (const auto& [file, layout] :
+       {std::pair{mat, std::string(" --t /t --V /V --theta /theta")},
+        std::pair{h5, std::string(" --t /rig/time --V /rig/drive --theta /rig/angle")}}) {
+    const auto r = run_command(kPiezo + " identify --log " + file.string() + layout +
+                               " --params sigma0,F_N,d_e --json");
+    ASSERT_EQ(r.exit_code, 0) << file << ": " << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    EXPECT_LT(j.at("rmse_rad").get<double>(), 10e-6) << file;
+    EXPECT_NEAR(j.at("parameters").at("d_e").get<double>(), truth().motor.d_e,
+                0.05 * truth().motor.d_e)
+        << file;
+  }
+  const auto missing = run_command(kPiezo + " identify --log " + h5.string() +
+                                   " --t /rig/time --V /rig/volts --theta /rig/angle");
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_NE(missing.err.find("/rig/volts: no such dataset (--V)"), std::string::npos)
+      << missing.err;
+  const auto unnamed = run_command(kPiezo + " identify --log " + h5.string());
+  EXPECT_EQ(unnamed.exit_code, 2);
+  EXPECT_NE(unnamed.err.find("name its datasets (--t, --V, --theta, --theta-t)"), std::string::npos)
+      << unnamed.err;
+}
+
 TEST(IdentifyCli, NotesWhenMuAndNormalForceAreBothFree) {
   const auto dir = fresh_temp_dir("identify-notes");
   const auto csv = write_synthetic_csv(dir, model::Parameters{});

@@ -69,7 +69,7 @@ TEST_F(ModelConfig, UnknownSectionIsNamed) {
 }
 
 TEST_F(ModelConfig, OutOfRangeValueNamesRange) {
-  expect_error(file("[model]\nM = -1\n"), "model.M", "(0, inf)");
+  expect_error(file("[model]\nM = -1\n"), "model.M", "(0, 100]");
 }
 
 TEST_F(ModelConfig, NanIsRejected) {

@@ -138,9 +138,94 @@ INSTANTIATE_TEST_SUITE_P(
                "V; allowed: >= 40 V/s"},
         BadRun{"StopConfirmTooLong", "--set safety.stop_confirm_s=100", "",
                "safety.stop_confirm_s"},
+        BadRun{"BadDirection", "", "[drive]\ndirection = \"sideways\"\n[sensor]\n[run]\n",
+               "rig.toml: drive.direction: must be one of: \"forward\", \"reverse\""},
         BadRun{"SensorRegisterPastTheTable", "--set sensor.type=\"f32\" --set sensor.address=65535",
                "", "sensor.address: 65535 with a 2-register value runs past register 65535"}),
     [](const auto& param_info) { return std::string(param_info.param.name); });
+
+// `piezo step`: N whole periods on the virtual clock, the travel in the
+// JSON is the measured angle, and bad input names its key and leaves nothing.
+TEST(RunCli, StepReportsTheMeasuredTravelAndRefusesBadInputByKey) {
+  const auto dir = fresh_temp_dir("step-cli");
+  const auto r = run_command(kPiezo + " step 3 --reverse --config " + kSimConfig +
+                             " --set run.clock=virtual --json --out " + (dir / "steps").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  const auto& steps = j.at("steps");
+  EXPECT_EQ(steps.at("count"), 3);
+  EXPECT_EQ(steps.at("direction"), "reverse");
+  EXPECT_DOUBLE_EQ(steps.at("travel_rad").get<double>(), j.at("theta_end_rad").get<double>());
+  EXPECT_LT(steps.at("travel_rad").get<double>(), -1e-3) << "three steps back, about 1.3 mrad each";
+  EXPECT_NEAR(steps.at("mean_step_rad").get<double>(), steps.at("travel_rad").get<double>() / 3,
+              1e-12);
+  EXPECT_NEAR(j.at("t_end_s").get<double>(), 0.3, 2e-3) << "three periods at 10 Hz";
+
+  const auto bad = run_command(kPiezo + " step 3 --V0 120 --config " + kSimConfig + " --out " +
+                               (dir / "bad").string());
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("drive.V0: 120 V is outside"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(dir / "bad"));
+  const auto zero = run_command(kPiezo + " step 0 --config " + kSimConfig);
+  EXPECT_NE(zero.exit_code, 0);
+  EXPECT_NE(zero.err.find("count"), std::string::npos) << zero.err;
+}
+
+// `piezo move` on the one-machine default: the JSON the issue names, and a
+// bad argument refused by name before anything is created.
+TEST(RunCli, MovePrintsItsResultAndRefusesBadArgumentsByName) {
+  const auto dir = fresh_temp_dir("move-cli");
+  const auto r = run_command(kPiezo + " move --to -0.002 --config " + kSimConfig +
+                             " --set run.clock=virtual --json --out " + (dir / "move").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  for (const char* key : {"position_rad", "error_rad", "on_target", "time_s", "steps", "stop_cause",
+                          "target_rad", "run_dir", "log"}) {
+    EXPECT_TRUE(j.contains(key)) << key;
+  }
+  EXPECT_TRUE(j.at("on_target").get<bool>());
+  EXPECT_EQ(j.at("stop_cause"), "on_target");
+  EXPECT_NEAR(j.at("position_rad").get<double>(), -0.002, 25e-6);
+  // The log holds the move's account and the controller's state per drive cycle.
+  const auto logged =
+      run_command("/usr/bin/python3 -c \"import h5py, json; f = h5py.File('" +
+                  (dir / "move" / "run.h5").string() +
+                  "'); m = json.loads(f.attrs['summary'])['move']; s = f['drive/move_state'][:]; "
+                  "print(m['target_rad'], m['stop_cause'], int(s.max()), int(s[0]))\"");
+  EXPECT_EQ(logged.out, "-0.002 on_target 5 1\n") << logged.err;
+
+  const auto bad = run_command(kPiezo + " move --to 0.001 --tolerance 0 --config " + kSimConfig +
+                               " --out " + (dir / "bad").string());
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--tolerance"), std::string::npos) << bad.err;
+  EXPECT_NE(bad.err.find("allowed: (0, 0.1] rad"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(dir / "bad"));
+}
+
+// The log's layout for long experiments: the codes as uint8, every column
+// shuffled and deflated, as h5py sees it.
+TEST(RunCli, TheLogStoresCodesAsBytesAndCompressesEveryColumn) {
+  const auto dir = fresh_temp_dir("log-layout");
+  const auto r =
+      run_command(kPiezo + " run --config " + kSimConfig +
+                  " --set run.clock=virtual --duration 0.5 --out " + (dir / "r").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto check = run_command(
+      "/usr/bin/python3 -c \"import h5py; f = h5py.File('" + (dir / "r" / "run.h5").string() +
+      "'); d = []; f.visititems(lambda n, o: d.append(o) if isinstance(o, h5py.Dataset) and "
+      "o.chunks else None); print(len(d), all(o.compression == 'gzip' and o.shuffle for o in d), "
+      "f['drive/phase'].dtype, f['sensor/status'].dtype, f['drive/t'].dtype, "
+      "f['drive/V'].dtype)\"");
+  EXPECT_EQ(check.out, "20 True uint8 uint8 float64 float64\n") << check.err;
+}
+
+// An --out that cannot be created is bad input: exit 2 before the rig is set up.
+TEST(RunCli, AnUnwritableOutIsRefusedBeforeAnything) {
+  const auto r = run_command(kPiezo + " run --config " + kSimConfig + " --out /proc/piezo-run");
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("--out: /proc/piezo-run: cannot be created in /proc"), std::string::npos)
+      << r.err;
+}
 
 // A log that cannot grow (a file-size limit) on the virtual clock: the
 // drive stops, nothing hangs (the loops no longer wait for a host that has
@@ -152,14 +237,14 @@ TEST(RunCli, AFullDiskOnTheVirtualClockStopsTheRunWithExit1) {
   write_file(
       script,
       "ulimit -f 6000\n" + kPiezo + " run --config " + kSimConfig +
-          " --set run.clock=virtual --set run.flush_interval_s=1 --duration 60 --json --out " +
+          " --set run.clock=virtual --set run.flush_interval_s=1 --duration 120 --json --out " +
           (dir / "run").string() + "\n");
   const auto r = run_command("timeout 120 bash " + script.string());
   ASSERT_EQ(r.exit_code, 1) << "124 would be a hang: " << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j.at("stop_cause"), "log_failed");
   EXPECT_EQ(j.at("output").at("state"), "confirmed");
-  EXPECT_LT(j.at("t_end_s").get<double>(), 60.0);
+  EXPECT_LT(j.at("t_end_s").get<double>(), 120.0);
   const auto check = h5py_check(dir / "run" / "run.h5",
                                 "print(f.attrs['status'].decode(), len(f['drive/V']) > 0)\n");
   EXPECT_EQ(check.out, "failed True\n") << check.err;

@@ -160,6 +160,72 @@ TEST_F(Piezod, KillNineOfTheHostStopsTheBoardAndLatchesLinkLost) {
   EXPECT_EQ(status().at("state"), "idle");
 }
 
+// Positioning against the board, the host with no config of its own (the
+// board has one): moves are absolute from the board's zero, `piezo zero`
+// moves the zero, and steps run whole periods.
+TEST_F(Piezod, MovesAreAbsoluteFromTheBoardsZeroAndStepsNeedNoHostConfig) {
+  start();
+  const auto move = [&](const std::string& to) {
+    const auto r = run_command(kPiezo + " move --to " + to + " --rig " + address_ +
+                               " --json --out " + (dir_ / ("move" + to)).string());
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return nlohmann::json::parse(r.out);
+  };
+  const auto position = [&] { return status().at("position").at("position_rad").get<double>(); };
+  EXPECT_TRUE(move("0.001").at("on_target").get<bool>());
+  EXPECT_NEAR(position(), 0.001, 25e-6);
+  const auto zeroed = run_command(kPiezo + " zero --rig " + address_);
+  EXPECT_EQ(zeroed.exit_code, 0) << zeroed.err;
+  EXPECT_NEAR(position(), 0.0, 1e-12);
+  const auto second = move("-0.0005");
+  EXPECT_TRUE(second.at("on_target").get<bool>());
+  EXPECT_NEAR(position(), -0.0005, 25e-6) << "from the new zero";
+  const auto step = run_command(kPiezo + " step 2 --rig " + address_ + " --json --out " +
+                                (dir_ / "steps").string());
+  ASSERT_EQ(step.exit_code, 0) << step.err;
+  const auto j = nlohmann::json::parse(step.out);
+  EXPECT_EQ(j.at("steps").at("count"), 2);
+  EXPECT_GT(j.at("steps").at("travel_rad").get<double>(), 1e-3);
+  // No config and no board: the host says what it needs.
+  const auto none = run_command(kPiezo + " step 2");
+  EXPECT_EQ(none.exit_code, 2);
+  EXPECT_NE(none.err.find("--config: required, or --rig ADDRESS"), std::string::npos) << none.err;
+}
+
+// The host dies in the middle of a closed-loop move: the board's lease ends
+// the move by itself, the drive at 0 V (its own last record, as the
+// simulated drive acknowledged it), the move's cause link_lost.
+TEST_F(Piezod, KillNineOfTheHostMidMoveEndsTheMoveAtZeroVoltsWithLinkLost) {
+  start();
+  Spawned host({kPiezo, "move", "--to", "0.2", "--timeout", "60", "--config", kSimConfig, "--rig",
+                address_, "--out", (dir_ / "killed-move").string()},
+               (dir_ / "host.log").string());
+  std::this_thread::sleep_for(1500ms);
+  ASSERT_EQ(status().at("state"), "running") << read_all(dir_ / "host.log");
+  host.signal(SIGKILL);
+  EXPECT_EQ(host.wait_exit(), 128 + SIGKILL);
+  std::this_thread::sleep_for(1500ms);
+  const auto s = status();
+  EXPECT_EQ(s.at("fault"), "link_lost");
+  const auto& summary = s.at("run").at("summary");
+  EXPECT_EQ(summary.at("move").at("stop_cause"), "link_lost");
+  EXPECT_FALSE(summary.at("move").at("on_target").get<bool>());
+  EXPECT_GT(summary.at("move").at("steps").get<int>(), 3);
+  EXPECT_EQ(summary.at("output").at("state"), "confirmed");
+  const long n = summary.at("samples").at("drive").get<long>();
+  const auto last = run_command(
+      "/usr/bin/python3 -c \"import zmq, msgpack, struct; c = zmq.Context().socket(zmq.DEALER); "
+      "c.connect('" +
+      address_ +
+      "'); c.send(msgpack.packb({'id': 1, 'cmd': 'fetch', 'args': {'stream': 'drive', "
+      "'first': " +
+      std::to_string(n - 1) +
+      ", 'count': 1}})); "
+      "f = msgpack.unpackb(c.recv())['result']['frame']; r = struct.unpack_from('<qdBBB', f, 24); "
+      "print(r[1], r[2])\"");
+  EXPECT_EQ(last.out, "0.0 2\n") << last.err << ": 0 V, stopped";
+}
+
 /// A 2 s link outage mid-run through a proxy that drops every connection
 /// and refuses new ones (link_proxy.py). Returns the host's summary.
 struct OutageRun {

@@ -21,7 +21,7 @@ cmd = ctx.socket(zmq.DEALER)
 cmd.connect(address)
 sub = ctx.socket(zmq.SUB)
 sub.connect(stream_address)
-for topic in (b"drive", b"sensor", b"state"):
+for topic in (b"drive", b"sensor", b"state", b"health"):
     sub.setsockopt(zmq.SUBSCRIBE, topic)
 next_id = 0
 
@@ -67,30 +67,57 @@ check(beyond["error"]["code"] == "out_of_limits" and beyond["error"]["key"] == "
 wrong_type = call("configure", V0="high", f=10.0, duration_s=0.5)
 check(wrong_type["error"]["key"] == "V0", "wrong type named")
 
+sideways = call("configure", V0=60.0, f=10.0, duration_s=0.5, direction="sideways")
+check(sideways["error"]["code"] == "bad_argument" and sideways["error"]["key"] == "direction",
+      "an unknown direction is refused by name: " + str(sideways))
+no_steps = call("step", count=0, V0=60.0, f=10.0)
+check(no_steps["error"]["code"] == "out_of_limits" and no_steps["error"]["key"] == "count",
+      "zero steps refused: " + str(no_steps))
+
+
+def follow_run():
+    """Streams a run to its end, renewing the lease; returns the final state
+    event, the samples received per stream, the last drive record and the
+    first and last good displacements."""
+    received = {1: 0, 2: 0}
+    last_drive = None
+    displacement = []
+    global move_updates
+    move_updates = []
+    deadline = time.time() + 30
+    while time.time() < deadline:
+        if sub.poll(100):
+            topic, body = sub.recv_multipart()
+            if topic == b"state":
+                event = msgpack.unpackb(body, raw=False)
+                if event["state"] in ("idle", "fault") and "summary" in event:
+                    return event, received, last_drive, displacement
+                continue
+            if topic == b"health":
+                event = msgpack.unpackb(body, raw=False)
+                if "move" in event:
+                    move_updates.append(event["move"])
+                continue
+            if topic not in (b"drive", b"sensor"):
+                continue
+            stream, first, count, record = frame_header(body)
+            check(first == received[stream], f"stream {stream} in sequence")
+            received[stream] += count
+            if stream == 1 and count:
+                last_drive = struct.unpack_from("<qdBB", body, 24 + (count - 1) * record)
+            for i in range(count if stream == 2 else 0):
+                _, _, d, st = struct.unpack_from("<qqdB", body, 24 + i * record)
+                if st == 0:
+                    displacement.append(d)
+        call("lease", drive_received=received[1])
+    check(False, "the run ended")
+
+
 check(call("configure", V0=60.0, f=10.0, duration_s=0.5)["ok"], "configure")
 time.sleep(0.2)
 started = call("start", lease_s=1.0)
 check(started["ok"], "start: " + str(started))
-received = {1: 0, 2: 0}
-last_drive = None
-deadline = time.time() + 30
-final = None
-while time.time() < deadline and final is None:
-    if sub.poll(100):
-        topic, body = sub.recv_multipart()
-        if topic == b"state":
-            event = msgpack.unpackb(body, raw=False)
-            if event["state"] in ("idle", "fault") and "summary" in event:
-                final = event
-            continue
-        stream, first, count, record = frame_header(body)
-        check(first == received[stream], f"stream {stream} in sequence")
-        received[stream] += count
-        if stream == 1 and count:
-            last_drive = struct.unpack_from("<qdBB", body, 24 + (count - 1) * record)
-    call("lease", drive_received=received[1])
-
-check(final is not None, "the run ended")
+final, received, last_drive, _ = follow_run()
 summary = final["summary"]
 check(summary["cause"] == "completed", "cause " + summary["cause"])
 check(received[1] == summary["samples"]["drive"], "every drive sample streamed")
@@ -99,4 +126,34 @@ check(last_drive[1] == 0.0 and last_drive[2] == 2, "the drive ends stopped at 0 
 fetched = call("fetch", stream="sensor", first=10, count=5)["result"]["frame"]
 stream, first, count, record = frame_header(fetched)
 check(stream == 2 and first == 10 and count == 5, "fetch from the recorder")
-print("ok", received[1], received[2])
+
+# Three steps backwards: whole periods, the rotor's measured angle goes down.
+stepped = call("step", count=3, direction="reverse", V0=60.0, f=10.0, lease_s=1.0)
+check(stepped["ok"] and stepped["result"]["count"] == 3, "step: " + str(stepped))
+check(stepped["result"]["duration_s"] == 0.3, "three periods at 10 Hz")
+final, steps_received, last_drive, displacement = follow_run()
+check(final["summary"]["cause"] == "completed", "step cause " + final["summary"]["cause"])
+check(last_drive[1] == 0.0, "the steps end at 0 V")
+check(len(displacement) > 100 and displacement[-1] < displacement[0] - 5e-6,
+      f"reverse steps move the rotor back: {displacement[0]} -> {displacement[-1]} m")
+
+# A closed-loop move to 2 mrad beyond where the rotor is (angles are from
+# the board's zero), waited for until the board says it is on target.
+before = call("status")["result"]["position"]["position_rad"]
+check(before is not None, "the board knows its position after a run")
+target = before + 2e-3
+moved = call("move_to", target_rad=target, tolerance_rad=25e-6, settle_s=0.1, timeout_s=20.0,
+             lease_s=1.0)
+check(moved["ok"] and moved["result"]["target_rad"] == target, "move_to: " + str(moved))
+final, _, last_drive, _ = follow_run()
+move = final["summary"]["move"]
+check(move["on_target"] and move["stop_cause"] == "on_target", "on target: " + str(move))
+check(abs(move["error_rad"]) <= 25e-6, "within the tolerance: " + str(move))
+check(last_drive[1] == 0.0, "the move ends at 0 V")
+check(any(u["target_rad"] == target for u in move_updates), "the stream shows the move")
+after = call("status")["result"]["position"]["position_rad"]
+check(abs(after - target) < 30e-6, f"status reports the position: {after} for {target}")
+zeroed = call("zero")
+check(zeroed["ok"] and abs(zeroed["result"]["position_rad"]) < 1e-12, "zero: " + str(zeroed))
+print("ok", received[1], received[2], steps_received[1], displacement[-1] - displacement[0],
+      move["steps"], move["on_target_at_s"])

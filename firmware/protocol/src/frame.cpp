@@ -92,7 +92,8 @@ std::string encode_frame(std::uint64_t first_seq, std::span<const firmware::Driv
     put_f64(out, s.V);
     out.push_back(static_cast<char>(s.phase));
     out.push_back(static_cast<char>(s.status));
-    pad(out, 6);
+    out.push_back(static_cast<char>(s.move_state));
+    pad(out, 5);
   }
   return out;
 }
@@ -153,7 +154,8 @@ std::vector<firmware::DriveSample> decode_drive(std::string_view frame) {
     }
     out.push_back({get_i64(frame, o), get_f64(frame, o + 8),
                    static_cast<firmware::DrivePhase>(phase),
-                   status_from(static_cast<std::uint8_t>(frame[o + 17]), "status")});
+                   status_from(static_cast<std::uint8_t>(frame[o + 17]), "status"),
+                   static_cast<std::uint8_t>(frame[o + 18])});
   }
   return out;
 }

@@ -1,4 +1,4 @@
-// `piezo status | stop | estop | reset-fault --rig ADDRESS`: talk to a
+// `piezo status | zero | stop | estop | reset-fault --rig ADDRESS`: talk to a
 // running piezod from any terminal (docs/protocol.md).
 
 #include <fmt/format.h>
@@ -35,6 +35,10 @@ std::string status_text(const nlohmann::json& s) {
     out += fmt::format("samples    drive {}, sensor {}\n", r.at("drive").at("cycles").get<long>(),
                        r.at("sensor").at("cycles").get<long>());
   }
+  if (s.contains("position") && !s.at("position").at("position_rad").is_null()) {
+    out += fmt::format("position   {:.4f} mrad from the zero\n",
+                       1e3 * s.at("position").at("position_rad").get<double>());
+  }
   out += fmt::format("controlled {}\n", s.at("controlled").get<bool>() ? "yes" : "no");
   return out;
 }
@@ -46,6 +50,8 @@ int call(const BoardOptions& o, const std::string& cmd) {
     std::cout << result.dump() << "\n";
   } else if (cmd == "status") {
     std::cout << status_text(result);
+  } else if (cmd == "zero") {
+    std::cout << "zero: set at the last reading; position 0 rad\n";
   } else {
     std::cout << fmt::format("{}: sent; state {}\n", cmd, result.at("state").get<std::string>());
   }
@@ -62,7 +68,8 @@ CommandRunner add_board_commands(CLI::App& app) {
   };
   auto entries = std::make_shared<std::vector<Entry>>();
   for (const auto& [name, help] : std::vector<std::pair<std::string, std::string>>{
-           {"status", "Print piezod's state, fault and run"},
+           {"status", "Print piezod's state, fault, run and position"},
+           {"zero", "Set the position's zero at the last sensor reading (moves are absolute)"},
            {"stop", "Stop the run (ramp to 0 V); the controlling client only"},
            {"estop", "Emergency stop: disable the amplifier at once, latch the fault"},
            {"reset-fault", "Clear a latched fault (link_lost, estop, ...)"}}) {

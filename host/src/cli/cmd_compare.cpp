@@ -17,6 +17,7 @@ namespace piezo::host {
 namespace {
 
 struct CompareOptions {
+  LogLayout layout;  ///< where another tool's file keeps t, V and theta
   std::string log;
   std::string out;
   bool json = false;
@@ -59,7 +60,7 @@ void write_overlay(const std::string& dir, const model::FitData& data,
 }
 
 int run(const CompareOptions& o) {
-  const LoadedRun run = load_run_for_fit(o.log);
+  const LoadedRun run = load_run_for_fit(o.log, o.layout);
   const auto lugre = model::identify(
       run.parameters, run.data, cli_fit_settings(kLugreFree, model::FrictionModel::lugre, "lugre"));
   const auto coulomb =
@@ -92,9 +93,15 @@ CommandRunner add_compare_command(CLI::App& app) {
   auto o = std::make_shared<CompareOptions>();
   CLI::App* cmd =
       app.add_subcommand("compare", "Coulomb against LuGre on a logged run (Table III)");
-  cmd->add_option("--log", o->log, "A run log (run.h5) or a CSV with t, V, theta columns")
+  cmd->add_option("--log", o->log,
+                  "A run log (run.h5), another tool's HDF5 or MATLAB v7.3 file (--t, --V, "
+                  "--theta), or a CSV")
       ->required()
       ->check(CLI::ExistingFile);
+  cmd->add_option("--t", o->layout.t, "Another tool's file: the time dataset/column [s]");
+  cmd->add_option("--V", o->layout.V, "...the drive voltage's [V]");
+  cmd->add_option("--theta", o->layout.theta, "...the measured angle's [rad]");
+  cmd->add_option("--theta-t", o->layout.theta_t, "...the angle's own time, if not --t's [s]");
   cmd->add_option("--out", o->out, "Directory for the overlay plot (paper Fig. 13)");
   cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
   return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };

@@ -15,6 +15,7 @@ namespace piezo::host {
 namespace {
 
 struct IdentifyOptions {
+  LogLayout layout;  ///< where another tool's file keeps t, V and theta
   std::string log;
   std::string params = "sigma0,sigma1,F_N,d_e";
   std::string model = "lugre";
@@ -26,7 +27,7 @@ struct IdentifyOptions {
 int run(const IdentifyOptions& o) {
   const auto friction = model::parse_friction_model(o.model);
   if (!friction) throw config::ConfigError("--model", o.model, "allowed: lugre, coulomb");
-  LoadedRun run = load_run_for_fit(o.log);
+  LoadedRun run = load_run_for_fit(o.log, o.layout);
   if (!o.config.empty()) run.parameters = config::load_model_config(o.config);
   const model::FitResult r =
       model::identify(run.parameters, run.data,
@@ -74,9 +75,15 @@ int run(const IdentifyOptions& o) {
 CommandRunner add_identify_command(CLI::App& app) {
   auto o = std::make_shared<IdentifyOptions>();
   CLI::App* cmd = app.add_subcommand("identify", "Fit model parameters to a logged run");
-  cmd->add_option("--log", o->log, "A run log (run.h5) or a CSV with t, V, theta columns")
+  cmd->add_option("--log", o->log,
+                  "A run log (run.h5), another tool's HDF5 or MATLAB v7.3 file (--t, --V, "
+                  "--theta), or a CSV")
       ->required()
       ->check(CLI::ExistingFile);
+  cmd->add_option("--t", o->layout.t, "Another tool's file: the time dataset/column [s]");
+  cmd->add_option("--V", o->layout.V, "...the drive voltage's [V]");
+  cmd->add_option("--theta", o->layout.theta, "...the measured angle's [rad]");
+  cmd->add_option("--theta-t", o->layout.theta_t, "...the angle's own time, if not --t's [s]");
   cmd->add_option("--params", o->params, "Parameters to fit, comma-separated (simulate's keys)")
       ->capture_default_str();
   cmd->add_option("--model", o->model, "Friction model: lugre or coulomb")->capture_default_str();

@@ -15,6 +15,7 @@
 
 #include "commands.hpp"
 #include "config_error.hpp"
+#include "live_feed.hpp"
 #include "log_schema.hpp"
 #include "parameters_json.hpp"
 #include "remote_run.hpp"
@@ -24,6 +25,7 @@
 #include "run_log.hpp"
 #include "run_session.hpp"
 #include "signals.hpp"
+#include "view_server.hpp"
 
 namespace piezo::host {
 namespace {
@@ -40,6 +42,17 @@ struct RunOptions {
   std::string out;
   std::string rig;  // piezod's address; empty: the config's [rig] address, or in-process
   bool json = false;
+  // `piezo step`: whole drive periods instead of a duration.
+  std::uint64_t step_periods = 0;
+  bool reverse = false;
+  std::optional<double> V0, f;
+  // --view [HOST:PORT]: the live page; --control lets it stop and e-stop.
+  bool view = false;
+  std::string view_listen;
+  bool control = false;
+  // `piezo move`: a closed-loop move to this angle from the board's zero.
+  std::optional<double> move_to;
+  config::RunSettings::Move move;
 };
 
 std::string utc_stamp(const char* format) {
@@ -63,6 +76,22 @@ fs::path choose_run_dir(const std::string& out) {
   if (fs::exists(dir) && !(fs::is_directory(dir) && fs::is_empty(dir))) {
     throw config::ConfigError("--out", dir.string(), "exists and is not an empty directory");
   }
+  // Where it will be created must be writable: refused now (exit 2), not
+  // after the rig is set up.
+  fs::path existing = fs::absolute(dir);
+  while (!fs::exists(existing) && existing.has_parent_path() &&
+         existing != existing.parent_path()) {
+    existing = existing.parent_path();
+  }
+  // A probe, not access(): root passes access() where nothing can be made.
+  const fs::path probe = existing / fmt::format(".piezo-write-probe-{}", getpid());
+  std::error_code error;
+  if (!fs::create_directory(probe, error)) {
+    throw config::ConfigError("--out", dir.string(),
+                              fmt::format("cannot be created in {}: {}", existing.string(),
+                                          error ? error.message() : std::string("it exists")));
+  }
+  fs::remove(probe, error);
   return dir;
 }
 
@@ -141,9 +170,16 @@ std::string output_line(const RunSummary& s) {
   return "0 V acknowledged by the drive, amplifier disabled";
 }
 
-std::string summary_text(const RunSummary& s, const fs::path& log, const std::string& signal) {
+std::string summary_text(const RunSummary& s, const fs::path& log, const std::string& signal,
+                         const nlohmann::json& steps) {
   std::string out = fmt::format("run {} ({}{})\n", s.status(), s.stop_cause(),
                                 signal.empty() ? "" : ", " + signal);
+  if (steps.is_object()) {
+    out += fmt::format(
+        "  steps      {} {}: travel {:.4f} mrad, mean step {:.2f} urad\n",
+        steps.at("count").get<std::uint64_t>(), steps.at("direction").get<std::string>(),
+        1e3 * steps.at("travel_rad").get<double>(), 1e6 * steps.at("mean_step_rad").get<double>());
+  }
   if (!s.host_error.empty()) out += fmt::format("  error      {}\n", s.host_error);
   out += fmt::format("  output     {}\n", output_line(s));
   out += fmt::format("  angle      {:.4f} mrad at t = {:.3f} s, mean velocity {:.4f} mrad/s\n",
@@ -213,6 +249,39 @@ void finish_log(RunLog& log, RunSummary& summary, const nlohmann::json& result) 
   }
 }
 
+/// `piezo move`'s result: the board's account of the move, the time it took
+/// and the run it was, in one object.
+nlohmann::json move_result(const RunSummary& s, const nlohmann::json& run) {
+  nlohmann::json m = s.move.is_object() ? s.move : nlohmann::json::object();
+  if (!m.contains("stop_cause")) m["stop_cause"] = s.stop_cause();
+  if (!m.contains("on_target")) m["on_target"] = false;
+  for (const char* key : {"position_rad", "error_rad", "steps"}) {
+    if (!m.contains(key)) m[key] = nullptr;
+  }
+  const bool on_target = m.at("on_target").get<bool>();
+  m["time_s"] = on_target ? m.at("on_target_at_s") : nlohmann::json(s.t_end_s);
+  m["run_dir"] = run.at("run_dir");
+  m["log"] = run.at("log");
+  m["run"] = run;
+  return m;
+}
+
+std::string move_text(const nlohmann::json& m) {
+  const auto mrad = [](const nlohmann::json& v) {
+    return v.is_number() ? fmt::format("{:.4f} mrad", 1e3 * v.get<double>()) : std::string("-");
+  };
+  const auto urad = [](const nlohmann::json& v) {
+    return v.is_number() ? fmt::format("{:.1f} urad", 1e6 * v.get<double>()) : std::string("-");
+  };
+  return fmt::format("move {} ({}): position {} for target {}, error {}, {} steps, {:.3f} s\n",
+                     m.at("on_target").get<bool>() ? "on target" : "NOT on target",
+                     m.at("stop_cause").get<std::string>(),
+                     mrad(m.value("position_rad", nlohmann::json())),
+                     mrad(m.value("target_rad", nlohmann::json())), urad(m.at("error_rad")),
+                     m.at("steps").is_number() ? m.at("steps").get<long>() : 0L,
+                     m.at("time_s").is_number() ? m.at("time_s").get<double>() : 0.0);
+}
+
 int exit_code(const RunSummary& summary) {
   if (summary.status() == "completed") return 0;
   if (summary.status() == "interrupted") return kExitInterrupted;
@@ -225,7 +294,34 @@ int run(const RunOptions& o) {
   const StopOnSignals signals;
   std::vector<std::string> sets = o.sets;
   if (o.duration > 0.0) sets.push_back(fmt::format("run.duration_s={}", o.duration));
+  if (o.V0) sets.push_back(fmt::format("drive.V0={}", *o.V0));
+  if (o.f) sets.push_back(fmt::format("drive.f={}", *o.f));
+  if (o.reverse) sets.emplace_back("drive.direction=reverse");
+  if (o.config.empty() && o.rig.empty()) {
+    throw config::ConfigError("command line", "--config",
+                              "required, or --rig ADDRESS (a board with its own config)");
+  }
   config::RunConfig config = config::load_run_config(o.config, sets);
+  if (o.step_periods > 0) {
+    config.run.step_periods = o.step_periods;
+    config.run.duration_s = static_cast<double>(o.step_periods) / config.model.drive.f;
+  }
+  if (o.move_to) {
+    // The board refuses the same; checked here first so that a refused move
+    // leaves no run directory behind.
+    const auto require = [](bool ok, const char* key, double value, const char* allowed) {
+      if (!ok) throw config::ConfigError(key, fmt::format("{:g}", value), allowed);
+    };
+    require(std::abs(*o.move_to) <= 10.0, "--to", *o.move_to, "allowed: [-10, 10] rad");
+    require(o.move.tolerance_rad > 0.0 && o.move.tolerance_rad <= 0.1, "--tolerance",
+            o.move.tolerance_rad, "allowed: (0, 0.1] rad");
+    require(o.move.settle_s >= 0.0 && o.move.settle_s <= 10.0, "--settle", o.move.settle_s,
+            "allowed: [0, 10] s");
+    require(o.move.timeout_s > 0.0, "--timeout", o.move.timeout_s, "allowed: > 0 s");
+    config.run.move = o.move;
+    config.run.move->target_rad = *o.move_to;
+    config.run.duration_s = o.move.timeout_s;
+  }
   if (!o.rig.empty()) config.rig.address = o.rig;
   const fs::path dir = choose_run_dir(o.out);
   // The rig: piezod at an address, or the firmware in this process.
@@ -241,6 +337,28 @@ int run(const RunOptions& o) {
     hello = client->call("hello");
     configure_remote(config, *client);
     drive_latency_s = hello.at("output_latency_s").get<double>();
+  }
+
+  // The live view binds before anything is created: a busy port is bad input.
+  std::optional<view::LiveFeed> live;
+  std::unique_ptr<view::ViewServer> server;
+  std::atomic<bool> estop_requested{false};
+  if (o.view) {
+    live.emplace(20.0, 3.0 / config.model.drive.f);
+    server = std::make_unique<view::ViewServer>(
+        view::ViewOptions{o.view_listen.empty() ? "127.0.0.1:8080" : o.view_listen,
+                          fs::absolute(dir).parent_path().string(), o.control},
+        &*live,
+        view::ViewControls{[&signals](const nlohmann::json&) {
+                             signals.request_stop();
+                             return nlohmann::json::object();
+                           },
+                           [&estop_requested](const nlohmann::json&) {
+                             estop_requested.store(true);
+                             return nlohmann::json::object();
+                           },
+                           {}});
+    write_out(stderr, server->banner() + "\n");
   }
 
   // Everything is checked: only now does the run leave traces.
@@ -263,24 +381,70 @@ int run(const RunOptions& o) {
        {"time_origin", "seconds from the run's start (first drive deadline)"},
        {"theta", "(displacement - first good displacement) / sensor.r2_m"}});
 
-  const auto status_line = o.json ? std::function<void(const LiveStatus&)>{} : show_status;
+  if (live) log.set_tap([&live](const log_schema::LogRows& rows) { live->add(rows); });
+  std::function<void(const LiveStatus&)> status_line;
+  if (!o.json || live) {
+    status_line = [&o, &live](const LiveStatus& st) {
+      if (!o.json) show_status(st);
+      if (live) {
+        live->set_status({{"t_s", st.t_s},
+                          {"duration_s", st.duration_s},
+                          {"V", st.V},
+                          {"theta_rad", st.theta_rad},
+                          {"residual_rad", st.residual_rad},
+                          {"sensor_samples", st.sensor_samples},
+                          {"sensor_errors", st.sensor_errors},
+                          {"overruns", st.overruns},
+                          {"board", st.board},
+                          {"errors_by_class", st.errors_by_class},
+                          {"lease_s", st.lease_s}});
+      }
+    };
+  }
   RunSummary summary =
       client ? execute_remote_run(
                    config, *client, hello, log, signals.flag(), status_line,
-                   config.rig.lease_s > 0.0 ? std::optional(config.rig.lease_s) : std::nullopt)
-             : execute_run(config, std::move(*rig), log, signals.flag(), status_line);
+                   config.rig.lease_s > 0.0 ? std::optional(config.rig.lease_s) : std::nullopt,
+                   &estop_requested)
+             : execute_run(config, std::move(*rig), log, signals.flag(), status_line,
+                           &estop_requested);
   if (!o.json && isatty(STDERR_FILENO)) write_out(stderr, "\n");
 
-  finish_log(log, summary, summary_json(summary, dir, log_path, signals.received()));
+  {
+    // The log keeps the move's account (target, controller's result) too.
+    nlohmann::json logged = summary_json(summary, dir, log_path, signals.received());
+    if (!summary.move.is_null()) logged["move"] = summary.move;
+    finish_log(log, summary, logged);
+  }
   try {
     append_catalogue(dir, utc_start, config, summary);
   } catch (const std::exception& e) {
     write_out(stderr, fmt::format("piezo: warning: catalogue not updated: {}\n", e.what()));
   }
   // The result, rebuilt: finishing the log may have failed the run.
-  const nlohmann::json result = summary_json(summary, dir, log_path, signals.received());
-  write_out(stdout,
-            o.json ? result.dump() + "\n" : summary_text(summary, log_path, signals.received()));
+  nlohmann::json result = summary_json(summary, dir, log_path, signals.received());
+  if (!summary.move.is_null()) result["move"] = summary.move;
+  nlohmann::json steps = nullptr;
+  if (o.step_periods > 0) {
+    steps = {{"count", o.step_periods},
+             {"direction", model::name(config.model.drive.direction)},
+             {"travel_rad", summary.theta_end_rad},
+             {"mean_step_rad", summary.theta_end_rad / static_cast<double>(o.step_periods)}};
+    result["steps"] = steps;
+  }
+  if (o.move_to) {
+    const nlohmann::json move = move_result(summary, result);
+    write_out(stdout, o.json ? move.dump() + "\n"
+                             : move_text(move) +
+                                   summary_text(summary, log_path, signals.received(), steps));
+    if (summary.output_state() != "confirmed") {
+      write_out(stderr, "piezo: " + output_line(summary) + "\n");
+    }
+    if (exit_code(summary) != 0) return exit_code(summary);
+    return move.at("on_target").get<bool>() ? 0 : kExitFailed;
+  }
+  write_out(stdout, o.json ? result.dump() + "\n"
+                           : summary_text(summary, log_path, signals.received(), steps));
   if (summary.output_state() != "confirmed") {
     write_out(stderr, "piezo: " + output_line(summary) + "\n");
   }
@@ -291,6 +455,20 @@ int run(const RunOptions& o) {
 }
 
 }  // namespace
+
+/// --view and --control, for every command that drives the rig.
+CommandRunner with_view_options(CLI::App* cmd, const std::shared_ptr<RunOptions>& o) {
+  cmd->add_option("--view", o->view_listen,
+                  "Serve the live page to a browser on HOST:PORT (default 127.0.0.1:8080)")
+      ->expected(0, 1);
+  cmd->add_flag("--control", o->control,
+                "Let the live page stop and e-stop the run (with the token it prints)");
+  return [o, cmd]() {
+    if (!cmd->parsed()) return -1;
+    o->view = cmd->count("--view") > 0;
+    return run(*o);
+  };
+}
 
 CommandRunner add_run_command(CLI::App& app) {
   auto o = std::make_shared<RunOptions>();
@@ -307,7 +485,54 @@ CommandRunner add_run_command(CLI::App& app) {
                   "piezod's address, e.g. tcp://board:5555 (default: [rig] address, or the "
                   "firmware in this process)");
   cmd->add_flag("--json", o->json, "Print one JSON summary on stdout");
-  return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
+  cmd->add_flag("--reverse", o->reverse, "Drive the mirrored sawtooth: the rotor turns backwards");
+  return with_view_options(cmd, o);
+}
+
+CommandRunner add_move_command(CLI::App& app) {
+  auto o = std::make_shared<RunOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "move", "Closed-loop move to an angle from the board's zero (logged as a run)");
+  cmd->add_option("--to", o->move_to, "Target angle [rad] from the zero (`piezo zero`)")
+      ->required();
+  cmd->add_option("--tolerance", o->move.tolerance_rad, "On target within this [rad]")
+      ->capture_default_str();
+  cmd->add_option("--settle", o->move.settle_s, "...for this long at 0 V [s]")
+      ->capture_default_str();
+  cmd->add_option("--timeout", o->move.timeout_s, "Give up after this long [s]")
+      ->capture_default_str();
+  cmd->add_option("--config", o->config,
+                  "Rig config (TOML), as for `piezo run` (with --rig: default Table 1)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--V0", o->V0, "Coarse steps' peak voltage [V] (default: [drive] V0)");
+  cmd->add_option("--f", o->f, "Coarse steps' frequency [Hz] (default: [drive] f)");
+  cmd->add_option("--set", o->sets, "Override a config key: SECTION.KEY=VALUE");
+  cmd->add_option("--out", o->out, "Run directory (default: runs/<UTC time>)");
+  cmd->add_option("--rig", o->rig, "piezod's address (default: [rig] address, or in-process)");
+  cmd->add_flag("--json", o->json,
+                "Print one JSON object: position_rad, error_rad, on_target, time_s, steps, "
+                "stop_cause, ... and the run");
+  return with_view_options(cmd, o);
+}
+
+CommandRunner add_step_command(CLI::App& app) {
+  auto o = std::make_shared<RunOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "step", "Drive exactly N periods (steps) and report the measured travel; logged as a run");
+  cmd->add_option("count", o->step_periods, "Number of steps (whole drive periods)")
+      ->required()
+      ->check(CLI::Range(std::uint64_t{1}, std::uint64_t{1'000'000}));
+  cmd->add_option("--config", o->config,
+                  "Rig config (TOML), as for `piezo run` (with --rig: default Table 1)")
+      ->check(CLI::ExistingFile);
+  cmd->add_flag("--reverse", o->reverse, "Step backwards (the mirrored sawtooth)");
+  cmd->add_option("--V0", o->V0, "Peak voltage [V] (default: [drive] V0)");
+  cmd->add_option("--f", o->f, "Drive frequency [Hz] (default: [drive] f)");
+  cmd->add_option("--set", o->sets, "Override a config key: SECTION.KEY=VALUE");
+  cmd->add_option("--out", o->out, "Run directory (default: runs/<UTC time>)");
+  cmd->add_option("--rig", o->rig, "piezod's address (default: [rig] address, or in-process)");
+  cmd->add_flag("--json", o->json, "Print one JSON summary on stdout");
+  return with_view_options(cmd, o);
 }
 
 }  // namespace piezo::host

@@ -2,6 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
@@ -26,7 +30,7 @@ struct SimulateOptions {
   double tolerance = model::IntegratorSettings{}.tolerance;
   std::string out;
   bool json = false;
-  std::string direction = "forward";
+  std::string direction;  // empty: the config's [drive] direction
 };
 
 bool ends_with(const std::string& s, const std::string& suffix) {
@@ -52,6 +56,20 @@ void write_trajectory(const std::string& path, const model::Trajectory& tr,
   write_csv(path, trajectory_columns(tr));
 }
 
+/// An hour of motor time takes about ten seconds to simulate; beyond that a
+/// duration is a typo (1e300 would run forever).
+constexpr double kMaxDuration_s = 3600.0;
+
+/// Checks that `path` can be written before any work is done (exit 2, not
+/// a failure after the simulation).
+void require_writable(const std::string& path) {
+  std::ofstream probe(path, std::ios::app);
+  if (!probe) {
+    throw config::ConfigError("--out", path,
+                              fmt::format("cannot be written ({})", std::strerror(errno)));
+  }
+}
+
 int run(const SimulateOptions& o) {
   model::Parameters p =
       o.config.empty() ? model::Parameters{} : config::load_model_config(o.config);
@@ -62,13 +80,16 @@ int run(const SimulateOptions& o) {
   if (!o.out.empty() && !ends_with(o.out, ".csv") && !ends_with(o.out, ".h5")) {
     throw config::ConfigError("--out", o.out, "must end in .csv or .h5");
   }
+  if (!o.out.empty()) require_writable(o.out);
 
-  if (o.direction != "forward" && o.direction != "reverse") {
-    throw config::ConfigError("--direction", o.direction, "allowed: forward, reverse");
+  if (!o.direction.empty()) {
+    const auto direction = model::parse_direction(o.direction);
+    if (!direction) {
+      throw config::ConfigError("--direction", o.direction, "allowed: forward, reverse");
+    }
+    p.drive.direction = *direction;
   }
-  const auto direction =
-      o.direction == "forward" ? model::Direction::forward : model::Direction::reverse;
-  const model::Sawtooth drive(p.drive.V0, p.drive.f, model::rise_fraction(p.drive.D(), direction));
+  const model::Sawtooth drive(p.drive.V0, p.drive.f, p.drive.rise());
   const auto times = model::uniform_times(o.duration, o.sample_interval);
   const model::Trajectory tr =
       model::simulate(p.motor, drive, *friction, times, {.tolerance = o.tolerance});
@@ -78,7 +99,7 @@ int run(const SimulateOptions& o) {
   const double mean_velocity = theta_end / o.duration;
   if (o.json) {
     nlohmann::json j{{"model", o.model},
-                     {"direction", o.direction},
+                     {"direction", model::name(p.drive.direction)},
                      {"duration_s", o.duration},
                      {"theta_end_rad", theta_end},
                      {"mean_velocity_rad_s", mean_velocity},
@@ -92,7 +113,7 @@ int run(const SimulateOptions& o) {
     std::cout << j.dump() << "\n";
   } else {
     fmt::print("model {}  {}  duration {} s  theta_end {:.6g} rad  mean velocity {:.6g} rad/s\n",
-               o.model, o.direction, o.duration, theta_end, mean_velocity);
+               o.model, model::name(p.drive.direction), o.duration, theta_end, mean_velocity);
     if (!o.out.empty()) fmt::print("trajectory written to {}\n", o.out);
   }
   return 0;
@@ -107,8 +128,15 @@ CommandRunner add_simulate_command(CLI::App& app) {
       ->check(CLI::ExistingFile);
   cmd->add_option("--set", o->sets, "Override a parameter: KEY=VALUE (paper symbols, SI)");
   cmd->add_option("--model", o->model, "Friction model: lugre or coulomb")->capture_default_str();
-  cmd->add_option("--duration", o->duration, "Simulated time [s]")
-      ->check(CLI::PositiveNumber)
+  cmd->add_option("--duration", o->duration, "Simulated time [s], at most an hour")
+      ->check(CLI::Validator(
+          [](const std::string& text) -> std::string {
+            const double v = std::strtod(text.c_str(), nullptr);
+            return v > 0.0 && v <= kMaxDuration_s
+                       ? std::string()
+                       : fmt::format("{} s; allowed: (0, {:g}] s", text, kMaxDuration_s);
+          },
+          "(0, 3600]"))
       ->capture_default_str();
   cmd->add_option("--dt", o->sample_interval, "Output sample interval [s]")
       ->check(CLI::PositiveNumber)

@@ -14,14 +14,17 @@ constexpr int kExitBadInput = 2;
 
 int main(int argc, char** argv) {
   CLI::App app{"piezo: drive, log and model stick-slip piezoelectric rotary motors"};
-  app.set_version_flag("--version", std::string("piezo ") + PIEZO_VERSION);
+  app.set_version_flag("--version",
+                       std::string("piezo ") + PIEZO_VERSION + " (" + PIEZO_BUILD_INFO + ")");
   app.require_subcommand(1);
   const std::vector<piezo::host::CommandRunner> commands{
       piezo::host::add_simulate_command(app), piezo::host::add_sensitivity_command(app),
       piezo::host::add_sweep_command(app),    piezo::host::add_run_command(app),
-      piezo::host::add_report_command(app),   piezo::host::add_sensor_command(app),
-      piezo::host::add_rig_sim_command(app),  piezo::host::add_identify_command(app),
-      piezo::host::add_compare_command(app),  piezo::host::add_board_commands(app),
+      piezo::host::add_step_command(app),     piezo::host::add_move_command(app),
+      piezo::host::add_view_command(app),     piezo::host::add_report_command(app),
+      piezo::host::add_sensor_command(app),   piezo::host::add_rig_sim_command(app),
+      piezo::host::add_identify_command(app), piezo::host::add_compare_command(app),
+      piezo::host::add_board_commands(app),
   };
   try {
     app.parse(argc, argv);

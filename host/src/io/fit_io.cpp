@@ -49,6 +49,26 @@ void add_measurements(model::FitData& data, const std::vector<double>& t,
   }
 }
 
+/// An HDF5 file laid out by another tool: the datasets `layout` names.
+LoadedRun load_foreign_h5(const std::string& path, const LogLayout& layout) {
+  const H5File file = H5File::open(path);
+  const auto need = [&](const std::string& option, const std::string& name) {
+    if (name.empty()) {
+      throw config::ConfigError(path, option,
+                                "missing: name the dataset (e.g. --t /t --V /V --theta /theta)");
+    }
+    if (!file.exists(name))
+      throw config::ConfigError(path, name, "no such dataset (" + option + ")");
+    return file.read(name);
+  };
+  LoadedRun run;
+  const std::vector<double> t = need("--t", layout.t);
+  add_drive(run.data, t, need("--V", layout.V));
+  add_measurements(run.data, layout.theta_t.empty() ? t : need("--theta-t", layout.theta_t),
+                   need("--theta", layout.theta));
+  return run;
+}
+
 LoadedRun load_h5(const std::string& path) {
   const H5File log = H5File::open(path);
   using log_schema::DriveRows;
@@ -58,8 +78,11 @@ LoadedRun load_h5(const std::string& path) {
   const std::string sensor_t_path = log_schema::path(&SensorRows::t);
   const std::string theta_path = log_schema::path(&SensorRows::theta);
   for (const auto& name : {drive_t_path, drive_V_path, sensor_t_path, theta_path}) {
-    if (!log.exists(name))
-      throw config::ConfigError(path, name, "missing dataset: not a piezo run log");
+    if (!log.exists(name)) {
+      throw config::ConfigError(path, name,
+                                "missing dataset: not a piezo run log; for another tool's file "
+                                "name its datasets (--t, --V, --theta, --theta-t)");
+    }
   }
   LoadedRun run;
   // The output follows each logged command after the drive's latency.
@@ -70,12 +93,15 @@ LoadedRun load_h5(const std::string& path) {
   }
   add_drive(run.data, drive_t, log.read(drive_V_path));
   add_measurements(run.data, log.read(sensor_t_path), log.read(theta_path));
-  run.parameters =
-      parameters_from_json(nlohmann::json::parse(log.attribute("/", log_schema::kModelParameters)));
+  // A log without its parameters (written by another program) starts from Table 1.
+  if (log.has_attribute("/", log_schema::kModelParameters)) {
+    run.parameters = parameters_from_json(
+        nlohmann::json::parse(log.attribute("/", log_schema::kModelParameters)));
+  }
   return run;
 }
 
-LoadedRun load_csv(const std::string& path) {
+LoadedRun load_csv(const std::string& path, const LogLayout& layout) {
   std::ifstream in(path);
   if (!in) throw config::ConfigError(path, "file", "cannot be read");
   std::string header;
@@ -92,7 +118,11 @@ LoadedRun load_csv(const std::string& path) {
       throw config::ConfigError(path, n, "missing column (needed: t, V, theta)");
     return static_cast<std::size_t>(it - names.begin());
   };
-  const std::size_t it = column("t"), iV = column("V"), itheta = column("theta");
+  const auto name_or = [](const std::string& given, const char* fallback) {
+    return given.empty() ? std::string(fallback) : given;
+  };
+  const std::size_t it = column(name_or(layout.t, "t")), iV = column(name_or(layout.V, "V")),
+                    itheta = column(name_or(layout.theta, "theta"));
   std::vector<double> t, V, theta;
   int line_number = 1;
   for (std::string line; std::getline(in, line);) {
@@ -121,8 +151,11 @@ LoadedRun load_csv(const std::string& path) {
 
 }  // namespace
 
-LoadedRun load_run_for_fit(const std::string& path) {
-  LoadedRun run = ends_with(path, ".h5") ? load_h5(path) : load_csv(path);
+LoadedRun load_run_for_fit(const std::string& path, const LogLayout& layout) {
+  const bool hdf5 = ends_with(path, ".h5") || ends_with(path, ".hdf5") || ends_with(path, ".mat");
+  LoadedRun run = !hdf5            ? load_csv(path, layout)
+                  : layout.given() ? load_foreign_h5(path, layout)
+                                   : load_h5(path);
   if (run.data.drive_t.size() < 2)
     throw config::ConfigError(path, "drive", "fewer than two drive samples");
   if (run.data.t.size() < 10)

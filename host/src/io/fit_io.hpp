@@ -15,9 +15,22 @@ struct LoadedRun {
   model::Parameters parameters;  ///< the log's [model] (Table 1 for a CSV)
 };
 
-/// Reads FILE.h5 (a run log) or FILE.csv (header row with t, V, theta; SI).
+/// Where a log from another tool keeps its data: dataset paths in an HDF5
+/// file (a MATLAB v7.3 .mat is HDF5), or column names in a CSV. Empty:
+/// a `piezo run` log's own layout (CSV: t, V, theta).
+struct LogLayout {
+  std::string t;        ///< the drive's time [s], and the angle's unless theta_t is given
+  std::string V;        ///< amplifier output [V]
+  std::string theta;    ///< measured angle [rad]
+  std::string theta_t;  ///< the angle's own time [s], if it has one
+  [[nodiscard]] bool given() const { return !t.empty() || !V.empty() || !theta.empty(); }
+};
+
+/// Reads a `piezo run` log (run.h5), an HDF5 or MATLAB v7.3 file with the
+/// datasets `layout` names, or a CSV. Parameters: the log's own, else
+/// Table 1 (the caller's --config overrides either).
 /// Throws ConfigError naming the file and what is missing.
-[[nodiscard]] LoadedRun load_run_for_fit(const std::string& path);
+[[nodiscard]] LoadedRun load_run_for_fit(const std::string& path, const LogLayout& layout = {});
 
 /// Writes [drive] and [model] with every parameter: a config for simulate,
 /// and an overlay (`--config rig.toml --config FITTED.toml`) for run.

@@ -78,8 +78,11 @@ H5File H5File::open(const std::string& path) {
   return H5File(std::move(file), path);
 }
 
-void H5File::create_growing(const std::string& name) {
+void H5File::create_growing(const std::string& name, bool small_integers) {
   constexpr hsize_t kChunk = 8192;  // 64 KiB of float64: few chunks, cheap appends
+  // Byte shuffle then deflate: times and slowly varying values compress well
+  // once their bytes are grouped; level 4 keeps a flush cheap.
+  constexpr unsigned kDeflateLevel = 4;
   const hsize_t dims[1] = {0};
   const hsize_t max_dims[1] = {H5S_UNLIMITED};
   H5Id space(checked(H5Screate_simple(1, dims, max_dims), "create dataspace for " + name),
@@ -87,11 +90,14 @@ void H5File::create_growing(const std::string& name) {
   H5Id dcpl(checked(H5Pcreate(H5P_DATASET_CREATE), "create dataset properties"), H5Pclose);
   const hsize_t chunk[1] = {kChunk};
   H5Pset_chunk(dcpl.get(), 1, chunk);
+  H5Pset_shuffle(dcpl.get());
+  H5Pset_deflate(dcpl.get(), kDeflateLevel);
   H5Id lcpl = intermediate_groups_lcpl();
-  H5Id dset(checked(H5Dcreate2(file_.get(), name.c_str(), H5T_IEEE_F64LE, space.get(), lcpl.get(),
-                               dcpl.get(), H5P_DEFAULT),
-                    "create dataset " + name),
-            H5Dclose);
+  H5Id dset(
+      checked(H5Dcreate2(file_.get(), name.c_str(), small_integers ? H5T_STD_U8LE : H5T_IEEE_F64LE,
+                         space.get(), lcpl.get(), dcpl.get(), H5P_DEFAULT),
+              "create dataset " + name),
+      H5Dclose);
 }
 
 void H5File::append(const std::string& name, std::span<const double> values) {
@@ -142,12 +148,15 @@ std::vector<double> H5File::read(const std::string& name) const {
   H5Id dset(checked(H5Dopen2(file_.get(), name.c_str(), H5P_DEFAULT), "open dataset " + name),
             H5Dclose);
   H5Id space(checked(H5Dget_space(dset.get()), "get dataspace of " + name), H5Sclose);
-  if (H5Sget_simple_extent_ndims(space.get()) != 1) {
-    throw std::runtime_error("HDF5: " + name + " is not one-dimensional");
+  // A vector: 1-D, or 2-D with one side 1 (MATLAB writes its column vectors
+  // as 1 x N in HDF5).
+  const int rank = H5Sget_simple_extent_ndims(space.get());
+  hsize_t size[2] = {0, 1};
+  if (rank == 1 || rank == 2) H5Sget_simple_extent_dims(space.get(), size, nullptr);
+  if ((rank != 1 && rank != 2) || (rank == 2 && size[0] != 1 && size[1] != 1)) {
+    throw std::runtime_error("HDF5: " + name + " is not a vector (one-dimensional, or N x 1)");
   }
-  hsize_t size[1] = {0};
-  H5Sget_simple_extent_dims(space.get(), size, nullptr);
-  std::vector<double> out(size[0]);
+  std::vector<double> out(size[0] * (rank == 2 ? size[1] : 1));
   if (!out.empty() &&
       H5Dread(dset.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) < 0) {
     throw std::runtime_error("HDF5: cannot read " + name);

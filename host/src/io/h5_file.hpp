@@ -48,7 +48,9 @@ class H5File {
   static H5File open(const std::string& path);
 
   /// Creates an empty, unlimited, chunked 1-D float64 dataset.
-  void create_growing(const std::string& name);
+  /// `small_integers`: stored as uint8 (codes 0..255), else float64.
+  /// Shuffled and deflated: h5py and MATLAB read it without plugins.
+  void create_growing(const std::string& name, bool small_integers = false);
   /// Appends to a dataset made by create_growing.
   void append(const std::string& name, std::span<const double> values);
   /// Writes everything buffered to the file.
@@ -61,7 +63,7 @@ class H5File {
   /// what its last good flush put there. For failure paths only.
   void abandon() { (void)file_.release(); }
 
-  /// A whole 1-D float64 dataset.
+  /// A whole vector dataset (1-D, or N x 1 as MATLAB writes it), as double.
   [[nodiscard]] std::vector<double> read(const std::string& name) const;
   [[nodiscard]] bool exists(const std::string& name) const;
   [[nodiscard]] bool has_attribute(const std::string& object, const std::string& name) const;

@@ -4,8 +4,13 @@
 // appends exactly these; the readers (identify, compare, report) find a
 // dataset's path by its column, never by a string of their own.
 //
-// All datasets are 1-D float64; times in seconds from the run's start.
-//   /drive/t, /drive/V, /drive/phase, /drive/status
+// All datasets are 1-D, chunked and compressed (shuffle + deflate, read by
+// h5py and MATLAB without plugins): float64 for times and values (no loss
+// of precision), uint8 for the small codes (phase, status, move_state);
+// times in seconds from the run's start.
+//   /drive/t, /drive/V, /drive/phase, /drive/status, /drive/move_state (a
+//   closed-loop move's state: 0 none, 1 coarse, 2 fine, 3 release, 4 settle,
+//   5 on_target)
 //   /sensor/t (request time), /sensor/t_response, /sensor/displacement_m,
 //   /sensor/theta (NaN where the reading failed), /sensor/status
 //   /drive/t_received, /sensor/t_received: when the host received each
@@ -26,7 +31,7 @@ namespace piezo::host::log_schema {
 using Column = std::vector<double>;
 
 struct DriveRows {
-  Column t, V, phase, status, t_received;
+  Column t, V, phase, status, move_state, t_received;
 };
 struct SensorRows {
   Column t, t_response, displacement_m, theta, status, t_received;
@@ -43,17 +48,22 @@ struct LogRows {
   ObserverRows observer;
 };
 
+/// How a dataset is stored in the file (its buffer column is double).
+enum class Storage { float64, uint8 };
+
 template <class Rows>
 struct Dataset {
   std::string_view path;
   Column Rows::*column;
+  Storage storage = Storage::float64;
 };
 
 inline constexpr std::array kDrive{
     Dataset<DriveRows>{"/drive/t", &DriveRows::t},
     Dataset<DriveRows>{"/drive/V", &DriveRows::V},
-    Dataset<DriveRows>{"/drive/phase", &DriveRows::phase},
-    Dataset<DriveRows>{"/drive/status", &DriveRows::status},
+    Dataset<DriveRows>{"/drive/phase", &DriveRows::phase, Storage::uint8},
+    Dataset<DriveRows>{"/drive/status", &DriveRows::status, Storage::uint8},
+    Dataset<DriveRows>{"/drive/move_state", &DriveRows::move_state, Storage::uint8},
     Dataset<DriveRows>{"/drive/t_received", &DriveRows::t_received},
 };
 inline constexpr std::array kSensor{
@@ -61,7 +71,7 @@ inline constexpr std::array kSensor{
     Dataset<SensorRows>{"/sensor/t_response", &SensorRows::t_response},
     Dataset<SensorRows>{"/sensor/displacement_m", &SensorRows::displacement_m},
     Dataset<SensorRows>{"/sensor/theta", &SensorRows::theta},
-    Dataset<SensorRows>{"/sensor/status", &SensorRows::status},
+    Dataset<SensorRows>{"/sensor/status", &SensorRows::status, Storage::uint8},
     Dataset<SensorRows>{"/sensor/t_received", &SensorRows::t_received},
 };
 inline constexpr std::array kObserver{
@@ -91,6 +101,15 @@ std::string path(Column Rows::*column) {
   for (const auto& d : datasets(static_cast<const Rows*>(nullptr)))
     if (d.column == column) return std::string(d.path);
   return {};
+}
+
+/// How the dataset at `path` is stored.
+inline Storage storage(std::string_view path) {
+  for (const auto& d : kDrive)
+    if (d.path == path) return d.storage;
+  for (const auto& d : kSensor)
+    if (d.path == path) return d.storage;
+  return Storage::float64;
 }
 
 /// Calls f(path, column) for every dataset of `rows`, group by group.

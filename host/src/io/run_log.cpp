@@ -14,7 +14,8 @@ RunLog RunLog::create(const std::string& path, const std::map<std::string, std::
   RunLog log(H5File::create_log(path));
   LogRows none;
   log_schema::for_each_column(none, [&](std::string_view dataset, const auto&) {
-    log.file_.create_growing(std::string(dataset));
+    log.file_.create_growing(std::string(dataset),
+                             log_schema::storage(dataset) == log_schema::Storage::uint8);
   });
   for (const auto& [name, value] : header) log.file_.set_attribute("/", name, value);
   log.file_.set_attribute("/", log_schema::kStatus, "incomplete");
@@ -61,6 +62,7 @@ void RunLog::check_room(std::uintmax_t bytes) const {
 }
 
 void RunLog::append(LogRows& rows) {
+  if (tap_) tap_(rows);
   // Written in slices, each checked for room first, so a log that meets a
   // full disk or a file-size limit keeps every slice that fitted instead of
   // losing the whole flush interval.

@@ -8,6 +8,7 @@
 // The layout is log_schema.hpp's.
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <span>
 #include <stdexcept>
@@ -40,6 +41,8 @@ class RunLog {
   /// through a flush is left inconsistent by HDF5. Any other failure marks
   /// the log broken.
   void append(LogRows& rows);
+  /// Shows every batch of rows to `tap` before it is written (the live view).
+  void set_tap(std::function<void(const LogRows&)> tap) { tap_ = std::move(tap); }
   /// True once a write failed half-way: the file must not be written again.
   [[nodiscard]] bool broken() const { return broken_; }
   /// Writes a dataset whole (e.g. a timing histogram).
@@ -57,6 +60,7 @@ class RunLog {
   void check_room(std::uintmax_t bytes) const;
   H5File file_;
   bool broken_ = false;
+  std::function<void(const LogRows&)> tap_;
 };
 
 }  // namespace piezo::host

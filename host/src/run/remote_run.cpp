@@ -120,14 +120,48 @@ firmware::StopCause stop_cause_from(const std::string& name) {
   return StopCause::drive_fault;
 }
 
-void configure_remote(const config::RunConfig& c, RigClient& client) {
+namespace {
+
+json configure_args(const config::RunConfig& c) {
   const auto& d = c.model.drive;
+  return {{"V0", d.V0},
+          {"f", d.f},
+          {"C_dr", d.C_dr},
+          {"e_dr", d.e_dr},
+          {"direction", model::name(d.direction)},
+          {"duration_s", c.run.duration_s}};
+}
+
+/// `start`, or for `piezo step` the protocol's `step`: the board runs whole periods.
+json start_remote(const config::RunConfig& c, RigClient& client, std::optional<double> lease) {
+  if (c.run.move) {
+    const auto& d = c.model.drive;
+    json args{{"target_rad", c.run.move->target_rad},
+              {"tolerance_rad", c.run.move->tolerance_rad},
+              {"settle_s", c.run.move->settle_s},
+              {"timeout_s", c.run.move->timeout_s},
+              {"V0", d.V0},
+              {"f", d.f},
+              {"C_dr", d.C_dr},
+              {"e_dr", d.e_dr}};
+    if (lease) args["lease_s"] = *lease;
+    return client.call("move_to", args);
+  }
+  if (c.run.step_periods == 0) {
+    return client.call("start", lease ? json{{"lease_s", *lease}} : json::object());
+  }
+  json args = configure_args(c);
+  args.erase("duration_s");
+  args["count"] = c.run.step_periods;
+  if (lease) args["lease_s"] = *lease;
+  return client.call("step", args);
+}
+
+}  // namespace
+
+void configure_remote(const config::RunConfig& c, RigClient& client) {
   try {
-    (void)client.call("configure", {{"V0", d.V0},
-                                    {"f", d.f},
-                                    {"C_dr", d.C_dr},
-                                    {"e_dr", d.e_dr},
-                                    {"duration_s", c.run.duration_s}});
+    (void)client.call("configure", configure_args(c));
   } catch (const RemoteError& e) {
     const std::string key = e.key() == "duration_s" ? "run.duration_s" : "drive." + e.key();
     throw config::ConfigError("piezod at " + client.address(), key,
@@ -152,7 +186,7 @@ ClockMapping estimate_clock_offset(RigClient& client, int round_trips) {
 RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, const json& hello,
                               RunLog& log, const std::atomic<bool>& stop,
                               const std::function<void(const LiveStatus&)>& on_status,
-                              std::optional<double> lease) {
+                              std::optional<double> lease, const std::atomic<bool>* estop) {
   RunSummary summary;
   if (stop.load()) {
     // Stopped during set-up: the drive is never started.
@@ -167,7 +201,7 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
   client.subscribe({"drive", "sensor", "state", "health"});
   std::this_thread::sleep_for(100ms);  // let the subscription reach the board first
 
-  const json started = client.call("start", lease ? json{{"lease_s", *lease}} : json::object());
+  const json started = start_remote(c, client, lease);
   const auto t0 = started.at("t0_ns").get<hal::TimeNs>();
   const double lease_s = started.at("lease_s").get<double>();
   log.set_attribute("board_t0_ns", std::to_string(t0));
@@ -188,7 +222,7 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
   });
 
   bool log_ok = true;
-  bool stop_sent = false;
+  bool stop_sent = false, estop_sent = false;
   auto append_log = [&] {
     if (!log_ok) return;
     try {
@@ -217,6 +251,13 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
         stop_sent = true;
       } catch (const LinkTimeout&) {
       }  // the lease stops the board by itself
+    }
+    if (estop != nullptr && estop->load() && !estop_sent) {
+      try {
+        (void)client.call("estop", json::object(), 1s);
+        estop_sent = true;
+      } catch (const LinkTimeout&) {
+      }  // tried again on the next turn
     }
     const bool ready = poll_in(client.stream(), 5ms);
     for (int i = 0; i < 256 && ready; ++i) {
@@ -280,7 +321,9 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
       on_status({collector.last_t(), c.run.duration_s, collector.last_V(), collector.last_theta(),
                  observer ? observer->summary().last_residual_rad : 0.0, cursor.sensor_next(),
                  sensor.value("errors", std::uint64_t{0}),
-                 drive.value("overruns", std::uint64_t{0})});
+                 drive.value("overruns", std::uint64_t{0}), health,
+                 json{{"drive", collector.drive_errors()}, {"sensor", collector.sensor_errors()}},
+                 lease_s});
       last_status = now;
     }
   }
@@ -317,6 +360,7 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
   summary.mean_velocity_rad_s =
       summary.t_end_s > 0.0 ? summary.theta_end_rad / summary.t_end_s : 0.0;
   summary.realtime_notes = board.value("realtime", std::vector<std::string>{});
+  if (board.contains("move")) summary.move = board.at("move");
   if (!client.address().starts_with("inproc://")) {
     summary.realtime_notes.push_back("board " + client.address());
   }

@@ -33,7 +33,8 @@ void configure_remote(const config::RunConfig& config, RigClient& client);
                                             const nlohmann::json& hello, RunLog& log,
                                             const std::atomic<bool>& stop,
                                             const std::function<void(const LiveStatus&)>& on_status,
-                                            std::optional<double> lease_s = std::nullopt);
+                                            std::optional<double> lease_s = std::nullopt,
+                                            const std::atomic<bool>* estop = nullptr);
 
 /// The StopCause named by the protocol's text ("completed", "link_lost", ...).
 [[nodiscard]] firmware::StopCause stop_cause_from(const std::string& name);

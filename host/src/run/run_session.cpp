@@ -35,7 +35,8 @@ std::string RunSummary::status() const {
 
 RunSummary execute_run(const config::RunConfig& c, config::Rig rig, RunLog& log,
                        const std::atomic<bool>& stop,
-                       const std::function<void(const LiveStatus&)>& on_status) {
+                       const std::function<void(const LiveStatus&)>& on_status,
+                       const std::atomic<bool>* estop) {
   // Declared first, destroyed last: the client's sockets close before the
   // daemon's context ends.
   LocalBoard board(c, std::move(rig));
@@ -44,7 +45,7 @@ RunSummary execute_run(const config::RunConfig& c, config::Rig rig, RunLog& log,
     RigClient client(config::RigAddress{board.address(), "", ""}, board.context());
     const nlohmann::json hello = client.call("hello");
     configure_remote(c, client);
-    summary = execute_remote_run(c, client, hello, log, stop, on_status, kLocalLease_s);
+    summary = execute_remote_run(c, client, hello, log, stop, on_status, kLocalLease_s, estop);
   }
   board.stop();
   try {

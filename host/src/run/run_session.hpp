@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -42,6 +43,7 @@ struct RunSummary {
   std::vector<std::string> realtime_notes;
   firmware::OutputOutcome output;  ///< how the drive was left, as the device acknowledged
   std::string host_error;          ///< why the host side failed (the log), if it did
+  nlohmann::json move;             ///< a closed-loop move's result, as the board reported it
 
   /// "completed", "interrupted" or "failed" (a host failure fails the run).
   [[nodiscard]] std::string status() const;
@@ -56,6 +58,10 @@ struct RunSummary {
 struct LiveStatus {
   double t_s, duration_s, V, theta_rad, residual_rad;
   std::uint64_t sensor_samples, sensor_errors, overruns;
+  nlohmann::json board;  ///< the board's last health message (loops, state, a move)
+  nlohmann::json
+      errors_by_class;   ///< {"drive": {...}, "sensor": {...}}: failed samples by HAL status
+  double lease_s = 0.0;  ///< the run's lease on the board
 };
 
 /// The one-machine default: serves `rig` by an in-process piezod and runs
@@ -64,6 +70,7 @@ struct LiveStatus {
 /// fails (then host_error says why; the drive stops as on `stop`).
 [[nodiscard]] RunSummary execute_run(const config::RunConfig& config, config::Rig rig, RunLog& log,
                                      const std::atomic<bool>& stop,
-                                     const std::function<void(const LiveStatus&)>& on_status);
+                                     const std::function<void(const LiveStatus&)>& on_status,
+                                     const std::atomic<bool>* estop = nullptr);
 
 }  // namespace piezo::host

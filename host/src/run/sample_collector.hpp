@@ -33,6 +33,7 @@ class SampleCollector {
     d.V.push_back(s.V);
     d.phase.push_back(static_cast<double>(s.phase));
     d.status.push_back(static_cast<double>(s.status));
+    d.move_state.push_back(static_cast<double>(s.move_state));
     d.t_received.push_back(received_s_);
     last_V_ = s.V;
     last_t_ = t;

@@ -24,7 +24,7 @@ constexpr std::array kIgnored{SIGPIPE, SIGXFSZ, SIGTTIN, SIGTTOU};
 std::array<struct sigaction, kStopping.size()> g_previous_stopping{};
 std::array<struct sigaction, kIgnored.size()> g_previous_ignored{};
 
-extern "C" void request_stop(int signal) {
+extern "C" void on_stopping_signal(int signal) {
   int none = 0;
   g_first_signal.compare_exchange_strong(none, signal);
   g_stop_requested.store(true);
@@ -36,7 +36,7 @@ StopOnSignals::StopOnSignals() {
   g_stop_requested.store(false);
   g_first_signal.store(0);
   struct sigaction stop {};
-  stop.sa_handler = request_stop;
+  stop.sa_handler = on_stopping_signal;
   sigemptyset(&stop.sa_mask);
   for (std::size_t i = 0; i < kStopping.size(); ++i) {
     sigaction(kStopping[i], &stop, &g_previous_stopping[i]);
@@ -56,6 +56,10 @@ StopOnSignals::~StopOnSignals() {
   for (std::size_t i = 0; i < kIgnored.size(); ++i) {
     sigaction(kIgnored[i], &g_previous_ignored[i], nullptr);
   }
+}
+
+void StopOnSignals::request_stop() const {
+  g_stop_requested.store(true);
 }
 
 const std::atomic<bool>& StopOnSignals::flag() const {

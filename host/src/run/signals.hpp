@@ -20,6 +20,8 @@ class StopOnSignals {
   StopOnSignals(const StopOnSignals&) = delete;
   StopOnSignals& operator=(const StopOnSignals&) = delete;
 
+  /// Stops the run as a signal would (e.g. the web view's stop button).
+  void request_stop() const;
   /// Set once any stopping signal has arrived.
   [[nodiscard]] const std::atomic<bool>& flag() const;
   /// The first stopping signal's name ("SIGHUP"), or "" while none came.

@@ -8,6 +8,7 @@
 #include <atomic>
 
 #include "piezo/firmware/loop_health.hpp"
+#include "piezo/firmware/position_feed.hpp"
 #include "piezo/firmware/samples.hpp"
 #include "piezo/firmware/sensor_health.hpp"
 #include "piezo/firmware/spsc_ring.hpp"
@@ -19,7 +20,8 @@ namespace piezo::firmware {
 class AcquireLoop {
  public:
   AcquireLoop(hal::Clock& clock, hal::DisplacementSensor& sensor, double rate_hz,
-              SensorHealth& sensor_health, SpscRing<SensorSample>& ring);
+              SensorHealth& sensor_health, SpscRing<SensorSample>& ring,
+              PositionFeed* feed = nullptr);
 
   /// Samples from t0 until `stop` is set (the drive loop has finished).
   void run(hal::TimeNs t0, const std::atomic<bool>& stop);
@@ -33,6 +35,7 @@ class AcquireLoop {
   hal::TimeNs period_;
   SensorHealth& sensor_health_;
   SpscRing<SensorSample>& ring_;
+  PositionFeed* feed_;  ///< good readings for a controller in the drive loop (may be null)
   LoopHealth health_;
 };
 

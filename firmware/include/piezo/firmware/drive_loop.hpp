@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <limits>
 
+#include "piezo/firmware/drive_program.hpp"
 #include "piezo/firmware/loop_health.hpp"
 #include "piezo/firmware/safety_supervisor.hpp"
 #include "piezo/firmware/samples.hpp"
@@ -60,8 +61,9 @@ struct OutputOutcome {
 
 class DriveLoop {
  public:
-  DriveLoop(const DriveLoopSettings& settings, const model::Excitation& waveform,
-            SafetySupervisor& supervisor, DriveLoopIo io);
+  /// `program` (a waveform or a move) outlives the loop.
+  DriveLoop(const DriveLoopSettings& settings, DriveProgram& program, SafetySupervisor& supervisor,
+            DriveLoopIo io);
 
   /// Runs from t0 (the run's time origin, a future time on the clock) until
   /// the supervisor stops it; returns with the amplifier disabled. The
@@ -82,7 +84,7 @@ class DriveLoop {
   void count_failure(hal::Status s);
 
   DriveLoopSettings settings_;
-  const model::Excitation& waveform_;
+  DriveProgram& program_;
   SafetySupervisor& supervisor_;
   DriveLoopIo io_;
   LoopHealth health_;

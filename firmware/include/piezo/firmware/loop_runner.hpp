@@ -52,6 +52,10 @@ class LoopRunner {
   /// checks; `waveform` outlives the runner.
   LoopRunner(const LoopRunnerSettings& settings, const model::Excitation& waveform,
              LoopDevices devices, const RemoteControl* remote = nullptr);
+  /// A run that follows `program` (e.g. a MoveController reading `feed`,
+  /// which the acquire loop fills); both outlive the runner.
+  LoopRunner(const LoopRunnerSettings& settings, DriveProgram& program, LoopDevices devices,
+             const RemoteControl* remote, PositionFeed* feed);
   /// Stops and joins a run still under way (the drive ramps down first).
   ~LoopRunner();
   LoopRunner(const LoopRunner&) = delete;
@@ -95,6 +99,10 @@ class LoopRunner {
   [[nodiscard]] std::vector<std::string> realtime_notes() const;
 
  private:
+  /// One of `program` and `waveform` is given.
+  LoopRunner(const LoopRunnerSettings& settings, DriveProgram* program,
+             const model::Excitation* waveform, LoopDevices devices, const RemoteControl* remote,
+             PositionFeed* feed);
   void set_up_thread(int priority, std::string& note) const;
 
   LoopRunnerSettings settings_;
@@ -107,6 +115,7 @@ class LoopRunner {
   SpscRing<SensorSample> sensor_ring_;
   SensorHealth sensor_health_;
   SafetySupervisor supervisor_;
+  std::optional<WaveformProgram> waveform_program_;
   DriveLoop drive_loop_;
   AcquireLoop acquire_loop_;
   hal::TimeNs t0_ = 0;

@@ -1,10 +1,13 @@
 #pragma once
 /// @file
 /// Distribution of a loop's period error (wake-up lateness) with fixed
-/// 1 us bins: recorded in the loop without allocation, summarised after.
+/// 1 us bins: recorded in the loop without allocation or lock. One writer
+/// (the loop); any thread may read it while the loop runs (the live view):
+/// every counter is a relaxed atomic the writer alone increments.
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cstdint>
 
 #include "piezo/hal/clock.hpp"
@@ -18,35 +21,54 @@ class PeriodHistogram {
   void record(hal::TimeNs error_ns) {
     const hal::TimeNs clamped = std::max<hal::TimeNs>(error_ns, 0);
     const auto bin = std::min<hal::TimeNs>(clamped / 1000, kBins - 1);
-    ++bins_[static_cast<std::size_t>(bin)];
-    ++count_;
-    max_ns_ = std::max(max_ns_, clamped);
-    sum_ns_ += clamped;
+    bump(bins_[static_cast<std::size_t>(bin)], std::uint64_t{1});
+    bump(count_, std::uint64_t{1});
+    if (clamped > max_ns_.load(std::memory_order_relaxed)) {
+      max_ns_.store(clamped, std::memory_order_relaxed);
+    }
+    bump(sum_ns_, clamped);
   }
 
   /// Upper edge [us] of the bin holding quantile q in [0, 1] (0 if empty).
   [[nodiscard]] double quantile_us(double q) const {
-    if (count_ == 0) return 0.0;
-    const auto rank = static_cast<std::uint64_t>(q * static_cast<double>(count_ - 1));
+    const std::uint64_t count = this->count();
+    if (count == 0) return 0.0;
+    const auto rank = static_cast<std::uint64_t>(q * static_cast<double>(count - 1));
     std::uint64_t seen = 0;
     for (int i = 0; i < kBins; ++i) {
-      seen += bins_[static_cast<std::size_t>(i)];
+      seen += bins_[static_cast<std::size_t>(i)].load(std::memory_order_relaxed);
       if (seen > rank) return std::min(static_cast<double>(i + 1), max_us());
     }
     return max_us();
   }
-  [[nodiscard]] double max_us() const { return static_cast<double>(max_ns_) * 1e-3; }
-  [[nodiscard]] double mean_us() const {
-    return count_ == 0 ? 0.0 : static_cast<double>(sum_ns_) * 1e-3 / static_cast<double>(count_);
+  [[nodiscard]] double max_us() const {
+    return static_cast<double>(max_ns_.load(std::memory_order_relaxed)) * 1e-3;
   }
-  [[nodiscard]] std::uint64_t count() const { return count_; }
-  [[nodiscard]] const std::array<std::uint64_t, kBins>& bins() const { return bins_; }
+  [[nodiscard]] double mean_us() const {
+    const std::uint64_t count = this->count();
+    return count == 0 ? 0.0
+                      : static_cast<double>(sum_ns_.load(std::memory_order_relaxed)) * 1e-3 /
+                            static_cast<double>(count);
+  }
+  [[nodiscard]] std::uint64_t count() const { return count_.load(std::memory_order_relaxed); }
+  /// A copy of the bins, counts per 1 us of period error.
+  [[nodiscard]] std::array<std::uint64_t, kBins> bins() const {
+    std::array<std::uint64_t, kBins> out;
+    for (std::size_t i = 0; i < out.size(); ++i) out[i] = bins_[i].load(std::memory_order_relaxed);
+    return out;
+  }
 
  private:
-  std::array<std::uint64_t, kBins> bins_{};
-  std::uint64_t count_ = 0;
-  hal::TimeNs max_ns_ = 0;
-  hal::TimeNs sum_ns_ = 0;
+  /// The one writer's increment: no read-modify-write instruction needed.
+  template <class T>
+  static void bump(std::atomic<T>& counter, T by) {
+    counter.store(counter.load(std::memory_order_relaxed) + by, std::memory_order_relaxed);
+  }
+
+  std::array<std::atomic<std::uint64_t>, kBins> bins_{};
+  std::atomic<std::uint64_t> count_{0};
+  std::atomic<hal::TimeNs> max_ns_{0};
+  std::atomic<hal::TimeNs> sum_ns_{0};
 };
 
 }  // namespace piezo::firmware

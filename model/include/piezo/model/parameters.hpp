@@ -11,6 +11,25 @@
 
 namespace piezo::model {
 
+/// Which way the sawtooth turns the rotor: forward is the paper's slow rise
+/// and fast fall; reverse mirrors it in time (fast rise, slow fall: the rise
+/// fraction D becomes 1 - D), so the rotor slips the other way.
+enum class Direction { forward, reverse };
+
+[[nodiscard]] inline std::string_view name(Direction d) {
+  return d == Direction::forward ? "forward" : "reverse";
+}
+[[nodiscard]] inline std::optional<Direction> parse_direction(std::string_view text) {
+  if (text == "forward") return Direction::forward;
+  if (text == "reverse") return Direction::reverse;
+  return std::nullopt;
+}
+
+/// The rise fraction that drives the rotor in `direction` with a drive of rise fraction D.
+[[nodiscard]] inline double rise_fraction(double D, Direction direction) {
+  return direction == Direction::forward ? D : 1.0 - D;
+}
+
 /// Drive waveform parameters (MODEL.md section 1).
 struct DriveParameters {
   double V0 = 80.0;     ///< peak amplifier output voltage [V]
@@ -18,8 +37,12 @@ struct DriveParameters {
   double C_dr = 0.95;   ///< commanded duty ratio [-]
   double e_dr = 0.789;  ///< identified signal-chain factor [-]
 
-  /// Effective rise fraction of each period.
+  Direction direction = Direction::forward;
+
+  /// Effective rise fraction of each period of the forward drive.
   [[nodiscard]] double D() const { return C_dr * e_dr; }
+  /// Rise fraction of the waveform driven, in its direction: D or 1 - D.
+  [[nodiscard]] double rise() const { return rise_fraction(D(), direction); }
 };
 
 /// Mechanical and friction parameters (MODEL.md sections 2 and 3), SI units.

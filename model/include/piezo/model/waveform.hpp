@@ -3,6 +3,8 @@
 /// Drive voltages as functions of time, with their breakpoints, so that an
 /// integrator can step exactly onto every kink of the input.
 
+#include "piezo/model/parameters.hpp"
+
 namespace piezo::model {
 
 /// The voltage on one interval between breakpoints: V(t) = V_at_t0 + slope * (t - t0).
@@ -43,15 +45,5 @@ class Sawtooth final : public Excitation {
   double T_;
   double D_;
 };
-
-/// Which way the sawtooth turns the rotor: forward is the paper's slow rise
-/// and fast fall; reverse mirrors it in time (fast rise, slow fall: the rise
-/// fraction D becomes 1 - D), so the rotor slips the other way.
-enum class Direction { forward, reverse };
-
-/// The rise fraction that drives the rotor in `direction` with a drive of rise fraction D.
-[[nodiscard]] inline double rise_fraction(double D, Direction direction) {
-  return direction == Direction::forward ? D : 1.0 - D;
-}
 
 }  // namespace piezo::model

@@ -1,0 +1,35 @@
+#pragma once
+/// @file
+/// What the drive loop follows: a voltage per drive cycle. A fixed waveform
+/// (the sawtooth of a timed run or a step) or a controller that decides from
+/// the measured angle (a closed-loop move). Called from the drive loop only:
+/// an implementation allocates nothing, takes no locks and throws nothing.
+
+#include <cstdint>
+
+#include "piezo/model/waveform.hpp"
+
+namespace piezo::firmware {
+
+class DriveProgram {
+ public:
+  virtual ~DriveProgram() = default;
+  /// The voltage wanted at t [s from the time origin]; dt is the drive period.
+  virtual double next_voltage(double t, double dt) = 0;
+  /// True once the program has nothing more to drive: the run ends as completed.
+  [[nodiscard]] virtual bool finished() const { return false; }
+  /// A code for the drive record (0: no controller; see MoveState).
+  [[nodiscard]] virtual std::uint8_t state_code() const { return 0; }
+};
+
+/// A fixed waveform as a program.
+class WaveformProgram final : public DriveProgram {
+ public:
+  explicit WaveformProgram(const model::Excitation& waveform) : waveform_(waveform) {}
+  double next_voltage(double t, double) override { return waveform_.voltage(t); }
+
+ private:
+  const model::Excitation& waveform_;
+};
+
+}  // namespace piezo::firmware

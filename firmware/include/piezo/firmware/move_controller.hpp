@@ -1,0 +1,128 @@
+#pragma once
+/// @file
+/// A closed-loop move to a target angle, run by the drive loop at the
+/// sensor's rate (a DriveProgram):
+/// - coarse: whole stick-slip steps toward the target, forward or reverse,
+///   their amplitude cut near the target; the step per volt starts from the
+///   model's prediction and is corrected from each measured step;
+/// - fine: inside one step, the stator held at a DC voltage (in stick the
+///   rotor moves with it: sub-step resolution), integral control on the
+///   measured angle; a target behind the rotor is reached by first lifting
+///   the stator fast (it slips under the rotor) and then lowering it slowly;
+/// - release: the voltage back to 0 V fast, so the stator slips under the
+///   rotor and the rotor stays (what the release moves it is learnt and
+///   aimed off the next time);
+/// - settle: "on target" only once the measured angle has stayed within the
+///   tolerance for settle_s at 0 V, so oscillating through the target never
+///   counts. The move then ends with the drive at 0 V.
+/// Everything happens inside next_voltage(): no allocation, lock or throw.
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+
+#include "piezo/firmware/drive_program.hpp"
+#include "piezo/firmware/position_feed.hpp"
+
+namespace piezo::firmware {
+
+enum class MoveState : std::uint8_t {
+  none = 0,
+  coarse = 1,
+  fine = 2,
+  release = 3,
+  settle = 4,
+  on_target = 5,
+};
+
+[[nodiscard]] const char* to_string(MoveState s);
+
+struct MoveSettings {
+  double target_rad = 0.0;
+  double tolerance_rad = 25e-6;
+  double settle_s = 0.1;
+  /// The user's zero: theta = (d - zero) / r2; NaN: the first reading is the zero.
+  double zero_displacement_m = 0.0;
+  double r2_m = 0.062;
+  double V0 = 80.0;                   ///< coarse step amplitude at most [V]
+  double f = 10.0;                    ///< coarse step frequency [Hz]
+  double D = 0.74955;                 ///< forward rise fraction (reverse: 1 - D)
+  double rad_per_V = 31.4e-6;         ///< fine: angle per volt in stick, d_e / r
+  /// Amplitudes (fractions of V0) at which the step is predicted. Below
+  /// about half of V0 the motor hardly steps: that is the fine stage's range.
+  static constexpr std::array<double, 6> kStepFractions{0.5, 0.6, 0.7, 0.8, 0.9, 1.0};
+  /// The predicted step at each of kStepFractions (magnitudes, rad), from
+  /// the model or a fitted config; the controller scales them by what it
+  /// measures.
+  std::array<double, 6> step_forward_rad{2e-4, 4e-4, 7e-4, 1e-3, 1.2e-3, 1.4e-3};
+  std::array<double, 6> step_reverse_rad{2e-4, 4e-4, 7e-4, 1e-3, 1.2e-3, 1.4e-3};
+  double fine_V_max = 64.0;           ///< the fine hold's range is [0, fine_V_max]
+  double fine_slew_V_per_s = 400.0;   ///< slow enough for the rotor to stick
+  double fast_slew_V_per_s = 8000.0;  ///< lift and release: the stator slips under the rotor
+};
+
+class MoveController final : public DriveProgram {
+ public:
+  MoveController(const MoveSettings& settings, const PositionFeed& feed);
+
+  double next_voltage(double t, double dt) override;
+  [[nodiscard]] bool finished() const override { return state() == MoveState::on_target; }
+  [[nodiscard]] std::uint8_t state_code() const override {
+    return static_cast<std::uint8_t>(state());
+  }
+
+  // Readable from any thread while the move runs.
+  [[nodiscard]] MoveState state() const { return state_.load(std::memory_order_relaxed); }
+  /// The filtered measured angle from the user's zero (NaN before the first reading).
+  [[nodiscard]] double position_rad() const { return position_.load(std::memory_order_relaxed); }
+  [[nodiscard]] std::uint32_t steps() const { return steps_.load(std::memory_order_relaxed); }
+  /// When the move came on target [s from the time origin] (NaN: not yet).
+  [[nodiscard]] double on_target_at_s() const { return on_target_at_.load(); }
+  [[nodiscard]] const MoveSettings& settings() const { return s_; }
+  /// The zero the move used [m] (NaN until known, when it adopts its own).
+  [[nodiscard]] double zero_displacement_m() const { return zero_m_.load(); }
+
+ private:
+  static constexpr int kFilter = 8;  ///< readings averaged: noise / sqrt(8)
+  static constexpr int kFlush = 10;  ///< readings skipped after the rotor was moved
+  static constexpr int kHold = 20;   ///< readings within tolerance/2 before the release
+  static constexpr double kFineGain = 0.1;  ///< integral gain per reading
+
+  void on_reading(double t, double displacement_m);
+  void decide(double t, double error);
+  void start_step(double t, double error);
+  void learn_from_step();
+  /// The predicted step [rad, magnitude] at `fraction` of V0 in direction k (0 fwd, 1 rev).
+  [[nodiscard]] double predicted_step(int k, double fraction) const;
+  void enter_fine(double error);
+  void set_state(MoveState s) { state_.store(s, std::memory_order_relaxed); }
+
+  MoveSettings s_;
+  const PositionFeed& feed_;
+  std::uint64_t seen_ = 0;
+  std::array<double, kFilter> window_{};
+  int filled_ = 0, next_slot_ = 0;
+  double theta_f_ = 0.0;
+  int flush_ = 0;
+  double V_ = 0.0;
+  // coarse
+  bool in_step_ = false, step_done_ = false;
+  double step_start_ = 0.0, amplitude_ = 0.0, rise_ = 0.0, direction_ = 1.0;
+  double predicted_ = 0.0, theta_before_ = 0.0;
+  double step_scale_[2] = {1.0, 1.0};  ///< measured over predicted: [0] forward, [1] reverse
+  // fine
+  double V_set_ = 0.0, aim_offset_ = 0.0;
+  bool lifting_ = false, fine_settled_in_ = false;
+  int hold_ = 0;
+  bool released_from_fine_ = false;
+  // settle
+  double within_since_ = -1.0;
+
+  std::atomic<MoveState> state_{MoveState::coarse};
+  std::atomic<double> zero_m_;
+  std::atomic<double> position_;
+  std::atomic<std::uint32_t> steps_{0};
+  std::atomic<double> on_target_at_;
+};
+
+}  // namespace piezo::firmware

@@ -1,0 +1,240 @@
+#include "piezo/firmware/move_controller.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "piezo/firmware/voltage_limiter.hpp"
+
+namespace piezo::firmware {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+/// Below about a third of V0 a stick-slip step shrinks faster than its
+/// amplitude (the rotor hardly slips): shorter steps are the fine stage's.
+constexpr double kMinStepFraction = MoveSettings::kStepFractions.front();
+/// Far from the target (this many full steps) the steps follow each other
+/// without waiting for the sensor to settle.
+constexpr double kChainSteps = 3.0;
+/// A lift overshoots the angle it is meant to give back by this much, so the
+/// slow descent that follows has room.
+constexpr double kLiftMargin = 1.3;
+constexpr double kLiftExtra_V = 2.0;
+
+}  // namespace
+
+const char* to_string(MoveState s) {
+  switch (s) {
+    case MoveState::none:
+      return "none";
+    case MoveState::coarse:
+      return "coarse";
+    case MoveState::fine:
+      return "fine";
+    case MoveState::release:
+      return "release";
+    case MoveState::settle:
+      return "settle";
+    case MoveState::on_target:
+      return "on_target";
+  }
+  return "unknown";
+}
+
+MoveController::MoveController(const MoveSettings& settings, const PositionFeed& feed)
+    : s_(settings),
+      feed_(feed),
+      seen_(feed.count()),
+      flush_(kFilter),  // the first decision waits for a full filter
+      zero_m_(settings.zero_displacement_m),
+      position_(kNaN),
+      on_target_at_(kNaN) {}
+
+double MoveController::next_voltage(double t, double dt) {
+  const std::uint64_t count = feed_.count();
+  if (count != seen_) {
+    seen_ = count;
+    on_reading(t, feed_.displacement_m());
+  }
+  switch (state()) {
+    case MoveState::coarse: {
+      if (!in_step_) return V_ = 0.0;
+      const double T = 1.0 / s_.f;
+      const double tau = t - step_start_;
+      if (tau >= T) {
+        steps_.fetch_add(1, std::memory_order_relaxed);
+        const double error = s_.target_rad - theta_f_;
+        if (error * direction_ > kChainSteps * predicted_step(direction_ > 0 ? 0 : 1, 1.0)) {
+          // Far away: the next full step at once. The readings lag the
+          // rotor by the same amount at both ends, so the step is measured.
+          learn_from_step();
+          start_step(t, error);
+          return V_ = 0.0;
+        }
+        in_step_ = false;
+        step_done_ = true;
+        flush_ = kFlush;
+        return V_ = 0.0;
+      }
+      const double rise_time = rise_ * T;
+      V_ = tau < rise_time ? amplitude_ * tau / rise_time
+                           : amplitude_ * (T - tau) / (T - rise_time);
+      return V_;
+    }
+    case MoveState::fine:
+      V_ = step_towards(V_, V_set_, lifting_ ? s_.fast_slew_V_per_s : s_.fine_slew_V_per_s, dt);
+      if (lifting_ && V_ == V_set_) {
+        lifting_ = false;
+        flush_ = kFlush;  // the lift may have moved the rotor a little
+      }
+      return V_;
+    case MoveState::release:
+      V_ = step_towards(V_, 0.0, s_.fast_slew_V_per_s, dt);
+      if (V_ == 0.0) {
+        set_state(MoveState::settle);
+        flush_ = kFlush;
+        within_since_ = -1.0;
+      }
+      return V_;
+    case MoveState::none:
+    case MoveState::settle:
+    case MoveState::on_target:
+      break;
+  }
+  return V_ = 0.0;
+}
+
+void MoveController::on_reading(double t, double displacement_m) {
+  window_[static_cast<std::size_t>(next_slot_)] = displacement_m;
+  next_slot_ = (next_slot_ + 1) % kFilter;
+  filled_ = std::min(filled_ + 1, kFilter);
+  double sum = 0.0;
+  for (int i = 0; i < filled_; ++i) sum += window_[static_cast<std::size_t>(i)];
+  const double mean_m = sum / filled_;
+  if (std::isnan(s_.zero_displacement_m)) {
+    // No zero yet: the mean of the first full filter (one reading's noise
+    // would offset every later move).
+    if (filled_ < kFilter) return;
+    s_.zero_displacement_m = mean_m;
+    zero_m_.store(mean_m);
+  }
+  theta_f_ = (mean_m - s_.zero_displacement_m) / s_.r2_m;
+  position_.store(theta_f_, std::memory_order_relaxed);
+  if (flush_ > 0) {
+    --flush_;
+    return;
+  }
+  const double error = s_.target_rad - theta_f_;
+  switch (state()) {
+    case MoveState::coarse:
+      if (in_step_) return;
+      if (step_done_) {
+        step_done_ = false;
+        learn_from_step();
+      }
+      decide(t, error);
+      return;
+    case MoveState::fine: {
+      // Integrate only once the output has caught up with the set point:
+      // the slew-limited stator must not wind the integrator up.
+      if (lifting_ || V_ != V_set_) return;
+      const double aim_error = error + aim_offset_;
+      V_set_ = std::clamp(V_set_ + kFineGain * aim_error / s_.rad_per_V, 0.0, s_.fine_V_max);
+      hold_ = std::abs(aim_error) <= 0.5 * s_.tolerance_rad ? hold_ + 1 : 0;
+      const bool out_of_range = (V_set_ == 0.0 && aim_error < -s_.tolerance_rad) ||
+                                (V_set_ == s_.fine_V_max && aim_error > s_.tolerance_rad);
+      if (hold_ >= kHold || out_of_range) {
+        released_from_fine_ = hold_ >= kHold;
+        set_state(MoveState::release);
+      }
+      return;
+    }
+    case MoveState::settle:
+      if (std::abs(error) <= s_.tolerance_rad) {
+        if (within_since_ < 0.0) within_since_ = t;
+        if (t - within_since_ >= s_.settle_s) {
+          on_target_at_.store(t);
+          set_state(MoveState::on_target);
+        }
+        return;
+      }
+      if (released_from_fine_) {
+        // What the release moved the rotor by: the next hold aims off by it.
+        const double limit = 0.25 * s_.fine_V_max * s_.rad_per_V;
+        aim_offset_ = std::clamp(aim_offset_ + error, -limit, limit);
+      }
+      released_from_fine_ = false;
+      decide(t, error);
+      return;
+    case MoveState::release:
+    case MoveState::none:
+    case MoveState::on_target:
+      return;
+  }
+}
+
+void MoveController::decide(double t, double error) {
+  const double fine_window = 0.5 * s_.fine_V_max * s_.rad_per_V;
+  if (std::abs(error) <= fine_window) {
+    enter_fine(error);
+  } else {
+    start_step(t, error);
+  }
+}
+
+double MoveController::predicted_step(int k, double fraction) const {
+  const auto& table = k == 0 ? s_.step_forward_rad : s_.step_reverse_rad;
+  const auto& at = MoveSettings::kStepFractions;
+  std::size_t i = 1;
+  while (i + 1 < at.size() && fraction > at[i]) ++i;
+  const double w = std::clamp((fraction - at[i - 1]) / (at[i] - at[i - 1]), 0.0, 1.0);
+  return step_scale_[k] * ((1.0 - w) * table[i - 1] + w * table[i]);
+}
+
+void MoveController::learn_from_step() {
+  // The step as measured against the step as predicted: the scale moves
+  // most of the way (geometrically) toward what was seen. Steps lost in the
+  // sensor's noise teach nothing.
+  const double measured = (theta_f_ - theta_before_) * direction_;
+  if (predicted_ < 4.0 * s_.tolerance_rad || measured <= 0.0) return;
+  step_scale_[direction_ > 0 ? 0 : 1] *= std::pow(std::clamp(measured / predicted_, 0.25, 4.0), 0.7);
+}
+
+void MoveController::start_step(double t, double error) {
+  direction_ = error > 0.0 ? 1.0 : -1.0;
+  const int k = error > 0.0 ? 0 : 1;
+  // The amplitude whose predicted step is the distance left (at most V0).
+  double fraction = 1.0;
+  if (std::abs(error) < predicted_step(k, 1.0)) {
+    fraction = kMinStepFraction;
+    for (double lo = kMinStepFraction, hi = 1.0; hi - lo > 1e-3;) {
+      const double mid = 0.5 * (lo + hi);
+      (predicted_step(k, mid) < std::abs(error) ? lo : hi) = mid;
+      fraction = lo;
+    }
+  }
+  amplitude_ = fraction * s_.V0;
+  predicted_ = predicted_step(k, fraction);
+  rise_ = error > 0.0 ? s_.D : 1.0 - s_.D;
+  step_start_ = t;
+  theta_before_ = theta_f_;
+  in_step_ = true;
+  set_state(MoveState::coarse);
+}
+
+void MoveController::enter_fine(double error) {
+  const double aim_error = error + aim_offset_;
+  hold_ = 0;
+  if (aim_error >= 0.0) {
+    // Forward: raise the stator slowly; the rotor sticks and follows.
+    lifting_ = false;
+    V_set_ = std::min(s_.fine_V_max, aim_error / s_.rad_per_V);
+  } else {
+    // Backward: lift fast (the stator slips under the rotor), then lower slowly.
+    lifting_ = true;
+    V_set_ = std::min(s_.fine_V_max, kLiftMargin * -aim_error / s_.rad_per_V + kLiftExtra_V);
+  }
+  set_state(MoveState::fine);
+}
+
+}  // namespace piezo::firmware

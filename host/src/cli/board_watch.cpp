@@ -1,0 +1,154 @@
+#include "board_watch.hpp"
+
+#include <fmt/format.h>
+
+#include <stdexcept>
+#include <vector>
+#include <zmq_addon.hpp>
+
+#include "piezo/protocol/frame.hpp"
+#include "piezo/protocol/message.hpp"
+
+namespace piezo::host {
+using nlohmann::json;
+
+BoardWatch::BoardWatch(const config::RunConfig& config, RigClient& client, const json& hello,
+                       view::LiveFeed& feed)
+    : config_(config), client_(client), hello_(hello), feed_(feed) {
+  client_.subscribe({"drive", "sensor", "state", "health"});
+}
+
+json BoardWatch::call(const std::string& cmd, const json& args) {
+  const std::lock_guard lock(commands_);
+  return client_.call(cmd, args);
+}
+
+void BoardWatch::follow_run(std::uint64_t run) {
+  const json status = call("status");
+  const json& r = status.value("run", json::object());
+  if (r.value("id", std::uint64_t{0}) != run) return;
+  run_ = run;
+  const auto t0 = r.at("t0_ns").get<hal::TimeNs>();
+  observer_.reset();
+  if (config_.observer.enabled) {
+    observer_ = std::make_unique<ObserverStage>(config_.model.motor, config_.observer.gains,
+                                                1.0 / hello_.at("drive_rate_hz").get<double>(),
+                                                hello_.at("output_latency_s").get<double>());
+  }
+  collector_ = std::make_unique<SampleCollector>(t0, config_.sensor.r2_m, observer_.get());
+  sensor_samples_ = drive_received_ = 0;
+}
+
+void BoardWatch::on_frame(std::string_view frame) {
+  if (!collector_) return;  // not yet following a run: frames before its start are skipped
+  const auto header = protocol::decode_header(frame);
+  if (header.stream == protocol::Stream::drive) {
+    for (const auto& s : protocol::decode_drive(frame)) collector_->add(s);
+    drive_received_ = header.first_seq + header.count;
+  } else {
+    for (const auto& s : protocol::decode_sensor(frame)) collector_->add(s);
+    sensor_samples_ = header.first_seq + header.count;
+  }
+}
+
+void BoardWatch::poll(std::chrono::milliseconds wait) {
+  if (poll_in(client_.stream(), wait)) {
+    for (int i = 0; i < 256; ++i) {
+      std::vector<zmq::message_t> parts;
+      if (!zmq::recv_multipart(client_.stream(), std::back_inserter(parts),
+                               zmq::recv_flags::dontwait) ||
+          parts.size() != 2) {
+        break;
+      }
+      const std::string_view topic = parts[0].to_string_view();
+      if (topic == "health") {
+        health_ = protocol::decode_map(parts[1].to_string_view());
+      } else if (topic == "state") {
+        const json state = protocol::decode_map(parts[1].to_string_view());
+        const json run = state.value("run", json());
+        if (state.value("state", "") == "running" && run.is_number() &&
+            run.get<std::uint64_t>() != run_.value_or(0)) {
+          follow_run(run.get<std::uint64_t>());
+        }
+        if (state.contains("summary") && run.is_number()) {
+          const std::lock_guard lock(commands_);
+          if (run.get<std::uint64_t>() == controlled_run_.value_or(0)) {
+            controlled_run_.reset();  // the move this watch started has ended
+          }
+        }
+        health_["state"] = state.value("state", "");
+        if (state.contains("summary")) health_["summary"] = state["summary"];
+      } else {
+        on_frame(parts[1].to_string_view());
+      }
+    }
+  }
+  // A run already under way when the watch started: its start event was missed.
+  if (!run_ && health_.value("state", "") == "running") {
+    const json status = call("status");
+    if (status.contains("run")) follow_run(status["run"].at("id").get<std::uint64_t>());
+  }
+  {
+    const std::lock_guard lock(commands_);
+    if (controlled_run_ && std::chrono::steady_clock::now() - last_lease_ >=
+                               std::chrono::duration<double>(lease_s_ / 4.0)) {
+      client_.send("lease", {{"drive_received", drive_received_}});
+      last_lease_ = std::chrono::steady_clock::now();
+    }
+  }
+  if (collector_) {
+    feed_.add(collector_->rows());
+    collector_->rows() = {};
+    feed_.set_status(
+        {{"t_s", collector_->last_t()},
+         {"V", collector_->last_V()},
+         {"theta_rad", collector_->last_theta()},
+         {"residual_rad", observer_ ? observer_->summary().last_residual_rad : 0.0},
+         {"sensor_samples", sensor_samples_},
+         {"sensor_errors", health_.value("sensor", json::object()).value("errors", 0)},
+         {"board", health_},
+         {"errors_by_class",
+          {{"drive", collector_->drive_errors()}, {"sensor", collector_->sensor_errors()}}},
+         {"lease_s", lease_json()}});
+  } else {
+    feed_.set_status({{"board", health_}});
+  }
+}
+
+json BoardWatch::estop() {
+  return call("estop");
+}
+
+json BoardWatch::lease_json() {
+  const std::lock_guard lock(commands_);
+  return controlled_run_ ? json(lease_s_) : json(nullptr);
+}
+
+bool BoardWatch::controlling() {
+  const std::lock_guard lock(commands_);
+  return controlled_run_.has_value();
+}
+
+json BoardWatch::stop() {
+  if (!controlling()) {
+    throw std::runtime_error(
+        "stop: only the client that started the run may stop it (e-stop works for anyone)");
+  }
+  return call("stop");
+}
+
+json BoardWatch::move_to(const json& args) {
+  json request = json::object();
+  for (const char* key : {"target_rad", "tolerance_rad", "settle_s", "timeout_s"}) {
+    if (args.contains(key)) request[key] = args[key];
+  }
+  request["lease_s"] = config_.rig.lease_s > 0.0 ? config_.rig.lease_s : 1.0;
+  const std::lock_guard lock(commands_);
+  const json started = client_.call("move_to", request);
+  lease_s_ = started.at("lease_s").get<double>();
+  last_lease_ = std::chrono::steady_clock::now();
+  controlled_run_ = started.at("run").get<std::uint64_t>();
+  return started;
+}
+
+}  // namespace piezo::host

@@ -1,0 +1,63 @@
+#pragma once
+// `piezo view --rig`: the live page of whatever a board runs, watched from a
+// second host without driving it. Subscribes to piezod's stream, rebuilds
+// the angle (tared at each run's first good reading) and the observer as
+// `piezo run` does, and feeds the live page. With control: e-stop (any
+// client may), and move-to, whose lease it then keeps, and stop of that move.
+
+#include <chrono>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+
+#include "live_feed.hpp"
+#include "observer_stage.hpp"
+#include "rig_client.hpp"
+#include "run_config.hpp"
+#include "sample_collector.hpp"
+
+namespace piezo::host {
+
+class BoardWatch {
+ public:
+  /// `hello` is the board's answer to `hello` (rates, latency).
+  BoardWatch(const config::RunConfig& config, RigClient& client, const nlohmann::json& hello,
+             view::LiveFeed& feed);
+
+  /// Handles what the stream brought within `wait`, and renews the lease of
+  /// a move this watch started. The watch's own thread.
+  void poll(std::chrono::milliseconds wait);
+
+  // From the web server's threads; each returns the board's reply or throws.
+  nlohmann::json estop();
+  nlohmann::json stop();
+  nlohmann::json move_to(const nlohmann::json& args);
+
+ private:
+  void follow_run(std::uint64_t run);
+  [[nodiscard]] bool controlling();
+  [[nodiscard]] nlohmann::json lease_json();  ///< the lease of a move this watch started, or null
+  void on_frame(std::string_view frame);
+  nlohmann::json call(const std::string& cmd,
+                      const nlohmann::json& args = nlohmann::json::object());
+
+  config::RunConfig config_;
+  RigClient& client_;
+  nlohmann::json hello_;
+  view::LiveFeed& feed_;
+  std::mutex commands_;  ///< the command socket, shared by the watch and the page
+
+  std::optional<std::uint64_t> run_;
+  std::unique_ptr<ObserverStage> observer_;
+  std::unique_ptr<SampleCollector> collector_;
+  nlohmann::json health_ = nlohmann::json::object();
+  std::uint64_t sensor_samples_ = 0, drive_received_ = 0;
+
+  // Under commands_: the page's threads start a move, the watch renews it.
+  std::optional<std::uint64_t> controlled_run_;  ///< a move this watch started
+  double lease_s_ = 0.5;
+  std::chrono::steady_clock::time_point last_lease_;
+};
+
+}  // namespace piezo::host

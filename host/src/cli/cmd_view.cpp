@@ -1,0 +1,80 @@
+// `piezo view`: the runs catalogue in a browser, and with --rig the live
+// page of whatever that board runs (watched, not driven; with --control,
+// e-stop and move-to). Serves until stopped. (`piezo run --view` serves the
+// live page of the run it drives.)
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <iostream>
+#include <optional>
+#include <thread>
+
+#include "board_watch.hpp"
+#include "commands.hpp"
+#include "config_error.hpp"
+#include "live_feed.hpp"
+#include "rig_client.hpp"
+#include "run_config.hpp"
+#include "signals.hpp"
+#include "view_server.hpp"
+
+namespace piezo::host {
+namespace {
+
+struct ViewCliOptions {
+  view::ViewOptions server;
+  std::string rig;
+  std::vector<std::string> config;
+};
+
+int serve(const ViewCliOptions& o) {
+  const StopOnSignals signals;
+  if (o.rig.empty()) {
+    if (o.server.control) {
+      throw config::ConfigError("command line", "--control",
+                                "needs --rig ADDRESS: there is nothing to control");
+    }
+    const view::ViewServer server(o.server, nullptr, {});
+    std::cerr << server.banner() << "\n" << std::flush;
+    while (!signals.flag().load()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    return 0;
+  }
+  // The host's view of the model and the sensor's radius: a config, or the defaults.
+  config::RunConfig config =
+      o.config.empty() ? config::RunConfig{} : config::load_run_config(o.config, {});
+  config.rig.address = o.rig;
+  RigClient client(config.rig);
+  const nlohmann::json hello = client.call("hello");
+  view::LiveFeed feed(20.0, 0.3);
+  BoardWatch watch(config, client, hello, feed);
+  const view::ViewServer server(
+      o.server, &feed,
+      {[&watch](const nlohmann::json&) { return watch.stop(); },
+       [&watch](const nlohmann::json&) { return watch.estop(); },
+       [&watch](const nlohmann::json& body) { return watch.move_to(body); }});
+  std::cerr << server.banner() << "\n" << std::flush;
+  while (!signals.flag().load()) watch.poll(std::chrono::milliseconds(50));
+  return 0;
+}
+
+}  // namespace
+
+CommandRunner add_view_command(CLI::App& app) {
+  auto o = std::make_shared<ViewCliOptions>();
+  o->server.runs_dir = "runs";
+  CLI::App* cmd = app.add_subcommand(
+      "view", "Serve the runs catalogue, and a board's live runs, to a browser (Ctrl-C ends)");
+  cmd->add_option("--runs", o->server.runs_dir, "Runs directory (its catalogue.csv)")
+      ->capture_default_str();
+  cmd->add_option("--listen", o->server.listen, "HOST:PORT to serve on (port 0: any free)")
+      ->capture_default_str();
+  cmd->add_option("--rig", o->rig, "piezod's address: show its runs live");
+  cmd->add_option("--config", o->config,
+                  "Config for the model and sensor radius (default: Table 1, r2 = 62 mm)");
+  cmd->add_flag("--control", o->server.control,
+                "With --rig: e-stop and move-to from the page, with the token it prints");
+  return [o, cmd]() { return cmd->parsed() ? serve(*o) : -1; };
+}
+
+}  // namespace piezo::host

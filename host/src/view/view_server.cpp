@@ -1,0 +1,193 @@
+#include "view_server.hpp"
+
+#include <fmt/format.h>
+#include <httplib.h>
+
+#include <chrono>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+
+#include "live_feed.hpp"
+#include "run_catalogue.hpp"
+#include "web_assets.hpp"
+
+namespace piezo::host::view {
+namespace {
+
+constexpr std::size_t kColumns = 800;  // about one point pair per pixel of a plot
+constexpr auto kLivePeriod = std::chrono::milliseconds(250);
+
+std::string random_token() {
+  std::random_device rd;
+  std::string token;
+  for (int i = 0; i < 24; ++i) token += fmt::format("{:02x}", rd() & 0xffu);
+  return token;
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return {};
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// uPlot, installed by the project's set-up from the npm registry.
+std::string vendor_dir() {
+  if (const char* dir = std::getenv("PIEZO_UPLOT_DIR")) return dir;
+  return PIEZO_UPLOT_DIR;
+}
+
+void send_json(httplib::Response& res, const nlohmann::json& j) {
+  res.set_content(j.dump(), "application/json");
+}
+
+void refuse(httplib::Response& res, int status, const std::string& why) {
+  res.status = status;
+  send_json(res, {{"ok", false}, {"error", why}});
+}
+
+}  // namespace
+
+ViewServer::ViewServer(const ViewOptions& options, const LiveFeed* live, ViewControls controls)
+    : options_(options),
+      live_(live),
+      controls_(std::move(controls)),
+      server_(std::make_unique<httplib::Server>()) {
+  const auto colon = options_.listen.rfind(':');
+  if (colon == std::string::npos) {
+    throw std::runtime_error(fmt::format(
+        "--view/--listen: \"{}\" is not HOST:PORT, e.g. 127.0.0.1:8080", options_.listen));
+  }
+  const std::string host = options_.listen.substr(0, colon);
+  int port = std::atoi(options_.listen.substr(colon + 1).c_str());
+  if (options_.control) token_ = random_token();
+  routes();
+  const bool bound =
+      port == 0 ? (port = server_->bind_to_any_port(host)) > 0 : server_->bind_to_port(host, port);
+  if (!bound) {
+    throw std::runtime_error(fmt::format("--view/--listen: cannot listen on {}", options_.listen));
+  }
+  url_ = fmt::format("http://{}:{}/", host, port);
+  thread_ = std::thread([this] { server_->listen_after_bind(); });
+}
+
+ViewServer::~ViewServer() {
+  server_->stop();
+  if (thread_.joinable()) thread_.join();
+}
+
+std::string ViewServer::banner() const {
+  const bool loopback = url_.rfind("http://127.", 0) == 0 || url_.rfind("http://localhost", 0) == 0;
+  std::string out = fmt::format("live view: {}{}", url_,
+                                options_.control ? fmt::format("?token={}", token_) : "");
+  out += loopback ? " (this machine only" : " (LISTENING BEYOND THIS MACHINE";
+  out += options_.control ? "; control with the token)" : "; read-only)";
+  return out;
+}
+
+void ViewServer::routes() {
+  auto& s = *server_;
+  s.Get("/", [this](const httplib::Request&, httplib::Response& res) {
+    if (live_ == nullptr) {
+      res.set_redirect("/runs");
+      return;
+    }
+    res.set_content(std::string(kLiveHtml), "text/html; charset=utf-8");
+  });
+  s.Get("/runs", [](const httplib::Request&, httplib::Response& res) {
+    res.set_content(std::string(kRunsHtml), "text/html; charset=utf-8");
+  });
+  s.Get(R"(/run/([^/]+))", [](const httplib::Request&, httplib::Response& res) {
+    res.set_content(std::string(kRunHtml), "text/html; charset=utf-8");
+  });
+  s.Get(R"(/vendor/(uPlot\.iife\.min\.js|uPlot\.min\.css))",
+        [](const httplib::Request& req, httplib::Response& res) {
+          const std::string name = req.matches[1];
+          const std::string body = read_file(vendor_dir() + "/" + name);
+          if (body.empty()) {
+            refuse(res, 404,
+                   fmt::format("{} not found in {} (scripts/setup.sh installs uPlot from the npm "
+                               "registry; PIEZO_UPLOT_DIR overrides)",
+                               name, vendor_dir()));
+            return;
+          }
+          res.set_content(body, name.ends_with(".js") ? "text/javascript" : "text/css");
+        });
+
+  s.Get("/api/live.json", [this](const httplib::Request&, httplib::Response& res) {
+    if (live_ == nullptr) return refuse(res, 404, "no run under way in this view");
+    send_json(res, live_->snapshot(kColumns));
+  });
+  s.Get("/api/live", [this](const httplib::Request&, httplib::Response& res) {
+    if (live_ == nullptr) return refuse(res, 404, "no run under way in this view");
+    res.set_header("Cache-Control", "no-cache");
+    res.set_chunked_content_provider(
+        "text/event-stream", [this](std::size_t, httplib::DataSink& sink) {
+          const std::string event = "data: " + live_->snapshot(kColumns).dump() + "\n\n";
+          if (!sink.write(event.data(), event.size())) return false;
+          std::this_thread::sleep_for(kLivePeriod);
+          return true;
+        });
+  });
+  s.Get("/api/runs", [this](const httplib::Request&, httplib::Response& res) {
+    send_json(res, {{"runs_dir", options_.runs_dir},
+                    {"runs", options_.runs_dir.empty() ? nlohmann::json::array()
+                                                       : list_runs(options_.runs_dir)}});
+  });
+  s.Get(R"(/api/run/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
+    const auto dir =
+        options_.runs_dir.empty() ? std::nullopt : run_path(options_.runs_dir, req.matches[1]);
+    if (!dir) return refuse(res, 404, fmt::format("no run \"{}\"", std::string(req.matches[1])));
+    try {
+      send_json(res, run_plots(*dir, kColumns));
+    } catch (const std::exception& e) {
+      refuse(res, 500, e.what());
+    }
+  });
+  s.Get(R"(/files/([^/]+)/(run\.h5|config\.toml))",
+        [this](const httplib::Request& req, httplib::Response& res) {
+          const auto dir = options_.runs_dir.empty() ? std::nullopt
+                                                     : run_path(options_.runs_dir, req.matches[1]);
+          if (!dir) return refuse(res, 404, "no such run");
+          const std::string name = req.matches[2];
+          res.set_header("Content-Disposition", "attachment; filename=\"" + name + "\"");
+          res.set_content(read_file((*dir / name).string()),
+                          name.ends_with(".h5") ? "application/x-hdf5" : "text/plain");
+        });
+
+  // Control: POST only, with the token in a header (which a cross-site form
+  // cannot send, and a cross-site script only after a preflight this server
+  // never answers), from this page's own origin.
+  const auto guarded = [this](const ViewControls::Action& action, const char* what) {
+    return [this, action, what](const httplib::Request& req, httplib::Response& res) {
+      if (!options_.control) {
+        return refuse(res, 403, "read-only view: start it with --control to allow this");
+      }
+      if (req.get_header_value("X-Piezo-Token") != token_) {
+        return refuse(res, 403, "missing or wrong token (printed when the view started)");
+      }
+      const std::string origin = req.get_header_value("Origin");
+      const std::string site = req.get_header_value("Sec-Fetch-Site");
+      if ((!origin.empty() && origin != "http://" + req.get_header_value("Host")) ||
+          (!site.empty() && site != "same-origin" && site != "none")) {
+        return refuse(res, 403, "cross-site request refused");
+      }
+      if (!action) return refuse(res, 404, fmt::format("{}: not available here", what));
+      try {
+        const nlohmann::json body =
+            req.body.empty() ? nlohmann::json::object() : nlohmann::json::parse(req.body);
+        send_json(res, {{"ok", true}, {"sent", what}, {"reply", action(body)}});
+      } catch (const std::exception& e) {
+        refuse(res, 409, fmt::format("{}: {}", what, e.what()));
+      }
+    };
+  };
+  s.Post("/api/stop", guarded(controls_.stop, "stop"));
+  s.Post("/api/estop", guarded(controls_.estop, "estop"));
+  s.Post("/api/move", guarded(controls_.move, "move"));
+}
+
+}  // namespace piezo::host::view

@@ -1,0 +1,64 @@
+#pragma once
+// `piezo view` and `piezo run --view`: a small web server (cpp-httplib) for
+// any browser on the PC. The live page follows the run under way (Server-
+// Sent Events, decimated on the host); the catalogue lists the runs of a
+// directory, each with its plots, config and downloads. Read-only unless
+// started with control: then stop, e-stop and move-to need the token
+// printed at the start, and cross-site requests are refused.
+
+#include <functional>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+
+namespace httplib {
+class Server;
+}
+
+namespace piezo::host::view {
+
+class LiveFeed;
+
+struct ViewOptions {
+  std::string listen = "127.0.0.1:8080";  ///< HOST:PORT (port 0: any free one)
+  std::string runs_dir;                   ///< the catalogue's runs (empty: none)
+  bool control = false;                   ///< allow stop and e-stop, with the token
+};
+
+/// What control may do, called from the server's threads with the
+/// request's JSON body; each returns a reply or throws with the reason.
+/// An empty one is not available here.
+struct ViewControls {
+  using Action = std::function<nlohmann::json(const nlohmann::json& body)>;
+  Action stop, estop, move;
+};
+
+class ViewServer {
+ public:
+  /// Binds (throws with the address and the reason when it cannot) and serves
+  /// from a thread of its own; `live` (may be null) outlives the server.
+  ViewServer(const ViewOptions& options, const LiveFeed* live, ViewControls controls);
+  ~ViewServer();
+  ViewServer(const ViewServer&) = delete;
+  ViewServer& operator=(const ViewServer&) = delete;
+
+  /// http://HOST:PORT/ as bound.
+  [[nodiscard]] const std::string& url() const { return url_; }
+  /// The control token (empty when read-only).
+  [[nodiscard]] const std::string& token() const { return token_; }
+  /// What to tell the user: where it listens, and how control is guarded.
+  [[nodiscard]] std::string banner() const;
+
+ private:
+  void routes();
+
+  ViewOptions options_;
+  const LiveFeed* live_;
+  ViewControls controls_;
+  std::unique_ptr<httplib::Server> server_;
+  std::string url_, token_;
+  std::thread thread_;
+};
+
+}  // namespace piezo::host::view

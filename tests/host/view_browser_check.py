@@ -1,0 +1,152 @@
+#!/usr/bin/python3
+"""The web view in a real browser: headless Chromium (Debian's chromium and
+chromium-driver, driven by python3-selenium) opens the live page of a run
+and sees the angle readout and the plot advance; a request without the token,
+and one from another site, are refused; after the run the catalogue lists it
+and its page draws its plots. Saves screenshots of both pages.
+
+Usage: view_browser_check.py PIEZO SCREENSHOT_DIR   (exit 77: no browser here)
+"""
+import json
+import os
+import re
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.error
+import urllib.request
+
+SOURCE = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def check(condition, what):
+    if not condition:
+        print("FAILED:", what)
+        sys.exit(1)
+
+
+def post(url, headers):
+    request = urllib.request.Request(url, data=b"", headers=headers, method="POST")
+    try:
+        with urllib.request.urlopen(request, timeout=5) as r:
+            return r.status, json.load(r)
+    except urllib.error.HTTPError as e:
+        return e.code, json.load(e)
+
+
+def wait_for_banner(path, deadline):
+    while time.time() < deadline:
+        with open(path) as f:
+            m = re.search(r"live view: (http://\S+?)(\?token=([0-9a-f]+))? ", f.read())
+        if m:
+            return m.group(1), m.group(3)
+        time.sleep(0.05)
+    check(False, "the view's banner")
+
+
+def browser():
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1280,1400",
+                "--disable-dev-shm-usage"):
+        options.add_argument(arg)
+    options.binary_location = shutil.which("chromium")
+    return webdriver.Chrome(service=Service(shutil.which("chromedriver")), options=options)
+
+
+def main():
+    piezo, shots = sys.argv[1], sys.argv[2]
+    if not (shutil.which("chromium") and shutil.which("chromedriver")):
+        print("chromium or chromedriver missing: scripts/setup.sh installs them")
+        sys.exit(77)
+    os.makedirs(shots, exist_ok=True)
+    work = tempfile.mkdtemp(prefix="piezo-view-")
+    runs = os.path.join(work, "runs")
+    port = free_port()
+    err = os.path.join(work, "run.err")
+    run = subprocess.Popen(
+        [piezo, "run", "--config", os.path.join(SOURCE, "configs", "sim.toml"), "--duration", "8",
+         "--view", f"127.0.0.1:{port}", "--control", "--json", "--out", os.path.join(runs, "r1")],
+        stdout=subprocess.PIPE, stderr=open(err, "w"), text=True)
+    driver = None
+    try:
+        url, token = wait_for_banner(err, time.time() + 20)
+        check(token, "a token with --control")
+        driver = browser()
+        driver.get(f"{url}?token={token}")
+        deadline = time.time() + 20
+        while time.time() < deadline and driver.execute_script("return window.piezoView.updates") < 3:
+            time.sleep(0.1)
+        first = driver.execute_script("return [window.piezoView.t, window.piezoView.points]")
+        angle_first = driver.find_element("id", "angle").text
+        time.sleep(2.0)
+        second = driver.execute_script("return [window.piezoView.t, window.piezoView.points]")
+        angle_second = driver.find_element("id", "angle").text
+        check(second[0] > first[0] + 1.0, f"the run time advances: {first} -> {second}")
+        check(second[1] > 0 and second[1] >= first[1], f"the angle plot holds points: {first} -> {second}")
+        check(angle_second != angle_first, f"the angle readout advances: {angle_first} -> {angle_second}")
+        driver.save_screenshot(os.path.join(shots, "view_live.png"))
+
+        # Control needs the token, from this page's own origin.
+        status, body = post(url + "api/estop", {})
+        check(status == 403 and "token" in body["error"], f"no token: {status} {body}")
+        status, body = post(url + "api/estop", {"X-Piezo-Token": token,
+                                                "Origin": "http://evil.example"})
+        check(status == 403 and "cross-site" in body["error"], f"cross-site: {status} {body}")
+        out, _ = run.communicate(timeout=60)
+        summary = json.loads(out)
+        check(summary["status"] == "completed", "the refused requests changed nothing: " +
+              summary["status"])
+        print("live:", first, second, angle_first, angle_second)
+
+        # The catalogue, read-only: the run is listed and its page draws.
+        port2 = free_port()
+        err2 = os.path.join(work, "view.err")
+        view = subprocess.Popen([piezo, "view", "--runs", runs, "--listen", f"127.0.0.1:{port2}"],
+                                stderr=open(err2, "w"))
+        try:
+            url2, token2 = wait_for_banner(err2, time.time() + 20)
+            check(token2 is None, "read-only without --control")
+            status, body = post(url2 + "api/stop", {"X-Piezo-Token": "anything"})
+            check(status == 403 and "read-only" in body["error"], f"read-only: {status} {body}")
+            driver.get(url2 + "runs")
+            deadline = time.time() + 10
+            while time.time() < deadline and not driver.find_elements("css selector", "#runs tbody tr"):
+                time.sleep(0.1)
+            rows = driver.find_elements("css selector", "#runs tbody tr")
+            check(len(rows) == 1 and "r1" in rows[0].text and "completed" in rows[0].text,
+                  "the catalogue lists the run: " + " | ".join(r.text for r in rows))
+            rows[0].find_element("link text", "r1").click()
+            deadline = time.time() + 10
+            while time.time() < deadline and len(driver.find_elements("css selector", ".uplot")) < 4:
+                time.sleep(0.1)
+            check(len(driver.find_elements("css selector", ".uplot")) == 4, "the run page's plots")
+            check("[drive]" in driver.find_element("id", "config").text, "the run's config")
+            driver.save_screenshot(os.path.join(shots, "view_run.png"))
+            with urllib.request.urlopen(url2 + "files/r1/run.h5", timeout=5) as r:
+                check(r.read(8) == b"\x89HDF\r\n\x1a\n", "run.h5 downloads")
+        finally:
+            view.terminate()
+            view.wait(timeout=10)
+        print("ok", len(rows), "run listed; screenshots in", shots)
+    finally:
+        if driver:
+            driver.quit()
+        if run.poll() is None:
+            run.kill()
+        shutil.rmtree(work, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()

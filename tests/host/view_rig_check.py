@@ -1,0 +1,119 @@
+#!/usr/bin/python3
+"""`piezo view --rig` against a real piezod on loopback: the live feed
+follows the board's run, a move-to from the page (with the token) runs on the
+board until on target and keeps its lease, a request without the token is
+refused, and e-stop from the page latches the board's fault.
+
+Usage: view_rig_check.py PIEZOD PIEZO
+"""
+import json
+import os
+import re
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.error
+import urllib.request
+
+SOURCE = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def check(condition, what):
+    if not condition:
+        print("FAILED:", what)
+        sys.exit(1)
+
+
+def post(url, body, headers):
+    data = json.dumps(body).encode()
+    request = urllib.request.Request(url, data=data, method="POST",
+                                     headers={"Content-Type": "application/json", **headers})
+    try:
+        with urllib.request.urlopen(request, timeout=10) as r:
+            return r.status, json.load(r)
+    except urllib.error.HTTPError as e:
+        return e.code, json.load(e)
+
+
+def get(url):
+    with urllib.request.urlopen(url, timeout=10) as r:
+        return json.load(r)
+
+
+def wait_for(predicate, seconds, what):
+    deadline = time.time() + seconds
+    while time.time() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(0.1)
+    check(False, what)
+
+
+def main():
+    piezod, piezo = sys.argv[1], sys.argv[2]
+    work = tempfile.mkdtemp(prefix="piezo-view-rig-")
+    board_port, view_port = free_port(), free_port()
+    # The stream is on the next port: keep looking until both are free.
+    while True:
+        try:
+            socket.create_server(("127.0.0.1", board_port + 1)).close()
+            break
+        except OSError:
+            board_port = free_port()
+    address = f"tcp://127.0.0.1:{board_port}"
+    board = subprocess.Popen([piezod, "--config", os.path.join(SOURCE, "configs", "piezod-sim.toml"),
+                              "--listen", address], stderr=open(os.path.join(work, "piezod.log"), "w"))
+    err = os.path.join(work, "view.err")
+    view = None
+    try:
+        wait_for(lambda: socket.socket().connect_ex(("127.0.0.1", board_port)) == 0, 10, "piezod up")
+        view = subprocess.Popen([piezo, "view", "--rig", address, "--listen", f"127.0.0.1:{view_port}",
+                                 "--control", "--runs", work], stderr=open(err, "w"))
+        m = wait_for(lambda: re.search(r"live view: (http://\S+?)\?token=([0-9a-f]+)", open(err).read()),
+                     10, "the view's banner")
+        url, token = m.group(1), m.group(2)
+
+        status, body = post(url + "api/move", {"target_rad": 0.002}, {})
+        check(status == 403 and "token" in body["error"], f"no token: {status} {body}")
+        status, body = post(url + "api/move", {"target_rad": 0.002}, {"X-Piezo-Token": token})
+        check(status == 200 and body["ok"], f"move-to: {status} {body}")
+
+        def on_target():
+            live = get(url + "api/live.json")
+            board_status = live["status"].get("board", {})
+            summary = board_status.get("summary", {})
+            return summary.get("move") if summary.get("move", {}).get("on_target") else None
+        move = wait_for(on_target, 30, "the move comes on target (its lease kept by the view)")
+        live = get(url + "api/live.json")
+        check(len(live["measured"]["t"]) > 50, "the live feed followed the board's run")
+        check(abs(move["error_rad"]) <= 25e-6, f"on target: {move}")
+
+        status, body = post(url + "api/stop", {}, {"X-Piezo-Token": token})
+        check(status == 409 and "only the client" in body["error"], f"stop of nothing: {status} {body}")
+        status, body = post(url + "api/estop", {}, {"X-Piezo-Token": token})
+        check(status == 200, f"e-stop: {status} {body}")
+        state = json.loads(subprocess.run([piezo, "status", "--rig", address, "--json"],
+                                          capture_output=True, text=True).stdout)
+        check(state["fault"] == "estop", f"the board latched the e-stop: {state['fault']}")
+        check(abs(state["position"]["position_rad"] - 0.002) < 30e-6, f"position: {state['position']}")
+        print("ok", move["steps"], move["on_target_at_s"], move["error_rad"])
+    finally:
+        for p in (view, board):
+            if p and p.poll() is None:
+                p.terminate()
+                p.wait(timeout=10)
+        shutil.rmtree(work, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
