@@ -25,7 +25,7 @@ done
 packages=(
   build-essential cmake pkg-config git
   libeigen3-dev libcli11-dev libtomlplusplus-dev libfmt-dev nlohmann-json3-dev
-  libhdf5-dev libgtest-dev libgmock-dev
+  libhdf5-dev zlib1g-dev libgtest-dev libgmock-dev
   gnuplot-nox python3 python3-h5py python3-numpy
   rt-tests libgpiod-dev libmodbus-dev mbpoll socat python3-pymodbus python3-serial-asyncio
   libzmq3-dev cppzmq-dev python3-zmq python3-msgpack clang libclang-rt-14-dev

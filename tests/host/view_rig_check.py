@@ -75,6 +75,7 @@ def main():
                               "--listen", address], stderr=open(os.path.join(work, "piezod.log"), "w"))
     err = os.path.join(work, "view.err")
     view = None
+    url = None
     try:
         wait_for(lambda: socket.socket().connect_ex(("127.0.0.1", board_port)) == 0, 10, "piezod up")
         view = subprocess.Popen([piezo, "view", "--rig", address, "--listen", f"127.0.0.1:{view_port}",
@@ -92,8 +93,9 @@ def main():
             live = get(url + "api/live.json")
             board_status = live["status"].get("board", {})
             summary = board_status.get("summary", {})
-            return summary.get("move") if summary.get("move", {}).get("on_target") else None
-        move = wait_for(on_target, 30, "the move comes on target (its lease kept by the view)")
+            return summary.get("move")
+        move = wait_for(on_target, 30, "the move ends (its lease kept by the view)")
+        check(move.get("on_target"), f"the move came on target: {move}")
         live = get(url + "api/live.json")
         check(len(live["measured"]["t"]) > 50, "the live feed followed the board's run")
         check(abs(move["error_rad"]) <= 25e-6, f"on target: {move}")
@@ -107,6 +109,13 @@ def main():
         check(state["fault"] == "estop", f"the board latched the e-stop: {state['fault']}")
         check(abs(state["position"]["position_rad"] - 0.002) < 30e-6, f"position: {state['position']}")
         print("ok", move["steps"], move["on_target_at_s"], move["error_rad"])
+    except SystemExit:
+        # What the board and the view said, for whoever reads a failure.
+        for name in ("piezod.log", "view.err"):
+            print(f"--- {name} (last lines)")
+            print("".join(open(os.path.join(work, name)).readlines()[-15:]))
+        print("--- live status:", get(url + "api/live.json")["status"] if view and url else None)
+        raise
     finally:
         for p in (view, board):
             if p and p.poll() is None:

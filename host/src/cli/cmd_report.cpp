@@ -16,6 +16,7 @@
 #include "fit_io.hpp"
 #include "gnuplot.hpp"
 #include "h5_file.hpp"
+#include "run_journal.hpp"
 #include "log_schema.hpp"
 #include "parameters_json.hpp"
 #include "piezo/model/simulate.hpp"
@@ -39,6 +40,7 @@ std::vector<double> scaled(const std::vector<double>& v, double k) {
 int run(const ReportOptions& o) {
   const fs::path dir(o.run_dir);
   const fs::path log_path = dir / "run.h5";
+  recover_if_needed(log_path.string());  // a crashed run: rebuilt from its journal first
   if (!fs::exists(log_path))
     throw config::ConfigError(o.run_dir, "run.h5", "no run log in this directory");
   const H5File log = H5File::open(log_path.string());

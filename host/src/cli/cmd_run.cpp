@@ -401,13 +401,29 @@ int run(const RunOptions& o) {
       }
     };
   }
-  RunSummary summary =
-      client ? execute_remote_run(
-                   config, *client, hello, log, signals.flag(), status_line,
-                   config.rig.lease_s > 0.0 ? std::optional(config.rig.lease_s) : std::nullopt,
-                   &estop_requested)
-             : execute_run(config, std::move(*rig), log, signals.flag(), status_line,
-                           &estop_requested);
+  RunSummary summary;
+  try {
+    summary = client
+                  ? execute_remote_run(
+                        config, *client, hello, log, signals.flag(), status_line,
+                        config.rig.lease_s > 0.0 ? std::optional(config.rig.lease_s) : std::nullopt,
+                        &estop_requested)
+                  : execute_run(config, std::move(*rig), log, signals.flag(), status_line,
+                                &estop_requested);
+  } catch (const std::exception& e) {
+    // Failed before the run's end (the board did not answer its start, say):
+    // the log keeps what it has, marked failed with the reason.
+    if (!log.broken()) {
+      try {
+        log.set_attribute("stop_cause", "host_error");
+        log.set_attribute("error", e.what());
+        log.close("failed");
+      } catch (const std::exception&) {
+        log.abandon();
+      }
+    }
+    throw;
+  }
   if (!o.json && isatty(STDERR_FILENO)) write_out(stderr, "\n");
 
   {

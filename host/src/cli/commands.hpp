@@ -17,6 +17,7 @@ CommandRunner add_step_command(CLI::App& app);
 CommandRunner add_move_command(CLI::App& app);
 CommandRunner add_view_command(CLI::App& app);
 CommandRunner add_report_command(CLI::App& app);
+CommandRunner add_recover_command(CLI::App& app);
 CommandRunner add_sensor_command(CLI::App& app);
 CommandRunner add_rig_sim_command(CLI::App& app);
 CommandRunner add_identify_command(CLI::App& app);

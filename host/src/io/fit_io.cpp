@@ -12,6 +12,7 @@
 #include "h5_file.hpp"
 #include "log_schema.hpp"
 #include "parameters_json.hpp"
+#include "run_journal.hpp"
 
 namespace piezo::host {
 namespace {
@@ -70,6 +71,7 @@ LoadedRun load_foreign_h5(const std::string& path, const LogLayout& layout) {
 }
 
 LoadedRun load_h5(const std::string& path) {
+  recover_if_needed(path);  // a crashed run: rebuilt from its journal first
   const H5File log = H5File::open(path);
   using log_schema::DriveRows;
   using log_schema::SensorRows;

@@ -11,7 +11,8 @@
 namespace piezo::host {
 
 RunLog RunLog::create(const std::string& path, const std::map<std::string, std::string>& header) {
-  RunLog log(H5File::create_log(path));
+  RunJournal journal = RunJournal::create(journal_path(path), header);
+  RunLog log(H5File::create_log(path), std::move(journal));
   LogRows none;
   log_schema::for_each_column(none, [&](std::string_view dataset, const auto&) {
     log.file_.create_growing(std::string(dataset),
@@ -37,16 +38,16 @@ std::size_t slice_length(std::size_t size, std::size_t slices, std::size_t slice
 
 }  // namespace
 
-void RunLog::check_room(std::uintmax_t bytes) const {
+void RunLog::check_room(const std::string& path, std::uintmax_t bytes) const {
   // Room for the samples twice over, a new 64 KiB chunk for every dataset
   // and the close's metadata.
   constexpr std::uintmax_t kReserve = 2u << 20;
   const std::uintmax_t needed = 2 * bytes + kReserve;
   std::error_code error;
-  const std::uintmax_t size = std::filesystem::file_size(file_.path(), error);
+  const std::uintmax_t size = std::filesystem::file_size(path, error);
   std::uintmax_t room = UINTMAX_MAX;
   struct statvfs fs {};
-  if (statvfs(file_.path().c_str(), &fs) == 0) {
+  if (statvfs(path.c_str(), &fs) == 0) {
     room = static_cast<std::uintmax_t>(fs.f_bavail) * fs.f_frsize;
   }
   rlimit limit{};
@@ -57,7 +58,7 @@ void RunLog::check_room(std::uintmax_t bytes) const {
     throw RoomError(fmt::format(
         "log {}: {} bytes left on its device or under the file-size limit, {} needed to go on "
         "safely; the log ends here",
-        file_.path(), room, needed));
+        path, room, needed));
   }
 }
 
@@ -83,11 +84,20 @@ void RunLog::append(LogRows& rows) {
   };
   try {
     for (; written < slices; ++written) {
-      std::uintmax_t bytes = 0;
-      for (const auto& [name, values] : buffer) {
-        bytes += slice_length(values->size(), slices, written) * sizeof(double);
-      }
-      check_room(bytes);
+      // The slice goes to the journal (and the disk) first, then to the file.
+      LogRows slice;
+      std::size_t column = 0, values_in_slice = 0;
+      log_schema::for_each_column(slice, [&](std::string_view, log_schema::Column& part) {
+        const log_schema::Column& values = *buffer[column++].second;
+        const auto begin = values.begin() +
+                           static_cast<std::ptrdiff_t>(slice_begin(values.size(), slices, written));
+        part.assign(begin, begin + static_cast<std::ptrdiff_t>(
+                                       slice_length(values.size(), slices, written)));
+        values_in_slice += part.size();
+      });
+      check_room(journal_.path(), RunJournal::bound(values_in_slice));
+      journal_.append(slice);
+      check_room(file_.path(), values_in_slice * sizeof(double));
       for (auto& [name, values] : buffer) {
         file_.append(name, std::span<const double>(*values).subspan(
                                slice_begin(values->size(), slices, written),
@@ -96,7 +106,8 @@ void RunLog::append(LogRows& rows) {
       file_.flush();
     }
   } catch (const RoomError&) {
-    drop_written();  // the refused slice wrote nothing: the log stays whole
+    refused_ = true;  // the journal may hold a slice the file refused
+    drop_written();   // the refused slice wrote nothing to the file: it stays whole
     throw;
   } catch (...) {
     broken_ = true;
@@ -110,6 +121,12 @@ void RunLog::write(const std::string& name, std::span<const double> values) {
 }
 
 void RunLog::set_attribute(const std::string& name, const std::string& value) {
+  try {
+    journal_.set_attribute(name, value);
+  } catch (const std::exception&) {
+    // The file is what a closed run is read from; the journal only has to
+    // hold the rows.
+  }
   file_.set_attribute("/", name, value);
 }
 
@@ -127,6 +144,7 @@ void RunLog::close(const std::string& status) {
     throw;
   }
   file_.close();
+  if (!refused_) journal_.remove();
 }
 
 void RunLog::abandon() noexcept {

@@ -1,7 +1,10 @@
 #pragma once
 // The HDF5 log of one run. Samples are buffered by the host and appended
-// every flush interval, each append followed by a flush, so a crash or
-// kill -9 loses at most the samples of the last interval. The root
+// every flush interval: first to the journal (run_journal.hpp, on the disk
+// before HDF5 sees them), then to the file, each append followed by a
+// flush. A crash or kill -9, even inside HDF5's flush, loses at most the
+// samples of the last interval: `piezo recover` rebuilds the file from the
+// journal. The journal is deleted once the file is closed whole. The root
 // attribute "status" reads "incomplete" until the run closes the log with
 // "completed", "interrupted" or "failed".
 //
@@ -17,6 +20,7 @@
 
 #include "h5_file.hpp"
 #include "log_schema.hpp"
+#include "run_journal.hpp"
 
 namespace piezo::host {
 
@@ -56,10 +60,12 @@ class RunLog {
   void abandon() noexcept;
 
  private:
-  explicit RunLog(H5File file) : file_(std::move(file)) {}
-  void check_room(std::uintmax_t bytes) const;
+  RunLog(H5File file, RunJournal journal) : file_(std::move(file)), journal_(std::move(journal)) {}
+  void check_room(const std::string& path, std::uintmax_t bytes) const;
   H5File file_;
+  RunJournal journal_;
   bool broken_ = false;
+  bool refused_ = false;  ///< rows the file refused are only in the journal
   std::function<void(const LogRows&)> tap_;
 };
 

@@ -20,6 +20,10 @@ using namespace std::chrono_literals;
 
 constexpr auto kStatusPeriod = 200ms;
 constexpr auto kQuietBeforeAsking = 500ms;  // no state event: ask for the status
+// A board silent this long is gone (crashed, powered off, unplugged): its
+// lease stopped its drive long ago, so the host ends the run as failed and
+// keeps what it received, instead of waiting for an end it cannot hear.
+constexpr auto kBoardGone = 10s;
 constexpr std::uint64_t kFetchChunk = 50'000;
 
 std::int64_t host_ns() {
@@ -244,7 +248,9 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
   const auto board_run_s = [&] {
     return virtual_clock ? collector.last_t() : hal::to_seconds(host_ns() + clock.offset_ns - t0);
   };
+  auto last_contact = last_lease;
   while (!final_state) {
+    if (SteadyClock::now() - last_contact >= kBoardGone) break;
     if ((stop.load() || !log_ok) && !stop_sent) {
       try {
         (void)client.call("stop", json::object(), 1s);
@@ -267,7 +273,7 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
           parts.size() != 2) {
         break;
       }
-      last_heard = SteadyClock::now();
+      last_heard = last_contact = SteadyClock::now();
       if (!std::isnan(quiet_since_s)) {
         outages.push_back(fmt::format("[{:.3f}, {:.3f}] s", quiet_since_s, board_run_s()));
         quiet_since_s = std::nan("");
@@ -306,7 +312,7 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
         if (run.value("id", json()) == started.at("run") && run.value("finished", false)) {
           final_state = json{{"summary", run.at("summary")}};
         }
-        last_heard = SteadyClock::now();
+        last_heard = last_contact = SteadyClock::now();
       } catch (const LinkTimeout&) {
         last_heard = SteadyClock::now();  // ZeroMQ reconnects with back-off; ask again later
       }
@@ -326,6 +332,21 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
                  lease_s});
       last_status = now;
     }
+  }
+  if (!final_state) {
+    if (observer) observer->finish(collector.rows().observer);
+    append_log();
+    outages.push_back(fmt::format("[{:.3f}, end of run]", quiet_since_s));
+    log.set_attribute("link_outages", fmt::format("{}", fmt::join(outages, "; ")));
+    summary.cause = firmware::StopCause::link_lost;
+    summary.board_gone = true;
+    summary.host_error = fmt::format(
+        "board {} silent for {} s: the run's end is unknown (the board's lease stops its drive "
+        "by itself); the log holds what was received",
+        client.address(), std::chrono::duration_cast<std::chrono::seconds>(kBoardGone).count());
+    summary.theta_end_rad = collector.last_theta();
+    summary.t_end_s = collector.last_good_t();
+    return summary;
   }
   const json& board = final_state->at("summary");
   // The stream's tail may still be in flight or lost: the recorder has it all.

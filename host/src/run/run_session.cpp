@@ -14,6 +14,7 @@ constexpr double kLocalLease_s = 2.0;
 }  // namespace
 
 std::string RunSummary::stop_cause() const {
+  if (board_gone) return "board_gone";
   return host_error.empty() ? std::string(firmware::to_string(cause)) : "log_failed";
 }
 

@@ -43,6 +43,7 @@ struct RunSummary {
   std::vector<std::string> realtime_notes;
   firmware::OutputOutcome output;  ///< how the drive was left, as the device acknowledged
   std::string host_error;          ///< why the host side failed (the log), if it did
+  bool board_gone = false;         ///< the board fell silent for good; its end is unknown
   nlohmann::json move;             ///< a closed-loop move's result, as the board reported it
 
   /// "completed", "interrupted" or "failed" (a host failure fails the run).

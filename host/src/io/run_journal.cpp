@@ -1,0 +1,371 @@
+#include "run_journal.hpp"
+
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <sys/file.h>
+#include <unistd.h>
+#include <zlib.h>
+
+#include <array>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <stdexcept>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "config_error.hpp"
+#include "h5_file.hpp"
+
+namespace piezo::host {
+namespace fs = std::filesystem;
+namespace {
+
+constexpr std::uint32_t kMagic = 0x314a5a50;  // "PZJ1" read as little-endian u32
+constexpr std::size_t kBlockHeader = 17;
+enum Kind : std::uint8_t { kHeader = 1, kRows = 2, kAttribute = 3 };
+
+// Both the board (arm64) and the PC (x86-64) are little-endian: integers
+// and doubles are stored as they are in memory.
+template <class T>
+void put(std::string& out, T value) {
+  out.append(reinterpret_cast<const char*>(&value), sizeof value);
+}
+
+void put_string(std::string& out, std::string_view s) {
+  put(out, static_cast<std::uint32_t>(s.size()));
+  out.append(s);
+}
+
+/// Reads from a block's plain bytes; a short block throws (it cannot
+/// happen past a good CRC, except in a journal from another program).
+class Reader {
+ public:
+  explicit Reader(std::string_view bytes) : bytes_(bytes) {}
+  template <class T>
+  T get() {
+    T value;
+    std::memcpy(&value, take(sizeof value).data(), sizeof value);
+    return value;
+  }
+  std::string get_string() { return std::string(take(get<std::uint32_t>())); }
+  std::string_view take(std::size_t n) {
+    if (n > bytes_.size()) throw std::runtime_error("block shorter than its contents");
+    const std::string_view part = bytes_.substr(0, n);
+    bytes_.remove_prefix(n);
+    return part;
+  }
+  [[nodiscard]] bool done() const { return bytes_.empty(); }
+
+ private:
+  std::string_view bytes_;
+};
+
+std::string key_values(const std::map<std::string, std::string>& map) {
+  std::string out;
+  for (const auto& [key, value] : map) {
+    put_string(out, key);
+    put_string(out, value);
+  }
+  return out;
+}
+
+void read_key_values(std::string_view plain, std::map<std::string, std::string>& into) {
+  Reader r(plain);
+  while (!r.done()) {
+    std::string key = r.get_string();
+    into[key] = r.get_string();
+  }
+}
+
+std::uint32_t block_crc(std::uint8_t kind, std::uint32_t stored, std::uint32_t plain,
+                        std::string_view bytes) {
+  std::string head;
+  put(head, kind);
+  put(head, stored);
+  put(head, plain);
+  uLong crc = crc32(0L, Z_NULL, 0);
+  crc = crc32(crc, reinterpret_cast<const Bytef*>(head.data()), static_cast<uInt>(head.size()));
+  crc = crc32(crc, reinterpret_cast<const Bytef*>(bytes.data()), static_cast<uInt>(bytes.size()));
+  return static_cast<std::uint32_t>(crc);
+}
+
+[[noreturn]] void fail(const std::string& path, const char* what) {
+  throw std::runtime_error(fmt::format("journal {}: {}: {}", path, what, std::strerror(errno)));
+}
+
+}  // namespace
+
+RunJournal RunJournal::create(const std::string& path,
+                              const std::map<std::string, std::string>& header) {
+  RunJournal j;
+  j.path_ = path;
+  j.fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_APPEND | O_CLOEXEC, 0644);
+  if (j.fd_ < 0) fail(path, "cannot create");
+  // Held while the run writes: recovery must not rebuild a live run's log.
+  if (flock(j.fd_, LOCK_EX | LOCK_NB) != 0) fail(path, "cannot lock");
+  j.write_block(kHeader, key_values(header));
+  return j;
+}
+
+RunJournal::RunJournal(RunJournal&& o) noexcept
+    : fd_(std::exchange(o.fd_, -1)), path_(std::move(o.path_)) {}
+
+RunJournal& RunJournal::operator=(RunJournal&& o) noexcept {
+  if (this != &o) {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = std::exchange(o.fd_, -1);
+    path_ = std::move(o.path_);
+  }
+  return *this;
+}
+
+RunJournal::~RunJournal() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+std::size_t RunJournal::bound(std::size_t values) {
+  // Paths and counts of ~20 datasets, the values, deflate's worst case.
+  return kBlockHeader + compressBound(static_cast<uLong>(values * sizeof(double) + 4096));
+}
+
+void RunJournal::append(log_schema::LogRows& rows) {
+  std::string plain;
+  log_schema::for_each_column(rows, [&](std::string_view path, const log_schema::Column& c) {
+    put_string(plain, path);
+    put(plain, static_cast<std::uint64_t>(c.size()));
+    plain.append(reinterpret_cast<const char*>(c.data()), c.size() * sizeof(double));
+  });
+  write_block(kRows, plain);
+}
+
+void RunJournal::set_attribute(const std::string& name, const std::string& value) {
+  write_block(kAttribute, key_values({{name, value}}));
+}
+
+void RunJournal::write_block(std::uint8_t kind, const std::string& plain) {
+  if (fd_ < 0) throw std::runtime_error("journal " + path_ + ": not open");
+  uLongf stored = compressBound(static_cast<uLong>(plain.size()));
+  std::string block(kBlockHeader + stored, '\0');
+  // Level 1: the journal is written on every flush; run.h5 is the archive.
+  if (compress2(reinterpret_cast<Bytef*>(block.data() + kBlockHeader), &stored,
+                reinterpret_cast<const Bytef*>(plain.data()), static_cast<uLong>(plain.size()),
+                1) != Z_OK) {
+    throw std::runtime_error("journal " + path_ + ": cannot compress a block");
+  }
+  block.resize(kBlockHeader + stored);
+  const auto stored32 = static_cast<std::uint32_t>(stored);
+  const auto plain32 = static_cast<std::uint32_t>(plain.size());
+  std::string head;
+  put(head, kMagic);
+  put(head, kind);
+  put(head, stored32);
+  put(head, plain32);
+  put(head,
+      block_crc(kind, stored32, plain32, std::string_view(block).substr(kBlockHeader, stored)));
+  block.replace(0, kBlockHeader, head);
+  for (std::size_t done = 0; done < block.size();) {
+    const ssize_t n = ::write(fd_, block.data() + done, block.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) fail(path_, "cannot write");
+    done += static_cast<std::size_t>(n);
+  }
+  if (::fdatasync(fd_) != 0) fail(path_, "cannot sync");
+}
+
+void RunJournal::remove() {
+  if (fd_ >= 0) ::close(fd_);
+  fd_ = -1;
+  std::error_code ignored;
+  fs::remove(path_, ignored);
+}
+
+JournalContents read_journal(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw config::ConfigError(path, "file", "cannot be read");
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  JournalContents out;
+  std::map<std::string, log_schema::Column*, std::less<>> columns;
+  log_schema::for_each_column(out.rows, [&](std::string_view name, log_schema::Column& c) {
+    columns.emplace(std::string(name), &c);
+  });
+  // A journal torn inside its first block still starts with the magic.
+  const std::string magic("PZJ1");
+  if (bytes.compare(0, std::min(bytes.size(), magic.size()), magic, 0,
+                    std::min(bytes.size(), magic.size())) != 0) {
+    throw config::ConfigError(path, "file", "not a run journal (no PZJ1 block)");
+  }
+  std::size_t at = 0;
+  for (; at + kBlockHeader <= bytes.size(); ++out.blocks) {
+    Reader head(std::string_view(bytes).substr(at, kBlockHeader));
+    const auto block_magic = head.get<std::uint32_t>();
+    const auto kind = head.get<std::uint8_t>();
+    const auto stored = head.get<std::uint32_t>();
+    const auto plain_size = head.get<std::uint32_t>();
+    const auto crc = head.get<std::uint32_t>();
+    if (block_magic != kMagic) break;
+    if (at + kBlockHeader + stored > bytes.size()) break;
+    const std::string_view payload = std::string_view(bytes).substr(at + kBlockHeader, stored);
+    if (block_crc(kind, stored, plain_size, payload) != crc) break;
+    std::string plain(plain_size, '\0');
+    uLongf plain_len = plain_size;
+    if (uncompress(reinterpret_cast<Bytef*>(plain.data()), &plain_len,
+                   reinterpret_cast<const Bytef*>(payload.data()), stored) != Z_OK ||
+        plain_len != plain_size) {
+      break;
+    }
+    if (kind == kHeader) {
+      read_key_values(plain, out.header);
+    } else if (kind == kAttribute) {
+      read_key_values(plain, out.attributes);
+    } else if (kind == kRows) {
+      // Parsed whole before any column grows, so a bad block adds nothing.
+      Reader r(plain);
+      std::vector<std::pair<log_schema::Column*, std::string_view>> parts;
+      while (!r.done()) {
+        const std::string name = r.get_string();
+        const auto n = r.get<std::uint64_t>();
+        if (n > plain.size() / sizeof(double)) throw std::runtime_error("bad count");
+        const std::string_view values = r.take(n * sizeof(double));
+        const auto it = columns.find(name);
+        if (it != columns.end()) parts.emplace_back(it->second, values);
+      }
+      for (auto& [column, values] : parts) {
+        const std::size_t old = column->size();
+        column->resize(old + values.size() / sizeof(double));
+        std::memcpy(column->data() + old, values.data(), values.size());
+      }
+    }
+    at += kBlockHeader + stored;
+  }
+  out.torn_bytes = bytes.size() - at;
+  return out;
+}
+
+std::string journal_path(const std::string& log_path) {
+  return (fs::path(log_path).parent_path() / "run.journal").string();
+}
+
+namespace {
+
+/// run.h5's status, or "" when it cannot be opened or read.
+std::string readable_status(const fs::path& log) {
+  try {
+    if (!fs::exists(log)) return {};
+    const H5File f = H5File::open(log.string());
+    return f.has_attribute("/", log_schema::kStatus) ? f.attribute("/", log_schema::kStatus)
+                                                     : std::string("incomplete");
+  } catch (const std::exception&) {
+    return {};
+  }
+}
+
+std::size_t logged_drive_rows(const fs::path& log) {
+  const H5File f = H5File::open(log.string());
+  return f.read(log_schema::path(&log_schema::DriveRows::t)).size();
+}
+
+/// True when a running `piezo run` still holds the journal.
+bool in_use(const fs::path& journal) {
+  const int fd = ::open(journal.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool held = flock(fd, LOCK_EX | LOCK_NB) != 0;
+  ::close(fd);
+  return held;
+}
+
+double last_finite(const log_schema::Column& c) {
+  for (auto it = c.rbegin(); it != c.rend(); ++it)
+    if (std::isfinite(*it)) return *it;
+  return std::nan("");
+}
+
+void write_recovered(const fs::path& out, JournalContents& j) {
+  H5File f = H5File::create_log(out.string());
+  log_schema::for_each_column(j.rows, [&](std::string_view name, log_schema::Column& c) {
+    const std::string path(name);
+    f.create_growing(path, log_schema::storage(name) == log_schema::Storage::uint8);
+    f.append(path, c);
+  });
+  for (const auto& [key, value] : j.header) f.set_attribute("/", key, value);
+  for (const auto& [key, value] : j.attributes) f.set_attribute("/", key, value);
+  f.set_attribute("/", log_schema::kStatus, "recovered");
+  f.set_attribute("/", "recovered_from",
+                  fmt::format("run.journal: {} blocks, {} torn bytes at its end dropped", j.blocks,
+                              j.torn_bytes));
+  f.close();
+}
+
+}  // namespace
+
+Recovery recover_run(const std::string& run_dir) {
+  const fs::path dir(run_dir), log = dir / "run.h5", journal = dir / "run.journal";
+  Recovery r;
+  r.status = readable_status(log);
+  const bool whole = !r.status.empty() && r.status != "incomplete";
+  if (!fs::exists(journal)) {
+    if (!r.status.empty()) return r;  // whole, or readable up to its last flush
+    throw config::ConfigError(run_dir, fs::exists(log) ? "run.h5" : "run.journal",
+                              fs::exists(log) ? "unreadable, and no run.journal to rebuild it from"
+                                              : "no run log or journal in this directory");
+  }
+  if (in_use(journal)) {
+    throw config::ConfigError(run_dir, "run.journal",
+                              "still held by a running piezo run; recover after it ends");
+  }
+  JournalContents j = read_journal(journal.string());
+  if (whole && j.rows.drive.t.size() <= logged_drive_rows(log)) {
+    // A crash between closing run.h5 and deleting the journal: nothing new.
+    fs::remove(journal);
+    return r;
+  }  // else the file refused rows (a full disk) that the journal kept
+  r.blocks = j.blocks;
+  r.torn_bytes = j.torn_bytes;
+  r.drive_rows = j.rows.drive.t.size();
+  r.sensor_rows = j.rows.sensor.t.size();
+  r.observer_rows = j.rows.observer.t.size();
+  // Written aside and renamed: a crash during recovery leaves the journal.
+  const fs::path fresh = dir / "run.h5.recovering";
+  write_recovered(fresh, j);
+  if (fs::exists(log)) {
+    r.damaged = (dir / "run.h5.damaged").string();
+    fs::rename(log, r.damaged);
+  }
+  fs::rename(fresh, log);
+  fs::remove(journal);
+  r.rebuilt = true;
+  r.status = "recovered";
+
+  // The catalogue lists the run now that it has a log.
+  const fs::path catalogue = fs::absolute(dir).parent_path() / "catalogue.csv";
+  const bool fresh_catalogue = !fs::exists(catalogue);
+  std::ofstream cat(catalogue, std::ios::app);
+  if (fresh_catalogue) cat << "run_dir,utc_start,status,stop_cause,config,t_end_s,theta_end_rad\n";
+  cat << fmt::format("{},{},recovered,unknown,{},{:.6g},{:.9g}\n",
+                     fs::absolute(dir).filename().string(), j.header["utc_start"],
+                     j.header["config_source"], last_finite(j.rows.drive.t),
+                     last_finite(j.rows.sensor.theta));
+  return r;
+}
+
+void recover_if_needed(const std::string& log_path) {
+  const fs::path log(log_path);
+  const fs::path journal = fs::path(journal_path(log_path));
+  if (!fs::exists(journal) || in_use(journal)) return;
+  const std::string status = readable_status(log);
+  if (!status.empty() && status != "incomplete") return;
+  const Recovery r = recover_run(log.parent_path().string());
+  if (r.rebuilt) {
+    std::fputs(fmt::format("{}: rebuilt from run.journal ({} drive, {} sensor samples), marked "
+                           "recovered\n",
+                           log_path, r.drive_rows, r.sensor_rows)
+                   .c_str(),
+               stderr);
+  }
+}
+
+}  // namespace piezo::host

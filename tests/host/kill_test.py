@@ -1,0 +1,237 @@
+#!/usr/bin/env python3
+"""kill -9 at random instants, and nothing flushed is lost.
+
+usage: kill_test.py PIEZO PIEZOD SOURCE_DIR WORK_DIR [--kills N] [--daemon-kills M]
+                    [--seed S] [--port P]
+
+1. `piezo run` on the virtual clock (deterministic: every run writes the same
+   samples), killed with SIGKILL at N instants drawn uniformly over a run's
+   wall time (the log's flush every 20 ms, so many land inside a flush).
+   Every run directory must then be readable, or recoverable by
+   `piezo recover`, with samples that are a bit-identical prefix of an
+   unkilled reference run and at least as many as run.h5 held before
+   recovery.
+2. The board: `piezo run --rig` against piezod, piezod killed with SIGKILL at
+   M instants. The host must end the run by itself (the lease) and leave a
+   whole log marked failed, with a prefix of its samples; then the host is
+   killed during remote runs too, and recovered the same way.
+
+Prints the figures and exits 1 on the first broken promise, with its reason.
+"""
+
+import json
+import os
+import random
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+import h5py
+import numpy as np
+
+args = sys.argv[1:]
+piezo, piezod, source, work = args[:4]
+
+
+def option(name, default):
+    return type(default)(args[args.index(name) + 1]) if name in args else default
+
+
+kills = option("--kills", 200)
+daemon_kills = option("--daemon-kills", 20)
+rng = random.Random(option("--seed", 1))
+port = option("--port", 5871)
+config = f"{source}/configs/sim.toml"
+virtual = ["--set", "run.clock=virtual", "--set", "run.flush_interval_s=0.02"]
+DURATION = "4"
+COLUMNS = ["drive/t", "drive/V", "drive/phase", "sensor/t", "sensor/theta", "observer/t",
+           "observer/theta_hat"]
+
+shutil.rmtree(work, ignore_errors=True)
+os.makedirs(work)
+failures = []
+
+
+def fail(message):
+    failures.append(message)
+    print("FAIL:", message, flush=True)
+
+
+def read(path):
+    with h5py.File(path, "r") as f:
+        return f.attrs["status"].decode(), {c: f[c][:] for c in COLUMNS}
+
+
+def drive_rows(path):
+    """Rows run.h5 holds as it is, or None when h5py cannot read it."""
+    try:
+        with h5py.File(path, "r") as f:
+            return len(f["drive/t"])
+    except Exception:  # noqa: BLE001 - any failure to read is "unreadable"
+        return None
+
+
+def is_prefix(part, whole):
+    return len(part) <= len(whole) and np.array_equal(part, whole[: len(part)], equal_nan=True)
+
+
+def check_recovered(run_dir, reference, label):
+    """Recovers run_dir; returns (class, drive rows) or records a failure."""
+    log = f"{run_dir}/run.h5"
+    if not os.path.exists(log) and not os.path.exists(f"{run_dir}/run.journal"):
+        return "before the log", 0
+    before = drive_rows(log) if os.path.exists(log) else None
+    r = subprocess.run([piezo, "recover", run_dir, "--json"], capture_output=True, text=True,
+                       timeout=60)
+    if r.returncode != 0:
+        fail(f"{label}: piezo recover exited {r.returncode}: {r.stderr.strip()}")
+        return "failed", 0
+    rec = json.loads(r.stdout)
+    try:
+        status, data = read(log)
+    except Exception as e:  # noqa: BLE001
+        fail(f"{label}: run.h5 unreadable after recovery: {e}")
+        return "failed", 0
+    for group in ("drive", "sensor", "observer"):
+        lengths = {len(data[c]) for c in COLUMNS if c.startswith(group)}
+        if len(lengths) != 1:
+            fail(f"{label}: {group} columns of unequal length {lengths}")
+    if reference is not None:
+        for c in COLUMNS:
+            if not is_prefix(data[c], reference[c]):
+                fail(f"{label}: {c} is not a prefix of the reference run")
+    n = len(data["drive/t"])
+    if before is not None and n < before:
+        fail(f"{label}: recovery kept {n} drive rows, run.h5 held {before}")
+    if rec["rebuilt"]:
+        return ("torn journal tail" if rec["torn_bytes"] else "rebuilt") + (
+            ", run.h5 was unreadable" if before is None and os.path.exists(f"{log}.damaged")
+            else ""), n
+    return f"whole ({status})", n
+
+
+# The reference: one run that nobody kills.
+start = time.monotonic()
+subprocess.run([piezo, "run", "--config", config, *virtual, "--duration", DURATION, "--json",
+                "--out", f"{work}/reference"], check=True, capture_output=True, timeout=300)
+wall = time.monotonic() - start
+_, reference = read(f"{work}/reference/run.h5")
+print(f"reference: {len(reference['drive/t'])} drive samples in {wall:.2f} s wall", flush=True)
+
+# 1. The host, killed.
+classes = {}
+fractions = []
+t0 = time.monotonic()
+for i in range(kills):
+    run_dir = f"{work}/host-{i:03d}"
+    p = subprocess.Popen([piezo, "run", "--config", config, *virtual, "--duration", DURATION,
+                          "--json", "--out", run_dir], stdout=subprocess.DEVNULL,
+                         stderr=subprocess.DEVNULL)
+    time.sleep(rng.uniform(0.0, 1.1 * wall))
+    p.send_signal(signal.SIGKILL)
+    p.wait()
+    if not os.path.isdir(run_dir):
+        cls, n = "before the run directory", 0
+    else:
+        cls, n = check_recovered(run_dir, reference, f"host kill {i}")
+    classes[cls] = classes.get(cls, 0) + 1
+    fractions.append(n / len(reference["drive/t"]))
+print(f"host: {kills} kills in {time.monotonic() - t0:.1f} s", flush=True)
+for cls, count in sorted(classes.items()):
+    print(f"  {count:4d}  {cls}")
+print(f"  drive samples kept: {min(fractions):.3f} to {max(fractions):.3f} of the run", flush=True)
+
+
+# 2. The board, killed; then the host during remote runs.
+def wait_for_tcp(p, seconds=20):
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        try:
+            socket.create_connection(("127.0.0.1", p), 0.2).close()
+            return True
+        except OSError:
+            time.sleep(0.05)
+    return False
+
+
+address = f"tcp://127.0.0.1:{port}"
+board_args = [piezod, "--config", f"{source}/configs/piezod-sim.toml", "--set",
+              "run.clock=virtual", "--listen", address]
+remote = ["run", "--config", config, *virtual, "--duration", DURATION, "--rig", address, "--json"]
+
+
+def start_board():
+    b = subprocess.Popen(board_args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    if not wait_for_tcp(port):
+        fail("piezod did not listen")
+    return b
+
+
+board = start_board()
+start = time.monotonic()
+subprocess.run([piezo, *remote, "--out", f"{work}/remote-reference"], capture_output=True,
+               timeout=300)
+remote_wall = time.monotonic() - start
+board_classes = {}
+for i in range(daemon_kills):
+    run_dir = f"{work}/board-{i:03d}"
+    host = subprocess.Popen([piezo, *remote, "--out", run_dir], stdout=subprocess.PIPE,
+                            stderr=subprocess.DEVNULL, text=True)
+    time.sleep(rng.uniform(0.05, 0.9 * remote_wall))
+    board.send_signal(signal.SIGKILL)
+    board.wait()
+    try:
+        out, _ = host.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        host.kill()
+        fail(f"board kill {i}: the host did not end the run")
+        out = ""
+    status = drive_rows(f"{run_dir}/run.h5")
+    if status is None:
+        fail(f"board kill {i}: the host's run.h5 is unreadable (exit {host.returncode})")
+    else:
+        with h5py.File(f"{run_dir}/run.h5", "r") as f:
+            st = f.attrs["status"].decode()
+        if st == "incomplete":
+            fail(f"board kill {i}: the host left its log incomplete")
+        board_classes[f"{st} (exit {host.returncode})"] = board_classes.get(
+            f"{st} (exit {host.returncode})", 0) + 1
+        if os.path.exists(f"{run_dir}/run.journal") and st != "failed":
+            fail(f"board kill {i}: a journal was left beside a whole log")
+    board = start_board()
+print(f"board: {daemon_kills} piezod kills", flush=True)
+for cls, count in sorted(board_classes.items()):
+    print(f"  {count:4d}  host's log {cls}")
+
+remote_classes = {}
+for i in range(daemon_kills):
+    run_dir = f"{work}/remote-host-{i:03d}"
+    p = subprocess.Popen([piezo, *remote, "--out", run_dir], stdout=subprocess.DEVNULL,
+                         stderr=subprocess.DEVNULL)
+    time.sleep(rng.uniform(0.0, 1.1 * remote_wall))
+    p.send_signal(signal.SIGKILL)
+    p.wait()
+    cls, _ = check_recovered(run_dir, None, f"remote host kill {i}") if os.path.isdir(
+        run_dir) else ("before the run directory", 0)
+    remote_classes[cls] = remote_classes.get(cls, 0) + 1
+    # The board stops by itself (lease) and takes the next start.
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline:
+        r = subprocess.run([piezo, "status", "--rig", address, "--json"], capture_output=True,
+                           text=True, timeout=30)
+        if r.returncode == 0 and json.loads(r.stdout).get("state") in ("idle", "fault"):
+            break
+        time.sleep(0.1)
+print(f"host during remote runs: {daemon_kills} kills", flush=True)
+for cls, count in sorted(remote_classes.items()):
+    print(f"  {count:4d}  {cls}")
+board.send_signal(signal.SIGTERM)
+board.wait(timeout=30)
+
+if failures:
+    print(f"{len(failures)} failures")
+    sys.exit(1)
+print("every killed run is readable or recovered, with every sample a prefix of the run")
