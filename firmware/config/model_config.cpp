@@ -5,6 +5,9 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string_view>
 
 #include "config_error.hpp"
 
@@ -72,9 +75,49 @@ void apply_parameter_override(const std::string& assignment, model::Parameters& 
   set_checked(p, *spec, parse_number(assignment.substr(eq + 1), "--set", key), "--set", key);
 }
 
+void require_ascii_outside_comments(std::string_view text, const std::string& source) {
+  bool comment = false, quoted = false;
+  char quote = 0;
+  int line = 1;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\n') {
+      ++line;
+      comment = false;
+      continue;
+    }
+    if (comment) continue;
+    if (static_cast<unsigned char>(c) >= 0x80) {
+      throw ConfigError(source, "line " + std::to_string(line),
+                        "non-ASCII character outside a comment (allowed: ASCII; accents and "
+                        "symbols such as µ only after #)");
+    }
+    if (quoted) {
+      if (c == '\\' && quote == '"') {
+        ++i;  // an escaped character, the quote among them
+      } else if (c == quote) {
+        quoted = false;
+      }
+    } else if (c == '"' || c == '\'') {
+      quoted = true;
+      quote = c;
+    } else if (c == '#') {
+      comment = true;
+    }
+  }
+}
+
 toml::table parse_config_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ConfigError(path, "file", "cannot be read");
+  std::ostringstream text;
+  text << in.rdbuf();
+  // toml++ 3.3 (Debian 12) reaches "unreachable" code on some non-ASCII
+  // characters (upstream issue #295, found here by fuzzing): text outside
+  // comments is checked first, so that a config never gets that far.
+  require_ascii_outside_comments(text.str(), path);
   try {
-    return toml::parse_file(path);
+    return toml::parse(text.str(), path);
   } catch (const toml::parse_error& e) {
     const auto& where = e.source().begin;
     throw ConfigError(path, "line " + std::to_string(where.line), std::string(e.description()));

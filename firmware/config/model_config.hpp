@@ -6,6 +6,7 @@
 #include <toml++/toml.h>
 
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "piezo/model/parameters.hpp"
@@ -33,6 +34,10 @@ void require_valid(const model::Parameters& p, const std::string& source);
 }  // namespace piezo::config
 
 namespace piezo::config {
+
+/// Throws ConfigError (naming `source` and the line) at the first non-ASCII
+/// byte outside a comment.
+void require_ascii_outside_comments(std::string_view text, const std::string& source);
 
 /// Parses a TOML file; parse errors become ConfigError with file and line.
 [[nodiscard]] toml::table parse_config_file(const std::string& path);

@@ -196,6 +196,7 @@ toml::table override_table(const std::string& assignment) {
   const std::string section = assignment.substr(0, dot);
   const std::string key = assignment.substr(dot + 1, eq - dot - 1);
   const std::string value = assignment.substr(eq + 1);
+  require_ascii_outside_comments(assignment, "--set");
   toml::table parsed;
   try {
     parsed = toml::parse("v = " + value);

@@ -1,14 +1,19 @@
 #!/usr/bin/env bash
-# The protocol fuzz test (CTest label "fuzz"): builds the libFuzzer target
-# with clang (address + undefined sanitizers) from the protocol sources and
-# runs it for a bounded time on the seed corpus kept in the repository.
-# Crashes are written to WORK_DIR; keep them in the corpus once fixed.
+# One fuzz test (CTest label "fuzz"): builds a libFuzzer target with clang
+# (address + undefined sanitizers) from the sources it tests and runs it
+# for a bounded time on the seed corpus kept in the repository
+# (corpus/TARGET). Crashes are written to WORK_DIR; once fixed, keep them in
+# the corpus as regression inputs.
 # Exits 77 (CTest: skipped) when clang or its libFuzzer runtime is missing.
-# Usage: run-fuzz.sh SOURCE_DIR WORK_DIR SECONDS
+# Usage: run-fuzz.sh SOURCE_DIR WORK_DIR SECONDS TARGET
+#   TARGET: protocol (frames and messages), config (TOML and --set),
+#           modbus (register decoding, responses from a loopback peer),
+#           logs (journal, CSV and HDF5 readers)
 set -euo pipefail
 src="$1"
-work="$2"
+work="$2/$4"
 seconds="$3"
+target="$4"
 command -v clang++ >/dev/null || { echo "SKIP: clang++ not installed (Debian: clang)"; exit 77; }
 mkdir -p "$work/corpus"
 if ! echo 'extern "C" int LLVMFuzzerTestOneInput(const unsigned char*, unsigned long) { return 0; }' |
@@ -16,10 +21,38 @@ if ! echo 'extern "C" int LLVMFuzzerTestOneInput(const unsigned char*, unsigned 
   echo "SKIP: clang's libFuzzer runtime missing (Debian: libclang-rt-14-dev)"
   exit 77
 fi
+hal_includes=(-I"$src/hal/include")
+for d in "$src"/hal/*/include; do hal_includes+=(-I"$d"); done
+case "$target" in
+  protocol)
+    sources=("$src/firmware/protocol/src/frame.cpp" "$src/firmware/protocol/src/message.cpp")
+    flags=(-I"$src/firmware/protocol/include" -I"$src/firmware/include" "${hal_includes[@]}")
+    libs=(-lfmt) ;;
+  config)
+    sources=("$src"/firmware/config/{section_reader,model_config,run_config,modbus_config}.cpp
+             "$src"/hal/modbus/src/register_map.cpp "$src"/model/src/{parameters,waveform}.cpp)
+    flags=(-I"$src/firmware/config" -I"$src/firmware/include" "${hal_includes[@]}"
+           -I"$src/model/include" -I/usr/include/eigen3 $(pkg-config --cflags libmodbus))
+    libs=(-lfmt) ;;
+  modbus)
+    sources=("$src"/hal/modbus/src/{link,modbus_sensor,register_map}.cpp
+             "$src"/hal/posix/src/monotonic_clock.cpp)
+    flags=("${hal_includes[@]}" $(pkg-config --cflags libmodbus))
+    libs=($(pkg-config --libs libmodbus) -lfmt) ;;
+  logs)
+    sources=("$src"/host/src/io/{fit_io,h5_file,run_journal,parameters_json}.cpp
+             "$src"/model/src/{parameters,waveform}.cpp)
+    flags=(-I"$src/host/src/io" -I"$src/firmware/config" -I"$src/model/include"
+           -I/usr/include/eigen3 $(pkg-config --cflags hdf5))
+    libs=($(pkg-config --libs hdf5) -lz -lfmt) ;;
+  *) echo "unknown fuzz target $target"; exit 2 ;;
+esac
+# TOML_ASSERT: as in the project's builds (CMakeLists.txt says why).
 clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined \
-  -I"$src/firmware/protocol/include" -I"$src/firmware/include" -I"$src/hal/include" \
-  "$src/tests/fuzz/protocol_fuzz.cpp" "$src/firmware/protocol/src/frame.cpp" \
-  "$src/firmware/protocol/src/message.cpp" -lfmt -o "$work/protocol_fuzz"
+  -D'TOML_ASSERT(expr)=((void)0)' "${flags[@]}" "$src/tests/fuzz/${target}_fuzz.cpp" "${sources[@]}" "${libs[@]}" \
+  -o "$work/${target}_fuzz"
 # New inputs go to the work corpus; the repository's seeds are read only.
-"$work/protocol_fuzz" -max_total_time="$seconds" -max_len=70000 -timeout=10 \
-  -artifact_prefix="$work/" "$work/corpus" "$src/tests/fuzz/corpus/protocol"
+# A crash exits 1: libFuzzer's own default, 77, is CTest's "skipped".
+"$work/${target}_fuzz" -max_total_time="$seconds" -max_len=70000 -timeout=10 \
+  -error_exitcode=1 -timeout_exitcode=1 \
+  -artifact_prefix="$work/" "$work/corpus" "$src/tests/fuzz/corpus/$target"

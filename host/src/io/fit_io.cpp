@@ -97,8 +97,14 @@ LoadedRun load_h5(const std::string& path) {
   add_measurements(run.data, log.read(sensor_t_path), log.read(theta_path));
   // A log without its parameters (written by another program) starts from Table 1.
   if (log.has_attribute("/", log_schema::kModelParameters)) {
-    run.parameters = parameters_from_json(
-        nlohmann::json::parse(log.attribute("/", log_schema::kModelParameters)));
+    try {
+      run.parameters = parameters_from_json(
+          nlohmann::json::parse(log.attribute("/", log_schema::kModelParameters)));
+    } catch (const std::exception& e) {  // found by fuzzing: a damaged attribute
+      throw config::ConfigError(path, log_schema::kModelParameters,
+                                std::string("unreadable (") + e.what() +
+                                    "); pass the parameters with --config");
+    }
   }
   return run;
 }
