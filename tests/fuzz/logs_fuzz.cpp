@@ -38,8 +38,8 @@ void write_bytes(const std::string& path, const std::uint8_t* data, std::size_t 
 /// An HDF5 file with up to four datasets: for each, a name from a small set
 /// (so that they meet the readers' names), a length and doubles.
 void write_h5(const std::string& path, const std::uint8_t* data, std::size_t size) {
-  static const char* const kNames[] = {"/t", "/V", "/theta", "/drive/t", "/drive/V",
-                                       "/sensor/t", "/sensor/theta", "/x"};
+  static const char* const kNames[] = {"/t",       "/V",        "/theta",        "/drive/t",
+                                       "/drive/V", "/sensor/t", "/sensor/theta", "/x"};
   H5File f = H5File::create(path);
   std::size_t at = 0;
   for (int d = 0; d < 4 && at + 2 <= size; ++d) {

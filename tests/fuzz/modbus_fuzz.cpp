@@ -61,7 +61,8 @@ class FuzzPeer {
     std::vector<pollfd> fds{{listener_, POLLIN, 0}};
     for (;;) {
       if (::poll(fds.data(), fds.size(), -1) <= 0) continue;
-      if (fds[0].revents & POLLIN) fds.push_back({::accept(listener_, nullptr, nullptr), POLLIN, 0});
+      if (fds[0].revents & POLLIN)
+        fds.push_back({::accept(listener_, nullptr, nullptr), POLLIN, 0});
       for (std::size_t i = 1; i < fds.size(); ++i) {
         if (!(fds[i].revents & (POLLIN | POLLHUP | POLLERR))) continue;
         std::uint8_t request[260];

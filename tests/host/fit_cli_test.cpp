@@ -119,6 +119,47 @@ TEST(IdentifyCli, ReadsMatlabAndForeignHdf5FilesByDatasetPath) {
       << unnamed.err;
 }
 
+// report reads other tools' logs as identify does: the measurement as a
+// MATLAB-style file by dataset path, and as a CSV, with the model's
+// parameters from --config (the file carries none). The model then follows
+// the measurement to the noise; Table 1 (no --config) does not.
+TEST(ReportCli, PlotsAnotherToolsFileWithTheParametersOfAConfig) {
+  const auto dir = fresh_temp_dir("report-foreign");
+  const auto csv = write_synthetic_csv(dir, truth());
+  const auto mat = dir / "measured.mat";
+  const auto written = run_command(
+      "/usr/bin/python3 -c \"import h5py, numpy as np; d = np.genfromtxt('" + csv.string() +
+      "', delimiter=',', names=True)\n"
+      "with h5py.File('" +
+      mat.string() +
+      "', 'w', userblock_size=512) as f:\n"
+      "    for k, n in (('t', 'time'), ('V', 'volts'), ('theta', 'angle')):\n"
+      "        ds = f.create_dataset(n, data=d[k].reshape(-1, 1)); "
+      "ds.attrs['MATLAB_class'] = np.bytes_('double')\"");
+  ASSERT_EQ(written.exit_code, 0) << written.err;
+  const auto config = dir / "truth.toml";
+  write_file(config, "[model]\nsigma0 = 2100\nF_N = 5.4e-3\nd_e = 0.5e-6\n");
+  const auto matlab =
+      run_command(kPiezo + " report " + mat.string() +
+                  " --t /time --V /volts --theta /angle --json --config " + config.string());
+  ASSERT_EQ(matlab.exit_code, 0) << matlab.err;
+  const auto j = nlohmann::json::parse(matlab.out);
+  EXPECT_LT(j.at("rmse_model_rad").get<double>(), 10e-6);
+  EXPECT_EQ(j.at("status"), "external log");
+  EXPECT_TRUE(fs::exists(dir / "measured-report" / "angle.png"));
+  const auto from_csv =
+      run_command(kPiezo + " report " + csv.string() + " --json --config " + config.string());
+  ASSERT_EQ(from_csv.exit_code, 0) << from_csv.err;
+  EXPECT_NEAR(nlohmann::json::parse(from_csv.out).at("rmse_model_rad").get<double>(),
+              j.at("rmse_model_rad").get<double>(), 1e-9);
+  const auto table1 = run_command(kPiezo + " report " + csv.string() + " --json");
+  ASSERT_EQ(table1.exit_code, 0) << table1.err;
+  EXPECT_GT(nlohmann::json::parse(table1.out).at("rmse_model_rad").get<double>(), 20e-6);
+  const auto unnamed = run_command(kPiezo + " report " + mat.string());
+  EXPECT_EQ(unnamed.exit_code, 2);
+  EXPECT_NE(unnamed.err.find("name its datasets"), std::string::npos) << unnamed.err;
+}
+
 TEST(IdentifyCli, NotesWhenMuAndNormalForceAreBothFree) {
   const auto dir = fresh_temp_dir("identify-notes");
   const auto csv = write_synthetic_csv(dir, model::Parameters{});

@@ -84,6 +84,16 @@ TEST_F(ModelConfig, SyntaxErrorNamesLine) {
   expect_error(file("[drive]\nV0 = = 3\n"), "line 2", "");
 }
 
+// toml++ 3.3 reaches "unreachable" code on some non-ASCII characters (found
+// by fuzzing, tests/fuzz/corpus/config/regression-non-ascii-key): the text
+// outside comments is checked first.
+TEST_F(ModelConfig, NonAsciiOutsideACommentNamesTheLine) {
+  expect_error(file("[drive]\nV0 = 60\n0\xc9\xb9\n"), "line 3", "non-ASCII");
+  expect_error(file("[drive]\nnote = \"\xc2\xb5m\"\n"), "line 2", "non-ASCII");
+  const auto p = load_model_config(file("# \xc2\xb5m in a comment\n[drive]\nV0 = 60 # \xc2\xb5\n"));
+  EXPECT_EQ(p.drive.V0, 60.0);
+}
+
 TEST_F(ModelConfig, DerivedRiseFractionIsChecked) {
   expect_error(file("[drive]\nC_dr = 1.0\ne_dr = 1.0\n"), "C_dr*e_dr", "(0, 1)");
 }

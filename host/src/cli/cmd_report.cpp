@@ -1,6 +1,7 @@
-// `piezo report RUN_DIR`: plots of a logged run — the measured angle with
-// the model's prediction, a zoom on a few drive periods, and the drive
-// loop's timing histogram.
+// `piezo report RUN_DIR | FILE`: plots of a logged run -- the measured
+// angle with the model's prediction, a zoom on a few drive periods, and the
+// drive loop's timing histogram -- from a run directory, or from another
+// tool's HDF5, MATLAB v7.3 or CSV file (datasets named as in identify).
 
 #include <fmt/format.h>
 
@@ -9,6 +10,7 @@
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "columns.hpp"
 #include "commands.hpp"
@@ -16,10 +18,11 @@
 #include "fit_io.hpp"
 #include "gnuplot.hpp"
 #include "h5_file.hpp"
-#include "run_journal.hpp"
 #include "log_schema.hpp"
 #include "parameters_json.hpp"
 #include "piezo/model/simulate.hpp"
+#include "run_config.hpp"
+#include "run_journal.hpp"
 
 namespace piezo::host {
 namespace {
@@ -27,9 +30,17 @@ namespace {
 namespace fs = std::filesystem;
 
 struct ReportOptions {
-  std::string run_dir;
+  std::string input;   ///< a run directory, or a log file
+  LogLayout layout;    ///< where another tool's file keeps t, V and theta
+  std::string config;  ///< model parameters instead of the log's (Table 1 for a foreign file)
+  std::string out;     ///< plots go here; default RUN_DIR/report or FILE's stem + "-report"
   bool json = false;
 };
+
+bool is_hdf5(const fs::path& p) {
+  const std::string ext = p.extension().string();
+  return ext == ".h5" || ext == ".hdf5" || ext == ".mat";
+}
 
 std::vector<double> scaled(const std::vector<double>& v, double k) {
   std::vector<double> out(v.size());
@@ -38,16 +49,23 @@ std::vector<double> scaled(const std::vector<double>& v, double k) {
 }
 
 int run(const ReportOptions& o) {
-  const fs::path dir(o.run_dir);
-  const fs::path log_path = dir / "run.h5";
-  recover_if_needed(log_path.string());  // a crashed run: rebuilt from its journal first
-  if (!fs::exists(log_path))
-    throw config::ConfigError(o.run_dir, "run.h5", "no run log in this directory");
-  const H5File log = H5File::open(log_path.string());
-  const std::string status = log.attribute("/", log_schema::kStatus);
+  const bool run_dir = fs::is_directory(o.input);
+  const fs::path log_path = run_dir ? fs::path(o.input) / "run.h5" : fs::path(o.input);
+  if (run_dir) {
+    recover_if_needed(log_path.string());  // a crashed run: rebuilt from its journal first
+    if (!fs::exists(log_path))
+      throw config::ConfigError(o.input, "run.h5", "no run log in this directory");
+  }
+  // A piezo run log carries its status and timing; another tool's file not.
+  std::optional<H5File> log;
+  if (is_hdf5(log_path) && !o.layout.given()) log.emplace(H5File::open(log_path.string()));
+  const std::string status = log && log->has_attribute("/", log_schema::kStatus)
+                                 ? log->attribute("/", log_schema::kStatus)
+                                 : std::string("external log");
   // The log as identification reads it: good angles, and the drive as it
   // reached the output (after the drive's latency, over one period).
-  const LoadedRun run = load_run_for_fit(log_path.string());
+  LoadedRun run = load_run_for_fit(log_path.string(), o.layout);
+  if (!o.config.empty()) run.parameters = config::load_model_config(o.config);
   const auto& drive_t = run.data.drive_t;
   const auto& drive_V = run.data.drive_V;
   struct {
@@ -61,7 +79,9 @@ int run(const ReportOptions& o) {
   }
   const double rmse = std::sqrt(sum_sq / static_cast<double>(predicted.size()));
 
-  const fs::path out = dir / "report";
+  const fs::path out = !o.out.empty() ? fs::path(o.out)
+                       : run_dir      ? fs::path(o.input) / "report"
+                                 : log_path.parent_path() / (log_path.stem().string() + "-report");
   fs::create_directories(out);
   const auto theta_mrad = scaled(theta.value, 1e3), predicted_mrad = scaled(predicted, 1e3);
   const std::string angle_csv = (out / "angle.csv").string();
@@ -70,7 +90,9 @@ int run(const ReportOptions& o) {
   const std::string drive_csv = (out / "drive.csv").string();
   write_csv(drive_csv, {{"t", drive_t}, {"V", drive_V}});
 
-  const std::string title = fmt::format("{} ({})", dir.filename().string(), status);
+  const std::string name = run_dir ? fs::absolute(o.input).lexically_normal().filename().string()
+                                   : log_path.filename().string();
+  const std::string title = fmt::format("{} ({})", name.empty() ? o.input : name, status);
   run_gnuplot(fmt::format(
       "set terminal pngcairo size 1000,600 noenhanced\nset output {}\n"
       "set title {}\nset xlabel 't [s]'\nset ylabel 'theta [mrad]'\nset key top left\nset grid\n"
@@ -80,8 +102,7 @@ int run(const ReportOptions& o) {
       gnuplot_quote(angle_csv)));
 
   // A few drive periods from the middle of the run.
-  const auto period =
-      nlohmann::json::parse(log.attribute("/", log_schema::kModelParameters)).value("f", 10.0);
+  const double period = run.parameters.drive.f;
   const double t_mid = 0.5 * theta.t.back();
   const double t_from = t_mid, t_to = t_mid + 3.0 / period;
   run_gnuplot(fmt::format(
@@ -96,8 +117,8 @@ int run(const ReportOptions& o) {
       t_from, t_to, gnuplot_quote(drive_csv), gnuplot_quote(angle_csv), gnuplot_quote(angle_csv)));
 
   std::string timing_png;
-  if (log.exists(log_schema::kDrivePeriodErrorUs)) {
-    const auto counts = log.read(log_schema::kDrivePeriodErrorUs);
+  if (log && log->exists(log_schema::kDrivePeriodErrorUs)) {
+    const auto counts = log->read(log_schema::kDrivePeriodErrorUs);
     std::vector<double> bin_us(counts.size());
     for (std::size_t i = 0; i < bin_us.size(); ++i) bin_us[i] = static_cast<double>(i) + 0.5;
     const std::string timing_csv = (out / "timing.csv").string();
@@ -134,9 +155,18 @@ int run(const ReportOptions& o) {
 CommandRunner add_report_command(CLI::App& app) {
   auto o = std::make_shared<ReportOptions>();
   CLI::App* cmd = app.add_subcommand("report", "Plot a logged run");
-  cmd->add_option("RUN_DIR", o->run_dir, "Run directory (holds run.h5)")
+  cmd->add_option("RUN_DIR", o->input,
+                  "Run directory (holds run.h5), or a log file: another tool's HDF5 or MATLAB "
+                  "v7.3 file (--t, --V, --theta), or a CSV")
       ->required()
-      ->check(CLI::ExistingDirectory);
+      ->check(CLI::ExistingPath);
+  cmd->add_option("--t", o->layout.t, "Another tool's file: the time dataset/column [s]");
+  cmd->add_option("--V", o->layout.V, "...the drive voltage's [V]");
+  cmd->add_option("--theta", o->layout.theta, "...the measured angle's [rad]");
+  cmd->add_option("--theta-t", o->layout.theta_t, "...the angle's own time, if not --t's [s]");
+  cmd->add_option("--config", o->config, "Model parameters (TOML); default: the log's, or Table 1")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--out", o->out, "Folder for the plots (default RUN_DIR/report)");
   cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
   return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
 }

@@ -1,0 +1,238 @@
+#!/usr/bin/env python3
+"""Soak: long runs with faults injected throughout.
+
+usage: soak.py PIEZO PIEZOD SOURCE_DIR WORK_DIR [--hours H] [--modbus-cycles N]
+               [--pauses N] [--port P]
+
+1. One long run in process on the virtual clock (H simulated hours, default
+   1) with sensor dropouts throughout (2 % of reads), the observer on. The
+   log must hold every sample the board counted (drive at 10 kHz without a
+   gap, sensor at 1 kHz), every dropout counted once (NaN angle, status
+   set), nothing dropped; memory (VmRSS, polled) stays flat while the file
+   grows with the samples.
+2. Modbus against `piezo rig-sim` in real time, N cycles of 3 s: exception
+   replies and dropped requests throughout (counted, the run goes on),
+   every other cycle a disconnect of every client (the run must stop with a
+   sensor or drive fault); after every cycle that rig-sim survives, its
+   analog-output register, read by mbpoll, is 0.
+3. Link outages to piezod: the host of `piezo run --rig` is frozen
+   (SIGSTOP) for a moment shorter than the lease (the run goes on, and the
+   log is complete, the gap fetched from the board's recorder) or longer
+   (the board stops by itself with link_lost and the drive at 0 V).
+
+Prints the figures; exits 1 with the reasons on any broken promise.
+"""
+
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+
+import h5py
+import numpy as np
+
+args = sys.argv[1:]
+piezo, piezod, source, work = args[:4]
+
+
+def option(name, default):
+    return type(default)(args[args.index(name) + 1]) if name in args else default
+
+
+hours = option("--hours", 1.0)
+modbus_cycles = option("--modbus-cycles", 6)
+pauses = option("--pauses", 4)
+port = option("--port", 5891)
+shutil.rmtree(work, ignore_errors=True)
+os.makedirs(work)
+failures = []
+
+
+def check(condition, message):
+    if not condition:
+        failures.append(message)
+        print("FAIL:", message, flush=True)
+    return condition
+
+
+def wait_for_tcp(p, seconds=20):
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        try:
+            socket.create_connection(("127.0.0.1", p), 0.2).close()
+            return True
+        except OSError:
+            time.sleep(0.05)
+    return False
+
+
+class MemoryWatch:
+    """Polls a process's VmRSS; keeps (wall time, kB) pairs and VmHWM."""
+
+    def __init__(self, pid):
+        self.pid, self.samples, self.hwm = pid, [], 0
+        self.thread = threading.Thread(target=self.run, daemon=True)
+        self.thread.start()
+
+    def run(self):
+        while True:
+            try:
+                status = open(f"/proc/{self.pid}/status").read()
+            except OSError:
+                return
+            fields = dict(line.split(":", 1) for line in status.splitlines() if ":" in line)
+            if "VmRSS" not in fields:
+                return
+            self.samples.append((time.monotonic(), int(fields["VmRSS"].split()[0])))
+            self.hwm = max(self.hwm, int(fields["VmHWM"].split()[0]))
+            time.sleep(0.25)
+
+
+# 1. The long run.
+duration = 3600.0 * hours
+run_dir = f"{work}/long"
+start = time.monotonic()
+p = subprocess.Popen([piezo, "run", "--config", f"{source}/configs/sim.toml", "--set",
+                      "run.clock=virtual", "--set", "sensor.dropout_probability=0.02",
+                      "--set", "safety.max_sensor_errors=1000", "--duration", str(duration),
+                      "--json", "--out", run_dir], stdout=subprocess.PIPE, text=True)
+memory = MemoryWatch(p.pid)
+sizes = []
+while p.poll() is None:
+    if os.path.exists(f"{run_dir}/run.h5"):
+        sizes.append((time.monotonic(), os.path.getsize(f"{run_dir}/run.h5")))
+    time.sleep(1.0)
+out = p.stdout.read()
+wall = time.monotonic() - start
+check(p.returncode == 0, f"long run exited {p.returncode}")
+summary = json.loads(out)
+with h5py.File(f"{run_dir}/run.h5", "r") as f:
+    status = f.attrs["status"].decode()
+    drive_t = f["drive/t"][:]
+    theta = f["sensor/theta"][:]
+    sensor_status = f["sensor/status"][:]
+    observer_n = len(f["observer/t"])
+size = os.path.getsize(f"{run_dir}/run.h5")
+check(status == "completed", f"long run log {status}")
+drive_n, sensor_n = len(drive_t), len(theta)
+# The log's last drive record is the stop (the board counts periods' samples).
+check(drive_n == summary["drive"]["samples"] + 1,
+      f"drive samples: log {drive_n}, board {summary['drive']['samples']} + the stop record")
+check(sensor_n == summary["sensor"]["samples"],
+      f"sensor samples: log {sensor_n}, board {summary['sensor']['samples']}")
+check(summary["drive"]["dropped"] == 0 and summary["sensor"]["dropped"] == 0,
+      f"dropped: drive {summary['drive']['dropped']}, sensor {summary['sensor']['dropped']}")
+steps = np.diff(drive_t[:-1])  # the last record is the stop
+check(np.allclose(steps, 1e-4, rtol=0, atol=1e-9), "drive times have a gap or a repeat")
+errors = int(np.count_nonzero(np.isnan(theta)))
+check(errors == int(np.count_nonzero(sensor_status)),
+      f"NaN angles {errors} != failed statuses {np.count_nonzero(sensor_status)}")
+check(errors == summary["sensor"]["errors"],
+      f"dropouts in the log {errors}, counted by the board {summary['sensor']['errors']}")
+check(abs(errors / sensor_n - 0.02) < 0.005, f"dropout rate {errors / sensor_n:.4f}")
+# Memory: flat after the first tenth of the run (the buffers warmed up).
+rss = [kb for t, kb in memory.samples if t > start + 0.1 * wall]
+growth_mb = (max(rss) - min(rss)) / 1024 if rss else 0.0
+check(growth_mb < 20, f"memory grew {growth_mb:.1f} MB during the run")
+mb_per_hour = size / 1e6 / hours
+print(f"long run: {duration:.0f} s simulated in {wall:.1f} s wall; {drive_n} drive, {sensor_n} "
+      f"sensor ({errors} dropouts, all counted), {observer_n} observer samples; dropped 0; "
+      f"memory high-water {memory.hwm / 1024:.1f} MB, RSS range after warm-up {growth_mb:.1f} MB; "
+      f"log {size / 1e6:.1f} MB ({mb_per_hour:.0f} MB per simulated hour)", flush=True)
+
+# 2. Modbus faults against rig-sim, real time.
+modbus_port = port + 10
+config = f"{source}/configs/modbus-hil.toml"
+sets = ["--set", f"sensor.port={modbus_port}", "--set", f"drive.ao_port={modbus_port}"]
+outcomes = {}
+sensor_errors = 0
+for cycle in range(modbus_cycles):
+    disconnect = cycle % 2 == 1
+    faults = ["--set", "rig_sim.exception_probability=0.002", "--set",
+              "rig_sim.drop_probability=0.002"]
+    if disconnect:
+        faults += ["--set", "rig_sim.disconnect_at_s=1.5"]
+    rig = subprocess.Popen([piezo, "rig-sim", "--config", config, *sets, *faults, "--tcp",
+                            f"127.0.0.1:{modbus_port}"], stdout=subprocess.DEVNULL,
+                           stderr=subprocess.DEVNULL)
+    check(wait_for_tcp(modbus_port), "rig-sim did not listen")
+    r = subprocess.run([piezo, "run", "--config", config, *sets, "--duration", "3", "--json",
+                        "--out", f"{work}/modbus-{cycle:02d}"], capture_output=True, text=True,
+                       timeout=120)
+    s = json.loads(r.stdout) if r.stdout.strip() else {}
+    cause = s.get("stop_cause", "?")
+    sensor_errors += s.get("sensor", {}).get("errors", 0)
+    outcomes[cause] = outcomes.get(cause, 0) + 1
+    if disconnect:
+        check(cause in ("sensor_fault", "drive_fault"), f"modbus cycle {cycle}: {cause}")
+    else:
+        # A failed write to the drive stops the run (drive_fault, ramp to 0 V):
+        # the safety rule for the drive; failed sensor reads are counted.
+        check(cause in ("completed", "drive_fault", "sensor_fault"),
+              f"modbus cycle {cycle}: {cause} ({r.stderr[-200:]})")
+        ao = subprocess.run(["mbpoll", "-m", "tcp", "-a", "1", "-t", "4", "-r", "1", "-c", "1",
+                             "-1", "-p", str(modbus_port), "127.0.0.1"], capture_output=True,
+                            text=True, timeout=30)
+        check("[1]: \t0" in ao.stdout or "[1]:\t0" in ao.stdout,
+              f"modbus cycle {cycle}: AO register not 0: {ao.stdout[-120:]}")
+    with h5py.File(f"{work}/modbus-{cycle:02d}/run.h5", "r") as f:
+        check(f.attrs["status"].decode() in ("completed", "failed"),
+              f"modbus cycle {cycle}: log {f.attrs['status']}")
+        if disconnect:
+            # Nothing reaches a module that is gone: the log must say so, not
+            # claim 0 V (its watchdog zeroes the output by itself).
+            check(f.attrs["output"].decode() == "output_unconfirmed",
+                  f"modbus cycle {cycle}: output {f.attrs['output']}")
+        elif f.attrs["output"].decode() == "confirmed":
+            check(float(f["drive/V"][-1]) == 0.0, f"modbus cycle {cycle}: last command not 0 V")
+    rig.send_signal(signal.SIGTERM)
+    rig.wait(timeout=30)
+print(f"modbus: {modbus_cycles} cycles with exceptions and drops (0.2 % each), a disconnect "
+      f"every other cycle; stop causes {outcomes}; sensor errors counted {sensor_errors}",
+      flush=True)
+
+# 3. Link outages to piezod: the host frozen shorter or longer than the lease.
+address = f"tcp://127.0.0.1:{port}"
+board = subprocess.Popen([piezod, "--config", f"{source}/configs/piezod-sim.toml", "--listen",
+                          address], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+check(wait_for_tcp(port), "piezod did not listen")
+link = {}
+for i in range(pauses):
+    long_pause = i % 2 == 1
+    run_dir = f"{work}/link-{i:02d}"
+    host = subprocess.Popen([piezo, "run", "--config", f"{source}/configs/sim.toml", "--rig",
+                             address, "--duration", "3", "--json", "--out", run_dir],
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    time.sleep(1.5)
+    host.send_signal(signal.SIGSTOP)
+    time.sleep(1.2 if long_pause else 0.2)  # the lease is 0.5 s
+    host.send_signal(signal.SIGCONT)
+    out, _ = host.communicate(timeout=60)
+    s = json.loads(out) if out.strip() else {}
+    cause = s.get("stop_cause", "?")
+    link[cause] = link.get(cause, 0) + 1
+    check(cause == ("link_lost" if long_pause else "completed"), f"link pause {i}: {cause}")
+    state = json.loads(subprocess.run([piezo, "status", "--rig", address, "--json"],
+                                      capture_output=True, text=True, timeout=30).stdout)
+    check(state.get("output", {}).get("V", 0.0) == 0.0 if isinstance(state.get("output"), dict)
+          else True, f"link pause {i}: board output {state.get('output')}")
+    with h5py.File(f"{run_dir}/run.h5", "r") as f:
+        n = len(f["drive/t"])
+        check(n == s.get("drive", {}).get("samples", -2) + 1,
+              f"link pause {i}: log {n} drive samples, board {s.get('drive', {}).get('samples')}"
+              " + the stop record")
+        check(float(f["drive/V"][-1]) == 0.0, f"link pause {i}: last command not 0 V")
+board.send_signal(signal.SIGTERM)
+board.wait(timeout=30)
+print(f"link: {pauses} host freezes (0.2 s and 1.2 s against a 0.5 s lease); stop causes {link}",
+      flush=True)
+
+if failures:
+    print(f"{len(failures)} failures")
+    sys.exit(1)
+print("soak passed")
