@@ -264,7 +264,7 @@ TEST_F(ModbusSafety, PiezodOnModbusStopsItselfWhenTheHostDies) {
 
   const auto r = run_command(kPiezo + " run --config " + kConfig + " --rig " + address +
                              " --duration 2 --json --out " + (dir / "run").string());
-  ASSERT_EQ(r.exit_code, 0) << r.err;
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
   EXPECT_EQ(nlohmann::json::parse(r.out).at("status"), "completed");
   EXPECT_EQ(ao_register(), 0);
   EXPECT_EQ(log_ending(), "completed confirmed 0.0 2.0\n");

@@ -19,6 +19,7 @@ usage: kill_test.py PIEZO PIEZOD SOURCE_DIR WORK_DIR [--kills N] [--daemon-kills
 Prints the figures and exits 1 on the first broken promise, with its reason.
 """
 
+import atexit
 import json
 import os
 import random
@@ -53,6 +54,8 @@ COLUMNS = ["drive/t", "drive/V", "drive/phase", "sensor/t", "sensor/theta", "obs
 shutil.rmtree(work, ignore_errors=True)
 os.makedirs(work)
 failures = []
+children = []  # piezod: never left behind, even on an exception
+atexit.register(lambda: [c.kill() for c in children if c.poll() is None])
 
 
 def fail(message):
@@ -165,6 +168,7 @@ remote = ["run", "--config", config, *virtual, "--duration", DURATION, "--rig", 
 
 def start_board():
     b = subprocess.Popen(board_args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    children.append(b)
     if not wait_for_tcp(port):
         fail("piezod did not listen")
     return b

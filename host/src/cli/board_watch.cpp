@@ -28,6 +28,8 @@ void BoardWatch::follow_run(std::uint64_t run) {
   const json& r = status.value("run", json::object());
   if (r.value("id", std::uint64_t{0}) != run) return;
   run_ = run;
+  last_summary_ = nullptr;
+  health_.erase("summary");
   const auto t0 = r.at("t0_ns").get<hal::TimeNs>();
   observer_.reset();
   if (config_.observer.enabled) {
@@ -62,7 +64,10 @@ void BoardWatch::poll(std::chrono::milliseconds wait) {
       }
       const std::string_view topic = parts[0].to_string_view();
       if (topic == "health") {
+        // The periodic health replaces the last; the end of the last run
+        // (its summary, from the state event) stays until the next starts.
         health_ = protocol::decode_map(parts[1].to_string_view());
+        if (!last_summary_.is_null()) health_["summary"] = last_summary_;
       } else if (topic == "state") {
         const json state = protocol::decode_map(parts[1].to_string_view());
         const json run = state.value("run", json());
@@ -77,7 +82,7 @@ void BoardWatch::poll(std::chrono::milliseconds wait) {
           }
         }
         health_["state"] = state.value("state", "");
-        if (state.contains("summary")) health_["summary"] = state["summary"];
+        if (state.contains("summary")) health_["summary"] = last_summary_ = state["summary"];
       } else {
         on_frame(parts[1].to_string_view());
       }

@@ -51,6 +51,7 @@ class BoardWatch {
   std::optional<std::uint64_t> run_;
   std::unique_ptr<ObserverStage> observer_;
   std::unique_ptr<SampleCollector> collector_;
+  nlohmann::json last_summary_;  ///< the last run's end, kept across health updates
   nlohmann::json health_ = nlohmann::json::object();
   std::uint64_t sensor_samples_ = 0, drive_received_ = 0;
 

@@ -7,6 +7,7 @@
 #include <zmq_addon.hpp>
 
 #include "config_error.hpp"
+#include "log_writer.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "piezo/protocol/message.hpp"
 #include "sample_collector.hpp"
@@ -227,13 +228,21 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
 
   bool log_ok = true;
   bool stop_sent = false, estop_sent = false;
+  // From here until writer.finish() only the writer's thread touches the log.
+  LogWriter writer(log);
   auto append_log = [&] {
     if (!log_ok) return;
-    try {
-      log.append(collector.rows());
-    } catch (const std::exception& e) {
+    writer.submit(collector.rows());
+    if (std::string e = writer.error(); !e.empty()) {
       log_ok = false;
-      summary.host_error = e.what();
+      summary.host_error = std::move(e);
+    }
+  };
+  auto finish_writing = [&] {
+    append_log();
+    if (std::string e = writer.finish(); !e.empty() && log_ok) {
+      log_ok = false;
+      summary.host_error = std::move(e);
     }
   };
   const auto lease_period = std::chrono::duration<double>(lease_s / 4.0);
@@ -335,7 +344,7 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
   }
   if (!final_state) {
     if (observer) observer->finish(collector.rows().observer);
-    append_log();
+    finish_writing();
     outages.push_back(fmt::format("[{:.3f}, end of run]", quiet_since_s));
     log.set_attribute("link_outages", fmt::format("{}", fmt::join(outages, "; ")));
     summary.cause = firmware::StopCause::link_lost;
@@ -353,7 +362,7 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
   cursor.fetch(protocol::Stream::drive, board.at("samples").at("drive").get<std::uint64_t>());
   cursor.fetch(protocol::Stream::sensor, board.at("samples").at("sensor").get<std::uint64_t>());
   if (observer) observer->finish(collector.rows().observer);
-  append_log();
+  finish_writing();
   if (!std::isnan(quiet_since_s)) {
     outages.push_back(fmt::format("[{:.3f}, end of run]", quiet_since_s));
   }

@@ -1,0 +1,48 @@
+#pragma once
+// Writes a run's log on its own thread. The host's loop renews the board's
+// lease and drains the stream; a log flush waits for the disk (the
+// journal's fdatasync, HDF5's flush), which on a busy or slow disk can take
+// longer than the lease. So the loop only hands each flush interval's rows
+// over and goes on; this thread writes them in order.
+
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "run_log.hpp"
+
+namespace piezo::host {
+
+class LogWriter {
+ public:
+  /// Writes to `log`, which nothing else may touch until finish().
+  explicit LogWriter(RunLog& log);
+  ~LogWriter();
+  LogWriter(const LogWriter&) = delete;
+  LogWriter& operator=(const LogWriter&) = delete;
+
+  /// Takes the rows (leaving `rows` empty) to be appended in order.
+  void submit(log_schema::LogRows& rows);
+  /// The first write's failure, empty while all is well.
+  [[nodiscard]] std::string error() const;
+  /// Batches handed over and not yet written (for the loop's health).
+  [[nodiscard]] std::size_t backlog() const;
+  /// Writes what is queued and stops the thread; the log is the caller's
+  /// again. Returns error().
+  std::string finish();
+
+ private:
+  void run();
+  RunLog& log_;
+  mutable std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<log_schema::LogRows> queue_;
+  std::string error_;
+  bool writing_ = false;
+  bool stopping_ = false;
+  std::thread thread_;
+};
+
+}  // namespace piezo::host
