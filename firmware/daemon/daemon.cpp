@@ -25,8 +25,11 @@ constexpr std::uint64_t kMaxFetch = 100'000;  // samples per fetch reply
 constexpr auto kPollPeriod = std::chrono::milliseconds(2);
 constexpr auto kHealthPeriod = std::chrono::milliseconds(250);
 // Samples published but not yet acknowledged by the controller's lease
-// renewals hold the virtual clock back past this share of the recorder.
+// renewals hold the virtual clock back past this share of the recorder, or
+// past this many seconds of drive samples: the host acknowledges what it
+// has logged, so its memory holds at most that much not yet written.
 constexpr double kVirtualAckWindow = 0.5;
+constexpr double kVirtualAckWindow_s = 20.0;
 
 json health_json(const firmware::LoopHealth& h) {
   json j{{"cycles", h.cycles.load()},
@@ -452,8 +455,9 @@ json Daemon::start(const std::string& client, const json& args,
   if (virtual_clock) {
     // Time waits for a controller that is alive but behind.
     Run* r = run.get();
-    const auto window = static_cast<std::uint64_t>(kVirtualAckWindow *
-                                                   static_cast<double>(drive_recorder_.capacity()));
+    const auto window = static_cast<std::uint64_t>(
+        std::min(kVirtualAckWindow * static_cast<double>(drive_recorder_.capacity()),
+                 kVirtualAckWindow_s * board_.drive.rate_hz));
     const auto lease_ns = static_cast<std::int64_t>(lease_s * 1e9);
     lagging = [r, window, lease_ns, now_ns] {
       return now_ns() - r->lease_renewed_ns.load() < lease_ns &&

@@ -122,21 +122,26 @@ void record(Trajectory& out, double t, double V, const std::array<double, N>& y,
   out.F_f.push_back(F_f);
 }
 
+void report_progress(const IntegratorSettings& settings, std::size_t samples, double t) {
+  if (settings.progress && samples % 10000 == 0) settings.progress(t);
+}
+
 Trajectory simulate_lugre(const MotorParameters& p, const Excitation& drive,
-                          std::span<const double> times, double tolerance) {
+                          std::span<const double> times, const IntegratorSettings& settings) {
   Trajectory out;
   const LuGreMotor motor(p);
   auto rhs = [&](const LuGreState& y, LuGreState& dydt, double V) { motor.derivative(V, y, dydt); };
   auto emit = [&](double t, const LuGreState& y) {
     record(out, t, drive.voltage(t), y, motor.friction(y).force);
+    report_progress(settings, out.t.size(), t);
   };
   auto no_events = [](const auto&) { return std::optional<Event<5>>{}; };
-  out.stats = integrate<5>(p, rhs, drive, times, tolerance, emit, no_events);
+  out.stats = integrate<5>(p, rhs, drive, times, settings.tolerance, emit, no_events);
   return out;
 }
 
 Trajectory simulate_coulomb(const MotorParameters& p, const Excitation& drive,
-                            std::span<const double> times, double tolerance) {
+                            std::span<const double> times, const IntegratorSettings& settings) {
   Trajectory out;
   ContactMode mode = ContactMode::stick;
   auto rhs = [&](const CoulombState& y, CoulombState& dydt, double V) {
@@ -144,6 +149,7 @@ Trajectory simulate_coulomb(const MotorParameters& p, const Excitation& drive,
   };
   auto emit = [&](double t, const CoulombState& y) {
     record(out, t, drive.voltage(t), y, coulomb_friction(p, drive.voltage(t), mode, y));
+    report_progress(settings, out.t.size(), t);
   };
   auto stick_force = [&](double t, const CoulombState& y) {
     return coulomb_stick_force(p, drive.voltage(t), y);
@@ -177,7 +183,7 @@ Trajectory simulate_coulomb(const MotorParameters& p, const Excitation& drive,
     }
     return Event<4>{t_event, y};
   };
-  out.stats = integrate<4>(p, rhs, drive, times, tolerance, emit, on_step);
+  out.stats = integrate<4>(p, rhs, drive, times, settings.tolerance, emit, on_step);
   return out;
 }
 
@@ -185,9 +191,8 @@ Trajectory simulate_coulomb(const MotorParameters& p, const Excitation& drive,
 
 Trajectory simulate(const MotorParameters& p, const Excitation& drive, FrictionModel model,
                     std::span<const double> sample_times, const IntegratorSettings& settings) {
-  return model == FrictionModel::lugre
-             ? simulate_lugre(p, drive, sample_times, settings.tolerance)
-             : simulate_coulomb(p, drive, sample_times, settings.tolerance);
+  return model == FrictionModel::lugre ? simulate_lugre(p, drive, sample_times, settings)
+                                       : simulate_coulomb(p, drive, sample_times, settings);
 }
 
 double final_angle(const MotorParameters& p, const Excitation& drive, FrictionModel model,

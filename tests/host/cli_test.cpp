@@ -22,6 +22,16 @@ TEST(SimulateCli, JsonHasAngleAndVelocity) {
               1e-12);
 }
 
+// A long simulation says how far it is on stderr (once a second); stdout
+// keeps only the result.
+TEST(SimulateCli, ALongSimulationShowsProgress) {
+  const auto r = run_command(kPiezo + " simulate --duration 900 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("simulate: t "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(" of 900 s ("), std::string::npos) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out).at("duration_s"), 900.0);
+}
+
 TEST(SimulateCli, ConfigAndSetCombine) {
   const auto base =
       run_command(kPiezo + " simulate --config " + kConfigs + "/paper.toml --duration 0.5 --json");

@@ -1,8 +1,11 @@
 // `piezo simulate`: one run of the LuGre or Coulomb model from rest.
 
 #include <fmt/format.h>
+#include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -91,8 +94,23 @@ int run(const SimulateOptions& o) {
   }
   const model::Sawtooth drive(p.drive.V0, p.drive.f, p.drive.rise());
   const auto times = model::uniform_times(o.duration, o.sample_interval);
-  const model::Trajectory tr =
-      model::simulate(p.motor, drive, *friction, times, {.tolerance = o.tolerance});
+  model::IntegratorSettings settings{.tolerance = o.tolerance};
+  // Long simulations (minutes of simulated time take seconds to minutes)
+  // show how far they are, once a second, on stderr.
+  auto last_shown = std::chrono::steady_clock::now();
+  const bool tty = isatty(STDERR_FILENO) != 0;
+  bool shown = false;
+  settings.progress = [&](double t) {
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_shown < std::chrono::seconds(1)) return;
+    last_shown = now;
+    shown = true;
+    const std::string line = fmt::format("simulate: t {:.1f} of {:g} s ({:.0f} %)", t, o.duration,
+                                         100.0 * t / o.duration);
+    std::fputs((tty ? "\r" + line + "\x1b[K" : line + "\n").c_str(), stderr);
+  };
+  const model::Trajectory tr = model::simulate(p.motor, drive, *friction, times, settings);
+  if (tty && shown) std::fputs("\n", stderr);
   if (!o.out.empty()) write_trajectory(o.out, tr, p, *friction);
 
   const double theta_end = tr.theta.back();

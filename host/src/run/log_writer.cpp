@@ -15,6 +15,7 @@ void LogWriter::submit(log_schema::LogRows& rows) {
     const std::lock_guard lock(mutex_);
     // After a failure nothing more is written; the loop sees error().
     if (!error_.empty()) return;
+    pending_drive_rows_ += rows.drive.t.size();
     queue_.emplace_back(std::exchange(rows, log_schema::LogRows{}));
   }
   wake_.notify_one();
@@ -25,9 +26,9 @@ std::string LogWriter::error() const {
   return error_;
 }
 
-std::size_t LogWriter::backlog() const {
+std::size_t LogWriter::pending_drive_rows() const {
   const std::lock_guard lock(mutex_);
-  return queue_.size() + (writing_ ? 1 : 0);
+  return pending_drive_rows_;
 }
 
 std::string LogWriter::finish() {
@@ -49,8 +50,8 @@ void LogWriter::run() {
       if (queue_.empty()) return;  // stopping, and everything written
       batch = std::move(queue_.front());
       queue_.pop_front();
-      writing_ = true;
     }
+    const std::size_t drive_rows = batch.drive.t.size();
     std::string failure;
     try {
       log_.append(batch);
@@ -58,10 +59,11 @@ void LogWriter::run() {
       failure = e.what();
     }
     const std::lock_guard lock(mutex_);
-    writing_ = false;
+    pending_drive_rows_ -= drive_rows;
     if (!failure.empty()) {
       error_ = failure;
       queue_.clear();
+      pending_drive_rows_ = 0;
     }
   }
 }

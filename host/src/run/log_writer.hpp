@@ -27,8 +27,9 @@ class LogWriter {
   void submit(log_schema::LogRows& rows);
   /// The first write's failure, empty while all is well.
   [[nodiscard]] std::string error() const;
-  /// Batches handed over and not yet written (for the loop's health).
-  [[nodiscard]] std::size_t backlog() const;
+  /// Drive rows handed over and not yet written: the loop acknowledges to
+  /// the board only what is logged (on the virtual clock the board waits).
+  [[nodiscard]] std::size_t pending_drive_rows() const;
   /// Writes what is queued and stops the thread; the log is the caller's
   /// again. Returns error().
   std::string finish();
@@ -40,7 +41,7 @@ class LogWriter {
   std::condition_variable wake_;
   std::deque<log_schema::LogRows> queue_;
   std::string error_;
-  bool writing_ = false;
+  std::size_t pending_drive_rows_ = 0;
   bool stopping_ = false;
   std::thread thread_;
 };

@@ -300,7 +300,10 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
     }
     const auto now = SteadyClock::now();
     if (now - last_lease >= lease_period) {
-      client.send("lease", {{"drive_received", cursor.drive_next()}});
+      // Acknowledged: what is logged, not only received (see LogWriter).
+      const std::uint64_t unlogged = writer.pending_drive_rows() + collector.rows().drive.t.size();
+      const std::uint64_t received = cursor.drive_next();
+      client.send("lease", {{"drive_received", received - std::min(received, unlogged)}});
       last_lease = now;
     }
     // The board is idle or faulted but its end-of-run event went unheard

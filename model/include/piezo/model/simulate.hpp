@@ -4,6 +4,7 @@
 /// steps onto every kink of the drive and locates every stick/slip switch.
 
 #include <cstddef>
+#include <functional>
 #include <optional>
 #include <span>
 #include <string_view>
@@ -26,6 +27,9 @@ struct IntegratorSettings {
   /// The default meets the 1e-4 relative angle requirement with margin; the
   /// convergence tests in tests/model prove it.
   double tolerance = 1e-6;
+  /// Called now and then (every 10,000 output samples) with the simulated
+  /// time reached, for progress on long simulations; may be empty.
+  std::function<void(double t)> progress = {};
 };
 
 /// Cost of a simulation, for benchmarks and for reasoning about tolerances.
