@@ -1,11 +1,18 @@
 #include "spill_file.hpp"
 
+#include <filesystem>
 #include <stdexcept>
 #include <vector>
 
 namespace piezo::daemon {
 
 SpillFile::SpillFile(std::string path) : path_(std::move(path)) {
+  // A daemon that crashed mid-run left its run's samples here: keep them
+  // for `piezo recover --spill` instead of truncating them away.
+  std::error_code ignored;
+  if (std::filesystem::file_size(path_, ignored) > 0 && !ignored) {
+    std::filesystem::rename(path_, path_ + ".previous", ignored);
+  }
   clear();
 }
 

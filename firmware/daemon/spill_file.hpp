@@ -16,7 +16,8 @@ namespace piezo::daemon {
 
 class SpillFile {
  public:
-  /// Opens (truncates) the file; throws naming it when it cannot.
+  /// Opens (truncates) the file; throws naming it when it cannot. A
+  /// non-empty file (a crashed daemon's run) is first kept as PATH.previous.
   explicit SpillFile(std::string path);
   /// A new run: starts the file again.
   void clear();

@@ -161,8 +161,9 @@ def wait_for_tcp(p, seconds=20):
 
 
 address = f"tcp://127.0.0.1:{port}"
+spill = f"{work}/piezod.spill"
 board_args = [piezod, "--config", f"{source}/configs/piezod-sim.toml", "--set",
-              "run.clock=virtual", "--listen", address]
+              "run.clock=virtual", "--set", f"piezod.spill_file={spill}", "--listen", address]
 remote = ["run", "--config", config, *virtual, "--duration", DURATION, "--rig", address, "--json"]
 
 
@@ -206,6 +207,25 @@ for i in range(daemon_kills):
         if os.path.exists(f"{run_dir}/run.journal") and st != "failed":
             fail(f"board kill {i}: a journal was left beside a whole log")
     board = start_board()
+    # The restarted board kept the killed one's spill file: every sample it
+    # recorded, at least as many as reached the host.
+    if st == "failed" and os.path.exists(f"{spill}.previous"):
+        r = subprocess.run([piezo, "recover", f"{run_dir}-board", "--spill", f"{spill}.previous",
+                            "--json"], capture_output=True, text=True, timeout=60)
+        if r.returncode != 0:
+            fail(f"board kill {i}: recover --spill exited {r.returncode}: {r.stderr.strip()}")
+        else:
+            spilled = json.loads(r.stdout)["drive_samples"]
+            with h5py.File(f"{run_dir}/run.h5", "r") as f:
+                host_rows = len(f["drive/t"])
+            with h5py.File(f"{run_dir}-board/run.h5", "r") as f:
+                steps = np.diff(f["drive/t"][:])
+            if spilled < host_rows - 1:  # the host's log may end with the stop record
+                fail(f"board kill {i}: the spill holds {spilled} drive samples, the host {host_rows}")
+            if len(steps) and not np.allclose(steps, 1e-4, rtol=0, atol=1e-9):
+                fail(f"board kill {i}: the spill's drive times have a gap")
+            board_classes["spill recovered"] = board_classes.get("spill recovered", 0) + 1
+        os.remove(f"{spill}.previous")
 print(f"board: {daemon_kills} piezod kills", flush=True)
 for cls, count in sorted(board_classes.items()):
     print(f"  {count:4d}  host's log {cls}")

@@ -1,25 +1,106 @@
 // piezo recover RUN_DIR: makes a crashed run's log whole again from its
-// journal (run_journal.hpp).
+// journal (run_journal.hpp). piezo recover --spill FILE --out DIR: a log
+// from the board's spill file, which a crashed piezod keeps as
+// SPILL.previous when it starts again (spill_file.hpp).
 
 #include <fmt/format.h>
 
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "commands.hpp"
+#include "config_error.hpp"
+#include "piezo/protocol/error.hpp"
+#include "piezo/protocol/frame.hpp"
+#include "run_config.hpp"
 #include "run_journal.hpp"
+#include "run_log.hpp"
+#include "sample_collector.hpp"
 
 namespace piezo::host {
 namespace {
 
 struct RecoverOptions {
   std::string run_dir;
+  std::string spill;   ///< a piezod spill file instead of a run directory
+  std::string config;  ///< the rig's config, for the sensor's r2
   bool json = false;
 };
 
+/// The samples of a spill file ([u32 little-endian length][frame]...), up
+/// to a torn or damaged frame, as a run log in `dir` marked recovered.
+int recover_spill(const RecoverOptions& o) {
+  namespace fs = std::filesystem;
+  if (o.run_dir.empty()) throw config::ConfigError("--out", "", "required with --spill");
+  if (fs::exists(fs::path(o.run_dir) / "run.h5")) {
+    throw config::ConfigError("--out", o.run_dir, "holds a run.h5 already");
+  }
+  const double r2 =
+      o.config.empty()
+          ? config::SensorSettings{}.r2_m
+          : config::load_run_config(o.config, {}, config::ConfigScope::sensor).sensor.r2_m;
+  std::ifstream in(o.spill, std::ios::binary);
+  if (!in) throw config::ConfigError(o.spill, "file", "cannot be read");
+  std::vector<firmware::DriveSample> drive;
+  std::vector<firmware::SensorSample> sensor;
+  std::size_t frames = 0;
+  std::string frame;
+  for (unsigned char length[4]; in.read(reinterpret_cast<char*>(length), 4); ++frames) {
+    const std::uint32_t n =
+        length[0] | length[1] << 8 | length[2] << 16 | static_cast<std::uint32_t>(length[3]) << 24;
+    frame.resize(n);
+    if (n > (64u << 20) || !in.read(frame.data(), n)) break;  // torn at the crash
+    try {
+      const auto header = protocol::decode_header(frame);
+      if (header.stream == protocol::Stream::drive) {
+        const auto s = protocol::decode_drive(frame);
+        drive.insert(drive.end(), s.begin(), s.end());
+      } else {
+        const auto s = protocol::decode_sensor(frame);
+        sensor.insert(sensor.end(), s.begin(), s.end());
+      }
+    } catch (const protocol::ProtocolError&) {
+      break;
+    }
+  }
+  if (drive.empty()) throw config::ConfigError(o.spill, "drive", "no drive samples in the file");
+  fs::create_directories(o.run_dir);
+  SampleCollector collector(drive.front().t, r2, nullptr);
+  for (const auto& s : drive) collector.add(s);
+  for (const auto& s : sensor) collector.add(s);
+  const std::string log_path = (fs::path(o.run_dir) / "run.h5").string();
+  RunLog log = RunLog::create(
+      log_path,
+      {{"recovered_from", fmt::format("piezod spill file {}: {} frames", o.spill, frames)},
+       {"time_origin", "seconds from the first drive sample in the spill file"},
+       {"theta", fmt::format("(displacement - first good displacement) / {} m", r2)}});
+  log.append(collector.rows());
+  log.close("recovered");
+  if (o.json) {
+    std::cout << nlohmann::json{{"run_dir", o.run_dir},
+                                {"rebuilt", true},
+                                {"status", "recovered"},
+                                {"drive_samples", drive.size()},
+                                {"sensor_samples", sensor.size()},
+                                {"frames", frames}}
+                     .dump()
+              << "\n";
+  } else {
+    fmt::print(
+        "{}: run.h5 from the spill file {} ({} frames, {} drive, {} sensor samples), "
+        "marked recovered\n",
+        o.run_dir, o.spill, frames, drive.size(), sensor.size());
+  }
+  return 0;
+}
+
 int run(const RecoverOptions& o) {
+  if (!o.spill.empty()) return recover_spill(o);
   const Recovery r = recover_run(o.run_dir);
   if (o.json) {
     std::cout << nlohmann::json{{"run_dir", o.run_dir},
@@ -53,9 +134,15 @@ CommandRunner add_recover_command(CLI::App& app) {
   auto o = std::make_shared<RecoverOptions>();
   CLI::App* cmd = app.add_subcommand(
       "recover", "Rebuild a crashed run's run.h5 from its journal, marked recovered");
-  cmd->add_option("RUN_DIR", o->run_dir, "Run directory (holds run.h5 and run.journal)")
-      ->required()
-      ->check(CLI::ExistingDirectory);
+  cmd->add_option("RUN_DIR", o->run_dir,
+                  "Run directory (holds run.h5 and run.journal); with --spill, the new run's")
+      ->required();
+  cmd->add_option("--spill", o->spill,
+                  "A piezod spill file (SPILL.previous after a crash): write its samples as a "
+                  "run log in RUN_DIR")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--config", o->config, "With --spill: the rig's config, for the sensor's r2")
+      ->check(CLI::ExistingFile);
   cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
   return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
 }

@@ -235,6 +235,7 @@ JournalContents read_journal(const std::string& path) {
         if (it != columns.end()) parts.emplace_back(it->second, values);
       }
       for (auto& [column, values] : parts) {
+        if (values.empty()) continue;  // memcpy wants real pointers, even for 0 bytes
         const std::size_t old = column->size();
         column->resize(old + values.size() / sizeof(double));
         std::memcpy(column->data() + old, values.data(), values.size());

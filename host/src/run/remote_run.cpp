@@ -282,7 +282,7 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
           parts.size() != 2) {
         break;
       }
-      last_heard = last_contact = SteadyClock::now();
+      last_heard = SteadyClock::now();
       if (!std::isnan(quiet_since_s)) {
         outages.push_back(fmt::format("[{:.3f}, {:.3f}] s", quiet_since_s, board_run_s()));
         quiet_since_s = std::nan("");
@@ -296,6 +296,7 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
         }
       } else {
         cursor.on_frame(parts[1].to_string_view());
+        last_contact = last_heard;  // samples: the board is running this run
       }
     }
     const auto now = SteadyClock::now();
@@ -321,10 +322,15 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
       try {
         const json s = client.call("status", json::object(), 500ms);
         const json& run = s.value("run", json::object());
-        if (run.value("id", json()) == started.at("run") && run.value("finished", false)) {
+        // A board that restarted answers, but knows nothing of this run (its
+        // ids start again: the start time tells): that is silence too.
+        const bool ours = run.value("id", json()) == started.at("run") &&
+                          run.value("t0_ns", json()) == started.at("t0_ns");
+        if (ours && run.value("finished", false)) {
           final_state = json{{"summary", run.at("summary")}};
         }
-        last_heard = last_contact = SteadyClock::now();
+        last_heard = SteadyClock::now();
+        if (ours) last_contact = last_heard;
       } catch (const LinkTimeout&) {
         last_heard = SteadyClock::now();  // ZeroMQ reconnects with back-off; ask again later
       }
@@ -353,8 +359,8 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
     summary.cause = firmware::StopCause::link_lost;
     summary.board_gone = true;
     summary.host_error = fmt::format(
-        "board {} silent for {} s: the run's end is unknown (the board's lease stops its drive "
-        "by itself); the log holds what was received",
+        "board {} silent about this run for {} s (gone, or restarted): the run's end is unknown "
+        "(the board's lease stops its drive by itself); the log holds what was received",
         client.address(), std::chrono::duration_cast<std::chrono::seconds>(kBoardGone).count());
     summary.theta_end_rad = collector.last_theta();
     summary.t_end_s = collector.last_good_t();
