@@ -130,7 +130,12 @@ Reply decode_reply(std::string_view bytes) {
     if (e == nullptr || !e->is_object()) {
       throw ProtocolError(code::malformed, "error", "error reply without \"error\"");
     }
-    r.error = {e->value("code", ""), e->value("key", ""), e->value("message", "")};
+    // Found by fuzzing: a non-string field threw nlohmann's type_error.
+    const auto text = [e](const char* key) {
+      const json* v = find(*e, key);
+      return v != nullptr && v->is_string() ? v->get<std::string>() : std::string();
+    };
+    r.error = {text("code"), text("key"), text("message")};
   }
   return r;
 }
