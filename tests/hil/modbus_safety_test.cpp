@@ -130,7 +130,10 @@ TEST_F(ModbusSafety, AHungDriveIsZeroedOnceItAnswersAgain) {
 // and logs the last value the module acknowledged, not a 0 V it never took;
 // the module's own watchdog is what zeroes it.
 TEST_F(ModbusSafety, ADeadDriveIsReportedUnconfirmedAndItsWatchdogZeroesIt) {
-  auto rig = start_rig_sim({"--set", "rig_sim.hang_at_s=1.5", "--set", "rig_sim.hang_for_s=3"});
+  // The hang comes 3 s after rig-sim starts: a run on a loaded machine may
+  // take over a second to start, and a hang before its first write would
+  // leave nothing but 0 V acknowledged.
+  auto rig = start_rig_sim({"--set", "rig_sim.hang_at_s=3", "--set", "rig_sim.hang_for_s=3"});
   ASSERT_TRUE(wait_for_tcp(port));
   const auto started = std::chrono::steady_clock::now();
   const auto r = run_command(shell_run("30", "--set safety.stop_confirm_s=0.5"));
@@ -144,7 +147,7 @@ TEST_F(ModbusSafety, ADeadDriveIsReportedUnconfirmedAndItsWatchdogZeroesIt) {
   EXPECT_EQ(ending.substr(0, ending.find(' ', 7)), "failed output_unconfirmed") << ending;
   EXPECT_NE(ending.find(" 3.0"), std::string::npos) << ending;
   EXPECT_EQ(ending.find(" 0.0 "), std::string::npos) << "never a 0 V it did not reach: " << ending;
-  std::this_thread::sleep_until(started + 5s);  // the hang is over
+  std::this_thread::sleep_until(started + 6500ms);  // the hang is over
   EXPECT_EQ(ao_register(), 0) << "the module's watchdog zeroed the output";
 }
 
