@@ -5,8 +5,8 @@
 // touches the hardware.
 
 #include <cstdint>
-#include <optional>
 #include <limits>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>

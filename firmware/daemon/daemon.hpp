@@ -19,8 +19,8 @@
 
 #include "curve.hpp"
 #include "piezo/firmware/loop_runner.hpp"
-#include "piezo/model/waveform.hpp"
 #include "piezo/firmware/move_controller.hpp"
+#include "piezo/model/waveform.hpp"
 #include "recorder.hpp"
 #include "rig.hpp"
 #include "run_config.hpp"
@@ -115,8 +115,8 @@ class Daemon {
   /// else the first good reading since the daemon started.
   std::optional<double> zero_displacement_m_;
   static constexpr std::size_t kZeroReadings = 8;  ///< averaged for a zero or a position
-  std::vector<double> zero_readings_;  ///< toward the zero at the start
-  std::deque<double> recent_readings_;  ///< the last good readings of any run
+  std::vector<double> zero_readings_;              ///< toward the zero at the start
+  std::deque<double> recent_readings_;             ///< the last good readings of any run
   [[nodiscard]] std::optional<double> recent_displacement_m() const;
   std::chrono::steady_clock::time_point last_health_;
   std::uint64_t last_drive_cycles_ = 0;

@@ -31,8 +31,9 @@ LoopRunner::LoopRunner(const LoopRunnerSettings& settings, DriveProgram* program
       drive_ring_(ring_capacity(settings.drive.rate_hz, settings.ring_s)),
       sensor_ring_(ring_capacity(settings.sensor_rate_hz, settings.ring_s)),
       supervisor_(settings.safety, sensor_health_, devices.clock.now()),
-      waveform_program_(waveform != nullptr ? std::optional<WaveformProgram>(std::in_place, *waveform)
-                                            : std::nullopt),
+      waveform_program_(waveform != nullptr
+                            ? std::optional<WaveformProgram>(std::in_place, *waveform)
+                            : std::nullopt),
       drive_loop_(settings.drive, program != nullptr ? *program : *waveform_program_, supervisor_,
                   {devices.clock, devices.drive, devices.lines, drive_ring_, stop_}),
       acquire_loop_(devices.clock, devices.sensor, settings.sensor_rate_hz, sensor_health_,

@@ -77,8 +77,8 @@ double MoveController::next_voltage(double t, double dt) {
         return V_ = 0.0;
       }
       const double rise_time = rise_ * T;
-      V_ = tau < rise_time ? amplitude_ * tau / rise_time
-                           : amplitude_ * (T - tau) / (T - rise_time);
+      V_ =
+          tau < rise_time ? amplitude_ * tau / rise_time : amplitude_ * (T - tau) / (T - rise_time);
       return V_;
     }
     case MoveState::fine:
@@ -197,7 +197,8 @@ void MoveController::learn_from_step() {
   // sensor's noise teach nothing.
   const double measured = (theta_f_ - theta_before_) * direction_;
   if (predicted_ < 4.0 * s_.tolerance_rad || measured <= 0.0) return;
-  step_scale_[direction_ > 0 ? 0 : 1] *= std::pow(std::clamp(measured / predicted_, 0.25, 4.0), 0.7);
+  step_scale_[direction_ > 0 ? 0 : 1] *=
+      std::pow(std::clamp(measured / predicted_, 0.25, 4.0), 0.7);
 }
 
 void MoveController::start_step(double t, double error) {

@@ -10,13 +10,15 @@ usage: cross_hil.py ARM64_PIEZOD PIEZO SOURCE_DIR WORK_DIR PORT"""
 import json
 import os
 import shutil
-import socket
 import subprocess
 import sys
 import time
 
 import h5py
 import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from peers import wait_for_tcp  # noqa: E402
 
 arm64_piezod, piezo, source, work, port = sys.argv[1:6]
 port = int(port)
@@ -33,15 +35,6 @@ failures = []
 procs = []
 
 
-def wait_for_tcp(p, seconds=20):
-    deadline = time.monotonic() + seconds
-    while time.monotonic() < deadline:
-        try:
-            socket.create_connection(("127.0.0.1", p), 0.2).close()
-            return True
-        except OSError:
-            time.sleep(0.1)
-    return False
 
 
 def spawn(args, log):

@@ -172,8 +172,8 @@ TEST(SimRun, MovesEndOnTargetOnAMismatchedPlantBothWays) {
                                           "plant.sigma0=2000", "drive.f=40"};
   constexpr double kNoise = 0.5e-6 / 0.062;
   for (const double target : {1e-4, 1e-3, 1e-2, 1e-1, -1e-4, -1e-3, -1e-2, -1e-1}) {
-    config::RunSettings::Move move{.target_rad = target, .tolerance_rad = 15e-6,
-                                   .settle_s = 0.1, .timeout_s = 30.0};
+    config::RunSettings::Move move{
+        .target_rad = target, .tolerance_rad = 15e-6, .settle_s = 0.1, .timeout_s = 30.0};
     const Outcome o = run_virtual(mismatch, -1.0, "hil-move", 0, move);
     const auto& m = o.summary.move;
     ASSERT_TRUE(m.is_object()) << target;
@@ -214,13 +214,13 @@ TEST(SimRun, MovesEndOnTargetOnAMismatchedPlantBothWays) {
 // Either ends the move with its cause, the drive at 0 V and the amplifier
 // disabled, on the simulated amplifier itself.
 TEST(SimRun, AMoveIntoAStalledSensorOrAnEstopStopsAtZeroVolts) {
-  config::RunSettings::Move far{.target_rad = 0.05, .tolerance_rad = 15e-6, .settle_s = 0.1,
-                                .timeout_s = 10.0};
+  config::RunSettings::Move far{
+      .target_rad = 0.05, .tolerance_rad = 15e-6, .settle_s = 0.1, .timeout_s = 10.0};
   for (const auto& [fault, cause] :
        {std::pair{std::string("sensor.stall_at_s=0.3"), std::string("sensor_fault")},
         std::pair{std::string("lines.estop_at_s=0.3"), std::string("estop")}}) {
-    const Outcome o = run_virtual({fault, "safety.sensor_stale_s=0.05"}, -1.0, "hil-move-fault",
-                                  0, far);
+    const Outcome o =
+        run_virtual({fault, "safety.sensor_stale_s=0.05"}, -1.0, "hil-move-fault", 0, far);
     EXPECT_EQ(o.summary.move.at("stop_cause"), cause) << fault;
     EXPECT_FALSE(o.summary.move.at("on_target").get<bool>()) << fault;
     EXPECT_FALSE(o.amplifier_enabled_at_end) << fault;
@@ -234,8 +234,8 @@ TEST(SimRun, AMoveIntoAStalledSensorOrAnEstopStopsAtZeroVolts) {
     EXPECT_LT(o.drive_t.back(), 0.6) << fault;
   }
   // A target out of reach within the timeout ends as such, at 0 V.
-  config::RunSettings::Move unreachable{.target_rad = 1.0, .tolerance_rad = 15e-6,
-                                        .settle_s = 0.1, .timeout_s = 0.5};
+  config::RunSettings::Move unreachable{
+      .target_rad = 1.0, .tolerance_rad = 15e-6, .settle_s = 0.1, .timeout_s = 0.5};
   const Outcome o = run_virtual({}, -1.0, "hil-move-timeout", 0, unreachable);
   EXPECT_EQ(o.summary.move.at("stop_cause"), "timeout");
   EXPECT_FALSE(o.amplifier_enabled_at_end);

@@ -25,13 +25,15 @@ import os
 import random
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import time
 
 import h5py
 import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from peers import wait_for_tcp  # noqa: E402
 
 args = sys.argv[1:]
 piezo, piezod, source, work = args[:4]
@@ -149,15 +151,6 @@ print(f"  drive samples kept: {min(fractions):.3f} to {max(fractions):.3f} of th
 
 
 # 2. The board, killed; then the host during remote runs.
-def wait_for_tcp(p, seconds=20):
-    deadline = time.monotonic() + seconds
-    while time.monotonic() < deadline:
-        try:
-            socket.create_connection(("127.0.0.1", p), 0.2).close()
-            return True
-        except OSError:
-            time.sleep(0.05)
-    return False
 
 
 address = f"tcp://127.0.0.1:{port}"

@@ -98,10 +98,7 @@ CommandRunner add_compare_command(CLI::App& app) {
                   "--theta), or a CSV")
       ->required()
       ->check(CLI::ExistingFile);
-  cmd->add_option("--t", o->layout.t, "Another tool's file: the time dataset/column [s]");
-  cmd->add_option("--V", o->layout.V, "...the drive voltage's [V]");
-  cmd->add_option("--theta", o->layout.theta, "...the measured angle's [rad]");
-  cmd->add_option("--theta-t", o->layout.theta_t, "...the angle's own time, if not --t's [s]");
+  add_log_layout_options(*cmd, o->layout);
   cmd->add_option("--out", o->out, "Directory for the overlay plot (paper Fig. 13)");
   cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
   return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };

@@ -80,10 +80,7 @@ CommandRunner add_identify_command(CLI::App& app) {
                   "--theta), or a CSV")
       ->required()
       ->check(CLI::ExistingFile);
-  cmd->add_option("--t", o->layout.t, "Another tool's file: the time dataset/column [s]");
-  cmd->add_option("--V", o->layout.V, "...the drive voltage's [V]");
-  cmd->add_option("--theta", o->layout.theta, "...the measured angle's [rad]");
-  cmd->add_option("--theta-t", o->layout.theta_t, "...the angle's own time, if not --t's [s]");
+  add_log_layout_options(*cmd, o->layout);
   cmd->add_option("--params", o->params, "Parameters to fit, comma-separated (simulate's keys)")
       ->capture_default_str();
   cmd->add_option("--model", o->model, "Friction model: lugre or coulomb")->capture_default_str();
@@ -92,6 +89,17 @@ CommandRunner add_identify_command(CLI::App& app) {
   cmd->add_option("--out", o->out, "Write the fitted parameters as TOML");
   cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
   return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
+}
+
+}  // namespace piezo::host
+
+namespace piezo::host {
+
+void add_log_layout_options(CLI::App& cmd, LogLayout& layout) {
+  cmd.add_option("--t", layout.t, "Another tool's file: the time dataset/column [s]");
+  cmd.add_option("--V", layout.V, "...the drive voltage's [V]");
+  cmd.add_option("--theta", layout.theta, "...the measured angle's [rad]");
+  cmd.add_option("--theta-t", layout.theta_t, "...the angle's own time, if not --t's [s]");
 }
 
 }  // namespace piezo::host

@@ -160,10 +160,7 @@ CommandRunner add_report_command(CLI::App& app) {
                   "v7.3 file (--t, --V, --theta), or a CSV")
       ->required()
       ->check(CLI::ExistingPath);
-  cmd->add_option("--t", o->layout.t, "Another tool's file: the time dataset/column [s]");
-  cmd->add_option("--V", o->layout.V, "...the drive voltage's [V]");
-  cmd->add_option("--theta", o->layout.theta, "...the measured angle's [rad]");
-  cmd->add_option("--theta-t", o->layout.theta_t, "...the angle's own time, if not --t's [s]");
+  add_log_layout_options(*cmd, o->layout);
   cmd->add_option("--config", o->config, "Model parameters (TOML); default: the log's, or Table 1")
       ->check(CLI::ExistingFile);
   cmd->add_option("--out", o->out, "Folder for the plots (default RUN_DIR/report)");

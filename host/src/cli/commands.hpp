@@ -9,6 +9,11 @@ namespace piezo::host {
 
 using CommandRunner = std::function<int()>;
 
+struct LogLayout;
+/// --t, --V, --theta, --theta-t: where another tool's log keeps its data
+/// (identify, compare and report read the same files).
+void add_log_layout_options(CLI::App& cmd, LogLayout& layout);
+
 CommandRunner add_simulate_command(CLI::App& app);
 CommandRunner add_sensitivity_command(CLI::App& app);
 CommandRunner add_sweep_command(CLI::App& app);

@@ -101,9 +101,9 @@ LoadedRun load_h5(const std::string& path) {
       run.parameters = parameters_from_json(
           nlohmann::json::parse(log.attribute("/", log_schema::kModelParameters)));
     } catch (const std::exception& e) {  // found by fuzzing: a damaged attribute
-      throw config::ConfigError(path, log_schema::kModelParameters,
-                                std::string("unreadable (") + e.what() +
-                                    "); pass the parameters with --config");
+      throw config::ConfigError(
+          path, log_schema::kModelParameters,
+          std::string("unreadable (") + e.what() + "); pass the parameters with --config");
     }
   }
   return run;

@@ -44,10 +44,10 @@ struct MoveSettings {
   /// The user's zero: theta = (d - zero) / r2; NaN: the first reading is the zero.
   double zero_displacement_m = 0.0;
   double r2_m = 0.062;
-  double V0 = 80.0;                   ///< coarse step amplitude at most [V]
-  double f = 10.0;                    ///< coarse step frequency [Hz]
-  double D = 0.74955;                 ///< forward rise fraction (reverse: 1 - D)
-  double rad_per_V = 31.4e-6;         ///< fine: angle per volt in stick, d_e / r
+  double V0 = 80.0;            ///< coarse step amplitude at most [V]
+  double f = 10.0;             ///< coarse step frequency [Hz]
+  double D = 0.74955;          ///< forward rise fraction (reverse: 1 - D)
+  double rad_per_V = 31.4e-6;  ///< fine: angle per volt in stick, d_e / r
   /// Amplitudes (fractions of V0) at which the step is predicted. Below
   /// about half of V0 the motor hardly steps: that is the fine stage's range.
   static constexpr std::array<double, 6> kStepFractions{0.5, 0.6, 0.7, 0.8, 0.9, 1.0};
@@ -83,9 +83,9 @@ class MoveController final : public DriveProgram {
   [[nodiscard]] double zero_displacement_m() const { return zero_m_.load(); }
 
  private:
-  static constexpr int kFilter = 8;  ///< readings averaged: noise / sqrt(8)
-  static constexpr int kFlush = 10;  ///< readings skipped after the rotor was moved
-  static constexpr int kHold = 20;   ///< readings within tolerance/2 before the release
+  static constexpr int kFilter = 8;         ///< readings averaged: noise / sqrt(8)
+  static constexpr int kFlush = 10;         ///< readings skipped after the rotor was moved
+  static constexpr int kHold = 20;          ///< readings within tolerance/2 before the release
   static constexpr double kFineGain = 0.1;  ///< integral gain per reading
 
   void on_reading(double t, double displacement_m);

@@ -22,7 +22,7 @@ struct DriveSample {
   hal::TimeNs t;  ///< when the voltage was written
   double V;       ///< commanded amplifier output [V] (see output_unconfirmed)
   DrivePhase phase;
-  hal::Status status;          ///< of the write
+  hal::Status status;           ///< of the write
   std::uint8_t move_state = 0;  ///< a closed-loop move's MoveState (0: none)
 };
 
