@@ -50,6 +50,7 @@ port = option("--port", 5871)
 config = f"{source}/configs/sim.toml"
 virtual = ["--set", "run.clock=virtual", "--set", "run.flush_interval_s=0.02"]
 DURATION = "4"
+STOPPED = 2  # DrivePhase::stopped (firmware/include/piezo/firmware/samples.hpp)
 COLUMNS = ["drive/t", "drive/V", "drive/phase", "sensor/t", "sensor/theta", "observer/t",
            "observer/theta_hat"]
 
@@ -176,8 +177,9 @@ remote_wall = time.monotonic() - start
 board_classes = {}
 for i in range(daemon_kills):
     run_dir = f"{work}/board-{i:03d}"
+    host_err = open(f"{run_dir}.stderr", "w")
     host = subprocess.Popen([piezo, *remote, "--out", run_dir], stdout=subprocess.PIPE,
-                            stderr=subprocess.DEVNULL, text=True)
+                            stderr=host_err, text=True)
     time.sleep(rng.uniform(0.05, 0.9 * remote_wall))
     board.send_signal(signal.SIGKILL)
     board.wait()
@@ -187,9 +189,11 @@ for i in range(daemon_kills):
         host.kill()
         fail(f"board kill {i}: the host did not end the run")
         out = ""
+    host_err.close()
     status = drive_rows(f"{run_dir}/run.h5")
     if status is None:
-        fail(f"board kill {i}: the host's run.h5 is unreadable (exit {host.returncode})")
+        fail(f"board kill {i}: the host's run.h5 is unreadable (exit {host.returncode}); "
+             f"its stderr: {open(f'{run_dir}.stderr').read().strip()}")
     else:
         with h5py.File(f"{run_dir}/run.h5", "r") as f:
             st = f.attrs["status"].decode()
@@ -212,11 +216,17 @@ for i in range(daemon_kills):
             with h5py.File(f"{run_dir}/run.h5", "r") as f:
                 host_rows = len(f["drive/t"])
             with h5py.File(f"{run_dir}-board/run.h5", "r") as f:
-                steps = np.diff(f["drive/t"][:])
+                # The stop record (phase stopped or output_unconfirmed) is
+                # stamped when the output stopped, off the cycle grid.
+                cycles = f["drive/t"][:][f["drive/phase"][:] < STOPPED]
+                steps = np.diff(cycles)
             if spilled < host_rows - 1:  # the host's log may end with the stop record
                 fail(f"board kill {i}: the spill holds {spilled} drive samples, the host {host_rows}")
-            if len(steps) and not np.allclose(steps, 1e-4, rtol=0, atol=1e-9):
-                fail(f"board kill {i}: the spill's drive times have a gap")
+            off_grid = np.flatnonzero(np.abs(steps - 1e-4) > 1e-9)
+            if len(off_grid):
+                k = off_grid[0]
+                fail(f"board kill {i}: the spill's drive times have a gap: "
+                     f"{cycles[k]:.6f} s to {cycles[k + 1]:.6f} s ({len(off_grid)} such steps)")
             board_classes["spill recovered"] = board_classes.get("spill recovered", 0) + 1
         os.remove(f"{spill}.previous")
 print(f"board: {daemon_kills} piezod kills", flush=True)

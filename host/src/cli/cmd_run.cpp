@@ -151,6 +151,11 @@ nlohmann::json summary_json(const RunSummary& s, const fs::path& dir, const fs::
 /// The one line that says how the output was left, in plain words.
 std::string output_line(const RunSummary& s) {
   const auto& o = s.output;
+  if (s.output_state() == "unknown") {
+    return "OUTPUT STATE UNKNOWN: the board fell silent before it reported how it left the "
+           "output. Its lease stops the drive by itself; check the amplifier before touching "
+           "the rig.";
+  }
   if (s.output_state() == "output_unconfirmed") {
     const std::string last = std::isnan(o.acknowledged_V)
                                  ? "no value was ever acknowledged"

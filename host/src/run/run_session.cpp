@@ -19,6 +19,8 @@ std::string RunSummary::stop_cause() const {
 }
 
 std::string RunSummary::output_state() const {
+  // A board that fell silent never said how it left the output.
+  if (board_gone) return "unknown";
   return firmware::output_state(output);
 }
 
