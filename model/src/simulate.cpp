@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "piezo/model/coulomb_closed_form.hpp"
 #include "piezo/model/dopri5.hpp"
 #include "piezo/model/step_control.hpp"
 
@@ -16,6 +17,25 @@ std::string_view to_string(FrictionModel m) {
 std::optional<FrictionModel> parse_friction_model(std::string_view text) {
   if (text == "lugre") return FrictionModel::lugre;
   if (text == "coulomb") return FrictionModel::coulomb;
+  return std::nullopt;
+}
+
+std::string_view to_string(Integrator i) {
+  switch (i) {
+    case Integrator::model_default:
+      return "model_default";
+    case Integrator::dopri5:
+      return "dopri5";
+    case Integrator::closed_form:
+      return "closed_form";
+  }
+  return "?";
+}
+
+std::optional<Integrator> parse_integrator(std::string_view text) {
+  for (auto i : {Integrator::model_default, Integrator::dopri5, Integrator::closed_form}) {
+    if (text == to_string(i)) return i;
+  }
   return std::nullopt;
 }
 
@@ -167,6 +187,7 @@ Trajectory simulate_coulomb(const MotorParameters& p, const Excitation& drive,
         return std::abs(stick_force(t, ys)) > p.F_c();
       });
       mode = stick_force(t_event, y) > 0 ? ContactMode::slip_forward : ContactMode::slip_backward;
+      out.switch_times.push_back(t_event);
       return Event<4>{t_event, y};
     }
     const double direction = mode == ContactMode::slip_forward ? 1.0 : -1.0;
@@ -181,6 +202,7 @@ Trajectory simulate_coulomb(const MotorParameters& p, const Excitation& drive,
     } else {
       mode = F_hold > 0 ? ContactMode::slip_forward : ContactMode::slip_backward;
     }
+    out.switch_times.push_back(t_event);
     return Event<4>{t_event, y};
   };
   out.stats = integrate<4>(p, rhs, drive, times, settings.tolerance, emit, on_step);
@@ -191,6 +213,22 @@ Trajectory simulate_coulomb(const MotorParameters& p, const Excitation& drive,
 
 Trajectory simulate(const MotorParameters& p, const Excitation& drive, FrictionModel model,
                     std::span<const double> sample_times, const IntegratorSettings& settings) {
+  switch (settings.integrator) {
+    case Integrator::model_default:
+      if (model == FrictionModel::coulomb && coulomb_closed_form_applies(p)) {
+        return simulate_coulomb_closed_form(p, drive, sample_times, settings);
+      }
+      break;
+    case Integrator::dopri5:
+      break;
+    case Integrator::closed_form:
+      if (model == FrictionModel::lugre) {
+        throw std::invalid_argument(
+            "integrator closed_form: Coulomb model only (the LuGre bristle has no closed form); "
+            "use dopri5");
+      }
+      return simulate_coulomb_closed_form(p, drive, sample_times, settings);
+  }
   return model == FrictionModel::lugre ? simulate_lugre(p, drive, sample_times, settings)
                                        : simulate_coulomb(p, drive, sample_times, settings);
 }

@@ -1,7 +1,7 @@
-// The adaptive integrator's default settings against plain fixed-step RK4
-// solutions computed here, at the paper baseline, for both models at 10 and
-// 20 Hz. The references are first shown to be converged themselves (halving
-// the step changes them by far less than the tolerance being proven).
+// The integrators' default settings (closed form for Coulomb, DOPRI5 for
+// LuGre) and DOPRI5 for both against plain fixed-step RK4 solutions computed here, at the paper
+// baseline, for both models at 10 and 20 Hz. The references are first shown to be converged
+// themselves (halving the step changes them by far less than the tolerance being proven).
 
 #include <gtest/gtest.h>
 
@@ -54,10 +54,18 @@ TEST_P(ConvergenceTest, DefaultSettingsMatchFineFixedStepSolution) {
       << "adaptive " << adaptive << " rad, reference " << fine << " rad";
 }
 
+TEST_P(ConvergenceTest, Dopri5MatchesFineFixedStepSolution) {
+  // The default for Coulomb is the closed form; DOPRI5 stays proven too.
+  const double fine = reference_angle(1e-6);
+  const double adaptive = adaptive_angle({.integrator = Integrator::dopri5});
+  EXPECT_LT(std::abs(adaptive - fine) / std::abs(fine), kRequiredRelativeError)
+      << "dopri5 " << adaptive << " rad, reference " << fine << " rad";
+}
+
 TEST_P(ConvergenceTest, TighterToleranceApproachesReference) {
   const double fine = reference_angle(1e-6);
-  const double loose = adaptive_angle({.tolerance = 1e-6});
-  const double tight = adaptive_angle({.tolerance = 1e-9});
+  const double loose = adaptive_angle({.tolerance = 1e-6, .integrator = Integrator::dopri5});
+  const double tight = adaptive_angle({.tolerance = 1e-9, .integrator = Integrator::dopri5});
   EXPECT_LT(std::abs(tight - fine), std::abs(loose - fine) + 1e-6 * std::abs(fine));
   EXPECT_LT(std::abs(tight - fine) / std::abs(fine), 1e-5);
 }

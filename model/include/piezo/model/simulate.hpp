@@ -21,12 +21,23 @@ enum class FrictionModel { lugre, coulomb };
 [[nodiscard]] std::string_view to_string(FrictionModel m);
 [[nodiscard]] std::optional<FrictionModel> parse_friction_model(std::string_view text);
 
+/// How the motor's equations are solved.
+enum class Integrator {
+  model_default,  ///< closed_form for Coulomb, dopri5 for LuGre
+  dopri5,         ///< adaptive Dormand-Prince 5(4), events located on its dense output
+  closed_form,    ///< Coulomb only: exact between switches (coulomb_closed_form.hpp)
+};
+
+[[nodiscard]] std::string_view to_string(Integrator i);
+[[nodiscard]] std::optional<Integrator> parse_integrator(std::string_view text);
+
 /// Accuracy settings of the adaptive integrator.
 struct IntegratorSettings {
   /// Relative and absolute error per step on the scaled state (see simulate.cpp).
   /// The default meets the 1e-4 relative angle requirement with margin; the
   /// convergence tests in tests/model prove it.
   double tolerance = 1e-6;
+  Integrator integrator = Integrator::model_default;
   /// Called now and then (every 10,000 output samples) with the simulated
   /// time reached, for progress on long simulations; may be empty.
   std::function<void(double t)> progress = {};
@@ -42,6 +53,8 @@ struct IntegrationStats {
 /// Samples of a simulated run, one entry per requested time.
 struct Trajectory {
   std::vector<double> t, V, x, x_dot, theta, theta_dot, z, F_f;
+  /// Times of the Coulomb model's stick/slip switches, in order (empty for LuGre).
+  std::vector<double> switch_times;
   IntegrationStats stats;
 
   [[nodiscard]] std::size_t size() const { return t.size(); }
@@ -49,7 +62,9 @@ struct Trajectory {
 
 /// Simulates from rest (all states zero) and samples the state at the given
 /// times, which must be non-negative and non-decreasing. For the Coulomb
-/// model the z column is zero (it has no bristle state).
+/// model the z column is zero (it has no bristle state). Throws
+/// std::invalid_argument for closed_form with LuGre (its bristle has no
+/// closed form).
 [[nodiscard]] Trajectory simulate(const MotorParameters& p, const Excitation& drive,
                                   FrictionModel model, std::span<const double> sample_times,
                                   const IntegratorSettings& settings = {});

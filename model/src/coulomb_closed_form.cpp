@@ -1,0 +1,309 @@
+#include "piezo/model/coulomb_closed_form.hpp"
+
+#include <algorithm>
+#include <boost/math/tools/roots.hpp>
+#include <cmath>
+#include <complex>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include "piezo/model/motor.hpp"
+
+namespace piezo::model {
+namespace {
+
+using Complex = std::complex<double>;
+
+/// A mode shorter than this is rounding at a grazing switch [s].
+constexpr double kGrazing = 1e-12;
+
+/// The rotor's inertia seen at the contact point: J / r^2.
+double reflected_mass(const MotorParameters& p) {
+  return p.J / (p.r * p.r);
+}
+
+/// Squared damped ringing frequency of the stator carrying `mass`.
+double damped_frequency_squared(const MotorParameters& p, double mass) {
+  const double alpha = p.C / (2.0 * mass);
+  return p.K / mass - alpha * alpha;
+}
+
+/// One stretch of constant contact mode and linear drive voltage, starting
+/// at absolute time t_s in state y0. With tau = t - t_s, the stator is
+///   x(tau) = p0 + p1 tau + Re(c e^(lambda tau))
+/// (a ramp particular solution plus the damped ringing), and the rotor
+/// follows it (stick) or turns under the constant torque r F_c (slip).
+class Piece {
+ public:
+  /// `from_rest_relative`: the piece starts at a switch, where v = 0 exactly.
+  Piece(const MotorParameters& p, ContactMode mode, const LinearPiece& V, double t_s,
+        const CoulombState& y0, bool from_rest_relative)
+      : p_(p), mode_(mode), y0_(y0), m_r_(reflected_mass(p)) {
+    v0_ = from_rest_relative ? 0.0 : y0[kXDot] - p.r * y0[kThetaDot];
+    const bool stick = mode == ContactMode::stick;
+    const double mass = stick ? p.M + m_r_ : p.M;
+    direction_ = mode == ContactMode::slip_forward    ? 1.0
+                 : mode == ContactMode::slip_backward ? -1.0
+                                                      : 0.0;
+    // M x'' + C x' + K x = K d_e (V_a + b tau) - s F_c.
+    p1_ = p.d_e * V.slope;
+    p0_ = (p.K * p.d_e * V.at(t_s) - direction_ * p.F_c() - p.C * p1_) / p.K;
+    alpha_ = p.C / (2.0 * mass);
+    omega_d_ = std::sqrt(damped_frequency_squared(p, mass));
+    omega_n_ = std::sqrt(p.K / mass);
+    const Complex lambda(-alpha_, omega_d_);
+    const double u0 = y0[kX] - p0_;
+    const double u0_rate = y0[kXDot] - p1_;
+    c_[0] = Complex(u0, -(u0_rate + alpha_ * u0) / omega_d_);
+    for (int k = 1; k < 4; ++k) c_[k] = c_[k - 1] * lambda;
+    rotor_acceleration_ = p.r * p.F_c() / p.J;
+  }
+
+  [[nodiscard]] CoulombState state(double tau) const {
+    const Complex e = ringing(tau);
+    CoulombState y;
+    y[kX] = p0_ + p1_ * tau + (c_[0] * e).real();
+    y[kXDot] = p1_ + (c_[1] * e).real();
+    if (mode_ == ContactMode::stick) {
+      y[kTheta] = y0_[kTheta] + (y[kX] - y0_[kX]) / p_.r;
+      y[kThetaDot] = y[kXDot] / p_.r;
+    } else {
+      const double a = direction_ * rotor_acceleration_;
+      y[kTheta] = y0_[kTheta] + y0_[kThetaDot] * tau + 0.5 * a * tau * tau;
+      y[kThetaDot] = y0_[kThetaDot] + a * tau;
+    }
+    return y;
+  }
+
+  [[nodiscard]] double friction(double tau) const {
+    return mode_ == ContactMode::stick ? m_r_ * (c_[2] * ringing(tau)).real()
+                                       : direction_ * p_.F_c();
+  }
+
+  /// The first tau in (0, tau_end] where the contact mode ends, if any.
+  [[nodiscard]] std::optional<double> first_switch(double tau_end) const {
+    // Walk forward over intervals that are proven free of a switch: by a
+    // Taylor bound (value, rate, and a bound on the ringing's curvature)
+    // that keeps g inside the mode, or because g is monotone there and its
+    // end value is still inside. Each interval is as long as one of the two
+    // proofs allows, so no evaluation is wasted; the first interval whose
+    // monotone end lies outside brackets the switch, solved to full precision.
+    double a = 0.0;
+    Value va = at(a);
+    while (a < tau_end) {
+      const double curvature = curvature_bound(va);
+      const double h_bound = provable_interval(va, curvature);
+      const double h_monotone =
+          curvature > 0.0 ? std::abs(va.rate) / curvature : std::numeric_limits<double>::infinity();
+      // A hair inside either limit, so rounding cannot undo the proof.
+      double h = std::max({0.999 * h_bound, 0.999 * h_monotone, kSmallestInterval});
+      h = std::min(h, tau_end - a);
+      const double b = a + h;
+      const Value vb = at(b);
+      if (h > 0.999 * h_bound && !in_mode(vb.g)) return solve(a, va, b, vb);
+      a = b;
+      va = vb;
+    }
+    return std::nullopt;
+  }
+
+  [[nodiscard]] std::uint64_t evaluations() const { return evaluations_; }
+
+ private:
+  static constexpr double kSmallestInterval = 1e-13;
+
+  [[nodiscard]] Complex ringing(double tau) const {
+    ++evaluations_;
+    return std::polar(std::exp(-alpha_ * tau), omega_d_ * tau);
+  }
+
+  /// The switch quantity g at one time: slip, s v (the mode holds while
+  /// positive); stick, the force that holds rotor and stator together
+  /// (holds within +-F_c). With its rate and the ringing's envelope there.
+  struct Value {
+    double g, rate, envelope;
+  };
+
+  // A slip that starts at a switch begins at v = 0 with a rate that can be
+  // a millionth of the stator's acceleration, so v is summed from its
+  // change since the start, not from the two large velocities.
+  [[nodiscard]] Value at(double tau) const {
+    ++evaluations_;
+    // One expm1 and the half angle's sine and cosine give e^(lambda tau)
+    // and e^(lambda tau) - 1, the latter without cancellation.
+    const double decay_change = std::expm1(-alpha_ * tau);
+    const double decay = 1.0 + decay_change;
+    const double half_sin = std::sin(0.5 * omega_d_ * tau);
+    const double half_cos = std::cos(0.5 * omega_d_ * tau);
+    const double cos_change = -2.0 * half_sin * half_sin;
+    const double c = 1.0 + cos_change, s = 2.0 * half_sin * half_cos;
+    const Complex e(decay * c, decay * s);
+    if (mode_ == ContactMode::stick) {
+      return {m_r_ * (c_[2] * e).real(), m_r_ * (c_[3] * e).real(), decay};
+    }
+    const Complex change(decay_change * c + cos_change, decay * s);
+    const double slowing = p_.r * rotor_acceleration_;
+    return {direction_ * (v0_ + (c_[1] * change).real()) - slowing * tau,
+            direction_ * (c_[2] * e).real() - slowing, decay};
+  }
+  [[nodiscard]] double g(double tau) const { return at(tau).g; }
+
+  /// A bound on |g''| from this point on: the ringing's envelope decays.
+  [[nodiscard]] double curvature_bound(const Value& v) const {
+    const double amplitude = std::abs(c_[0]) * v.envelope;
+    const double w2 = omega_n_ * omega_n_;
+    return mode_ == ContactMode::stick ? m_r_ * amplitude * w2 * w2 : amplitude * w2 * omega_n_;
+  }
+
+  /// The longest interval on which the Taylor bound keeps g in the mode:
+  /// g(a + h) >= g(a) + min(0, h g'(a)) - curvature h^2 / 2 from each edge.
+  [[nodiscard]] double provable_interval(const Value& v, double curvature) const {
+    // Time to cover `room` towards an edge approached at `rate`.
+    auto reach = [curvature](double room, double rate) {
+      if (room <= 0.0) return 0.0;
+      if (curvature <= 0.0) {
+        return rate > 0.0 ? room / rate : std::numeric_limits<double>::infinity();
+      }
+      if (rate <= 0.0) return std::sqrt(2.0 * room / curvature);
+      return 2.0 * room / (rate + std::sqrt(rate * rate + 2.0 * curvature * room));
+    };
+    if (mode_ == ContactMode::stick) {
+      return std::min(reach(p_.F_c() - v.g, v.rate), reach(v.g + p_.F_c(), -v.rate));
+    }
+    return reach(v.g, -v.rate);
+  }
+
+  [[nodiscard]] bool in_mode(double value) const {
+    return mode_ == ContactMode::stick ? std::abs(value) <= p_.F_c() : value > 0.0;
+  }
+
+  /// The switch inside [a, b], where g is monotone and leaves the mode at b.
+  [[nodiscard]] double solve(double a, const Value& va, double b, const Value& vb) const {
+    const double level = mode_ == ContactMode::stick ? std::copysign(p_.F_c(), vb.g) : 0.0;
+    const double fa = va.g - level, fb = vb.g - level;
+    // g is monotone on [a, b] (first_switch proved it): Newton's method,
+    // kept inside the bracket, from the secant's guess.
+    const double guess = fa == fb ? b : a + (b - a) * fa / (fa - fb);
+    std::uintmax_t iterations = 50;
+    return boost::math::tools::newton_raphson_iterate(
+        [&](double t) {
+          const Value v = at(t);
+          return std::make_pair(v.g - level, v.rate);
+        },
+        std::clamp(guess, a, b), a, b, std::numeric_limits<double>::digits - 4, iterations);
+  }
+
+  const MotorParameters& p_;
+  ContactMode mode_;
+  CoulombState y0_;
+  double m_r_;
+  double direction_ = 0.0;
+  double v0_ = 0.0;  ///< sliding velocity at the start
+  double p0_ = 0.0, p1_ = 0.0;
+  double alpha_ = 0.0, omega_d_ = 0.0, omega_n_ = 0.0;
+  double rotor_acceleration_ = 0.0;
+  Complex c_[4];  ///< c lambda^k: the ringing's k-th derivative is Re(c_[k] e^(lambda tau))
+  mutable std::uint64_t evaluations_ = 0;
+};
+
+/// Karnopp's rule at a switch: stick if the holding force is within F_c,
+/// otherwise slip the way that force points.
+ContactMode mode_after_switch(const MotorParameters& p, double V, const CoulombState& y) {
+  const double hold = coulomb_stick_force(p, V, y);
+  if (std::abs(hold) <= p.F_c()) return ContactMode::stick;
+  return hold > 0.0 ? ContactMode::slip_forward : ContactMode::slip_backward;
+}
+
+}  // namespace
+
+bool coulomb_closed_form_applies(const MotorParameters& p) {
+  return damped_frequency_squared(p, p.M) > 0.0 &&
+         damped_frequency_squared(p, p.M + reflected_mass(p)) > 0.0;
+}
+
+Trajectory simulate_coulomb_closed_form(const MotorParameters& p, const Excitation& drive,
+                                        std::span<const double> times,
+                                        const IntegratorSettings& settings) {
+  if (!coulomb_closed_form_applies(p)) {
+    throw std::invalid_argument(
+        "integrator closed_form: the stator must ring (C < 2 sqrt(K M)); use dopri5");
+  }
+  Trajectory out;
+  if (times.empty()) return out;
+  if (times.front() < 0.0 || !std::is_sorted(times.begin(), times.end())) {
+    throw std::invalid_argument("sample times must be non-negative and non-decreasing");
+  }
+  const std::size_t n = times.size();
+  for (auto* column :
+       {&out.t, &out.V, &out.x, &out.x_dot, &out.theta, &out.theta_dot, &out.z, &out.F_f}) {
+    column->reserve(n);
+  }
+  auto emit = [&](double t, const CoulombState& y, double F_f) {
+    out.t.push_back(t);
+    out.V.push_back(drive.voltage(t));
+    out.x.push_back(y[kX]);
+    out.x_dot.push_back(y[kXDot]);
+    out.theta.push_back(y[kTheta]);
+    out.theta_dot.push_back(y[kThetaDot]);
+    out.z.push_back(0.0);
+    out.F_f.push_back(F_f);
+    if (settings.progress && out.t.size() % 10000 == 0) settings.progress(t);
+  };
+
+  CoulombState y{};
+  ContactMode mode = ContactMode::stick;  // from rest at 0 V
+  std::size_t next = 0;
+  while (next < n && times[next] <= 0.0) emit(times[next++], y, 0.0);
+  const double t_end = times.back();
+  double t = 0.0;
+  int switches_in_place = 0;
+  bool at_switch = true;
+  while (next < n) {
+    const double segment_end = std::min(drive.next_breakpoint(t), t_end);
+    Piece piece(p, mode, drive.piece(t), t, y, at_switch);
+    const std::optional<double> tau_switch = piece.first_switch(segment_end - t);
+    const double t_stop = tau_switch ? t + *tau_switch : segment_end;
+    while (next < n && times[next] <= t_stop) {
+      emit(times[next], piece.state(times[next] - t), piece.friction(times[next] - t));
+      ++next;
+    }
+    y = piece.state(t_stop - t);
+    ++out.stats.steps;
+    out.stats.rhs_evaluations += piece.evaluations();
+    if (tau_switch) {
+      // A mode that lasted under a picosecond is rounding at a grazing
+      // switch (v or the holding force touching its limit): the switches
+      // into and out of it are one.
+      if (at_switch && *tau_switch < kGrazing && !out.switch_times.empty()) {
+        out.switch_times.back() = t_stop;
+      } else {
+        ++out.stats.mode_switches;
+        out.switch_times.push_back(t_stop);
+      }
+      if (mode == ContactMode::stick) {
+        // The holding force reached F_c: slip the way it points.
+        mode = piece.friction(t_stop - t) > 0.0 ? ContactMode::slip_forward
+                                                : ContactMode::slip_backward;
+      } else {
+        y[kThetaDot] = y[kXDot] / p.r;  // the slip ended at v = 0
+        mode = mode_after_switch(p, drive.voltage(t_stop), y);
+      }
+      switches_in_place = t_stop > t ? 0 : switches_in_place + 1;
+      if (switches_in_place > 8) {
+        throw std::runtime_error("integrator closed_form: the contact switches endlessly at t = " +
+                                 std::to_string(t_stop) + " s");
+      }
+    }
+    at_switch = tau_switch.has_value();
+    t = t_stop;
+    if (t >= t_end) {
+      while (next < n) emit(times[next++], y, 0.0);
+    }
+  }
+  return out;
+}
+
+}  // namespace piezo::model
