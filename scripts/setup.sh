@@ -30,6 +30,7 @@ packages=(
   rt-tests libgpiod-dev libmodbus-dev mbpoll socat python3-pymodbus python3-serial-asyncio
   libzmq3-dev cppzmq-dev python3-zmq python3-msgpack clang libclang-rt-14-dev
   libsystemd-dev debootstrap iproute2 libboost-dev python3-openturns libopenmpi-dev openmpi-bin
+  libsundials-dev
   libcpp-httplib-dev chromium chromium-driver python3-selenium fonts-dejavu-core
 )
 # The web view's plots (uPlot) come from the npm registry; npm from Debian

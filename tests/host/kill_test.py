@@ -191,7 +191,15 @@ for i in range(daemon_kills):
         out = ""
     host_err.close()
     status = drive_rows(f"{run_dir}/run.h5")
-    if status is None:
+    st = None
+    if not os.path.isdir(run_dir):
+        # The board died before it answered the host's hello: nothing was
+        # started, so there is no run and no log; the host must say so.
+        if host.returncode == 0:
+            fail(f"board kill {i}: the host exited 0 without a run directory")
+        cls = f"none: board gone before the start (exit {host.returncode})"
+        board_classes[cls] = board_classes.get(cls, 0) + 1
+    elif status is None:
         fail(f"board kill {i}: the host's run.h5 is unreadable (exit {host.returncode}); "
              f"its stderr: {open(f'{run_dir}.stderr').read().strip()}")
     else:

@@ -185,5 +185,35 @@ TEST_F(RunJournalTest, AnUnreadableLogWithoutAJournalIsAClearError) {
   }
 }
 
+TEST_F(RunJournalTest, ADatasetClaimingMoreThanTheFileHoldsIsCalledDamaged) {
+  // A chunked dataset may claim any length without its bytes (the kill
+  // test and a byte-flipping fuzz of run.h5 both met such headers); reading
+  // it must be an error naming the dataset, not an allocation of terabytes.
+  {
+    const hid_t file = H5Fcreate(log_path().c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    const hsize_t claimed = hsize_t{1} << 40, chunk = 1024;
+    const hid_t space = H5Screate_simple(1, &claimed, nullptr);
+    const hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
+    H5Pset_chunk(dcpl, 1, &chunk);
+    const hid_t dset =
+        H5Dcreate2(file, "t", H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, dcpl, H5P_DEFAULT);
+    ASSERT_GE(dset, 0);
+    H5Dclose(dset);
+    H5Pclose(dcpl);
+    H5Sclose(space);
+    H5Fclose(file);
+  }
+  const H5File f = H5File::open(log_path());
+  try {
+    (void)f.read("t");
+    FAIL() << "read a dataset of 2^40 values";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("t in " + log_path() + " claims 1099511627776 values"),
+              std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("damaged"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace piezo::host

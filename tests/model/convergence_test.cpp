@@ -1,7 +1,8 @@
 // The integrators' default settings (closed form for Coulomb, DOPRI5 for
-// LuGre) and DOPRI5 for both against plain fixed-step RK4 solutions computed here, at the paper
-// baseline, for both models at 10 and 20 Hz. The references are first shown to be converged
-// themselves (halving the step changes them by far less than the tolerance being proven).
+// LuGre), and DOPRI5 for both, against plain fixed-step RK4 solutions
+// computed here, at the paper baseline, for both models at 10 and 20 Hz.
+// The references are first shown to be converged themselves (halving the
+// step changes them by far less than the tolerance being proven).
 
 #include <gtest/gtest.h>
 

@@ -1,5 +1,7 @@
 #include "h5_file.hpp"
 
+#include <fmt/format.h>
+
 #include <cerrno>
 #include <cstring>
 #include <stdexcept>
@@ -156,7 +158,18 @@ std::vector<double> H5File::read(const std::string& name) const {
   if ((rank != 1 && rank != 2) || (rank == 2 && size[0] != 1 && size[1] != 1)) {
     throw std::runtime_error("HDF5: " + name + " is not a vector (one-dimensional, or N x 1)");
   }
-  std::vector<double> out(size[0] * (rank == 2 ? size[1] : 1));
+  const hsize_t elements = size[0] * (rank == 2 ? size[1] : 1);
+  // A damaged file can claim any length. Deflate packs at most about 1032
+  // to 1, so a dataset cannot hold more values than that many times the
+  // file's bytes; past that the header is wrong, not the memory short.
+  hsize_t file_bytes = 0;
+  H5Fget_filesize(file_.get(), &file_bytes);
+  if (elements > 1100 * (file_bytes / sizeof(double) + 1)) {
+    throw std::runtime_error(fmt::format(
+        "HDF5: {} in {} claims {} values, more than its {} bytes can hold: the file is damaged",
+        name, path_, elements, file_bytes));
+  }
+  std::vector<double> out(elements);
   if (!out.empty() &&
       H5Dread(dset.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) < 0) {
     throw std::runtime_error("HDF5: cannot read " + name);
