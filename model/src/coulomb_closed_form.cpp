@@ -58,7 +58,7 @@ class Piece {
     const double u0 = y0[kX] - p0_;
     const double u0_rate = y0[kXDot] - p1_;
     c_[0] = Complex(u0, -(u0_rate + alpha_ * u0) / omega_d_);
-    for (int k = 1; k < 4; ++k) c_[k] = c_[k - 1] * lambda;
+    for (int k = 1; k < 5; ++k) c_[k] = c_[k - 1] * lambda;
     rotor_acceleration_ = p.r * p.F_c() / p.J;
   }
 
@@ -86,24 +86,27 @@ class Piece {
   /// The first tau in (0, tau_end] where the contact mode ends, if any.
   [[nodiscard]] std::optional<double> first_switch(double tau_end) const {
     // Walk forward over intervals that are proven free of a switch: by a
-    // Taylor bound (value, rate, and a bound on the ringing's curvature)
-    // that keeps g inside the mode, or because g is monotone there and its
-    // end value is still inside. Each interval is as long as one of the two
-    // proofs allows, so no evaluation is wasted; the first interval whose
-    // monotone end lies outside brackets the switch, solved to full precision.
+    // second-order Taylor bound (value, rate, curvature, and a bound on the
+    // ringing's third derivative) that keeps g inside the mode, or because
+    // g is monotone there and its end value is still inside. Each interval
+    // is as long as one of the two proofs allows, so no evaluation is
+    // wasted; the first interval whose monotone end lies outside brackets
+    // the switch, solved to full precision.
     double a = 0.0;
     Value va = at(a);
     while (a < tau_end) {
-      const double curvature = curvature_bound(va);
-      const double h_bound = provable_interval(va, curvature);
-      const double h_monotone =
-          curvature > 0.0 ? std::abs(va.rate) / curvature : std::numeric_limits<double>::infinity();
-      // A hair inside either limit, so rounding cannot undo the proof.
-      double h = std::max({0.999 * h_bound, 0.999 * h_monotone, kSmallestInterval});
-      h = std::min(h, tau_end - a);
+      const double cap = tau_end - a;
+      const double jerk = jerk_bound(va);
+      double h_bound = envelope_interval(a, va, cap);
+      if (h_bound < cap) {
+        h_bound =
+            std::max(h_bound, longest(cap, [&](double h) { return stays_in_mode(va, jerk, h); }));
+      }
+      const double h_monotone = std::min(cap, monotone_interval(va, jerk));
+      const double h = std::max({h_bound, h_monotone, std::min(kSmallestInterval, cap)});
       const double b = a + h;
       const Value vb = at(b);
-      if (h > 0.999 * h_bound && !in_mode(vb.g)) return solve(a, va, b, vb);
+      if (h > h_bound && !in_mode(vb.g)) return solve(a, va, b, vb);
       a = b;
       va = vb;
     }
@@ -124,7 +127,7 @@ class Piece {
   /// positive); stick, the force that holds rotor and stator together
   /// (holds within +-F_c). With its rate and the ringing's envelope there.
   struct Value {
-    double g, rate, envelope;
+    double g, rate, curvature, envelope;
   };
 
   // A slip that starts at a switch begins at v = 0 with a rate that can be
@@ -142,38 +145,86 @@ class Piece {
     const double c = 1.0 + cos_change, s = 2.0 * half_sin * half_cos;
     const Complex e(decay * c, decay * s);
     if (mode_ == ContactMode::stick) {
-      return {m_r_ * (c_[2] * e).real(), m_r_ * (c_[3] * e).real(), decay};
+      return {m_r_ * (c_[2] * e).real(), m_r_ * (c_[3] * e).real(), m_r_ * (c_[4] * e).real(),
+              decay};
     }
     const Complex change(decay_change * c + cos_change, decay * s);
     const double slowing = p_.r * rotor_acceleration_;
     return {direction_ * (v0_ + (c_[1] * change).real()) - slowing * tau,
-            direction_ * (c_[2] * e).real() - slowing, decay};
+            direction_ * (c_[2] * e).real() - slowing, direction_ * (c_[3] * e).real(), decay};
   }
   [[nodiscard]] double g(double tau) const { return at(tau).g; }
 
-  /// A bound on |g''| from this point on: the ringing's envelope decays.
-  [[nodiscard]] double curvature_bound(const Value& v) const {
-    const double amplitude = std::abs(c_[0]) * v.envelope;
-    const double w2 = omega_n_ * omega_n_;
-    return mode_ == ContactMode::stick ? m_r_ * amplitude * w2 * w2 : amplitude * w2 * omega_n_;
+  /// A bound on |d^3 g / d tau^3| from this point on: the ringing's
+  /// envelope decays (1 % over, so rounding cannot undo a proof).
+  [[nodiscard]] double jerk_bound(const Value& v) const {
+    const double amplitude = 1.01 * std::abs(c_[0]) * v.envelope;
+    const double w4 = omega_n_ * omega_n_ * omega_n_ * omega_n_;
+    return mode_ == ContactMode::stick ? m_r_ * amplitude * w4 * omega_n_ : amplitude * w4;
   }
 
-  /// The longest interval on which the Taylor bound keeps g in the mode:
-  /// g(a + h) >= g(a) + min(0, h g'(a)) - curvature h^2 / 2 from each edge.
-  [[nodiscard]] double provable_interval(const Value& v, double curvature) const {
-    // Time to cover `room` towards an edge approached at `rate`.
-    auto reach = [curvature](double room, double rate) {
-      if (room <= 0.0) return 0.0;
-      if (curvature <= 0.0) {
-        return rate > 0.0 ? room / rate : std::numeric_limits<double>::infinity();
-      }
-      if (rate <= 0.0) return std::sqrt(2.0 * room / curvature);
-      return 2.0 * room / (rate + std::sqrt(rate * rate + 2.0 * curvature * room));
-    };
+  /// How long the ringing's envelope alone keeps the mode from tau = a on:
+  /// stick holds for good once the holding force's envelope is within F_c;
+  /// slip holds while its steady part, falling at the constant relative
+  /// deceleration, stays above the ringing's envelope.
+  [[nodiscard]] double envelope_interval(double a, const Value& v, double cap) const {
+    const double ringing = std::abs(c_[0]) * v.envelope;
     if (mode_ == ContactMode::stick) {
-      return std::min(reach(p_.F_c() - v.g, v.rate), reach(v.g + p_.F_c(), -v.rate));
+      return m_r_ * ringing * omega_n_ * omega_n_ <= p_.F_c() ? cap : 0.0;
     }
-    return reach(v.g, -v.rate);
+    const double slowing = p_.r * rotor_acceleration_;
+    const double steady = direction_ * (v0_ - c_[1].real()) - slowing * a;
+    const double margin = steady - ringing * omega_n_;
+    if (margin <= 0.0) return 0.0;
+    return slowing > 0.0 ? std::min(cap, 0.999 * margin / slowing) : cap;
+  }
+
+  /// Taylor's theorem to second order: over [a, a + h], g lies within the
+  /// range of g + g' x + g'' x^2 / 2 widened by jerk h^3 / 6.
+  [[nodiscard]] bool stays_in_mode(const Value& v, double jerk, double h) const {
+    auto q = [&](double x) { return v.g + x * (v.rate + 0.5 * x * v.curvature); };
+    double lo = std::min(v.g, q(h)), hi = std::max(v.g, q(h));
+    if (v.curvature != 0.0) {
+      const double vertex = -v.rate / v.curvature;
+      if (vertex > 0.0 && vertex < h) {
+        lo = std::min(lo, q(vertex));
+        hi = std::max(hi, q(vertex));
+      }
+    }
+    const double slack = jerk * h * h * h / 6.0;
+    lo -= slack;
+    hi += slack;
+    return mode_ == ContactMode::stick ? lo >= -p_.F_c() && hi <= p_.F_c() : lo > 0.0;
+  }
+
+  /// How long g' keeps its sign: g' + g'' x stays clear of jerk x^2 / 2.
+  [[nodiscard]] static double monotone_interval(const Value& v, double jerk) {
+    const double rate = std::abs(v.rate);
+    const double towards = v.rate > 0.0 ? v.curvature : -v.curvature;  // d|g'|/dx at a
+    if (rate == 0.0) return 0.0;
+    if (jerk <= 0.0) {
+      return towards >= 0.0 ? std::numeric_limits<double>::infinity() : 0.999 * rate / -towards;
+    }
+    // Root of rate + min(0, towards) x - jerk x^2 / 2.
+    const double slope = std::min(0.0, towards);
+    return 0.999 * (slope + std::sqrt(slope * slope + 2.0 * jerk * rate)) / jerk;
+  }
+
+  /// About the longest h in (0, cap] for which `holds` (true up to some h,
+  /// false beyond), or 0: quartered down from cap, then bisected to within
+  /// a tenth. Arithmetic only, no evaluation of g.
+  template <class Holds>
+  [[nodiscard]] static double longest(double cap, Holds&& holds) {
+    if (holds(cap)) return cap;
+    double h = cap;
+    while (h > kSmallestInterval && !holds(h)) h *= 0.25;
+    if (h <= kSmallestInterval) return 0.0;
+    double lo = h, hi = std::min(4.0 * h, cap);
+    while (hi - lo > 0.1 * lo) {
+      const double mid = 0.5 * (lo + hi);
+      (holds(mid) ? lo : hi) = mid;
+    }
+    return lo;
   }
 
   [[nodiscard]] bool in_mode(double value) const {
@@ -205,7 +256,7 @@ class Piece {
   double p0_ = 0.0, p1_ = 0.0;
   double alpha_ = 0.0, omega_d_ = 0.0, omega_n_ = 0.0;
   double rotor_acceleration_ = 0.0;
-  Complex c_[4];  ///< c lambda^k: the ringing's k-th derivative is Re(c_[k] e^(lambda tau))
+  Complex c_[5];  ///< c lambda^k: the ringing's k-th derivative is Re(c_[k] e^(lambda tau))
   mutable std::uint64_t evaluations_ = 0;
 };
 

@@ -220,7 +220,8 @@ int main(int argc, char** argv) {
                  1e3 * seconds, steps, rhs, std::abs(angle - reference) / std::abs(reference),
                  t_rk4 / seconds);
     };
-    row("rk4 1us", t_rk4, static_cast<long>(kRuntime / 1e-6), 4 * static_cast<long>(kRuntime / 1e-6),
+    row("rk4 1us", t_rk4, static_cast<long>(kRuntime / 1e-6),
+        4 * static_cast<long>(kRuntime / 1e-6),
         testing::lugre_rk4_angle(params.motor, drive, kRuntime, 1e-6));
     const double times[] = {kRuntime};
     model::Trajectory dopri;
@@ -232,14 +233,16 @@ int main(int argc, char** argv) {
     for (bool cvode : {true, false}) {
       for (double tol : {1e-4, 1e-5, 1e-6, 1e-7}) {
         Outcome o;
-        const double seconds = median_seconds(repeats, [&] { o = run_sundials(cvode, pr, kRuntime, tol); });
+        const double seconds =
+            median_seconds(repeats, [&] { o = run_sundials(cvode, pr, kRuntime, tol); });
         row(fmt::format("{} {:.0e}", cvode ? "cvode bdf" : "arkode imex", tol), seconds, o.steps,
             o.rhs, o.angle);
       }
     }
   }
   fmt::print(
-      "rel.err = |theta(4.8 s) - ref| / |ref|, ref = dopri5 at 1e-11; tolerances on the same scaled "
+      "rel.err = |theta(4.8 s) - ref| / |ref|, ref = dopri5 at 1e-11; tolerances on the same "
+      "scaled "
       "state as dopri5; every integrator stops on each drive corner\n");
   return 0;
 }
