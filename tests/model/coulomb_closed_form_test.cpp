@@ -69,7 +69,7 @@ TEST_P(ClosedFormAtSweepExtremes, MatchesFineFixedStepRk4) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Sweeps, ClosedFormAtSweepExtremes, ::testing::ValuesIn(sweep_extremes()),
-                         [](const auto& info) { return info.param.name; });
+                         [](const auto& param_info) { return param_info.param.name; });
 
 class ClosedFormSwitches : public ::testing::Test {
  protected:
