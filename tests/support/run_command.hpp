@@ -5,12 +5,16 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <system_error>
+#include <vector>
 
 namespace piezo::testing {
 
@@ -20,11 +24,39 @@ struct CommandResult {
   std::string err;
 };
 
-inline std::filesystem::path fresh_temp_dir(const std::string& tag) {
+/// The directories fresh_temp_dir made, removed when the test program
+/// ends (by the process that made them, not by a forked child), unless
+/// PIEZO_KEEP_TEST_DIRS is set to look at them after a failure.
+class TempDirs {
+ public:
+  void add(const std::filesystem::path& dir) { dirs_.push_back(dir); }
+  TempDirs() = default;
+  TempDirs(const TempDirs&) = delete;
+  TempDirs& operator=(const TempDirs&) = delete;
+  ~TempDirs() {
+    if (::getpid() != owner_ || std::getenv("PIEZO_KEEP_TEST_DIRS") != nullptr) return;
+    std::error_code ignored;
+    for (const auto& dir : dirs_) std::filesystem::remove_all(dir, ignored);
+  }
+
+ private:
+  pid_t owner_ = ::getpid();
+  std::vector<std::filesystem::path> dirs_;
+};
+
+inline TempDirs& temp_dirs() {
+  static TempDirs dirs;
+  return dirs;
+}
+
+inline std::filesystem::path fresh_temp_dir(std::string tag) {
+  // A parameterised test's name holds a '/': one directory, not two.
+  std::replace(tag.begin(), tag.end(), '/', '-');
   const auto dir = std::filesystem::temp_directory_path() /
                    ("piezo-test-" + tag + "-" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
+  temp_dirs().add(dir);
   return dir;
 }
 
