@@ -153,7 +153,6 @@ class Piece {
     return {direction_ * (v0_ + (c_[1] * change).real()) - slowing * tau,
             direction_ * (c_[2] * e).real() - slowing, direction_ * (c_[3] * e).real(), decay};
   }
-  [[nodiscard]] double g(double tau) const { return at(tau).g; }
 
   /// A bound on |d^3 g / d tau^3| from this point on: the ringing's
   /// envelope decays (1 % over, so rounding cannot undo a proof).
@@ -260,14 +259,6 @@ class Piece {
   mutable std::uint64_t evaluations_ = 0;
 };
 
-/// Karnopp's rule at a switch: stick if the holding force is within F_c,
-/// otherwise slip the way that force points.
-ContactMode mode_after_switch(const MotorParameters& p, double V, const CoulombState& y) {
-  const double hold = coulomb_stick_force(p, V, y);
-  if (std::abs(hold) <= p.F_c()) return ContactMode::stick;
-  return hold > 0.0 ? ContactMode::slip_forward : ContactMode::slip_backward;
-}
-
 }  // namespace
 
 bool coulomb_closed_form_applies(const MotorParameters& p) {
@@ -283,6 +274,7 @@ Trajectory simulate_coulomb_closed_form(const MotorParameters& p, const Excitati
         "integrator closed_form: the stator must ring (C < 2 sqrt(K M)); use dopri5");
   }
   Trajectory out;
+  out.stats.integrator = Integrator::closed_form;
   if (times.empty()) return out;
   if (times.front() < 0.0 || !std::is_sorted(times.begin(), times.end())) {
     throw std::invalid_argument("sample times must be non-negative and non-decreasing");
@@ -340,7 +332,7 @@ Trajectory simulate_coulomb_closed_form(const MotorParameters& p, const Excitati
                                                 : ContactMode::slip_backward;
       } else {
         y[kThetaDot] = y[kXDot] / p.r;  // the slip ended at v = 0
-        mode = mode_after_switch(p, drive.voltage(t_stop), y);
+        mode = coulomb_mode_after_slip(p, drive.voltage(t_stop), y);
       }
       switches_in_place = t_stop > t ? 0 : switches_in_place + 1;
       if (switches_in_place > 8) {
@@ -350,9 +342,6 @@ Trajectory simulate_coulomb_closed_form(const MotorParameters& p, const Excitati
     }
     at_switch = tau_switch.has_value();
     t = t_stop;
-    if (t >= t_end) {
-      while (next < n) emit(times[next++], y, 0.0);
-    }
   }
   return out;
 }

@@ -195,13 +195,8 @@ Trajectory simulate_coulomb(const MotorParameters& p, const Excitation& drive,
     auto [t_event, y] = locate(stepper, [&](double, const CoulombState& ys) {
       return direction * sliding_velocity(p, ys) <= 0.0;
     });
-    const double F_hold = stick_force(t_event, y);
-    if (std::abs(F_hold) <= p.F_c()) {
-      mode = ContactMode::stick;
-      y[kThetaDot] = y[kXDot] / p.r;  // lock exactly: v = 0
-    } else {
-      mode = F_hold > 0 ? ContactMode::slip_forward : ContactMode::slip_backward;
-    }
+    mode = coulomb_mode_after_slip(p, drive.voltage(t_event), y);
+    if (mode == ContactMode::stick) y[kThetaDot] = y[kXDot] / p.r;  // lock exactly: v = 0
     out.switch_times.push_back(t_event);
     return Event<4>{t_event, y};
   };

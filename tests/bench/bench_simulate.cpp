@@ -13,24 +13,12 @@
 #include <vector>
 
 #include "../support/fixed_step_reference.hpp"
+#include "../support/median_time.hpp"
 #include "piezo/model/simulate.hpp"
 
 using namespace piezo;
 
-namespace {
-
-double median_seconds(int repeats, const std::function<double()>& run, double& result) {
-  std::vector<double> times;
-  for (int i = 0; i < repeats; ++i) {
-    const auto t0 = std::chrono::steady_clock::now();
-    result = run();
-    times.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  }
-  std::sort(times.begin(), times.end());
-  return times[times.size() / 2];
-}
-
-}  // namespace
+using testing::median_seconds;
 
 int main(int argc, char** argv) {
   const int repeats = argc > 1 ? std::max(1, std::atoi(argv[1])) : 5;
@@ -47,14 +35,11 @@ int main(int argc, char** argv) {
           model::final_angle(p.motor, drive, friction, kRuntime,
                              {.tolerance = 1e-11, .integrator = model::Integrator::dopri5});
       double rk4 = 0.0;
-      const double t_rk4 = median_seconds(
-          repeats,
-          [&] {
-            return friction == model::FrictionModel::lugre
-                       ? testing::lugre_rk4_angle(p.motor, drive, kRuntime, 1e-6)
-                       : testing::coulomb_rk4_angle(p.motor, drive, kRuntime, 1e-6);
-          },
-          rk4);
+      const double t_rk4 = median_seconds(repeats, [&] {
+        rk4 = friction == model::FrictionModel::lugre
+                  ? testing::lugre_rk4_angle(p.motor, drive, kRuntime, 1e-6)
+                  : testing::coulomb_rk4_angle(p.motor, drive, kRuntime, 1e-6);
+      });
       std::vector<model::Integrator> integrators{model::Integrator::dopri5};
       if (friction == model::FrictionModel::coulomb) {
         integrators.push_back(model::Integrator::closed_form);
@@ -63,14 +48,9 @@ int main(int argc, char** argv) {
         const model::IntegratorSettings settings{.integrator = integrator};
         const double times[] = {kRuntime};
         model::Trajectory run;
-        double angle = 0.0;
         const double t_run = median_seconds(
-            repeats,
-            [&] {
-              run = model::simulate(p.motor, drive, friction, times, settings);
-              return run.theta.back();
-            },
-            angle);
+            repeats, [&] { run = model::simulate(p.motor, drive, friction, times, settings); });
+        const double angle = run.theta.back();
         fmt::print(
             "{:<8} {:>5g} {:<12} | {:>9.2f} {:>8.0f} {:>9} {:>9.1e} | {:>10.2f} {:>9.1e} | "
             "{:>6.1f}x\n",

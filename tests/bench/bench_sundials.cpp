@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "../support/fixed_step_reference.hpp"
+#include "../support/median_time.hpp"
 #include "piezo/model/simulate.hpp"
 #include "piezo/model/step_control.hpp"
 
@@ -187,18 +188,9 @@ Outcome run_sundials(bool cvode, Problem& pr, double t_end, double tol) {
   return out;
 }
 
-double median_seconds(int repeats, const std::function<void()>& run) {
-  std::vector<double> times;
-  for (int i = 0; i < repeats; ++i) {
-    const auto t0 = std::chrono::steady_clock::now();
-    run();
-    times.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  }
-  std::sort(times.begin(), times.end());
-  return times[times.size() / 2];
-}
-
 }  // namespace
+
+using testing::median_seconds;
 
 int main(int argc, char** argv) {
   const int repeats = argc > 1 ? std::max(1, std::atoi(argv[1])) : 3;

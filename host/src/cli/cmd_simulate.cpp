@@ -18,7 +18,6 @@
 #include "h5_file.hpp"
 #include "model_config.hpp"
 #include "parameters_json.hpp"
-#include "piezo/model/coulomb_closed_form.hpp"
 #include "piezo/model/simulate.hpp"
 #include "run_config.hpp"
 
@@ -37,16 +36,6 @@ struct SimulateOptions {
   std::string direction;  // empty: the config's [drive] direction
   std::string integrator = "model_default";
 };
-
-/// The integrator model::simulate ran (model_default resolved).
-std::string used_integrator(model::FrictionModel friction, model::Integrator requested,
-                            const model::MotorParameters& p) {
-  if (requested != model::Integrator::model_default)
-    return std::string(model::to_string(requested));
-  return friction == model::FrictionModel::coulomb && model::coulomb_closed_form_applies(p)
-             ? "closed_form"
-             : "dopri5";
-}
 
 bool ends_with(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() &&
@@ -144,7 +133,7 @@ int run(const SimulateOptions& o) {
                      {"mean_velocity_rad_s", mean_velocity},
                      {"parameters", to_json(p)},
                      {"integrator",
-                      {{"method", used_integrator(*friction, *integrator, p.motor)},
+                      {{"method", model::to_string(tr.stats.integrator)},
                        {"tolerance", o.tolerance},
                        {"steps", tr.stats.steps},
                        {"rhs_evaluations", tr.stats.rhs_evaluations},

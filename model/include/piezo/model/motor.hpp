@@ -75,6 +75,15 @@ enum class ContactMode { stick, slip_forward, slip_backward };
   return reflected_mass * x_acc;
 }
 
+/// Karnopp's rule where a slip ends (v = 0): stick if the holding force is
+/// within F_c, otherwise slip the way that force points.
+[[nodiscard]] inline ContactMode coulomb_mode_after_slip(const MotorParameters& p, double V,
+                                                         const CoulombState& y) {
+  const double hold = coulomb_stick_force(p, V, y);
+  if (std::abs(hold) <= p.F_c()) return ContactMode::stick;
+  return hold > 0.0 ? ContactMode::slip_forward : ContactMode::slip_backward;
+}
+
 /// Friction force of the Coulomb model in a given mode.
 [[nodiscard]] inline double coulomb_friction(const MotorParameters& p, double V, ContactMode mode,
                                              const CoulombState& y) {

@@ -47,7 +47,8 @@ struct IntegratorSettings {
 struct IntegrationStats {
   std::size_t steps = 0;
   std::size_t rhs_evaluations = 0;
-  std::size_t mode_switches = 0;  ///< stick/slip transitions (Coulomb only)
+  std::size_t mode_switches = 0;               ///< stick/slip transitions (Coulomb only)
+  Integrator integrator = Integrator::dopri5;  ///< the one that ran (model_default resolved)
 };
 
 /// Samples of a simulated run, one entry per requested time.
