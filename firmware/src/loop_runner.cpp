@@ -61,7 +61,8 @@ hal::TimeNs LoopRunner::start(const std::function<void(hal::TimeNs)>& on_time_or
     cpu_note_ = cpu_latency_.emplace().result().note;
   }
   clock.set_backpressure([this, lagging = std::move(lagging)] {
-    if (consumer_failed_.load()) return false;
+    // A stop is never held back: the loop must see it to ramp down.
+    if (consumer_failed_.load() || stop_.load()) return false;
     return drive_ring_.size_approx() > drive_ring_.capacity() / 2 ||
            sensor_ring_.size_approx() > sensor_ring_.capacity() / 2 || (lagging && lagging());
   });

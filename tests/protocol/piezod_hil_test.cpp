@@ -160,6 +160,53 @@ TEST_F(Piezod, KillNineOfTheHostStopsTheBoardAndLatchesLinkLost) {
   EXPECT_EQ(status().at("state"), "idle");
 }
 
+// On the virtual clock the board waits for a client that renews its lease
+// but has not taken care of its samples (a host whose log fell behind). A
+// stop (or an e-stop) must still get through: the board never holds back
+// the cycle that sees it. The client here never acknowledges anything.
+std::string stop_a_run_held_for_its_client(const std::string& address, const std::string& stop) {
+  return run_command(
+             "/usr/bin/python3 -c \"import zmq, msgpack, time\n"
+             "c = zmq.Context().socket(zmq.DEALER); c.connect('" +
+             address +
+             "')\n"
+             "def call(cmd, **a):\n"
+             "    c.send(msgpack.packb({'id': 1, 'cmd': cmd, 'args': a}))\n"
+             "    assert c.poll(3000), cmd + ': no reply'\n"
+             "    return msgpack.unpackb(c.recv())\n"
+             "def recorded():\n"
+             "    return call('status')['result']['recorder']['drive']['next']\n"
+             "call('configure', V0=50.0, f=10.0, duration_s=86000.0)\n"
+             "call('start', lease_s=2.0)\n"
+             "last, still = -1, 0\n"
+             "while still < 5:\n"
+             "    call('lease', drive_received=0); time.sleep(0.1); n = recorded()\n"
+             "    still, last = (still + 1 if n == last else 0), n\n"
+             "held = last\n"
+             "call('" +
+             stop +
+             "')\n"
+             "end = time.time() + 20\n"
+             "while time.time() < end and not call('status')['result']['run']['finished']:\n"
+             "    call('lease', drive_received=0); time.sleep(0.1)\n"
+             "run = call('status')['result']['run']\n"
+             "print(held >= 200000, run['finished'], run.get('summary', {}).get('cause'), "
+             "run.get('summary', {}).get('output', {}).get('state'))\"")
+      .out;
+}
+
+TEST_F(Piezod, AStopReachesAVirtualClockBoardThatWaitsForItsClient) {
+  start("", {"--set", "run.clock=virtual"});
+  EXPECT_EQ(stop_a_run_held_for_its_client(address_, "stop"), "True True interrupted confirmed\n")
+      << log();
+}
+
+TEST_F(Piezod, AnEstopReachesAVirtualClockBoardThatWaitsForItsClient) {
+  start("", {"--set", "run.clock=virtual"});
+  EXPECT_EQ(stop_a_run_held_for_its_client(address_, "estop"), "True True estop confirmed\n")
+      << log();
+}
+
 // Positioning against the board, the host with no config of its own (the
 // board has one): moves are absolute from the board's zero, `piezo zero`
 // moves the zero, and steps run whole periods.
