@@ -7,17 +7,25 @@
 # UndefinedBehaviorSanitizer, and the threaded suites under ThreadSanitizer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Each leg says when it starts, so a slow leg shows in the log.
+phase() { printf '\n== %s (at %dm%02ds)\n' "$1" $((SECONDS / 60)) $((SECONDS % 60)); }
+phase "set-up and the optimised build"
 scripts/setup.sh ci --gpio-sim --arm64
+phase "the whole suite"
 ctest --preset ci -j "$(nproc)"
+phase "the board build under qemu-aarch64"
 # The board build's tests run under the emulator: the command line shows it.
 ctest --test-dir build/arm64 -R piezod_version -V | grep -E "Test command|^[0-9]+: piezod"
 ctest --preset arm64 -j "$(nproc)"
+phase "AddressSanitizer + UndefinedBehaviorSanitizer"
 cmake --preset asan >/dev/null
 cmake --build --preset asan -j "$(nproc)"
 ctest --preset asan -j "$(nproc)"
 # The thread sanitizer on the suites whose code runs on several threads
 # in-process (rings, clocks, loops, whole runs with the observer); the full
 # tsan build passes the rest too, but costs CI minutes.
+phase "ThreadSanitizer"
 cmake --preset tsan >/dev/null
 cmake --build --preset tsan -j "$(nproc)" --target firmware_tests hal_tests hil_tests
 ctest --preset tsan -j "$(nproc)" -L "firmware_tests|hal_tests|hil_tests"
+phase "done"
