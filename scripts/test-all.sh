@@ -3,8 +3,9 @@
 # suite in the optimised build (warnings as errors, with the deploy tests:
 # packages, systemd notify, the netns link cut, the arm64 piezod under
 # qemu-aarch64 against the native host), the board build's own tests under
-# qemu-aarch64, the whole suite under AddressSanitizer +
-# UndefinedBehaviorSanitizer, and the threaded suites under ThreadSanitizer.
+# qemu-aarch64, the suite under AddressSanitizer + UndefinedBehaviorSanitizer
+# (all but the kill test and the soak, which the optimised leg runs), and the
+# threaded suites under ThreadSanitizer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # Each leg says when it starts, so a slow leg shows in the log.
@@ -20,6 +21,7 @@ ctest --preset arm64 -j "$(nproc)"
 phase "AddressSanitizer + UndefinedBehaviorSanitizer"
 cmake --preset asan >/dev/null
 cmake --build --preset asan -j "$(nproc)"
+phase "the suite under AddressSanitizer (without the kill test and the soak)"
 ctest --preset asan -j "$(nproc)"
 # The thread sanitizer on the suites whose code runs on several threads
 # in-process (rings, clocks, loops, whole runs with the observer); the full
