@@ -118,6 +118,7 @@ void read_rig_sim(SectionReader r, hal::sim::ModbusDeviceFaults& f) {
   r.number("late_reply_s", f.late_reply_s, {0.0, 10.0}, "s");
   r.number("hang_at_s", f.hang_at_s, kNonNegative, "s");
   r.number("hang_for_s", f.hang_for_s, {0.0, 3600.0}, "s");
+  r.flag("times_from_drive", f.times_from_drive);
   r.finish();
 }
 

@@ -114,7 +114,8 @@ TEST_F(ModbusSafety, AClosedPipeDoesNotStopTheRun) {
 // The module stops answering for 0.3 s: the drive faults, the enable path
 // (none here) drops, and the stop keeps writing 0 V until the module takes it.
 TEST_F(ModbusSafety, AHungDriveIsZeroedOnceItAnswersAgain) {
-  auto rig = start_rig_sim({"--set", "rig_sim.hang_at_s=1.5", "--set", "rig_sim.hang_for_s=0.3"});
+  auto rig = start_rig_sim({"--set", "rig_sim.hang_at_s=1", "--set", "rig_sim.hang_for_s=0.3",
+                            "--set", "rig_sim.times_from_drive=true"});
   ASSERT_TRUE(wait_for_tcp(port));
   const auto r = run_command(shell_run("30", "--set safety.stop_confirm_s=3"));
   EXPECT_EQ(r.exit_code, 1) << r.err;
@@ -130,13 +131,15 @@ TEST_F(ModbusSafety, AHungDriveIsZeroedOnceItAnswersAgain) {
 // and logs the last value the module acknowledged, not a 0 V it never took;
 // the module's own watchdog is what zeroes it.
 TEST_F(ModbusSafety, ADeadDriveIsReportedUnconfirmedAndItsWatchdogZeroesIt) {
-  // The hang comes 3 s after rig-sim starts: a run on a loaded machine may
-  // take over a second to start, and a hang before its first write would
-  // leave nothing but 0 V acknowledged.
-  auto rig = start_rig_sim({"--set", "rig_sim.hang_at_s=3", "--set", "rig_sim.hang_for_s=3"});
+  // The hang comes 1 s into the drive (not into rig-sim's life: a run on a
+  // loaded machine may take seconds to start, and a hang before its first
+  // write would leave nothing but 0 V acknowledged).
+  auto rig = start_rig_sim({"--set", "rig_sim.hang_at_s=1", "--set", "rig_sim.hang_for_s=3",
+                            "--set", "rig_sim.times_from_drive=true"});
   ASSERT_TRUE(wait_for_tcp(port));
-  const auto started = std::chrono::steady_clock::now();
   const auto r = run_command(shell_run("30", "--set safety.stop_confirm_s=0.5"));
+  // The run ends after the hang began: the hang is over within 3 s of that.
+  const auto hang_over = std::chrono::steady_clock::now() + 3500ms;
   EXPECT_EQ(r.exit_code, 1) << r.err;
   EXPECT_NE(r.err.find("OUTPUT UNCONFIRMED"), std::string::npos) << r.err;
   const auto j = nlohmann::json::parse(r.out);
@@ -147,7 +150,7 @@ TEST_F(ModbusSafety, ADeadDriveIsReportedUnconfirmedAndItsWatchdogZeroesIt) {
   EXPECT_EQ(ending.substr(0, ending.find(' ', 7)), "failed output_unconfirmed") << ending;
   EXPECT_NE(ending.find(" 3.0"), std::string::npos) << ending;
   EXPECT_EQ(ending.find(" 0.0 "), std::string::npos) << "never a 0 V it did not reach: " << ending;
-  std::this_thread::sleep_until(started + 6500ms);  // the hang is over
+  std::this_thread::sleep_until(hang_over);
   EXPECT_EQ(ao_register(), 0) << "the module's watchdog zeroed the output";
 }
 

@@ -13,6 +13,8 @@
 namespace piezo::hal::sim {
 namespace {
 
+constexpr TimeNs kNoOrigin = std::numeric_limits<TimeNs>::max();
+
 SimSensorSettings instant_sensor(SimSensorSettings s) {
   s.latency_s = 0.0;  // the link supplies the latency
   s.dropout_probability = 0.0;
@@ -25,6 +27,7 @@ SimSensorSettings instant_sensor(SimSensorSettings s) {
 ModbusRigDevice::ModbusRigDevice(const ModbusRigDeviceSettings& settings)
     : settings_(settings),
       t_start_(clock_.now()),
+      fault_origin_(settings.faults.times_from_drive ? kNoOrigin : t_start_),
       plant_(settings.plant, settings.amplifier, t_start_),
       sensor_(instant_sensor(settings.sensor), plant_, clock_, t_start_),
       registers_(modbus_mapping_new(0, 0, 65536, 65536)) {
@@ -47,17 +50,19 @@ std::string ModbusRigDevice::describe() const {
       settings_.ao_counts_per_V);
 }
 
-double ModbusRigDevice::since_start_s() const {
-  return to_seconds(clock_.now() - t_start_);
+double ModbusRigDevice::fault_time_s() const {
+  const TimeNs origin = fault_origin_.load();
+  if (origin == kNoOrigin) return -std::numeric_limits<double>::infinity();
+  return to_seconds(clock_.now() - origin);
 }
 
 bool ModbusRigDevice::disconnected() const {
-  return since_start_s() >= settings_.faults.disconnect_at_s;
+  return fault_time_s() >= settings_.faults.disconnect_at_s;
 }
 
 bool ModbusRigDevice::hanging() const {
   const auto& f = settings_.faults;
-  const double t = since_start_s();
+  const double t = fault_time_s();
   return t >= f.hang_at_s && t < f.hang_at_s + f.hang_for_s;
 }
 
@@ -95,6 +100,7 @@ void ModbusRigDevice::after_reply_locked() {
   const std::uint16_t counts = registers_->tab_registers[settings_.ao_address];
   if (counts != last_ao_counts_) {
     last_ao_counts_ = counts;
+    if (counts != 0 && fault_origin_.load() == kNoOrigin) fault_origin_.store(clock_.now());
     plant_.set_input(clock_.now(), counts / settings_.ao_counts_per_V);
   }
 }
@@ -110,7 +116,7 @@ void ModbusRigDevice::answer(modbus_t* ctx, const std::uint8_t* query, int lengt
   double delay_s = f.response_delay_s;
   {
     const std::lock_guard lock(mutex_);
-    if (!late_reply_done_ && since_start_s() >= f.late_reply_at_s) {
+    if (!late_reply_done_ && fault_time_s() >= f.late_reply_at_s) {
       late_reply_done_ = true;
       delay_s += f.late_reply_s;
     }

@@ -10,6 +10,7 @@
 
 #include <modbus.h>
 
+#include <atomic>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -40,6 +41,10 @@ struct ModbusDeviceFaults {
   /// watchdog still runs).
   double hang_at_s = std::numeric_limits<double>::infinity();
   double hang_for_s = 0.0;
+  /// The times above count from the first non-zero analog-output write (a
+  /// run's drive under way) instead of the device's start: a fault in the
+  /// middle of a run, however long the run took to start.
+  bool times_from_drive = false;
   /// The simulated module's communication watchdog, as on a WAGO 750-352:
   /// a holding register with the timeout in 100 ms units (0: off) and one
   /// with the mask of function codes that restart it (bit n-1: function n).
@@ -89,11 +94,14 @@ class ModbusRigDevice {
   void idle();
   [[nodiscard]] bool disconnected() const;
   [[nodiscard]] bool hanging() const;
-  [[nodiscard]] double since_start_s() const;
+  /// Time on the faults' clock (see ModbusDeviceFaults::times_from_drive);
+  /// -inf before its origin.
+  [[nodiscard]] double fault_time_s() const;
 
   ModbusRigDeviceSettings settings_;
   posix::MonotonicClock clock_;
   TimeNs t_start_;
+  std::atomic<TimeNs> fault_origin_;  ///< kNoOrigin until the first drive write, if it counts
   Plant plant_;
   SimSensor sensor_;
   modbus_mapping_t* registers_;
