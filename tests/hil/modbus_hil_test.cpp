@@ -182,9 +182,8 @@ void expect_run_fails_safely(ModbusHil& t, const fs::path& dir, int port,
                "sensor.port=" + std::to_string(port), "--set",
                "drive.ao_port=" + std::to_string(port), "--json", "--out", out.string()},
               (dir / "run.txt").string());
-  std::this_thread::sleep_for(1500ms);
-  const auto broken = std::chrono::steady_clock::now();
   break_link();
+  const auto broken = std::chrono::steady_clock::now();
   EXPECT_EQ(run.wait_exit(), 1);
   const double took =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - broken).count();
@@ -207,7 +206,10 @@ void expect_run_fails_safely(ModbusHil& t, const fs::path& dir, int port,
 TEST_F(ModbusHil, AKilledRigSimEndsTheRunSafely) {
   auto rig = start_rig_sim();
   ASSERT_TRUE(wait_for_tcp(port));
-  expect_run_fails_safely(*this, dir, port, [&] { rig->signal(SIGKILL); });
+  expect_run_fails_safely(*this, dir, port, [&] {
+    ASSERT_TRUE(wait_for_drive());
+    rig->signal(SIGKILL);
+  });
 }
 
 TEST_F(ModbusHil, ADisconnectEndsTheRunSafely) {

@@ -99,6 +99,28 @@ class ModbusHil : public ::testing::Test {
   }
 
   std::string tcp_sets() const { return "--set sensor.port=" + std::to_string(port); }
+
+  /// rig-sim's analog-output holding register (address 0), read by mbpoll
+  /// (an independent peer); -1 when it cannot be read.
+  [[nodiscard]] int read_ao_register() const {
+    const auto r = run_command("mbpoll -m tcp -a 1 -t 4 -r 1 -c 1 -1 -p " + std::to_string(port) +
+                               " 127.0.0.1");
+    const auto at = r.out.find("[1]:");
+    if (r.exit_code != 0 || at == std::string::npos) return -1;
+    return std::stoi(r.out.substr(at + 4));
+  }
+
+  /// Waits (at most 60 s) until a run drives rig-sim's output above 0 V: a
+  /// fault meant for the middle of a run must not come before its start,
+  /// however long a loaded machine takes to get there.
+  [[nodiscard]] bool wait_for_drive() const {
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (std::chrono::steady_clock::now() < until) {
+      if (read_ao_register() > 0) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return false;
+  }
 };
 
 class ModbusRtu : public ModbusHil {
