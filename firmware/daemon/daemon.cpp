@@ -460,7 +460,7 @@ json Daemon::start(const std::string& client, const json& args,
                  kVirtualAckWindow_s * board_.drive.rate_hz));
     const auto lease_ns = static_cast<std::int64_t>(lease_s * 1e9);
     lagging = [r, window, lease_ns, now_ns] {
-      return !r->remote.estop.load() && now_ns() - r->lease_renewed_ns.load() < lease_ns &&
+      return now_ns() - r->lease_renewed_ns.load() < lease_ns &&
              r->drive_recorded.load() > r->drive_acked.load() + window;
     };
   }

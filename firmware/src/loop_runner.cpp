@@ -28,6 +28,7 @@ LoopRunner::LoopRunner(const LoopRunnerSettings& settings, DriveProgram* program
                        const RemoteControl* remote, PositionFeed* feed)
     : settings_(settings),
       devices_(devices),
+      remote_(remote),
       drive_ring_(ring_capacity(settings.drive.rate_hz, settings.ring_s)),
       sensor_ring_(ring_capacity(settings.sensor_rate_hz, settings.ring_s)),
       supervisor_(settings.safety, sensor_health_, devices.clock.now()),
@@ -61,8 +62,9 @@ hal::TimeNs LoopRunner::start(const std::function<void(hal::TimeNs)>& on_time_or
     cpu_note_ = cpu_latency_.emplace().result().note;
   }
   clock.set_backpressure([this, lagging = std::move(lagging)] {
-    // A stop is never held back: the loop must see it to ramp down.
-    if (consumer_failed_.load() || stop_.load()) return false;
+    // A stop or an e-stop is never held back: the loop must see it.
+    const bool estop = remote_ != nullptr && remote_->estop.load();
+    if (consumer_failed_.load() || stop_.load() || estop) return false;
     return drive_ring_.size_approx() > drive_ring_.capacity() / 2 ||
            sensor_ring_.size_approx() > sensor_ring_.capacity() / 2 || (lagging && lagging());
   });

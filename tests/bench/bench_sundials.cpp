@@ -234,7 +234,6 @@ int main(int argc, char** argv) {
   }
   fmt::print(
       "rel.err = |theta(4.8 s) - ref| / |ref|, ref = dopri5 at 1e-11; tolerances on the same "
-      "scaled "
-      "state as dopri5; every integrator stops on each drive corner\n");
+      "scaled state as dopri5; every integrator stops on each drive corner\n");
   return 0;
 }

@@ -57,24 +57,35 @@ inline int free_port_pair() {
   }
 }
 
-inline bool wait_for_tcp(int port) {
-  for (int i = 0; i < 100; ++i) {
-    const int fd = socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_port = htons(static_cast<std::uint16_t>(port));
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    const bool ok = connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
-    close(fd);
-    if (ok) return true;
-    std::this_thread::sleep_for(50ms);
+/// Asks `ready` every `interval` until it says yes (true) or `timeout` passes (false).
+template <class Ready>
+bool poll_until(Ready&& ready, std::chrono::milliseconds timeout,
+                std::chrono::milliseconds interval = 50ms) {
+  const auto until = std::chrono::steady_clock::now() + timeout;
+  while (!ready()) {
+    if (std::chrono::steady_clock::now() >= until) return false;
+    std::this_thread::sleep_for(interval);
   }
-  return false;
+  return true;
+}
+
+inline bool wait_for_tcp(int port) {
+  return poll_until(
+      [port] {
+        const int fd = socket(AF_INET, SOCK_STREAM, 0);
+        sockaddr_in addr{};
+        addr.sin_family = AF_INET;
+        addr.sin_port = htons(static_cast<std::uint16_t>(port));
+        addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+        const bool ok = connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
+        close(fd);
+        return ok;
+      },
+      5000ms);
 }
 
 inline bool wait_for_path(const fs::path& p) {
-  for (int i = 0; i < 100 && !fs::exists(p); ++i) std::this_thread::sleep_for(50ms);
-  return fs::exists(p);
+  return poll_until([&p] { return fs::exists(p); }, 5000ms);
 }
 
 class ModbusHil : public ::testing::Test {
@@ -114,12 +125,7 @@ class ModbusHil : public ::testing::Test {
   /// fault meant for the middle of a run must not come before its start,
   /// however long a loaded machine takes to get there.
   [[nodiscard]] bool wait_for_drive() const {
-    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-    while (std::chrono::steady_clock::now() < until) {
-      if (read_ao_register() > 0) return true;
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    return false;
+    return poll_until([this] { return read_ao_register() > 0; }, 60000ms, 20ms);
   }
 };
 

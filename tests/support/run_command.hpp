@@ -29,7 +29,6 @@ struct CommandResult {
 /// PIEZO_KEEP_TEST_DIRS is set to look at them after a failure.
 class TempDirs {
  public:
-  void add(const std::filesystem::path& dir) { dirs_.push_back(dir); }
   TempDirs() = default;
   TempDirs(const TempDirs&) = delete;
   TempDirs& operator=(const TempDirs&) = delete;
@@ -38,6 +37,7 @@ class TempDirs {
     std::error_code ignored;
     for (const auto& dir : dirs_) std::filesystem::remove_all(dir, ignored);
   }
+  void add(const std::filesystem::path& dir) { dirs_.push_back(dir); }
 
  private:
   pid_t owner_ = ::getpid();

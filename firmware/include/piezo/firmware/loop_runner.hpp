@@ -107,6 +107,7 @@ class LoopRunner {
 
   LoopRunnerSettings settings_;
   LoopDevices devices_;
+  const RemoteControl* remote_;  ///< may be null
   std::optional<CpuLatencyRequest> cpu_latency_;
   std::string memory_note_, cpu_note_, drive_note_, acquire_note_;
   std::atomic<bool> stop_{false}, consumer_failed_{false};
