@@ -67,7 +67,8 @@ void read_sensor(SectionReader r, SensorSettings& s) {
                          : hal::modbus::LinkSettings::Transport::tcp;
   read_modbus_sensor(r, s.link, s.map);
   r.number("r2_m", s.r2_m, {0.0, 10.0, true}, "m");
-  r.number("target_distance_m", s.sim.offset_m, {-10.0, 10.0}, "m");
+  // The laser's stand-off from the reflector: a distance, so above 0.
+  r.number("target_distance_m", s.sim.offset_m, {0.0, 10.0, true}, "m");
   r.number("noise_m", s.sim.noise_m, {0.0, 1.0}, "m");
   r.number("quantum_m", s.sim.quantum_m, {0.0, 1.0}, "m");
   r.number("latency_s", s.sim.latency_s, {0.0, 1.0}, "s");
@@ -327,11 +328,13 @@ void check_whole(const RunConfig& c, const std::map<std::string, std::string>& s
         fmt::format("{:g} V must be below drive.V_max = {:g} V", lim.V_min, lim.V_max));
   }
   const auto& d = c.model.drive;
-  if (d.V0 > lim.V_max || lim.V_min > 0.0) {
+  // The board refuses the same (a run with nothing to drive is a mistake).
+  if (!(d.V0 > 0.0) || d.V0 > lim.V_max || lim.V_min > 0.0) {
     throw ConfigError(src("drive.V0"), "drive.V0",
-                      fmt::format("{:g} V is outside the drive's limits [drive.V_min, drive.V_max]"
-                                  " = [{:g}, {:g}] V (the sawtooth spans 0..V0)",
-                                  d.V0, lim.V_min, lim.V_max));
+                      fmt::format("{:g} V is outside the drive's limits; allowed: (0, drive.V_max "
+                                  "= {:g}] V with drive.V_min = {:g} V <= 0 (the sawtooth spans "
+                                  "0..V0)",
+                                  d.V0, lim.V_max, lim.V_min));
   }
   const double fastest = d.V0 * d.f / std::min(d.D(), 1.0 - d.D());
   if (fastest > lim.slew_V_per_s) {

@@ -101,6 +101,16 @@ void SectionReader::text(const std::string& key, std::string& value) {
   if (!has(key)) return;
   const auto v = table_->get(key)->value<std::string>();
   if (!v || v->empty()) throw ConfigError(source_, name(key), "must be a non-empty string");
+  // A control character (a NUL above all) would cut or garble every message
+  // and path made from the value.
+  const auto bad = std::find_if(v->begin(), v->end(),
+                                [](char c) { return static_cast<unsigned char>(c) < 0x20; });
+  if (bad != v->end()) {
+    throw ConfigError(source_, name(key),
+                      fmt::format("must not contain control characters (U+{:04X} at character {})",
+                                  static_cast<unsigned>(static_cast<unsigned char>(*bad)),
+                                  bad - v->begin() + 1));
+  }
   value = *v;
 }
 

@@ -7,6 +7,7 @@
 #include <limits>
 #include <zmq_addon.hpp>
 
+#include "config_error.hpp"
 #include "piezo/model/simulate.hpp"
 #include "piezo/protocol/endpoints.hpp"
 #include "piezo/protocol/frame.hpp"
@@ -114,7 +115,12 @@ Daemon::Daemon(const config::RunConfig& board, config::Rig rig, zmq::context_t& 
       command_endpoint_(listen.empty() ? board.daemon.listen : listen),
       drive_recorder_(static_cast<std::size_t>(board.daemon.recorder_s * board.drive.rate_hz)),
       sensor_recorder_(static_cast<std::size_t>(board.daemon.recorder_s * board.sensor.rate_hz())) {
-  stream_endpoint_ = protocol::stream_endpoint(command_endpoint_);
+  try {
+    stream_endpoint_ = protocol::stream_endpoint(command_endpoint_);
+  } catch (const std::invalid_argument& e) {
+    throw config::ConfigError(listen.empty() ? board.source : "--listen", "piezod.listen",
+                              e.what());
+  }
   const bool network = protocol::is_network_endpoint(command_endpoint_);
   const auto& d = board_.daemon;
   if (network && d.secret_key_file.empty() && !d.insecure) {
@@ -152,7 +158,8 @@ Daemon::Daemon(const config::RunConfig& board, config::Rig rig, zmq::context_t& 
     stream_.bind(stream_endpoint_);
   } catch (const zmq::error_t& e) {
     throw std::runtime_error(
-        fmt::format("cannot listen on {} / {}: {}", command_endpoint_, stream_endpoint_, e.what()));
+        fmt::format("piezod.listen: cannot listen on {} / {}: {}", command_endpoint_,
+                    stream_endpoint_, e.what()));
   }
   if (!board_.daemon.spill_file.empty()) spill_.emplace(board_.daemon.spill_file);
   last_health_ = Clock::now();

@@ -2,6 +2,7 @@
 // recover_run() turns it into a whole run.h5.
 
 #include "run_journal.hpp"
+#include "run_recovery.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

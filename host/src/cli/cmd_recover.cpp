@@ -18,7 +18,7 @@
 #include "piezo/protocol/error.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "run_config.hpp"
-#include "run_journal.hpp"
+#include "run_recovery.hpp"
 #include "run_log.hpp"
 #include "sample_collector.hpp"
 
@@ -111,21 +111,25 @@ int run(const RecoverOptions& o) {
                                 {"observer_samples", r.observer_rows},
                                 {"journal_blocks", r.blocks},
                                 {"torn_bytes", r.torn_bytes},
-                                {"damaged", r.damaged}}
+                                {"damaged", r.damaged},
+                                {"kept_less", r.kept_less()},
+                                {"losses", r.losses}}
                      .dump()
               << "\n";
   } else if (r.rebuilt) {
     fmt::print(
-        "{}: run.h5 rebuilt from run.journal ({} blocks, {} drive, {} sensor samples{}), "
-        "marked recovered{}\n",
+        "{}: run.h5 rebuilt from what run.h5 and run.journal held ({} blocks, {} drive, {} "
+        "sensor samples{}), marked recovered{}\n",
         o.run_dir, r.blocks, r.drive_rows, r.sensor_rows,
-        r.torn_bytes > 0 ? fmt::format("; {} torn bytes at its end dropped", r.torn_bytes)
+        r.torn_bytes > 0 ? fmt::format("; {} torn bytes at the journal's end dropped", r.torn_bytes)
                          : std::string(),
         r.damaged.empty() ? std::string() : "; the old file kept as run.h5.damaged");
   } else {
     fmt::print("{}: run.h5 is readable ({}); nothing to recover\n", o.run_dir, r.status);
   }
-  return 0;
+  // Less than was found: said on stderr and in the exit code, whatever the format.
+  for (const std::string& loss : r.losses) fmt::print(stderr, "{}: not recovered: {}\n", o.run_dir, loss);
+  return r.kept_less() ? 1 : 0;
 }
 
 }  // namespace

@@ -22,7 +22,7 @@
 #include "parameters_json.hpp"
 #include "piezo/model/simulate.hpp"
 #include "run_config.hpp"
-#include "run_journal.hpp"
+#include "run_recovery.hpp"
 
 namespace piezo::host {
 namespace {
@@ -101,10 +101,12 @@ int run(const ReportOptions& o) {
       gnuplot_quote((out / "angle.png").string()), gnuplot_quote(title + ": rotor angle"),
       gnuplot_quote(angle_csv)));
 
-  // A few drive periods from the middle of the run.
-  const double period = run.parameters.drive.f;
-  const double t_mid = 0.5 * theta.t.back();
-  const double t_from = t_mid, t_to = t_mid + 3.0 / period;
+  // A few drive periods from the middle of the logged drive (a recovered
+  // log may have lost part of it: the window must hold drive samples, or
+  // gnuplot finds nothing to plot).
+  const double periods_per_s = run.parameters.drive.f;
+  const double t_from = std::min(drive_t[drive_t.size() / 2], theta.t.back());
+  const double t_to = t_from + 3.0 / periods_per_s;
   run_gnuplot(fmt::format(
       "set terminal pngcairo size 1000,600 noenhanced\nset output {}\n"
       "set title {}\nset xlabel 't [s]'\nset ylabel 'V [V]'\nset y2label 'theta [mrad]'\n"

@@ -12,7 +12,7 @@
 #include "h5_file.hpp"
 #include "log_schema.hpp"
 #include "parameters_json.hpp"
-#include "run_journal.hpp"
+#include "run_recovery.hpp"
 
 namespace piezo::host {
 namespace {

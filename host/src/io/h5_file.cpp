@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <stdexcept>
@@ -144,6 +145,60 @@ void H5File::close() {
 
 bool H5File::exists(const std::string& name) const {
   return H5Lexists(file_.get(), name.c_str(), H5P_DEFAULT) > 0;
+}
+
+std::size_t H5File::extent(const std::string& name) const {
+  H5Id dset(checked(H5Dopen2(file_.get(), name.c_str(), H5P_DEFAULT), "open dataset " + name),
+            H5Dclose);
+  H5Id space(checked(H5Dget_space(dset.get()), "get dataspace of " + name), H5Sclose);
+  const hssize_t n = H5Sget_simple_extent_npoints(space.get());
+  if (n < 0) throw std::runtime_error("HDF5: cannot get the size of " + name);
+  return static_cast<std::size_t>(n);
+}
+
+std::vector<double> H5File::read_prefix(const std::string& name) const {
+  H5Id dset(checked(H5Dopen2(file_.get(), name.c_str(), H5P_DEFAULT), "open dataset " + name),
+            H5Dclose);
+  H5Id space(checked(H5Dget_space(dset.get()), "get dataspace of " + name), H5Sclose);
+  if (H5Sget_simple_extent_ndims(space.get()) != 1) {
+    throw std::runtime_error("HDF5: " + name + " is not one-dimensional");
+  }
+  hsize_t claimed = 0;
+  H5Sget_simple_extent_dims(space.get(), &claimed, nullptr);
+  // No more than the file's bytes could hold (see read()).
+  hsize_t file_bytes = 0;
+  H5Fget_filesize(file_.get(), &file_bytes);
+  const hsize_t possible = std::min<hsize_t>(claimed, 1100 * (file_bytes / sizeof(double) + 1));
+  // Block by block, in the log's chunk size: a damaged chunk ends the prefix.
+  constexpr hsize_t kBlock = 8192;
+  std::vector<double> out;
+  for (hsize_t start = 0; start < possible; start += kBlock) {
+    const hsize_t count = std::min(kBlock, possible - start);
+    H5Id memory(checked(H5Screate_simple(1, &count, nullptr), "create dataspace"), H5Sclose);
+    if (H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, &start, nullptr, &count, nullptr) < 0) {
+      break;
+    }
+    std::vector<double> block(count);
+    if (H5Dread(dset.get(), H5T_NATIVE_DOUBLE, memory.get(), space.get(), H5P_DEFAULT,
+                block.data()) < 0) {
+      break;
+    }
+    out.insert(out.end(), block.begin(), block.end());
+  }
+  return out;
+}
+
+std::vector<std::string> H5File::attribute_names(const std::string& object) const {
+  std::vector<std::string> names;
+  const auto collect = [](hid_t, const char* name, const H5A_info_t*, void* out) -> herr_t {
+    static_cast<std::vector<std::string>*>(out)->emplace_back(name);
+    return 0;
+  };
+  if (H5Aiterate_by_name(file_.get(), object.c_str(), H5_INDEX_NAME, H5_ITER_NATIVE, nullptr,
+                         collect, &names, H5P_DEFAULT) < 0) {
+    throw std::runtime_error("HDF5: cannot list the attributes of " + object);
+  }
+  return names;
 }
 
 std::vector<double> H5File::read(const std::string& name) const {

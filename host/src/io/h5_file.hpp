@@ -66,6 +66,14 @@ class H5File {
   /// A whole vector dataset (1-D, or N x 1 as MATLAB writes it), as double.
   [[nodiscard]] std::vector<double> read(const std::string& name) const;
   [[nodiscard]] bool exists(const std::string& name) const;
+  /// How many values a vector dataset claims to hold, without reading them
+  /// (a damaged file's claim may be more than it can give).
+  [[nodiscard]] std::size_t extent(const std::string& name) const;
+  /// The values of a 1-D dataset from its start up to the first block of
+  /// them that cannot be read (a damaged chunk); all of them when whole.
+  [[nodiscard]] std::vector<double> read_prefix(const std::string& name) const;
+  /// The names of the attributes of "/" or of an object.
+  [[nodiscard]] std::vector<std::string> attribute_names(const std::string& object) const;
   [[nodiscard]] bool has_attribute(const std::string& object, const std::string& name) const;
   /// A string attribute of "/" or of an object.
   [[nodiscard]] std::string attribute(const std::string& object, const std::string& name) const;

@@ -8,7 +8,6 @@
 
 #include <array>
 #include <cerrno>
-#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -19,7 +18,6 @@
 #include <vector>
 
 #include "config_error.hpp"
-#include "h5_file.hpp"
 
 namespace piezo::host {
 namespace fs = std::filesystem;
@@ -249,124 +247,6 @@ JournalContents read_journal(const std::string& path) {
 
 std::string journal_path(const std::string& log_path) {
   return (fs::path(log_path).parent_path() / "run.journal").string();
-}
-
-namespace {
-
-/// run.h5's status, or "" when it cannot be opened or read.
-std::string readable_status(const fs::path& log) {
-  try {
-    if (!fs::exists(log)) return {};
-    const H5File f = H5File::open(log.string());
-    return f.has_attribute("/", log_schema::kStatus) ? f.attribute("/", log_schema::kStatus)
-                                                     : std::string("incomplete");
-  } catch (const std::exception&) {
-    return {};
-  }
-}
-
-std::size_t logged_drive_rows(const fs::path& log) {
-  const H5File f = H5File::open(log.string());
-  return f.read(log_schema::path(&log_schema::DriveRows::t)).size();
-}
-
-/// True when a running `piezo run` still holds the journal.
-bool in_use(const fs::path& journal) {
-  const int fd = ::open(journal.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return false;
-  const bool held = flock(fd, LOCK_EX | LOCK_NB) != 0;
-  ::close(fd);
-  return held;
-}
-
-double last_finite(const log_schema::Column& c) {
-  for (auto it = c.rbegin(); it != c.rend(); ++it)
-    if (std::isfinite(*it)) return *it;
-  return std::nan("");
-}
-
-void write_recovered(const fs::path& out, JournalContents& j) {
-  H5File f = H5File::create_log(out.string());
-  log_schema::for_each_column(j.rows, [&](std::string_view name, log_schema::Column& c) {
-    const std::string path(name);
-    f.create_growing(path, log_schema::storage(name) == log_schema::Storage::uint8);
-    f.append(path, c);
-  });
-  for (const auto& [key, value] : j.header) f.set_attribute("/", key, value);
-  for (const auto& [key, value] : j.attributes) f.set_attribute("/", key, value);
-  f.set_attribute("/", log_schema::kStatus, "recovered");
-  f.set_attribute("/", "recovered_from",
-                  fmt::format("run.journal: {} blocks, {} torn bytes at its end dropped", j.blocks,
-                              j.torn_bytes));
-  f.close();
-}
-
-}  // namespace
-
-Recovery recover_run(const std::string& run_dir) {
-  const fs::path dir(run_dir), log = dir / "run.h5", journal = dir / "run.journal";
-  Recovery r;
-  r.status = readable_status(log);
-  const bool whole = !r.status.empty() && r.status != "incomplete";
-  if (!fs::exists(journal)) {
-    if (!r.status.empty()) return r;  // whole, or readable up to its last flush
-    throw config::ConfigError(run_dir, fs::exists(log) ? "run.h5" : "run.journal",
-                              fs::exists(log) ? "unreadable, and no run.journal to rebuild it from"
-                                              : "no run log or journal in this directory");
-  }
-  if (in_use(journal)) {
-    throw config::ConfigError(run_dir, "run.journal",
-                              "still held by a running piezo run; recover after it ends");
-  }
-  JournalContents j = read_journal(journal.string());
-  if (whole && j.rows.drive.t.size() <= logged_drive_rows(log)) {
-    // A crash between closing run.h5 and deleting the journal: nothing new.
-    fs::remove(journal);
-    return r;
-  }  // else the file refused rows (a full disk) that the journal kept
-  r.blocks = j.blocks;
-  r.torn_bytes = j.torn_bytes;
-  r.drive_rows = j.rows.drive.t.size();
-  r.sensor_rows = j.rows.sensor.t.size();
-  r.observer_rows = j.rows.observer.t.size();
-  // Written aside and renamed: a crash during recovery leaves the journal.
-  const fs::path fresh = dir / "run.h5.recovering";
-  write_recovered(fresh, j);
-  if (fs::exists(log)) {
-    r.damaged = (dir / "run.h5.damaged").string();
-    fs::rename(log, r.damaged);
-  }
-  fs::rename(fresh, log);
-  fs::remove(journal);
-  r.rebuilt = true;
-  r.status = "recovered";
-
-  // The catalogue lists the run now that it has a log.
-  const fs::path catalogue = fs::absolute(dir).parent_path() / "catalogue.csv";
-  const bool fresh_catalogue = !fs::exists(catalogue);
-  std::ofstream cat(catalogue, std::ios::app);
-  if (fresh_catalogue) cat << "run_dir,utc_start,status,stop_cause,config,t_end_s,theta_end_rad\n";
-  cat << fmt::format("{},{},recovered,unknown,{},{:.6g},{:.9g}\n",
-                     fs::absolute(dir).filename().string(), j.header["utc_start"],
-                     j.header["config_source"], last_finite(j.rows.drive.t),
-                     last_finite(j.rows.sensor.theta));
-  return r;
-}
-
-void recover_if_needed(const std::string& log_path) {
-  const fs::path log(log_path);
-  const fs::path journal = fs::path(journal_path(log_path));
-  if (!fs::exists(journal) || in_use(journal)) return;
-  const std::string status = readable_status(log);
-  if (!status.empty() && status != "incomplete") return;
-  const Recovery r = recover_run(log.parent_path().string());
-  if (r.rebuilt) {
-    std::fputs(fmt::format("{}: rebuilt from run.journal ({} drive, {} sensor samples), marked "
-                           "recovered\n",
-                           log_path, r.drive_rows, r.sensor_rows)
-                   .c_str(),
-               stderr);
-  }
 }
 
 }  // namespace piezo::host

@@ -3,7 +3,8 @@
 // flush interval's rows reach the journal, and the disk (fdatasync),
 // before HDF5 sees them: HDF5 killed inside a flush can leave its metadata
 // half-written, an append-only journal cannot. After a crash, recover_run()
-// rebuilds a valid run.h5 from it, losing at most the last flush interval.
+// (run_recovery.hpp) rebuilds a valid run.h5 from it and what run.h5
+// kept, losing at most the last flush interval.
 //
 // The file is a sequence of blocks (the layout of a write-ahead log, as in
 // PX4's ULog or SQLite's WAL):
@@ -64,27 +65,7 @@ struct JournalContents {
 /// Reads `path`; throws naming it when it is not a journal at all.
 [[nodiscard]] JournalContents read_journal(const std::string& path);
 
-struct Recovery {
-  bool rebuilt = false;  ///< false: run.h5 was already whole
-  std::string status;    ///< run.h5's status afterwards
-  std::size_t drive_rows = 0, sensor_rows = 0, observer_rows = 0;
-  std::size_t blocks = 0;
-  std::uintmax_t torn_bytes = 0;
-  std::string damaged;  ///< where the unreadable or incomplete run.h5 was kept, if any
-};
-
 /// The journal beside a run log.
 [[nodiscard]] std::string journal_path(const std::string& log_path);
-
-/// Makes `run_dir`/run.h5 whole: when it is missing, unreadable or still
-/// "incomplete" and a journal is there, rebuilds it from the journal,
-/// marked "recovered" (the old file kept as run.h5.damaged), and deletes
-/// the journal. Throws ConfigError when there is neither a whole log nor a
-/// journal.
-Recovery recover_run(const std::string& run_dir);
-
-/// For readers (report, identify): recovers the run at `log_path` first
-/// when it needs it and a journal is there; says so on stderr.
-void recover_if_needed(const std::string& log_path);
 
 }  // namespace piezo::host

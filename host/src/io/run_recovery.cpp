@@ -1,0 +1,292 @@
+#include "run_recovery.hpp"
+
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <optional>
+#include <utility>
+
+#include "config_error.hpp"
+#include "h5_file.hpp"
+#include "log_schema.hpp"
+#include "run_journal.hpp"
+
+namespace piezo::host {
+namespace fs = std::filesystem;
+namespace {
+
+/// Stands for a small code (phase, status, move state) lost in a damaged
+/// chunk; a lost float64 value is NaN.
+constexpr double kLostCode = 255;
+
+/// What run.h5 gives, dataset by dataset, as far as each can be read.
+struct LogCopy {
+  bool opened = false;
+  bool whole = false;  ///< every dataset read to its claimed length, every group even
+  std::string status;  ///< the status attribute, "incomplete" without one
+  std::map<std::string, std::string> attributes;
+  std::map<std::string, std::vector<double>, std::less<>> columns;  ///< readable prefixes
+  std::map<std::string, std::size_t, std::less<>> claimed;          ///< declared lengths
+  std::map<std::string, std::vector<double>> timing;                ///< written whole at the end
+  std::vector<std::string> problems;
+};
+
+const std::vector<double>& column_of(const LogCopy& copy, std::string_view path) {
+  static const std::vector<double> kNone;
+  const auto it = copy.columns.find(path);
+  return it == copy.columns.end() ? kNone : it->second;
+}
+
+template <class Rows>
+bool group_is_even(const LogCopy& copy) {
+  const auto& sets = log_schema::datasets(static_cast<const Rows*>(nullptr));
+  const std::size_t rows = column_of(copy, sets[0].path).size();
+  return std::all_of(sets.begin(), sets.end(),
+                     [&](const auto& d) { return column_of(copy, d.path).size() == rows; });
+}
+
+LogCopy read_log_copy(const fs::path& log) {
+  LogCopy copy;
+  if (!fs::exists(log)) return copy;
+  std::optional<H5File> file;
+  try {
+    file.emplace(H5File::open(log.string()));
+  } catch (const std::exception& e) {
+    copy.problems.push_back(fmt::format("run.h5 cannot be opened ({})", e.what()));
+    return copy;
+  }
+  copy.opened = true;
+  try {
+    for (const std::string& name : file->attribute_names("/")) {
+      try {
+        copy.attributes[name] = file->attribute("/", name);
+      } catch (const std::exception& e) {
+        copy.problems.push_back(e.what());
+      }
+    }
+  } catch (const std::exception& e) {
+    copy.problems.push_back(e.what());
+  }
+  const auto status = copy.attributes.find(log_schema::kStatus);
+  copy.status = status == copy.attributes.end() ? "incomplete" : status->second;
+  log_schema::LogRows none;
+  log_schema::for_each_column(none, [&](std::string_view name, const log_schema::Column&) {
+    const std::string path(name);
+    std::size_t& claimed = copy.claimed[path];
+    std::vector<double>& values = copy.columns[path];
+    try {
+      claimed = file->extent(path);
+      values = file->read_prefix(path);
+      if (values.size() < claimed) {
+        copy.problems.push_back(
+            fmt::format("{}: {} of its {} values can be read", path, values.size(), claimed));
+      }
+    } catch (const std::exception& e) {
+      copy.problems.push_back(fmt::format("{}: {}", path, e.what()));
+    }
+  });
+  for (const char* path : {log_schema::kDrivePeriodErrorUs, log_schema::kAcquirePeriodErrorUs}) {
+    if (!file->exists(path)) continue;
+    try {
+      copy.timing[path] = file->read(path);
+    } catch (const std::exception& e) {
+      copy.problems.push_back(fmt::format("{}: {}", path, e.what()));
+    }
+  }
+  const bool even = group_is_even<log_schema::DriveRows>(copy) &&
+                    group_is_even<log_schema::SensorRows>(copy) &&
+                    group_is_even<log_schema::ObserverRows>(copy);
+  if (!even) copy.problems.emplace_back("its datasets of one group differ in length");
+  copy.whole = copy.problems.empty();
+  return copy;
+}
+
+/// One group (drive, sensor or observer) merged from both copies into
+/// `into`: row by row, run.h5's value where it could be read, else the
+/// journal's, else lost. Returns the rows kept; adds to `losses`.
+template <class Rows>
+std::size_t merge_group(const LogCopy& log, const Rows& journal, Rows& into, std::string_view group,
+                        std::vector<std::string>& losses) {
+  const auto& sets = log_schema::datasets(static_cast<const Rows*>(nullptr));
+  const std::vector<double>& log_t = column_of(log, sets[0].path);
+  const std::vector<double>& journal_t = journal.*sets[0].column;
+  // Both copies are prefixes of one stream, so where they overlap their
+  // times agree; if not (a foreign journal), only the longer one is used.
+  const std::size_t overlap = std::min(log_t.size(), journal_t.size());
+  const bool one_stream = overlap == 0 || log_t[overlap - 1] == journal_t[overlap - 1];
+  const bool use_log = one_stream || log_t.size() >= journal_t.size();
+  const bool use_journal = one_stream || !use_log;
+  const std::size_t rows = std::max(use_log ? log_t.size() : 0, use_journal ? journal_t.size() : 0);
+  std::size_t found = journal_t.size();
+  for (const auto& d : sets) {
+    const auto claimed = log.claimed.find(d.path);
+    if (claimed != log.claimed.end()) found = std::max(found, claimed->second);
+    const std::vector<double>& from_log = column_of(log, d.path);
+    const std::vector<double>& from_journal = journal.*d.column;
+    log_schema::Column& out = into.*d.column;
+    out.resize(rows);
+    std::size_t lost = 0;
+    for (std::size_t i = 0; i < rows; ++i) {
+      if (use_log && i < from_log.size()) {
+        out[i] = from_log[i];
+      } else if (use_journal && i < from_journal.size()) {
+        out[i] = from_journal[i];
+      } else {
+        out[i] = d.storage == log_schema::Storage::uint8 ? kLostCode : std::nan("");
+        ++lost;
+      }
+    }
+    if (lost > 0) {
+      losses.push_back(fmt::format("{}: {} of {} values lost in damaged chunks (written as {})",
+                                   d.path, lost, rows,
+                                   d.storage == log_schema::Storage::uint8 ? "255" : "NaN"));
+    }
+  }
+  if (rows < found) {
+    losses.push_back(fmt::format("{}: kept {} of the {} rows a copy claimed", group, rows, found));
+  }
+  return rows;
+}
+
+template <class Rows>
+bool journal_has_more(const LogCopy& log, const Rows& journal) {
+  const auto& sets = log_schema::datasets(static_cast<const Rows*>(nullptr));
+  return (journal.*sets[0].column).size() > column_of(log, sets[0].path).size();
+}
+
+/// True when a running `piezo run` still holds the journal.
+bool in_use(const fs::path& journal) {
+  const int fd = ::open(journal.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool held = flock(fd, LOCK_EX | LOCK_NB) != 0;
+  ::close(fd);
+  return held;
+}
+
+double last_finite(const log_schema::Column& c) {
+  for (auto it = c.rbegin(); it != c.rend(); ++it)
+    if (std::isfinite(*it)) return *it;
+  return std::nan("");
+}
+
+void write_log(const fs::path& out, log_schema::LogRows& rows,
+               const std::map<std::string, std::string>& attributes, const LogCopy& log) {
+  H5File f = H5File::create_log(out.string());
+  log_schema::for_each_column(rows, [&](std::string_view name, log_schema::Column& c) {
+    const std::string path(name);
+    f.create_growing(path, log_schema::storage(name) == log_schema::Storage::uint8);
+    f.append(path, c);
+  });
+  for (const auto& [path, values] : log.timing) f.write(path, values);
+  for (const auto& [key, value] : attributes) f.set_attribute("/", key, value);
+  f.close();
+}
+
+void add_to_catalogue(const fs::path& dir, const std::map<std::string, std::string>& attributes,
+                      const log_schema::LogRows& rows) {
+  const auto get = [&](const char* key) {
+    const auto it = attributes.find(key);
+    return it == attributes.end() ? std::string() : it->second;
+  };
+  const fs::path catalogue = fs::absolute(dir).parent_path() / "catalogue.csv";
+  const bool fresh_catalogue = !fs::exists(catalogue);
+  std::ofstream cat(catalogue, std::ios::app);
+  if (fresh_catalogue) cat << "run_dir,utc_start,status,stop_cause,config,t_end_s,theta_end_rad\n";
+  cat << fmt::format("{},{},recovered,unknown,{},{:.6g},{:.9g}\n",
+                     fs::absolute(dir).filename().string(), get("utc_start"),
+                     get("config_source"), last_finite(rows.drive.t),
+                     last_finite(rows.sensor.theta));
+}
+
+}  // namespace
+
+Recovery recover_run(const std::string& run_dir) {
+  const fs::path dir(run_dir), log = dir / "run.h5", journal = dir / "run.journal";
+  Recovery r;
+  const bool has_journal = fs::exists(journal);
+  if (has_journal && in_use(journal)) {
+    throw config::ConfigError(run_dir, "run.journal",
+                              "still held by a running piezo run; recover after it ends");
+  }
+  const LogCopy copy = read_log_copy(log);
+  if (!has_journal && !copy.opened) {
+    throw config::ConfigError(run_dir, fs::exists(log) ? "run.h5" : "run.journal",
+                              fs::exists(log) ? "unreadable, and no run.journal to rebuild it from"
+                                              : "no run log or journal in this directory");
+  }
+  JournalContents j;
+  if (has_journal) j = read_journal(journal.string());
+  const bool journal_adds = journal_has_more(copy, j.rows.drive) ||
+                            journal_has_more(copy, j.rows.sensor) ||
+                            journal_has_more(copy, j.rows.observer);
+  // Whole and final (or whole, still "incomplete", with no journal to add
+  // to it: readable up to its last flush): nothing to do.
+  if (copy.whole && !journal_adds && (copy.status != "incomplete" || !has_journal)) {
+    if (has_journal) fs::remove(journal);
+    r.status = copy.status;
+    return r;
+  }
+
+  log_schema::LogRows rows;
+  r.drive_rows = merge_group(copy, j.rows.drive, rows.drive, "drive", r.losses);
+  r.sensor_rows = merge_group(copy, j.rows.sensor, rows.sensor, "sensor", r.losses);
+  r.observer_rows = merge_group(copy, j.rows.observer, rows.observer, "observer", r.losses);
+  r.blocks = j.blocks;
+  r.torn_bytes = j.torn_bytes;
+  // The journal's attributes first; run.h5's, where readable, are as new.
+  std::map<std::string, std::string> attributes = j.header;
+  for (const auto& [key, value] : j.attributes) attributes[key] = value;
+  for (const auto& [key, value] : copy.attributes) attributes[key] = value;
+  attributes[log_schema::kStatus] = "recovered";
+  std::string from = has_journal ? fmt::format("run.journal: {} blocks, {} torn bytes at its end",
+                                               j.blocks, j.torn_bytes)
+                                 : std::string("no run.journal");
+  from += copy.opened ? "; run.h5: its readable rows" : "; run.h5: none (unreadable or missing)";
+  for (const std::string& p : copy.problems) from += "; run.h5 " + p;
+  attributes["recovered_from"] = from;
+  if (r.kept_less()) {
+    std::string all;
+    for (const std::string& loss : r.losses) all += (all.empty() ? "" : "; ") + loss;
+    attributes["recovery_losses"] = all;
+  }
+
+  // Written aside and renamed: a crash during recovery leaves both copies.
+  const fs::path fresh = dir / "run.h5.recovering";
+  write_log(fresh, rows, attributes, copy);
+  if (fs::exists(log)) {
+    r.damaged = (dir / "run.h5.damaged").string();
+    fs::rename(log, r.damaged);
+  }
+  fs::rename(fresh, log);
+  if (has_journal) fs::remove(journal);
+  r.rebuilt = true;
+  r.status = "recovered";
+  add_to_catalogue(dir, attributes, rows);
+  return r;
+}
+
+void recover_if_needed(const std::string& log_path) {
+  const fs::path log(log_path);
+  const fs::path journal = fs::path(journal_path(log_path));
+  if (!fs::exists(journal) || in_use(journal)) return;
+  const Recovery r = recover_run(log.parent_path().string());
+  if (!r.rebuilt) return;
+  std::fputs(fmt::format("{}: rebuilt from run.h5 and run.journal ({} drive, {} sensor samples), "
+                         "marked recovered\n",
+                         log_path, r.drive_rows, r.sensor_rows)
+                 .c_str(),
+             stderr);
+  for (const std::string& loss : r.losses) {
+    std::fputs(fmt::format("{}: not recovered: {}\n", log_path, loss).c_str(), stderr);
+  }
+}
+
+}  // namespace piezo::host
