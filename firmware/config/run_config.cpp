@@ -110,7 +110,9 @@ void read_run(SectionReader r, RunSettings& run) {
   r.finish();
 }
 
-void read_rig_sim(SectionReader r, hal::sim::ModbusDeviceFaults& f) {
+void read_rig_sim(SectionReader r, hal::sim::ModbusDeviceFaults& f, hal::sim::TcpLimits& tcp) {
+  r.integer("max_clients", tcp.max_clients, 1, 100'000);
+  r.number("frame_timeout_s", tcp.frame_timeout_s, {0.001, 60.0}, "s");
   r.number("response_delay_s", f.response_delay_s, {0.0, 10.0}, "s");
   r.number("drop_probability", f.drop_probability, {0.0, 1.0});
   r.number("exception_probability", f.exception_probability, {0.0, 1.0});
@@ -180,7 +182,7 @@ void read_tables(const toml::table& t, const std::string& source, RunConfig& c,
   read_lines(file.section("lines"), c.lines);
   read_run(file.section("run"), c.run);
   read_safety(file.section("safety"), c.safety);
-  read_rig_sim(file.section("rig_sim"), c.rig_sim);
+  read_rig_sim(file.section("rig_sim"), c.rig_sim, c.rig_sim_tcp);
   read_observer(file.section("observer"), c.observer);
   read_daemon(file.section("piezod"), c.daemon);
   read_rig(file.section("rig"), c.rig);

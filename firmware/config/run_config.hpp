@@ -130,6 +130,7 @@ struct RunConfig {
   RunSettings run;
   firmware::SafetySettings safety;
   hal::sim::ModbusDeviceFaults rig_sim;  ///< the faults `piezo rig-sim` shows
+  hal::sim::TcpLimits rig_sim_tcp;       ///< what `piezo rig-sim`'s TCP clients may hold
   ObserverSettings observer;
   DaemonSettings daemon;
   RigAddress rig;

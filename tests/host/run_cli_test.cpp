@@ -106,8 +106,18 @@ INSTANTIATE_TEST_SUITE_P(
     Cli, RunBadInput,
     ::testing::Values(
         BadRun{"V0AboveLimit", "--set drive.V0=90", "",
-               "--set: drive.V0: 90 V is outside the drive's limits [drive.V_min, drive.V_max] = "
-               "[0, 80] V"},
+               "--set: drive.V0: 90 V is outside the drive's limits; allowed: (0, drive.V_max = 80] "
+               "V"},
+        // Refused here, as the board would, before a run directory exists.
+        BadRun{"V0Zero", "--set drive.V0=0", "",
+               "--set: drive.V0: 0 V is outside the drive's limits; allowed: (0, drive.V_max"},
+        BadRun{"TargetDistanceZero", "--set sensor.target_distance_m=0", "",
+               "--set: sensor.target_distance_m: value 0 m is outside the allowed range (0, 10] m"},
+        BadRun{"TargetDistanceNegative", "--set sensor.target_distance_m=-0.05", "",
+               "sensor.target_distance_m: value -0.05 m is outside the allowed range"},
+        BadRun{"NulInAString", "", kMinimal + "[piezod]\nspill_file = \"a\\u0000b\"\n",
+               "rig.toml: piezod.spill_file: must not contain control characters (U+0000 at "
+               "character 2)"},
         BadRun{"DuplicateSection", "", kMinimal + "[drive]\n", "rig.toml: line"},
         BadRun{"V0AboveLimitInFile", "", "[drive]\nV0 = 95.0\n[sensor]\n[run]\n",
                "rig.toml: drive.V0: 95 V is outside the drive's limits"},

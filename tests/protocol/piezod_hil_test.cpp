@@ -402,3 +402,23 @@ TEST_F(Piezod, ANetworkAddressNeedsCurveAndRefusesUnknownClients) {
 
 }  // namespace
 }  // namespace piezo::testing
+
+namespace piezo::testing {
+namespace {
+
+// A listen address piezod cannot serve is a config error like any other:
+// exit 2, naming piezod.listen and where it came from.
+TEST(PiezodConfig, AnAddressItCannotServeIsRefusedByKeyAndFile) {
+  const std::string config = kSource + "/configs/piezod-sim.toml";
+  const auto in_file = run_command(kPiezod + " --config " + config + " --set piezod.listen=abc");
+  EXPECT_EQ(in_file.exit_code, 2) << in_file.err;
+  EXPECT_NE(in_file.err.find(config + ": piezod.listen: \"abc\" is not an address"),
+            std::string::npos)
+      << in_file.err;
+  const auto on_line = run_command(kPiezod + " --config " + config + " --listen tcp://nowhere");
+  EXPECT_EQ(on_line.exit_code, 2) << on_line.err;
+  EXPECT_NE(on_line.err.find("--listen: piezod.listen:"), std::string::npos) << on_line.err;
+}
+
+}  // namespace
+}  // namespace piezo::testing

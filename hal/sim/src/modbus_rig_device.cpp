@@ -1,7 +1,6 @@
 #include "piezo/hal/sim/modbus_rig_device.hpp"
 
 #include <fmt/format.h>
-#include <sys/select.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -132,66 +131,6 @@ void ModbusRigDevice::answer(modbus_t* ctx, const std::uint8_t* query, int lengt
   } else if (fault == Fault::none) {
     modbus_reply(ctx, query, length, registers_);
     after_reply_locked();
-  }
-}
-
-void ModbusRigDevice::serve_tcp(const std::string& host, int port) {
-  modbus_t* ctx = modbus_new_tcp(host.c_str(), port);
-  if (ctx == nullptr) throw std::runtime_error("rig-sim: bad address " + host);
-  const int listener = modbus_tcp_listen(ctx, 16);
-  if (listener < 0) {
-    const std::string why = modbus_strerror(errno);
-    modbus_free(ctx);
-    throw std::runtime_error(fmt::format("rig-sim: cannot listen on {}:{}: {}", host, port, why));
-  }
-  std::vector<int> clients;
-  std::uint8_t query[MODBUS_TCP_MAX_ADU_LENGTH];
-  bool listening = true;
-  for (;;) {
-    if (listening && disconnected()) {
-      // The disconnect fault: every client is dropped and nobody gets back in.
-      for (int fd : clients) close(fd);
-      clients.clear();
-      close(listener);
-      listening = false;
-    }
-    fd_set ready;
-    FD_ZERO(&ready);
-    int max_fd = -1;
-    if (listening) {
-      FD_SET(listener, &ready);
-      max_fd = listener;
-    }
-    for (int fd : clients) {
-      FD_SET(fd, &ready);
-      max_fd = std::max(max_fd, fd);
-    }
-    timeval timeout{0, 20'000};
-    const int ready_count = select(max_fd + 1, &ready, nullptr, nullptr, &timeout);
-    if (ready_count < 0) {
-      if (errno == EINTR) continue;
-      throw std::runtime_error(std::string("rig-sim: select: ") + std::strerror(errno));
-    }
-    idle();  // the watchdog runs whether requests come or not
-    if (listening && FD_ISSET(listener, &ready)) {
-      int fd = listener;
-      if (modbus_tcp_accept(ctx, &fd) >= 0) clients.push_back(modbus_get_socket(ctx));
-    }
-    for (auto it = clients.begin(); it != clients.end();) {
-      if (!FD_ISSET(*it, &ready)) {
-        ++it;
-        continue;
-      }
-      modbus_set_socket(ctx, *it);
-      const int length = modbus_receive(ctx, query);
-      if (length < 0) {  // the client has gone
-        close(*it);
-        it = clients.erase(it);
-        continue;
-      }
-      if (length > 0) answer(ctx, query, length);
-      ++it;
-    }
   }
 }
 

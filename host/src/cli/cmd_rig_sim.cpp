@@ -44,6 +44,7 @@ hal::sim::ModbusRigDeviceSettings device_settings(const config::RunConfig& c) {
   s.ao_address = c.drive.ao.address;
   s.ao_counts_per_V = c.drive.ao.counts_per_V;
   s.faults = c.rig_sim;
+  s.tcp = c.rig_sim_tcp;
   return s;
 }
 

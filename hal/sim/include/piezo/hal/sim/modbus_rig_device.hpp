@@ -52,6 +52,14 @@ struct ModbusDeviceFaults {
   int watchdog_mask_address = 0x1001;
 };
 
+/// What the TCP side lets clients hold.
+struct TcpLimits {
+  /// Connections held at once; at the cap the one idle longest makes room.
+  int max_clients = 1000;
+  /// A frame begun and not finished within this closes its connection.
+  double frame_timeout_s = 0.5;
+};
+
 struct ModbusRigDeviceSettings {
   model::MotorParameters plant;
   AmplifierSettings amplifier;
@@ -63,6 +71,7 @@ struct ModbusRigDeviceSettings {
   int ao_address = 0;           ///< the analog output's holding register
   double ao_counts_per_V = 1.0;
   ModbusDeviceFaults faults;
+  TcpLimits tcp;
 };
 
 class ModbusRigDevice {
@@ -72,7 +81,8 @@ class ModbusRigDevice {
   ModbusRigDevice(const ModbusRigDevice&) = delete;
   ModbusRigDevice& operator=(const ModbusRigDevice&) = delete;
 
-  /// Serves Modbus TCP on host:port until the process ends.
+  /// Serves Modbus TCP on host:port until the process ends
+  /// (modbus_tcp_server.cpp).
   void serve_tcp(const std::string& host, int port);
   /// Serves Modbus RTU on `device` at the sensor link's serial settings.
   void serve_rtu(const std::string& device);
@@ -108,6 +118,11 @@ class ModbusRigDevice {
   std::uint16_t last_ao_counts_ = 0;
   TimeNs watchdog_restarted_ = 0;
   bool late_reply_done_ = false;
+  struct {
+    std::uint64_t refused_frames = 0;   ///< malformed or unfinished frames (client closed)
+    std::uint64_t refused_clients = 0;  ///< turned away at the cap
+    std::uint64_t evicted_clients = 0;  ///< closed, idle longest, to admit a new one
+  } tcp_stats_;
   std::mutex mutex_;  // TCP and RTU may serve at once: registers and plant are shared
   std::mt19937_64 random_{7};
   std::uniform_real_distribution<double> uniform_{0.0, 1.0};
