@@ -65,7 +65,7 @@ std::size_t record_bytes_of(Stream s) {
 }
 
 hal::Status status_from(std::uint8_t raw, const char* key) {
-  if (raw > static_cast<std::uint8_t>(hal::Status::out_of_range)) {
+  if (raw > static_cast<std::uint8_t>(hal::kLastStatus)) {
     throw bad(key, fmt::format("status {} is not a known status", raw));
   }
   return static_cast<hal::Status>(raw);

@@ -1,8 +1,14 @@
 #include "piezo/hal/modbus/link.hpp"
 
+#include "piezo/hal/modbus/mbap.hpp"
+
+#include <poll.h>
 #include <sys/select.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -146,12 +152,15 @@ bool Link::usable() {
 }
 
 Status Link::finish(int result, int error) {
-  if (result >= 0) return Status::ok;
-  const Status s = classify(error);
+  return result >= 0 ? Status::ok : failed(classify(error));
+}
+
+Status Link::failed(Status s) {
   // A reply may still be on its way (timeout), or one already came for an
   // earlier request (a mismatched reply): hand the context to the keeper,
-  // which drains the line before the next request goes out.
-  if (s == Status::timeout || s == Status::io_error || s == Status::crc_error) {
+  // which drains the line or reconnects before the next request goes out.
+  if (s == Status::timeout || s == Status::io_error || s == Status::crc_error ||
+      s == Status::bad_reply) {
     resyncing_.store(true);
     resync_.store(true);
     up_.store(false, std::memory_order_release);
@@ -162,8 +171,95 @@ Status Link::finish(int result, int error) {
   return s;
 }
 
+namespace {
+
+/// Reads exactly `n` bytes before `deadline`; false on a timeout (errno
+/// ETIMEDOUT) or a closed or failed socket (errno says which).
+bool read_exactly(int fd, std::uint8_t* out, std::size_t n,
+                  std::chrono::steady_clock::time_point deadline) {
+  for (std::size_t got = 0; got < n;) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        deadline - std::chrono::steady_clock::now());
+    pollfd p{fd, POLLIN, 0};
+    const int ready = left.count() > 0 ? poll(&p, 1, static_cast<int>(left.count())) : 0;
+    if (ready < 0 && errno == EINTR) continue;
+    if (ready == 0) {
+      errno = ETIMEDOUT;
+      return false;
+    }
+    const ssize_t r = ready < 0 ? -1 : ::recv(fd, out + got, n - got, 0);
+    if (r == 0) errno = ECONNRESET;
+    if (r <= 0) return false;
+    got += static_cast<std::size_t>(r);
+  }
+  return true;
+}
+
+}  // namespace
+
+// libmodbus frames a TCP reply by its function code and lets its header
+// pass unchecked (the protocol id test reads `&&` for `||`), so a reply
+// with another unit id, protocol id or length would be taken as good. The
+// TCP transaction is ours: the whole header is checked against the request.
+Status Link::transact_tcp(int unit_id, std::span<const std::uint8_t> request,
+                          std::span<std::uint8_t> reply) {
+  const int fd = modbus_get_socket(ctx_);
+  const std::uint16_t tid = ++transaction_;
+  std::array<std::uint8_t, kMaxTcpFrame> frame{};
+  const auto length = static_cast<std::uint16_t>(1 + request.size());
+  const std::array<std::uint8_t, kMbapBytes> head{
+      static_cast<std::uint8_t>(tid >> 8), static_cast<std::uint8_t>(tid & 0xff), 0, 0,
+      static_cast<std::uint8_t>(length >> 8), static_cast<std::uint8_t>(length & 0xff),
+      static_cast<std::uint8_t>(unit_id)};
+  std::copy(head.begin(), head.end(), frame.begin());
+  std::copy(request.begin(), request.end(), frame.begin() + kMbapBytes);
+  const std::size_t frame_bytes = kMbapBytes + request.size();
+  if (::send(fd, frame.data(), frame_bytes, MSG_NOSIGNAL) != static_cast<ssize_t>(frame_bytes)) {
+    return failed(classify(errno));
+  }
+  const auto now = std::chrono::steady_clock::now();
+  const auto response_deadline = now + std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                           std::chrono::duration<double>(
+                                               settings_.response_timeout_s));
+  std::array<std::uint8_t, kMaxTcpFrame> in{};
+  if (!read_exactly(fd, in.data(), kMbapBytes, response_deadline)) return failed(classify(errno));
+  const Mbap h = read_mbap(in);
+  if (h.transaction != tid || h.protocol != 0 || h.unit != unit_id || h.length < 2 ||
+      h.length > kMaxMbapLength) {
+    return failed(Status::bad_reply);
+  }
+  const auto byte_deadline =
+      std::max(response_deadline, std::chrono::steady_clock::now() +
+                                      std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                          std::chrono::duration<double>(settings_.byte_timeout_s)));
+  const std::size_t pdu_bytes = h.length - 1u;
+  if (!read_exactly(fd, in.data() + kMbapBytes, pdu_bytes, byte_deadline)) {
+    return failed(classify(errno));
+  }
+  const std::uint8_t function = in[kMbapBytes];
+  if (function == (request[0] | 0x80) && pdu_bytes == 2) return Status::exception_reply;
+  if (function != request[0] || pdu_bytes != reply.size()) return failed(Status::bad_reply);
+  std::copy_n(in.begin() + kMbapBytes, pdu_bytes, reply.begin());
+  return Status::ok;
+}
+
 Status Link::read(Function function, int unit_id, int address, int count, std::uint16_t* out) {
   if (!usable()) return Status::disconnected;
+  if (settings_.transport == LinkSettings::Transport::tcp) {
+    const auto code = static_cast<std::uint8_t>(function == Function::input ? 4 : 3);
+    const std::array<std::uint8_t, 5> request{
+        code, static_cast<std::uint8_t>(address >> 8), static_cast<std::uint8_t>(address & 0xff),
+        static_cast<std::uint8_t>(count >> 8), static_cast<std::uint8_t>(count & 0xff)};
+    std::array<std::uint8_t, 2 + 2 * 125> reply{};
+    const auto used = static_cast<std::size_t>(2 + 2 * count);
+    const Status s = transact_tcp(unit_id, request, std::span(reply.data(), used));
+    if (s != Status::ok) return s;
+    if (reply[1] != 2 * count) return failed(Status::bad_reply);
+    for (int i = 0; i < count; ++i) {
+      out[i] = static_cast<std::uint16_t>(reply[2 + 2 * i] << 8 | reply[3 + 2 * i]);
+    }
+    return Status::ok;
+  }
   modbus_set_slave(ctx_, unit_id);
   const int n = function == Function::input ? modbus_read_input_registers(ctx_, address, count, out)
                                             : modbus_read_registers(ctx_, address, count, out);
@@ -172,6 +268,15 @@ Status Link::read(Function function, int unit_id, int address, int count, std::u
 
 Status Link::write(int unit_id, int address, std::uint16_t value) {
   if (!usable()) return Status::disconnected;
+  if (settings_.transport == LinkSettings::Transport::tcp) {
+    const std::array<std::uint8_t, 5> request{
+        6, static_cast<std::uint8_t>(address >> 8), static_cast<std::uint8_t>(address & 0xff),
+        static_cast<std::uint8_t>(value >> 8), static_cast<std::uint8_t>(value & 0xff)};
+    std::array<std::uint8_t, 5> reply{};
+    const Status s = transact_tcp(unit_id, request, reply);
+    if (s != Status::ok) return s;
+    return reply == request ? Status::ok : failed(Status::bad_reply);  // the echo
+  }
   modbus_set_slave(ctx_, unit_id);
   const int n = modbus_write_register(ctx_, address, value);
   return finish(n, n >= 0 ? 0 : errno);

@@ -33,7 +33,7 @@ std::int64_t host_ns() {
 }
 
 hal::Status status_from(const std::string& name) {
-  for (std::uint8_t i = 0; i <= static_cast<std::uint8_t>(hal::Status::out_of_range); ++i) {
+  for (std::uint8_t i = 0; i <= static_cast<std::uint8_t>(hal::kLastStatus); ++i) {
     if (hal::to_string(static_cast<hal::Status>(i)) == name) return static_cast<hal::Status>(i);
   }
   return hal::Status::io_error;

@@ -17,7 +17,11 @@ enum class [[nodiscard]] Status : std::uint8_t{
     disconnected,     ///< the link is down
     io_error,         ///< any other error of the underlying call
     out_of_range,     ///< a request outside the device's limits was refused
+    bad_reply,        ///< a reply whose header does not fit its request (Modbus TCP's MBAP)
 };
+
+/// The highest code: codes above it are not a Status.
+inline constexpr Status kLastStatus = Status::bad_reply;
 
 [[nodiscard]] constexpr std::string_view to_string(Status s) {
   switch (s) {
@@ -37,6 +41,8 @@ enum class [[nodiscard]] Status : std::uint8_t{
       return "io_error";
     case Status::out_of_range:
       return "out_of_range";
+    case Status::bad_reply:
+      return "bad_reply";
   }
   return "unknown";
 }

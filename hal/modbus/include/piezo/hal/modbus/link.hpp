@@ -21,6 +21,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <mutex>
+#include <span>
 #include <string>
 #include <thread>
 
@@ -66,6 +67,13 @@ class Link {
 
  private:
   Status finish(int result, int error);
+  /// Hands the link to the keeper after a failure that may leave it out
+  /// of step; returns `s`.
+  Status failed(Status s);
+  /// One Modbus TCP request (its PDU) and its reply's PDU of exactly
+  /// reply.size() bytes, the reply's header checked against the request.
+  Status transact_tcp(int unit_id, std::span<const std::uint8_t> request,
+                      std::span<std::uint8_t> reply);
   void keep_connected();
   bool try_connect();
   /// Reads and discards until the line is silent; false if it closed or errs.
@@ -83,6 +91,7 @@ class Link {
   std::mutex keeper_mutex_;             // only for the keeper's sleep; never taken by a caller
   std::condition_variable keeper_wakeup_;
   std::thread keeper_;
+  std::uint16_t transaction_ = 0;  ///< the last TCP transaction id sent
 };
 
 }  // namespace piezo::hal::modbus
