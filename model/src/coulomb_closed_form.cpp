@@ -20,6 +20,16 @@ using Complex = std::complex<double>;
 /// A mode shorter than this is rounding at a grazing switch [s].
 constexpr double kGrazing = 1e-12;
 
+/// Chattering contact: this many switches in a row, each after a mode
+/// shorter than kChatter, are a Zeno sequence of stick and slip whose
+/// limit is sticking (event-driven friction solvers take it so). The
+/// contact is then held stuck for a stretch that starts at kFirstHold and
+/// doubles while the chatter resumes right after it, up to kLongestHold.
+constexpr int kChatterSwitches = 4;
+constexpr double kChatter = 1e-9;
+constexpr double kFirstHold = 1e-9;
+constexpr double kLongestHold = 1e-6;
+
 /// The rotor's inertia seen at the contact point: J / r^2.
 double reflected_mass(const MotorParameters& p) {
   return p.J / (p.r * p.r);
@@ -302,10 +312,31 @@ Trajectory simulate_coulomb_closed_form(const MotorParameters& p, const Excitati
   while (next < n && times[next] <= 0.0) emit(times[next++], y, 0.0);
   const double t_end = times.back();
   double t = 0.0;
-  int switches_in_place = 0;
+  int chatter = 0;  // switches in a row after modes shorter than kChatter
+  double hold = kFirstHold;
   bool at_switch = true;
   while (next < n) {
     const double segment_end = std::min(drive.next_breakpoint(t), t_end);
+    if (chatter >= kChatterSwitches) {
+      // The limit of the chatter: stuck, without the switch test, for a
+      // stretch; the next piece then decides afresh.
+      const double t_stop = std::min(t + hold, segment_end);
+      Piece stuck(p, ContactMode::stick, drive.piece(t), t, y, true);
+      while (next < n && times[next] <= t_stop) {
+        emit(times[next], stuck.state(times[next] - t), stuck.friction(times[next] - t));
+        ++next;
+      }
+      y = stuck.state(t_stop - t);
+      ++out.stats.steps;
+      ++out.stats.chatter_holds;
+      out.stats.rhs_evaluations += stuck.evaluations();
+      mode = ContactMode::stick;
+      at_switch = true;
+      chatter = 0;
+      hold = std::min(2.0 * hold, kLongestHold);
+      t = t_stop;
+      continue;
+    }
     Piece piece(p, mode, drive.piece(t), t, y, at_switch);
     const std::optional<double> tau_switch = piece.first_switch(segment_end - t);
     const double t_stop = tau_switch ? t + *tau_switch : segment_end;
@@ -334,12 +365,11 @@ Trajectory simulate_coulomb_closed_form(const MotorParameters& p, const Excitati
         y[kThetaDot] = y[kXDot] / p.r;  // the slip ended at v = 0
         mode = coulomb_mode_after_slip(p, drive.voltage(t_stop), y);
       }
-      switches_in_place = t_stop > t ? 0 : switches_in_place + 1;
-      if (switches_in_place > 8) {
-        throw std::runtime_error("integrator closed_form: the contact switches endlessly at t = " +
-                                 std::to_string(t_stop) + " s");
-      }
+      chatter = *tau_switch < kChatter ? chatter + 1 : 0;
+    } else {
+      chatter = 0;
     }
+    if (chatter == 0 && t_stop - t >= kChatter) hold = kFirstHold;
     at_switch = tau_switch.has_value();
     t = t_stop;
   }

@@ -55,7 +55,8 @@ void ModbusRigDevice::serve_tcp(const std::string& host, int port) {
   raise_descriptor_limit(limits.max_clients);
   modbus_t* ctx = modbus_new_tcp(host.c_str(), port);
   if (ctx == nullptr) throw std::runtime_error("rig-sim: bad address " + host);
-  const int listener = modbus_tcp_listen(ctx, 128);
+  // A wave of connections must not overflow the kernel's queue of them.
+  const int listener = modbus_tcp_listen(ctx, 1024);
   if (listener < 0) {
     const std::string why = modbus_strerror(errno);
     modbus_free(ctx);

@@ -48,6 +48,8 @@ struct IntegrationStats {
   std::size_t steps = 0;
   std::size_t rhs_evaluations = 0;
   std::size_t mode_switches = 0;               ///< stick/slip transitions (Coulomb only)
+  /// Stretches held stuck through chattering contact (closed form only).
+  std::size_t chatter_holds = 0;
   Integrator integrator = Integrator::dopri5;  ///< the one that ran (model_default resolved)
 };
 
