@@ -148,5 +148,18 @@ TEST_F(ModbusHil, AStalledAndADrippingClientCostARunNothing) {
   close(stalled);
 }
 
+TEST_F(ModbusHil, PastItsClientCapANewConnectionIsRefusedAndTheHeldOnesServed) {
+  auto rig = start_rig_sim({"--set", "rig_sim.max_clients=20"});
+  ASSERT_TRUE(wait_for_tcp(port));
+  std::vector<int> held;
+  for (int i = 0; i < 20; ++i) held.push_back(connect_to(port));
+  const int one_too_many = connect_to(port);  // the kernel accepts; rig-sim closes it
+  EXPECT_EQ(reply_to(one_too_many, read_request()), "closed");
+  close(one_too_many);
+  EXPECT_EQ(reply_to(held.front(), read_request()).size(), 13u) << "the first held is served";
+  EXPECT_EQ(reply_to(held.back(), read_request()).size(), 13u) << "and the last";
+  for (int fd : held) close(fd);
+}
+
 }  // namespace
 }  // namespace piezo::testing

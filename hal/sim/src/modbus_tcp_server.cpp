@@ -4,9 +4,8 @@
 // connections cost nothing either (epoll reports only sockets with data).
 // A frame whose header is not Modbus, or whose length does not fit its
 // function, closes that client (a TCP byte stream cannot be resynchronised);
-// so does a frame left unfinished past the frame timeout. At the client
-// cap, the connection idle longest makes room for a new one, or, when every
-// connection is busy, the new one is refused.
+// so does a frame left unfinished past the frame timeout. Past the client
+// cap a new connection is refused (closed at once); those held go on.
 
 #include <arpa/inet.h>
 #include <fcntl.h>
@@ -86,21 +85,13 @@ void ModbusRigDevice::serve_tcp(const std::string& host, int port) {
   };
   const auto admit = [&](int fd, TimeNs now) {
     if (static_cast<int>(clients.size()) >= limits.max_clients) {
-      // The longest idle without a frame under way makes room.
-      auto oldest = clients.end();
-      for (auto it = clients.begin(); it != clients.end(); ++it) {
-        if (it->second.used == 0 &&
-            (oldest == clients.end() || it->second.last_activity < oldest->second.last_activity)) {
-          oldest = it;
-        }
-      }
-      if (oldest == clients.end()) {
-        ++tcp_stats_.refused_clients;
-        close(fd);
-        return;
-      }
-      ++tcp_stats_.evicted_clients;
-      drop(oldest->first, {});
+      // Refused, not room made: a quiet connection may be a run's, idle
+      // between its requests or before its first.
+      ++tcp_stats_.refused_clients;
+      fmt::print(stderr, "rig-sim: refused a client: rig_sim.max_clients = {} held ({} so far)\n",
+                 limits.max_clients, tcp_stats_.refused_clients);
+      close(fd);
+      return;
     }
     fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) | O_NONBLOCK);
     const int one = 1;

@@ -54,8 +54,8 @@ struct ModbusDeviceFaults {
 
 /// What the TCP side lets clients hold.
 struct TcpLimits {
-  /// Connections held at once; at the cap the one idle longest makes room.
-  int max_clients = 1000;
+  /// Connections held at once; past it a new one is refused.
+  int max_clients = 4096;
   /// A frame begun and not finished within this closes its connection.
   double frame_timeout_s = 0.5;
 };
@@ -121,7 +121,6 @@ class ModbusRigDevice {
   struct {
     std::uint64_t refused_frames = 0;   ///< malformed or unfinished frames (client closed)
     std::uint64_t refused_clients = 0;  ///< turned away at the cap
-    std::uint64_t evicted_clients = 0;  ///< closed, idle longest, to admit a new one
   } tcp_stats_;
   std::mutex mutex_;  // TCP and RTU may serve at once: registers and plant are shared
   std::mt19937_64 random_{7};
