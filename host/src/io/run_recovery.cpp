@@ -110,8 +110,10 @@ LogCopy read_log_copy(const fs::path& log) {
 }
 
 /// One group (drive, sensor or observer) merged from both copies into
-/// `into`: row by row, run.h5's value where it could be read, else the
-/// journal's, else lost. Returns the rows kept; adds to `losses`.
+/// `into`: row by row, the journal's value where it holds the row (each
+/// block CRC-checked; HDF5 killed inside a flush can leave an extent whose
+/// chunk was never written, read back as fill values without an error),
+/// else run.h5's, else lost. Returns the rows kept; adds to `losses`.
 template <class Rows>
 std::size_t merge_group(const LogCopy& log, const Rows& journal, Rows& into, std::string_view group,
                         std::vector<std::string>& losses) {
@@ -135,10 +137,10 @@ std::size_t merge_group(const LogCopy& log, const Rows& journal, Rows& into, std
     out.resize(rows);
     std::size_t lost = 0;
     for (std::size_t i = 0; i < rows; ++i) {
-      if (use_log && i < from_log.size()) {
-        out[i] = from_log[i];
-      } else if (use_journal && i < from_journal.size()) {
+      if (use_journal && i < from_journal.size()) {
         out[i] = from_journal[i];
+      } else if (use_log && i < from_log.size()) {
+        out[i] = from_log[i];
       } else {
         out[i] = d.storage == log_schema::Storage::uint8 ? kLostCode : std::nan("");
         ++lost;

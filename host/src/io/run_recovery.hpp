@@ -3,7 +3,8 @@
 // (run_journal.hpp) are two copies of one stream of rows, each whole up to
 // where it was cut (the journal at its torn tail, run.h5 at its last flush
 // or its first damaged chunk). Recovery reads both as far as each goes and
-// keeps, column by column, the longer: it never keeps less than either
+// keeps, row by row, the journal's value (CRC-checked) where it has the
+// row, else run.h5's: it never keeps less than either
 // copy held, and where it keeps less than a copy claimed (a damaged chunk
 // with no other copy of its rows) it says so.
 
