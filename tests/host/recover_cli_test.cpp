@@ -137,6 +137,60 @@ TEST(RecoverCli, ATornJournalNeverReplacesALongerLogWithLess) {
   }
 }
 
+// A kill inside HDF5's flush can leave observer/t grown over a chunk never
+// written (read back as fill values) and the group's other columns not yet
+// grown: the journal, written first, holds those rows whole. Recovery takes
+// them from it, whatever the log's last values read as.
+TEST(RecoverCli, FillValuesAtTheLogsEndDoNotDisownTheJournal) {
+  const auto dir = fresh_temp_dir("recover-fill");
+  const fs::path run = killed_run(dir);
+  ASSERT_TRUE(fs::exists(run / "run.journal"));
+  const fs::path script = dir / "tear.py";
+  write_file(script, R"(import h5py, sys
+src, dst = sys.argv[1], sys.argv[2]
+with h5py.File(src, 'r') as f, h5py.File(dst, 'w') as g:
+    for k, v in f.attrs.items():
+        g.attrs[k] = v
+    def copy(name, obj):
+        if not isinstance(obj, h5py.Dataset):
+            return
+        data = obj[:]
+        if name == 'observer/t':
+            data[-1] = 0.0
+        elif name.startswith('observer/'):
+            data = data[:0]
+        g.create_dataset(name, data=data, maxshape=(None,), chunks=(4096,))
+    f.visititems(copy)
+    print(len(f['observer/t']))
+)");
+  const auto torn = run_command("/usr/bin/python3 " + script.string() + " " +
+                                (run / "run.h5").string() + " " + (run / "torn.h5").string());
+  ASSERT_EQ(torn.exit_code, 0) << torn.err;
+  ASSERT_GT(std::stol(torn.out), 10) << "the run was killed before its first observer rows";
+  fs::rename(run / "torn.h5", run / "run.h5");
+
+  int exit_code = 0;
+  const auto j = recover(run, exit_code);
+  EXPECT_EQ(exit_code, 0) << j;
+  EXPECT_TRUE(j.value("losses", nlohmann::json::array()).empty()) << j;
+  const fs::path check = dir / "check.py";
+  write_file(check, R"(import h5py, sys, numpy as np
+with h5py.File(sys.argv[1], 'r') as f:
+    t = f['observer/t'][:]
+    bad = int(np.sum(~np.isfinite(f['observer/x_hat'][:])))
+    print(len(t), bool(np.all(np.diff(t) > 0)), bad)
+)");
+  const auto r = run_command("/usr/bin/python3 " + check.string() + " " + (run / "run.h5").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::istringstream in(r.out);
+  long rows = 0, lost = -1;
+  std::string increasing;
+  in >> rows >> increasing >> lost;
+  EXPECT_GE(rows, std::stol(torn.out));
+  EXPECT_EQ(increasing, "True") << "observer/t keeps the fill value instead of the journal's time";
+  EXPECT_EQ(lost, 0);
+}
+
 // A completed log with bytes flipped in its samples: recover reads every
 // dataset before it calls the log readable. Where it cannot, it rebuilds
 // the log from what reads (the old file kept), and when that is less than

@@ -111,23 +111,21 @@ LogCopy read_log_copy(const fs::path& log) {
 
 /// One group (drive, sensor or observer) merged from both copies into
 /// `into`: row by row, the journal's value where it holds the row (each
-/// block CRC-checked; HDF5 killed inside a flush can leave an extent whose
-/// chunk was never written, read back as fill values without an error),
-/// else run.h5's, else lost. Returns the rows kept; adds to `losses`.
+/// block CRC-checked and written before run.h5's copy; HDF5 killed inside a
+/// flush can leave an extent whose chunk was never written, read back as
+/// fill values without an error), else run.h5's, else lost. A journal of
+/// another run (`same_run` false) is never mixed in: the longer copy is
+/// used alone. Returns the rows kept; adds to `losses`.
 template <class Rows>
-std::size_t merge_group(const LogCopy& log, const Rows& journal, Rows& into, std::string_view group,
-                        std::vector<std::string>& losses) {
+std::size_t merge_group(const LogCopy& log, const Rows& journal, bool same_run, Rows& into,
+                        std::string_view group, std::vector<std::string>& losses) {
   const auto& sets = log_schema::datasets(static_cast<const Rows*>(nullptr));
-  const std::vector<double>& log_t = column_of(log, sets[0].path);
-  const std::vector<double>& journal_t = journal.*sets[0].column;
-  // Both copies are prefixes of one stream, so where they overlap their
-  // times agree; if not (a foreign journal), only the longer one is used.
-  const std::size_t overlap = std::min(log_t.size(), journal_t.size());
-  const bool one_stream = overlap == 0 || log_t[overlap - 1] == journal_t[overlap - 1];
-  const bool use_log = one_stream || log_t.size() >= journal_t.size();
-  const bool use_journal = one_stream || !use_log;
-  const std::size_t rows = std::max(use_log ? log_t.size() : 0, use_journal ? journal_t.size() : 0);
-  std::size_t found = journal_t.size();
+  const std::size_t log_rows = column_of(log, sets[0].path).size();
+  const std::size_t journal_rows = (journal.*sets[0].column).size();
+  const bool use_log = same_run || log_rows >= journal_rows;
+  const bool use_journal = same_run || !use_log;
+  const std::size_t rows = std::max(use_log ? log_rows : 0, use_journal ? journal_rows : 0);
+  std::size_t found = journal_rows;
   for (const auto& d : sets) {
     const auto claimed = log.claimed.find(d.path);
     if (claimed != log.claimed.end()) found = std::max(found, claimed->second);
@@ -156,6 +154,22 @@ std::size_t merge_group(const LogCopy& log, const Rows& journal, Rows& into, std
     losses.push_back(fmt::format("{}: kept {} of the {} rows a copy claimed", group, rows, found));
   }
   return rows;
+}
+
+/// Whether the journal was written beside this very run.h5: the header both
+/// copies were started with agrees wherever both can be read. (Sample values
+/// cannot tell: the last rows of a killed log are the ones likely to read
+/// back as fill values.)
+bool same_run(const LogCopy& log, const JournalContents& journal) {
+  for (const char* key : {"utc_start", "host", "config"}) {
+    const auto in_log = log.attributes.find(key);
+    const auto in_journal = journal.header.find(key);
+    if (in_log != log.attributes.end() && in_journal != journal.header.end() &&
+        in_log->second != in_journal->second) {
+      return false;
+    }
+  }
+  return true;
 }
 
 template <class Rows>
@@ -238,9 +252,11 @@ Recovery recover_run(const std::string& run_dir) {
   }
 
   log_schema::LogRows rows;
-  r.drive_rows = merge_group(copy, j.rows.drive, rows.drive, "drive", r.losses);
-  r.sensor_rows = merge_group(copy, j.rows.sensor, rows.sensor, "sensor", r.losses);
-  r.observer_rows = merge_group(copy, j.rows.observer, rows.observer, "observer", r.losses);
+  const bool one_run = same_run(copy, j);
+  r.drive_rows = merge_group(copy, j.rows.drive, one_run, rows.drive, "drive", r.losses);
+  r.sensor_rows = merge_group(copy, j.rows.sensor, one_run, rows.sensor, "sensor", r.losses);
+  r.observer_rows =
+      merge_group(copy, j.rows.observer, one_run, rows.observer, "observer", r.losses);
   r.blocks = j.blocks;
   r.torn_bytes = j.torn_bytes;
   // The journal's attributes first; run.h5's, where readable, are as new.
