@@ -1,10 +1,15 @@
 #include "curve.hpp"
 
+#include <fcntl.h>
+#include <fmt/format.h>
 #include <sys/stat.h>
+#include <unistd.h>
 #include <toml++/toml.h>
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <stdexcept>
 #include <zmq_addon.hpp>
@@ -27,24 +32,54 @@ KeyPair generate_keypair() {
   return {pub.data(), sec.data()};
 }
 
-void write_keypair(const KeyPair& keys, const std::string& dir, const std::string& name) {
+namespace {
+
+/// Writes `text` to a new file created with `mode` (a secret is never
+/// readable by others, not even for a moment).
+void write_new_file(const std::string& path, const std::string& text, mode_t mode) {
+  ::unlink(path.c_str());  // a new inode: an old file's looser mode does not carry over
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, mode);
+  if (fd < 0) throw std::runtime_error(path + ": cannot write: " + std::strerror(errno));
+  const bool written = ::write(fd, text.data(), text.size()) == static_cast<ssize_t>(text.size());
+  if (::close(fd) != 0 || !written) throw std::runtime_error(path + ": cannot write");
+}
+
+}  // namespace
+
+void write_keypair(const KeyPair& keys, const std::string& dir, const std::string& name,
+                   bool force) {
   const std::string secret_path = dir + "/" + name + ".key";
   const std::string public_path = dir + "/" + name + ".pub";
-  {
-    std::ofstream out(secret_path);
-    if (!out) throw std::runtime_error(secret_path + ": cannot write");
-    ::chmod(secret_path.c_str(), 0600);
-    out << "# CURVE key pair (piezod keygen): keep this file secret\n"
-        << "public-key = \"" << keys.public_key << "\"\n"
-        << "secret-key = \"" << keys.secret_key << "\"\n";
+  // Both are checked before either is written: a refusal leaves the pair whole.
+  if (!force) {
+    for (const std::string& p : {secret_path, public_path}) {
+      if (::access(p.c_str(), F_OK) == 0) {
+        throw std::runtime_error(p + ": exists; keygen --force replaces the pair (peers that "
+                                     "hold the old public key are then refused)");
+      }
+    }
   }
-  std::ofstream out(public_path);
-  if (!out) throw std::runtime_error(public_path + ": cannot write");
-  out << "# CURVE public key (piezod keygen): give it to the peer\n"
-      << "public-key = \"" << keys.public_key << "\"\n";
+  write_new_file(secret_path,
+                 "# CURVE key pair (piezod keygen): keep this file secret\n"
+                 "public-key = \"" + keys.public_key + "\"\n"
+                 "secret-key = \"" + keys.secret_key + "\"\n",
+                 0600);
+  write_new_file(public_path,
+                 "# CURVE public key (piezod keygen): give it to the peer\n"
+                 "public-key = \"" + keys.public_key + "\"\n",
+                 0644);
 }
 
 std::string read_key(const std::string& path, const std::string& entry) {
+  if (entry == "secret-key") {
+    // As ssh does: a secret others can read is no longer a secret.
+    struct stat st {};
+    if (::stat(path.c_str(), &st) == 0 && (st.st_mode & 077) != 0) {
+      throw std::runtime_error(fmt::format(
+          "{}: readable by others (mode {:04o}); a secret key must be private: chmod 600 {}",
+          path, st.st_mode & 07777, path));
+    }
+  }
   toml::table t;
   try {
     t = toml::parse_file(path);

@@ -16,7 +16,8 @@ struct KeyPair {
 
 [[nodiscard]] KeyPair generate_keypair();
 /// Writes DIR/NAME.key (both keys, mode 0600) and DIR/NAME.pub (public).
-void write_keypair(const KeyPair& keys, const std::string& dir, const std::string& name);
+void write_keypair(const KeyPair& keys, const std::string& dir, const std::string& name,
+                   bool force = false);
 /// Reads a key file written by write_keypair: the "secret-key" or
 /// "public-key" entry. Throws naming the file and the entry.
 [[nodiscard]] std::string read_key(const std::string& path, const std::string& entry);

@@ -61,6 +61,30 @@ bool latches(firmware::StopCause c) {
          c != firmware::StopCause::none;
 }
 
+/// Each command's arguments (docs/protocol.md, "Commands").
+void refuse_unknown_args(const std::string& cmd, const json& args) {
+  using protocol::refuse_unknown_args;
+  if (cmd == "configure") {
+    refuse_unknown_args(args, {"V0", "f", "C_dr", "e_dr", "direction", "duration_s"}, cmd);
+  } else if (cmd == "start") {
+    refuse_unknown_args(args, {"lease_s"}, cmd);
+  } else if (cmd == "step") {
+    refuse_unknown_args(args, {"count", "V0", "f", "C_dr", "e_dr", "direction", "lease_s"}, cmd);
+  } else if (cmd == "move_to") {
+    refuse_unknown_args(args,
+                        {"target_rad", "tolerance_rad", "settle_s", "timeout_s", "V0", "f", "C_dr",
+                         "e_dr", "lease_s"},
+                        cmd);
+  } else if (cmd == "lease") {
+    refuse_unknown_args(args, {"drive_received"}, cmd);
+  } else if (cmd == "fetch") {
+    refuse_unknown_args(args, {"stream", "first", "count"}, cmd);
+  } else if (cmd == "hello" || cmd == "status" || cmd == "clock" || cmd == "zero" ||
+             cmd == "stop" || cmd == "estop" || cmd == "reset_fault") {
+    refuse_unknown_args(args, {}, cmd);
+  }
+}
+
 ProtocolError out_of_limits(const std::string& key, const std::string& message) {
   return {code::out_of_limits, key, key + ": " + message};
 }
@@ -93,6 +117,7 @@ struct Daemon::Run {
   json summary;                                    ///< once finished
   firmware::PositionFeed feed;                     ///< the acquire loop's readings, for a move
   std::unique_ptr<firmware::MoveController> move;  ///< a closed-loop move's program, if it is one
+  bool move_takes_its_zero = false;                ///< the board had no zero when it began
   // The virtual clock's lease runs on wall time, checked by the network thread.
   std::atomic<std::int64_t> lease_renewed_ns{0};
   std::atomic<std::uint64_t> drive_acked{0}, drive_recorded{0};
@@ -149,13 +174,20 @@ Daemon::Daemon(const config::RunConfig& board, config::Rig rig, zmq::context_t& 
     log_event("WARNING: --insecure: plain text on a network address, any peer may connect");
   }
   commands_.set(zmq::sockopt::router_mandatory, 0);
-  commands_.set(zmq::sockopt::maxmsgsize, static_cast<std::int64_t>(protocol::kMaxMessageBytes));
+  // Larger than the largest command, so an oversized one is read and
+  // answered too_large instead of costing its sender its connection and
+  // the replies in flight on it.
+  commands_.set(zmq::sockopt::maxmsgsize, static_cast<std::int64_t>(protocol::kMaxTransportBytes));
   commands_.set(zmq::sockopt::linger, 0);
   stream_.set(zmq::sockopt::sndhwm, 100'000);
   stream_.set(zmq::sockopt::linger, 0);
+  if (protocol::is_ipv6_endpoint(command_endpoint_)) {
+    commands_.set(zmq::sockopt::ipv6, 1);
+    stream_.set(zmq::sockopt::ipv6, 1);
+  }
   try {
-    commands_.bind(command_endpoint_);
-    stream_.bind(stream_endpoint_);
+    commands_.bind(protocol::bindable_endpoint(command_endpoint_));
+    stream_.bind(protocol::bindable_endpoint(stream_endpoint_));
   } catch (const zmq::error_t& e) {
     throw std::runtime_error(
         fmt::format("piezod.listen: cannot listen on {} / {}: {}", command_endpoint_,
@@ -263,6 +295,7 @@ void Daemon::on_command(std::vector<zmq::message_t>& frames) {
 }
 
 json Daemon::handle(const std::string& client, const std::string& cmd, const json& args) {
+  refuse_unknown_args(cmd, args);
   if (cmd == "hello") return hello();
   if (cmd == "status") return status(client);
   if (cmd == "clock") return {{"board_ns", rig_.clock->now()}};
@@ -270,7 +303,7 @@ json Daemon::handle(const std::string& client, const std::string& cmd, const jso
   if (cmd == "start") return start(client, args);
   if (cmd == "step") return step(client, args);
   if (cmd == "move_to") return move_to(client, args);
-  if (cmd == "zero") return set_zero();
+  if (cmd == "zero") return set_zero(client);
   if (cmd == "stop") return stop_run(client);
   if (cmd == "estop") return estop(client);
   if (cmd == "reset_fault") return reset_fault();
@@ -303,6 +336,7 @@ json Daemon::hello() const {
             {"f_max_hz", board_.drive.rate_hz / 20.0},
             {"duration_max_s", board_.daemon.duration_max_s},
             {"lease_max_s", board_.daemon.lease_max_s}}},
+          {"sensor", {{"r2_m", board_.sensor.r2_m}}},
           {"drive_rate_hz", board_.drive.rate_hz},
           {"sensor_rate_hz", board_.sensor.rate_hz()},
           {"output_latency_s", rig_.drive->output_latency_s()},
@@ -344,9 +378,9 @@ json Daemon::status(const std::string& client) const {
   return j;
 }
 
-json Daemon::configure(const std::string& client, const json& args) {
-  if (running()) require_controller(client, "configure");
-  if (running()) throw ProtocolError(code::bad_state, "", "configure: a run is under way");
+json Daemon::configure(const std::string& client, const json& args, const char* cmd) {
+  if (running()) require_controller(client, cmd);
+  if (running()) throw ProtocolError(code::bad_state, "", fmt::format("{}: a run is under way", cmd));
   RunRequest r;
   r.drive.V0 = protocol::number_arg(args, "V0");
   r.drive.f = protocol::number_arg(args, "f");
@@ -411,18 +445,24 @@ void Daemon::require_controller(const std::string& client, const char* cmd) cons
   }
 }
 
-json Daemon::start(const std::string& client, const json& args,
-                   const std::optional<firmware::MoveSettings>& move) {
+void Daemon::require_can_start(const std::string& client, const char* cmd) const {
   if (state_ == State::fault) {
     throw ProtocolError(code::fault_latched, "",
-                        fmt::format("start: the fault {} is latched; send reset_fault first",
+                        fmt::format("{}: the fault {} is latched; send reset_fault first", cmd,
                                     firmware::to_string(fault_cause_)));
   }
   if (running()) {
-    require_controller(client, "start");
-    throw ProtocolError(code::bad_state, "", "start: a run is under way");
+    require_controller(client, cmd);
+    throw ProtocolError(code::bad_state, "", fmt::format("{}: a run is under way", cmd));
   }
-  if (!configured_) throw ProtocolError(code::bad_state, "", "start: send configure first");
+}
+
+json Daemon::start(const std::string& client, const json& args,
+                   const std::optional<firmware::MoveSettings>& move, const char* cmd) {
+  require_can_start(client, cmd);
+  if (!configured_) {
+    throw ProtocolError(code::bad_state, "", fmt::format("{}: send configure first", cmd));
+  }
   const double lease_s = protocol::number_arg(args, "lease_s", board_.daemon.lease_s);
   if (!(lease_s > 0.0 && lease_s <= board_.daemon.lease_max_s)) {
     throw out_of_limits(
@@ -500,6 +540,7 @@ json Daemon::step(const std::string& client, const json& args) {
   // A step is a run of whole drive periods: each period ends at 0 V (after
   // the fast edge forward, the slow edge in reverse), so the run ends there
   // with nothing left to ramp and the rotor is not pulled back.
+  require_can_start(client, "step");  // before configure: a refused step changes nothing
   const std::uint64_t count = protocol::uint_arg(args, "count");
   json configure_args = args;
   configure_args.erase("count");
@@ -513,15 +554,17 @@ json Daemon::step(const std::string& client, const json& args) {
                              count, f, std::max(max_count, 0.0), board_.daemon.duration_max_s));
   }
   configure_args["duration_s"] = static_cast<double>(count) / f;
-  const json configured = configure(client, configure_args);
-  json started =
-      start(client, args.contains("lease_s") ? json{{"lease_s", args["lease_s"]}} : json::object());
+  const json configured = configure(client, configure_args, "step");
+  json started = start(
+      client, args.contains("lease_s") ? json{{"lease_s", args["lease_s"]}} : json::object(),
+      std::nullopt, "step");
   started["count"] = count;
   started["direction"] = configured.at("direction");
   return started;
 }
 
 json Daemon::move_to(const std::string& client, const json& args) {
+  require_can_start(client, "move_to");  // before configure: a refused move changes nothing
   firmware::MoveSettings m;
   m.target_rad = protocol::number_arg(args, "target_rad");
   m.tolerance_rad = protocol::number_arg(args, "tolerance_rad", m.tolerance_rad);
@@ -549,10 +592,11 @@ json Daemon::move_to(const std::string& client, const json& args) {
                             {"C_dr", protocol::number_arg(args, "C_dr", d0.C_dr)},
                             {"e_dr", protocol::number_arg(args, "e_dr", d0.e_dr)},
                             {"duration_s", timeout_s}};
-  (void)configure(client, configure_args);
+  (void)configure(client, configure_args, "move_to");
   const auto& d = configured_->drive;
   const auto& motor = board_.model.motor;
   m.zero_displacement_m = zero_displacement_m_.value_or(std::numeric_limits<double>::quiet_NaN());
+  const bool zero_before = zero_displacement_m_.has_value();
   m.r2_m = board_.sensor.r2_m;
   m.V0 = d.V0;
   m.f = d.f;
@@ -576,11 +620,14 @@ json Daemon::move_to(const std::string& client, const json& args) {
   m.fine_V_max = 0.8 * board_.drive.limits.V_max;
   m.fast_slew_V_per_s = board_.drive.limits.slew_V_per_s;
   json started = start(
-      client, args.contains("lease_s") ? json{{"lease_s", args["lease_s"]}} : json::object(), m);
+      client, args.contains("lease_s") ? json{{"lease_s", args["lease_s"]}} : json::object(), m,
+      "move_to");
   started["target_rad"] = m.target_rad;
   started["tolerance_rad"] = m.tolerance_rad;
   started["settle_s"] = m.settle_s;
   started["timeout_s"] = timeout_s;
+  for (const char* key : {"V0", "f", "C_dr", "e_dr"}) started[key] = configure_args.at(key);
+  run_->move_takes_its_zero = !zero_before;
   return started;
 }
 
@@ -591,7 +638,14 @@ std::optional<double> Daemon::recent_displacement_m() const {
   return sum / static_cast<double>(recent_readings_.size());
 }
 
-json Daemon::set_zero() {
+json Daemon::set_zero(const std::string& client) {
+  // The frame of a run's target (a move's) must not shift under it: the
+  // zero is the controller's between runs, and nobody's during one.
+  if (running()) {
+    require_controller(client, "zero");
+    throw ProtocolError(code::bad_state, "",
+                        "zero: a run is under way; zero after it ends");
+  }
   const auto last = recent_displacement_m();
   if (!last) {
     throw ProtocolError(code::bad_state, "",
@@ -601,7 +655,7 @@ json Daemon::set_zero() {
   zero_displacement_m_ = last;
   zero_readings_.clear();
   log_event(fmt::format("zero set at {:.9g} m", *zero_displacement_m_));
-  return position_json();
+  return {{"position", position_json()}};
 }
 
 json Daemon::position_json() const {
@@ -809,8 +863,12 @@ void Daemon::finish_run() {
       {"samples", {{"drive", drive_recorder_.next()}, {"sensor", sensor_recorder_.next()}}}};
   if (run.move) {
     run.summary["move"] = move_json(run);
-    // The move's own zero, to the last bit, when it took one.
-    if (const double z = run.move->zero_displacement_m(); !std::isnan(z)) zero_displacement_m_ = z;
+    // The move's own zero, to the last bit, when it took one because the
+    // board had none; a zero acknowledged before the move is never undone.
+    if (const double z = run.move->zero_displacement_m();
+        run.move_takes_its_zero && !std::isnan(z)) {
+      zero_displacement_m_ = z;
+    }
   }
   if (latches(cause) || std::string_view(firmware::output_state(out)) != "confirmed") {
     state_ = State::fault;

@@ -68,13 +68,16 @@ class Daemon {
                         const nlohmann::json& args);
   nlohmann::json hello() const;
   nlohmann::json status(const std::string& client) const;
-  nlohmann::json configure(const std::string& client, const nlohmann::json& args);
+  /// `cmd` names the command in refusals (step and move_to configure too).
+  nlohmann::json configure(const std::string& client, const nlohmann::json& args,
+                           const char* cmd = "configure");
   /// With `move`, the run is a closed-loop move instead of the configured waveform.
   nlohmann::json start(const std::string& client, const nlohmann::json& args,
-                       const std::optional<firmware::MoveSettings>& move = std::nullopt);
+                       const std::optional<firmware::MoveSettings>& move = std::nullopt,
+                       const char* cmd = "start");
   nlohmann::json step(const std::string& client, const nlohmann::json& args);
   nlohmann::json move_to(const std::string& client, const nlohmann::json& args);
-  nlohmann::json set_zero();
+  nlohmann::json set_zero(const std::string& client);
   nlohmann::json position_json() const;
   nlohmann::json move_json(const Run& run) const;
   nlohmann::json stop_run(const std::string& client);
@@ -83,6 +86,8 @@ class Daemon {
   nlohmann::json renew_lease(const std::string& client, const nlohmann::json& args);
   nlohmann::json fetch(const nlohmann::json& args);
   void require_controller(const std::string& client, const char* cmd) const;
+  /// Refuses `cmd` (start, step, move_to) under a latched fault or a run.
+  void require_can_start(const std::string& client, const char* cmd) const;
   void pump_samples();
   void publish_state();
   void publish_health();

@@ -49,11 +49,13 @@ int main(int argc, char** argv) {
   std::string key_dir = ".", key_name = "piezod";
   keygen->add_option("--out", key_dir, "directory")->required();
   keygen->add_option("--name", key_name, "file name without suffix");
+  bool force = false;
+  keygen->add_flag("--force", force, "replace an existing pair");
   CLI11_PARSE(app, argc, argv);
 
   try {
     if (*keygen) {
-      piezo::daemon::write_keypair(piezo::daemon::generate_keypair(), key_dir, key_name);
+      piezo::daemon::write_keypair(piezo::daemon::generate_keypair(), key_dir, key_name, force);
       std::cout << "wrote " << key_dir << "/" << key_name << ".key (secret) and " << key_dir << "/"
                 << key_name << ".pub\n";
       return 0;

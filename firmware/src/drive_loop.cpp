@@ -55,7 +55,7 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
   if (supervisor_.check(io_.clock.now(), io_.lines.poll_estop(),
                         io_.stop_requested.load(std::memory_order_relaxed),
                         false) == SafetyAction::disable_now) {
-    stop_output(io_.clock.now());
+    stop_output(t0);
     return supervisor_.cause();
   }
   outcome_.enabled_ever = true;
@@ -66,6 +66,10 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
   long last_waveform_period = -1;
   bool sync_high = false;
   DrivePhase phase = DrivePhase::driving;
+  bool ending_on_waveform = false;
+  // A waveform's end within this of 0 V is 0 V (the period's end, up to
+  // the rounding of t).
+  constexpr double kOnZero_V = 1e-6;
 
   for (;;) {
     io_.clock.sleep_until(deadline);
@@ -80,10 +84,21 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
         now, io_.lines.poll_estop(), io_.stop_requested.load(std::memory_order_relaxed),
         t >= settings_.duration_s || program_.finished());
     if (action == SafetyAction::disable_now) {
-      stop_output(now);
+      stop_output(deadline);  // instead of this deadline's value
       return supervisor_.cause();
     }
-    if (action == SafetyAction::ramp_down) phase = DrivePhase::ramping_down;
+    if (action == SafetyAction::ramp_down && phase == DrivePhase::driving) {
+      phase = DrivePhase::ramping_down;
+      // A waveform that ran its whole duration ends on its own value there
+      // (0 V at a period's end), as fast as the slew limit allows, instead
+      // of ramping from its last sample: a step's fast edge stays fast.
+      const double end = program_.end_voltage(settings_.duration_s);
+      if (supervisor_.cause() == StopCause::completed && std::isfinite(end)) {
+        V = limit_voltage(settings_.limits, std::abs(end) < kOnZero_V ? 0.0 : end, V, dt_nominal);
+        if (std::abs(V) < kOnZero_V) V = 0.0;
+        ending_on_waveform = true;
+      }
+    }
 
     // Each step is bounded as the hardware applies it, within about one
     // update period: after a stall the drive catches up at the slew limit
@@ -91,6 +106,8 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
     const double dt = dt_nominal;
     if (phase == DrivePhase::driving) {
       V = limit_voltage(settings_.limits, program_.next_voltage(t, dt), V, dt);
+    } else if (ending_on_waveform) {
+      ending_on_waveform = false;  // this cycle's value is the waveform's end
     } else {
       V = step_towards(V, 0.0, supervisor_.settings().ramp_down_V_per_s, dt);
     }
@@ -108,7 +125,8 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
     emit(deadline, V, phase, written);
 
     if (phase == DrivePhase::ramping_down && V == 0.0) {
-      stop_output(io_.clock.now());
+      // The stop record belongs to the grid too: the next deadline.
+      stop_output(deadline + period);
       return supervisor_.cause();
     }
 

@@ -207,6 +207,33 @@ TEST_F(Piezod, AnEstopReachesAVirtualClockBoardThatWaitsForItsClient) {
       << log();
 }
 
+// The board's sensor sits at another radius than the host's config says:
+// the samples are the board's, so the angles use its radius (from hello),
+// as a one-machine run with that radius does; the host says it differed.
+TEST_F(Piezod, AnglesUseTheRadiusOfTheBoardsSensor) {
+  start("", {"--set", "run.clock=virtual", "--set", "sensor.r2_m=0.05"});
+  const auto hello = run_command(
+      "/usr/bin/python3 -c \"import zmq, msgpack; c = zmq.Context().socket(zmq.DEALER); "
+      "c.connect('" + address_ + "'); c.send(msgpack.packb({'id': 1, 'cmd': 'hello'})); "
+      "print(msgpack.unpackb(c.recv())['result']['sensor']['r2_m'])\"");
+  EXPECT_EQ(hello.out, "0.05\n") << hello.err;
+  const auto remote = run_command(kPiezo + " run --config " + kSimConfig + " --rig " + address_ +
+                                  " --duration 1 --json --out " + (dir_ / "remote").string());
+  ASSERT_EQ(remote.exit_code, 0) << remote.err;
+  EXPECT_NE(remote.err.find("sensor.r2_m is 0.05 m"), std::string::npos) << remote.err;
+  const auto local = run_command(kPiezo + " run --config " + kSimConfig +
+                                 " --set run.clock=virtual --set sensor.r2_m=0.05 --duration 1 "
+                                 "--json --out " + (dir_ / "local").string());
+  ASSERT_EQ(local.exit_code, 0) << local.err;
+  const double theta_r = nlohmann::json::parse(remote.out).at("theta_end_rad");
+  const double theta_l = nlohmann::json::parse(local.out).at("theta_end_rad");
+  EXPECT_NEAR(theta_r / theta_l, 1.0, 0.03) << theta_r << " vs " << theta_l;
+  const auto logged = run_command(
+      "/usr/bin/python3 -c \"import h5py; f = h5py.File('" + (dir_ / "remote" / "run.h5").string() +
+      "'); print('sensor_geometry_note' in f.attrs, f['sensor/theta'][-1])\"");
+  EXPECT_EQ(logged.out.substr(0, 5), "True ") << logged.out << logged.err;
+}
+
 // Positioning against the board, the host with no config of its own (the
 // board has one): moves are absolute from the board's zero, `piezo zero`
 // moves the zero, and steps run whole periods.
@@ -405,6 +432,59 @@ TEST_F(Piezod, ANetworkAddressNeedsCurveAndRefusesUnknownClients) {
 
 namespace piezo::testing {
 namespace {
+
+// As ssh does: a secret key file others can read is refused, by the board
+// and by the host; keygen never replaces a pair without --force.
+TEST(PiezodConfig, ASecretKeyOthersCanReadIsRefusedAndKeygenKeepsAPair) {
+  const auto keys = fresh_temp_dir("piezod-key-modes");
+  const std::string keygen = kPiezod + " keygen --out " + keys.string() + " --name board";
+  ASSERT_EQ(run_command(keygen).exit_code, 0);
+  EXPECT_EQ(fs::status(keys / "board.key").permissions() & fs::perms::all,
+            fs::perms::owner_read | fs::perms::owner_write);
+  const std::string first = read_all(keys / "board.key");
+  const auto again = run_command(keygen);
+  EXPECT_EQ(again.exit_code, 1);
+  EXPECT_NE(again.err.find("exists; keygen --force"), std::string::npos) << again.err;
+  EXPECT_EQ(read_all(keys / "board.key"), first) << "a refused keygen kept the pair";
+  ASSERT_EQ(run_command(keygen + " --force").exit_code, 0);
+  EXPECT_NE(read_all(keys / "board.key"), first);
+  fs::permissions(keys / "board.key", fs::perms::group_read | fs::perms::others_read,
+                  fs::perm_options::add);
+  write_file(keys / "authorized_keys", read_all(keys / "board.pub"));
+  const auto board = run_command(
+      kPiezod + " --config " + kSource + "/configs/piezod-sim.toml --listen tcp://127.0.0.1:" +
+      std::to_string(free_port_pair()) + " --set piezod.secret_key_file=\"" +
+      (keys / "board.key").string() + "\" --set piezod.authorized_keys_file=\"" +
+      (keys / "authorized_keys").string() + "\"");
+  EXPECT_NE(board.exit_code, 0);
+  EXPECT_NE(board.err.find("readable by others (mode 0644)"), std::string::npos) << board.err;
+  const auto host = run_command(kPiezo + " status --rig tcp://127.0.0.1:" +
+                                std::to_string(free_port_pair()) + " --server-key " +
+                                (keys / "board.pub").string() + " --client-key " +
+                                (keys / "board.key").string());
+  EXPECT_NE(host.exit_code, 0);
+  EXPECT_NE(host.err.find("chmod 600"), std::string::npos) << host.err;
+}
+
+// Loopback by name and over IPv6 is bound like 127.0.0.1 (no keys needed),
+// and a client reaches the daemon there.
+TEST(PiezodConfig, LocalhostAndIpv6LoopbackCanBeBound) {
+  for (const std::string host : {"localhost", "[::1]"}) {
+    SCOPED_TRACE(host);
+    const int port = free_port_pair();
+    const std::string address = "tcp://" + host + ":" + std::to_string(port);
+    const auto dir = fresh_temp_dir("piezod-loopback");
+    Spawned daemon({kPiezod, "--config", kSource + "/configs/piezod-sim.toml", "--listen", address},
+                   (dir / "piezod.log").string());
+    nlohmann::json status;
+    for (int i = 0; i < 50 && status.is_null(); ++i) {
+      std::this_thread::sleep_for(100ms);
+      const auto r = run_command(kPiezo + " status --json --rig " + address);
+      if (r.exit_code == 0) status = nlohmann::json::parse(r.out);
+    }
+    EXPECT_EQ(status.value("state", std::string()), "idle") << read_all(dir / "piezod.log");
+  }
+}
 
 // A listen address piezod cannot serve is a config error like any other:
 // exit 2, naming piezod.listen and where it came from.

@@ -1,9 +1,12 @@
 #!/usr/bin/python3
 """An independent piezod client, written from docs/protocol.md alone
-(python3-zmq, python3-msgpack): hello and status, a malformed message and a
-request beyond the board's limits (error replies, the daemon goes on), then
-a short run whose samples arrive on the stream, and a fetch from the
-recorder. Prints "ok" and facts; exits non-zero on any mismatch.
+(python3-zmq, python3-msgpack): hello and status, malformed, oversized and
+unknown input (error replies, the daemon goes on, every other request is
+answered), a request beyond the board's limits, then a short run whose
+samples arrive on the stream, a fetch from the recorder, steps that end on
+their period's 0 V, a closed-loop move that a second client can neither
+re-zero nor steer, and the zero. Prints "ok" and facts; exits non-zero on
+any mismatch.
 usage: protocol_client.py tcp://127.0.0.1:PORT"""
 import struct
 import sys
@@ -26,15 +29,20 @@ for topic in (b"drive", b"sensor", b"state", b"health"):
 next_id = 0
 
 
-def call(name, **args):
+def call(name, socket=None, **args):
     global next_id
+    socket = socket or cmd
     next_id += 1
-    cmd.send(msgpack.packb({"id": next_id, "cmd": name, "args": args}))
-    if not cmd.poll(3000):
+    socket.send(msgpack.packb({"id": next_id, "cmd": name, "args": args}))
+    if not socket.poll(3000):
         sys.exit(f"{name}: no reply")
-    reply = msgpack.unpackb(cmd.recv(), raw=False)
+    reply = msgpack.unpackb(socket.recv(), raw=False)
     assert reply["id"] == next_id, reply
     return reply
+
+
+other = ctx.socket(zmq.DEALER)  # a second client, which controls nothing
+other.connect(address)
 
 
 def check(condition, what):
@@ -50,8 +58,10 @@ def frame_header(body):
 
 
 hello = call("hello")["result"]
-check(hello["protocol"] == 1, "protocol version")
+check(hello["protocol"] == 2, "protocol version")
+check(hello["sensor"]["r2_m"] > 0, "hello names the sensor's radius: " + str(hello))
 limits = hello["limits"]
+drive_period_ns = round(1e9 / hello["drive_rate_hz"])
 status = call("status")["result"]
 check(status["state"] == "idle", "idle at start: " + status["state"])
 
@@ -59,6 +69,32 @@ cmd.send(b"\xc1 not msgpack")
 check(cmd.poll(3000), "reply to a malformed message")
 bad = msgpack.unpackb(cmd.recv(), raw=False)
 check(not bad["ok"] and bad["error"]["code"] == "malformed", "malformed -> error")
+for request, key in (({"cmd": "hello"}, "id"), ({"id": 7}, "cmd")):
+    cmd.send(msgpack.packb(request))
+    check(cmd.poll(3000), f"reply to a request without {key}")
+    reply = msgpack.unpackb(cmd.recv(), raw=False)
+    check(not reply["ok"] and reply["error"]["code"] == "malformed",
+          f"no {key} -> malformed: {reply}")
+
+# An oversized request between two small ones, a second client's request
+# among them: each answered, the big one too_large, in order.
+cmd.send(msgpack.packb({"id": 901, "cmd": "clock"}))
+cmd.send(msgpack.packb({"id": 902, "cmd": "clock", "args": {"pad": "x" * 70_000}}))
+other.send(msgpack.packb({"id": 903, "cmd": "clock"}))
+cmd.send(msgpack.packb({"id": 904, "cmd": "clock"}))
+answers = {}
+for _ in range(3):
+    check(cmd.poll(3000), "every request around an oversized one is answered")
+    reply = msgpack.unpackb(cmd.recv(), raw=False)
+    answers[reply["id"]] = reply
+check(other.poll(3000), "another client is answered during an oversized request")
+check(msgpack.unpackb(other.recv(), raw=False)["ok"], "the other client's clock")
+check(answers[901]["ok"] and answers[904]["ok"], "the small requests: " + str(answers))
+check(answers[902]["error"]["code"] == "too_large", "70 kB -> too_large: " + str(answers[902]))
+
+unknown_arg = call("configure", V0=60.0, f=10.0, duration_s=0.5, lease=1.0)
+check(unknown_arg["error"]["code"] == "bad_argument" and unknown_arg["error"]["key"] == "lease",
+      "an unknown argument is refused by name: " + str(unknown_arg))
 unknown = call("fly")
 check(unknown["error"]["code"] == "unknown_command", "unknown command")
 beyond = call("configure", V0=limits["V_max"] + 10, f=10.0, duration_s=0.5)
@@ -123,9 +159,34 @@ check(summary["cause"] == "completed", "cause " + summary["cause"])
 check(received[1] == summary["samples"]["drive"], "every drive sample streamed")
 check(received[2] == summary["samples"]["sensor"], "every sensor sample streamed")
 check(last_drive[1] == 0.0 and last_drive[2] == 2, "the drive ends stopped at 0 V")
+check((last_drive[0] - started["result"]["t0_ns"]) % drive_period_ns == 0,
+      "the stopped record is on the deadline grid")
 fetched = call("fetch", stream="sensor", first=10, count=5)["result"]["frame"]
 stream, first, count, record = frame_header(fetched)
 check(stream == 2 and first == 10 and count == 5, "fetch from the recorder")
+
+
+def drive_records(n):
+    """The run's n drive records from the recorder: (t_ns, V, phase)."""
+    out = []
+    while len(out) < n:
+        frame = call("fetch", stream="drive", first=len(out),
+                     count=min(n - len(out), 100000))["result"]["frame"]
+        _, first, count, record = frame_header(frame)
+        out += [struct.unpack_from("<qdB", frame, 24 + i * record) for i in range(count)]
+    return out
+
+
+# Steps end on their last period's 0 V: nothing ramps after the fast edge,
+# forward and reverse ("count" 4.0 is the integer 4).
+for direction in ("forward", "reverse"):
+    stepped = call("step", count=4.0, direction=direction, V0=40.0, f=100.0, lease_s=1.0)
+    check(stepped["ok"], "step: " + str(stepped))
+    final, received, _, _ = follow_run()
+    records = drive_records(final["summary"]["samples"]["drive"])
+    ramped = [r for r in records if r[2] == 1 and r[1] != 0.0]
+    check(not ramped, f"{direction} steps ramp after their end: {len(ramped)} records, "
+                      f"first {ramped[:1]}")
 
 # Three steps backwards: whole periods, the rotor's measured angle goes down.
 stepped = call("step", count=3, direction="reverse", V0=60.0, f=10.0, lease_s=1.0)
@@ -142,18 +203,33 @@ check(len(displacement) > 100 and displacement[-1] < displacement[0] - 5e-6,
 before = call("status")["result"]["position"]["position_rad"]
 check(before is not None, "the board knows its position after a run")
 target = before + 2e-3
+zero_before = call("status")["result"]["position"]["zero_displacement_m"]
 moved = call("move_to", target_rad=target, tolerance_rad=25e-6, settle_s=0.1, timeout_s=20.0,
              lease_s=1.0)
 check(moved["ok"] and moved["result"]["target_rad"] == target, "move_to: " + str(moved))
+check(all(k in moved["result"] for k in ("V0", "f", "C_dr", "e_dr")),
+      "move_to's result carries the arguments: " + str(moved))
+# During the move: zero and step are the controller's, and zero waits for the end.
+theirs = call("zero", socket=other)
+check(theirs["error"]["code"] == "not_controller", "another client's zero: " + str(theirs))
+mine = call("zero")
+check(mine["error"]["code"] == "bad_state", "a zero during a run: " + str(mine))
+their_step = call("step", socket=other, count=1, V0=40.0, f=100.0)
+check(their_step["error"]["code"] == "not_controller" and
+      their_step["error"]["message"].startswith("step"),
+      "a refused step names step: " + str(their_step))
 final, _, last_drive, _ = follow_run()
 move = final["summary"]["move"]
 check(move["on_target"] and move["stop_cause"] == "on_target", "on target: " + str(move))
 check(abs(move["error_rad"]) <= 25e-6, "within the tolerance: " + str(move))
 check(last_drive[1] == 0.0, "the move ends at 0 V")
 check(any(u["target_rad"] == target for u in move_updates), "the stream shows the move")
-after = call("status")["result"]["position"]["position_rad"]
+position = call("status")["result"]["position"]
+after = position["position_rad"]
 check(abs(after - target) < 30e-6, f"status reports the position: {after} for {target}")
-zeroed = call("zero")
-check(zeroed["ok"] and abs(zeroed["result"]["position_rad"]) < 1e-12, "zero: " + str(zeroed))
+check(position["zero_displacement_m"] == zero_before, "the move kept the zero it started from")
+zeroed = call("zero", socket=other)  # no run: any client's
+check(zeroed["ok"] and abs(zeroed["result"]["position"]["position_rad"]) < 1e-12,
+      "zero: " + str(zeroed))
 print("ok", received[1], received[2], steps_received[1], displacement[-1] - displacement[0],
       move["steps"], move["on_target_at_s"])

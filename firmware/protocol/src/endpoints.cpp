@@ -25,6 +25,17 @@ std::string stream_endpoint(const std::string& e) {
       "ipc://PATH, inproc://NAME)");
 }
 
+bool is_ipv6_endpoint(const std::string& e) {
+  return e.starts_with("tcp://[");
+}
+
+std::string bindable_endpoint(const std::string& e) {
+  // ZeroMQ binds to an address or an interface name, not a host name.
+  constexpr std::string_view kLocalhost = "tcp://localhost:";
+  if (e.starts_with(kLocalhost)) return "tcp://127.0.0.1:" + e.substr(kLocalhost.size());
+  return e;
+}
+
 bool is_network_endpoint(const std::string& e) {
   if (!e.starts_with("tcp://")) return false;
   const std::string host = e.substr(6, e.rfind(':') - 6);

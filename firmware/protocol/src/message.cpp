@@ -2,6 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cmath>
+
 namespace piezo::protocol {
 namespace {
 
@@ -84,15 +87,29 @@ std::string encode_request(const Request& r) {
 }
 
 Request decode_request(std::string_view bytes, std::optional<std::uint64_t>& id_out) {
+  if (bytes.size() > kMaxMessageBytes) {
+    // Refused, but with its id where the map reads, so that the client can
+    // match the refusal to its request.
+    try {
+      const json big = parse_msgpack(bytes, false);
+      if (const json* id = find(big, "id"); id != nullptr && id->is_number_unsigned()) {
+        id_out = id->get<std::uint64_t>();
+      }
+    } catch (const ProtocolError&) {
+      // Not even a map: the refusal goes without an id.
+    }
+  }
   const json j = parse_msgpack(bytes);
   Request r;
+  // Without an id or a cmd it is no request at all: malformed, as the
+  // document says, not a command with a bad argument.
   const json* id = find(j, "id");
-  if (id == nullptr) throw missing("id");
+  if (id == nullptr) throw ProtocolError(code::malformed, "id", "id: missing");
   if (!id->is_number_unsigned()) throw wrong_type("id", "an unsigned integer", *id);
   r.id = id->get<std::uint64_t>();
   id_out = r.id;
   const json* cmd = find(j, "cmd");
-  if (cmd == nullptr) throw missing("cmd");
+  if (cmd == nullptr) throw ProtocolError(code::malformed, "cmd", "cmd: missing");
   if (!cmd->is_string()) throw wrong_type("cmd", "a string", *cmd);
   r.cmd = cmd->get<std::string>();
   if (const json* args = find(j, "args"); args != nullptr) {
@@ -164,8 +181,25 @@ std::uint64_t uint_arg(const json& args, const std::string& key,
     if (fallback) return *fallback;
     throw missing(key);
   }
+  // Numbers are floats or integers: 10.0 is the integer 10.
+  if (v->is_number_float()) {
+    const double d = v->get<double>();
+    if (d >= 0.0 && d < 0x1p64 && d == std::floor(d)) return static_cast<std::uint64_t>(d);
+  }
   if (!v->is_number_unsigned()) throw wrong_type(key, "an unsigned integer", *v);
   return v->get<std::uint64_t>();
+}
+
+void refuse_unknown_args(const json& args, std::initializer_list<std::string_view> known,
+                         std::string_view cmd) {
+  for (const auto& [key, value] : args.items()) {
+    if (std::find(known.begin(), known.end(), key) != known.end()) continue;
+    std::string allowed;
+    for (std::string_view k : known) allowed += (allowed.empty() ? "" : ", ") + std::string(k);
+    throw ProtocolError(code::bad_argument, key,
+                        fmt::format("{}: not an argument of {} (allowed: {})", key, cmd,
+                                    allowed.empty() ? "none" : allowed));
+  }
 }
 
 std::string string_arg(const json& args, const std::string& key,

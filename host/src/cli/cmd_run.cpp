@@ -333,6 +333,7 @@ int run(const RunOptions& o) {
   std::optional<config::Rig> rig;
   std::optional<RigClient> client;
   nlohmann::json hello;
+  std::string geometry_note;  ///< the board's sensor radius differed from the config's
   double drive_latency_s = 0.0;
   if (config.rig.address.empty()) {
     rig.emplace(config::build_rig(config));
@@ -340,6 +341,11 @@ int run(const RunOptions& o) {
   } else {
     client.emplace(config.rig);
     hello = client->call("hello");
+    require_protocol(hello, client->address());
+    if (const std::string note = adopt_board_sensor(config, hello); !note.empty()) {
+      write_out(stderr, "piezo: " + note + "\n");
+      geometry_note = note;
+    }
     configure_remote(config, *client);
     drive_latency_s = hello.at("output_latency_s").get<double>();
   }
@@ -384,7 +390,11 @@ int run(const RunOptions& o) {
         client ? hello.value("clock", std::string()) : std::string(name(config.run.clock))},
        {log_schema::kDriveLatency, fmt::format("{:.9g}", drive_latency_s)},
        {"time_origin", "seconds from the run's start (first drive deadline)"},
-       {"theta", "(displacement - first good displacement) / sensor.r2_m"}});
+       {"theta", fmt::format("(displacement - first good displacement) / sensor.r2_m, "
+                             "r2_m = {:.9g} m{}",
+                             config.sensor.r2_m,
+                             client ? " (the board's, from its hello)" : "")}});
+  if (!geometry_note.empty()) log.set_attribute("sensor_geometry_note", geometry_note);
 
   if (live) log.set_tap([&live](const log_schema::LogRows& rows) { live->add(rows); });
   std::function<void(const LiveStatus&)> status_line;

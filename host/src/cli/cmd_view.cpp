@@ -46,6 +46,10 @@ int serve(const ViewCliOptions& o) {
   config.rig.address = o.rig;
   RigClient client(config.rig);
   const nlohmann::json hello = client.call("hello");
+  require_protocol(hello, client.address());
+  if (const std::string note = adopt_board_sensor(config, hello); !note.empty()) {
+    std::cerr << "piezo view: " << note << "\n";
+  }
   view::LiveFeed feed(20.0, 0.3);
   BoardWatch watch(config, client, hello, feed);
   const view::ViewServer server(

@@ -44,6 +44,10 @@ RigClient::RigClient(const config::RigAddress& rig, std::shared_ptr<zmq::context
     s->set(zmq::sockopt::reconnect_ivl_max, 2000);  // back-off after an outage
   }
   stream_.set(zmq::sockopt::rcvhwm, 100'000);
+  if (protocol::is_ipv6_endpoint(address_)) {
+    commands_.set(zmq::sockopt::ipv6, 1);
+    stream_.set(zmq::sockopt::ipv6, 1);
+  }
   try {
     commands_.connect(address_);
     stream_.connect(stream_address);
@@ -92,6 +96,34 @@ nlohmann::json RigClient::call(const std::string& cmd, const nlohmann::json& arg
 
 void RigClient::subscribe(std::initializer_list<const char*> topics) {
   for (const char* t : topics) stream_.set(zmq::sockopt::subscribe, t);
+}
+
+void require_protocol(const nlohmann::json& hello, const std::string& address) {
+  const auto version = hello.value("protocol", std::uint64_t{0});
+  if (version != protocol::kProtocolVersion) {
+    throw std::runtime_error(fmt::format(
+        "piezod at {} speaks protocol version {}, this piezo version {}: update one of them",
+        address, version, protocol::kProtocolVersion));
+  }
+}
+
+std::string adopt_board_sensor(config::RunConfig& c, const nlohmann::json& hello) {
+  const auto sensor = hello.find("sensor");
+  if (sensor == hello.end() || !sensor->is_object() || !sensor->contains("r2_m") ||
+      !sensor->at("r2_m").is_number()) {
+    return {};
+  }
+  const double board_r2 = sensor->at("r2_m").get<double>();
+  if (!(board_r2 > 0.0)) return {};
+  std::string note;
+  if (board_r2 != c.sensor.r2_m) {
+    note = fmt::format(
+        "the board's sensor.r2_m is {:g} m, the host's config says {:g} m: angles use the "
+        "board's (its sensor measured them)",
+        board_r2, c.sensor.r2_m);
+  }
+  c.sensor.r2_m = board_r2;
+  return note;
 }
 
 }  // namespace piezo::host

@@ -61,4 +61,14 @@ class RigClient {
   std::uint64_t next_id_ = 1;
 };
 
+/// Throws (naming the board's address and both versions) when the board
+/// speaks another protocol version than this host.
+void require_protocol(const nlohmann::json& hello, const std::string& address);
+
+/// Takes the board's sensor geometry from its `hello` (`sensor.r2_m`) into
+/// `c`: the board's sensor measured the samples, so its radius turns them
+/// into angles. Returns a note when the host's config said otherwise
+/// (empty when they agree or the board does not say).
+[[nodiscard]] std::string adopt_board_sensor(config::RunConfig& c, const nlohmann::json& hello);
+
 }  // namespace piezo::host

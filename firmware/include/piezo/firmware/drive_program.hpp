@@ -6,6 +6,7 @@
 /// an implementation allocates nothing, takes no locks and throws nothing.
 
 #include <cstdint>
+#include <limits>
 
 #include "piezo/model/waveform.hpp"
 
@@ -18,6 +19,12 @@ class DriveProgram {
   virtual double next_voltage(double t, double dt) = 0;
   /// True once the program has nothing more to drive: the run ends as completed.
   [[nodiscard]] virtual bool finished() const { return false; }
+  /// The voltage to end on at the run's duration, when the program is a
+  /// fixed waveform (a step of whole periods ends on its period's 0 V, with
+  /// nothing to ramp); NaN for a program that decides as it goes.
+  [[nodiscard]] virtual double end_voltage(double /*duration_s*/) const {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
   /// A code for the drive record (0: no controller; see MoveState).
   [[nodiscard]] virtual std::uint8_t state_code() const { return 0; }
 };
@@ -27,6 +34,9 @@ class WaveformProgram final : public DriveProgram {
  public:
   explicit WaveformProgram(const model::Excitation& waveform) : waveform_(waveform) {}
   double next_voltage(double t, double) override { return waveform_.voltage(t); }
+  [[nodiscard]] double end_voltage(double duration_s) const override {
+    return waveform_.voltage(duration_s);
+  }
 
  private:
   const model::Excitation& waveform_;

@@ -3,6 +3,7 @@
 // given, the sample stream next to it (docs/protocol.md, "Transport").
 
 #include <string>
+#include <string_view>
 
 namespace piezo::protocol {
 
@@ -12,5 +13,12 @@ namespace piezo::protocol {
 
 /// True for addresses other peers can reach: TCP on anything but loopback.
 [[nodiscard]] bool is_network_endpoint(const std::string& endpoint);
+
+/// True for tcp://[IPv6]:PORT: its sockets need ZeroMQ's IPv6 option.
+[[nodiscard]] bool is_ipv6_endpoint(const std::string& endpoint);
+
+/// The address to bind for `endpoint`: tcp://localhost:PORT is bound as
+/// tcp://127.0.0.1:PORT (ZeroMQ binds addresses and interface names only).
+[[nodiscard]] std::string bindable_endpoint(const std::string& endpoint);
 
 }  // namespace piezo::protocol

@@ -7,6 +7,7 @@
 ///   error    {"id": uint|nil, "ok": false, "error": {"code", "key", "message"}}
 
 #include <cstdint>
+#include <initializer_list>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -16,10 +17,15 @@
 
 namespace piezo::protocol {
 
-inline constexpr std::uint32_t kProtocolVersion = 1;
+inline constexpr std::uint32_t kProtocolVersion = 2;
 /// Larger commands are refused unread (no command needs more); replies
 /// and stream messages are not limited.
 inline constexpr std::size_t kMaxMessageBytes = 64 * 1024;
+/// Up to this a larger command is still received and answered `too_large`;
+/// beyond it ZeroMQ drops the sender's connection (it reconnects by
+/// itself; its requests in flight are lost), so no peer can make the
+/// daemon buffer more.
+inline constexpr std::size_t kMaxTransportBytes = 16u << 20;
 
 struct Request {
   std::uint64_t id = 0;
@@ -59,5 +65,9 @@ struct Reply {
                                      std::optional<std::uint64_t> fallback = std::nullopt);
 [[nodiscard]] std::string string_arg(const nlohmann::json& args, const std::string& key,
                                      std::optional<std::string> fallback = std::nullopt);
+/// Refuses (bad_argument, naming the key and what `cmd` takes) any argument
+/// not in `known`: a misspelt optional argument is an error, never ignored.
+void refuse_unknown_args(const nlohmann::json& args, std::initializer_list<std::string_view> known,
+                         std::string_view cmd);
 
 }  // namespace piezo::protocol
