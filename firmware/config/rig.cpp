@@ -3,6 +3,7 @@
 #include "piezo/hal/gpiod/gpiod_rig.hpp"
 #include "piezo/hal/modbus/modbus_analog_output.hpp"
 #include "piezo/hal/modbus/modbus_sensor.hpp"
+#include "piezo/hal/range_checked_sensor.hpp"
 #include "piezo/hal/posix/monotonic_clock.hpp"
 #include "piezo/hal/posix/no_lines.hpp"
 #include "piezo/hal/sim/virtual_clock.hpp"
@@ -29,6 +30,12 @@ hal::sim::SimRigSettings sim_rig_settings(const RunConfig& c) {
 std::unique_ptr<hal::DisplacementSensor> make_modbus_sensor(const RunConfig& c,
                                                             const hal::Clock& clock) {
   return std::make_unique<hal::modbus::ModbusSensor>(c.sensor.link, c.sensor.map, clock);
+}
+
+std::unique_ptr<hal::DisplacementSensor> held_to_range(const RunConfig& c,
+                                                       hal::DisplacementSensor& sensor) {
+  return std::make_unique<hal::RangeCheckedSensor>(sensor, c.sensor.range_min_m,
+                                                   c.sensor.range_max_m);
 }
 
 }  // namespace
@@ -76,6 +83,8 @@ Rig build_rig(const RunConfig& c) {
   }
   if (rig.own_drive) rig.drive = rig.own_drive.get();
   if (rig.own_sensor) rig.sensor = rig.own_sensor.get();
+  rig.checked_sensor = held_to_range(c, *rig.sensor);
+  rig.sensor = rig.checked_sensor.get();
   if (rig.own_lines) rig.lines = rig.own_lines.get();
 
   const hal::DriveLimits hw = rig.drive->limits();
@@ -97,6 +106,8 @@ SensorRig build_sensor(const RunConfig& c) {
       s.sensor = s.own_sensor.get();
       break;
   }
+  s.checked_sensor = held_to_range(c, *s.sensor);
+  s.sensor = s.checked_sensor.get();
   return s;
 }
 

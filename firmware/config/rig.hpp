@@ -24,6 +24,8 @@ struct Rig {
   std::unique_ptr<hal::Drive> own_drive;
   std::unique_ptr<hal::DisplacementSensor> own_sensor;
   std::unique_ptr<hal::DigitalLines> own_lines;
+  /// The sensor (simulated or owned) held to sensor.range_min_m/range_max_m.
+  std::unique_ptr<hal::DisplacementSensor> checked_sensor;
   /// The run's devices: the simulated rig's, or the ones owned above.
   hal::Drive* drive = nullptr;
   hal::DisplacementSensor* sensor = nullptr;
@@ -47,6 +49,7 @@ struct SensorRig {
   std::unique_ptr<hal::Clock> clock;
   std::unique_ptr<hal::sim::SimRig> sim;
   std::unique_ptr<hal::DisplacementSensor> own_sensor;
+  std::unique_ptr<hal::DisplacementSensor> checked_sensor;  ///< as in Rig
   hal::DisplacementSensor* sensor = nullptr;
 };
 [[nodiscard]] SensorRig build_sensor(const RunConfig& config);

@@ -67,6 +67,8 @@ void read_sensor(SectionReader r, SensorSettings& s) {
                          : hal::modbus::LinkSettings::Transport::tcp;
   read_modbus_sensor(r, s.link, s.map);
   r.number("r2_m", s.r2_m, {0.0, 10.0, true}, "m");
+  r.number("range_min_m", s.range_min_m, {-1e3, 1e3}, "m");
+  r.number("range_max_m", s.range_max_m, {-1e3, 1e3}, "m");
   // The laser's stand-off from the reflector: a distance, so above 0.
   r.number("target_distance_m", s.sim.offset_m, {0.0, 10.0, true}, "m");
   r.number("noise_m", s.sim.noise_m, {0.0, 1.0}, "m");
@@ -129,6 +131,7 @@ void read_observer(SectionReader r, ObserverSettings& o) {
   r.flag("enabled", o.enabled);
   r.number("alpha", o.gains.alpha, {0.0, 1.0});
   r.number("beta", o.gains.beta, {0.0, 1.0});
+  r.number("gate_rad", o.gains.gate_rad, {0.0, 10.0, true}, "rad");
   r.finish();
 }
 
@@ -239,6 +242,11 @@ model::MotorParameters all_nan() {
 }
 
 void check_backends(const RunConfig& c, const std::function<std::string(const std::string&)>& src) {
+  if (!(c.sensor.range_min_m < c.sensor.range_max_m)) {
+    throw ConfigError(src("sensor.range_max_m"), "sensor.range_max_m",
+                      fmt::format("{:g} m; allowed: above sensor.range_min_m ({:g} m)",
+                                  c.sensor.range_max_m, c.sensor.range_min_m));
+  }
   // The simulated drive and sensor share one plant: neither works alone.
   const bool sim_drive = c.drive.backend == DriveBackend::sim,
              sim_sensor = c.sensor.backend == SensorBackend::sim;

@@ -40,6 +40,14 @@ void LuGreObserver::command(double t, double V) {
   t_command_ = t;
 }
 
+void LuGreObserver::restart(double t, const LuGreState& y, double V) {
+  integrator_.reset(t, y);
+  t_ = t;
+  t_command_ = t;
+  V_from_ = V_to_ = V;
+  t_last_measurement_ = -1.0;
+}
+
 double LuGreObserver::measure(double t, double theta) {
   advance_to(t);
   LuGreState y = integrator_.state();

@@ -42,13 +42,26 @@ class Spawned {
 
   /// The exit code, or 128 + signal number when killed.
   int wait_exit() {
+    if (reaped_) return exit_code_;
     int status = 0;
     waitpid(pid_, &status, 0);
     reaped_ = true;
-    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    return exit_code_;
+  }
+
+  /// True once it has ended (reaped then; wait_exit() gives its code).
+  bool exited() {
+    if (reaped_) return true;
+    int status = 0;
+    if (waitpid(pid_, &status, WNOHANG) != pid_) return false;
+    reaped_ = true;
+    exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    return true;
   }
 
  private:
+  int exit_code_ = -1;
   pid_t pid_ = -1;
   bool reaped_ = false;
 };

@@ -9,7 +9,8 @@ ModbusSensor::ModbusSensor(const LinkSettings& link, const RegisterMap& map, con
     : link_(link), map_(map), clock_(clock) {}
 
 DisplacementReading ModbusSensor::read() {
-  std::array<std::uint16_t, 2> words{};
+  std::array<std::uint16_t, 2>& words = last_words_;
+  words = {};
   DisplacementReading r;
   r.t_request = clock_.now();
   r.status =

@@ -130,7 +130,9 @@ nlohmann::json summary_json(const RunSummary& s, const fs::path& dir, const fs::
   if (s.observer) {
     observer = {{"samples", s.observer->samples},
                 {"residual_rms_rad", s.observer->residual_rms_rad},
-                {"open_loop_rms_rad", s.observer->open_loop_rms_rad}};
+                {"open_loop_rms_rad", s.observer->open_loop_rms_rad},
+                {"outliers", s.observer->outliers},
+                {"restarts", s.observer->restarts}};
   }
   return {{"status", s.status()},
           {"observer", observer},

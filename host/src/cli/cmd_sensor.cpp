@@ -6,12 +6,57 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include <array>
+#include <cmath>
+#include <utility>
+
 #include "commands.hpp"
+#include "piezo/hal/modbus/modbus_sensor.hpp"
 #include "rig.hpp"
 #include "run_config.hpp"
 
 namespace piezo::host {
 namespace {
+
+/// A distance the sensor could have measured: finite, inside the measuring
+/// range, and not a subnormal speck (a 32-bit value read in the wrong word
+/// order comes out enormous or as one).
+bool plausible(double m, const config::SensorSettings& s) {
+  return std::isfinite(m) && m >= s.range_min_m && m <= s.range_max_m &&
+         (m == 0.0 || std::abs(m) >= 1e-9);
+}
+
+/// When the configured word order makes the registers implausible and
+/// another order reads them as a plausible distance: a warning naming it.
+std::string word_order_hint(const hal::modbus::ModbusSensor& sensor,
+                            const config::SensorSettings& s) {
+  namespace mb = hal::modbus;
+  const mb::RegisterMap& map = sensor.map();
+  if (mb::word_count(map.type) != 2) return {};
+  const auto& words = sensor.last_words();
+  const auto metres = [&](mb::WordOrder order) {
+    return mb::decode(map.type, order, words) * map.scale + map.offset;
+  };
+  if (plausible(metres(map.order), s)) return {};
+  constexpr std::array<std::pair<mb::WordOrder, const char*>, 4> kOrders{
+      {{mb::WordOrder::ABCD, "ABCD"},
+       {mb::WordOrder::CDAB, "CDAB"},
+       {mb::WordOrder::BADC, "BADC"},
+       {mb::WordOrder::DCBA, "DCBA"}}};
+  std::string configured, better;
+  for (const auto& [order, name] : kOrders) {
+    if (order == map.order) configured = name;
+    if (order != map.order && plausible(metres(order), s)) {
+      better += fmt::format("{}in {} they read {:.7g} m", better.empty() ? "" : "; ", name,
+                            metres(order));
+    }
+  }
+  if (better.empty()) return {};
+  return fmt::format(
+      "with sensor.word_order = {} the registers 0x{:04X} 0x{:04X} read {:.4g} m, not a distance "
+      "in [{:g}, {:g}] m; {}: check sensor.word_order (and the preset)",
+      configured, words[0], words[1], metres(map.order), s.range_min_m, s.range_max_m, better);
+}
 
 struct SensorReadOptions {
   std::string config;
@@ -29,12 +74,20 @@ int run(const SensorReadOptions& o) {
   const hal::TimeNs t0 = clock.now();
   nlohmann::json readings = nlohmann::json::array();
   int errors = 0;
+  const auto* modbus = dynamic_cast<const hal::modbus::ModbusSensor*>(rig.own_sensor.get());
+  std::string warning;
   hal::TimeNs deadline = t0;
   for (int i = 0; i < o.count; ++i) {
     clock.sleep_until(deadline);
     const hal::DisplacementReading r = rig.sensor->read();
     const bool ok = r.status == hal::Status::ok;
     errors += ok ? 0 : 1;
+    if (modbus != nullptr && warning.empty() &&
+        (r.status == hal::Status::ok || r.status == hal::Status::out_of_range ||
+         r.status == hal::Status::invalid_reading)) {
+      warning = word_order_hint(*modbus, config.sensor);
+      if (!warning.empty()) std::cerr << "piezo sensor read: warning: " << warning << "\n";
+    }
     const double t = hal::to_seconds(r.t_request - t0);
     const double latency_ms = 1e3 * hal::to_seconds(r.t_response - r.t_request);
     if (o.json) {
@@ -50,7 +103,9 @@ int run(const SensorReadOptions& o) {
     deadline = std::max(deadline + period, clock.now());
   }
   if (o.json) {
-    std::cout << nlohmann::json{{"readings", readings}, {"errors", errors}}.dump() << "\n";
+    nlohmann::json j{{"readings", readings}, {"errors", errors}};
+    if (!warning.empty()) j["warning"] = warning;
+    std::cout << j.dump() << "\n";
   } else {
     fmt::print("{} readings, {} errors ({} sensor, {})\n", o.count, errors,
                name(config.sensor.backend),

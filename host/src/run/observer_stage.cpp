@@ -1,6 +1,7 @@
 #include "observer_stage.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 namespace piezo::host {
@@ -9,13 +10,15 @@ ObserverStage::ObserverStage(const model::MotorParameters& model, const model::O
                              double ramp_time, double latency)
     : corrected_(model, gains, ramp_time),
       open_loop_(model, {0.0, 0.0}, ramp_time),
-      latency_(latency) {}
+      latency_(latency),
+      gate_rad_(gains.gate_rad) {}
 
 void ObserverStage::feed_commands_until(double t) {
   while (!pending_commands_.empty() && pending_commands_.front().first <= t) {
     const auto [t_cmd, V] = pending_commands_.front();
     corrected_.command(t_cmd, V);
     open_loop_.command(t_cmd, V);
+    last_V_ = V;
     pending_commands_.pop_front();
   }
 }
@@ -46,13 +49,32 @@ void ObserverStage::finish(log_schema::ObserverRows& out) {
 void ObserverStage::process(double t, double theta, log_schema::ObserverRows& out) {
   if (t < corrected_.time()) return;  // before the model's start: nothing to compare
   feed_commands_until(t);
-  const double residual = corrected_.measure(t, theta);
+  corrected_.advance_to(t);
   open_loop_.advance_to(t);
-  const double open_error = theta - open_loop_.state()[model::kTheta];
-  ++n_;
-  sum_sq_residual_ += residual * residual;
-  sum_sq_open_ += open_error * open_error;
-  last_residual_ = residual;
+  double residual = theta - corrected_.state()[model::kTheta];
+  if (!(std::abs(residual) <= gate_rad_)) {
+    // Gated: a spike or a misread word must not throw the state where the
+    // model cannot follow (a 1e11 rad reading once made the integrator
+    // crawl for good). After a run of them, the rotor is elsewhere.
+    ++outliers_;
+    if (++outliers_in_a_row_ >= kOutliersToRestart) {
+      model::LuGreState y = corrected_.state();
+      y[model::kTheta] = theta;
+      y[model::kThetaDot] = 0.0;
+      y[model::kZ] = 0.0;
+      corrected_.restart(t, y, last_V_);
+      outliers_in_a_row_ = 0;
+      ++restarts_;
+    }
+  } else {
+    outliers_in_a_row_ = 0;
+    residual = corrected_.measure(t, theta);
+    const double open_error = theta - open_loop_.state()[model::kTheta];
+    ++n_;
+    sum_sq_residual_ += residual * residual;
+    sum_sq_open_ += open_error * open_error;
+    last_residual_ = residual;
+  }
 
   const model::LuGreState& y = corrected_.state();
   out.t.push_back(t);
@@ -66,9 +88,16 @@ void ObserverStage::process(double t, double theta, log_schema::ObserverRows& ou
 }
 
 ObserverSummary ObserverStage::summary() const {
-  if (n_ == 0) return {};
+  ObserverSummary s;
+  s.samples = n_;
+  s.outliers = outliers_;
+  s.restarts = restarts_;
+  if (n_ == 0) return s;
   const double n = static_cast<double>(n_);
-  return {n_, std::sqrt(sum_sq_residual_ / n), std::sqrt(sum_sq_open_ / n), last_residual_};
+  s.residual_rms_rad = std::sqrt(sum_sq_residual_ / n);
+  s.open_loop_rms_rad = std::sqrt(sum_sq_open_ / n);
+  s.last_residual_rad = last_residual_;
+  return s;
 }
 
 }  // namespace piezo::host

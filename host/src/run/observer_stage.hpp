@@ -18,6 +18,8 @@ struct ObserverSummary {
   double residual_rms_rad = 0.0;   ///< measured minus the observer's prediction, before correction
   double open_loop_rms_rad = 0.0;  ///< measured minus the open-loop model
   double last_residual_rad = 0.0;
+  std::uint64_t outliers = 0;  ///< measurements beyond the gate, not used to correct
+  std::uint64_t restarts = 0;  ///< times the observer started again at the measured angle
 };
 
 class ObserverStage {
@@ -30,7 +32,8 @@ class ObserverStage {
   /// A drive command (deadline time [s], volts). Measurements up to t are
   /// processed now: the drive is known up to there.
   void on_drive(double t, double V, log_schema::ObserverRows& out);
-  /// A good angle measurement at time t [s]. The two rings arrive
+  /// A good angle measurement at time t [s]; one further than the gate
+  /// from the prediction is logged but not used to correct. The two rings arrive
   /// independently, so it waits until the drive is known up to t; each
   /// processed measurement appends a row to `out`.
   void on_measurement(double t, double theta, log_schema::ObserverRows& out);
@@ -49,7 +52,13 @@ class ObserverStage {
   std::deque<std::pair<double, double>> pending_commands_, pending_measurements_;
   double drive_known_until_ = -1.0;
   double latency_;
-  std::uint64_t n_ = 0;
+  /// Outliers in a row after which the measurement is believed over the
+  /// model: the observer restarts there instead of integrating on from a
+  /// state the rotor left (or, fed absurd readings, from an absurd one).
+  static constexpr std::uint64_t kOutliersToRestart = 8;
+  double gate_rad_;
+  double last_V_ = 0.0;  ///< the input last fed to the observer
+  std::uint64_t n_ = 0, outliers_ = 0, outliers_in_a_row_ = 0, restarts_ = 0;
   double sum_sq_residual_ = 0.0, sum_sq_open_ = 0.0, last_residual_ = 0.0;
 };
 

@@ -16,7 +16,8 @@ enum class [[nodiscard]] Status : std::uint8_t{
     exception_reply,  ///< a protocol-level refusal (e.g. a Modbus exception code)
     disconnected,     ///< the link is down
     io_error,         ///< any other error of the underlying call
-    out_of_range,     ///< a request outside the device's limits was refused
+    out_of_range,     ///< a request outside the device's limits was refused, or a
+                      ///< reading outside the sensor's measuring range
     bad_reply,        ///< a reply whose header does not fit its request (Modbus TCP's MBAP)
 };
 

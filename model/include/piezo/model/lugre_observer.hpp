@@ -24,6 +24,10 @@ namespace piezo::model {
 struct ObserverGains {
   double alpha = 0.3;  ///< fraction of the angle residual added to the angle
   double beta = 0.05;  ///< fraction added to the velocity, per measurement interval
+  /// A measurement further than this from the prediction [rad] is an
+  /// outlier: not used to correct (a spike, a misread word); the caller
+  /// restarts the observer when they keep coming (the rotor is elsewhere).
+  double gate_rad = 1e-3;
 };
 
 class LuGreObserver {
@@ -39,6 +43,9 @@ class LuGreObserver {
   double measure(double t, double theta);
   /// Advances to t without a measurement.
   void advance_to(double t);
+  /// Starts again at t from state `y`, the input held at `V` [V] (no ramp):
+  /// after a run of outliers, from where the rotor is measured to be.
+  void restart(double t, const LuGreState& y, double V);
 
   [[nodiscard]] double time() const { return t_; }
   [[nodiscard]] const LuGreState& state() const { return integrator_.state(); }

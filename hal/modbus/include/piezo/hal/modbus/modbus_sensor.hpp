@@ -3,6 +3,8 @@
 /// A laser displacement sensor read over Modbus (RTU or TCP) with a
 /// register map from config.
 
+#include <array>
+#include <cstdint>
 #include <memory>
 
 #include "piezo/hal/clock.hpp"
@@ -17,8 +19,13 @@ class ModbusSensor final : public DisplacementSensor {
   ModbusSensor(const LinkSettings& link, const RegisterMap& map, const Clock& clock);
 
   [[nodiscard]] DisplacementReading read() override;
+  /// The registers of the last read, as they came (for `piezo sensor
+  /// read`'s word-order check).
+  [[nodiscard]] const std::array<std::uint16_t, 2>& last_words() const { return last_words_; }
+  [[nodiscard]] const RegisterMap& map() const { return map_; }
 
  private:
+  std::array<std::uint16_t, 2> last_words_{};
   Link link_;
   RegisterMap map_;
   const Clock& clock_;
