@@ -136,8 +136,9 @@ TEST(SimRun, StepsRunWholePeriodsAndReverseTurnsTheRotorBack) {
     const Outcome o = run_virtual({"drive.direction=" + name}, -1.0, "hil-step", kSteps);
     EXPECT_EQ(o.summary.status(), "completed") << name;
     EXPECT_FALSE(o.amplifier_enabled_at_end) << name;
-    // The last period ends at 0 V; the amplifier's own lag leaves a fraction of a volt.
-    EXPECT_NEAR(o.amplifier_V_at_end, 0.0, 0.5) << name;
+    // The last period ends at 0 V; read at the disable, one drive cycle
+    // later, the amplifier's own lag (its 100 us hold) leaves under a volt.
+    EXPECT_NEAR(o.amplifier_V_at_end, 0.0, 1.0) << name;
     // Driving samples cover [0, N T) at 10 kHz, and nothing is left to ramp.
     std::size_t driving = 0;
     for (std::size_t i = 0; i < o.drive_t.size(); ++i) {
@@ -146,8 +147,14 @@ TEST(SimRun, StepsRunWholePeriodsAndReverseTurnsTheRotorBack) {
       EXPECT_LT(o.drive_t[i], kSteps * T - 1e-6) << name;
     }
     EXPECT_EQ(driving, static_cast<std::size_t>(kSteps * T * 1e4 + 0.5)) << name;
-    // The stop follows within a few cycles (the 0 V write confirmed), not a ramp.
-    EXPECT_LE(o.drive_t.back(), kSteps * T + 5e-4) << name << ": no ramp after the last period";
+    // The record at N T is the period's 0 V, and the stop follows it on the
+    // next deadline: nothing ramps after the last fast edge.
+    for (std::size_t i = 0; i < o.drive_t.size(); ++i) {
+      if (o.drive_t[i] >= kSteps * T - 1e-9) {
+        EXPECT_EQ(o.drive_V[i], 0.0) << name << " at " << i;
+      }
+    }
+    EXPECT_LE(o.drive_t.back(), kSteps * T + 1.5e-4) << name << ": no ramp after the last period";
     // The device's rotor went the commanded way, as far as the model says.
     const model::Sawtooth saw(p.drive.V0, p.drive.f, model::rise_fraction(p.drive.D(), direction));
     const double expected =

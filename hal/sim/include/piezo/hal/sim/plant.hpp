@@ -52,12 +52,15 @@ class Plant {
 
  private:
   void advance_to(TimeNs t);
+  /// True when the motor is at rest under the held output (an idle gap can be skipped).
+  [[nodiscard]] bool at_rest() const;
   void start_ramp();
   void publish();
   [[nodiscard]] double output_target() const;
 
   AmplifierSettings amplifier_;
   model::LuGreIntegrator motor_;
+  model::LuGreMotor rhs_;  ///< the same motor's equations, for the at-rest check
   TimeNs t_;
   double V_in_ = 0.0;
   double V_out_ = 0.0;
