@@ -108,6 +108,9 @@ struct DaemonSettings {
   /// so a fetch reaches past the memory ring.
   std::string spill_file;
   double duration_max_s = 86'400.0;
+  /// What each client's fetches may take, samples per second (bursts up to
+  /// one largest fetch, 100000): a flood of them costs the board this much.
+  double fetch_samples_per_s = 1e6;
   /// Network binds need CURVE: the server's secret key (Z85, from `piezod
   /// keygen`) and the clients' public keys, one per line.
   std::string secret_key_file;

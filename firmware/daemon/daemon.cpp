@@ -139,7 +139,8 @@ Daemon::Daemon(const config::RunConfig& board, config::Rig rig, zmq::context_t& 
       stream_(context, zmq::socket_type::pub),
       command_endpoint_(listen.empty() ? board.daemon.listen : listen),
       drive_recorder_(static_cast<std::size_t>(board.daemon.recorder_s * board.drive.rate_hz)),
-      sensor_recorder_(static_cast<std::size_t>(board.daemon.recorder_s * board.sensor.rate_hz())) {
+      sensor_recorder_(static_cast<std::size_t>(board.daemon.recorder_s * board.sensor.rate_hz())),
+      fetch_budget_(board.daemon.fetch_samples_per_s, static_cast<double>(kMaxFetch)) {
   try {
     stream_endpoint_ = protocol::stream_endpoint(command_endpoint_);
   } catch (const std::invalid_argument& e) {
@@ -179,6 +180,9 @@ Daemon::Daemon(const config::RunConfig& board, config::Rig rig, zmq::context_t& 
   // the replies in flight on it.
   commands_.set(zmq::sockopt::maxmsgsize, static_cast<std::int64_t>(protocol::kMaxTransportBytes));
   commands_.set(zmq::sockopt::linger, 0);
+  // Replies a client does not read wait in its queue up to this many; then
+  // they are dropped, so one that never reads cannot fill the board's memory.
+  commands_.set(zmq::sockopt::sndhwm, 64);
   stream_.set(zmq::sockopt::sndhwm, 100'000);
   stream_.set(zmq::sockopt::linger, 0);
   if (protocol::is_ipv6_endpoint(command_endpoint_)) {
@@ -308,7 +312,7 @@ json Daemon::handle(const std::string& client, const std::string& cmd, const jso
   if (cmd == "estop") return estop(client);
   if (cmd == "reset_fault") return reset_fault();
   if (cmd == "lease") return renew_lease(client, args);
-  if (cmd == "fetch") return fetch(args);
+  if (cmd == "fetch") return fetch(client, args);
   throw ProtocolError(code::unknown_command, "cmd",
                       fmt::format("cmd: \"{}\" is not a command (allowed: hello, status, clock, "
                                   "configure, start, step, move_to, zero, stop, estop, "
@@ -746,18 +750,32 @@ void Daemon::check_lease_on_wall_clock() {
   const auto now =
       std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
   if (static_cast<double>(now - run_->lease_renewed_ns.load()) > run_->lease_s * 1e9) {
-    // Expire it on the board clock: the drive loop stops with link_lost.
-    run_->remote.lease_deadline.store(0);
+    // Expire it on the board clock, as of now: the drive loop stops with
+    // link_lost (unless the run's duration had already ended by then).
+    run_->remote.lease_deadline.store(std::min(run_->remote.lease_deadline.load(),
+                                               rig_.clock->now()));
   }
 }
 
-json Daemon::fetch(const json& args) {
+json Daemon::fetch(const std::string& client, const json& args) {
   const auto stream = protocol::stream_from_string(protocol::string_arg(args, "stream"), "stream");
   const std::uint64_t first = protocol::uint_arg(args, "first");
   const std::uint64_t count = protocol::uint_arg(args, "count");
   if (count > kMaxFetch) {
     throw out_of_limits("count",
                         fmt::format("{}; allowed: at most {} per fetch", count, kMaxFetch));
+  }
+  // Budgeted while a run is under way, for everyone but its controller
+  // (whose gap filling its own lease waits on): a watcher's fetches cost
+  // the run a bounded amount.
+  if (const double wait_s = running() && client != controller_
+                                ? fetch_budget_.take(client, static_cast<double>(count))
+                                : 0.0;
+      wait_s > 0) {
+    throw ProtocolError(code::rate_limited, "count",
+                        fmt::format("fetch: over this client's budget of {:g} samples/s; "
+                                    "retry in {:.3f} s",
+                                    fetch_budget_.samples_per_s(), wait_s));
   }
   if (spill_) {
     const auto held =

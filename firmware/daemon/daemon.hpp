@@ -18,6 +18,7 @@
 #include <zmq.hpp>
 
 #include "curve.hpp"
+#include "fetch_budget.hpp"
 #include "piezo/firmware/loop_runner.hpp"
 #include "piezo/firmware/move_controller.hpp"
 #include "piezo/model/waveform.hpp"
@@ -84,7 +85,7 @@ class Daemon {
   nlohmann::json estop(const std::string& client);
   nlohmann::json reset_fault();
   nlohmann::json renew_lease(const std::string& client, const nlohmann::json& args);
-  nlohmann::json fetch(const nlohmann::json& args);
+  nlohmann::json fetch(const std::string& client, const nlohmann::json& args);
   void require_controller(const std::string& client, const char* cmd) const;
   /// Refuses `cmd` (start, step, move_to) under a latched fault or a run.
   void require_can_start(const std::string& client, const char* cmd) const;
@@ -115,6 +116,7 @@ class Daemon {
   Recorder<firmware::DriveSample> drive_recorder_;
   Recorder<firmware::SensorSample> sensor_recorder_;
   std::optional<SpillFile> spill_;
+  FetchBudget fetch_budget_;
   std::uint64_t drive_published_ = 0, sensor_published_ = 0;
   /// The user's zero of the angle (a displacement [m]): set by `zero`, or
   /// else the first good reading since the daemon started.

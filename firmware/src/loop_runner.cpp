@@ -90,6 +90,7 @@ hal::TimeNs LoopRunner::start(const std::function<void(hal::TimeNs)>& on_time_or
   threads_ready_.wait();
   t0_ = clock.now() + hal::from_seconds(kStartLead_s);
   supervisor_.set_time_origin(t0_);
+  supervisor_.set_end(t0_ + hal::from_seconds(settings_.drive.duration_s));
   if (on_time_origin) on_time_origin(t0_);
   time_origin_fixed_.count_down();
   return t0_;

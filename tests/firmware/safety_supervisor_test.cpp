@@ -72,5 +72,28 @@ TEST_F(SafetySupervisorTest, TheEndOfTheRunCompletes) {
   EXPECT_EQ(supervisor.cause(), StopCause::completed);
 }
 
+// The lease at the end of a run: the loop, late under load, meets the end
+// of the duration and an expired lease in one check. A lease that lasted to
+// the end means the run completed; one that ran out before it is a lost link.
+TEST_F(SafetySupervisorTest, ALeaseThatLastedToTheEndIsACompletedRun) {
+  RemoteControl remote;
+  supervisor.set_remote(&remote);
+  supervisor.set_end(kT0 + 5000 * kMs);
+  sensor.report(true, kT0 + 5100 * kMs);
+  remote.lease_deadline = kT0 + 5000 * kMs;  // the host's last renewal covered the end
+  EXPECT_EQ(supervisor.check(kT0 + 5150 * kMs, kReleased, false, true), SafetyAction::ramp_down);
+  EXPECT_EQ(supervisor.cause(), StopCause::completed);
+}
+
+TEST_F(SafetySupervisorTest, ALeaseThatRanOutBeforeTheEndIsALostLink) {
+  RemoteControl remote;
+  supervisor.set_remote(&remote);
+  supervisor.set_end(kT0 + 5000 * kMs);
+  sensor.report(true, kT0 + 5100 * kMs);
+  remote.lease_deadline = kT0 + 4990 * kMs;
+  EXPECT_EQ(supervisor.check(kT0 + 5150 * kMs, kReleased, false, true), SafetyAction::ramp_down);
+  EXPECT_EQ(supervisor.cause(), StopCause::link_lost);
+}
+
 }  // namespace
 }  // namespace piezo::firmware

@@ -234,6 +234,34 @@ TEST_F(Piezod, AnglesUseTheRadiusOfTheBoardsSensor) {
   EXPECT_EQ(logged.out.substr(0, 5), "True ") << logged.out << logged.err;
 }
 
+// A watcher floods fetch during someone else's run (300 x 30000 samples,
+// sent without waiting): its fetches are held to its budget (1e6 samples/s
+// in bursts of 100000), the rest refused rate_limited, and the run ends as
+// it would have. (What the flood costs the drive loop is a benchmark's
+// figure: tests/bench/bench_fetch_flood.py.)
+TEST_F(Piezod, AFetchFloodFromAWatcherIsHeldToItsBudget) {
+  start();
+  Spawned host({kPiezo, "run", "--config", kSimConfig, "--rig", address_, "--duration", "3",
+                "--json", "--out", (dir_ / "run").string()},
+               (dir_ / "host.json").string());
+  ASSERT_TRUE(poll_until([&] { return status().at("state") == "running"; }, 30000ms, 20ms));
+  std::this_thread::sleep_for(300ms);  // samples to fetch
+  const auto flood = run_command("/usr/bin/python3 " + kSource + "/tests/protocol/fetch_flood.py " +
+                                 address_ + " 300 30000");
+  ASSERT_EQ(flood.exit_code, 0) << flood.err;
+  std::istringstream in(flood.out);
+  long ok = 0, limited = 0, other = 0;
+  double seconds = 0;
+  in >> ok >> limited >> other >> seconds;
+  EXPECT_GT(limited, 0) << flood.out;
+  EXPECT_EQ(other, 0) << flood.out;
+  EXPECT_LE(static_cast<double>(ok) * 30000, 100000 + 1e6 * seconds + 30000) << flood.out;
+  EXPECT_EQ(host.wait_exit(), 0) << read_all(dir_ / "host.json");
+  const auto j = nlohmann::json::parse(read_all(dir_ / "host.json").substr(
+      read_all(dir_ / "host.json").find('{')));
+  EXPECT_EQ(j.at("status"), "completed");
+}
+
 // Positioning against the board, the host with no config of its own (the
 // board has one): moves are absolute from the board's zero, `piezo zero`
 // moves the zero, and steps run whole periods.

@@ -104,6 +104,8 @@ class SafetySupervisor {
   /// Moves the time origin (the first sensor reading is due after it),
   /// before the run starts.
   void set_time_origin(hal::TimeNs t0) { t0_ = t0; }
+  /// When the run's duration ends (t0 + duration), before the run starts.
+  void set_end(hal::TimeNs end) { end_ = end; }
 
   [[nodiscard]] StopCause cause() const { return cause_; }
   [[nodiscard]] const SafetySettings& settings() const { return settings_; }
@@ -113,8 +115,12 @@ class SafetySupervisor {
                                      bool duration_elapsed) const {
     if (drive_failing()) return StopCause::drive_fault;
     if (stop_requested) return StopCause::interrupted;
-    if (remote_ != nullptr && now > remote_->lease_deadline.load(std::memory_order_relaxed)) {
-      return StopCause::link_lost;
+    if (remote_ != nullptr) {
+      // A lease that lasted to the run's end covers it: a run that ran its
+      // duration completed, even when the loop (late under load, after
+      // skipped deadlines) only sees the end once the lease has run out.
+      const hal::TimeNs lease = remote_->lease_deadline.load(std::memory_order_relaxed);
+      if (now > lease && !(duration_elapsed && lease >= end_)) return StopCause::link_lost;
     }
     const hal::TimeNs last_good = std::max(sensor_.last_good.load(std::memory_order_acquire), t0_);
     if (hal::to_seconds(now - last_good) > settings_.sensor_stale_s ||
@@ -130,6 +136,7 @@ class SafetySupervisor {
   SafetySettings settings_;
   const SensorHealth& sensor_;
   hal::TimeNs t0_;
+  hal::TimeNs end_ = std::numeric_limits<hal::TimeNs>::max();
   const RemoteControl* remote_ = nullptr;
   StopCause cause_ = StopCause::none;
   std::uint32_t drive_errors_ = 0;
