@@ -29,7 +29,7 @@ packages=(
   gnuplot-nox python3 python3-h5py python3-numpy
   rt-tests libgpiod-dev libmodbus-dev mbpoll socat python3-pymodbus python3-serial-asyncio
   libzmq3-dev cppzmq-dev python3-zmq python3-msgpack clang libclang-rt-14-dev
-  libsystemd-dev debootstrap iproute2 libboost-dev python3-openturns libopenmpi-dev openmpi-bin
+  libsystemd-dev systemd debootstrap iproute2 libboost-dev python3-openturns libopenmpi-dev openmpi-bin
   libsundials-dev
   libcpp-httplib-dev chromium chromium-driver python3-selenium fonts-dejavu-core
 )
