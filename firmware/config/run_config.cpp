@@ -34,6 +34,8 @@ void read_drive(SectionReader r, DriveSettings& d, model::Parameters& waveform) 
   r.number("slew_V_per_s", d.limits.slew_V_per_s, kPositive, "V/s");
   r.integer("dac_bits", d.dac.bits, 4, 24);
   r.number("dac_full_scale_V", d.dac.full_scale_V, {0.0, 100.0, true}, "V");
+  r.number("stall_at_s", d.dac.stall_at_s, kNonNegative, "s");
+  r.number("stall_for_s", d.dac.stall_for_s, {0.0, 3600.0}, "s");
   r.number("amplifier_gain", d.amplifier.gain, {0.0, 1000.0, true});
   r.number("amplifier_V_max", d.amplifier.V_out_max, {0.0, 1000.0, true}, "V");
   r.number("amplifier_slew_V_per_s", d.amplifier.slew_V_per_s, kPositive, "V/s");

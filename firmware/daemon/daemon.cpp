@@ -703,9 +703,12 @@ json Daemon::stop_run(const std::string& client) {
 }
 
 json Daemon::estop(const std::string& client) {
-  // Anyone may press it: it only ever makes the rig safer.
+  // Anyone may press it: it only ever makes the rig safer. The enable line
+  // drops from this thread at once, where the backend has one, even while
+  // the drive loop is blocked in a slow write; the loop then stops itself.
   if (running()) {
     run_->remote.estop.store(true);
+    (void)rig_.lines->trip();
   } else {
     state_ = State::fault;
     fault_cause_ = firmware::StopCause::estop;

@@ -101,6 +101,23 @@ TEST(GpioDigitalLines, PolarityOfEnableAndSync) {
   EXPECT_FALSE(lines.poll_estop().pressed) << "no e-stop wired";
 }
 
+// The protocol's e-stop: trip() drops the enable line from the caller's
+// thread, the loop's sync and enable writes keep it down, and only the next
+// run's enable raises it again (unlike the e-stop input, which latches).
+TEST(GpioDigitalLines, ATripHoldsTheEnableDownUntilTheNextRunEnables) {
+  RecordingOutputLines outputs(2);
+  GpioDigitalLines lines({.has_sync = true, .enable_active_low = true, .sync_active_low = false},
+                         outputs, nullptr);
+  EXPECT_EQ(lines.set_amplifier_enable(true), Status::ok);   // {0, 0}: enabled (active low)
+  EXPECT_TRUE(lines.trip());                                  // {1, 0}
+  EXPECT_EQ(lines.set_sync(true), Status::ok);                // {1, 1}: still disabled
+  EXPECT_EQ(lines.set_amplifier_enable(false), Status::ok);   // {1, 1}
+  EXPECT_FALSE(lines.poll_estop().edge_seen) << "a trip is no e-stop press";
+  EXPECT_EQ(lines.set_amplifier_enable(true), Status::ok);    // {0, 1}: the next run
+  EXPECT_EQ(outputs.writes(),
+            (std::vector<std::vector<int>>{{0, 0}, {1, 0}, {1, 1}, {1, 1}, {0, 1}}));
+}
+
 TEST(GpioDigitalLines, EstopLevelAndEdges) {
   RecordingOutputLines outputs(1);
   SimInputLine estop(1);  // normally closed, pulled up: released = high

@@ -23,6 +23,8 @@
 namespace piezo::host {
 namespace {
 
+using namespace std::chrono_literals;
+
 struct Outcome {
   RunSummary summary;
   bool amplifier_enabled_at_end = true;  ///< the simulated amplifier, read after the run
@@ -293,6 +295,45 @@ TEST(SimRun, EstopDisablesWithinOneDrivePeriod) {
   EXPECT_EQ(o.drive_phase.back(), static_cast<double>(firmware::DrivePhase::stopped));
   EXPECT_NEAR(o.drive_t.back(), 1.0, 1e-4 + 1e-9);
   EXPECT_DOUBLE_EQ(o.drive_V.back(), 0.0);
+}
+
+// The protocol's e-stop while the drive loop is blocked in a slow drive
+// write (5 s, injected in the simulated drive): the enable line drops from
+// the daemon's thread at once, seen on the simulated amplifier itself, not
+// when the write returns. In real time, the run on a thread of its own.
+TEST(SimRun, AnEstopActsDuringASlowDriveWrite) {
+  config::RunConfig config = config::load_run_config(
+      PIEZO_SOURCE_DIR "/configs/sim.toml",
+      {"drive.stall_at_s=0.5", "drive.stall_for_s=5", "run.duration_s=10", "run.priority=0",
+       "run.lock_memory=false"});
+  config::Rig rig = config::build_rig(config);
+  const std::shared_ptr<const hal::sim::SimRig> device = rig.sim;
+  const auto dir = testing::fresh_temp_dir("hil-slow-write");
+  RunLog log = RunLog::create((dir / "run.h5").string(), {{"config", config.text}});
+  std::atomic<bool> stop{false}, estop{false};
+  RunSummary summary;
+  std::thread run([&] { summary = execute_run(config, std::move(rig), log, stop, {}, &estop); });
+  using Clock = std::chrono::steady_clock;
+  const auto waited = [&](auto ready, std::chrono::milliseconds limit) {
+    const auto until = Clock::now() + limit;
+    while (!ready() && Clock::now() < until) std::this_thread::sleep_for(1ms);
+    return ready();
+  };
+  const bool started = waited([&] { return device->plant().enabled(); }, 60000ms);
+  EXPECT_TRUE(started);
+  // The stall begins 0.5 s after the start and lasts 5 s: 1 s in, the drive
+  // loop is blocked in it.
+  std::this_thread::sleep_for(1000ms);
+  estop.store(true);
+  const auto pressed = Clock::now();
+  const bool disabled = waited([&] { return !device->plant().enabled(); }, 2000ms);
+  const double took_s = std::chrono::duration<double>(Clock::now() - pressed).count();
+  run.join();
+  log.close(summary.status());
+  EXPECT_TRUE(started && disabled) << "the amplifier stayed enabled for " << took_s
+                                   << " s after the e-stop, behind the blocked write";
+  EXPECT_EQ(summary.cause, firmware::StopCause::estop);
+  EXPECT_FALSE(device->plant().enabled());
 }
 
 TEST(SimRun, SensorStallRampsDownAndStops) {

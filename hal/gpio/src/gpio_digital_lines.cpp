@@ -40,17 +40,18 @@ GpioDigitalLines::~GpioDigitalLines() {
 }
 
 Status GpioDigitalLines::apply() {
-  const bool enable = enabled_ && !tripped_.load();
+  const bool enable = enabled_ && !tripped_.load() && !remote_tripped_.load();
   levels_[0] = level_of(enable, settings_.enable_active_low);
   levels_[1] = level_of(sync_, settings_.sync_active_low);
   const Status s = outputs_.set_levels(std::span<const int>(levels_.data(), outputs_.size()));
   // The watcher may have tripped between the check and the write: it wrote
   // enable off before or after ours; writing again settles it off.
-  if (enable && tripped_.load()) return apply();
+  if (enable && (tripped_.load() || remote_tripped_.load())) return apply();
   return s;
 }
 
 Status GpioDigitalLines::set_amplifier_enable(bool enabled) {
+  if (enabled) remote_tripped_.store(false);  // a new run's start
   enabled_ = enabled;
   return apply();
 }
@@ -61,10 +62,20 @@ Status GpioDigitalLines::set_sync(bool high) {
   return apply();
 }
 
-void GpioDigitalLines::trip() {
+void GpioDigitalLines::trip_on_estop() {
   if (tripped_.exchange(true)) return;
-  // Enable off, sync idle, written from this thread: the drive loop may be
-  // blocked in a drive write for a long time.
+  write_off();
+}
+
+bool GpioDigitalLines::trip() {
+  remote_tripped_.store(true);
+  write_off();
+  return true;
+}
+
+void GpioDigitalLines::write_off() {
+  // Enable off, sync idle, written from the caller's thread: the drive loop
+  // may be blocked in a drive write for a long time.
   std::array<int, 2> off{level_of(false, settings_.enable_active_low),
                          level_of(false, settings_.sync_active_low)};
   if (outputs_.set_levels(std::span<const int>(off.data(), outputs_.size())) != Status::ok) {
@@ -82,7 +93,7 @@ void GpioDigitalLines::watch() {
     bool ready = false;
     const Status waited = estop_->wait_for_edge(kWatchPeriodNs, ready);
     if (waited != Status::ok) {
-      trip();
+      trip_on_estop();
       std::this_thread::sleep_for(std::chrono::nanoseconds(kWatchPeriodNs));
       continue;
     }
@@ -98,7 +109,7 @@ EstopState GpioDigitalLines::poll_estop() {
   state.status = estop_->take_edges(edges);
   if (state.status == Status::ok) state.status = estop_->level(level);
   state.pressed = state.status == Status::ok && pressed(level);
-  if (state.status != Status::ok || edges > 0 || state.pressed) trip();
+  if (state.status != Status::ok || edges > 0 || state.pressed) trip_on_estop();
   state.edge_seen = tripped_.load();
   if (trip_write_failed_.load()) state.status = Status::io_error;
   return state;

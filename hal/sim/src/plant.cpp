@@ -65,7 +65,23 @@ void Plant::start_ramp() {
   ramp_end_ = slope_ == 0.0 ? t_ : t_ + from_seconds(gap / slope_);
 }
 
+void Plant::trip(TimeNs t) {
+  TimeNs expected = kNoTrip;
+  trip_at_.compare_exchange_strong(expected, t);
+  published_enabled_.store(false);
+}
+
+void Plant::take_trip() {
+  const TimeNs at = trip_at_.exchange(kNoTrip);
+  if (at == kNoTrip) return;
+  advance_to(std::max(at, t_));
+  enabled_ = false;
+  start_ramp();
+  publish();
+}
+
 void Plant::set_input(TimeNs t, double V_in) {
+  take_trip();
   advance_to(t);
   V_in_ = V_in;
   start_ramp();
@@ -73,6 +89,7 @@ void Plant::set_input(TimeNs t, double V_in) {
 }
 
 void Plant::set_enabled(TimeNs t, bool enabled) {
+  take_trip();
   advance_to(t);
   enabled_ = enabled;
   published_enabled_.store(enabled);

@@ -5,7 +5,7 @@
 
 namespace piezo::hal::sim {
 
-SimDrive::SimDrive(const DacSettings& dac, Plant& plant, const Clock& clock, TimeNs tick_origin)
+SimDrive::SimDrive(const DacSettings& dac, Plant& plant, Clock& clock, TimeNs tick_origin)
     : dac_(dac),
       plant_(plant),
       clock_(clock),
@@ -31,7 +31,12 @@ Status SimDrive::write(double volts) {
   last_code_ = static_cast<unsigned>(std::min(code, static_cast<double>(max_code_)));
   const double V_out = last_code_ * dac_.full_scale_V / max_code_;
   acknowledged_V_ = V_out * plant_.amplifier().gain;
-  const TimeNs now = clock_.now();
+  TimeNs now = clock_.now();
+  if (!stalled_ && to_seconds(now - tick_origin_) >= dac_.stall_at_s) {
+    stalled_ = true;
+    clock_.sleep_until(now + from_seconds(dac_.stall_for_s));
+    now = clock_.now();
+  }
   if (period_ <= 0) {
     plant_.set_input(now, V_out);
     return Status::ok;

@@ -11,6 +11,12 @@ Status SimLines::set_amplifier_enable(bool enabled) {
   return Status::ok;
 }
 
+bool SimLines::trip() {
+  plant_.trip(clock_.now());
+  enabled_.store(false);
+  return true;
+}
+
 Status SimLines::set_sync(bool high) {
   if (high && !sync_) sync_pulses_.fetch_add(1);
   sync_ = high;

@@ -27,6 +27,12 @@ class DigitalLines {
   virtual Status set_sync(bool high) = 0;
   /// Non-blocking: drains pending edge events. Called every drive cycle.
   [[nodiscard]] virtual EstopState poll_estop() = 0;
+  /// Drops the amplifier enable now, from any thread: the protocol's e-stop
+  /// acts through it while the drive loop may be blocked in a slow drive
+  /// write. It holds until the next set_amplifier_enable(true) (the next
+  /// run's start). False where there is no line to drop (the drive loop's
+  /// own stop, after the write in progress, is then the only path).
+  virtual bool trip() { return false; }
 };
 
 }  // namespace piezo::hal

@@ -7,7 +7,8 @@
 /// The e-stop has a path of its own: a watcher thread blocks on the input's
 /// edge events and drops the enable line itself, however long the drive
 /// loop is blocked in a drive write. Once tripped, the enable stays off for
-/// the lifetime of the lines, whatever the loop asks.
+/// the lifetime of the lines, whatever the loop asks. The protocol's e-stop
+/// drops it the same way (trip()), until the next run enables it.
 
 #include <array>
 #include <atomic>
@@ -44,12 +45,14 @@ class GpioDigitalLines final : public DigitalLines {
   Status set_sync(bool high) override;
   /// The level now, and whether the watcher has tripped since the start.
   [[nodiscard]] EstopState poll_estop() override;
+  bool trip() override;
 
  private:
   Status apply();
   /// Reads the input; trips on a press, an edge or a failing line.
   void check_estop();
-  void trip();
+  void trip_on_estop();
+  void write_off();
   void watch();
   [[nodiscard]] bool pressed(int level) const { return (level == 0) == settings_.estop_active_low; }
 
@@ -59,7 +62,8 @@ class GpioDigitalLines final : public DigitalLines {
   bool enabled_ = false;
   bool sync_ = false;
   std::array<int, 2> levels_{};
-  std::atomic<bool> tripped_{false};
+  std::atomic<bool> tripped_{false};         ///< by the e-stop input: for good
+  std::atomic<bool> remote_tripped_{false};  ///< by trip(): until the next enable
   std::atomic<bool> trip_write_failed_{false};
   std::atomic<bool> stopping_{false};
   std::thread watcher_;

@@ -55,6 +55,7 @@ class GpiodRigLines final : public DigitalLines {
   }
   Status set_sync(bool high) override { return lines_.set_sync(high); }
   [[nodiscard]] EstopState poll_estop() override { return lines_.poll_estop(); }
+  bool trip() override { return lines_.trip(); }
 
  private:
   GpiodOutputs outputs_;

@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <limits>
 
 #include "piezo/hal/clock.hpp"
 #include "piezo/model/lugre_integrator.hpp"
@@ -43,6 +44,11 @@ class Plant {
   void set_input(TimeNs t, double V_in);
   /// Enables or disables the amplifier output (disabled: it slews to 0 V).
   void set_enabled(TimeNs t, bool enabled);
+  /// Disables the amplifier from time t on, from any thread (the enable
+  /// line dropped while the drive thread may be blocked): the output is
+  /// seen disabled at once, and the motor follows from t when the drive
+  /// thread next advances it.
+  void trip(TimeNs t);
   /// The latest published state. Any thread, wait-free for the writer.
   [[nodiscard]] PlantSnapshot latest() const;
 
@@ -52,6 +58,8 @@ class Plant {
 
  private:
   void advance_to(TimeNs t);
+  /// Applies a trip() that came from another thread, at its own time.
+  void take_trip();
   /// True when the motor is at rest under the held output (an idle gap can be skipped).
   [[nodiscard]] bool at_rest() const;
   void start_ramp();
@@ -74,6 +82,8 @@ class Plant {
   std::atomic<double> published_theta_dot_{0.0};
   std::atomic<double> published_V_out_{0.0};
   std::atomic<bool> published_enabled_{false};
+  static constexpr TimeNs kNoTrip = std::numeric_limits<TimeNs>::max();
+  std::atomic<TimeNs> trip_at_{kNoTrip};
 };
 
 }  // namespace piezo::hal::sim

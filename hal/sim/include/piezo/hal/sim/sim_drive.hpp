@@ -18,12 +18,16 @@ struct DacSettings {
   int bits = 20;
   double full_scale_V = 5.0;     ///< output at the highest code
   double update_period_s = 0.0;  ///< latch ticks; 0 latches every write at once
+  /// Fault injection, as a slow bus does it: the first write at or after
+  /// stall_at_s [s from t0] blocks for stall_for_s.
+  double stall_at_s = std::numeric_limits<double>::infinity();
+  double stall_for_s = 0.0;
 };
 
 class SimDrive final : public Drive {
  public:
   /// Latch ticks fall at tick_origin + k * update_period.
-  SimDrive(const DacSettings& dac, Plant& plant, const Clock& clock, TimeNs tick_origin = 0);
+  SimDrive(const DacSettings& dac, Plant& plant, Clock& clock, TimeNs tick_origin = 0);
 
   Status write(double volts) override;
   /// The value of the code the DAC took last (it takes every valid write).
@@ -40,8 +44,9 @@ class SimDrive final : public Drive {
  private:
   DacSettings dac_;
   Plant& plant_;
-  const Clock& clock_;
+  Clock& clock_;  ///< not const: an injected stall sleeps on it
   [[nodiscard]] TimeNs next_tick(TimeNs t) const;
+  bool stalled_ = false;  ///< the injected stall has been served
 
   unsigned max_code_;
   unsigned last_code_ = 0;

@@ -24,6 +24,7 @@ class SimLines final : public DigitalLines {
   Status set_amplifier_enable(bool enabled) override;
   Status set_sync(bool high) override;
   [[nodiscard]] EstopState poll_estop() override;
+  bool trip() override;
 
   /// Presses the e-stop now (any thread): the next poll sees an edge.
   void press_estop() { estop_pressed_.store(true, std::memory_order_release); }
