@@ -50,6 +50,7 @@ struct RunOptions {
   bool view = false;
   std::string view_listen;
   bool control = false;
+  std::vector<std::string> allow_hosts;
   // `piezo move`: a closed-loop move to this angle from the board's zero.
   std::optional<double> move_to;
   config::RunSettings::Move move;
@@ -360,7 +361,7 @@ int run(const RunOptions& o) {
     live.emplace(20.0, 3.0 / config.model.drive.f);
     server = std::make_unique<view::ViewServer>(
         view::ViewOptions{o.view_listen.empty() ? "127.0.0.1:8080" : o.view_listen,
-                          fs::absolute(dir).parent_path().string(), o.control},
+                          fs::absolute(dir).parent_path().string(), o.control, o.allow_hosts},
         &*live,
         view::ViewControls{[&signals](const nlohmann::json&) {
                              signals.request_stop();
@@ -496,6 +497,9 @@ CommandRunner with_view_options(CLI::App* cmd, const std::shared_ptr<RunOptions>
       ->expected(0, 1);
   cmd->add_flag("--control", o->control,
                 "Let the live page stop and e-stop the run (with the token it prints)");
+  cmd->add_option("--allow-host", o->allow_hosts,
+                  "A host name the live page may be reached by besides its address and the "
+                  "loopback names (repeatable)");
   return [o, cmd]() {
     if (!cmd->parsed()) return -1;
     o->view = cmd->count("--view") > 0;

@@ -78,6 +78,9 @@ CommandRunner add_view_command(CLI::App& app) {
                   "Config for the model and sensor radius (default: Table 1, r2 = 62 mm)");
   cmd->add_flag("--control", o->server.control,
                 "With --rig: e-stop and move-to from the page, with the token it prints");
+  cmd->add_option("--allow-host", o->server.allowed_hosts,
+                  "A host name the pages may be reached by besides the address and the "
+                  "loopback names (repeatable)");
   return [o, cmd]() { return cmd->parsed() ? serve(*o) : -1; };
 }
 

@@ -3,7 +3,9 @@
 #include <fmt/format.h>
 #include <httplib.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -17,6 +19,7 @@ namespace piezo::host::view {
 namespace {
 
 constexpr std::size_t kColumns = 800;  // about one point pair per pixel of a plot
+constexpr std::size_t kMaxBody = 64 * 1024;  // a control request's JSON needs a few bytes
 constexpr auto kLivePeriod = std::chrono::milliseconds(250);
 
 std::string random_token() {
@@ -49,6 +52,22 @@ void refuse(httplib::Response& res, int status, const std::string& why) {
   send_json(res, {{"ok", false}, {"error", why}});
 }
 
+/// Compares in a time that does not depend on where they differ: the token
+/// is not guessed byte by byte from response times.
+bool same_secret(std::string_view given, std::string_view secret) {
+  unsigned char diff = given.size() == secret.size() ? 0 : 1;
+  for (std::size_t i = 0; i < secret.size(); ++i) {
+    diff |= static_cast<unsigned char>(secret[i] ^ (i < given.size() ? given[i] : 0));
+  }
+  return diff == 0;
+}
+
+/// The name in a Host header, without its port ("[::1]:8080" -> "[::1]").
+std::string host_name(const std::string& host) {
+  if (host.starts_with("[")) return host.substr(0, host.find(']') + 1);
+  return host.substr(0, host.rfind(':'));
+}
+
 }  // namespace
 
 ViewServer::ViewServer(const ViewOptions& options, const LiveFeed* live, ViewControls controls)
@@ -64,6 +83,9 @@ ViewServer::ViewServer(const ViewOptions& options, const LiveFeed* live, ViewCon
   const std::string host = options_.listen.substr(0, colon);
   int port = std::atoi(options_.listen.substr(colon + 1).c_str());
   if (options_.control) token_ = random_token();
+  options_.allowed_hosts.insert(options_.allowed_hosts.end(),
+                                {host, "localhost", "127.0.0.1", "[::1]"});
+  server_->set_payload_max_length(kMaxBody);
   routes();
   const bool bound =
       port == 0 ? (port = server_->bind_to_any_port(host)) > 0 : server_->bind_to_port(host, port);
@@ -88,8 +110,43 @@ std::string ViewServer::banner() const {
   return out;
 }
 
+std::string ViewServer::refusal(const httplib::Request& req, int& status) const {
+  status = 403;
+  const std::string host = host_name(req.get_header_value("Host"));
+  if (std::find(options_.allowed_hosts.begin(), options_.allowed_hosts.end(), host) ==
+      options_.allowed_hosts.end()) {
+    return fmt::format("Host \"{}\" is not a name this view serves (--allow-host NAME adds one)",
+                       host);
+  }
+  if (req.method != "POST") return {};
+  if (std::strtoull(req.get_header_value("Content-Length").c_str(), nullptr, 10) > kMaxBody) {
+    status = 413;
+    return fmt::format("a body of at most {} bytes", kMaxBody);
+  }
+  if (!options_.control) return "read-only view: start it with --control to allow this";
+  if (!same_secret(req.get_header_value("X-Piezo-Token"), token_)) {
+    return "missing or wrong token (printed when the view started)";
+  }
+  const std::string origin = req.get_header_value("Origin");
+  const std::string site = req.get_header_value("Sec-Fetch-Site");
+  if ((!origin.empty() && origin != "http://" + req.get_header_value("Host")) ||
+      (!site.empty() && site != "same-origin" && site != "none")) {
+    return "cross-site request refused";
+  }
+  return {};
+}
+
 void ViewServer::routes() {
   auto& s = *server_;
+  // Checked before any body is read: a stranger's request costs nothing.
+  s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    int status = 0;
+    const std::string why = refusal(req, status);
+    if (why.empty()) return httplib::Server::HandlerResponse::Unhandled;
+    res.set_header("Connection", "close");  // its unread body is not a next request
+    refuse(res, status, why);
+    return httplib::Server::HandlerResponse::Handled;
+  });
   s.Get("/", [this](const httplib::Request&, httplib::Response& res) {
     if (live_ == nullptr) {
       res.set_redirect("/runs");
@@ -160,21 +217,10 @@ void ViewServer::routes() {
 
   // Control: POST only, with the token in a header (which a cross-site form
   // cannot send, and a cross-site script only after a preflight this server
-  // never answers), from this page's own origin.
+  // never answers), from this page's own origin: refusal() checked it all
+  // before the body was read.
   const auto guarded = [this](const ViewControls::Action& action, const char* what) {
-    return [this, action, what](const httplib::Request& req, httplib::Response& res) {
-      if (!options_.control) {
-        return refuse(res, 403, "read-only view: start it with --control to allow this");
-      }
-      if (req.get_header_value("X-Piezo-Token") != token_) {
-        return refuse(res, 403, "missing or wrong token (printed when the view started)");
-      }
-      const std::string origin = req.get_header_value("Origin");
-      const std::string site = req.get_header_value("Sec-Fetch-Site");
-      if ((!origin.empty() && origin != "http://" + req.get_header_value("Host")) ||
-          (!site.empty() && site != "same-origin" && site != "none")) {
-        return refuse(res, 403, "cross-site request refused");
-      }
+    return [action, what](const httplib::Request& req, httplib::Response& res) {
       if (!action) return refuse(res, 404, fmt::format("{}: not available here", what));
       try {
         const nlohmann::json body =

@@ -11,9 +11,11 @@
 #include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
+#include <vector>
 
 namespace httplib {
 class Server;
+struct Request;
 }
 
 namespace piezo::host::view {
@@ -24,6 +26,10 @@ struct ViewOptions {
   std::string listen = "127.0.0.1:8080";  ///< HOST:PORT (port 0: any free one)
   std::string runs_dir;                   ///< the catalogue's runs (empty: none)
   bool control = false;                   ///< allow stop and e-stop, with the token
+  /// Host names served besides the bound address and the loopback names
+  /// (--allow-host): any other Host header is refused, so a page whose name
+  /// is rebound to this address (DNS rebinding) reads nothing.
+  std::vector<std::string> allowed_hosts;
 };
 
 /// What control may do, called from the server's threads with the
@@ -52,6 +58,10 @@ class ViewServer {
 
  private:
   void routes();
+  /// Why a request is refused before its body is read (empty: served):
+  /// a Host this view does not serve; for control, no --control, a wrong
+  /// token or another site.
+  [[nodiscard]] std::string refusal(const httplib::Request& req, int& status) const;
 
   ViewOptions options_;
   const LiveFeed* live_;
