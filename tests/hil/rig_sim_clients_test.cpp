@@ -152,7 +152,12 @@ TEST_F(ModbusHil, PastItsClientCapANewConnectionIsRefusedAndTheHeldOnesServed) {
   auto rig = start_rig_sim({"--set", "rig_sim.max_clients=20"});
   ASSERT_TRUE(wait_for_tcp(port));
   std::vector<int> held;
-  for (int i = 0; i < 20; ++i) held.push_back(connect_to(port));
+  // Each served as it comes: rig-sim has then also seen the close of
+  // wait_for_tcp's probe, which came before (else the probe still counts).
+  for (int i = 0; i < 20; ++i) {
+    held.push_back(connect_to(port));
+    ASSERT_EQ(reply_to(held.back(), read_request()).size(), 13u) << "held " << i;
+  }
   const int one_too_many = connect_to(port);  // the kernel accepts; rig-sim closes it
   EXPECT_EQ(reply_to(one_too_many, read_request()), "closed");
   close(one_too_many);
