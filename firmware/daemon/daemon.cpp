@@ -190,8 +190,8 @@ Daemon::Daemon(const config::RunConfig& board, config::Rig rig, zmq::context_t& 
     stream_.set(zmq::sockopt::ipv6, 1);
   }
   try {
-    commands_.bind(protocol::bindable_endpoint(command_endpoint_));
-    stream_.bind(protocol::bindable_endpoint(stream_endpoint_));
+    commands_.bind(protocol::loopback_literal(command_endpoint_));
+    stream_.bind(protocol::loopback_literal(stream_endpoint_));
   } catch (const zmq::error_t& e) {
     throw std::runtime_error(
         fmt::format("piezod.listen: cannot listen on {} / {}: {}", command_endpoint_,

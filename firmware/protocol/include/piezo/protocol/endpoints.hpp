@@ -17,8 +17,9 @@ namespace piezo::protocol {
 /// True for tcp://[IPv6]:PORT: its sockets need ZeroMQ's IPv6 option.
 [[nodiscard]] bool is_ipv6_endpoint(const std::string& endpoint);
 
-/// The address to bind for `endpoint`: tcp://localhost:PORT is bound as
-/// tcp://127.0.0.1:PORT (ZeroMQ binds addresses and interface names only).
-[[nodiscard]] std::string bindable_endpoint(const std::string& endpoint);
+/// `endpoint` with tcp://localhost:PORT as tcp://127.0.0.1:PORT, for binding
+/// and connecting alike: ZeroMQ binds addresses and interface names only,
+/// and a resolver may know no localhost (a minimal root has no /etc/hosts).
+[[nodiscard]] std::string loopback_literal(const std::string& endpoint);
 
 }  // namespace piezo::protocol
