@@ -62,6 +62,15 @@ if ((${#missing[@]})); then
   DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
 
+# The loopback names every installed Debian has in /etc/hosts and a bare
+# debootstrap root lacks: the browser test's webdriver, and anyone's
+# tcp://localhost, look them up.
+if ! getent hosts localhost > /dev/null; then
+  echo "setup: /etc/hosts has no localhost; adding the loopback entries a Debian install writes"
+  printf '127.0.0.1\tlocalhost\n::1\t\tlocalhost ip6-localhost ip6-loopback\n' |
+    "${sudo_cmd[@]}" tee -a /etc/hosts > /dev/null
+fi
+
 uplot_version=1.6.32
 if [ ! -f build/web-vendor/node_modules/uplot/dist/uPlot.iife.min.js ]; then
   echo "setup: npm install uplot@$uplot_version (the web view's plots)"
