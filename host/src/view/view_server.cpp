@@ -82,7 +82,9 @@ ViewServer::ViewServer(const ViewOptions& options, const LiveFeed* live, ViewCon
   }
   const std::string host = options_.listen.substr(0, colon);
   int port = std::atoi(options_.listen.substr(colon + 1).c_str());
-  if (options_.control) token_ = random_token();
+  reads_need_token_ = !host.starts_with("127.") && host != "localhost" && host != "[::1]" &&
+                      host != "::1";
+  if (options_.control || reads_need_token_) token_ = random_token();
   options_.allowed_hosts.insert(options_.allowed_hosts.end(),
                                 {host, "localhost", "127.0.0.1", "[::1]"});
   server_->set_payload_max_length(kMaxBody);
@@ -102,10 +104,10 @@ ViewServer::~ViewServer() {
 }
 
 std::string ViewServer::banner() const {
-  const bool loopback = url_.rfind("http://127.", 0) == 0 || url_.rfind("http://localhost", 0) == 0;
   std::string out = fmt::format("live view: {}{}", url_,
-                                options_.control ? fmt::format("?token={}", token_) : "");
-  out += loopback ? " (this machine only" : " (LISTENING BEYOND THIS MACHINE";
+                                token_.empty() ? "" : fmt::format("?token={}", token_));
+  out += reads_need_token_ ? " (LISTENING BEYOND THIS MACHINE; its data needs the token"
+                           : " (this machine only";
   out += options_.control ? "; control with the token)" : "; read-only)";
   return out;
 }
@@ -118,7 +120,18 @@ std::string ViewServer::refusal(const httplib::Request& req, int& status) const 
     return fmt::format("Host \"{}\" is not a name this view serves (--allow-host NAME adds one)",
                        host);
   }
-  if (req.method != "POST") return {};
+  if (req.method != "POST") {
+    const bool data = req.path.starts_with("/api/") || req.path.starts_with("/files/");
+    if (data && reads_need_token_) {
+      const std::string given = req.has_header("X-Piezo-Token") ? req.get_header_value("X-Piezo-Token")
+                                                                : req.get_param_value("token");
+      if (!same_secret(given, token_)) {
+        return "this view listens beyond this machine: its data needs the token (printed when "
+               "the view started)";
+      }
+    }
+    return {};
+  }
   if (std::strtoull(req.get_header_value("Content-Length").c_str(), nullptr, 10) > kMaxBody) {
     status = 413;
     return fmt::format("a body of at most {} bytes", kMaxBody);

@@ -4,7 +4,9 @@
 // Sent Events, decimated on the host); the catalogue lists the runs of a
 // directory, each with its plots, config and downloads. Read-only unless
 // started with control: then stop, e-stop and move-to need the token
-// printed at the start, and cross-site requests are refused.
+// printed at the start, and cross-site requests are refused. Only the
+// Host names it serves are answered; bound beyond loopback, its data
+// needs the token too.
 
 #include <functional>
 #include <memory>
@@ -51,7 +53,8 @@ class ViewServer {
 
   /// http://HOST:PORT/ as bound.
   [[nodiscard]] const std::string& url() const { return url_; }
-  /// The control token (empty when read-only).
+  /// The token: control's, and beyond loopback also the data's (empty when
+  /// neither needs one).
   [[nodiscard]] const std::string& token() const { return token_; }
   /// What to tell the user: where it listens, and how control is guarded.
   [[nodiscard]] std::string banner() const;
@@ -68,6 +71,8 @@ class ViewServer {
   ViewControls controls_;
   std::unique_ptr<httplib::Server> server_;
   std::string url_, token_;
+  /// Bound beyond loopback: the data (/api/, /files/) needs the token too.
+  bool reads_need_token_ = false;
   std::thread thread_;
 };
 
