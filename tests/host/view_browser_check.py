@@ -66,7 +66,7 @@ def browser():
 
 
 def main():
-    piezo, shots = sys.argv[1], sys.argv[2]
+    piezo, shots, piezod = sys.argv[1], sys.argv[2], sys.argv[3]
     if not (shutil.which("chromium") and shutil.which("chromedriver")):
         print("chromium or chromedriver missing: scripts/setup.sh installs them")
         sys.exit(77)
@@ -140,12 +140,51 @@ def main():
             view.terminate()
             view.wait(timeout=10)
         print("ok", len(rows), "run listed; screenshots in", shots)
+        move_from_the_page(driver, piezo, piezod, work)
     finally:
         if driver:
             driver.quit()
         if run.poll() is None:
             run.kill()
         shutil.rmtree(work, ignore_errors=True)
+
+
+def move_from_the_page(driver, piezo, piezod, work):
+    """`piezo view --rig --control` against the simulated board: Move from
+    the page runs a move on the board, whose state shows in the move panel
+    while the button keeps its label."""
+    board_port = free_port()
+    while board_port >= 65534:
+        board_port = free_port()
+    board = subprocess.Popen([piezod, "--config", os.path.join(SOURCE, "configs", "piezod-sim.toml"),
+                              "--listen", f"tcp://127.0.0.1:{board_port}"],
+                             stderr=open(os.path.join(work, "piezod.err"), "w"))
+    port = free_port()
+    err = os.path.join(work, "rig-view.err")
+    view = subprocess.Popen([piezo, "view", "--rig", f"tcp://127.0.0.1:{board_port}", "--control",
+                             "--listen", f"127.0.0.1:{port}"], stderr=open(err, "w"))
+    try:
+        url, token = wait_for_banner(err, time.time() + 20)
+        driver.get(f"{url}?token={token}")
+        target = driver.find_element("id", "target")
+        target.clear()
+        target.send_keys("0.5")
+        button = driver.find_element("id", "move-button")
+        button.click()
+        panel = ""
+        deadline = time.time() + 60
+        while time.time() < deadline and "on_target" not in panel:
+            panel = driver.find_element("id", "move-panel").text
+            time.sleep(0.1)
+        check("move " in panel and "on_target" in panel,
+              "the move panel shows the board's move state: " + repr(panel))
+        check(button.text == "Move", "the button keeps its label: " + repr(button.text))
+        print("move from the page:", panel)
+    finally:
+        view.terminate()
+        view.wait(timeout=10)
+        board.terminate()
+        board.wait(timeout=10)
 
 
 if __name__ == "__main__":
