@@ -17,6 +17,7 @@ broken promise.
 import argparse
 import json
 import os
+import shutil
 import random
 import resource
 import socket
@@ -131,7 +132,9 @@ def main():
     a = ap.parse_args()
     soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
     resource.setrlimit(resource.RLIMIT_NOFILE, (min(hard, 4096), hard))
-    os.makedirs(a.work, exist_ok=True)
+    # Emptied first: a second run of the suite finds no old run.
+    shutil.rmtree(a.work, ignore_errors=True)
+    os.makedirs(a.work)
     config = os.path.join(a.source, "configs", "modbus-hil.toml")
     port_set = ["--set", f"sensor.port={a.port}"]
     rig = subprocess.Popen([a.piezo, "rig-sim", "--config", config] + port_set,
