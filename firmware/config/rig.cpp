@@ -3,9 +3,9 @@
 #include "piezo/hal/gpiod/gpiod_rig.hpp"
 #include "piezo/hal/modbus/modbus_analog_output.hpp"
 #include "piezo/hal/modbus/modbus_sensor.hpp"
-#include "piezo/hal/range_checked_sensor.hpp"
 #include "piezo/hal/posix/monotonic_clock.hpp"
 #include "piezo/hal/posix/no_lines.hpp"
+#include "piezo/hal/range_checked_sensor.hpp"
 #include "piezo/hal/sim/virtual_clock.hpp"
 
 namespace piezo::config {

@@ -3,8 +3,8 @@
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <sys/stat.h>
-#include <unistd.h>
 #include <toml++/toml.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -54,19 +54,24 @@ void write_keypair(const KeyPair& keys, const std::string& dir, const std::strin
   if (!force) {
     for (const std::string& p : {secret_path, public_path}) {
       if (::access(p.c_str(), F_OK) == 0) {
-        throw std::runtime_error(p + ": exists; keygen --force replaces the pair (peers that "
-                                     "hold the old public key are then refused)");
+        throw std::runtime_error(p +
+                                 ": exists; keygen --force replaces the pair (peers that "
+                                 "hold the old public key are then refused)");
       }
     }
   }
   write_new_file(secret_path,
                  "# CURVE key pair (piezod keygen): keep this file secret\n"
-                 "public-key = \"" + keys.public_key + "\"\n"
-                 "secret-key = \"" + keys.secret_key + "\"\n",
+                 "public-key = \"" +
+                     keys.public_key +
+                     "\"\n"
+                     "secret-key = \"" +
+                     keys.secret_key + "\"\n",
                  0600);
   write_new_file(public_path,
                  "# CURVE public key (piezod keygen): give it to the peer\n"
-                 "public-key = \"" + keys.public_key + "\"\n",
+                 "public-key = \"" +
+                     keys.public_key + "\"\n",
                  0644);
 }
 
@@ -76,8 +81,8 @@ std::string read_key(const std::string& path, const std::string& entry) {
     struct stat st {};
     if (::stat(path.c_str(), &st) == 0 && (st.st_mode & 077) != 0) {
       throw std::runtime_error(fmt::format(
-          "{}: readable by others (mode {:04o}); a secret key must be private: chmod 600 {}",
-          path, st.st_mode & 07777, path));
+          "{}: readable by others (mode {:04o}); a secret key must be private: chmod 600 {}", path,
+          st.st_mode & 07777, path));
     }
   }
   toml::table t;

@@ -193,9 +193,8 @@ Daemon::Daemon(const config::RunConfig& board, config::Rig rig, zmq::context_t& 
     commands_.bind(protocol::loopback_literal(command_endpoint_));
     stream_.bind(protocol::loopback_literal(stream_endpoint_));
   } catch (const zmq::error_t& e) {
-    throw std::runtime_error(
-        fmt::format("piezod.listen: cannot listen on {} / {}: {}", command_endpoint_,
-                    stream_endpoint_, e.what()));
+    throw std::runtime_error(fmt::format("piezod.listen: cannot listen on {} / {}: {}",
+                                         command_endpoint_, stream_endpoint_, e.what()));
   }
   if (!board_.daemon.spill_file.empty()) spill_.emplace(board_.daemon.spill_file);
   last_health_ = Clock::now();
@@ -384,7 +383,8 @@ json Daemon::status(const std::string& client) const {
 
 json Daemon::configure(const std::string& client, const json& args, const char* cmd) {
   if (running()) require_controller(client, cmd);
-  if (running()) throw ProtocolError(code::bad_state, "", fmt::format("{}: a run is under way", cmd));
+  if (running())
+    throw ProtocolError(code::bad_state, "", fmt::format("{}: a run is under way", cmd));
   RunRequest r;
   r.drive.V0 = protocol::number_arg(args, "V0");
   r.drive.f = protocol::number_arg(args, "f");
@@ -559,9 +559,9 @@ json Daemon::step(const std::string& client, const json& args) {
   }
   configure_args["duration_s"] = static_cast<double>(count) / f;
   const json configured = configure(client, configure_args, "step");
-  json started = start(
-      client, args.contains("lease_s") ? json{{"lease_s", args["lease_s"]}} : json::object(),
-      std::nullopt, "step");
+  json started =
+      start(client, args.contains("lease_s") ? json{{"lease_s", args["lease_s"]}} : json::object(),
+            std::nullopt, "step");
   started["count"] = count;
   started["direction"] = configured.at("direction");
   return started;
@@ -623,9 +623,9 @@ json Daemon::move_to(const std::string& client, const json& args) {
   }
   m.fine_V_max = 0.8 * board_.drive.limits.V_max;
   m.fast_slew_V_per_s = board_.drive.limits.slew_V_per_s;
-  json started = start(
-      client, args.contains("lease_s") ? json{{"lease_s", args["lease_s"]}} : json::object(), m,
-      "move_to");
+  json started =
+      start(client, args.contains("lease_s") ? json{{"lease_s", args["lease_s"]}} : json::object(),
+            m, "move_to");
   started["target_rad"] = m.target_rad;
   started["tolerance_rad"] = m.tolerance_rad;
   started["settle_s"] = m.settle_s;
@@ -647,8 +647,7 @@ json Daemon::set_zero(const std::string& client) {
   // zero is the controller's between runs, and nobody's during one.
   if (running()) {
     require_controller(client, "zero");
-    throw ProtocolError(code::bad_state, "",
-                        "zero: a run is under way; zero after it ends");
+    throw ProtocolError(code::bad_state, "", "zero: a run is under way; zero after it ends");
   }
   const auto last = recent_displacement_m();
   if (!last) {
@@ -755,8 +754,8 @@ void Daemon::check_lease_on_wall_clock() {
   if (static_cast<double>(now - run_->lease_renewed_ns.load()) > run_->lease_s * 1e9) {
     // Expire it on the board clock, as of now: the drive loop stops with
     // link_lost (unless the run's duration had already ended by then).
-    run_->remote.lease_deadline.store(std::min(run_->remote.lease_deadline.load(),
-                                               rig_.clock->now()));
+    run_->remote.lease_deadline.store(
+        std::min(run_->remote.lease_deadline.load(), rig_.clock->now()));
   }
 }
 

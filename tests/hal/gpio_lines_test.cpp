@@ -109,11 +109,11 @@ TEST(GpioDigitalLines, ATripHoldsTheEnableDownUntilTheNextRunEnables) {
   GpioDigitalLines lines({.has_sync = true, .enable_active_low = true, .sync_active_low = false},
                          outputs, nullptr);
   EXPECT_EQ(lines.set_amplifier_enable(true), Status::ok);   // {0, 0}: enabled (active low)
-  EXPECT_TRUE(lines.trip());                                  // {1, 0}
-  EXPECT_EQ(lines.set_sync(true), Status::ok);                // {1, 1}: still disabled
-  EXPECT_EQ(lines.set_amplifier_enable(false), Status::ok);   // {1, 1}
+  EXPECT_TRUE(lines.trip());                                 // {1, 0}
+  EXPECT_EQ(lines.set_sync(true), Status::ok);               // {1, 1}: still disabled
+  EXPECT_EQ(lines.set_amplifier_enable(false), Status::ok);  // {1, 1}
   EXPECT_FALSE(lines.poll_estop().edge_seen) << "a trip is no e-stop press";
-  EXPECT_EQ(lines.set_amplifier_enable(true), Status::ok);    // {0, 1}: the next run
+  EXPECT_EQ(lines.set_amplifier_enable(true), Status::ok);  // {0, 1}: the next run
   EXPECT_EQ(outputs.writes(),
             (std::vector<std::vector<int>>{{0, 0}, {1, 0}, {1, 1}, {1, 1}, {0, 1}}));
 }

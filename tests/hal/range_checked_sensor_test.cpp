@@ -2,11 +2,11 @@
 // out_of_range (its value kept for diagnosis), inside it passes, and a
 // failed read keeps its own status.
 
+#include "piezo/hal/range_checked_sensor.hpp"
+
 #include <gtest/gtest.h>
 
 #include <vector>
-
-#include "piezo/hal/range_checked_sensor.hpp"
 
 namespace piezo::hal {
 namespace {

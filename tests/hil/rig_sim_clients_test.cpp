@@ -37,9 +37,18 @@ int connect_to(int port) {
 /// A read of 2 holding registers from address 0, unit 1, with the given
 /// MBAP protocol id and length fields.
 std::vector<std::uint8_t> read_request(std::uint16_t protocol = 0, std::uint16_t length = 6) {
-  return {0x00, 0x2a, static_cast<std::uint8_t>(protocol >> 8),
-          static_cast<std::uint8_t>(protocol & 0xff), static_cast<std::uint8_t>(length >> 8),
-          static_cast<std::uint8_t>(length & 0xff), 0x01, 0x03, 0x00, 0x00, 0x00, 0x02};
+  return {0x00,
+          0x2a,
+          static_cast<std::uint8_t>(protocol >> 8),
+          static_cast<std::uint8_t>(protocol & 0xff),
+          static_cast<std::uint8_t>(length >> 8),
+          static_cast<std::uint8_t>(length & 0xff),
+          0x01,
+          0x03,
+          0x00,
+          0x00,
+          0x00,
+          0x02};
 }
 
 /// What comes back within `timeout_ms`: the bytes, "closed" when rig-sim
@@ -60,9 +69,8 @@ std::string reply_to(int fd, const std::vector<std::uint8_t>& request, int timeo
 /// A 2 s run against rig-sim on `port`: its JSON summary.
 nlohmann::json run_against(const fs::path& dir, int port) {
   const auto r = run_command(kPiezo + " run --config " + kConfig + " --duration 2 --json " +
-                             "--set sensor.port=" + std::to_string(port) +
-                             " --set drive.ao_port=" + std::to_string(port) + " --out " +
-                             (dir / "run").string());
+                             "--set sensor.port=" + std::to_string(port) + " --set drive.ao_port=" +
+                             std::to_string(port) + " --out " + (dir / "run").string());
   EXPECT_EQ(r.exit_code, 0) << r.err;
   return r.out.empty() ? nlohmann::json{} : nlohmann::json::parse(r.out);
 }
@@ -87,11 +95,11 @@ TEST_F(ModbusHil, MalformedFramesAreRefusedAndTheConnectionClosed) {
     const char* name;
     std::vector<std::uint8_t> frame;
   };
-  for (const Bad& bad : {Bad{"protocol id 1", read_request(1)},
-                         Bad{"protocol id 0xFFFF", read_request(0xffff)},
-                         Bad{"MBAP length 7 for a 6-byte read", read_request(0, 7)},
-                         Bad{"MBAP length 5 for a 6-byte read", read_request(0, 5)},
-                         Bad{"MBAP length 0", read_request(0, 0)}}) {
+  for (const Bad& bad :
+       {Bad{"protocol id 1", read_request(1)}, Bad{"protocol id 0xFFFF", read_request(0xffff)},
+        Bad{"MBAP length 7 for a 6-byte read", read_request(0, 7)},
+        Bad{"MBAP length 5 for a 6-byte read", read_request(0, 5)},
+        Bad{"MBAP length 0", read_request(0, 0)}}) {
     SCOPED_TRACE(bad.name);
     const int fd = connect_to(port);
     ASSERT_GE(fd, 0);

@@ -302,10 +302,10 @@ TEST(SimRun, EstopDisablesWithinOneDrivePeriod) {
 // the daemon's thread at once, seen on the simulated amplifier itself, not
 // when the write returns. In real time, the run on a thread of its own.
 TEST(SimRun, AnEstopActsDuringASlowDriveWrite) {
-  config::RunConfig config = config::load_run_config(
-      PIEZO_SOURCE_DIR "/configs/sim.toml",
-      {"drive.stall_at_s=0.5", "drive.stall_for_s=5", "run.duration_s=10", "run.priority=0",
-       "run.lock_memory=false"});
+  config::RunConfig config =
+      config::load_run_config(PIEZO_SOURCE_DIR "/configs/sim.toml",
+                              {"drive.stall_at_s=0.5", "drive.stall_for_s=5", "run.duration_s=10",
+                               "run.priority=0", "run.lock_memory=false"});
   config::Rig rig = config::build_rig(config);
   const std::shared_ptr<const hal::sim::SimRig> device = rig.sim;
   const auto dir = testing::fresh_temp_dir("hil-slow-write");

@@ -28,10 +28,9 @@ class WildSensor : public ModbusHil {
 
   void start(const std::string& mode) {
     rig = start_rig_sim();
-    sensor = std::make_unique<Spawned>(
-        std::vector<std::string>{"/usr/bin/python3", kWildSensor, mode,
-                                 std::to_string(sensor_port)},
-        (dir / "sensor.txt").string());
+    sensor = std::make_unique<Spawned>(std::vector<std::string>{"/usr/bin/python3", kWildSensor,
+                                                                mode, std::to_string(sensor_port)},
+                                       (dir / "sensor.txt").string());
     ASSERT_TRUE(wait_for_tcp(port));
     ASSERT_TRUE(wait_for_tcp(sensor_port));
   }
@@ -67,8 +66,9 @@ TEST_F(WildSensor, AWrongWordOrderIsOutOfRangeAndEndsTheRun) {
   start("steady");
   const auto r = run_command("timeout -s KILL 120 " + kPiezo + " run --config " + kConfig +
                              " --duration 2 --json --set sensor.word_order=ABCD --set "
-                             "drive.ao_port=" + std::to_string(port) + " --set sensor.port=" +
-                             std::to_string(port) + " --out " + (dir / "run").string());
+                             "drive.ao_port=" +
+                             std::to_string(port) + " --set sensor.port=" + std::to_string(port) +
+                             " --out " + (dir / "run").string());
   ASSERT_EQ(r.exit_code, 1) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j.value("stop_cause", ""), "sensor_fault") << j.dump();
@@ -84,7 +84,8 @@ TEST_F(WildSensor, AWrongWordOrderIsOutOfRangeAndEndsTheRun) {
   // The user's first tool says what is wrong (the peer holds 69.7426 mm).
   const auto read = run_command(kPiezo + " sensor read --config " + kConfig +
                                 " --count 3 --json --set sensor.word_order=ABCD --set "
-                                "sensor.port=" + std::to_string(sensor_port));
+                                "sensor.port=" +
+                                std::to_string(sensor_port));
   EXPECT_NE(read.err.find("word_order = ABCD"), std::string::npos) << read.err;
   EXPECT_NE(read.err.find("in CDAB they read 0.0697426 m"), std::string::npos) << read.err;
 }
@@ -127,8 +128,8 @@ TEST_F(WildSensor, GarbageNeverHangsTheHostAndSigintEndsTheRun) {
   start("garbage");
   Spawned host({kPiezo, "run", "--config", kConfig, "--duration", "60", "--json", "--set",
                 "drive.ao_port=" + std::to_string(port), "--set",
-                "sensor.port=" + std::to_string(sensor_port), "--set", "safety.max_sensor_errors=1000000",
-                "--out", (dir / "run").string()},
+                "sensor.port=" + std::to_string(sensor_port), "--set",
+                "safety.max_sensor_errors=1000000", "--out", (dir / "run").string()},
                (dir / "host.txt").string());
   ASSERT_TRUE(wait_for_drive());
   std::this_thread::sleep_for(1s);

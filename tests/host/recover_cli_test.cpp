@@ -108,8 +108,8 @@ TEST(RecoverCli, ATornJournalNeverReplacesALongerLogWithLess) {
                        [bytes](const fs::path& j) { truncate_to(j, bytes); }});
   }
   for (std::uintmax_t at : {std::uintmax_t{20}, journal_bytes / 3, journal_bytes * 2 / 3}) {
-    damages.push_back({"byte flipped at " + std::to_string(at),
-                       [at](const fs::path& j) { flip_byte(j, at); }});
+    damages.push_back(
+        {"byte flipped at " + std::to_string(at), [at](const fs::path& j) { flip_byte(j, at); }});
   }
   int variant = 0;
   for (const auto& damage : damages) {
@@ -180,7 +180,8 @@ with h5py.File(sys.argv[1], 'r') as f:
     bad = int(np.sum(~np.isfinite(f['observer/x_hat'][:])))
     print(len(t), bool(np.all(np.diff(t) > 0)), bad)
 )");
-  const auto r = run_command("/usr/bin/python3 " + check.string() + " " + (run / "run.h5").string());
+  const auto r =
+      run_command("/usr/bin/python3 " + check.string() + " " + (run / "run.h5").string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   std::istringstream in(r.out);
   long rows = 0, lost = -1;

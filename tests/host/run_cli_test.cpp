@@ -105,9 +105,10 @@ const std::string kMinimal = "[drive]\n[sensor]\n[run]\nclock = \"virtual\"\n";
 INSTANTIATE_TEST_SUITE_P(
     Cli, RunBadInput,
     ::testing::Values(
-        BadRun{"V0AboveLimit", "--set drive.V0=90", "",
-               "--set: drive.V0: 90 V is outside the drive's limits; allowed: (0, drive.V_max = 80] "
-               "V"},
+        BadRun{
+            "V0AboveLimit", "--set drive.V0=90", "",
+            "--set: drive.V0: 90 V is outside the drive's limits; allowed: (0, drive.V_max = 80] "
+            "V"},
         // Refused here, as the board would, before a run directory exists.
         BadRun{"V0Zero", "--set drive.V0=0", "",
                "--set: drive.V0: 0 V is outside the drive's limits; allowed: (0, drive.V_max"},

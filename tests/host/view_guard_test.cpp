@@ -51,8 +51,8 @@ TEST_F(ViewGuard, ControlNeedsTheTokenAndTakesSmallBodiesOnly) {
   const auto none = client.Post("/api/stop", "{}", "application/json");
   ASSERT_TRUE(none);
   EXPECT_EQ(none->status, 403);
-  const auto wrong = client.Post("/api/stop", {{"X-Piezo-Token", server.token() + "0"}}, "{}",
-                                 "application/json");
+  const auto wrong =
+      client.Post("/api/stop", {{"X-Piezo-Token", server.token() + "0"}}, "{}", "application/json");
   ASSERT_TRUE(wrong);
   EXPECT_EQ(wrong->status, 403);
   const auto right =

@@ -69,9 +69,9 @@ TEST_F(Piezod, RunOverTheProtocolMatchesTheInProcessRun) {
   const auto remote = run_command(kPiezo + " run --config " + kSimConfig + " --rig " + address_ +
                                   " --json --out " + (dir_ / "remote").string());
   ASSERT_EQ(remote.exit_code, 0) << remote.err;
-  const auto local = run_command(kPiezo + " run --config " + kSimConfig +
-                                 " --set run.clock=virtual --json --out " +
-                                 (dir_ / "local").string());
+  const auto local =
+      run_command(kPiezo + " run --config " + kSimConfig +
+                  " --set run.clock=virtual --json --out " + (dir_ / "local").string());
   ASSERT_EQ(local.exit_code, 0) << local.err;
   const auto r = nlohmann::json::parse(remote.out), l = nlohmann::json::parse(local.out);
   EXPECT_EQ(r.at("status"), "completed");
@@ -216,7 +216,9 @@ TEST_F(Piezod, AnglesUseTheRadiusOfTheBoardsSensor) {
   start("", {"--set", "run.clock=virtual", "--set", "sensor.r2_m=0.05"});
   const auto hello = run_command(
       "/usr/bin/python3 -c \"import zmq, msgpack; c = zmq.Context().socket(zmq.DEALER); "
-      "c.connect('" + address_ + "'); c.send(msgpack.packb({'id': 1, 'cmd': 'hello'})); "
+      "c.connect('" +
+      address_ +
+      "'); c.send(msgpack.packb({'id': 1, 'cmd': 'hello'})); "
       "print(msgpack.unpackb(c.recv())['result']['sensor']['r2_m'])\"");
   EXPECT_EQ(hello.out, "0.05\n") << hello.err;
   const auto remote = run_command(kPiezo + " run --config " + kSimConfig + " --rig " + address_ +
@@ -225,7 +227,8 @@ TEST_F(Piezod, AnglesUseTheRadiusOfTheBoardsSensor) {
   EXPECT_NE(remote.err.find("sensor.r2_m is 0.05 m"), std::string::npos) << remote.err;
   const auto local = run_command(kPiezo + " run --config " + kSimConfig +
                                  " --set run.clock=virtual --set sensor.r2_m=0.05 --duration 1 "
-                                 "--json --out " + (dir_ / "local").string());
+                                 "--json --out " +
+                                 (dir_ / "local").string());
   ASSERT_EQ(local.exit_code, 0) << local.err;
   const double theta_r = nlohmann::json::parse(remote.out).at("theta_end_rad");
   const double theta_l = nlohmann::json::parse(local.out).at("theta_end_rad");
@@ -487,16 +490,16 @@ TEST(PiezodConfig, ASecretKeyOthersCanReadIsRefusedAndKeygenKeepsAPair) {
                   fs::perm_options::add);
   write_file(keys / "authorized_keys", read_all(keys / "board.pub"));
   const auto board = run_command(
-      kPiezod + " --config " + kSource + "/configs/piezod-sim.toml --listen tcp://127.0.0.1:" +
-      std::to_string(free_port_pair()) + " --set piezod.secret_key_file=\"" +
-      (keys / "board.key").string() + "\" --set piezod.authorized_keys_file=\"" +
-      (keys / "authorized_keys").string() + "\"");
+      kPiezod + " --config " + kSource +
+      "/configs/piezod-sim.toml --listen tcp://127.0.0.1:" + std::to_string(free_port_pair()) +
+      " --set piezod.secret_key_file=\"" + (keys / "board.key").string() +
+      "\" --set piezod.authorized_keys_file=\"" + (keys / "authorized_keys").string() + "\"");
   EXPECT_NE(board.exit_code, 0);
   EXPECT_NE(board.err.find("readable by others (mode 0644)"), std::string::npos) << board.err;
-  const auto host = run_command(kPiezo + " status --rig tcp://127.0.0.1:" +
-                                std::to_string(free_port_pair()) + " --server-key " +
-                                (keys / "board.pub").string() + " --client-key " +
-                                (keys / "board.key").string());
+  const auto host =
+      run_command(kPiezo + " status --rig tcp://127.0.0.1:" + std::to_string(free_port_pair()) +
+                  " --server-key " + (keys / "board.pub").string() + " --client-key " +
+                  (keys / "board.key").string());
   EXPECT_NE(host.exit_code, 0);
   EXPECT_NE(host.err.find("chmod 600"), std::string::npos) << host.err;
 }

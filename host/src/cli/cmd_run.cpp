@@ -395,8 +395,7 @@ int run(const RunOptions& o) {
        {"time_origin", "seconds from the run's start (first drive deadline)"},
        {"theta", fmt::format("(displacement - first good displacement) / sensor.r2_m, "
                              "r2_m = {:.9g} m{}",
-                             config.sensor.r2_m,
-                             client ? " (the board's, from its hello)" : "")}});
+                             config.sensor.r2_m, client ? " (the board's, from its hello)" : "")}});
   if (!geometry_note.empty()) log.set_attribute("sensor_geometry_note", geometry_note);
 
   if (live) log.set_tap([&live](const log_schema::LogRows& rows) { live->add(rows); });

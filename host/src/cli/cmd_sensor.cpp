@@ -3,11 +3,10 @@
 
 #include <fmt/format.h>
 
-#include <iostream>
-#include <nlohmann/json.hpp>
-
 #include <array>
 #include <cmath>
+#include <iostream>
+#include <nlohmann/json.hpp>
 #include <utility>
 
 #include "commands.hpp"

@@ -217,9 +217,8 @@ void add_to_catalogue(const fs::path& dir, const std::map<std::string, std::stri
   std::ofstream cat(catalogue, std::ios::app);
   if (fresh_catalogue) cat << "run_dir,utc_start,status,stop_cause,config,t_end_s,theta_end_rad\n";
   cat << fmt::format("{},{},recovered,unknown,{},{:.6g},{:.9g}\n",
-                     fs::absolute(dir).filename().string(), get("utc_start"),
-                     get("config_source"), last_finite(rows.drive.t),
-                     last_finite(rows.sensor.theta));
+                     fs::absolute(dir).filename().string(), get("utc_start"), get("config_source"),
+                     last_finite(rows.drive.t), last_finite(rows.sensor.theta));
 }
 
 }  // namespace

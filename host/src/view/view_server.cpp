@@ -18,7 +18,7 @@
 namespace piezo::host::view {
 namespace {
 
-constexpr std::size_t kColumns = 800;  // about one point pair per pixel of a plot
+constexpr std::size_t kColumns = 800;        // about one point pair per pixel of a plot
 constexpr std::size_t kMaxBody = 64 * 1024;  // a control request's JSON needs a few bytes
 constexpr auto kLivePeriod = std::chrono::milliseconds(250);
 
@@ -82,8 +82,8 @@ ViewServer::ViewServer(const ViewOptions& options, const LiveFeed* live, ViewCon
   }
   const std::string host = options_.listen.substr(0, colon);
   int port = std::atoi(options_.listen.substr(colon + 1).c_str());
-  reads_need_token_ = !host.starts_with("127.") && host != "localhost" && host != "[::1]" &&
-                      host != "::1";
+  reads_need_token_ =
+      !host.starts_with("127.") && host != "localhost" && host != "[::1]" && host != "::1";
   if (options_.control || reads_need_token_) token_ = random_token();
   options_.allowed_hosts.insert(options_.allowed_hosts.end(),
                                 {host, "localhost", "127.0.0.1", "[::1]"});
@@ -104,8 +104,8 @@ ViewServer::~ViewServer() {
 }
 
 std::string ViewServer::banner() const {
-  std::string out = fmt::format("live view: {}{}", url_,
-                                token_.empty() ? "" : fmt::format("?token={}", token_));
+  std::string out =
+      fmt::format("live view: {}{}", url_, token_.empty() ? "" : fmt::format("?token={}", token_));
   out += reads_need_token_ ? " (LISTENING BEYOND THIS MACHINE; its data needs the token"
                            : " (this machine only";
   out += options_.control ? "; control with the token)" : "; read-only)";
@@ -123,8 +123,9 @@ std::string ViewServer::refusal(const httplib::Request& req, int& status) const 
   if (req.method != "POST") {
     const bool data = req.path.starts_with("/api/") || req.path.starts_with("/files/");
     if (data && reads_need_token_) {
-      const std::string given = req.has_header("X-Piezo-Token") ? req.get_header_value("X-Piezo-Token")
-                                                                : req.get_param_value("token");
+      const std::string given = req.has_header("X-Piezo-Token")
+                                    ? req.get_header_value("X-Piezo-Token")
+                                    : req.get_param_value("token");
       if (!same_secret(given, token_)) {
         return "this view listens beyond this machine: its data needs the token (printed when "
                "the view started)";

@@ -18,7 +18,7 @@
 namespace httplib {
 class Server;
 struct Request;
-}
+}  // namespace httplib
 
 namespace piezo::host::view {
 

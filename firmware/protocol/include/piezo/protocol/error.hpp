@@ -18,7 +18,7 @@ inline constexpr const char* bad_state = "bad_state";  ///< not now (e.g. start 
 inline constexpr const char* fault_latched = "fault_latched";  ///< reset_fault first
 inline constexpr const char* not_controller =
     "not_controller";                                          ///< another client controls the rig
-inline constexpr const char* rate_limited = "rate_limited";  ///< over a client's fetch budget
+inline constexpr const char* rate_limited = "rate_limited";    ///< over a client's fetch budget
 inline constexpr const char* not_available = "not_available";  ///< samples no longer recorded
 inline constexpr const char* bad_frame = "bad_frame";  ///< a sample frame that does not decode
 inline constexpr const char* internal = "internal";    ///< the daemon failed; it goes on
