@@ -13,7 +13,9 @@
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <vector>
 
+#include "live_feed.hpp"
 #include "view_server.hpp"
 
 namespace piezo::host::view {
@@ -85,6 +87,58 @@ TEST_F(ViewGuard, AnOversizedBodyIsRefusedBeforeItIsRead) {
   close(fd);
   ASSERT_GT(n, 0) << "no answer while the body was awaited";
   EXPECT_EQ(std::string(reply).substr(0, 12), "HTTP/1.1 413") << reply;
+}
+
+/// A raw connection that asks for the live stream and returns the status
+/// line of its answer ("" when none came within 10 s); the socket stays open.
+std::string open_live_page(int port, std::vector<int>& sockets) {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<std::uint16_t>(port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) return "";
+  sockets.push_back(fd);
+  timeval wait{10, 0};
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &wait, sizeof wait);
+  const std::string get = "GET /api/live HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n";
+  if (send(fd, get.data(), get.size(), 0) != static_cast<ssize_t>(get.size())) return "";
+  char reply[16] = {};
+  const ssize_t n = recv(fd, reply, 12, 0);
+  return n > 0 ? std::string(reply, static_cast<std::size_t>(n)) : "";
+}
+
+// Twenty live pages open at once: sixteen are served, the rest told why
+// (503), and the E-stop is still answered (before, eight open pages held
+// every thread of the server and the E-stop waited for good).
+TEST(ViewStreams, OpenLivePagesLeaveTheEstopAnswered) {
+  LiveFeed feed(20.0, 0.3);
+  int estops = 0;
+  ViewServer server({"127.0.0.1:0", "", true, {}}, &feed,
+                    {{},
+                     [&estops](const nlohmann::json&) {
+                       ++estops;
+                       return nlohmann::json::object();
+                     },
+                     {}});
+  const int port = port_of(server.url());
+  std::vector<int> sockets;
+  int served = 0, refused = 0;
+  for (int i = 0; i < 20; ++i) {
+    const std::string status = open_live_page(port, sockets);
+    served += status == "HTTP/1.1 200" ? 1 : 0;
+    refused += status == "HTTP/1.1 503" ? 1 : 0;
+  }
+  EXPECT_EQ(served, 16);
+  EXPECT_EQ(refused, 4);
+  httplib::Client client("127.0.0.1", port);
+  client.set_read_timeout(10, 0);
+  const auto r =
+      client.Post("/api/estop", {{"X-Piezo-Token", server.token()}}, "{}", "application/json");
+  ASSERT_TRUE(r) << "the E-stop was not answered";
+  EXPECT_EQ(r->status, 200);
+  EXPECT_EQ(estops, 1);
+  for (int fd : sockets) close(fd);
 }
 
 TEST(ViewPages, EveryShippedPageHasUniqueIds) {

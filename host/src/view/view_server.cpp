@@ -20,6 +20,12 @@ namespace {
 
 constexpr std::size_t kColumns = 800;        // about one point pair per pixel of a plot
 constexpr std::size_t kMaxBody = 64 * 1024;  // a control request's JSON needs a few bytes
+// Each open live page holds a connection, and so a thread, for as long as
+// it stays: the streams are capped well below the threads, so that Stop
+// and E-stop find a free one (cpp-httplib's default pool has 8; eight open
+// pages silenced the E-stop).
+constexpr std::size_t kServerThreads = 64;
+constexpr int kMaxStreams = 16;
 constexpr auto kLivePeriod = std::chrono::milliseconds(250);
 
 std::string random_token() {
@@ -88,6 +94,7 @@ ViewServer::ViewServer(const ViewOptions& options, const LiveFeed* live, ViewCon
   options_.allowed_hosts.insert(options_.allowed_hosts.end(),
                                 {host, "localhost", "127.0.0.1", "[::1]"});
   server_->set_payload_max_length(kMaxBody);
+  server_->new_task_queue = [] { return new httplib::ThreadPool(kServerThreads); };
   routes();
   const bool bound =
       port == 0 ? (port = server_->bind_to_any_port(host)) > 0 : server_->bind_to_port(host, port);
@@ -194,14 +201,23 @@ void ViewServer::routes() {
   });
   s.Get("/api/live", [this](const httplib::Request&, httplib::Response& res) {
     if (live_ == nullptr) return refuse(res, 404, "no run under way in this view");
+    if (streams_.fetch_add(1) >= kMaxStreams) {
+      streams_.fetch_sub(1);
+      return refuse(res, 503,
+                    fmt::format("{} live pages are open already: close one (each holds a "
+                                "connection of this view; /api/live.json answers without one)",
+                                kMaxStreams));
+    }
     res.set_header("Cache-Control", "no-cache");
     res.set_chunked_content_provider(
-        "text/event-stream", [this](std::size_t, httplib::DataSink& sink) {
+        "text/event-stream",
+        [this](std::size_t, httplib::DataSink& sink) {
           const std::string event = "data: " + live_->snapshot(kColumns).dump() + "\n\n";
           if (!sink.write(event.data(), event.size())) return false;
           std::this_thread::sleep_for(kLivePeriod);
           return true;
-        });
+        },
+        [this](bool) { streams_.fetch_sub(1); });
   });
   s.Get("/api/runs", [this](const httplib::Request&, httplib::Response& res) {
     send_json(res, {{"runs_dir", options_.runs_dir},

@@ -8,6 +8,7 @@
 // Host names it serves are answered; bound beyond loopback, its data
 // needs the token too.
 
+#include <atomic>
 #include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -73,6 +74,7 @@ class ViewServer {
   std::string url_, token_;
   /// Bound beyond loopback: the data (/api/, /files/) needs the token too.
   bool reads_need_token_ = false;
+  std::atomic<int> streams_{0};  ///< live pages open (/api/live)
   std::thread thread_;
 };
 
