@@ -1,6 +1,7 @@
 #include "piezo/firmware/drive_loop.hpp"
 
 #include <cmath>
+#include <limits>
 
 namespace piezo::firmware {
 
@@ -66,7 +67,9 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
   long last_waveform_period = -1;
   bool sync_high = false;
   DrivePhase phase = DrivePhase::driving;
-  bool ending_on_waveform = false;
+  // The value a completed waveform ends on, approached at the slew limit
+  // (NaN: none, or reached).
+  double end_V = std::numeric_limits<double>::quiet_NaN();
   // A waveform's end within this of 0 V is 0 V (the period's end, up to
   // the rounding of t).
   constexpr double kOnZero_V = 1e-6;
@@ -90,13 +93,12 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
     if (action == SafetyAction::ramp_down && phase == DrivePhase::driving) {
       phase = DrivePhase::ramping_down;
       // A waveform that ran its whole duration ends on its own value there
-      // (0 V at a period's end), as fast as the slew limit allows, instead
-      // of ramping from its last sample: a step's fast edge stays fast.
+      // (0 V at a period's end) at the slew limit, as its own edges go,
+      // instead of ramping from its last sample: a step's fast edge stays
+      // fast, also when missed deadlines left the drive behind it.
       const double end = program_.end_voltage(settings_.duration_s);
       if (supervisor_.cause() == StopCause::completed && std::isfinite(end)) {
-        V = limit_voltage(settings_.limits, std::abs(end) < kOnZero_V ? 0.0 : end, V, dt_nominal);
-        if (std::abs(V) < kOnZero_V) V = 0.0;
-        ending_on_waveform = true;
+        end_V = std::abs(end) < kOnZero_V ? 0.0 : end;
       }
     }
 
@@ -106,8 +108,12 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
     const double dt = dt_nominal;
     if (phase == DrivePhase::driving) {
       V = limit_voltage(settings_.limits, program_.next_voltage(t, dt), V, dt);
-    } else if (ending_on_waveform) {
-      ending_on_waveform = false;  // this cycle's value is the waveform's end
+    } else if (!std::isnan(end_V)) {
+      V = limit_voltage(settings_.limits, end_V, V, dt);
+      if (std::abs(V - end_V) < kOnZero_V) {
+        V = end_V;
+        end_V = std::numeric_limits<double>::quiet_NaN();  // 0 V stops below; else the ramp goes on
+      }
     } else {
       V = step_towards(V, 0.0, supervisor_.settings().ramp_down_V_per_s, dt);
     }

@@ -162,6 +162,13 @@ def move_from_the_page(driver, piezo, piezod, work):
     board = subprocess.Popen([piezod, "--config", os.path.join(SOURCE, "configs", "piezod-sim.toml"),
                               "--listen", f"tcp://127.0.0.1:{board_port}"],
                              stderr=open(os.path.join(work, "piezod.err"), "w"))
+    # The view says hello to the board first: the board must be listening.
+    deadline = time.time() + 30
+    while time.time() < deadline:
+        with socket.socket() as probe:
+            if probe.connect_ex(("127.0.0.1", board_port)) == 0:
+                break
+        time.sleep(0.05)
     port = free_port()
     err = os.path.join(work, "rig-view.err")
     view = subprocess.Popen([piezo, "view", "--rig", f"tcp://127.0.0.1:{board_port}", "--control",
