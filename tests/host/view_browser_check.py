@@ -169,12 +169,30 @@ def move_from_the_page(driver, piezo, piezod, work):
             if probe.connect_ex(("127.0.0.1", board_port)) == 0:
                 break
         time.sleep(0.05)
-    port = free_port()
     err = os.path.join(work, "rig-view.err")
-    view = subprocess.Popen([piezo, "view", "--rig", f"tcp://127.0.0.1:{board_port}", "--control",
-                             "--listen", f"127.0.0.1:{port}"], stderr=open(err, "w"))
+    view, url, token = None, None, None
+    # The view's hello to a board that is still starting (a loaded machine)
+    # can go unanswered within its 2 s: it says so and exits; started again.
+    for _ in range(5):
+        port = free_port()
+        view = subprocess.Popen([piezo, "view", "--rig", f"tcp://127.0.0.1:{board_port}",
+                                 "--control", "--listen", f"127.0.0.1:{port}"],
+                                stderr=open(err, "w"))
+        deadline = time.time() + 60
+        while time.time() < deadline and view.poll() is None and url is None:
+            with open(err) as f:
+                m = re.search(r"live view: (http://\S+?)(\?token=([0-9a-f]+))? ", f.read())
+            if m:
+                url, token = m.group(1), m.group(3)
+            time.sleep(0.05)
+        if url:
+            break
+        view.kill()
+        view.wait()
+        time.sleep(1)
+    with open(err) as f:
+        check(url is not None, "the rig view's banner: " + f.read())
     try:
-        url, token = wait_for_banner(err, time.time() + 20)
         driver.get(f"{url}?token={token}")
         target = driver.find_element("id", "target")
         target.clear()
