@@ -5,6 +5,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
+#include <map>
 
 #include "decimate.hpp"
 #include "live_feed.hpp"
@@ -47,18 +49,117 @@ TEST(Decimate, SkipsFailedReadingsAndEmptyInput) {
 }
 
 TEST(LiveFeed, KeepsTheWindowAndZoomsOnTheLastPeriods) {
-  LiveFeed feed(2.0, 0.3);
+  LiveFeed feed(2.0, 0.3, 100);
   log_schema::LogRows rows;
   for (int i = 0; i < 100'000; ++i) {  // 10 s at 10 kHz
     rows.drive.t.push_back(i * 1e-4);
     rows.drive.V.push_back(i % 1000 * 0.08);
   }
   feed.add(rows);
-  const auto snap = feed.snapshot(100);
+  const auto snap = feed.snapshot();
   EXPECT_NEAR(snap.at("t_end").get<double>(), 9.9999, 1e-9);
   EXPECT_GE(snap.at("drive").at("t").front().get<double>(), 7.9999 - 1e-9);
   EXPECT_LE(snap.at("drive").at("t").size(), 200u);
-  EXPECT_EQ(snap.at("zoom").at("t").size(), 3001u) << "0.3 s at full rate";
+  const auto& zoom = snap.at("zoom");
+  EXPECT_EQ(zoom.at("y").size(), 3001u) << "0.3 s at full rate";
+  EXPECT_NEAR(zoom.at("dt").get<double>(), 1e-4, 1e-12) << "a grid goes as start and step";
+}
+
+/// Samples as the default configuration logs them: the drive's sawtooth at
+/// 10 kHz, the sensor and the observer at 1 kHz, in batches of `batch_s`.
+log_schema::LogRows rig_rows(double from, double batch_s) {
+  log_schema::LogRows rows;
+  for (long i = std::lround(from * 1e4); i < std::lround((from + batch_s) * 1e4); ++i) {
+    const double t = static_cast<double>(i) * 1e-4;
+    rows.drive.t.push_back(t);
+    rows.drive.V.push_back(100.0 * std::fmod(t * 10.0, 1.0));
+    if (i % 10 == 0) {
+      const double theta = 1e-3 * t + 1e-6 * std::sin(t * 60.0);
+      rows.sensor.t.push_back(t);
+      rows.sensor.theta.push_back(i % 1000 == 0 ? NAN : theta);
+      rows.observer.t.push_back(t);
+      rows.observer.theta_hat.push_back(theta * 1.01);
+      rows.observer.theta_open.push_back(theta * 0.98);
+      rows.observer.residual.push_back(theta * 0.01);
+    }
+  }
+  return rows;
+}
+
+/// A page's window kept as the live page keeps it (live-window.js).
+struct PageWindow {
+  std::map<std::string, std::pair<std::vector<double>, std::vector<double>>> series;
+  void apply(const nlohmann::json& e) {
+    for (const char* name : {"drive", "measured", "observer", "open_loop", "residual"}) {
+      auto& [t, y] = series[name];
+      if (e.at("reset").get<bool>()) t.clear(), y.clear();
+      const double from = e.at("t_end").get<double>() - e.at("window_s").get<double>();
+      std::size_t keep = 0;
+      while (keep < t.size() && t[keep] < from) ++keep;
+      t.erase(t.begin(), t.begin() + static_cast<std::ptrdiff_t>(keep));
+      y.erase(y.begin(), y.begin() + static_cast<std::ptrdiff_t>(keep));
+      for (const auto& v : e.at(name).at("t")) t.push_back(v.get<double>());
+      for (const auto& v : e.at(name).at("y")) y.push_back(v.is_null() ? NAN : v.get<double>());
+    }
+  }
+};
+
+// A page sent only what changed holds what a fresh snapshot shows, column
+// for column, and pays at most 64 KiB/s for it at the default rates (before,
+// each event was the whole window: about 1 MB/s).
+TEST(LiveFeed, APageSentWhatChangedShowsTheSnapshotsPictureForLittle) {
+  LiveFeed feed(20.0, 0.3);
+  PageWindow page;
+  LiveCursor cursor;
+  std::size_t bytes = 0, steady_bytes = 0;
+  int resets = 0;
+  for (int event = 0; event < 240; ++event) {  // 60 s, four events a second
+    feed.add(rig_rows(event * 0.25, 0.25));
+    const auto e = feed.changes(cursor);
+    resets += e.at("reset").get<bool>() ? 1 : 0;
+    bytes += e.dump().size();
+    if (event >= 120) {
+      EXPECT_FALSE(e.at("reset").get<bool>()) << "event " << event;
+      steady_bytes += e.dump().size();
+    }
+    page.apply(e);
+  }
+  EXPECT_LE(resets, 12) << "the window is sent again only as the columns widen";
+  const double per_s = static_cast<double>(bytes) / 60.0,
+               steady = static_cast<double>(steady_bytes) / 30.0;
+  EXPECT_LT(per_s, 64 * 1024) << per_s << " bytes/s";
+  std::cout << "a viewer costs " << per_s / 1024 << " KiB/s over a minute, " << steady / 1024
+            << " KiB/s once the window is full (" << resets << " windows sent whole)\n";
+  const auto snap = feed.snapshot();
+  for (const char* name : {"drive", "measured", "observer", "open_loop", "residual"}) {
+    const auto& st = snap.at(name).at("t");
+    const auto& sy = snap.at(name).at("y");
+    ASSERT_GT(st.size(), 1000u) << name;
+    const auto& [pt, py] = page.series[name];
+    const auto first =
+        std::lower_bound(pt.begin(), pt.end(), st.front().get<double>()) - pt.begin();
+    ASSERT_EQ(pt.size() - static_cast<std::size_t>(first), st.size()) << name;
+    for (std::size_t i = 0; i < st.size(); ++i) {
+      const auto j = static_cast<std::size_t>(first) + i;
+      ASSERT_EQ(pt[j], st[i].get<double>()) << name << " point " << i;
+      ASSERT_EQ(py[j], sy[i].get<double>()) << name << " point " << i;
+    }
+  }
+}
+
+// A run that starts again (its clock back at zero) sends each page the new
+// window whole.
+TEST(LiveFeed, ANewRunSendsTheWindowAgain) {
+  LiveFeed feed(20.0, 0.3);
+  LiveCursor cursor;
+  feed.add(rig_rows(0.0, 2.0));
+  EXPECT_TRUE(feed.changes(cursor).at("reset").get<bool>());
+  feed.add(rig_rows(2.0, 0.5));
+  EXPECT_FALSE(feed.changes(cursor).at("reset").get<bool>());
+  feed.add(rig_rows(0.0, 0.5));
+  const auto e = feed.changes(cursor);
+  EXPECT_TRUE(e.at("reset").get<bool>());
+  EXPECT_LT(e.at("t_end").get<double>(), 0.6);
 }
 
 TEST(RunCatalogue, OnlyPlainRunNamesInsideTheDirectory) {

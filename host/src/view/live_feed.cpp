@@ -1,43 +1,80 @@
 #include "live_feed.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "decimate.hpp"
 
 namespace piezo::host::view {
 namespace {
 
+constexpr std::array<const char*, 5> kNames{"drive", "measured", "observer", "open_loop",
+                                            "residual"};
+enum : std::size_t { kDrive, kMeasured, kObserver, kOpenLoop, kResidual };
+/// The zoom (thousands of full-rate samples) goes with every fourth event:
+/// about once a second, which is most of what a viewer costs.
+constexpr std::uint64_t kZoomEvery = 4;
+
 void append(std::vector<double>& to, const std::vector<double>& from) {
   to.insert(to.end(), from.begin(), from.end());
 }
 
+/// Numbers as short as what they show: times to the microsecond, values to
+/// seven significant digits (JSON prints the shortest form that reads back).
+double short_time(double t) {
+  return std::round(t * 1e6) / 1e6;
+}
+double short_value(double v) {
+  if (!std::isfinite(v) || v == 0.0) return v;
+  const double scale = std::pow(10.0, 6 - static_cast<int>(std::floor(std::log10(std::abs(v)))));
+  return std::round(v * scale) / scale;
+}
+
 nlohmann::json to_json(const Series& s) {
-  return {{"t", s.t}, {"y", s.y}};
+  nlohmann::json t = nlohmann::json::array(), y = nlohmann::json::array();
+  for (std::size_t i = 0; i < s.t.size(); ++i) {
+    t.push_back(short_time(s.t[i]));
+    y.push_back(short_value(s.y[i]));
+  }
+  return {{"t", std::move(t)}, {"y", std::move(y)}};
 }
 
 }  // namespace
 
 void LiveFeed::add(const log_schema::LogRows& rows) {
   const std::lock_guard lock(mutex_);
-  append(drive_.t, rows.drive.t);
-  append(drive_.y, rows.drive.V);
-  append(measured_.t, rows.sensor.t);
-  append(measured_.y, rows.sensor.theta);
-  for (Column* c : {&observer_, &open_loop_, &residual_}) append(c->t, rows.observer.t);
-  append(observer_.y, rows.observer.theta_hat);
-  append(open_loop_.y, rows.observer.theta_open);
-  append(residual_.y, rows.observer.residual);
-  const double t_end = drive_.t.empty() ? 0.0 : drive_.t.back();
-  trim(t_end);
+  if (!rows.drive.t.empty() && !columns_[kDrive].t.empty() &&
+      rows.drive.t.front() < columns_[kDrive].t.back()) {
+    restart();
+  }
+  append(columns_[kDrive].t, rows.drive.t);
+  append(columns_[kDrive].y, rows.drive.V);
+  append(columns_[kMeasured].t, rows.sensor.t);
+  append(columns_[kMeasured].y, rows.sensor.theta);
+  for (std::size_t s : {kObserver, kOpenLoop, kResidual}) append(columns_[s].t, rows.observer.t);
+  append(columns_[kObserver].y, rows.observer.theta_hat);
+  append(columns_[kOpenLoop].y, rows.observer.theta_open);
+  append(columns_[kResidual].y, rows.observer.residual);
+  trim(t_end());
+}
+
+void LiveFeed::restart() {
+  for (Column& c : columns_) c = {};
+  ++epoch_;
+}
+
+double LiveFeed::t_end() const {
+  const auto& drive = columns_[kDrive].t;
+  return drive.empty() ? 0.0 : drive.back();
 }
 
 void LiveFeed::trim(double t_end) {
   // Dropped in bulk once twice the window is held: amortised, not per sample.
-  for (Column* c : {&drive_, &measured_, &observer_, &open_loop_, &residual_}) {
-    if (c->t.empty() || c->t.front() > t_end - 2.0 * window_s_) continue;
-    const auto keep = std::lower_bound(c->t.begin(), c->t.end(), t_end - window_s_) - c->t.begin();
-    c->t.erase(c->t.begin(), c->t.begin() + keep);
-    c->y.erase(c->y.begin(), c->y.begin() + keep);
+  for (Column& c : columns_) {
+    if (c.t.empty() || c.t.front() > t_end - 2.0 * window_s_) continue;
+    const auto keep = std::lower_bound(c.t.begin(), c.t.end(), t_end - window_s_) - c.t.begin();
+    c.t.erase(c.t.begin(), c.t.begin() + keep);
+    c.y.erase(c.y.begin(), c.y.begin() + keep);
   }
 }
 
@@ -46,27 +83,65 @@ void LiveFeed::set_status(nlohmann::json status) {
   status_ = std::move(status);
 }
 
-nlohmann::json LiveFeed::snapshot(std::size_t columns) const {
+nlohmann::json LiveFeed::snapshot() const {
   const std::lock_guard lock(mutex_);
-  const double t_end = drive_.t.empty() ? 0.0 : drive_.t.back();
-  const double t0 = std::max(0.0, t_end - window_s_), t1 = std::max(t_end, t0 + 1e-3);
-  const auto decimated = [&](const Column& c) {
-    return to_json(min_max_decimate(c.t, c.y, t0, t1, columns));
-  };
-  // The zoom: the last few drive periods, every sample.
-  const auto zoom_from = static_cast<std::size_t>(
-      std::lower_bound(drive_.t.begin(), drive_.t.end(), t_end - zoom_s_) - drive_.t.begin());
-  const Series zoom{{drive_.t.begin() + static_cast<std::ptrdiff_t>(zoom_from), drive_.t.end()},
-                    {drive_.y.begin() + static_cast<std::ptrdiff_t>(zoom_from), drive_.y.end()}};
-  return {{"t_end", t_end},
-          {"window_s", window_s_},
-          {"measured", decimated(measured_)},
-          {"observer", decimated(observer_)},
-          {"open_loop", decimated(open_loop_)},
-          {"residual", decimated(residual_)},
-          {"drive", decimated(drive_)},
-          {"zoom", to_json(zoom)},
-          {"status", status_}};
+  LiveCursor cursor;
+  return event(cursor, true);
+}
+
+nlohmann::json LiveFeed::changes(LiveCursor& cursor) const {
+  const std::lock_guard lock(mutex_);
+  return event(cursor, cursor.epoch != epoch_ || cursor.width != width_now());
+}
+
+double LiveFeed::width_now() const {
+  const double columns = window_s_ / width_, end = t_end();
+  double w = width_;
+  while (w > width_ / 1024 && end <= columns * w / 2) w /= 2;
+  return w;
+}
+
+nlohmann::json LiveFeed::event(LiveCursor& cursor, bool reset) const {
+  const double end = t_end(), width = width_now();
+  nlohmann::json out{{"reset", reset}, {"t_end", short_time(end)}, {"window_s", window_s_}};
+  // The window's first whole column, and per series its last complete one:
+  // a column is complete once a later sample has come.
+  const long long window_start = column_of(end - window_s_, width) + 1;
+  for (std::size_t s = 0; s < kSeries; ++s) {
+    const Column& c = columns_[s];
+    const long long done = c.t.empty() ? window_start : column_of(c.t.back(), width);
+    const long long from = reset ? window_start : std::max(cursor.next[s], window_start);
+    out[kNames[s]] = to_json(min_max_columns(c.t, c.y, width, from, done));
+    cursor.next[s] = std::max(from, done);
+  }
+  if (reset || cursor.events % kZoomEvery == 0) out["zoom"] = zoom();
+  out["status"] = status_;
+  cursor.epoch = epoch_;
+  cursor.width = width;
+  ++cursor.events;
+  return out;
+}
+
+nlohmann::json LiveFeed::zoom() const {
+  // The last few drive periods, every sample. The drive's clock is a grid:
+  // its times go as a start and a step when they are (they are, unless a
+  // missed cycle left a gap).
+  const Column& d = columns_[kDrive];
+  const auto from = static_cast<std::size_t>(
+      std::lower_bound(d.t.begin(), d.t.end(), t_end() - zoom_s_) - d.t.begin());
+  const std::size_t n = d.t.size() - from;
+  nlohmann::json y = nlohmann::json::array();
+  for (std::size_t i = from; i < d.t.size(); ++i) y.push_back(short_value(d.y[i]));
+  const double t0 = n > 0 ? d.t[from] : 0.0;
+  const double dt = n > 1 ? (d.t.back() - t0) / static_cast<double>(n - 1) : 0.0;
+  bool grid = n > 1;
+  for (std::size_t i = from; i < d.t.size() && grid; ++i) {
+    grid = std::abs(d.t[i] - (t0 + static_cast<double>(i - from) * dt)) < 0.01 * dt;
+  }
+  if (grid) return {{"t0", t0}, {"dt", dt}, {"y", std::move(y)}};
+  nlohmann::json t = nlohmann::json::array();
+  for (std::size_t i = from; i < d.t.size(); ++i) t.push_back(short_time(d.t[i]));
+  return {{"t", std::move(t)}, {"y", std::move(y)}};
 }
 
 }  // namespace piezo::host::view

@@ -2,9 +2,18 @@
 // What the live view shows of the run under way: the last seconds of the
 // drive, the measured angle and the observer's predictions, fed with every
 // batch of samples the run logs, plus the latest status. The run's thread
-// writes, the web server's threads read snapshots.
+// writes, the web server's threads read.
+//
+// The window is decimated to min/max columns on a grid fixed in time, so a
+// page is sent its window once and then only the columns completed since
+// (a few kB/s instead of the whole window four times a second), and what it
+// holds is what a fresh snapshot shows. While the run is shorter than the
+// window the columns are narrower (halved while the run fits in half of
+// them), so a short move shows in detail; each widening resends the window.
 
+#include <array>
 #include <cstddef>
+#include <cstdint>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <vector>
@@ -13,27 +22,51 @@
 
 namespace piezo::host::view {
 
+/// What one page has been sent: the run it follows and, per series, the
+/// first column it has not.
+struct LiveCursor {
+  std::uint64_t epoch = 0;  ///< 0: nothing sent yet
+  double width = 0.0;       ///< the columns' width it was sent
+  std::array<long long, 5> next{};
+  std::uint64_t events = 0;
+};
+
 class LiveFeed {
  public:
-  /// Keeps `window_s` of history; the drive's zoom shows the last `zoom_s` at full rate.
-  LiveFeed(double window_s, double zoom_s) : window_s_(window_s), zoom_s_(zoom_s) {}
+  /// Keeps `window_s` of history in `columns` columns; the drive's zoom
+  /// shows the last `zoom_s` at full rate.
+  LiveFeed(double window_s, double zoom_s, std::size_t columns = 800)
+      : window_s_(window_s), zoom_s_(zoom_s), width_(window_s / static_cast<double>(columns)) {}
 
+  /// Appends a batch; a batch that starts before the feed's end is a new
+  /// run (its clock restarted): the window starts again.
   void add(const log_schema::LogRows& rows);
   void set_status(nlohmann::json status);
 
-  /// The window decimated to `columns` columns (min/max), the zoom at full
-  /// rate, and the status, as one JSON object.
-  [[nodiscard]] nlohmann::json snapshot(std::size_t columns) const;
+  /// The whole window, the zoom and the status ("reset": true).
+  [[nodiscard]] nlohmann::json snapshot() const;
+  /// What the page at `cursor` has not seen: the whole window when it has
+  /// seen nothing of this run, else the columns completed since, with the
+  /// zoom about once a second; always the status. Advances the cursor.
+  [[nodiscard]] nlohmann::json changes(LiveCursor& cursor) const;
 
  private:
   struct Column {
     std::vector<double> t, y;
   };
+  static constexpr std::size_t kSeries = 5;
+  [[nodiscard]] nlohmann::json event(LiveCursor& cursor, bool reset) const;
+  [[nodiscard]] nlohmann::json zoom() const;
+  [[nodiscard]] double t_end() const;
+  [[nodiscard]] double width_now() const;
   void trim(double t_end);
+  void restart();
 
   mutable std::mutex mutex_;
-  double window_s_, zoom_s_;
-  Column drive_, measured_, observer_, open_loop_, residual_;
+  double window_s_, zoom_s_, width_;
+  std::uint64_t epoch_ = 1;
+  /// drive, measured, observer, open_loop, residual (kNames' order)
+  std::array<Column, kSeries> columns_;
   nlohmann::json status_ = nlohmann::json::object();
 };
 

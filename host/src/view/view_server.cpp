@@ -1,16 +1,17 @@
 #include "view_server.hpp"
 
 #include <fmt/format.h>
-#include <httplib.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <fstream>
 #include <random>
+#include <regex>
 #include <sstream>
 #include <stdexcept>
 
+#include "http_server.hpp"
 #include "live_feed.hpp"
 #include "run_catalogue.hpp"
 #include "web_assets.hpp"
@@ -20,13 +21,9 @@ namespace {
 
 constexpr std::size_t kColumns = 800;        // about one point pair per pixel of a plot
 constexpr std::size_t kMaxBody = 64 * 1024;  // a control request's JSON needs a few bytes
-// Each open live page holds a connection, and so a thread, for as long as
-// it stays: the streams are capped well below the threads, so that Stop
-// and E-stop find a free one (cpp-httplib's default pool has 8; eight open
-// pages silenced the E-stop).
-constexpr std::size_t kServerThreads = 64;
-constexpr int kMaxStreams = 16;
-constexpr auto kLivePeriod = std::chrono::milliseconds(250);
+// An open live page costs a socket and a few kB/s, never a thread; the cap
+// bounds what the host's CPU spends on viewers (a browser's tabs share one).
+constexpr int kMaxStreams = 64;
 
 std::string random_token() {
   std::random_device rd;
@@ -49,13 +46,16 @@ std::string vendor_dir() {
   return PIEZO_UPLOT_DIR;
 }
 
-void send_json(httplib::Response& res, const nlohmann::json& j) {
-  res.set_content(j.dump(), "application/json");
+HttpReply json_reply(const nlohmann::json& j) {
+  return {200, "application/json", j.dump(), {}, {}};
 }
 
-void refuse(httplib::Response& res, int status, const std::string& why) {
-  res.status = status;
-  send_json(res, {{"ok", false}, {"error", why}});
+HttpReply refused(int status, const std::string& why) {
+  return {status, "application/json", nlohmann::json{{"ok", false}, {"error", why}}.dump(), {}, {}};
+}
+
+HttpReply page(std::string_view text, const char* type = "text/html; charset=utf-8") {
+  return {200, type, std::string(text), {}, {}};
 }
 
 /// Compares in a time that does not depend on where they differ: the token
@@ -77,38 +77,38 @@ std::string host_name(const std::string& host) {
 }  // namespace
 
 ViewServer::ViewServer(const ViewOptions& options, const LiveFeed* live, ViewControls controls)
-    : options_(options),
-      live_(live),
-      controls_(std::move(controls)),
-      server_(std::make_unique<httplib::Server>()) {
+    : options_(options), live_(live), controls_(std::move(controls)) {
   const auto colon = options_.listen.rfind(':');
   if (colon == std::string::npos) {
     throw std::runtime_error(fmt::format(
         "--view/--listen: \"{}\" is not HOST:PORT, e.g. 127.0.0.1:8080", options_.listen));
   }
   const std::string host = options_.listen.substr(0, colon);
-  int port = std::atoi(options_.listen.substr(colon + 1).c_str());
+  const int port = std::atoi(options_.listen.substr(colon + 1).c_str());
   reads_need_token_ =
       !host.starts_with("127.") && host != "localhost" && host != "[::1]" && host != "::1";
   if (options_.control || reads_need_token_) token_ = random_token();
   options_.allowed_hosts.insert(options_.allowed_hosts.end(),
                                 {host, "localhost", "127.0.0.1", "[::1]"});
-  server_->set_payload_max_length(kMaxBody);
-  server_->new_task_queue = [] { return new httplib::ThreadPool(kServerThreads); };
-  routes();
-  const bool bound =
-      port == 0 ? (port = server_->bind_to_any_port(host)) > 0 : server_->bind_to_port(host, port);
-  if (!bound) {
-    throw std::runtime_error(fmt::format("--view/--listen: cannot listen on {}", options_.listen));
+  HttpHandler handler{[this](const HttpRequest& head) -> std::optional<HttpReply> {
+                        int status = 0;
+                        const std::string why = refusal(head, status);
+                        if (why.empty()) return std::nullopt;
+                        return refused(status, why);
+                      },
+                      [](const HttpRequest& req) { return req.method == "POST"; },
+                      [this](const HttpRequest& req) { return serve(req); }};
+  HttpLimits limits;
+  limits.max_body = kMaxBody;
+  try {
+    server_ = std::make_unique<HttpServer>(host, port, std::move(handler), limits);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(fmt::format("--view/--listen: {}", e.what()));
   }
-  url_ = fmt::format("http://{}:{}/", host, port);
-  thread_ = std::thread([this] { server_->listen_after_bind(); });
+  url_ = fmt::format("http://{}:{}/", host, server_->port());
 }
 
-ViewServer::~ViewServer() {
-  server_->stop();
-  if (thread_.joinable()) thread_.join();
-}
+ViewServer::~ViewServer() = default;
 
 std::string ViewServer::banner() const {
   std::string out =
@@ -119,9 +119,9 @@ std::string ViewServer::banner() const {
   return out;
 }
 
-std::string ViewServer::refusal(const httplib::Request& req, int& status) const {
+std::string ViewServer::refusal(const HttpRequest& req, int& status) const {
   status = 403;
-  const std::string host = host_name(req.get_header_value("Host"));
+  const std::string host = host_name(req.header("host"));
   if (std::find(options_.allowed_hosts.begin(), options_.allowed_hosts.end(), host) ==
       options_.allowed_hosts.end()) {
     return fmt::format("Host \"{}\" is not a name this view serves (--allow-host NAME adds one)",
@@ -130,9 +130,8 @@ std::string ViewServer::refusal(const httplib::Request& req, int& status) const 
   if (req.method != "POST") {
     const bool data = req.path.starts_with("/api/") || req.path.starts_with("/files/");
     if (data && reads_need_token_) {
-      const std::string given = req.has_header("X-Piezo-Token")
-                                    ? req.get_header_value("X-Piezo-Token")
-                                    : req.get_param_value("token");
+      const std::string given =
+          req.headers.contains("x-piezo-token") ? req.header("x-piezo-token") : req.param("token");
       if (!same_secret(given, token_)) {
         return "this view listens beyond this machine: its data needs the token (printed when "
                "the view started)";
@@ -140,130 +139,119 @@ std::string ViewServer::refusal(const httplib::Request& req, int& status) const 
     }
     return {};
   }
-  if (std::strtoull(req.get_header_value("Content-Length").c_str(), nullptr, 10) > kMaxBody) {
+  if (std::strtoull(req.header("content-length").c_str(), nullptr, 10) > kMaxBody) {
     status = 413;
     return fmt::format("a body of at most {} bytes", kMaxBody);
   }
   if (!options_.control) return "read-only view: start it with --control to allow this";
-  if (!same_secret(req.get_header_value("X-Piezo-Token"), token_)) {
+  if (!same_secret(req.header("x-piezo-token"), token_)) {
     return "missing or wrong token (printed when the view started)";
   }
-  const std::string origin = req.get_header_value("Origin");
-  const std::string site = req.get_header_value("Sec-Fetch-Site");
-  if ((!origin.empty() && origin != "http://" + req.get_header_value("Host")) ||
+  const std::string origin = req.header("origin");
+  const std::string site = req.header("sec-fetch-site");
+  if ((!origin.empty() && origin != "http://" + req.header("host")) ||
       (!site.empty() && site != "same-origin" && site != "none")) {
     return "cross-site request refused";
   }
   return {};
 }
 
-void ViewServer::routes() {
-  auto& s = *server_;
-  // Checked before any body is read: a stranger's request costs nothing.
-  s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
-    int status = 0;
-    const std::string why = refusal(req, status);
-    if (why.empty()) return httplib::Server::HandlerResponse::Unhandled;
-    res.set_header("Connection", "close");  // its unread body is not a next request
-    refuse(res, status, why);
-    return httplib::Server::HandlerResponse::Handled;
-  });
-  s.Get("/", [this](const httplib::Request&, httplib::Response& res) {
-    if (live_ == nullptr) {
-      res.set_redirect("/runs");
-      return;
-    }
-    res.set_content(std::string(kLiveHtml), "text/html; charset=utf-8");
-  });
-  s.Get("/runs", [](const httplib::Request&, httplib::Response& res) {
-    res.set_content(std::string(kRunsHtml), "text/html; charset=utf-8");
-  });
-  s.Get(R"(/run/([^/]+))", [](const httplib::Request&, httplib::Response& res) {
-    res.set_content(std::string(kRunHtml), "text/html; charset=utf-8");
-  });
-  s.Get(R"(/vendor/(uPlot\.iife\.min\.js|uPlot\.min\.css))",
-        [](const httplib::Request& req, httplib::Response& res) {
-          const std::string name = req.matches[1];
-          const std::string body = read_file(vendor_dir() + "/" + name);
-          if (body.empty()) {
-            refuse(res, 404,
-                   fmt::format("{} not found in {} (scripts/setup.sh installs uPlot from the npm "
-                               "registry; PIEZO_UPLOT_DIR overrides)",
-                               name, vendor_dir()));
-            return;
-          }
-          res.set_content(body, name.ends_with(".js") ? "text/javascript" : "text/css");
-        });
-
-  s.Get("/api/live.json", [this](const httplib::Request&, httplib::Response& res) {
-    if (live_ == nullptr) return refuse(res, 404, "no run under way in this view");
-    send_json(res, live_->snapshot(kColumns));
-  });
-  s.Get("/api/live", [this](const httplib::Request&, httplib::Response& res) {
-    if (live_ == nullptr) return refuse(res, 404, "no run under way in this view");
-    if (streams_.fetch_add(1) >= kMaxStreams) {
-      streams_.fetch_sub(1);
-      return refuse(res, 503,
-                    fmt::format("{} live pages are open already: close one (each holds a "
-                                "connection of this view; /api/live.json answers without one)",
-                                kMaxStreams));
-    }
-    res.set_header("Cache-Control", "no-cache");
-    res.set_chunked_content_provider(
-        "text/event-stream",
-        [this](std::size_t, httplib::DataSink& sink) {
-          const std::string event = "data: " + live_->snapshot(kColumns).dump() + "\n\n";
-          if (!sink.write(event.data(), event.size())) return false;
-          std::this_thread::sleep_for(kLivePeriod);
-          return true;
-        },
-        [this](bool) { streams_.fetch_sub(1); });
-  });
-  s.Get("/api/runs", [this](const httplib::Request&, httplib::Response& res) {
-    send_json(res, {{"runs_dir", options_.runs_dir},
-                    {"runs", options_.runs_dir.empty() ? nlohmann::json::array()
-                                                       : list_runs(options_.runs_dir)}});
-  });
-  s.Get(R"(/api/run/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
-    const auto dir =
-        options_.runs_dir.empty() ? std::nullopt : run_path(options_.runs_dir, req.matches[1]);
-    if (!dir) return refuse(res, 404, fmt::format("no run \"{}\"", std::string(req.matches[1])));
-    try {
-      send_json(res, run_plots(*dir, kColumns));
-    } catch (const std::exception& e) {
-      refuse(res, 500, e.what());
-    }
-  });
-  s.Get(R"(/files/([^/]+)/(run\.h5|config\.toml))",
-        [this](const httplib::Request& req, httplib::Response& res) {
-          const auto dir = options_.runs_dir.empty() ? std::nullopt
-                                                     : run_path(options_.runs_dir, req.matches[1]);
-          if (!dir) return refuse(res, 404, "no such run");
-          const std::string name = req.matches[2];
-          res.set_header("Content-Disposition", "attachment; filename=\"" + name + "\"");
-          res.set_content(read_file((*dir / name).string()),
-                          name.ends_with(".h5") ? "application/x-hdf5" : "text/plain");
-        });
-
-  // Control: POST only, with the token in a header (which a cross-site form
-  // cannot send, and a cross-site script only after a preflight this server
-  // never answers), from this page's own origin: refusal() checked it all
-  // before the body was read.
-  const auto guarded = [this](const ViewControls::Action& action, const char* what) {
-    return [action, what](const httplib::Request& req, httplib::Response& res) {
-      if (!action) return refuse(res, 404, fmt::format("{}: not available here", what));
+HttpReply ViewServer::serve(const HttpRequest& req) {
+  static const std::regex run_page(R"(/run/([^/]+))"),
+      vendor(R"(/vendor/(uPlot\.iife\.min\.js|uPlot\.min\.css))"), run_api(R"(/api/run/([^/]+))"),
+      run_file(R"(/files/([^/]+)/(run\.h5|config\.toml))");
+  const std::string& path = req.path;
+  std::smatch m;
+  if (req.method == "POST") {
+    // Control: POST only, with the token in a header (which a cross-site
+    // form cannot send, and a cross-site script only after a preflight this
+    // server never answers), from this page's own origin: refusal() checked
+    // it all before the body was read.
+    const auto action = [&](const ViewControls::Action& act, const char* what) {
+      if (!act) return refused(404, fmt::format("{}: not available here", what));
       try {
         const nlohmann::json body =
             req.body.empty() ? nlohmann::json::object() : nlohmann::json::parse(req.body);
-        send_json(res, {{"ok", true}, {"sent", what}, {"reply", action(body)}});
+        return json_reply({{"ok", true}, {"sent", what}, {"reply", act(body)}});
       } catch (const std::exception& e) {
-        refuse(res, 409, fmt::format("{}: {}", what, e.what()));
+        return refused(409, fmt::format("{}: {}", what, e.what()));
       }
     };
-  };
-  s.Post("/api/stop", guarded(controls_.stop, "stop"));
-  s.Post("/api/estop", guarded(controls_.estop, "estop"));
-  s.Post("/api/move", guarded(controls_.move, "move"));
+    if (path == "/api/stop") return action(controls_.stop, "stop");
+    if (path == "/api/estop") return action(controls_.estop, "estop");
+    if (path == "/api/move") return action(controls_.move, "move");
+    return refused(404, fmt::format("no POST {}", path));
+  }
+  if (req.method != "GET") return refused(405, "GET or POST only");
+  if (path == "/") {
+    if (live_ != nullptr) return page(kLiveHtml);
+    HttpReply r{302, "text/plain", "", {{"Location", "/runs"}}, {}};
+    return r;
+  }
+  if (path == "/runs") return page(kRunsHtml);
+  if (std::regex_match(path, m, run_page)) return page(kRunHtml);
+  if (path == "/live-window.js") return page(kLiveWindowJs, "text/javascript");
+  if (path == "/live-worker.js") return page(kLiveWorkerJs, "text/javascript");
+  if (std::regex_match(path, m, vendor)) {
+    const std::string name = m[1];
+    std::string body = read_file(vendor_dir() + "/" + name);
+    if (body.empty()) {
+      return refused(404, fmt::format("{} not found in {} (scripts/setup.sh installs uPlot from "
+                                      "the npm registry; PIEZO_UPLOT_DIR overrides)",
+                                      name, vendor_dir()));
+    }
+    return {200, name.ends_with(".js") ? "text/javascript" : "text/css", std::move(body), {}, {}};
+  }
+  if (path == "/api/live.json") {
+    if (live_ == nullptr) return refused(404, "no run under way in this view");
+    nlohmann::json snapshot = live_->snapshot();
+    snapshot["pages"] = streams_->load();
+    return json_reply(snapshot);
+  }
+  if (path == "/api/live") return live_stream();
+  if (path == "/api/runs") {
+    return json_reply({{"runs_dir", options_.runs_dir},
+                       {"runs", options_.runs_dir.empty() ? nlohmann::json::array()
+                                                          : list_runs(options_.runs_dir)}});
+  }
+  if (std::regex_match(path, m, run_api)) {
+    const auto dir = options_.runs_dir.empty() ? std::nullopt : run_path(options_.runs_dir, m[1]);
+    if (!dir) return refused(404, fmt::format("no run \"{}\"", std::string(m[1])));
+    try {
+      return json_reply(run_plots(*dir, kColumns));
+    } catch (const std::exception& e) {
+      return refused(500, e.what());
+    }
+  }
+  if (std::regex_match(path, m, run_file)) {
+    const auto dir = options_.runs_dir.empty() ? std::nullopt : run_path(options_.runs_dir, m[1]);
+    if (!dir) return refused(404, "no such run");
+    const std::string name = m[2];
+    return {200,
+            name.ends_with(".h5") ? "application/x-hdf5" : "text/plain",
+            read_file((*dir / name).string()),
+            {{"Content-Disposition", "attachment; filename=\"" + name + "\""}},
+            {}};
+  }
+  return refused(404, fmt::format("nothing at {}", path));
+}
+
+HttpReply ViewServer::live_stream() {
+  if (live_ == nullptr) return refused(404, "no run under way in this view");
+  if (streams_->fetch_add(1) >= kMaxStreams) {
+    streams_->fetch_sub(1);
+    return refused(503, fmt::format("{} live pages are open already: close one (the tabs of one "
+                                    "browser share a stream; /api/live.json answers without one)",
+                                    kMaxStreams));
+  }
+  // The page's place in the feed, and the count of open pages, go with its
+  // stream: both end when the stream's function is destroyed.
+  const std::shared_ptr<void> open(nullptr, [streams = streams_](void*) { streams->fetch_sub(1); });
+  return {200, "text/event-stream", "", {}, [this, open, cursor = LiveCursor{}]() mutable {
+            nlohmann::json event = live_->changes(cursor);
+            event["pages"] = streams_->load();
+            return event.dump();
+          }};
 }
 
 }  // namespace piezo::host::view

@@ -1,7 +1,8 @@
 #pragma once
-// `piezo view` and `piezo run --view`: a small web server (cpp-httplib) for
-// any browser on the PC. The live page follows the run under way (Server-
-// Sent Events, decimated on the host); the catalogue lists the runs of a
+// `piezo view` and `piezo run --view`: a small web server (HttpServer, on
+// one event loop) for any browser on the PC. The live page follows the run
+// under way (Server-Sent Events of what changed, decimated on the host; the
+// tabs of one browser share one stream); the catalogue lists the runs of a
 // directory, each with its plots, config and downloads. Read-only unless
 // started with control: then stop, e-stop and move-to need the token
 // printed at the start, and cross-site requests are refused. Only the
@@ -16,14 +17,12 @@
 #include <thread>
 #include <vector>
 
-namespace httplib {
-class Server;
-struct Request;
-}  // namespace httplib
-
 namespace piezo::host::view {
 
 class LiveFeed;
+class HttpServer;
+struct HttpRequest;
+struct HttpReply;
 
 struct ViewOptions {
   std::string listen = "127.0.0.1:8080";  ///< HOST:PORT (port 0: any free one)
@@ -61,21 +60,21 @@ class ViewServer {
   [[nodiscard]] std::string banner() const;
 
  private:
-  void routes();
   /// Why a request is refused before its body is read (empty: served):
   /// a Host this view does not serve; for control, no --control, a wrong
   /// token or another site.
-  [[nodiscard]] std::string refusal(const httplib::Request& req, int& status) const;
+  [[nodiscard]] std::string refusal(const HttpRequest& req, int& status) const;
+  [[nodiscard]] HttpReply serve(const HttpRequest& req);
+  [[nodiscard]] HttpReply live_stream();
 
   ViewOptions options_;
   const LiveFeed* live_;
   ViewControls controls_;
-  std::unique_ptr<httplib::Server> server_;
   std::string url_, token_;
   /// Bound beyond loopback: the data (/api/, /files/) needs the token too.
   bool reads_need_token_ = false;
-  std::atomic<int> streams_{0};  ///< live pages open (/api/live)
-  std::thread thread_;
+  std::shared_ptr<std::atomic<int>> streams_ = std::make_shared<std::atomic<int>>(0);
+  std::unique_ptr<HttpServer> server_;  ///< last: stops first
 };
 
 }  // namespace piezo::host::view
