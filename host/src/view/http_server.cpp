@@ -9,7 +9,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
-#include <utility>  // before Asio: Boost 1.74's awaitable.hpp uses std::exchange
+#include <utility>
 
 namespace piezo::host::view {
 namespace asio = boost::asio;

@@ -13,6 +13,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <utility>  // std::pair; and, included first, std::exchange for Boost 1.74's Asio
 #include <vector>
 
 namespace piezo::host::view {
