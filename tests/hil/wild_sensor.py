@@ -7,6 +7,8 @@ order, in millimetres, changed on every read by the mode:
   spike    69.7426 mm, +5 mm on every 200th read
   nan      69.7426 mm, NaN on every 100th read
   garbage  random words on every read
+  huge     69.7426 mm, and on every 100th read in turn 3.4e35 m, -1000 m
+           and a 1e6 mm spike (a laser spot off the rotor, a lost lock)
 
 Usage: wild_sensor.py MODE PORT"""
 import random
@@ -40,6 +42,8 @@ class WildBlock(ModbusSequentialDataBlock):
                 return cdab(BASE_MM + 5.0)
             if mode == "nan" and n % 100 == 0:
                 return cdab(float("nan"))
+            if mode == "huge" and n % 100 == 0:
+                return cdab((3.4e38, -1.0e6, 1.0e6)[(n // 100) % 3])
             return cdab(BASE_MM)
         return super().getValues(address, count)
 

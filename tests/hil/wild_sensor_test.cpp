@@ -9,6 +9,7 @@
 
 #include <chrono>
 #include <csignal>
+#include <iostream>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -120,6 +121,29 @@ TEST_F(WildSensor, SpikesAreGatedAndNaNIsInvalid) {
     rig.reset();
     sensor.reset();
   }
+}
+
+// Readings no rotor gives (3.4e35 m, -1000 m, a 1e6 mm spike) among steady
+// ones: each is out_of_range, never an angle, and the run completes in
+// about its own time (a 1e6 mm spike once cost 8.5 s of wall time on a
+// 1.5 s run; the wall time is printed, not asserted).
+TEST_F(WildSensor, ReadingsNoRotorGivesAreOutOfRange) {
+  start("huge");
+  const auto started = std::chrono::steady_clock::now();
+  const auto j = run("--set drive.V0=20", 0);
+  const double wall_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  std::cout << "2 s run with wild readings: " << wall_s << " s of wall time\n";
+  EXPECT_EQ(j.value("status", ""), "completed") << j.dump();
+  std::istringstream in(logged());
+  long out_of_range = 0, invalid = 0, rows = 0;
+  std::string finite;
+  double largest = 1e300;
+  in >> out_of_range >> invalid >> rows >> finite >> largest;
+  EXPECT_GE(out_of_range, 3) << "each kind at least once";
+  EXPECT_GT(rows, 100);
+  EXPECT_EQ(finite, "True");
+  EXPECT_LT(largest, 0.05) << "the observer followed a wild reading";
 }
 
 // Random words: whatever they read as, the host keeps up, and SIGINT ends

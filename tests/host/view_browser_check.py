@@ -3,7 +3,9 @@
 chromium-driver, driven by python3-selenium) opens the live page of a run
 and sees the angle readout and the plot advance; a request without the token,
 and one from another site, are refused; after the run the catalogue lists it
-and its page draws its plots. Saves screenshots of both pages.
+and its page draws its plots. Saves screenshots of both pages. The Move
+button of `piezo view --rig` runs a move shown in its panel; ten tabs share
+one stream, show what /api/live.json shows, and the E-stop in the tenth acts.
 
 Usage: view_browser_check.py PIEZO SCREENSHOT_DIR   (exit 77: no browser here)
 """
@@ -144,12 +146,71 @@ def main():
             view.wait(timeout=10)
         print("ok", len(rows), "run listed; screenshots in", shots)
         move_from_the_page(driver, piezo, piezod, work)
+        ten_tabs(driver, piezo, work)
     finally:
         if driver:
             driver.quit()
         if run.poll() is None:
             run.kill()
         shutil.rmtree(work, ignore_errors=True)
+
+
+def ten_tabs(driver, piezo, work):
+    """Ten live tabs in one browser share one stream (a browser keeps six
+    connections to a host: a stream per tab left none for the E-stop), each
+    plot shows what /api/live.json shows, and the E-stop in the last tab
+    ends the run at once."""
+    port = free_port()
+    err = os.path.join(work, "tabs.err")
+    run = subprocess.Popen(
+        [piezo, "run", "--config", os.path.join(SOURCE, "configs", "sim.toml"), "--duration", "120",
+         "--view", f"127.0.0.1:{port}", "--control", "--json", "--out", os.path.join(work, "tabs")],
+        stdout=subprocess.PIPE, stderr=open(err, "w"), text=True)
+    try:
+        url, token = wait_for_banner(err, time.time() + 20)
+        tabs = []
+        for i in range(10):
+            if i:
+                driver.switch_to.new_window("tab")
+            driver.get(f"{url}?token={token}")
+            tabs.append(driver.current_window_handle)
+        for tab in tabs:
+            driver.switch_to.window(tab)
+            deadline = time.time() + 30
+            while time.time() < deadline and driver.execute_script("return window.piezoView.updates") < 2:
+                time.sleep(0.1)
+            check(driver.execute_script("return window.piezoView.updates") >= 2, "every tab updates")
+        pages = driver.execute_script("return window.piezoView.pages")
+        check(pages == 1, f"ten tabs, one stream: the view serves {pages}")
+        # The plot's points, sent as what changed, are the snapshot's.
+        last, measured = driver.execute_script("return [window.piezoView.last, window.piezoView.measured]")
+        with urllib.request.urlopen(url + "api/live.json", timeout=5) as r:
+            snapshot = json.load(r)["measured"]
+        held = {(t, y) for t, y in zip(measured["t"], measured["y"]) if t >= snapshot["t"][0]}
+        shown = {(t, y) for t, y in zip(snapshot["t"], snapshot["y"]) if t <= last[0]}
+        check(tuple(last) in shown, f"the plot's last point {last} is in /api/live.json")
+        check(held == shown, f"the plot holds the snapshot's points: {len(held ^ shown)} differ "
+                             f"of {len(shown)}")
+        start = time.time()
+        driver.find_element("id", "estop").click()
+        result = ""
+        while time.time() < start + 10 and "estop" not in result:
+            result = driver.find_element("id", "control-result").text
+            time.sleep(0.05)
+        took = time.time() - start
+        check(result == "estop sent", f"the E-stop in the tenth tab answered: {result!r}")
+        out, _ = run.communicate(timeout=60)
+        summary = json.loads(out)
+        check("estop" in summary["stop_cause"], f"the run ended by the e-stop: {summary}")
+        print(f"ten tabs, one stream; e-stop from the tenth answered in {took:.2f} s; run "
+              f"{summary['status']} ({summary['stop_cause']}); {len(shown)} points as the snapshot's")
+        for tab in tabs[1:]:
+            driver.switch_to.window(tab)
+            driver.close()
+        driver.switch_to.window(tabs[0])
+    finally:
+        if run.poll() is None:
+            run.kill()
 
 
 def move_from_the_page(driver, piezo, piezod, work):
