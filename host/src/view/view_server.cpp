@@ -7,7 +7,6 @@
 #include <cstdlib>
 #include <fstream>
 #include <random>
-#include <regex>
 #include <sstream>
 #include <stdexcept>
 
@@ -66,6 +65,23 @@ bool same_secret(std::string_view given, std::string_view secret) {
     diff |= static_cast<unsigned char>(secret[i] ^ (i < given.size() ? given[i] : 0));
   }
   return diff == 0;
+}
+
+/// NAME of PREFIX + NAME, a single path segment (empty when the path is not so).
+std::string name_after(const std::string& path, std::string_view prefix) {
+  if (!path.starts_with(prefix)) return {};
+  const std::string name = path.substr(prefix.size());
+  return name.find('/') == std::string::npos ? name : std::string{};
+}
+
+/// /files/RUN/FILE with FILE run.h5 or config.toml: {RUN, FILE}, else empty.
+std::pair<std::string, std::string> run_file(const std::string& path) {
+  const std::string rest = path.starts_with("/files/") ? path.substr(7) : std::string{};
+  const auto slash = rest.find('/');
+  if (slash == std::string::npos || slash == 0) return {};
+  const std::string file = rest.substr(slash + 1);
+  if (file != "run.h5" && file != "config.toml") return {};
+  return {rest.substr(0, slash), file};
 }
 
 /// The name in a Host header, without its port ("[::1]:8080" -> "[::1]").
@@ -157,11 +173,7 @@ std::string ViewServer::refusal(const HttpRequest& req, int& status) const {
 }
 
 HttpReply ViewServer::serve(const HttpRequest& req) {
-  static const std::regex run_page(R"(/run/([^/]+))"),
-      vendor(R"(/vendor/(uPlot\.iife\.min\.js|uPlot\.min\.css))"), run_api(R"(/api/run/([^/]+))"),
-      run_file(R"(/files/([^/]+)/(run\.h5|config\.toml))");
   const std::string& path = req.path;
-  std::smatch m;
   if (req.method == "POST") {
     // Control: POST only, with the token in a header (which a cross-site
     // form cannot send, and a cross-site script only after a preflight this
@@ -189,11 +201,11 @@ HttpReply ViewServer::serve(const HttpRequest& req) {
     return r;
   }
   if (path == "/runs") return page(kRunsHtml);
-  if (std::regex_match(path, m, run_page)) return page(kRunHtml);
+  if (!name_after(path, "/run/").empty()) return page(kRunHtml);
   if (path == "/live-window.js") return page(kLiveWindowJs, "text/javascript");
   if (path == "/live-worker.js") return page(kLiveWorkerJs, "text/javascript");
-  if (std::regex_match(path, m, vendor)) {
-    const std::string name = m[1];
+  if (path == "/vendor/uPlot.iife.min.js" || path == "/vendor/uPlot.min.css") {
+    const std::string name = path.substr(path.rfind('/') + 1);
     std::string body = read_file(vendor_dir() + "/" + name);
     if (body.empty()) {
       return refused(404, fmt::format("{} not found in {} (scripts/setup.sh installs uPlot from "
@@ -214,19 +226,18 @@ HttpReply ViewServer::serve(const HttpRequest& req) {
                        {"runs", options_.runs_dir.empty() ? nlohmann::json::array()
                                                           : list_runs(options_.runs_dir)}});
   }
-  if (std::regex_match(path, m, run_api)) {
-    const auto dir = options_.runs_dir.empty() ? std::nullopt : run_path(options_.runs_dir, m[1]);
-    if (!dir) return refused(404, fmt::format("no run \"{}\"", std::string(m[1])));
+  if (const std::string run = name_after(path, "/api/run/"); !run.empty()) {
+    const auto dir = options_.runs_dir.empty() ? std::nullopt : run_path(options_.runs_dir, run);
+    if (!dir) return refused(404, fmt::format("no run \"{}\"", run));
     try {
       return json_reply(run_plots(*dir, kColumns));
     } catch (const std::exception& e) {
       return refused(500, e.what());
     }
   }
-  if (std::regex_match(path, m, run_file)) {
-    const auto dir = options_.runs_dir.empty() ? std::nullopt : run_path(options_.runs_dir, m[1]);
+  if (const auto [run, name] = run_file(path); !run.empty()) {
+    const auto dir = options_.runs_dir.empty() ? std::nullopt : run_path(options_.runs_dir, run);
     if (!dir) return refused(404, "no such run");
-    const std::string name = m[2];
     return {200,
             name.ends_with(".h5") ? "application/x-hdf5" : "text/plain",
             read_file((*dir / name).string()),
