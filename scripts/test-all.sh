@@ -24,10 +24,12 @@ cmake --build --preset asan -j "$(nproc)"
 phase "the suite under AddressSanitizer (without the kill test and the soak)"
 ctest --preset asan -j "$(nproc)"
 # The thread sanitizer on the suites whose code runs on several threads
-# in-process (rings, clocks, loops, whole runs with the observer); the full
-# tsan build passes the rest too, but costs CI minutes.
+# in-process (rings, clocks, loops, whole runs with the observer, the view's
+# server with its event loop and workers); the full tsan build passes the
+# rest too, but costs CI minutes.
 phase "ThreadSanitizer"
 cmake --preset tsan >/dev/null
-cmake --build --preset tsan -j "$(nproc)" --target firmware_tests hal_tests hil_tests
-ctest --preset tsan -j "$(nproc)" -L "firmware_tests|hal_tests|hil_tests"
+cmake --build --preset tsan -j "$(nproc)" --target firmware_tests hal_tests hil_tests view_tests
+ctest --preset tsan -j "$(nproc)" -L "firmware_tests|hal_tests|hil_tests|view" \
+  -E "^view_(browser|rig|load|wide_bind)$"
 phase "done"
