@@ -80,6 +80,8 @@ void read_sensor(SectionReader r, SensorSettings& s) {
   r.number("timeout_s", s.sim.timeout_s, {0.0, 10.0, true}, "s");
   r.number("stall_at_s", s.sim.stall_at_s, kNonNegative, "s");
   r.number("stall_for_s", s.sim.stall_for_s, kPositive, "s");
+  r.number("freeze_at_s", s.sim.freeze_at_s, kNonNegative, "s");
+  r.number("blind_at_s", s.sim.blind_at_s, kNonNegative, "s");
   int seed = static_cast<int>(s.sim.seed);
   r.integer("seed", seed, 0, 1'000'000'000);
   s.sim.seed = static_cast<unsigned>(seed);

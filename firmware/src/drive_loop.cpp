@@ -83,6 +83,9 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
     // the grid, so wake-up jitter must not shift the waveform's phase.
     const double t = hal::to_seconds(deadline - t0);
 
+    if (const StopCause fault = program_.fault(); fault != StopCause::none) {
+      supervisor_.report_program_fault(fault);
+    }
     const SafetyAction action = supervisor_.check(
         now, io_.lines.poll_estop(), io_.stop_requested.load(std::memory_order_relaxed),
         t >= settings_.duration_s || program_.finished());

@@ -37,6 +37,10 @@ const char* to_string(MoveState s) {
       return "settle";
     case MoveState::on_target:
       return "on_target";
+    case MoveState::stalled:
+      return "stalled";
+    case MoveState::sensor_implausible:
+      return "sensor_implausible";
   }
   return "unknown";
 }
@@ -45,8 +49,9 @@ MoveController::MoveController(const MoveSettings& settings, const PositionFeed&
     : s_(settings),
       feed_(feed),
       seen_(feed.count()),
-      flush_(kFilter),  // the first decision waits for a full filter
+      flush_(kNoiseReadings),  // the first decision waits for the noise at rest
       zero_m_(settings.zero_displacement_m),
+      noise_m_(kNaN),
       position_(kNaN),
       on_target_at_(kNaN) {}
 
@@ -63,6 +68,8 @@ double MoveController::next_voltage(double t, double dt) {
       const double tau = t - step_start_;
       if (tau >= T) {
         steps_.fetch_add(1, std::memory_order_relaxed);
+        check_progress();
+        if (state() != MoveState::coarse) return V_ = 0.0;
         const double error = s_.target_rad - theta_f_;
         if (error * direction_ > kChainSteps * predicted_step(direction_ > 0 ? 0 : 1, 1.0)) {
           // Far away: the next full step at once. The readings lag the
@@ -99,12 +106,36 @@ double MoveController::next_voltage(double t, double dt) {
     case MoveState::none:
     case MoveState::settle:
     case MoveState::on_target:
+    case MoveState::stalled:
+    case MoveState::sensor_implausible:
       break;
   }
   return V_ = 0.0;
 }
 
+StopCause MoveController::fault() const {
+  switch (state()) {
+    case MoveState::stalled:
+      return StopCause::stalled;
+    case MoveState::sensor_implausible:
+      return StopCause::sensor_implausible;
+    default:
+      return StopCause::none;
+  }
+}
+
 void MoveController::on_reading(double t, double displacement_m) {
+  if (filled_ > 0 && displacement_m != last_raw_) ++changes_;
+  last_raw_ = displacement_m;
+  if (noise_n_ < kNoiseReadings && steps_.load(std::memory_order_relaxed) == 0 && !in_step_) {
+    // At rest before the first step: the readings' spread is the noise.
+    noise_sum_ += displacement_m;
+    noise_sum2_ += displacement_m * displacement_m;
+    if (++noise_n_ == kNoiseReadings) {
+      const double n = kNoiseReadings, mean = noise_sum_ / n;
+      noise_m_.store(std::sqrt(std::max(0.0, noise_sum2_ / n - mean * mean) * n / (n - 1.0)));
+    }
+  }
   window_[static_cast<std::size_t>(next_slot_)] = displacement_m;
   next_slot_ = (next_slot_ + 1) % kFilter;
   filled_ = std::min(filled_ + 1, kFilter);
@@ -169,7 +200,38 @@ void MoveController::on_reading(double t, double displacement_m) {
     case MoveState::release:
     case MoveState::none:
     case MoveState::on_target:
+    case MoveState::stalled:
+    case MoveState::sensor_implausible:
       return;
+  }
+}
+
+double MoveController::progress_floor() const {
+  const double noise = noise_m_.load();
+  const double averaged = std::isnan(noise) ? 0.0 : noise / std::sqrt(double{kFilter});
+  return std::max(0.5 * s_.tolerance_rad, 4.0 * averaged / s_.r2_m);
+}
+
+void MoveController::check_progress() {
+  if (!s_.protect || run_steps_ < 0) return;
+  const int K = std::clamp(s_.stall_steps, 1, MoveSettings::kMaxStallSteps);
+  const auto slot = [K](int i) { return static_cast<std::size_t>(i % (K + 1)); };
+  ++run_steps_;
+  step_theta_[slot(run_steps_)] = theta_f_;
+  step_changes_[slot(run_steps_)] = changes_;
+  const auto& table = direction_ > 0 ? s_.step_forward_rad : s_.step_reverse_rad;
+  const double last_step = theta_f_ - step_theta_[slot(run_steps_ - 1)];
+  if (std::abs(last_step) > s_.implausible_step_factor * table.back() + progress_floor()) {
+    set_state(MoveState::sensor_implausible);  // far more than any step of this motor
+    return;
+  }
+  if (run_steps_ < K) return;
+  const int from = run_steps_ - K;
+  const double progress = (theta_f_ - step_theta_[slot(from)]) * direction_;
+  if (changes_ == step_changes_[slot(from)] || progress < -progress_floor()) {
+    set_state(MoveState::sensor_implausible);  // frozen, or moving against the drive
+  } else if (progress < progress_floor()) {
+    set_state(MoveState::stalled);
   }
 }
 
@@ -202,7 +264,14 @@ void MoveController::learn_from_step() {
 }
 
 void MoveController::start_step(double t, double error) {
-  direction_ = error > 0.0 ? 1.0 : -1.0;
+  const double direction = error > 0.0 ? 1.0 : -1.0;
+  if (state() != MoveState::coarse || direction != direction_ || run_steps_ < 0) {
+    // A new run of steps: progress is judged from here.
+    run_steps_ = 0;
+    step_theta_[0] = theta_f_;
+    step_changes_[0] = changes_;
+  }
+  direction_ = direction;
   const int k = error > 0.0 ? 0 : 1;
   // The amplitude whose predicted step is the distance left (at most V0).
   double fraction = 1.0;
@@ -224,6 +293,7 @@ void MoveController::start_step(double t, double error) {
 }
 
 void MoveController::enter_fine(double error) {
+  run_steps_ = -1;
   const double aim_error = error + aim_offset_;
   hold_ = 0;
   if (aim_error >= 0.0) {

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <iostream>
 #include <thread>
 
 #include "../support/run_command.hpp"
@@ -249,6 +250,45 @@ TEST(SimRun, AMoveIntoAStalledSensorOrAnEstopStopsAtZeroVolts) {
   EXPECT_EQ(o.summary.move.at("stop_cause"), "timeout");
   EXPECT_FALSE(o.amplifier_enabled_at_end);
   EXPECT_DOUBLE_EQ(o.drive_V.back(), 0.0);
+}
+
+// A move's protection, seen on the simulated device: a rotor that cannot
+// move (friction no drive overcomes) ends `stalled`; a sensor whose value
+// froze ends `sensor_implausible`; a sensor that sees a rotor that is not
+// driven (the angle it had, with its noise) cannot be told from a blocked
+// rotor and ends `stalled`. Each within 1 s of drive, at 0 V with the
+// amplifier disabled, the rotor no more than two steps past where the
+// failure began (before, each drove to its 10 s timeout: the blind sensor's
+// rotor ran 0.4 rad in the probe).
+TEST(SimRun, AMoveThatCannotProgressStopsAtZeroVoltsWithItsCause) {
+  config::RunSettings::Move far{
+      .target_rad = 0.05, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0};
+  const double full_step = 1.4e-3;  // the model's at 80 V, 10 Hz (configs/sim.toml)
+  for (const auto& [fault, cause] :
+       {std::pair{std::string("plant.mu=2"), std::string("stalled")},
+        std::pair{std::string("sensor.freeze_at_s=0.3"), std::string("sensor_implausible")},
+        std::pair{std::string("sensor.blind_at_s=0.3"), std::string("stalled")}}) {
+    SCOPED_TRACE(fault);
+    const Outcome o = run_virtual({fault}, -1.0, "hil-move-protect", 0, far);
+    EXPECT_EQ(o.summary.move.at("stop_cause"), cause);
+    EXPECT_EQ(o.summary.stop_cause(), cause);
+    EXPECT_FALSE(o.summary.move.at("on_target").get<bool>());
+    EXPECT_FALSE(o.amplifier_enabled_at_end);
+    EXPECT_NEAR(o.amplifier_V_at_end, 0.0, 1.0);
+    EXPECT_DOUBLE_EQ(o.drive_V.back(), 0.0);
+    const double failed_at = fault.starts_with("plant") ? 0.0 : 0.3;
+    EXPECT_LT(o.drive_t.back(), failed_at + 1.0) << "stopped within 1 s of drive";
+    // Where the rotor was when the failure began: the readings up to then.
+    double theta_then = 0.0;
+    for (std::size_t i = 0; i < o.sensor_t.size() && o.sensor_t[i] <= failed_at; ++i) {
+      if (std::isfinite(o.theta[i])) theta_then = o.theta[i];
+    }
+    EXPECT_LT(o.rotor_theta_at_end - theta_then, 2.0 * full_step)
+        << "the rotor went on " << o.rotor_theta_at_end - theta_then << " rad";
+    std::cout << fault << ": " << o.summary.stop_cause() << " at " << o.drive_t.back()
+              << " s, the rotor " << (o.rotor_theta_at_end - theta_then) * 1e3
+              << " mrad past where the failure began\n";
+  }
 }
 
 // A plant that differs from the model: the open-loop prediction drifts

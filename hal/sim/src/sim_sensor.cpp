@@ -29,11 +29,17 @@ DisplacementReading SimSensor::read() {
   }
   // The plant was last advanced at a drive write; carry it to the request time.
   const PlantSnapshot snap = plant_.latest();
-  const double theta = snap.theta + snap.theta_dot * to_seconds(r.t_request - snap.t);
+  double theta = snap.theta + snap.theta_dot * to_seconds(r.t_request - snap.t);
+  const double since_start = to_seconds(r.t_request - t0_);
+  if (since_start >= settings_.blind_at_s) {
+    if (std::isnan(blind_theta_)) blind_theta_ = theta;
+    theta = blind_theta_;
+  }
   double d = settings_.offset_m + settings_.r2_m * theta;
   if (settings_.noise_m > 0.0) d += noise_(random_);
   if (settings_.quantum_m > 0.0) d = std::round(d / settings_.quantum_m) * settings_.quantum_m;
-  r.displacement_m = d;
+  if (since_start >= settings_.freeze_at_s && !std::isnan(frozen_m_)) d = frozen_m_;
+  r.displacement_m = frozen_m_ = d;
   if (settings_.dropout_probability > 0.0 && uniform_(random_) < settings_.dropout_probability) {
     r.status = Status::invalid_reading;
   }

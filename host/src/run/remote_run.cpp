@@ -118,8 +118,8 @@ class StreamCursor {
 
 firmware::StopCause stop_cause_from(const std::string& name) {
   using firmware::StopCause;
-  for (auto c : {StopCause::none, StopCause::completed, StopCause::interrupted, StopCause::estop,
-                 StopCause::sensor_fault, StopCause::drive_fault, StopCause::link_lost}) {
+  for (int i = 0; i <= static_cast<int>(firmware::kLastStopCause); ++i) {
+    const auto c = static_cast<StopCause>(i);
     if (firmware::to_string(c) == name) return c;
   }
   return StopCause::drive_fault;

@@ -15,7 +15,13 @@ constexpr double kLocalLease_s = 2.0;
 
 std::string RunSummary::stop_cause() const {
   if (board_gone) return "board_gone";
-  return host_error.empty() ? std::string(firmware::to_string(cause)) : "log_failed";
+  if (!host_error.empty()) return "log_failed";
+  // A move that ended by itself says how: on_target, or timeout (the board's
+  // cause is `completed` for both).
+  if (cause == firmware::StopCause::completed && move.is_object() && move.contains("stop_cause")) {
+    return move.at("stop_cause").get<std::string>();
+  }
+  return std::string(firmware::to_string(cause));
 }
 
 std::string RunSummary::output_state() const {
@@ -28,7 +34,7 @@ std::string RunSummary::status() const {
   if (!host_error.empty()) return "failed";
   switch (cause) {
     case firmware::StopCause::completed:
-      return "completed";
+      return stop_cause() == "timeout" ? "failed" : "completed";
     case firmware::StopCause::interrupted:
       return "interrupted";
     default:

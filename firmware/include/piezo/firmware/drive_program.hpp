@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <limits>
 
+#include "piezo/firmware/safety_supervisor.hpp"
 #include "piezo/model/waveform.hpp"
 
 namespace piezo::firmware {
@@ -25,6 +26,9 @@ class DriveProgram {
   [[nodiscard]] virtual double end_voltage(double /*duration_s*/) const {
     return std::numeric_limits<double>::quiet_NaN();
   }
+  /// Why the program wants the run stopped (none: it does not): a
+  /// controller that finds its plant or its sensor not as it must be.
+  [[nodiscard]] virtual StopCause fault() const { return StopCause::none; }
   /// A code for the drive record (0: no controller; see MoveState).
   [[nodiscard]] virtual std::uint8_t state_code() const { return 0; }
 };

@@ -15,6 +15,13 @@
 /// - settle: "on target" only once the measured angle has stayed within the
 ///   tolerance for settle_s at 0 V, so oscillating through the target never
 ///   counts. The move then ends with the drive at 0 V.
+/// - protection: the sensor's noise is measured at rest before the first
+///   step; every `stall_steps` coarse steps the measured progress toward the
+///   target is checked against that noise floor. None (a rotor at an end
+///   stop, or a sensor that sees a rotor at rest): `stalled`. Readings that
+///   do not change at all while driving (a frozen sensor), that move against
+///   the drive, or a step far beyond the model's (not this rotor):
+///   `sensor_implausible`. Either ends the run at 0 V with that cause.
 /// Everything happens inside next_voltage(): no allocation, lock or throw.
 
 #include <array>
@@ -33,6 +40,8 @@ enum class MoveState : std::uint8_t {
   release = 3,
   settle = 4,
   on_target = 5,
+  stalled = 6,             ///< no progress over stall_steps steps: the run stops
+  sensor_implausible = 7,  ///< readings no driven rotor gives: the run stops
 };
 
 [[nodiscard]] const char* to_string(MoveState s);
@@ -59,6 +68,14 @@ struct MoveSettings {
   double fine_V_max = 64.0;           ///< the fine hold's range is [0, fine_V_max]
   double fine_slew_V_per_s = 400.0;   ///< slow enough for the rotor to stick
   double fast_slew_V_per_s = 8000.0;  ///< lift and release: the stator slips under the rotor
+  /// Stall and plausibility checks (see the file's comment); off: a move
+  /// that cannot progress drives until its timeout.
+  bool protect = true;
+  int stall_steps = 2;  ///< coarse steps over which progress is judged (1..kMaxStallSteps)
+  static constexpr int kMaxStallSteps = 16;
+  /// A measured step beyond this many times the model's full step is no
+  /// motion of this rotor.
+  double implausible_step_factor = 6.0;
 };
 
 class MoveController final : public DriveProgram {
@@ -67,6 +84,7 @@ class MoveController final : public DriveProgram {
 
   double next_voltage(double t, double dt) override;
   [[nodiscard]] bool finished() const override { return state() == MoveState::on_target; }
+  [[nodiscard]] StopCause fault() const override;
   [[nodiscard]] std::uint8_t state_code() const override {
     return static_cast<std::uint8_t>(state());
   }
@@ -81,12 +99,16 @@ class MoveController final : public DriveProgram {
   [[nodiscard]] const MoveSettings& settings() const { return s_; }
   /// The zero the move used [m] (NaN until known, when it adopts its own).
   [[nodiscard]] double zero_displacement_m() const { return zero_m_.load(); }
+  /// The sensor's noise measured at rest before the first step [m, one
+  /// standard deviation of a reading] (NaN until measured).
+  [[nodiscard]] double noise_m() const { return noise_m_.load(); }
 
  private:
-  static constexpr int kFilter = 8;         ///< readings averaged: noise / sqrt(8)
-  static constexpr int kFlush = 10;         ///< readings skipped after the rotor was moved
-  static constexpr int kHold = 20;          ///< readings within tolerance/2 before the release
-  static constexpr double kFineGain = 0.1;  ///< integral gain per reading
+  static constexpr int kFilter = 8;          ///< readings averaged: noise / sqrt(8)
+  static constexpr int kFlush = 10;          ///< readings skipped after the rotor was moved
+  static constexpr int kHold = 20;           ///< readings within tolerance/2 before the release
+  static constexpr int kNoiseReadings = 16;  ///< at rest, before the first step
+  static constexpr double kFineGain = 0.1;   ///< integral gain per reading
 
   void on_reading(double t, double displacement_m);
   void decide(double t, double error);
@@ -95,6 +117,10 @@ class MoveController final : public DriveProgram {
   /// The predicted step [rad, magnitude] at `fraction` of V0 in direction k (0 fwd, 1 rev).
   [[nodiscard]] double predicted_step(int k, double fraction) const;
   void enter_fine(double error);
+  /// At each coarse step's end: progress and plausibility (see protection).
+  void check_progress();
+  /// Progress below this is none [rad]: what the averaged readings' noise allows.
+  [[nodiscard]] double progress_floor() const;
   void set_state(MoveState s) { state_.store(s, std::memory_order_relaxed); }
 
   MoveSettings s_;
@@ -117,9 +143,19 @@ class MoveController final : public DriveProgram {
   bool released_from_fine_ = false;
   // settle
   double within_since_ = -1.0;
+  // protection: the noise at rest, and per coarse step of the current run of
+  // steps in one direction the angle and the count of changed readings
+  double noise_sum_ = 0.0, noise_sum2_ = 0.0;
+  int noise_n_ = 0;
+  double last_raw_ = 0.0;
+  std::uint64_t changes_ = 0;
+  std::array<double, MoveSettings::kMaxStallSteps + 1> step_theta_{};
+  std::array<std::uint64_t, MoveSettings::kMaxStallSteps + 1> step_changes_{};
+  int run_steps_ = -1;  ///< steps in the current run (-1: none begun)
 
   std::atomic<MoveState> state_{MoveState::coarse};
   std::atomic<double> zero_m_;
+  std::atomic<double> noise_m_;
   std::atomic<double> position_;
   std::atomic<std::uint32_t> steps_{0};
   std::atomic<double> on_target_at_;

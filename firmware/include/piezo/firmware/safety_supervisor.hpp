@@ -34,8 +34,12 @@ enum class StopCause : std::uint8_t {
   estop,
   sensor_fault,
   drive_fault,
-  link_lost,  ///< the controlling client's lease expired (host gone, network down)
+  link_lost,           ///< the controlling client's lease expired (host gone, network down)
+  stalled,             ///< a move made no progress over its stall steps
+  sensor_implausible,  ///< a move's readings are no driven rotor's (frozen, against the drive)
 };
+/// The last StopCause, for code that goes through them all.
+inline constexpr StopCause kLastStopCause = StopCause::sensor_implausible;
 
 /// What a remote client may do to a running drive, set from the daemon's
 /// network thread and read by the drive loop every cycle (lock-free).
@@ -62,6 +66,10 @@ struct RemoteControl {
       return "drive_fault";
     case StopCause::link_lost:
       return "link_lost";
+    case StopCause::stalled:
+      return "stalled";
+    case StopCause::sensor_implausible:
+      return "sensor_implausible";
   }
   return "unknown";
 }
@@ -98,6 +106,12 @@ class SafetySupervisor {
     if (zero_written != hal::Status::ok) drive_errors_ = settings_.max_drive_errors;
   }
 
+  /// A fault the drive program found (a move that stalled): the run ramps
+  /// down with it as its cause unless another came first.
+  void report_program_fault(StopCause c) {
+    if (program_fault_ == StopCause::none) program_fault_ = c;
+  }
+
   /// Adds a remote client's lease and e-stop to the checks (piezod).
   void set_remote(const RemoteControl* remote) { remote_ = remote; }
 
@@ -127,6 +141,7 @@ class SafetySupervisor {
         sensor_.consecutive_errors.load(std::memory_order_relaxed) >= settings_.max_sensor_errors) {
       return StopCause::sensor_fault;
     }
+    if (program_fault_ != StopCause::none) return program_fault_;
     if (duration_elapsed) return StopCause::completed;
     return StopCause::none;
   }
@@ -138,6 +153,7 @@ class SafetySupervisor {
   hal::TimeNs t0_;
   hal::TimeNs end_ = std::numeric_limits<hal::TimeNs>::max();
   const RemoteControl* remote_ = nullptr;
+  StopCause program_fault_ = StopCause::none;
   StopCause cause_ = StopCause::none;
   std::uint32_t drive_errors_ = 0;
 };

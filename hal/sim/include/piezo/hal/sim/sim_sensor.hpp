@@ -23,6 +23,12 @@ struct SimSensorSettings {
   double timeout_s = 0.05;           ///< a stalled read gives up after this
   double stall_at_s = std::numeric_limits<double>::infinity();  ///< stops answering from here
   double stall_for_s = std::numeric_limits<double>::infinity();
+  /// From here every reading repeats the one before (a sensor whose value
+  /// froze while it keeps answering).
+  double freeze_at_s = std::numeric_limits<double>::infinity();
+  /// From here the sensor sees a rotor that is not driven: the angle it had
+  /// then, with the noise (a laser spot off the reflector, another rig's).
+  double blind_at_s = std::numeric_limits<double>::infinity();
   unsigned seed = 1;
 };
 
@@ -46,6 +52,8 @@ class SimSensor final : public DisplacementSensor {
   std::mt19937_64 random_;
   std::normal_distribution<double> noise_;
   std::uniform_real_distribution<double> uniform_{0.0, 1.0};
+  double frozen_m_ = std::numeric_limits<double>::quiet_NaN();
+  double blind_theta_ = std::numeric_limits<double>::quiet_NaN();
 };
 
 }  // namespace piezo::hal::sim
