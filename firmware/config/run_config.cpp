@@ -171,6 +171,8 @@ void read_safety(SectionReader r, firmware::SafetySettings& s) {
   s.max_drive_errors = static_cast<std::uint32_t>(drive_errors);
   r.number("ramp_down_V_per_s", s.ramp_down_V_per_s, kPositive, "V/s");
   r.number("stop_confirm_s", s.stop_confirm_s, {0.01, 30.0}, "s");
+  r.number("travel_min_rad", s.travel_min_rad, {-10.0, 10.0}, "rad");
+  r.number("travel_max_rad", s.travel_max_rad, {-10.0, 10.0}, "rad");
   r.finish();
 }
 

@@ -73,7 +73,7 @@ void refuse_unknown_args(const std::string& cmd, const json& args) {
   } else if (cmd == "move_to") {
     refuse_unknown_args(args,
                         {"target_rad", "tolerance_rad", "settle_s", "timeout_s", "V0", "f", "C_dr",
-                         "e_dr", "lease_s"},
+                         "e_dr", "lease_s", "protect", "stall_steps"},
                         cmd);
   } else if (cmd == "lease") {
     refuse_unknown_args(args, {"drive_received"}, cmd);
@@ -488,14 +488,16 @@ json Daemon::start(const std::string& client, const json& args,
                                         !virtual_clock,
                                         board_.run.priority,
                                         board_.run.lock_memory};
+  settings.r2_m = board_.sensor.r2_m;
+  settings.zero_m = zero_displacement_m_.value_or(std::numeric_limits<double>::quiet_NaN());
   const firmware::LoopDevices devices{*rig_.clock, *rig_.drive, *rig_.sensor, *rig_.lines};
   if (move) {
     run->move = std::make_unique<firmware::MoveController>(*move, run->feed);
     run->runner = std::make_unique<firmware::LoopRunner>(settings, *run->move, devices,
                                                          &run->remote, &run->feed);
   } else {
-    run->runner =
-        std::make_unique<firmware::LoopRunner>(settings, run->waveform, devices, &run->remote);
+    run->runner = std::make_unique<firmware::LoopRunner>(settings, run->waveform, devices,
+                                                         &run->remote, &run->feed);
   }
   const auto now_ns = [] {
     return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch())
@@ -574,6 +576,14 @@ json Daemon::move_to(const std::string& client, const json& args) {
   m.tolerance_rad = protocol::number_arg(args, "tolerance_rad", m.tolerance_rad);
   m.settle_s = protocol::number_arg(args, "settle_s", m.settle_s);
   const double timeout_s = protocol::number_arg(args, "timeout_s", 30.0);
+  m.protect = protocol::bool_arg(args, "protect", m.protect);
+  const std::uint64_t stall_steps =
+      protocol::uint_arg(args, "stall_steps", static_cast<std::uint64_t>(m.stall_steps));
+  if (stall_steps < 1 || stall_steps > firmware::MoveSettings::kMaxStallSteps) {
+    throw out_of_limits("stall_steps", fmt::format("{}; allowed: 1..{}", stall_steps,
+                                                   firmware::MoveSettings::kMaxStallSteps));
+  }
+  m.stall_steps = static_cast<int>(stall_steps);
   if (!(std::abs(m.target_rad) <= 10.0)) {
     throw out_of_limits("target_rad",
                         fmt::format("{:g} rad; allowed: [-10, 10] rad", m.target_rad));
@@ -630,6 +640,8 @@ json Daemon::move_to(const std::string& client, const json& args) {
   started["tolerance_rad"] = m.tolerance_rad;
   started["settle_s"] = m.settle_s;
   started["timeout_s"] = timeout_s;
+  started["protect"] = m.protect;
+  started["stall_steps"] = m.stall_steps;
   for (const char* key : {"V0", "f", "C_dr", "e_dr"}) started[key] = configure_args.at(key);
   run_->move_takes_its_zero = !zero_before;
   return started;

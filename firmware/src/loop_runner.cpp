@@ -1,6 +1,7 @@
 #include "piezo/firmware/loop_runner.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace piezo::firmware {
 namespace {
@@ -16,8 +17,8 @@ std::size_t ring_capacity(double rate_hz, double seconds) {
 }  // namespace
 
 LoopRunner::LoopRunner(const LoopRunnerSettings& settings, const model::Excitation& waveform,
-                       LoopDevices devices, const RemoteControl* remote)
-    : LoopRunner(settings, nullptr, &waveform, devices, remote, nullptr) {}
+                       LoopDevices devices, const RemoteControl* remote, PositionFeed* feed)
+    : LoopRunner(settings, nullptr, &waveform, devices, remote, feed) {}
 
 LoopRunner::LoopRunner(const LoopRunnerSettings& settings, DriveProgram& program,
                        LoopDevices devices, const RemoteControl* remote, PositionFeed* feed)
@@ -40,6 +41,11 @@ LoopRunner::LoopRunner(const LoopRunnerSettings& settings, DriveProgram* program
       acquire_loop_(devices.clock, devices.sensor, settings.sensor_rate_hz, sensor_health_,
                     sensor_ring_, feed) {
   supervisor_.set_remote(remote);
+  const bool travel_window = std::isfinite(settings.safety.travel_min_rad) ||
+                             std::isfinite(settings.safety.travel_max_rad);
+  if (travel_window && feed != nullptr) {
+    supervisor_.set_travel_feed(feed, settings.zero_m, settings.r2_m);
+  }
 }
 
 LoopRunner::~LoopRunner() {

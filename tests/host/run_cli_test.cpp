@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <thread>
 
 #include "../support/run_command.hpp"
@@ -211,6 +212,33 @@ TEST(RunCli, MovePrintsItsResultAndRefusesBadArgumentsByName) {
   EXPECT_NE(bad.err.find("--tolerance"), std::string::npos) << bad.err;
   EXPECT_NE(bad.err.find("allowed: (0, 0.1] rad"), std::string::npos) << bad.err;
   EXPECT_FALSE(fs::exists(dir / "bad"));
+}
+
+// A script's moves follow each other within a second: each gets a run
+// directory of its own (before, the second failed: "exists and is not an
+// empty directory"). A move that runs out of time says so in its log as in
+// its JSON and exit code (before, the log said completed/completed).
+TEST(RunCli, MovesInOneSecondGetTheirOwnDirsAndATimeoutIsLoggedAsOne) {
+  const auto dir = fresh_temp_dir("move-dirs");
+  const std::string move = "cd " + dir.string() + " && " + kPiezo + " move --config " + kSimConfig +
+                           " --set run.clock=virtual --json";
+  std::set<std::string> run_dirs;
+  for (int i = 0; i < 3; ++i) {
+    const auto r = run_command(move + " --to 0.0005");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    run_dirs.insert(nlohmann::json::parse(r.out).at("run_dir").get<std::string>());
+  }
+  EXPECT_EQ(run_dirs.size(), 3u);
+  const auto late = run_command(move + " --to 0.5 --timeout 0.3");
+  EXPECT_EQ(late.exit_code, 1) << late.err;
+  const auto j = nlohmann::json::parse(late.out);
+  EXPECT_EQ(j.at("stop_cause"), "timeout");
+  const auto logged =
+      run_command("/usr/bin/python3 -c \"import h5py; f = h5py.File('" +
+                  (dir / j.at("log").get<std::string>()).string() +
+                  "'); a = f.attrs; print(a['status'].decode(), a['stop_cause'].decode())\"");
+  EXPECT_EQ(logged.out, "failed timeout\n") << logged.err;
+  fs::remove_all(dir);
 }
 
 // The log's layout for long experiments: the codes as uint8, every column

@@ -213,4 +213,14 @@ std::string string_arg(const json& args, const std::string& key,
   return v->get<std::string>();
 }
 
+bool bool_arg(const json& args, const std::string& key, std::optional<bool> fallback) {
+  const json* v = find(args, key);
+  if (v == nullptr) {
+    if (fallback) return *fallback;
+    throw missing(key);
+  }
+  if (!v->is_boolean()) throw wrong_type(key, "true or false", *v);
+  return v->get<bool>();
+}
+
 }  // namespace piezo::protocol

@@ -71,10 +71,23 @@ std::string host_name() {
   return buf;
 }
 
-/// The run directory: --out, or runs/<UTC time>. It must not hold a run already.
+/// Whether a run may be written into `dir`: it does not exist or is empty.
+bool free_for_a_run(const fs::path& dir) {
+  return !fs::exists(dir) || (fs::is_directory(dir) && fs::is_empty(dir));
+}
+
+/// The run directory: --out, or runs/<UTC time>, with -2, -3, ... when runs
+/// of that second exist already (a script's moves follow each other within
+/// one). --out must not hold a run already.
 fs::path choose_run_dir(const std::string& out) {
-  const fs::path dir = out.empty() ? fs::path("runs") / utc_stamp("%Y%m%dT%H%M%SZ") : fs::path(out);
-  if (fs::exists(dir) && !(fs::is_directory(dir) && fs::is_empty(dir))) {
+  fs::path dir = out;
+  if (out.empty()) {
+    const std::string stamp = utc_stamp("%Y%m%dT%H%M%SZ");
+    dir = fs::path("runs") / stamp;
+    for (int n = 2; !free_for_a_run(dir); ++n)
+      dir = fs::path("runs") / fmt::format("{}-{}", stamp, n);
+  }
+  if (!free_for_a_run(dir)) {
     throw config::ConfigError("--out", dir.string(), "exists and is not an empty directory");
   }
   // Where it will be created must be writable: refused now (exit 2), not
@@ -377,6 +390,10 @@ int run(const RunOptions& o) {
 
   // Everything is checked: only now does the run leave traces.
   fs::create_directories(dir);
+  if (!fs::is_empty(dir)) {
+    // Another run took the name between the check and now: never mix two.
+    throw config::ConfigError("--out", dir.string(), "was taken by another run meanwhile");
+  }
   std::ofstream(dir / "config.toml") << config.text;
   const std::string utc_start = utc_stamp("%Y-%m-%dT%H:%M:%SZ");
   const fs::path log_path = dir / "run.h5";

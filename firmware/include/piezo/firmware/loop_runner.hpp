@@ -8,6 +8,7 @@
 #include <atomic>
 #include <functional>
 #include <latch>
+#include <limits>
 #include <optional>
 #include <string>
 #include <thread>
@@ -36,6 +37,10 @@ struct LoopRunnerSettings {
                             ///< the acquire loop runs one below
   bool lock_memory = true;  ///< mlockall before the loops start
   double ring_s = 2.0;      ///< each ring holds this much of its loop's output
+  /// The sensor's radius and the zero [m] (NaN: the run's first reading),
+  /// for the travel window (safety.travel_min_rad/travel_max_rad).
+  double r2_m = 0.062;
+  double zero_m = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// The devices a run works with; all outlive the runner.
@@ -51,7 +56,8 @@ class LoopRunner {
   /// `remote` (may be null) adds a client's lease and e-stop to the safety
   /// checks; `waveform` outlives the runner.
   LoopRunner(const LoopRunnerSettings& settings, const model::Excitation& waveform,
-             LoopDevices devices, const RemoteControl* remote = nullptr);
+             LoopDevices devices, const RemoteControl* remote = nullptr,
+             PositionFeed* feed = nullptr);
   /// A run that follows `program` (e.g. a MoveController reading `feed`,
   /// which the acquire loop fills); both outlive the runner.
   LoopRunner(const LoopRunnerSettings& settings, DriveProgram& program, LoopDevices devices,

@@ -7,10 +7,12 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <string_view>
 
+#include "piezo/firmware/position_feed.hpp"
 #include "piezo/firmware/sensor_health.hpp"
 #include "piezo/hal/digital_lines.hpp"
 
@@ -24,6 +26,10 @@ struct SafetySettings {
   /// How long the stop keeps writing 0 V until the drive acknowledges it;
   /// past it the output is reported unconfirmed.
   double stop_confirm_s = 1.0;
+  /// The travel window from the zero [rad] (infinite: none): a run or move
+  /// whose measured angle leaves it stops with travel_limit.
+  double travel_min_rad = -std::numeric_limits<double>::infinity();
+  double travel_max_rad = std::numeric_limits<double>::infinity();
 };
 
 /// Why the drive stopped; `none` while it runs.
@@ -37,9 +43,10 @@ enum class StopCause : std::uint8_t {
   link_lost,           ///< the controlling client's lease expired (host gone, network down)
   stalled,             ///< a move made no progress over its stall steps
   sensor_implausible,  ///< a move's readings are no driven rotor's (frozen, against the drive)
+  travel_limit,        ///< the measured angle left safety.travel_min_rad..travel_max_rad
 };
 /// The last StopCause, for code that goes through them all.
-inline constexpr StopCause kLastStopCause = StopCause::sensor_implausible;
+inline constexpr StopCause kLastStopCause = StopCause::travel_limit;
 
 /// What a remote client may do to a running drive, set from the daemon's
 /// network thread and read by the drive loop every cycle (lock-free).
@@ -70,6 +77,8 @@ struct RemoteControl {
       return "stalled";
     case StopCause::sensor_implausible:
       return "sensor_implausible";
+    case StopCause::travel_limit:
+      return "travel_limit";
   }
   return "unknown";
 }
@@ -90,6 +99,7 @@ class SafetySupervisor {
       cause_ = StopCause::estop;
       return SafetyAction::disable_now;
     }
+    watch_travel();
     if (cause_ == StopCause::none) cause_ = find_cause(now, stop_requested, duration_elapsed);
     // A drive that does not take writes cannot ramp, whatever stopped it.
     if (drive_failing()) return SafetyAction::disable_now;
@@ -110,6 +120,17 @@ class SafetySupervisor {
   /// down with it as its cause unless another came first.
   void report_program_fault(StopCause c) {
     if (program_fault_ == StopCause::none) program_fault_ = c;
+  }
+
+  /// Watches the travel window on the readings of `feed`: the angle is
+  /// (d - zero_m) / r2_m, and a NaN zero takes the first reading's. Three
+  /// readings in a row outside the window stop the run (one wild reading
+  /// does not).
+  void set_travel_feed(const PositionFeed* feed, double zero_m, double r2_m) {
+    feed_ = feed;
+    travel_zero_m_ = zero_m;
+    r2_m_ = r2_m;
+    seen_ = feed != nullptr ? feed->count() : 0;
   }
 
   /// Adds a remote client's lease and e-stop to the checks (piezod).
@@ -142,11 +163,24 @@ class SafetySupervisor {
       return StopCause::sensor_fault;
     }
     if (program_fault_ != StopCause::none) return program_fault_;
+    if (outside_ >= kOutsideReadings) return StopCause::travel_limit;
     if (duration_elapsed) return StopCause::completed;
     return StopCause::none;
   }
 
   [[nodiscard]] bool drive_failing() const { return drive_errors_ >= settings_.max_drive_errors; }
+
+  void watch_travel() {
+    if (feed_ == nullptr || feed_->count() == seen_) return;
+    seen_ = feed_->count();
+    const double d = feed_->displacement_m();
+    if (std::isnan(travel_zero_m_)) travel_zero_m_ = d;
+    const double theta = (d - travel_zero_m_) / r2_m_;
+    const bool inside = theta >= settings_.travel_min_rad && theta <= settings_.travel_max_rad;
+    outside_ = inside ? 0 : outside_ + 1;
+  }
+
+  static constexpr int kOutsideReadings = 3;
 
   SafetySettings settings_;
   const SensorHealth& sensor_;
@@ -154,6 +188,10 @@ class SafetySupervisor {
   hal::TimeNs end_ = std::numeric_limits<hal::TimeNs>::max();
   const RemoteControl* remote_ = nullptr;
   StopCause program_fault_ = StopCause::none;
+  const PositionFeed* feed_ = nullptr;  ///< readings for the travel window (null: none)
+  std::uint64_t seen_ = 0;
+  double travel_zero_m_ = 0.0, r2_m_ = 1.0;
+  int outside_ = 0;  ///< readings in a row outside the travel window
   StopCause cause_ = StopCause::none;
   std::uint32_t drive_errors_ = 0;
 };

@@ -65,6 +65,8 @@ struct Reply {
                                      std::optional<std::uint64_t> fallback = std::nullopt);
 [[nodiscard]] std::string string_arg(const nlohmann::json& args, const std::string& key,
                                      std::optional<std::string> fallback = std::nullopt);
+[[nodiscard]] bool bool_arg(const nlohmann::json& args, const std::string& key,
+                            std::optional<bool> fallback = std::nullopt);
 /// Refuses (bad_argument, naming the key and what `cmd` takes) any argument
 /// not in `known`: a misspelt optional argument is an error, never ignored.
 void refuse_unknown_args(const nlohmann::json& args, std::initializer_list<std::string_view> known,
