@@ -118,6 +118,9 @@ struct Daemon::Run {
   firmware::PositionFeed feed;                     ///< the acquire loop's readings, for a move
   std::unique_ptr<firmware::MoveController> move;  ///< a closed-loop move's program, if it is one
   bool move_takes_its_zero = false;                ///< the board had no zero when it began
+  /// Measured after the run, at 0 V: the position a finished move reports
+  /// (the controller's last reading came before the stop's ramp).
+  std::optional<double> final_displacement_m;
   // The virtual clock's lease runs on wall time, checked by the network thread.
   std::atomic<std::int64_t> lease_renewed_ns{0};
   std::atomic<std::uint64_t> drive_acked{0}, drive_recorded{0};
@@ -647,6 +650,31 @@ json Daemon::move_to(const std::string& client, const json& args) {
   return started;
 }
 
+std::optional<double> Daemon::read_at_rest() {
+  hal::Clock& clock = *rig_.clock;
+  clock.add_sleeper();  // the virtual clock schedules the threads it knows of
+  const hal::TimeNs period = hal::from_seconds(1.0 / board_.sensor.rate_hz());
+  hal::TimeNs next = clock.now();
+  double sum = 0.0;
+  int good = 0;
+  for (std::size_t i = 0; i < kZeroReadings; ++i, next += period) {
+    clock.sleep_until(next);
+    // 0 V again (the output holds it anyway, the amplifier is off): a
+    // simulated plant advances only at a write, so the reading sees the
+    // rotor at its time, not extrapolated from the stop.
+    (void)rig_.drive->write(0.0);
+    const hal::DisplacementReading r = rig_.sensor->read();
+    if (r.status != hal::Status::ok || !std::isfinite(r.displacement_m)) continue;
+    sum += r.displacement_m;
+    ++good;
+    recent_readings_.push_back(r.displacement_m);
+    if (recent_readings_.size() > kZeroReadings) recent_readings_.pop_front();
+  }
+  clock.remove_sleeper();
+  if (good == 0) return std::nullopt;
+  return sum / good;
+}
+
 std::optional<double> Daemon::recent_displacement_m() const {
   if (recent_readings_.empty()) return std::nullopt;
   double sum = 0.0;
@@ -684,7 +712,10 @@ json Daemon::position_json() const {
 
 json Daemon::move_json(const Run& run) const {
   const firmware::MoveController& m = *run.move;
-  const double position = m.position_rad();
+  const double zero = m.zero_displacement_m();
+  const double position = run.final_displacement_m && !std::isnan(zero)
+                              ? (*run.final_displacement_m - zero) / m.settings().r2_m
+                              : m.position_rad();
   const bool on_target = m.state() == firmware::MoveState::on_target;
   json j{{"state", firmware::to_string(m.state())},
          {"target_rad", m.settings().target_rad},
@@ -875,6 +906,7 @@ void Daemon::finish_run() {
   auto& run = *run_;
   run.runner->join();
   pump_samples();
+  if (run.move) run.final_displacement_m = read_at_rest();
   run.finished = true;
   const auto cause = run.runner->cause();
   const auto& out = run.runner->outcome();

@@ -125,6 +125,10 @@ class Daemon {
   std::vector<double> zero_readings_;              ///< toward the zero at the start
   std::deque<double> recent_readings_;             ///< the last good readings of any run
   [[nodiscard]] std::optional<double> recent_displacement_m() const;
+  /// Reads the sensor kZeroReadings times at its rate, after a run with the
+  /// loops stopped and the drive at 0 V: the mean of the good readings (they
+  /// also become the recent ones, so `status` says the same).
+  [[nodiscard]] std::optional<double> read_at_rest();
   std::chrono::steady_clock::time_point last_health_;
   std::uint64_t last_drive_cycles_ = 0;
   std::chrono::steady_clock::time_point last_drive_progress_;

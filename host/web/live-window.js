@@ -26,7 +26,7 @@ class LiveWindow {
         held.t = held.t.slice(keep).concat(added.t);
         held.y = held.y.slice(keep).concat(added.y);
       }
-      for (const key of ["t_end", "window_s", "status", "pages"]) this.d[key] = e[key];
+      for (const key of ["t_end", "window_s", "column_s", "status", "pages"]) this.d[key] = e[key];
       if (e.zoom) this.d.zoom = e.zoom;
     }
     if (this.d.zoom && !this.d.zoom.t) this.d.zoom = { t: LiveWindow.zoomTimes(this.d.zoom), y: this.d.zoom.y };

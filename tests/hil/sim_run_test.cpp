@@ -250,6 +250,11 @@ TEST(SimRun, AMoveIntoAStalledSensorOrAnEstopStopsAtZeroVolts) {
   EXPECT_EQ(o.summary.move.at("stop_cause"), "timeout");
   EXPECT_FALSE(o.amplifier_enabled_at_end);
   EXPECT_DOUBLE_EQ(o.drive_V.back(), 0.0);
+  // Its position is the rotor's at 0 V, read after the stop (before, the
+  // controller's last reading, from before the ramp: up to a step off).
+  EXPECT_NEAR(o.summary.move.at("position_rad").get<double>(), o.rotor_theta_at_end, 20e-6);
+  std::cout << "timed-out move: reported " << o.summary.move.at("position_rad").get<double>() * 1e3
+            << " mrad, the rotor at " << o.rotor_theta_at_end * 1e3 << " mrad\n";
 }
 
 // A move's protection, seen on the simulated device: a rotor that cannot

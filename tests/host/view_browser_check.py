@@ -182,10 +182,19 @@ def ten_tabs(driver, piezo, work):
             check(driver.execute_script("return window.piezoView.updates") >= 2, "every tab updates")
         pages = driver.execute_script("return window.piezoView.pages")
         check(pages == 1, f"ten tabs, one stream: the view serves {pages}")
-        # The plot's points, sent as what changed, are the snapshot's.
-        last, measured = driver.execute_script("return [window.piezoView.last, window.piezoView.measured]")
-        with urllib.request.urlopen(url + "api/live.json", timeout=5) as r:
-            snapshot = json.load(r)["measured"]
+        # The plot's points, sent as what changed, are the snapshot's. While
+        # the run is short its columns widen now and then (and the window is
+        # sent again): compared at one width.
+        for _ in range(20):
+            last, measured, width = driver.execute_script(
+                "const v = window.piezoView; return [v.last, v.measured, v.column_s]")
+            with urllib.request.urlopen(url + "api/live.json", timeout=5) as r:
+                live = json.load(r)
+            if live["column_s"] == width:
+                break
+            time.sleep(0.25)
+        check(live["column_s"] == width, f"the page's columns {width} s, the snapshot's {live['column_s']} s")
+        snapshot = live["measured"]
         held = {(t, y) for t, y in zip(measured["t"], measured["y"]) if t >= snapshot["t"][0]}
         shown = {(t, y) for t, y in zip(snapshot["t"], snapshot["y"]) if t <= last[0]}
         check(tuple(last) in shown, f"the plot's last point {last} is in /api/live.json")

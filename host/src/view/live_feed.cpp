@@ -103,7 +103,8 @@ double LiveFeed::width_now() const {
 
 nlohmann::json LiveFeed::event(LiveCursor& cursor, bool reset) const {
   const double end = t_end(), width = width_now();
-  nlohmann::json out{{"reset", reset}, {"t_end", short_time(end)}, {"window_s", window_s_}};
+  nlohmann::json out{
+      {"reset", reset}, {"t_end", short_time(end)}, {"window_s", window_s_}, {"column_s", width}};
   // The window's first whole column, and per series its last complete one:
   // a column is complete once a later sample has come.
   const long long window_start = column_of(end - window_s_, width) + 1;
