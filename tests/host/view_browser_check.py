@@ -22,6 +22,8 @@ import urllib.error
 import urllib.request
 
 SOURCE = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+sys.path.insert(0, os.path.join(SOURCE, "tests", "support"))
+from peers import start_piezod  # noqa: E402
 
 
 def free_port():
@@ -226,26 +228,15 @@ def move_from_the_page(driver, piezo, piezod, work):
     """`piezo view --rig --control` against the simulated board: Move from
     the page runs a move on the board, whose state shows in the move panel
     while the button keeps its label."""
-    board_port = free_port()
-    while board_port >= 65534:
-        board_port = free_port()
-    board = subprocess.Popen([piezod, "--config", os.path.join(SOURCE, "configs", "piezod-sim.toml"),
-                              "--listen", f"tcp://127.0.0.1:{board_port}"],
-                             stderr=open(os.path.join(work, "piezod.err"), "w"))
-    # The view says hello to the board first: the board must be listening.
-    deadline = time.time() + 30
-    while time.time() < deadline:
-        with socket.socket() as probe:
-            if probe.connect_ex(("127.0.0.1", board_port)) == 0:
-                break
-        time.sleep(0.05)
+    board, address = start_piezod(piezod, os.path.join(SOURCE, "configs", "piezod-sim.toml"),
+                                  os.path.join(work, "piezod.err"))
     err = os.path.join(work, "rig-view.err")
     view, url, token = None, None, None
     # The view's hello to a board that is still starting (a loaded machine)
     # can go unanswered within its 2 s: it says so and exits; started again.
     for _ in range(5):
         port = free_port()
-        view = subprocess.Popen([piezo, "view", "--rig", f"tcp://127.0.0.1:{board_port}",
+        view = subprocess.Popen([piezo, "view", "--rig", address,
                                  "--control", "--listen", f"127.0.0.1:{port}"],
                                 stderr=open(err, "w"))
         deadline = time.time() + 60

@@ -23,6 +23,8 @@ import threading
 import time
 
 SOURCE = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+sys.path.insert(0, os.path.join(SOURCE, "tests", "support"))
+from peers import start_piezod  # noqa: E402
 LIVE_PAGES, SLOW_SENDERS, FLOODERS, TRIES = 50, 50, 8, 20
 
 
@@ -151,20 +153,10 @@ def control(port, token, what):
 def main():
     piezo, piezod = sys.argv[1], sys.argv[2]
     work = tempfile.mkdtemp(prefix="piezo-view-load-")
-    board_port = free_port()
-    while board_port >= 65534:
-        board_port = free_port()
-    address = f"tcp://127.0.0.1:{board_port}"
-    board = subprocess.Popen([piezod, "--config", os.path.join(SOURCE, "configs", "piezod-sim.toml"),
-                              "--listen", address], stderr=open(os.path.join(work, "piezod.err"), "w"))
+    board, address = start_piezod(piezod, os.path.join(SOURCE, "configs", "piezod-sim.toml"),
+                                  os.path.join(work, "piezod.err"))
     view = None
     try:
-        deadline = time.time() + 30
-        while time.time() < deadline:
-            with socket.socket() as probe:
-                if probe.connect_ex(("127.0.0.1", board_port)) == 0:
-                    break
-            time.sleep(0.05)
         err = os.path.join(work, "view.err")
         url = token = None
         for _ in range(5):  # a board still starting may leave the view's hello unanswered
