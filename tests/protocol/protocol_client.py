@@ -212,9 +212,18 @@ before = call("status")["result"]["position"]["position_rad"]
 check(before is not None, "the board knows its position after a run")
 target = before + 2e-3
 zero_before = call("status")["result"]["position"]["zero_displacement_m"]
+# The protection's arguments, as documented: a bool and 1..16 steps.
+bad_protect = call("move_to", target_rad=target, protect="yes")
+check(not bad_protect["ok"] and bad_protect["error"]["code"] == "bad_argument",
+      "protect must be true or false: " + str(bad_protect))
+bad_steps = call("move_to", target_rad=target, stall_steps=0)
+check(not bad_steps["ok"] and bad_steps["error"]["code"] == "out_of_limits",
+      "stall_steps 0 is refused: " + str(bad_steps))
 moved = call("move_to", target_rad=target, tolerance_rad=25e-6, settle_s=0.1, timeout_s=20.0,
-             lease_s=1.0)
+             lease_s=1.0, stall_steps=3)
 check(moved["ok"] and moved["result"]["target_rad"] == target, "move_to: " + str(moved))
+check(moved["result"]["protect"] is True and moved["result"]["stall_steps"] == 3,
+      "the protection as used: " + str(moved))
 check(all(k in moved["result"] for k in ("V0", "f", "C_dr", "e_dr")),
       "move_to's result carries the arguments: " + str(moved))
 # During the move: zero and step are the controller's, and zero waits for the end.
