@@ -713,7 +713,10 @@ json Daemon::position_json() const {
 json Daemon::move_json(const Run& run) const {
   const firmware::MoveController& m = *run.move;
   const double zero = m.zero_displacement_m();
-  const double position = run.final_displacement_m && !std::isnan(zero)
+  // On target, the settle's mean (read at 0 V, of as many readings as the
+  // noise asks for); any other end, the readings taken after the stop.
+  const bool settled = m.state() == firmware::MoveState::on_target;
+  const double position = !settled && run.final_displacement_m && !std::isnan(zero)
                               ? (*run.final_displacement_m - zero) / m.settings().r2_m
                               : m.position_rad();
   const bool on_target = m.state() == firmware::MoveState::on_target;

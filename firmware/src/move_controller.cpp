@@ -101,6 +101,9 @@ double MoveController::next_voltage(double t, double dt) {
         set_state(MoveState::settle);
         flush_ = kFlush;
         within_since_ = -1.0;
+        settle_count_ = 0;
+        settle_sum_ = 0.0;
+        settle_n_ = settle_readings();
       }
       return V_;
     case MoveState::none:
@@ -134,6 +137,12 @@ void MoveController::on_reading(double t, double displacement_m) {
     if (++noise_n_ == kNoiseReadings) {
       const double n = kNoiseReadings, mean = noise_sum_ / n;
       noise_m_.store(std::sqrt(std::max(0.0, noise_sum2_ / n - mean * mean) * n / (n - 1.0)));
+      if (std::isnan(s_.zero_displacement_m)) {
+        // No zero yet: the mean of the readings at rest (one reading's
+        // noise would offset every later move).
+        s_.zero_displacement_m = mean;
+        zero_m_.store(mean);
+      }
     }
   }
   window_[static_cast<std::size_t>(next_slot_)] = displacement_m;
@@ -142,13 +151,7 @@ void MoveController::on_reading(double t, double displacement_m) {
   double sum = 0.0;
   for (int i = 0; i < filled_; ++i) sum += window_[static_cast<std::size_t>(i)];
   const double mean_m = sum / filled_;
-  if (std::isnan(s_.zero_displacement_m)) {
-    // No zero yet: the mean of the first full filter (one reading's noise
-    // would offset every later move).
-    if (filled_ < kFilter) return;
-    s_.zero_displacement_m = mean_m;
-    zero_m_.store(mean_m);
-  }
+  if (std::isnan(s_.zero_displacement_m)) return;  // until the readings at rest give it
   theta_f_ = (mean_m - s_.zero_displacement_m) / s_.r2_m;
   position_.store(theta_f_, std::memory_order_relaxed);
   if (flush_ > 0) {
@@ -171,7 +174,12 @@ void MoveController::on_reading(double t, double displacement_m) {
       if (lifting_ || V_ != V_set_) return;
       const double aim_error = error + aim_offset_;
       V_set_ = std::clamp(V_set_ + kFineGain * aim_error / s_.rad_per_V, 0.0, s_.fine_V_max);
-      hold_ = std::abs(aim_error) <= 0.5 * s_.tolerance_rad ? hold_ + 1 : 0;
+      // Held once the 8-reading mean stays this close; its own noise widens
+      // the window (the settle's longer mean judges the result).
+      const double noise = noise_m_.load();
+      const double filter_noise =
+          noise > 0.0 ? 2.0 * noise / (std::sqrt(double{kFilter}) * s_.r2_m) : 0.0;
+      hold_ = std::abs(aim_error) <= 0.5 * s_.tolerance_rad + filter_noise ? hold_ + 1 : 0;
       const bool out_of_range = (V_set_ == 0.0 && aim_error < -s_.tolerance_rad) ||
                                 (V_set_ == s_.fine_V_max && aim_error > s_.tolerance_rad);
       if (hold_ >= kHold || out_of_range) {
@@ -181,21 +189,7 @@ void MoveController::on_reading(double t, double displacement_m) {
       return;
     }
     case MoveState::settle:
-      if (std::abs(error) <= s_.tolerance_rad) {
-        if (within_since_ < 0.0) within_since_ = t;
-        if (t - within_since_ >= s_.settle_s) {
-          on_target_at_.store(t);
-          set_state(MoveState::on_target);
-        }
-        return;
-      }
-      if (released_from_fine_) {
-        // What the release moved the rotor by: the next hold aims off by it.
-        const double limit = 0.25 * s_.fine_V_max * s_.rad_per_V;
-        aim_offset_ = std::clamp(aim_offset_ + error, -limit, limit);
-      }
-      released_from_fine_ = false;
-      decide(t, error);
+      settle(t, displacement_m);
       return;
     case MoveState::release:
     case MoveState::none:
@@ -204,6 +198,59 @@ void MoveController::on_reading(double t, double displacement_m) {
     case MoveState::sensor_implausible:
       return;
   }
+}
+
+int MoveController::settle_readings() const {
+  const double noise = noise_m_.load();
+  if (!(noise > 0.0)) return kFilter;
+  const double n = std::pow(8.0 * noise / (s_.r2_m * s_.tolerance_rad), 2.0);
+  return static_cast<int>(std::clamp(std::ceil(n), double{kFilter}, double{kSettleMax}));
+}
+
+void MoveController::settle(double t, double displacement_m) {
+  // A sliding mean of settle_n_ readings at 0 V.
+  settle_ring_[static_cast<std::size_t>(settle_next_)] = displacement_m;
+  constexpr int kRing = kSettleMax + 1;
+  settle_next_ = (settle_next_ + 1) % kRing;
+  settle_sum_ += displacement_m;
+  if (++settle_count_ > settle_n_) {
+    settle_sum_ -=
+        settle_ring_[static_cast<std::size_t>((settle_next_ - 1 - settle_n_ + kRing) % kRing)];
+  }
+  if (settle_count_ < settle_n_) return;
+  const double theta = (settle_sum_ / settle_n_ - s_.zero_displacement_m) / s_.r2_m;
+  const double error = s_.target_rad - theta;
+  const double noise = noise_m_.load();
+  const double interval =
+      noise > 0.0 ? 2.0 * noise / (s_.r2_m * std::sqrt(static_cast<double>(settle_n_))) : 0.0;
+  if (std::abs(error) + interval <= s_.tolerance_rad) {
+    if (within_since_ < 0.0) within_since_ = t;
+    if (t - within_since_ >= s_.settle_s) {
+      position_.store(theta, std::memory_order_relaxed);
+      on_target_at_.store(t);
+      set_state(MoveState::on_target);
+    }
+    return;
+  }
+  within_since_ = -1.0;
+  if (std::abs(error) - interval <= s_.tolerance_rad && settle_n_ < kSettleMax) {
+    // Not clear either way: a mean of twice the readings narrows it.
+    settle_n_ = std::min(2 * settle_n_, kSettleMax);
+    const int held = std::min(settle_count_, settle_n_);
+    settle_sum_ = 0.0;
+    for (int i = 1; i <= held; ++i) {
+      settle_sum_ += settle_ring_[static_cast<std::size_t>((settle_next_ - i + kRing) % kRing)];
+    }
+    settle_count_ = held;
+    return;
+  }
+  if (released_from_fine_) {
+    // What the release moved the rotor by: the next hold aims off by it.
+    const double limit = 0.25 * s_.fine_V_max * s_.rad_per_V;
+    aim_offset_ = std::clamp(aim_offset_ + error, -limit, limit);
+  }
+  released_from_fine_ = false;
+  decide(t, error);
 }
 
 double MoveController::progress_floor() const {

@@ -296,6 +296,27 @@ TEST(SimRun, AMoveThatCannotProgressStopsAtZeroVoltsWithItsCause) {
   }
 }
 
+// With five times the default sensor noise (2.5 um at 1 kHz: 14 urad for
+// an 8-reading mean against a 25 urad tolerance) a move still comes on
+// target: settling averages as many readings as the noise measured at rest
+// asks for and judges the mean with its confidence interval (before, the
+// 8-reading mean left the window now and then, the move started again and
+// was never on target: it timed out). The rotor, read from the simulated
+// device, is where the move says, within the tolerance.
+TEST(SimRun, AMoveComesOnTargetThroughFiveTimesTheNoise) {
+  for (const double target : {0.002, -0.0005}) {
+    SCOPED_TRACE(target);
+    config::RunSettings::Move move{
+        .target_rad = target, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0};
+    const Outcome o = run_virtual({"sensor.noise_m=2.5e-6"}, -1.0, "hil-move-noisy", 0, move);
+    EXPECT_EQ(o.summary.move.at("stop_cause"), "on_target");
+    EXPECT_NEAR(o.rotor_theta_at_end, target, 25e-6);
+    std::cout << "noisy sensor: on target at " << o.summary.move.at("on_target_at_s")
+              << " s, the rotor " << (o.rotor_theta_at_end - target) * 1e6
+              << " urad from the target\n";
+  }
+}
+
 // The board's travel window ([safety] travel_min_rad/travel_max_rad from
 // the zero) ends a run or a move that would leave it, at 0 V with the
 // amplifier disabled, the rotor within a step of the limit (before, both

@@ -12,9 +12,11 @@
 /// - release: the voltage back to 0 V fast, so the stator slips under the
 ///   rotor and the rotor stays (what the release moves it is learnt and
 ///   aimed off the next time);
-/// - settle: "on target" only once the measured angle has stayed within the
-///   tolerance for settle_s at 0 V, so oscillating through the target never
-///   counts. The move then ends with the drive at 0 V.
+/// - settle: "on target" only once the mean of as many readings as the
+///   sensor's noise asks for (measured at rest before the first step) lies,
+///   with its confidence interval, within the tolerance for settle_s at 0 V,
+///   so neither oscillating through the target nor the noise counts; a mean
+///   clearly outside starts the stages again. The move then ends at 0 V.
 /// - protection: the sensor's noise is measured at rest before the first
 ///   step; every `stall_steps` coarse steps the measured progress toward the
 ///   target is checked against that noise floor. None (a rotor at an end
@@ -108,6 +110,7 @@ class MoveController final : public DriveProgram {
   static constexpr int kFlush = 10;          ///< readings skipped after the rotor was moved
   static constexpr int kHold = 20;           ///< readings within tolerance/2 before the release
   static constexpr int kNoiseReadings = 16;  ///< at rest, before the first step
+  static constexpr int kSettleMax = 256;     ///< readings a settle's mean may take
   static constexpr double kFineGain = 0.1;   ///< integral gain per reading
 
   void on_reading(double t, double displacement_m);
@@ -121,6 +124,10 @@ class MoveController final : public DriveProgram {
   void check_progress();
   /// Progress below this is none [rad]: what the averaged readings' noise allows.
   [[nodiscard]] double progress_floor() const;
+  /// Readings whose mean settles: enough that twice its standard deviation
+  /// is at most a quarter of the tolerance (kFilter..kSettleMax).
+  [[nodiscard]] int settle_readings() const;
+  void settle(double t, double displacement_m);
   void set_state(MoveState s) { state_.store(s, std::memory_order_relaxed); }
 
   MoveSettings s_;
@@ -143,6 +150,9 @@ class MoveController final : public DriveProgram {
   bool released_from_fine_ = false;
   // settle
   double within_since_ = -1.0;
+  std::array<double, kSettleMax + 1> settle_ring_{};  ///< one more: the one leaving the mean
+  int settle_count_ = 0, settle_next_ = 0, settle_n_ = kFilter;
+  double settle_sum_ = 0.0;
   // protection: the noise at rest, and per coarse step of the current run of
   // steps in one direction the angle and the count of changed readings
   double noise_sum_ = 0.0, noise_sum2_ = 0.0;
