@@ -174,12 +174,15 @@ void MoveController::on_reading(double t, double displacement_m) {
       if (lifting_ || V_ != V_set_) return;
       const double aim_error = error + aim_offset_;
       V_set_ = std::clamp(V_set_ + kFineGain * aim_error / s_.rad_per_V, 0.0, s_.fine_V_max);
-      // Held once the 8-reading mean stays this close; its own noise widens
-      // the window (the settle's longer mean judges the result).
+      // Held once the 8-reading mean stays within half the tolerance; a
+      // noise that alone would keep it out widens the window (the settle's
+      // longer mean judges the result).
       const double noise = noise_m_.load();
       const double filter_noise =
           noise > 0.0 ? 2.0 * noise / (std::sqrt(double{kFilter}) * s_.r2_m) : 0.0;
-      hold_ = std::abs(aim_error) <= 0.5 * s_.tolerance_rad + filter_noise ? hold_ + 1 : 0;
+      const double window =
+          0.5 * s_.tolerance_rad + std::max(0.0, filter_noise - 0.25 * s_.tolerance_rad);
+      hold_ = std::abs(aim_error) <= window ? hold_ + 1 : 0;
       const bool out_of_range = (V_set_ == 0.0 && aim_error < -s_.tolerance_rad) ||
                                 (V_set_ == s_.fine_V_max && aim_error > s_.tolerance_rad);
       if (hold_ >= kHold || out_of_range) {
