@@ -24,7 +24,8 @@ std::unique_ptr<hal::Clock> make_clock(RunClock clock) {
 }
 
 hal::sim::SimRigSettings sim_rig_settings(const RunConfig& c) {
-  return {c.plant, c.drive.amplifier, c.drive.dac, c.sensor.sim, c.lines.sim};
+  return {c.plant, c.drive.amplifier, c.drive.dac, c.sensor.sim, c.lines.sim,
+          c.plant_end_stop_rad};
 }
 
 std::unique_ptr<hal::DisplacementSensor> make_modbus_sensor(const RunConfig& c,

@@ -145,6 +145,7 @@ void read_daemon(SectionReader r, DaemonSettings& d) {
   r.number("lease_max_s", d.lease_max_s, {0.05, 600.0}, "s");
   r.number("recorder_s", d.recorder_s, {1.0, 3600.0}, "s");
   r.text("spill_file", d.spill_file);
+  r.text("calibration_file", d.calibration_file);
   r.number("duration_max_s", d.duration_max_s, {0.0, 1e7, true}, "s");
   r.number("fetch_samples_per_s", d.fetch_samples_per_s, {1e3, 1e9}, "samples/s");
   r.text("secret_key_file", d.secret_key_file);
@@ -187,6 +188,7 @@ void read_tables(const toml::table& t, const std::string& source, RunConfig& c,
   model.finish();
   SectionReader plant = file.section("plant");
   read_motor(plant, plant_keys);
+  plant.number("end_stop_rad", c.plant_end_stop_rad, {-10.0, 10.0}, "rad");
   plant.finish();
   read_sensor(file.section("sensor"), c.sensor);
   read_lines(file.section("lines"), c.lines);

@@ -94,8 +94,20 @@ struct RunSettings {
     double tolerance_rad = 25e-6;
     double settle_s = 0.1;
     double timeout_s = 30.0;
+    double hold_s = 0.0;  ///< the fine servo kept on after on target
+    bool protect = true;  ///< the board's stall and plausibility checks
+    int stall_steps = 2;
+    /// The coarse steps' waveform when the user named it; else the board
+    /// chooses (its calibration's fastest frequency, or its [drive]).
+    std::optional<double> V0 = std::nullopt, f = std::nullopt;
   };
   std::optional<Move> move;
+  /// Not a file key: `piezo calibrate` runs the board's calibration (at
+  /// V0 when the user named it; else the board's).
+  struct Calibrate {
+    std::optional<double> V0 = std::nullopt;
+  };
+  std::optional<Calibrate> calibrate;
 };
 
 /// The board's daemon ([piezod]): where it listens, what a client may ask.
@@ -107,6 +119,9 @@ struct DaemonSettings {
   /// Every sample of the current run also goes to this file (empty: none),
   /// so a fetch reaches past the memory ring.
   std::string spill_file;
+  /// Where the board keeps its calibration across restarts (empty: in
+  /// memory only, until the daemon stops).
+  std::string calibration_file;
   double duration_max_s = 86'400.0;
   /// What each client's fetches may take, samples per second (bursts up to
   /// one largest fetch, 100000): a flood of them costs the board this much.
@@ -132,6 +147,8 @@ struct RunConfig {
   std::string text;              ///< the file's text plus the --set lines: stored with the log
   model::Parameters model;       ///< [drive] waveform + [model]
   model::MotorParameters plant;  ///< [model] overlaid with [plant]
+  /// [plant] end_stop_rad: the simulated rotor's end stop (NaN: none).
+  double plant_end_stop_rad = std::numeric_limits<double>::quiet_NaN();
   DriveSettings drive;
   SensorSettings sensor;
   LinesSettings lines;

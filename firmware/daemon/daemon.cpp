@@ -4,9 +4,11 @@
 
 #include <cerrno>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <zmq_addon.hpp>
 
+#include "calibration.hpp"
 #include "config_error.hpp"
 #include "piezo/model/simulate.hpp"
 #include "piezo/protocol/endpoints.hpp"
@@ -73,8 +75,12 @@ void refuse_unknown_args(const std::string& cmd, const json& args) {
   } else if (cmd == "move_to") {
     refuse_unknown_args(args,
                         {"target_rad", "tolerance_rad", "settle_s", "timeout_s", "V0", "f", "C_dr",
-                         "e_dr", "lease_s", "protect", "stall_steps"},
+                         "e_dr", "lease_s", "protect", "stall_steps", "hold_s"},
                         cmd);
+  } else if (cmd == "calibrate") {
+    refuse_unknown_args(args, {"V0", "lease_s"}, cmd);
+  } else if (cmd == "set_calibration") {
+    refuse_unknown_args(args, {"calibration"}, cmd);
   } else if (cmd == "lease") {
     refuse_unknown_args(args, {"drive_received"}, cmd);
   } else if (cmd == "fetch") {
@@ -117,7 +123,8 @@ struct Daemon::Run {
   json summary;                                    ///< once finished
   firmware::PositionFeed feed;                     ///< the acquire loop's readings, for a move
   std::unique_ptr<firmware::MoveController> move;  ///< a closed-loop move's program, if it is one
-  bool move_takes_its_zero = false;                ///< the board had no zero when it began
+  std::unique_ptr<firmware::CalibrationProgram> calibration;  ///< the calibration's, if it is one
+  bool move_takes_its_zero = false;  ///< the board had no zero when it began
   /// Measured after the run, at 0 V: the position a finished move reports
   /// (the controller's last reading came before the stop's ramp).
   std::optional<double> final_displacement_m;
@@ -200,6 +207,21 @@ Daemon::Daemon(const config::RunConfig& board, config::Rig rig, zmq::context_t& 
                                          command_endpoint_, stream_endpoint_, e.what()));
   }
   if (!board_.daemon.spill_file.empty()) spill_.emplace(board_.daemon.spill_file);
+  if (!board_.daemon.calibration_file.empty()) {
+    // A file that cannot be used leaves the board uncalibrated (moves use
+    // the model), said in the log; it is replaced by the next calibration.
+    try {
+      calibration_ = load_calibration(board_.daemon.calibration_file,
+                                      {board_.drive.limits.V_max, board_.drive.rate_hz / 20.0});
+      if (calibration_) {
+        log_event(fmt::format("calibration of {} loaded from {}",
+                              calibration_->at("created").get<std::string>(),
+                              board_.daemon.calibration_file));
+      }
+    } catch (const std::exception& e) {
+      log_event(fmt::format("calibration not loaded: {}", e.what()));
+    }
+  }
   last_health_ = Clock::now();
   log_event(fmt::format("listening: commands {}, stream {}; drive {}, sensor {}, lines {}",
                         command_endpoint_, stream_endpoint_, config::name(board_.drive.backend),
@@ -309,6 +331,8 @@ json Daemon::handle(const std::string& client, const std::string& cmd, const jso
   if (cmd == "start") return start(client, args);
   if (cmd == "step") return step(client, args);
   if (cmd == "move_to") return move_to(client, args);
+  if (cmd == "calibrate") return calibrate(client, args);
+  if (cmd == "set_calibration") return set_calibration(client, args);
   if (cmd == "zero") return set_zero(client);
   if (cmd == "stop") return stop_run(client);
   if (cmd == "estop") return estop(client);
@@ -317,8 +341,8 @@ json Daemon::handle(const std::string& client, const std::string& cmd, const jso
   if (cmd == "fetch") return fetch(client, args);
   throw ProtocolError(code::unknown_command, "cmd",
                       fmt::format("cmd: \"{}\" is not a command (allowed: hello, status, clock, "
-                                  "configure, start, step, move_to, zero, stop, estop, "
-                                  "reset_fault, lease, fetch)",
+                                  "configure, start, step, move_to, calibrate, set_calibration, "
+                                  "zero, stop, estop, reset_fault, lease, fetch)",
                                   cmd));
 }
 
@@ -347,7 +371,8 @@ json Daemon::hello() const {
           {"sensor_rate_hz", board_.sensor.rate_hz()},
           {"output_latency_s", rig_.drive->output_latency_s()},
           {"lease_s", board_.daemon.lease_s},
-          {"recorder_s", board_.daemon.recorder_s}};
+          {"recorder_s", board_.daemon.recorder_s},
+          {"calibration", calibration_ ? *calibration_ : json(nullptr)}};
 }
 
 json Daemon::status(const std::string& client) const {
@@ -360,7 +385,8 @@ json Daemon::status(const std::string& client) const {
       {"recorder",
        {{"drive", {{"first", drive_recorder_.first()}, {"next", drive_recorder_.next()}}},
         {"sensor", {{"first", sensor_recorder_.first()}, {"next", sensor_recorder_.next()}}}}},
-      {"position", position_json()}};
+      {"position", position_json()},
+      {"calibration", calibration_ ? *calibration_ : json(nullptr)}};
   if (configured_) {
     j["configured"] = {{"V0", configured_->drive.V0},
                        {"f", configured_->drive.f},
@@ -379,6 +405,7 @@ json Daemon::status(const std::string& client) const {
            {"sensor", health_json(run_->runner->sensor_health())}};
     if (run_->finished) r["summary"] = run_->summary;
     if (run_->move) r["move"] = move_json(*run_);
+    if (run_->calibration) r["calibration_progress"] = run_->calibration->progress();
     j["run"] = r;
   }
   return j;
@@ -464,8 +491,8 @@ void Daemon::require_can_start(const std::string& client, const char* cmd) const
   }
 }
 
-json Daemon::start(const std::string& client, const json& args,
-                   const std::optional<firmware::MoveSettings>& move, const char* cmd) {
+json Daemon::start(const std::string& client, const json& args, const Program& program,
+                   const char* cmd) {
   require_can_start(client, cmd);
   if (!configured_) {
     throw ProtocolError(code::bad_state, "", fmt::format("{}: send configure first", cmd));
@@ -494,9 +521,14 @@ json Daemon::start(const std::string& client, const json& args,
   settings.r2_m = board_.sensor.r2_m;
   settings.zero_m = zero_displacement_m_.value_or(std::numeric_limits<double>::quiet_NaN());
   const firmware::LoopDevices devices{*rig_.clock, *rig_.drive, *rig_.sensor, *rig_.lines};
-  if (move) {
-    run->move = std::make_unique<firmware::MoveController>(*move, run->feed);
+  if (program.move) {
+    run->move = std::make_unique<firmware::MoveController>(*program.move, run->feed);
     run->runner = std::make_unique<firmware::LoopRunner>(settings, *run->move, devices,
+                                                         &run->remote, &run->feed);
+  } else if (program.calibration) {
+    run->calibration =
+        std::make_unique<firmware::CalibrationProgram>(*program.calibration, run->feed);
+    run->runner = std::make_unique<firmware::LoopRunner>(settings, *run->calibration, devices,
                                                          &run->remote, &run->feed);
   } else {
     run->runner = std::make_unique<firmware::LoopRunner>(settings, run->waveform, devices,
@@ -566,7 +598,7 @@ json Daemon::step(const std::string& client, const json& args) {
   const json configured = configure(client, configure_args, "step");
   json started =
       start(client, args.contains("lease_s") ? json{{"lease_s", args["lease_s"]}} : json::object(),
-            std::nullopt, "step");
+            Program{}, "step");
   started["count"] = count;
   started["direction"] = configured.at("direction");
   return started;
@@ -602,10 +634,36 @@ json Daemon::move_to(const std::string& client, const json& args) {
     throw out_of_limits("timeout_s", fmt::format("{:g} s; allowed: (0, {:g}] s", timeout_s,
                                                  board_.daemon.duration_max_s));
   }
-  // The coarse steps' waveform: the caller's, or the board's [drive] values.
+  m.hold_s = protocol::number_arg(args, "hold_s", 0.0);
+  if (!(m.hold_s >= 0.0 && m.hold_s < timeout_s)) {
+    throw out_of_limits(
+        "hold_s", fmt::format("{:g} s; allowed: [0, timeout_s = {:g}) s", m.hold_s, timeout_s));
+  }
+  // A tolerance finer than the sensor resolves would never be reached.
+  if (const auto noise = noise_for_move()) {
+    const double smallest = smallest_tolerance_rad(*noise, board_.sensor.r2_m);
+    if (m.tolerance_rad < smallest) {
+      throw out_of_limits(
+          "tolerance_rad",
+          fmt::format("{:g} rad is below what the sensor resolves: its noise is {:.3g} m "
+                      "({:.3g} rad a reading, {} at rest); allowed: at least {:.3g} rad",
+                      m.tolerance_rad, *noise, *noise / board_.sensor.r2_m,
+                      calibration_ ? "calibrated" : "measured now", smallest));
+    }
+  }
+  // The coarse steps' waveform: the caller's, or the calibration's fastest
+  // frequency, or the board's [drive] values.
   const auto& d0 = board_.model.drive;
-  const json configure_args{{"V0", protocol::number_arg(args, "V0", d0.V0)},
-                            {"f", protocol::number_arg(args, "f", d0.f)},
+  const double V0 = protocol::number_arg(args, "V0", d0.V0);
+  const std::optional<double> f_asked =
+      args.contains("f") ? std::optional(protocol::number_arg(args, "f")) : std::nullopt;
+  double f = f_asked.value_or(d0.f);
+  if (!f_asked && calibration_ && calibration_->at("fastest_f_hz").is_number() &&
+      std::abs(calibration_->at("V0").get<double>() - V0) <= 1e-9 * V0) {
+    f = calibration_->at("fastest_f_hz").get<double>();
+  }
+  const json configure_args{{"V0", V0},
+                            {"f", f},
                             {"C_dr", protocol::number_arg(args, "C_dr", d0.C_dr)},
                             {"e_dr", protocol::number_arg(args, "e_dr", d0.e_dr)},
                             {"duration_s", timeout_s}};
@@ -636,28 +694,149 @@ json Daemon::move_to(const std::string& client, const json& args) {
   }
   m.fine_V_max = 0.8 * board_.drive.limits.V_max;
   m.fast_slew_V_per_s = board_.drive.limits.slew_V_per_s;
+  const bool calibrated = calibration_ && apply_calibration(*calibration_, f_asked, m);
+  if (!calibrated && !f_asked) {
+    // Uncalibrated: twice and four times the frequency, as the model
+    // predicts them, for when the steps come out far smaller than predicted.
+    const double slew_f_max =
+        board_.drive.limits.slew_V_per_s * std::min(d.D(), 1.0 - d.D()) / d.V0;
+    for (const double factor : {2.0, 4.0}) {
+      const double fa = factor * d.f;
+      if (fa > board_.drive.rate_hz / 20.0 || fa > slew_f_max) break;
+      auto& a = m.alternatives[static_cast<std::size_t>(m.alternative_count++)];
+      a.f = fa;
+      for (std::size_t i = 0; i < firmware::MoveSettings::kStepFractions.size(); ++i) {
+        const double V = firmware::MoveSettings::kStepFractions[i] * d.V0;
+        const double floor = 1e-3 * m.rad_per_V * V;
+        a.forward_rad[i] =
+            std::max(floor, model::final_angle(motor, model::Sawtooth(V, fa, d.D()),
+                                               model::FrictionModel::lugre, 1.0 / fa));
+        a.reverse_rad[i] =
+            std::max(floor, -model::final_angle(motor, model::Sawtooth(V, fa, 1.0 - d.D()),
+                                                model::FrictionModel::lugre, 1.0 / fa));
+      }
+    }
+  }
   json started =
       start(client, args.contains("lease_s") ? json{{"lease_s", args["lease_s"]}} : json::object(),
-            m, "move_to");
+            {m, std::nullopt}, "move_to");
   started["target_rad"] = m.target_rad;
   started["tolerance_rad"] = m.tolerance_rad;
   started["settle_s"] = m.settle_s;
   started["timeout_s"] = timeout_s;
   started["protect"] = m.protect;
   started["stall_steps"] = m.stall_steps;
+  started["hold_s"] = m.hold_s;
+  started["calibrated"] = calibrated;
   for (const char* key : {"V0", "f", "C_dr", "e_dr"}) started[key] = configure_args.at(key);
   run_->move_takes_its_zero = !zero_before;
   return started;
 }
 
+json Daemon::calibrate(const std::string& client, const json& args) {
+  require_can_start(client, "calibrate");  // before configure: a refused one changes nothing
+  const auto& lim = board_.drive.limits;
+  const auto& d0 = board_.model.drive;
+  firmware::CalibrationPlan plan;
+  plan.V0 = protocol::number_arg(args, "V0", std::min(d0.V0, lim.V_max));
+  plan.D = d0.D();
+  plan.r2_m = board_.sensor.r2_m;
+  plan.hold_V_max = 0.8 * lim.V_max;
+  plan.fast_slew_V_per_s = lim.slew_V_per_s;
+  // The board's frequency, twice and four times it: as many as the board's
+  // rate and slew limit allow at V0.
+  const double f_max = std::min(board_.drive.rate_hz / 20.0,
+                                lim.slew_V_per_s * std::min(plan.D, 1.0 - plan.D) / plan.V0);
+  plan.frequencies = 0;
+  for (const double factor : {1.0, 2.0, 4.0}) {
+    if (factor * d0.f > f_max) break;
+    plan.f_hz[static_cast<std::size_t>(plan.frequencies++)] = factor * d0.f;
+  }
+  if (plan.frequencies == 0) {
+    throw out_of_limits("V0", fmt::format("at {:g} V the board's frequency {:g} Hz exceeds its "
+                                          "slew limit; allowed: a lower V0",
+                                          plan.V0, d0.f));
+  }
+  const double duration_s = 1.5 * plan.duration_s(board_.sensor.rate_hz()) + 1.0;
+  (void)configure(client,
+                  {{"V0", plan.V0},
+                   {"f", plan.f_hz[static_cast<std::size_t>(plan.frequencies - 1)]},
+                   {"C_dr", d0.C_dr},
+                   {"e_dr", d0.e_dr},
+                   {"duration_s", duration_s}},
+                  "calibrate");
+  json started =
+      start(client, args.contains("lease_s") ? json{{"lease_s", args["lease_s"]}} : json::object(),
+            {std::nullopt, plan}, "calibrate");
+  started["V0"] = plan.V0;
+  started["f_hz"] = std::vector<double>(plan.f_hz.begin(), plan.f_hz.begin() + plan.frequencies);
+  started["steps_per_point"] = plan.steps;
+  return started;
+}
+
+json Daemon::set_calibration(const std::string& client, const json& args) {
+  if (running()) {
+    require_controller(client, "set_calibration");
+    throw ProtocolError(code::bad_state, "", "set_calibration: a run is under way");
+  }
+  if (!args.contains("calibration")) {
+    throw ProtocolError(code::bad_argument, "calibration",
+                        "calibration: missing (a calibration map, or nil to clear it)");
+  }
+  const json& given = args.at("calibration");
+  if (given.is_null()) {
+    calibration_.reset();
+    if (!board_.daemon.calibration_file.empty()) {
+      std::error_code ignored;
+      std::filesystem::remove(board_.daemon.calibration_file, ignored);
+    }
+    log_event("calibration cleared");
+    return {{"calibration", nullptr}};
+  }
+  install_calibration(
+      checked_calibration(given, {board_.drive.limits.V_max, board_.drive.rate_hz / 20.0}));
+  return {{"calibration", *calibration_}};
+}
+
+void Daemon::install_calibration(json c) {
+  calibration_ = std::move(c);
+  std::string kept = "in memory only (no piezod.calibration_file)";
+  if (!board_.daemon.calibration_file.empty()) {
+    try {
+      save_calibration(board_.daemon.calibration_file, *calibration_);
+      kept = "kept in " + board_.daemon.calibration_file;
+    } catch (const std::exception& e) {
+      kept = fmt::format("NOT kept: {}", e.what());
+    }
+  }
+  const json& fastest = calibration_->at("fastest_f_hz");
+  log_event(fmt::format(
+      "calibration installed: fastest reliable {}, noise {:.3g} m; {}",
+      fastest.is_number() ? fmt::format("{:g} Hz", fastest.get<double>()) : std::string("none"),
+      calibration_->at("noise_m").get<double>(), kept));
+}
+
+std::optional<double> Daemon::noise_for_move() {
+  if (calibration_) return calibration_->at("noise_m").get<double>();
+  const AtRest r = read_at_rest(2 * kZeroReadings);
+  if (r.good < 4) return std::nullopt;  // the move's own checks see to a sensor that fails
+  return r.stddev_m;
+}
+
 std::optional<double> Daemon::read_at_rest() {
+  const AtRest r = read_at_rest(kZeroReadings);
+  if (r.good == 0) return std::nullopt;
+  return r.mean_m;
+}
+
+Daemon::AtRest Daemon::read_at_rest(std::size_t n) {
   hal::Clock& clock = *rig_.clock;
   clock.add_sleeper();  // the virtual clock schedules the threads it knows of
   const hal::TimeNs period = hal::from_seconds(1.0 / board_.sensor.rate_hz());
   hal::TimeNs next = clock.now();
-  double sum = 0.0;
+  double sum = 0.0, sum2 = 0.0;
   int good = 0;
-  for (std::size_t i = 0; i < kZeroReadings; ++i, next += period) {
+  for (std::size_t i = 0; i < n; ++i, next += period) {
     clock.sleep_until(next);
     // 0 V again (the output holds it anyway, the amplifier is off): a
     // simulated plant advances only at a write, so the reading sees the
@@ -666,13 +845,20 @@ std::optional<double> Daemon::read_at_rest() {
     const hal::DisplacementReading r = rig_.sensor->read();
     if (r.status != hal::Status::ok || !std::isfinite(r.displacement_m)) continue;
     sum += r.displacement_m;
+    sum2 += r.displacement_m * r.displacement_m;
     ++good;
     recent_readings_.push_back(r.displacement_m);
     if (recent_readings_.size() > kZeroReadings) recent_readings_.pop_front();
   }
   clock.remove_sleeper();
-  if (good == 0) return std::nullopt;
-  return sum / good;
+  AtRest r;
+  r.good = good;
+  if (good == 0) return r;
+  r.mean_m = sum / good;
+  if (good > 1) {
+    r.stddev_m = std::sqrt(std::max(0.0, sum2 / good - r.mean_m * r.mean_m) * good / (good - 1.0));
+  }
+  return r;
 }
 
 std::optional<double> Daemon::recent_displacement_m() const {
@@ -728,7 +914,15 @@ json Daemon::move_json(const Run& run) const {
           std::isnan(position) ? json(nullptr) : json(m.settings().target_rad - position)},
          {"on_target", on_target},
          {"on_target_at_s", on_target ? json(m.on_target_at_s()) : json(nullptr)},
-         {"steps", m.steps()}};
+         {"steps", m.steps()},
+         {"f_hz", m.f_hz()},
+         {"noise_m", std::isnan(m.noise_m()) ? json(nullptr) : json(m.noise_m())}};
+  if (m.settings().hold_s > 0.0) {
+    const double rms = m.hold_rms_error_rad(), max = m.hold_max_error_rad();
+    j["hold_s"] = m.settings().hold_s;
+    j["hold_rms_error_rad"] = std::isnan(rms) ? json(nullptr) : json(rms);
+    j["hold_max_error_rad"] = std::isnan(max) ? json(nullptr) : json(max);
+  }
   if (run.finished) {
     const auto cause = run.runner->cause();
     j["stop_cause"] = on_target ? std::string("on_target")
@@ -910,6 +1104,7 @@ void Daemon::finish_run() {
   run.runner->join();
   pump_samples();
   if (run.move) run.final_displacement_m = read_at_rest();
+  if (run.calibration) run.final_displacement_m = read_at_rest();
   run.finished = true;
   const auto cause = run.runner->cause();
   const auto& out = run.runner->outcome();
@@ -935,6 +1130,28 @@ void Daemon::finish_run() {
     if (const double z = run.move->zero_displacement_m();
         run.move_takes_its_zero && !std::isnan(z)) {
       zero_displacement_m_ = z;
+    }
+  }
+  if (run.calibration) {
+    const auto& result = run.calibration->result();
+    if (result.complete && cause == firmware::StopCause::completed) {
+      try {
+        install_calibration(
+            checked_calibration(calibration_json(run.calibration->plan(), result),
+                                {board_.drive.limits.V_max, board_.drive.rate_hz / 20.0}));
+        run.summary["calibration"] = *calibration_;
+      } catch (const std::exception& e) {
+        // Measurements no calibration can hold (no motion, a sensor that
+        // saw nothing): the old calibration stays; the summary says why.
+        run.summary["calibration"] = nullptr;
+        run.summary["calibration_error"] = e.what();
+        log_event(fmt::format("calibration not installed: {}", e.what()));
+      }
+    } else {
+      run.summary["calibration"] = nullptr;
+      run.summary["calibration_error"] = fmt::format(
+          "the experiment ended {} before it was complete; the board keeps {}",
+          firmware::to_string(cause), calibration_ ? "its calibration" : "no calibration");
     }
   }
   if (latches(cause) || std::string_view(firmware::output_state(out)) != "confirmed") {
@@ -968,6 +1185,7 @@ void Daemon::publish_health() {
     j["drive"] = health_with_timing_json(run_->runner->drive_health());
     j["sensor"] = health_with_timing_json(run_->runner->sensor_health());
     if (run_->move) j["move"] = move_json(*run_);
+    if (run_->calibration) j["calibration_progress"] = run_->calibration->progress();
   }
   const std::string body = protocol::encode_map(j);
   std::array<zmq::const_buffer, 2> parts{zmq::str_buffer("health"), zmq::buffer(body)};

@@ -19,6 +19,7 @@
 
 #include "curve.hpp"
 #include "fetch_budget.hpp"
+#include "piezo/firmware/calibration_program.hpp"
 #include "piezo/firmware/loop_runner.hpp"
 #include "piezo/firmware/move_controller.hpp"
 #include "piezo/model/waveform.hpp"
@@ -72,12 +73,23 @@ class Daemon {
   /// `cmd` names the command in refusals (step and move_to configure too).
   nlohmann::json configure(const std::string& client, const nlohmann::json& args,
                            const char* cmd = "configure");
-  /// With `move`, the run is a closed-loop move instead of the configured waveform.
+  /// What a run follows: the configured waveform, a closed-loop move, or
+  /// the calibration experiment.
+  struct Program {
+    std::optional<firmware::MoveSettings> move;
+    std::optional<firmware::CalibrationPlan> calibration;
+  };
   nlohmann::json start(const std::string& client, const nlohmann::json& args,
-                       const std::optional<firmware::MoveSettings>& move = std::nullopt,
-                       const char* cmd = "start");
+                       const Program& program = {}, const char* cmd = "start");
   nlohmann::json step(const std::string& client, const nlohmann::json& args);
   nlohmann::json move_to(const std::string& client, const nlohmann::json& args);
+  nlohmann::json calibrate(const std::string& client, const nlohmann::json& args);
+  nlohmann::json set_calibration(const std::string& client, const nlohmann::json& args);
+  /// Installs a checked calibration and keeps it in the board's file.
+  void install_calibration(nlohmann::json c);
+  /// The sensor's noise for a move's tolerance check [m]: the calibration's,
+  /// else measured now at rest.
+  [[nodiscard]] std::optional<double> noise_for_move();
   nlohmann::json set_zero(const std::string& client);
   nlohmann::json position_json() const;
   nlohmann::json move_json(const Run& run) const;
@@ -121,6 +133,8 @@ class Daemon {
   /// The user's zero of the angle (a displacement [m]): set by `zero`, or
   /// else the first good reading since the daemon started.
   std::optional<double> zero_displacement_m_;
+  /// The installed calibration (docs/protocol.md, "Calibration"), if any.
+  std::optional<nlohmann::json> calibration_;
   static constexpr std::size_t kZeroReadings = 8;  ///< averaged for a zero or a position
   std::vector<double> zero_readings_;              ///< toward the zero at the start
   std::deque<double> recent_readings_;             ///< the last good readings of any run
@@ -128,7 +142,13 @@ class Daemon {
   /// Reads the sensor kZeroReadings times at its rate, after a run with the
   /// loops stopped and the drive at 0 V: the mean of the good readings (they
   /// also become the recent ones, so `status` says the same).
+  struct AtRest {
+    double mean_m = 0.0, stddev_m = 0.0;
+    int good = 0;
+  };
   [[nodiscard]] std::optional<double> read_at_rest();
+  /// The same for `n` readings, with their spread.
+  [[nodiscard]] AtRest read_at_rest(std::size_t n);
   std::chrono::steady_clock::time_point last_health_;
   std::uint64_t last_drive_cycles_ = 0;
   std::chrono::steady_clock::time_point last_drive_progress_;

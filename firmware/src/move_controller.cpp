@@ -41,6 +41,8 @@ const char* to_string(MoveState s) {
       return "stalled";
     case MoveState::sensor_implausible:
       return "sensor_implausible";
+    case MoveState::holding:
+      return "holding";
   }
   return "unknown";
 }
@@ -53,7 +55,10 @@ MoveController::MoveController(const MoveSettings& settings, const PositionFeed&
       zero_m_(settings.zero_displacement_m),
       noise_m_(kNaN),
       position_(kNaN),
-      on_target_at_(kNaN) {}
+      on_target_at_(kNaN),
+      f_(settings.f),
+      hold_rms_(kNaN),
+      hold_max_(kNaN) {}
 
 double MoveController::next_voltage(double t, double dt) {
   const std::uint64_t count = feed_.count();
@@ -71,7 +76,10 @@ double MoveController::next_voltage(double t, double dt) {
         check_progress();
         if (state() != MoveState::coarse) return V_ = 0.0;
         const double error = s_.target_rad - theta_f_;
-        if (error * direction_ > kChainSteps * predicted_step(direction_ > 0 ? 0 : 1, 1.0)) {
+        const double chain_from =
+            kChainSteps * predicted_step(direction_ > 0 ? 0 : 1, 1.0) +
+            (direction_ > 0 ? s_.rad_per_V * s_.V0 : 0.0);  // a forward step's peak
+        if (error * direction_ > chain_from) {
           // Far away: the next full step at once. The readings lag the
           // rotor by the same amount at both ends, so the step is measured.
           learn_from_step();
@@ -88,6 +96,15 @@ double MoveController::next_voltage(double t, double dt) {
           tau < rise_time ? amplitude_ * tau / rise_time : amplitude_ * (T - tau) / (T - rise_time);
       return V_;
     }
+    case MoveState::holding:
+      if (t >= hold_until_) {
+        // The hold is over: release, and settle at 0 V as after any hold.
+        held_ = true;
+        released_from_fine_ = false;
+        set_state(MoveState::release);
+        return V_;
+      }
+      [[fallthrough]];
     case MoveState::fine:
       V_ = step_towards(V_, V_set_, lifting_ ? s_.fast_slew_V_per_s : s_.fine_slew_V_per_s, dt);
       if (lifting_ && V_ == V_set_) {
@@ -158,6 +175,10 @@ void MoveController::on_reading(double t, double displacement_m) {
     --flush_;
     return;
   }
+  if (in_step_) {
+    step_low_ = std::min(step_low_, theta_f_);
+    step_high_ = std::max(step_high_, theta_f_);
+  }
   const double error = s_.target_rad - theta_f_;
   switch (state()) {
     case MoveState::coarse:
@@ -177,7 +198,7 @@ void MoveController::on_reading(double t, double displacement_m) {
       // Held once the 8-reading mean stays within half the tolerance; a
       // noise that alone would keep it out widens the window (the settle's
       // longer mean judges the result).
-      const double noise = noise_m_.load();
+      const double noise = this->noise();
       const double filter_noise =
           noise > 0.0 ? 2.0 * noise / (std::sqrt(double{kFilter}) * s_.r2_m) : 0.0;
       const double window =
@@ -194,6 +215,9 @@ void MoveController::on_reading(double t, double displacement_m) {
     case MoveState::settle:
       settle(t, displacement_m);
       return;
+    case MoveState::holding:
+      on_hold_reading(error);
+      return;
     case MoveState::release:
     case MoveState::none:
     case MoveState::on_target:
@@ -204,7 +228,7 @@ void MoveController::on_reading(double t, double displacement_m) {
 }
 
 int MoveController::settle_readings() const {
-  const double noise = noise_m_.load();
+  const double noise = this->noise();
   if (!(noise > 0.0)) return kFilter;
   const double n = std::pow(8.0 * noise / (s_.r2_m * s_.tolerance_rad), 2.0);
   return static_cast<int>(std::clamp(std::ceil(n), double{kFilter}, double{kSettleMax}));
@@ -223,12 +247,16 @@ void MoveController::settle(double t, double displacement_m) {
   if (settle_count_ < settle_n_) return;
   const double theta = (settle_sum_ / settle_n_ - s_.zero_displacement_m) / s_.r2_m;
   const double error = s_.target_rad - theta;
-  const double noise = noise_m_.load();
+  const double noise = this->noise();
   const double interval =
       noise > 0.0 ? 2.0 * noise / (s_.r2_m * std::sqrt(static_cast<double>(settle_n_))) : 0.0;
   if (std::abs(error) + interval <= s_.tolerance_rad) {
     if (within_since_ < 0.0) within_since_ = t;
     if (t - within_since_ >= s_.settle_s) {
+      if (s_.hold_s > 0.0 && !held_) {
+        start_hold(t);
+        return;
+      }
       position_.store(theta, std::memory_order_relaxed);
       on_target_at_.store(t);
       set_state(MoveState::on_target);
@@ -256,10 +284,22 @@ void MoveController::settle(double t, double displacement_m) {
   decide(t, error);
 }
 
+double MoveController::noise() const {
+  const double measured = noise_m_.load();
+  if (std::isnan(s_.noise_prior_m)) return measured;
+  return std::isnan(measured) ? s_.noise_prior_m : std::max(measured, s_.noise_prior_m);
+}
+
 double MoveController::progress_floor() const {
-  const double noise = noise_m_.load();
+  const double noise = this->noise();
   const double averaged = std::isnan(noise) ? 0.0 : noise / std::sqrt(double{kFilter});
   return std::max(0.5 * s_.tolerance_rad, 4.0 * averaged / s_.r2_m);
+}
+
+void MoveController::begin_run_of_steps() {
+  run_steps_ = 0;
+  step_theta_[0] = theta_f_;
+  step_changes_[0] = changes_;
 }
 
 void MoveController::check_progress() {
@@ -269,6 +309,7 @@ void MoveController::check_progress() {
   ++run_steps_;
   step_theta_[slot(run_steps_)] = theta_f_;
   step_changes_[slot(run_steps_)] = changes_;
+  step_span_[slot(run_steps_)] = {step_low_, step_high_};
   const auto& table = direction_ > 0 ? s_.step_forward_rad : s_.step_reverse_rad;
   const double last_step = theta_f_ - step_theta_[slot(run_steps_ - 1)];
   if (std::abs(last_step) > s_.implausible_step_factor * table.back() + progress_floor()) {
@@ -278,15 +319,75 @@ void MoveController::check_progress() {
   if (run_steps_ < K) return;
   const int from = run_steps_ - K;
   const double progress = (theta_f_ - step_theta_[slot(from)]) * direction_;
-  if (changes_ == step_changes_[slot(from)] || progress < -progress_floor()) {
-    set_state(MoveState::sensor_implausible);  // frozen, or moving against the drive
+  // How far the angle swung within the last K steps: a rotor in contact
+  // with the stator follows its rise or is dragged back in the slip, even
+  // when blocked or stepping nowhere; a sensor that does not see it shows
+  // only its noise.
+  double low = step_theta_[slot(from)], high = low;
+  for (int i = from + 1; i <= run_steps_; ++i) {
+    low = std::min(low, step_span_[slot(i)][0]);
+    high = std::max(high, step_span_[slot(i)][1]);
+  }
+  const double swing_floor = std::max(2.0 * progress_floor(), 0.05 * s_.rad_per_V * amplitude_);
+  // Against the drive by more than half the predicted steps: a plant too
+  // stiff to slip rides the stator back a little, never that far.
+  const double against = std::max(progress_floor(), 0.5 * K * table.back());
+  if (changes_ == step_changes_[slot(from)] || high - low < swing_floor || progress < -against) {
+    set_state(MoveState::sensor_implausible);  // frozen, blind, or moving against the drive
   } else if (progress < progress_floor()) {
-    set_state(MoveState::stalled);
+    // Blocked, or a contact that does not slip at this frequency: another
+    // may step; when none is left, stalled.
+    if (try_alternative()) {
+      begin_run_of_steps();
+    } else {
+      set_state(MoveState::stalled);
+    }
+  } else if (progress < 0.25 * K * predicted_ && try_alternative()) {
+    // Progress, but far less than predicted: another frequency may do
+    // better (a stiffer contact steps at a higher one); judged afresh.
+    begin_run_of_steps();
   }
 }
 
+bool MoveController::try_alternative() {
+  if (next_alternative_ >= s_.alternative_count) return false;
+  const MoveSettings::Alternative& a =
+      s_.alternatives[static_cast<std::size_t>(next_alternative_++)];
+  s_.f = a.f;
+  s_.step_forward_rad = a.forward_rad;
+  s_.step_reverse_rad = a.reverse_rad;
+  step_scale_[0] = step_scale_[1] = 1.0;
+  f_.store(a.f);
+  return true;
+}
+
+void MoveController::start_hold(double t) {
+  // From 0 V the stator is lifted fast to the middle of the fine range
+  // (it slips under the rotor), so the servo can correct either way.
+  held_ = false;
+  hold_until_ = t + s_.hold_s;
+  hold_sum2_ = hold_abs_max_ = 0.0;
+  hold_n_ = 0;
+  aim_offset_ = 0.0;
+  lifting_ = true;
+  V_set_ = 0.5 * s_.fine_V_max;
+  set_state(MoveState::holding);
+}
+
+void MoveController::on_hold_reading(double error) {
+  if (lifting_ || V_ != V_set_) return;
+  V_set_ = std::clamp(V_set_ + kFineGain * error / s_.rad_per_V, 0.0, s_.fine_V_max);
+  hold_sum2_ += error * error;
+  hold_abs_max_ = std::max(hold_abs_max_, std::abs(error));
+  ++hold_n_;
+  hold_rms_.store(std::sqrt(hold_sum2_ / static_cast<double>(hold_n_)));
+  hold_max_.store(hold_abs_max_);
+}
+
 void MoveController::decide(double t, double error) {
-  const double fine_window = 0.5 * s_.fine_V_max * s_.rad_per_V;
+  // Forward, the fine stage raises the stator through most of its range;
+  // backward it first lifts it (with a margin) and then lowers it.
+  const double fine_window = (error > 0.0 ? 0.9 : 0.5) * s_.fine_V_max * s_.rad_per_V;
   if (std::abs(error) <= fine_window) {
     enter_fine(error);
   } else {
@@ -316,10 +417,7 @@ void MoveController::learn_from_step() {
 void MoveController::start_step(double t, double error) {
   const double direction = error > 0.0 ? 1.0 : -1.0;
   if (state() != MoveState::coarse || direction != direction_ || run_steps_ < 0) {
-    // A new run of steps: progress is judged from here.
-    run_steps_ = 0;
-    step_theta_[0] = theta_f_;
-    step_changes_[0] = changes_;
+    begin_run_of_steps();  // a new run of steps: progress is judged from here
   }
   direction_ = direction;
   const int k = error > 0.0 ? 0 : 1;
@@ -333,11 +431,18 @@ void MoveController::start_step(double t, double error) {
       fraction = lo;
     }
   }
+  if (error > 0.0) {
+    // Forward, the rotor rides the slow rise (rad_per_V per volt) before
+    // the fast fall slips the stator back under it: a step's peak stays
+    // short of the target.
+    fraction = std::clamp(error / (s_.rad_per_V * s_.V0), kMinStepFraction, fraction);
+  }
   amplitude_ = fraction * s_.V0;
   predicted_ = predicted_step(k, fraction);
   rise_ = error > 0.0 ? s_.D : 1.0 - s_.D;
   step_start_ = t;
   theta_before_ = theta_f_;
+  step_low_ = step_high_ = theta_f_;
   in_step_ = true;
   set_state(MoveState::coarse);
 }

@@ -258,23 +258,31 @@ TEST(SimRun, AMoveIntoAStalledSensorOrAnEstopStopsAtZeroVolts) {
 }
 
 // A move's protection, seen on the simulated device: a rotor that cannot
-// move (friction no drive overcomes) ends `stalled`; a sensor whose value
-// froze ends `sensor_implausible`; a sensor that sees a rotor that is not
-// driven (the angle it had, with its noise) cannot be told from a blocked
-// rotor and ends `stalled`. Each within 1 s of drive, at 0 V with the
-// amplifier disabled, the rotor no more than two steps past where the
-// failure began (before, each drove to its 10 s timeout: the blind sensor's
-// rotor ran 0.4 rad in the probe).
+// step (friction no drive overcomes, at any of the frequencies tried: it
+// rides the stator to and fro) ends
+// `stalled` once the other frequencies did no better; a sensor whose value
+// froze, and one that sees a rotor that is not driven (the angle it had,
+// with its noise: no swing at all while the stator swings), end
+// `sensor_implausible`. Each within 1 s of drive, at 0 V with the amplifier
+// disabled, the rotor no more than two steps past where the failure began
+// (before, each drove to its 10 s timeout: the blind sensor's rotor ran
+// 0.4 rad in the probe).
 TEST(SimRun, AMoveThatCannotProgressStopsAtZeroVoltsWithItsCause) {
   config::RunSettings::Move far{
       .target_rad = 0.05, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0};
   const double full_step = 1.4e-3;  // the model's at 80 V, 10 Hz (configs/sim.toml)
   for (const auto& [fault, cause] :
-       {std::pair{std::string("plant.mu=2"), std::string("stalled")},
+       {std::pair{std::string("plant.mu=2,plant.F_N=0.05"), std::string("stalled")},
         std::pair{std::string("sensor.freeze_at_s=0.3"), std::string("sensor_implausible")},
-        std::pair{std::string("sensor.blind_at_s=0.3"), std::string("stalled")}}) {
+        std::pair{std::string("sensor.blind_at_s=0.3"), std::string("sensor_implausible")}}) {
     SCOPED_TRACE(fault);
-    const Outcome o = run_virtual({fault}, -1.0, "hil-move-protect", 0, far);
+    std::vector<std::string> sets;
+    for (std::size_t at = 0; at != std::string::npos;) {
+      const std::size_t comma = fault.find(',', at);
+      sets.push_back(fault.substr(at, comma == std::string::npos ? comma : comma - at));
+      at = comma == std::string::npos ? comma : comma + 1;
+    }
+    const Outcome o = run_virtual(sets, -1.0, "hil-move-protect", 0, far);
     EXPECT_EQ(o.summary.move.at("stop_cause"), cause);
     EXPECT_EQ(o.summary.stop_cause(), cause);
     EXPECT_FALSE(o.summary.move.at("on_target").get<bool>());
@@ -294,6 +302,28 @@ TEST(SimRun, AMoveThatCannotProgressStopsAtZeroVoltsWithItsCause) {
               << " s, the rotor " << (o.rotor_theta_at_end - theta_then) * 1e3
               << " mrad past where the failure began\n";
   }
+}
+
+// A rotor against an end stop (the simulated plant's, 3 mrad out) while a
+// move asks for 50 mrad: `stalled` within 1 s of reaching it, at 0 V, the
+// rotor at the stop (it is dragged back a little in each slip: that swing
+// tells a blocked rotor from a sensor that does not see it).
+TEST(SimRun, AMoveIntoAnEndStopEndsStalled) {
+  config::RunSettings::Move far{
+      .target_rad = 0.05, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0};
+  const Outcome o = run_virtual({"plant.end_stop_rad=0.003"}, -1.0, "hil-move-end-stop", 0, far);
+  EXPECT_EQ(o.summary.move.at("stop_cause"), "stalled");
+  EXPECT_FALSE(o.amplifier_enabled_at_end);
+  EXPECT_DOUBLE_EQ(o.drive_V.back(), 0.0);
+  EXPECT_LE(o.rotor_theta_at_end, 0.003 + 1e-9);
+  double reached = -1.0;
+  for (std::size_t i = 0; i < o.sensor_t.size() && reached < 0.0; ++i) {
+    if (std::isfinite(o.theta[i]) && o.theta[i] > 0.0029) reached = o.sensor_t[i];
+  }
+  ASSERT_GE(reached, 0.0) << "the rotor never came to the stop";
+  EXPECT_LT(o.drive_t.back(), reached + 1.0) << "stopped within 1 s of reaching the stop";
+  std::cout << "end stop at 3 mrad reached at " << reached << " s; stalled at " << o.drive_t.back()
+            << " s\n";
 }
 
 // With five times the default sensor noise (2.5 um at 1 kHz: 14 urad for

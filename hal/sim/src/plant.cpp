@@ -5,8 +5,9 @@
 
 namespace piezo::hal::sim {
 
-Plant::Plant(const model::MotorParameters& motor, const AmplifierSettings& amplifier, TimeNs t0)
-    : amplifier_(amplifier), motor_(motor), rhs_(motor), t_(t0) {
+Plant::Plant(const model::MotorParameters& motor, const AmplifierSettings& amplifier, TimeNs t0,
+             double end_stop_rad)
+    : amplifier_(amplifier), motor_(motor), rhs_(motor), t_(t0), end_stop_rad_(end_stop_rad) {
   motor_.reset(to_seconds(t0), model::LuGreState{});
   publish();
 }
@@ -25,6 +26,7 @@ void Plant::advance_to(TimeNs t) {
   if (ramp_stop > t_) {
     motor_.advance({t0, V_out_, slope_}, t_ramp);
     V_out_ += slope_ * (t_ramp - t0);
+    hold_at_end_stop();
   }
   if (t > ramp_stop) {
     // A held input: integrated slice by slice while the motor moves; once
@@ -40,10 +42,23 @@ void Plant::advance_to(TimeNs t) {
       }
       const TimeNs to = std::min(t, from + kSlice);
       motor_.advance({to_seconds(from), V_out_, 0.0}, to_seconds(to));
+      hold_at_end_stop();
       from = to;
     }
   }
   t_ = t;
+}
+
+void Plant::hold_at_end_stop() {
+  // Checked at each advance (a drive period, 0.1 ms at 10 kHz): an
+  // inelastic stop, the rotor's velocity lost against it.
+  if (std::isnan(end_stop_rad_)) return;
+  model::LuGreState y = motor_.state();
+  const double beyond = (y[model::kTheta] - end_stop_rad_) * (end_stop_rad_ >= 0.0 ? 1.0 : -1.0);
+  if (beyond < 0.0) return;
+  y[model::kTheta] = end_stop_rad_;
+  y[model::kThetaDot] = 0.0;
+  motor_.reset(motor_.time(), y);
 }
 
 bool Plant::at_rest() const {

@@ -3,7 +3,7 @@
 namespace piezo::hal::sim {
 
 SimRig::SimRig(const SimRigSettings& settings, Clock& clock, TimeNs t0)
-    : plant_(settings.plant, settings.amplifier, t0),
+    : plant_(settings.plant, settings.amplifier, t0, settings.end_stop_rad),
       drive_(settings.dac, plant_, clock, t0),
       sensor_(settings.sensor, plant_, clock, t0),
       lines_(settings.lines, plant_, clock, t0) {}

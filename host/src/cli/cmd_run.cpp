@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "calibration_report.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
 #include "live_feed.hpp"
@@ -54,6 +55,9 @@ struct RunOptions {
   // `piezo move`: a closed-loop move to this angle from the board's zero.
   std::optional<double> move_to;
   config::RunSettings::Move move;
+  bool no_protect = false;
+  // `piezo calibrate`: the board's designed experiment, then the fit.
+  bool calibrate = false;
 };
 
 std::string utc_stamp(const char* format) {
@@ -236,9 +240,11 @@ void append_catalogue(const fs::path& run_dir, const std::string& utc_start,
 void show_status(const LiveStatus& st) {
   static const bool tty = isatty(STDERR_FILENO) != 0;
   static auto last_line = std::chrono::steady_clock::time_point{};
+  const double progress = st.board.value("calibration_progress", -1.0);
   const std::string line = fmt::format(
-      "t {:6.2f}/{:.2f} s  V {:5.1f} V  theta {:8.4f} mrad  residual {:6.1f} urad  sensor {} ({} "
-      "errors)  overruns {}",
+      "{}t {:6.2f}/{:.2f} s  V {:5.1f} V  theta {:8.4f} mrad  residual {:6.1f} urad  sensor {} "
+      "({} errors)  overruns {}",
+      progress >= 0.0 ? fmt::format("calibrating {:3.0f} %  ", 100.0 * progress) : std::string(),
       st.t_s, st.duration_s, st.V, 1e3 * st.theta_rad, 1e6 * st.residual_rad, st.sensor_samples,
       st.sensor_errors, st.overruns);
   if (tty) {
@@ -309,6 +315,55 @@ int exit_code(const RunSummary& summary) {
   return kExitFailed;
 }
 
+/// `piezo calibrate`'s end: the fit, the files and the board told, or why not.
+int report_calibration(const RunOptions& o, const RunSummary& summary, nlohmann::json result,
+                       const fs::path& dir, const fs::path& log_path,
+                       const config::RunConfig& config, RigClient* client) {
+  const nlohmann::json measured = summary.calibration.is_object()
+                                      ? summary.calibration.value("calibration", nlohmann::json())
+                                      : nlohmann::json();
+  if (measured.is_null() || summary.status() != "completed") {
+    const std::string why =
+        summary.calibration.is_object() && summary.calibration.at("error").is_string()
+            ? summary.calibration.at("error").get<std::string>()
+            : fmt::format("the run ended {}", summary.stop_cause());
+    result["calibration"] = nullptr;
+    result["calibration_error"] = why;
+    write_out(stdout, o.json ? result.dump() + "\n"
+                             : summary_text(summary, log_path, std::string(), nullptr));
+    write_out(stderr, fmt::format("piezo: calibration failed: {}\n", why));
+    return kExitFailed;
+  }
+  const CalibrationReport report = finish_calibration(dir, log_path, measured, config, client);
+  result["calibration"] = report.calibration;
+  result["kept"] = report.kept;
+  result["files"] = {
+      {"calibration", report.file.string()},
+      {"plot", report.plot.empty() ? nlohmann::json() : nlohmann::json(report.plot.string())},
+      {"summary", report.summary.string()}};
+  if (o.json) {
+    write_out(stdout, result.dump() + "\n");
+  } else {
+    const auto& c = report.calibration;
+    write_out(
+        stdout,
+        fmt::format("calibrated: fastest reliable step frequency {}, noise {:.3g} m, "
+                    "smallest tolerance {:.3g} rad, {:.4g} urad/V in stick{}\n"
+                    "kept {}\nsummary {}\n",
+                    c.at("fastest_f_hz").is_number()
+                        ? fmt::format("{:g} Hz", c.at("fastest_f_hz").get<double>())
+                        : std::string("none"),
+                    c.at("noise_m").get<double>(), c.at("smallest_tolerance_rad").get<double>(),
+                    1e6 * c.at("rad_per_V").get<double>(),
+                    c.at("model").is_object()
+                        ? fmt::format(", model fitted (RMSE {:.2f} urad)",
+                                      1e6 * c.at("model").at("rmse_rad").get<double>())
+                        : std::string(),
+                    report.kept, report.summary.string()));
+  }
+  return 0;
+}
+
 int run(const RunOptions& o) {
   // From here on every stopping signal ends the run through the ramp; one
   // that comes during set-up stops it before the amplifier is enabled.
@@ -339,9 +394,18 @@ int run(const RunOptions& o) {
     require(o.move.settle_s >= 0.0 && o.move.settle_s <= 10.0, "--settle", o.move.settle_s,
             "allowed: [0, 10] s");
     require(o.move.timeout_s > 0.0, "--timeout", o.move.timeout_s, "allowed: > 0 s");
+    require(o.move.hold_s >= 0.0 && o.move.hold_s < o.move.timeout_s, "--hold", o.move.hold_s,
+            "allowed: [0, --timeout) s");
     config.run.move = o.move;
     config.run.move->target_rad = *o.move_to;
+    config.run.move->protect = !o.no_protect;
+    config.run.move->V0 = o.V0;
+    config.run.move->f = o.f;
     config.run.duration_s = o.move.timeout_s;
+  }
+  if (o.calibrate) {
+    config.run.calibrate = config::RunSettings::Calibrate{o.V0};
+    config.run.duration_s = 60.0;  // the board's plan says how long; its start reply tells
   }
   if (!o.rig.empty()) config.rig.address = o.rig;
   const fs::path dir = choose_run_dir(o.out);
@@ -464,6 +528,7 @@ int run(const RunOptions& o) {
     // The log keeps the move's account (target, controller's result) too.
     nlohmann::json logged = summary_json(summary, dir, log_path, signals.received());
     if (!summary.move.is_null()) logged["move"] = summary.move;
+    if (!summary.calibration.is_null()) logged["calibration"] = summary.calibration;
     finish_log(log, summary, logged);
   }
   try {
@@ -482,6 +547,9 @@ int run(const RunOptions& o) {
              {"mean_step_rad", summary.theta_end_rad / static_cast<double>(o.step_periods)}};
     result["steps"] = steps;
   }
+  if (o.calibrate)
+    return report_calibration(o, summary, result, dir, log_path, config,
+                              client ? &*client : nullptr);
   if (o.move_to) {
     const nlohmann::json move = move_result(summary, result);
     write_out(stdout, o.json ? move.dump() + "\n"
@@ -558,13 +626,43 @@ CommandRunner add_move_command(CLI::App& app) {
                   "Rig config (TOML), as for `piezo run` (with --rig: default Table 1)")
       ->check(CLI::ExistingFile);
   cmd->add_option("--V0", o->V0, "Coarse steps' peak voltage [V] (default: [drive] V0)");
-  cmd->add_option("--f", o->f, "Coarse steps' frequency [Hz] (default: [drive] f)");
+  cmd->add_option("--f", o->f,
+                  "Coarse steps' frequency [Hz] (default: the board's calibrated fastest, else "
+                  "its [drive] f)");
+  cmd->add_option("--hold", o->move.hold_s,
+                  "Keep the fine servo on for this long once on target [s], then release to 0 V "
+                  "(default 0: release at once)");
+  cmd->add_flag("--no-protect", o->no_protect,
+                "Turn off the board's stall and sensor-plausibility checks");
+  cmd->add_option("--stall-steps", o->move.stall_steps,
+                  "Coarse steps without progress that end the move `stalled`")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 16));
   cmd->add_option("--set", o->sets, "Override a config key: SECTION.KEY=VALUE");
   cmd->add_option("--out", o->out, "Run directory (default: runs/<UTC time>)");
   cmd->add_option("--rig", o->rig, "piezod's address (default: [rig] address, or in-process)");
   cmd->add_flag("--json", o->json,
                 "Print one JSON object: position_rad, error_rad, on_target, time_s, steps, "
                 "stop_cause, ... and the run");
+  return with_view_options(cmd, o);
+}
+
+CommandRunner add_calibrate_command(CLI::App& app) {
+  auto o = std::make_shared<RunOptions>();
+  o->calibrate = true;
+  CLI::App* cmd = app.add_subcommand(
+      "calibrate",
+      "Measure the rig (steps both ways at several amplitudes and frequencies, DC holds, the "
+      "sensor's noise), fit the model, and give the board the calibration its moves use");
+  cmd->add_option("--config", o->config,
+                  "Rig config (TOML), as for `piezo run` (with --rig: default Table 1)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--V0", o->V0, "Peak voltage of the steps [V] (default: the board's [drive] V0)");
+  cmd->add_option("--set", o->sets, "Override a config key: SECTION.KEY=VALUE");
+  cmd->add_option("--out", o->out, "Run directory (default: runs/<UTC time>)");
+  cmd->add_option("--rig", o->rig, "piezod's address (default: [rig] address, or in-process)");
+  cmd->add_flag("--json", o->json,
+                "Print one JSON object: the calibration, where it is kept, files");
   return with_view_options(cmd, o);
 }
 

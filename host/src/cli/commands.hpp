@@ -20,6 +20,7 @@ CommandRunner add_sweep_command(CLI::App& app);
 CommandRunner add_run_command(CLI::App& app);
 CommandRunner add_step_command(CLI::App& app);
 CommandRunner add_move_command(CLI::App& app);
+CommandRunner add_calibrate_command(CLI::App& app);
 CommandRunner add_view_command(CLI::App& app);
 CommandRunner add_report_command(CLI::App& app);
 CommandRunner add_recover_command(CLI::App& app);

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
       piezo::host::add_simulate_command(app), piezo::host::add_sensitivity_command(app),
       piezo::host::add_sweep_command(app),    piezo::host::add_run_command(app),
       piezo::host::add_step_command(app),     piezo::host::add_move_command(app),
+      piezo::host::add_calibrate_command(app),
       piezo::host::add_view_command(app),     piezo::host::add_report_command(app),
       piezo::host::add_recover_command(app),  piezo::host::add_sensor_command(app),
       piezo::host::add_rig_sim_command(app),  piezo::host::add_identify_command(app),

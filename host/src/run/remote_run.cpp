@@ -1,6 +1,7 @@
 #include "remote_run.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <chrono>
 #include <optional>
@@ -137,20 +138,55 @@ json configure_args(const config::RunConfig& c) {
           {"duration_s", c.run.duration_s}};
 }
 
+/// The observer's model: the config's, with the parameters the board's
+/// calibration fitted (its `model`) in their place; the log says which.
+model::MotorParameters observer_model(const config::RunConfig& c, const json& hello, RunLog& log) {
+  model::Parameters p{c.model.drive, c.model.motor};
+  const json cal = hello.value("calibration", json());
+  if (!cal.is_object() || !cal.value("model", json()).is_object()) return p.motor;
+  std::vector<std::string> used;
+  const json parameters = cal.at("model").value("parameters", json::object());
+  for (const auto& [name, value] : parameters.items()) {
+    const model::ParameterSpec* spec = model::find_parameter(name);
+    if (spec == nullptr || spec->section != "model" || !value.is_number() ||
+        !spec->admits(value.get<double>())) {
+      continue;
+    }
+    spec->ref(p) = value.get<double>();
+    used.push_back(fmt::format("{} = {:.6g}", name, value.get<double>()));
+  }
+  if (!used.empty()) {
+    log.set_attribute("observer_model",
+                      fmt::format("the board's calibration of {}: {}",
+                                  cal.value("created", std::string("?")), fmt::join(used, ", ")));
+  }
+  return p.motor;
+}
+
 /// `start`, or for `piezo step` the protocol's `step`: the board runs whole periods.
 json start_remote(const config::RunConfig& c, RigClient& client, std::optional<double> lease) {
   if (c.run.move) {
     const auto& d = c.model.drive;
-    json args{{"target_rad", c.run.move->target_rad},
-              {"tolerance_rad", c.run.move->tolerance_rad},
-              {"settle_s", c.run.move->settle_s},
-              {"timeout_s", c.run.move->timeout_s},
-              {"V0", d.V0},
-              {"f", d.f},
+    const auto& m = *c.run.move;
+    json args{{"target_rad", m.target_rad},
+              {"tolerance_rad", m.tolerance_rad},
+              {"settle_s", m.settle_s},
+              {"timeout_s", m.timeout_s},
+              {"hold_s", m.hold_s},
+              {"protect", m.protect},
+              {"stall_steps", m.stall_steps},
               {"C_dr", d.C_dr},
               {"e_dr", d.e_dr}};
+    if (m.V0) args["V0"] = *m.V0;
+    if (m.f) args["f"] = *m.f;
     if (lease) args["lease_s"] = *lease;
     return client.call("move_to", args);
+  }
+  if (c.run.calibrate) {
+    json args = json::object();
+    if (c.run.calibrate->V0) args["V0"] = *c.run.calibrate->V0;
+    if (lease) args["lease_s"] = *lease;
+    return client.call("calibrate", args);
   }
   if (c.run.step_periods == 0) {
     return client.call("start", lease ? json{{"lease_s", *lease}} : json::object());
@@ -214,7 +250,8 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
 
   std::optional<ObserverStage> observer;
   if (c.observer.enabled) {
-    observer.emplace(c.model.motor, c.observer.gains, 1.0 / hello.at("drive_rate_hz").get<double>(),
+    observer.emplace(observer_model(c, hello, log), c.observer.gains,
+                     1.0 / hello.at("drive_rate_hz").get<double>(),
                      hello.at("output_latency_s").get<double>());
   }
   SampleCollector collector(t0, c.sensor.r2_m, observer ? &*observer : nullptr);
@@ -275,7 +312,11 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
       }  // tried again on the next turn
     }
     const bool ready = poll_in(client.stream(), 5ms);
-    for (int i = 0; i < 256 && ready; ++i) {
+    // Frames are drained until the lease is due, never past it: with the
+    // observer on, a virtual-clock board's backlog (up to 20 s of samples)
+    // took the loop longer than a lease to work through, and the board
+    // stopped a run the host was following with link_lost.
+    for (int i = 0; i < 256 && ready && SteadyClock::now() - last_lease < lease_period; ++i) {
       std::vector<zmq::message_t> parts;
       if (!zmq::recv_multipart(client.stream(), std::back_inserter(parts),
                                zmq::recv_flags::dontwait) ||
@@ -345,7 +386,8 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
     if (on_status && now - last_status >= kStatusPeriod) {
       const json sensor = health.value("sensor", json::object());
       const json drive = health.value("drive", json::object());
-      on_status({collector.last_t(), c.run.duration_s, collector.last_V(), collector.last_theta(),
+      on_status({collector.last_t(), started.value("duration_s", c.run.duration_s),
+                 collector.last_V(), collector.last_theta(),
                  observer ? observer->summary().last_residual_rad : 0.0, cursor.sensor_next(),
                  sensor.value("errors", std::uint64_t{0}),
                  drive.value("overruns", std::uint64_t{0}), health,
@@ -403,6 +445,10 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
       summary.t_end_s > 0.0 ? summary.theta_end_rad / summary.t_end_s : 0.0;
   summary.realtime_notes = board.value("realtime", std::vector<std::string>{});
   if (board.contains("move")) summary.move = board.at("move");
+  if (board.contains("calibration")) {
+    summary.calibration = {{"calibration", board.at("calibration")},
+                           {"error", board.value("calibration_error", json())}};
+  }
   if (!client.address().starts_with("inproc://")) {
     summary.realtime_notes.push_back("board " + client.address());
   }

@@ -21,6 +21,11 @@ std::string RunSummary::stop_cause() const {
   if (cause == firmware::StopCause::completed && move.is_object() && move.contains("stop_cause")) {
     return move.at("stop_cause").get<std::string>();
   }
+  // A calibration that ran to its end but gave none the board could keep.
+  if (cause == firmware::StopCause::completed && calibration.is_object() &&
+      calibration.at("calibration").is_null()) {
+    return "calibration_unusable";
+  }
   return std::string(firmware::to_string(cause));
 }
 
@@ -34,7 +39,8 @@ std::string RunSummary::status() const {
   if (!host_error.empty()) return "failed";
   switch (cause) {
     case firmware::StopCause::completed:
-      return stop_cause() == "timeout" ? "failed" : "completed";
+      return stop_cause() == "timeout" || stop_cause() == "calibration_unusable" ? "failed"
+                                                                                 : "completed";
     case firmware::StopCause::interrupted:
       return "interrupted";
     default:

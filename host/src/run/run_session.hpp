@@ -45,6 +45,8 @@ struct RunSummary {
   std::string host_error;          ///< why the host side failed (the log), if it did
   bool board_gone = false;         ///< the board fell silent for good; its end is unknown
   nlohmann::json move;             ///< a closed-loop move's result, as the board reported it
+  /// A calibration's result: {calibration (null when none was installed), error}.
+  nlohmann::json calibration;
 
   /// "completed", "interrupted" or "failed" (a host failure fails the run).
   [[nodiscard]] std::string status() const;

@@ -29,6 +29,7 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <limits>
 
 #include "piezo/firmware/drive_program.hpp"
 #include "piezo/firmware/position_feed.hpp"
@@ -44,6 +45,7 @@ enum class MoveState : std::uint8_t {
   on_target = 5,
   stalled = 6,             ///< no progress over stall_steps steps: the run stops
   sensor_implausible = 7,  ///< readings no driven rotor gives: the run stops
+  holding = 8,             ///< on target, the fine servo kept on for hold_s
 };
 
 [[nodiscard]] const char* to_string(MoveState s);
@@ -70,6 +72,21 @@ struct MoveSettings {
   double fine_V_max = 64.0;           ///< the fine hold's range is [0, fine_V_max]
   double fine_slew_V_per_s = 400.0;   ///< slow enough for the rotor to stick
   double fast_slew_V_per_s = 8000.0;  ///< lift and release: the stator slips under the rotor
+  /// Other step frequencies to try when the steps come out far smaller
+  /// than predicted (fastest first; from a calibration or the model).
+  struct Alternative {
+    double f = 0.0;
+    std::array<double, 6> forward_rad{}, reverse_rad{};
+  };
+  static constexpr int kMaxAlternatives = 3;
+  std::array<Alternative, kMaxAlternatives> alternatives{};
+  int alternative_count = 0;
+  /// The sensor's noise as a calibration measured it [m] (NaN: none); the
+  /// controller uses the larger of it and what it measures at rest.
+  double noise_prior_m = std::numeric_limits<double>::quiet_NaN();
+  /// After on target: keep the fine servo on for this long [s] (against
+  /// drift), then release to 0 V and settle again; 0: release at once.
+  double hold_s = 0.0;
   /// Stall and plausibility checks (see the file's comment); off: a move
   /// that cannot progress drives until its timeout.
   bool protect = true;
@@ -104,6 +121,14 @@ class MoveController final : public DriveProgram {
   /// The sensor's noise measured at rest before the first step [m, one
   /// standard deviation of a reading] (NaN until measured).
   [[nodiscard]] double noise_m() const { return noise_m_.load(); }
+  /// The frequency the coarse steps use now (changes when the steps come
+  /// out far smaller than predicted and another frequency is tried).
+  [[nodiscard]] double f_hz() const { return f_.load(); }
+  /// The active hold's error: root mean square and largest magnitude of the
+  /// averaged angle's distance from the target while holding [rad] (NaN:
+  /// no hold).
+  [[nodiscard]] double hold_rms_error_rad() const { return hold_rms_.load(); }
+  [[nodiscard]] double hold_max_error_rad() const { return hold_max_.load(); }
 
  private:
   static constexpr int kFilter = 8;          ///< readings averaged: noise / sqrt(8)
@@ -122,6 +147,7 @@ class MoveController final : public DriveProgram {
   void enter_fine(double error);
   /// At each coarse step's end: progress and plausibility (see protection).
   void check_progress();
+  void begin_run_of_steps();
   /// Progress below this is none [rad]: what the averaged readings' noise allows.
   [[nodiscard]] double progress_floor() const;
   /// Readings whose mean settles: enough that twice its standard deviation
@@ -129,6 +155,12 @@ class MoveController final : public DriveProgram {
   [[nodiscard]] int settle_readings() const;
   void settle(double t, double displacement_m);
   void set_state(MoveState s) { state_.store(s, std::memory_order_relaxed); }
+  /// The noise the settle and the checks use: measured, or the calibration's if larger.
+  [[nodiscard]] double noise() const;
+  /// Steps far smaller than predicted: the next alternative frequency.
+  [[nodiscard]] bool try_alternative();
+  void start_hold(double t);
+  void on_hold_reading(double error);
 
   MoveSettings s_;
   const PositionFeed& feed_;
@@ -161,7 +193,15 @@ class MoveController final : public DriveProgram {
   std::uint64_t changes_ = 0;
   std::array<double, MoveSettings::kMaxStallSteps + 1> step_theta_{};
   std::array<std::uint64_t, MoveSettings::kMaxStallSteps + 1> step_changes_{};
+  /// The lowest and highest averaged angle during each step.
+  std::array<std::array<double, 2>, MoveSettings::kMaxStallSteps + 1> step_span_{};
+  double step_low_ = 0.0, step_high_ = 0.0;
   int run_steps_ = -1;  ///< steps in the current run (-1: none begun)
+  int next_alternative_ = 0;
+  // active hold
+  bool held_ = false;
+  double hold_until_ = 0.0, hold_sum2_ = 0.0, hold_abs_max_ = 0.0;
+  std::uint64_t hold_n_ = 0;
 
   std::atomic<MoveState> state_{MoveState::coarse};
   std::atomic<double> zero_m_;
@@ -169,6 +209,9 @@ class MoveController final : public DriveProgram {
   std::atomic<double> position_;
   std::atomic<std::uint32_t> steps_{0};
   std::atomic<double> on_target_at_;
+  std::atomic<double> f_;
+  std::atomic<double> hold_rms_;
+  std::atomic<double> hold_max_;
 };
 
 }  // namespace piezo::firmware

@@ -40,6 +40,7 @@ class LuGreIntegrator {
   }
 
   [[nodiscard]] const LuGreState& state() const { return y_; }
+  [[nodiscard]] double time() const { return t_; }
 
  private:
   static LuGreState scaled_atol(const MotorParameters& p, double tolerance) {

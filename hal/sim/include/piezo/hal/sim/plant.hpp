@@ -37,7 +37,9 @@ struct PlantSnapshot {
 
 class Plant {
  public:
-  Plant(const model::MotorParameters& motor, const AmplifierSettings& amplifier, TimeNs t0);
+  /// `end_stop_rad`: the rotor stops dead at this angle (NaN: no stop).
+  Plant(const model::MotorParameters& motor, const AmplifierSettings& amplifier, TimeNs t0,
+        double end_stop_rad = std::numeric_limits<double>::quiet_NaN());
 
   /// Sets the amplifier's input [V] from time t on; the motor is first
   /// advanced to t under the previous input. Single writer (the drive thread).
@@ -63,6 +65,8 @@ class Plant {
   /// True when the motor is at rest under the held output (an idle gap can be skipped).
   [[nodiscard]] bool at_rest() const;
   void start_ramp();
+  /// A rotor at or past the end stop is held there, at rest.
+  void hold_at_end_stop();
   void publish();
   [[nodiscard]] double output_target() const;
 
@@ -70,6 +74,7 @@ class Plant {
   model::LuGreIntegrator motor_;
   model::LuGreMotor rhs_;  ///< the same motor's equations, for the at-rest check
   TimeNs t_;
+  double end_stop_rad_;
   double V_in_ = 0.0;
   double V_out_ = 0.0;
   double slope_ = 0.0;   // of the output's ramp towards its target [V/s]

@@ -4,6 +4,8 @@
 /// the DAC that drives it, the sensor that watches it and the lines that
 /// enable it. The three share the plant, so they are built together here.
 
+#include <limits>
+
 #include "piezo/hal/clock.hpp"
 #include "piezo/hal/sim/plant.hpp"
 #include "piezo/hal/sim/sim_drive.hpp"
@@ -19,6 +21,9 @@ struct SimRigSettings {
   DacSettings dac;
   SimSensorSettings sensor;
   SimLinesSettings lines;
+  /// An end stop the rotor cannot pass, at this angle from where it starts
+  /// (NaN: none); for tests of a blocked rotor.
+  double end_stop_rad = std::numeric_limits<double>::quiet_NaN();
 };
 
 class SimRig {
