@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <filesystem>
@@ -639,8 +640,22 @@ json Daemon::move_to(const std::string& client, const json& args) {
     throw out_of_limits(
         "hold_s", fmt::format("{:g} s; allowed: [0, timeout_s = {:g}) s", m.hold_s, timeout_s));
   }
+  // At rest before the move: the board's zero when it has none (the frame
+  // of the target, and of the log's angles), and the sensor's noise when
+  // no calibration gives it.
+  const AtRest rest = !zero_displacement_m_ || !calibration_ ? read_at_rest(2 * kZeroReadings)
+                                                             : AtRest{};
+  if (!zero_displacement_m_ && rest.good >= 4) {
+    zero_displacement_m_ = rest.mean_m;
+    log_event(fmt::format("zero set at {:.9g} m (the mean of {} readings at rest before a move)",
+                          rest.mean_m, rest.good));
+  }
+  const std::optional<double> noise =
+      calibration_ ? std::optional(calibration_->at("noise_m").get<double>())
+      : rest.good >= 4 ? std::optional(rest.stddev_m)
+                       : std::nullopt;
   // A tolerance finer than the sensor resolves would never be reached.
-  if (const auto noise = noise_for_move()) {
+  if (noise) {
     const double smallest = smallest_tolerance_rad(*noise, board_.sensor.r2_m);
     if (m.tolerance_rad < smallest) {
       throw out_of_limits(
@@ -727,6 +742,7 @@ json Daemon::move_to(const std::string& client, const json& args) {
   started["protect"] = m.protect;
   started["stall_steps"] = m.stall_steps;
   started["hold_s"] = m.hold_s;
+  started["zero_displacement_m"] = zero_before ? json(m.zero_displacement_m) : json(nullptr);
   started["calibrated"] = calibrated;
   for (const char* key : {"V0", "f", "C_dr", "e_dr"}) started[key] = configure_args.at(key);
   run_->move_takes_its_zero = !zero_before;
@@ -816,13 +832,6 @@ void Daemon::install_calibration(json c) {
       calibration_->at("noise_m").get<double>(), kept));
 }
 
-std::optional<double> Daemon::noise_for_move() {
-  if (calibration_) return calibration_->at("noise_m").get<double>();
-  const AtRest r = read_at_rest(2 * kZeroReadings);
-  if (r.good < 4) return std::nullopt;  // the move's own checks see to a sensor that fails
-  return r.stddev_m;
-}
-
 std::optional<double> Daemon::read_at_rest() {
   const AtRest r = read_at_rest(kZeroReadings);
   if (r.good == 0) return std::nullopt;
@@ -834,29 +843,42 @@ Daemon::AtRest Daemon::read_at_rest(std::size_t n) {
   clock.add_sleeper();  // the virtual clock schedules the threads it knows of
   const hal::TimeNs period = hal::from_seconds(1.0 / board_.sensor.rate_hz());
   hal::TimeNs next = clock.now();
-  double sum = 0.0, sum2 = 0.0;
-  int good = 0;
-  for (std::size_t i = 0; i < n; ++i, next += period) {
+  std::vector<double> readings;
+  // The first readings after an idle gap may be the sensor's last ones
+  // from before it (a simulated sensor's, measured 37 um off after a run of
+  // steps): skipped.
+  constexpr std::size_t kSkipped = 2;
+  for (std::size_t i = 0; i < n + kSkipped; ++i, next += period) {
     clock.sleep_until(next);
     // 0 V again (the output holds it anyway, the amplifier is off): a
     // simulated plant advances only at a write, so the reading sees the
     // rotor at its time, not extrapolated from the stop.
     (void)rig_.drive->write(0.0);
     const hal::DisplacementReading r = rig_.sensor->read();
-    if (r.status != hal::Status::ok || !std::isfinite(r.displacement_m)) continue;
-    sum += r.displacement_m;
-    sum2 += r.displacement_m * r.displacement_m;
-    ++good;
+    if (i < kSkipped || r.status != hal::Status::ok || !std::isfinite(r.displacement_m)) continue;
+    readings.push_back(r.displacement_m);
     recent_readings_.push_back(r.displacement_m);
     if (recent_readings_.size() > kZeroReadings) recent_readings_.pop_front();
   }
   clock.remove_sleeper();
   AtRest r;
-  r.good = good;
-  if (good == 0) return r;
-  r.mean_m = sum / good;
-  if (good > 1) {
-    r.stddev_m = std::sqrt(std::max(0.0, sum2 / good - r.mean_m * r.mean_m) * good / (good - 1.0));
+  r.good = static_cast<int>(readings.size());
+  if (readings.empty()) return r;
+  double sum = 0.0;
+  for (const double d : readings) sum += d;
+  r.mean_m = sum / static_cast<double>(readings.size());
+  if (readings.size() > 2) {
+    // The noise from successive differences, by their median: a rotor
+    // still creeping or one odd reading does not pass for noise.
+    std::vector<double> steps;
+    for (std::size_t i = 1; i < readings.size(); ++i) {
+      steps.push_back(std::abs(readings[i] - readings[i - 1]));
+    }
+    std::nth_element(steps.begin(), steps.begin() + static_cast<long>(steps.size() / 2),
+                     steps.end());
+    // For Gaussian noise the difference of two readings has sigma*sqrt(2),
+    // and its absolute value's median is 0.6745 of that.
+    r.stddev_m = steps[steps.size() / 2] / (0.6745 * std::sqrt(2.0));
   }
   return r;
 }

@@ -87,9 +87,6 @@ class Daemon {
   nlohmann::json set_calibration(const std::string& client, const nlohmann::json& args);
   /// Installs a checked calibration and keeps it in the board's file.
   void install_calibration(nlohmann::json c);
-  /// The sensor's noise for a move's tolerance check [m]: the calibration's,
-  /// else measured now at rest.
-  [[nodiscard]] std::optional<double> noise_for_move();
   nlohmann::json set_zero(const std::string& client);
   nlohmann::json position_json() const;
   nlohmann::json move_json(const Run& run) const;

@@ -114,6 +114,29 @@ TEST_F(Piezod, AnIndependentPythonClientRunsFromTheProtocolDocument) {
   EXPECT_EQ(status().at("state"), "idle");  // the malformed input did not stop the daemon
 }
 
+// Calibrate, then move, by a client written from the protocol document
+// alone (on the virtual clock); the board keeps the calibration in its
+// [piezod] calibration_file and has it again after a restart.
+TEST_F(Piezod, AnIndependentClientCalibratesThenMovesAndTheBoardKeepsIt) {
+  const fs::path kept = fresh_temp_dir("calibration-file") / "calibration.json";
+  const std::string keep = "calibration_file = \"" + kept.string() + "\"\n";
+  start(keep, {"--set", "run.clock=virtual"});
+  const auto r = run_command("/usr/bin/python3 " + kSource +
+                             "/tests/protocol/calibrate_client.py " + address_);
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err << log();
+  EXPECT_EQ(r.out.substr(0, 3), "ok ") << r.out;
+  ASSERT_TRUE(fs::exists(kept));
+  const nlohmann::json before = status().at("calibration");
+  ASSERT_TRUE(before.is_object());
+  daemon_.reset();  // the board goes down
+  start(keep, {"--set", "run.clock=virtual"});
+  EXPECT_EQ(status().at("calibration"), before);
+  const auto text = run_command(kPiezo + " status --rig " + address_);
+  EXPECT_NE(text.out.find("calibrated " + before.at("created").get<std::string>()),
+            std::string::npos)
+      << text.out;
+}
+
 // The host dies mid-run: nothing renews the lease, and the board ramps to
 // 0 V, disables and latches link_lost by itself. Checked on the board's
 // recorder: the drive's own samples, as the simulated drive acknowledged.

@@ -40,6 +40,20 @@ std::string status_text(const nlohmann::json& s) {
                        1e3 * s.at("position").at("position_rad").get<double>());
   }
   out += fmt::format("controlled {}\n", s.at("controlled").get<bool>() ? "yes" : "no");
+  const nlohmann::json cal = s.value("calibration", nlohmann::json());
+  if (cal.is_object()) {
+    const nlohmann::json& fastest = cal.at("fastest_f_hz");
+    out += fmt::format("calibrated {}: steps fastest at {}, noise {:.3g} m, smallest tolerance "
+                       "{:.3g} rad{}\n",
+                       cal.at("created").get<std::string>(),
+                       fastest.is_number() ? fmt::format("{:g} Hz", fastest.get<double>())
+                                           : std::string("(none reliable)"),
+                       cal.at("noise_m").get<double>(),
+                       cal.at("smallest_tolerance_rad").get<double>(),
+                       cal.at("model").is_object() ? ", model fitted" : "");
+  } else {
+    out += "calibrated no (piezo calibrate --rig ADDRESS)\n";
+  }
   return out;
 }
 

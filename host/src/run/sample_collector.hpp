@@ -18,11 +18,15 @@ using firmware::DriveSample;
 using firmware::SensorSample;
 
 /// Turns ring samples into log columns; theta is the displacement change
-/// since the first good reading over r2 (MODEL.md section 4).
+/// from the zero (the board's, for a move; else the first good reading)
+/// over r2 (MODEL.md section 4).
 class SampleCollector {
  public:
-  SampleCollector(hal::TimeNs t0, double r2, ObserverStage* observer)
-      : t0_(t0), r2_(r2), observer_(observer) {}
+  /// `zero_m`: the displacement the angle is measured from (a move's: the
+  /// board's zero); NaN: the first good reading.
+  SampleCollector(hal::TimeNs t0, double r2, ObserverStage* observer,
+                  double zero_m = std::numeric_limits<double>::quiet_NaN())
+      : t0_(t0), r2_(r2), observer_(observer), tare_(zero_m) {}
 
   void add(const DriveSample& s) {
     if (s.status != hal::Status::ok) ++drive_errors_[std::string(hal::to_string(s.status))];
@@ -81,7 +85,7 @@ class SampleCollector {
   hal::TimeNs t0_;
   double r2_;
   ObserverStage* observer_;
-  double tare_ = std::numeric_limits<double>::quiet_NaN();
+  double tare_;
   double last_theta_ = 0.0, last_good_t_ = 0.0, last_V_ = 0.0, last_t_ = 0.0;
   double received_s_ = std::numeric_limits<double>::quiet_NaN();
   LogRows rows_;

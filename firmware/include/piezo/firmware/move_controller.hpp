@@ -3,8 +3,11 @@
 /// A closed-loop move to a target angle, run by the drive loop at the
 /// sensor's rate (a DriveProgram):
 /// - coarse: whole stick-slip steps toward the target, forward or reverse,
-///   their amplitude cut near the target; the step per volt starts from the
-///   model's prediction and is corrected from each measured step;
+///   their amplitude cut near the target; the step per volt starts from a
+///   calibration's table or the model's prediction and is corrected from
+///   each measured step; forward, the amplitude is also held to the
+///   distance left over the angle per volt, so the rotor riding the slow
+///   rise stops short of the target;
 /// - fine: inside one step, the stator held at a DC voltage (in stick the
 ///   rotor moves with it: sub-step resolution), integral control on the
 ///   measured angle; a target behind the rotor is reached by first lifting
@@ -13,17 +16,21 @@
 ///   rotor and the rotor stays (what the release moves it is learnt and
 ///   aimed off the next time);
 /// - settle: "on target" only once the mean of as many readings as the
-///   sensor's noise asks for (measured at rest before the first step) lies,
-///   with its confidence interval, within the tolerance for settle_s at 0 V,
-///   so neither oscillating through the target nor the noise counts; a mean
-///   clearly outside starts the stages again. The move then ends at 0 V.
-/// - protection: the sensor's noise is measured at rest before the first
-///   step; every `stall_steps` coarse steps the measured progress toward the
-///   target is checked against that noise floor. None (a rotor at an end
-///   stop, or a sensor that sees a rotor at rest): `stalled`. Readings that
-///   do not change at all while driving (a frozen sensor), that move against
-///   the drive, or a step far beyond the model's (not this rotor):
-///   `sensor_implausible`. Either ends the run at 0 V with that cause.
+///   sensor's noise asks for (measured at rest before the first step, or a
+///   calibration's if larger) lies, with its confidence interval, within
+///   the tolerance for settle_s at 0 V, so neither oscillating through the
+///   target nor the noise counts; a mean clearly outside starts the stages
+///   again. The move then ends at 0 V;
+/// - holding (hold_s > 0, once): on target, the fine servo kept on from the
+///   middle of its range for hold_s, then release and settle again;
+/// - protection: every `stall_steps` coarse steps the measured progress
+///   toward the target is checked against the noise floor. Readings that
+///   do not change at all (a frozen sensor), that do not swing while the
+///   stator swings (a sensor that does not see the rotor), that move far
+///   against the drive, or a step far beyond the predicted one:
+///   `sensor_implausible`. No progress, or far less than predicted: the
+///   next alternative frequency; none left and no progress: `stalled`.
+///   Either ends the run at 0 V with that cause.
 /// Everything happens inside next_voltage(): no allocation, lock or throw.
 
 #include <array>
