@@ -173,6 +173,8 @@ void read_safety(SectionReader r, firmware::SafetySettings& s) {
   r.number("ramp_down_V_per_s", s.ramp_down_V_per_s, kPositive, "V/s");
   r.number("stop_confirm_s", s.stop_confirm_s, {0.01, 30.0}, "s");
   r.number("travel_min_rad", s.travel_min_rad, {-10.0, 10.0}, "rad");
+  r.flag("protect_runs", s.protect_runs);
+  r.integer("stall_periods", s.stall_periods, 1, 16);
   r.number("travel_max_rad", s.travel_max_rad, {-10.0, 10.0}, "rad");
   r.finish();
 }

@@ -125,7 +125,8 @@ struct Daemon::Run {
   firmware::PositionFeed feed;                     ///< the acquire loop's readings, for a move
   std::unique_ptr<firmware::MoveController> move;  ///< a closed-loop move's program, if it is one
   std::unique_ptr<firmware::CalibrationProgram> calibration;  ///< the calibration's, if it is one
-  bool move_takes_its_zero = false;  ///< the board had no zero when it began
+  std::unique_ptr<firmware::RunGuard> guard;  ///< a plain run's, with [safety] protect_runs
+  bool move_takes_its_zero = false;           ///< the board had no zero when it began
   /// Measured after the run, at 0 V: the position a finished move reports
   /// (the controller's last reading came before the stop's ramp).
   std::optional<double> final_displacement_m;
@@ -531,6 +532,23 @@ json Daemon::start(const std::string& client, const json& args, const Program& p
         std::make_unique<firmware::CalibrationProgram>(*program.calibration, run->feed);
     run->runner = std::make_unique<firmware::LoopRunner>(settings, *run->calibration, devices,
                                                          &run->remote, &run->feed);
+  } else if (board_.safety.protect_runs) {
+    firmware::RunGuardSettings g;
+    g.periods = board_.safety.stall_periods;
+    g.f = run->request.drive.f;
+    g.direction = run->request.drive.direction == model::Direction::forward ? 1.0 : -1.0;
+    g.r2_m = board_.sensor.r2_m;
+    const double rad_per_V = calibration_ ? calibration_->at("rad_per_V").get<double>()
+                                          : board_.model.motor.d_e / board_.model.motor.r;
+    g.stroke_rad = rad_per_V * run->request.drive.V0;
+    // The noise at rest, measured now (a few readings before the drive
+    // starts), or the calibration's if larger.
+    const AtRest rest = read_at_rest(2 * kZeroReadings);
+    g.noise_m = std::max(rest.good >= 4 ? rest.stddev_m : 0.0,
+                         calibration_ ? calibration_->at("noise_m").get<double>() : 0.0);
+    run->guard = std::make_unique<firmware::RunGuard>(run->waveform, g, run->feed);
+    run->runner = std::make_unique<firmware::LoopRunner>(settings, *run->guard, devices,
+                                                         &run->remote, &run->feed);
   } else {
     run->runner = std::make_unique<firmware::LoopRunner>(settings, run->waveform, devices,
                                                          &run->remote, &run->feed);
@@ -643,17 +661,17 @@ json Daemon::move_to(const std::string& client, const json& args) {
   // At rest before the move: the board's zero when it has none (the frame
   // of the target, and of the log's angles), and the sensor's noise when
   // no calibration gives it.
-  const AtRest rest = !zero_displacement_m_ || !calibration_ ? read_at_rest(2 * kZeroReadings)
-                                                             : AtRest{};
+  const AtRest rest =
+      !zero_displacement_m_ || !calibration_ ? read_at_rest(2 * kZeroReadings) : AtRest{};
   if (!zero_displacement_m_ && rest.good >= 4) {
     zero_displacement_m_ = rest.mean_m;
     log_event(fmt::format("zero set at {:.9g} m (the mean of {} readings at rest before a move)",
                           rest.mean_m, rest.good));
   }
-  const std::optional<double> noise =
-      calibration_ ? std::optional(calibration_->at("noise_m").get<double>())
-      : rest.good >= 4 ? std::optional(rest.stddev_m)
-                       : std::nullopt;
+  const std::optional<double> noise = calibration_
+                                          ? std::optional(calibration_->at("noise_m").get<double>())
+                                      : rest.good >= 4 ? std::optional(rest.stddev_m)
+                                                       : std::nullopt;
   // A tolerance finer than the sensor resolves would never be reached.
   if (noise) {
     const double smallest = smallest_tolerance_rad(*noise, board_.sensor.r2_m);

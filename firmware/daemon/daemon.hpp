@@ -22,6 +22,7 @@
 #include "piezo/firmware/calibration_program.hpp"
 #include "piezo/firmware/loop_runner.hpp"
 #include "piezo/firmware/move_controller.hpp"
+#include "piezo/firmware/run_guard.hpp"
 #include "piezo/model/waveform.hpp"
 #include "recorder.hpp"
 #include "rig.hpp"

@@ -176,8 +176,11 @@ void MoveController::on_reading(double t, double displacement_m) {
     return;
   }
   if (in_step_) {
-    step_low_ = std::min(step_low_, theta_f_);
-    step_high_ = std::max(step_high_, theta_f_);
+    // The raw readings' extremes: a mean of 8 would smooth away the swing
+    // of steps shorter than 8 readings (40 Hz with a 200 Hz sensor).
+    const double theta = (displacement_m - s_.zero_displacement_m) / s_.r2_m;
+    step_low_ = std::min(step_low_, theta);
+    step_high_ = std::max(step_high_, theta);
   }
   const double error = s_.target_rad - theta_f_;
   switch (state()) {
@@ -312,7 +315,11 @@ void MoveController::check_progress() {
   step_span_[slot(run_steps_)] = {step_low_, step_high_};
   const auto& table = direction_ > 0 ? s_.step_forward_rad : s_.step_reverse_rad;
   const double last_step = theta_f_ - step_theta_[slot(run_steps_ - 1)];
-  if (std::abs(last_step) > s_.implausible_step_factor * table.back() + progress_floor()) {
+  // No step of a stick-slip motor goes far beyond the stator's stroke,
+  // whatever the prediction (the model may predict almost none at V0).
+  const double largest =
+      std::max(s_.implausible_step_factor * table.back(), 2.0 * s_.rad_per_V * s_.V0);
+  if (std::abs(last_step) > largest + progress_floor()) {
     set_state(MoveState::sensor_implausible);  // far more than any step of this motor
     return;
   }
@@ -328,7 +335,10 @@ void MoveController::check_progress() {
     low = std::min(low, step_span_[slot(i)][0]);
     high = std::max(high, step_span_[slot(i)][1]);
   }
-  const double swing_floor = std::max(2.0 * progress_floor(), 0.05 * s_.rad_per_V * amplitude_);
+  // Pure noise spans about 5 standard deviations over a few hundred
+  // readings; a rotor in contact swings by a good part of the stroke.
+  const double noise_rad = std::isnan(noise()) ? 0.0 : noise() / s_.r2_m;
+  const double swing_floor = std::max(8.0 * noise_rad, 0.05 * s_.rad_per_V * amplitude_);
   // Against the drive by more than half the predicted steps: a plant too
   // stiff to slip rides the stator back a little, never that far.
   const double against = std::max(progress_floor(), 0.5 * K * table.back());

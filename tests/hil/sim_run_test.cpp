@@ -326,6 +326,45 @@ TEST(SimRun, AMoveIntoAnEndStopEndsStalled) {
             << " s\n";
 }
 
+// With [safety] protect_runs a plain run is watched as a move's steps are,
+// period by period: a sensor that stops seeing the rotor ends it
+// `sensor_implausible`, a rotor that cannot step `stalled`, each within
+// 1 s of drive at 0 V with the amplifier disabled, the rotor no more than
+// two steps past the failure; an ordinary run and steps complete.
+TEST(SimRun, APlainRunWithProtectionStopsOnABlindSensorOrAStuckRotor) {
+  const std::string on = "safety.protect_runs=true";
+  EXPECT_EQ(run_virtual({on, "run.duration_s=1"}).summary.stop_cause(), "completed");
+  EXPECT_EQ(run_virtual({on, "drive.direction=reverse", "run.duration_s=1"}).summary.stop_cause(),
+            "completed");
+  EXPECT_EQ(run_virtual({on}, -1.0, "hil-guard-steps", 5).summary.stop_cause(), "completed");
+  const double full_step = 1.4e-3;
+  struct Case {
+    std::vector<std::string> sets;
+    const char* cause;
+    double failed_at;
+  };
+  for (const Case& c :
+       {Case{{on, "run.duration_s=5", "sensor.blind_at_s=0.5"}, "sensor_implausible", 0.5},
+        Case{{on, "run.duration_s=5", "sensor.freeze_at_s=0.5"}, "sensor_implausible", 0.5},
+        Case{{on, "run.duration_s=5", "plant.mu=2", "plant.F_N=0.05"}, "stalled", 0.0}}) {
+    SCOPED_TRACE(c.sets.back());
+    const Outcome o = run_virtual(c.sets, -1.0, "hil-guard");
+    EXPECT_EQ(o.summary.stop_cause(), c.cause);
+    EXPECT_EQ(o.summary.status(), "failed");
+    EXPECT_FALSE(o.amplifier_enabled_at_end);
+    EXPECT_NEAR(o.amplifier_V_at_end, 0.0, 1.0);
+    EXPECT_LT(o.drive_t.back(), c.failed_at + 1.0) << "stopped within 1 s of drive";
+    double theta_then = 0.0;
+    for (std::size_t i = 0; i < o.sensor_t.size() && o.sensor_t[i] <= c.failed_at; ++i) {
+      if (std::isfinite(o.theta[i])) theta_then = o.theta[i];
+    }
+    EXPECT_LT(o.rotor_theta_at_end - theta_then, 2.0 * full_step);
+    std::cout << c.sets.back() << ": " << o.summary.stop_cause() << " at " << o.drive_t.back()
+              << " s, the rotor " << (o.rotor_theta_at_end - theta_then) * 1e3
+              << " mrad past where the failure began\n";
+  }
+}
+
 // With five times the default sensor noise (2.5 um at 1 kHz: 14 urad for
 // an 8-reading mean against a 25 urad tolerance) a move still comes on
 // target: settling averages as many readings as the noise measured at rest

@@ -257,11 +257,12 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
   // A move's angles are from the board's zero (the frame of its target and
   // of every position it reports); a run's from its first good reading.
   const json zero = started.value("zero_displacement_m", json());
-  SampleCollector collector(t0, c.sensor.r2_m, observer ? &*observer : nullptr,
-                            zero.is_number() ? zero.get<double>()
-                                             : std::numeric_limits<double>::quiet_NaN());
+  SampleCollector collector(
+      t0, c.sensor.r2_m, observer ? &*observer : nullptr,
+      zero.is_number() ? zero.get<double>() : std::numeric_limits<double>::quiet_NaN());
   if (zero.is_number()) {
-    log.set_attribute("theta_zero_m", fmt::format("{:.12g} (the board's zero)", zero.get<double>()));
+    log.set_attribute("theta_zero_m",
+                      fmt::format("{:.12g} (the board's zero)", zero.get<double>()));
   }
   std::vector<std::string> gaps;
   const std::int64_t host_start = host_ns();

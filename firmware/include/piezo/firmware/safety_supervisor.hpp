@@ -30,6 +30,11 @@ struct SafetySettings {
   /// whose measured angle leaves it stops with travel_limit.
   double travel_min_rad = -std::numeric_limits<double>::infinity();
   double travel_max_rad = std::numeric_limits<double>::infinity();
+  /// A plain run's (timed or steps) stall and plausibility checks over
+  /// stall_periods periods (RunGuard); a move has its own, always on unless
+  /// the move turns them off.
+  bool protect_runs = false;
+  int stall_periods = 2;
 };
 
 /// Why the drive stopped; `none` while it runs.
