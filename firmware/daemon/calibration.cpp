@@ -115,6 +115,9 @@ json calibration_json(const firmware::CalibrationPlan& plan,
          {"D", plan.D},
          {"r2_m", plan.r2_m},
          {"steps_per_point", plan.steps},
+         {"rest_readings",
+          {{"skipped", plan.flush_readings},
+           {"averaged", firmware::CalibrationProgram::kRestReadings}}},
          {"step_fractions", firmware::MoveSettings::kStepFractions},
          {"noise_m", result.noise_m},
          {"rad_per_V", result.rad_per_V},
@@ -144,6 +147,7 @@ json checked_calibration(const json& given, const CalibrationLimits& limits) {
   c["D"] = number(given, "D", 0.01, 0.99, "");
   c["r2_m"] = number(given, "r2_m", 1e-6, 10.0, "m");
   c["steps_per_point"] = static_cast<int>(number(given, "steps_per_point", 1, 1000, "periods"));
+  if (given.contains("rest_readings")) c["rest_readings"] = given.at("rest_readings");
   c["step_fractions"] = firmware::MoveSettings::kStepFractions;
   if (given.contains("step_fractions") && given.at("step_fractions") != c["step_fractions"]) {
     throw bad("step_fractions", fmt::format("allowed: {}", c["step_fractions"].dump()));

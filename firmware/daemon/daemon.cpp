@@ -777,6 +777,7 @@ json Daemon::calibrate(const std::string& client, const json& args) {
   plan.r2_m = board_.sensor.r2_m;
   plan.hold_V_max = 0.8 * lim.V_max;
   plan.fast_slew_V_per_s = lim.slew_V_per_s;
+  plan.flush_readings = std::max(10, static_cast<int>(std::ceil(0.1 * board_.sensor.rate_hz())));
   // The board's frequency, twice and four times it: as many as the board's
   // rate and slew limit allow at V0.
   const double f_max = std::min(board_.drive.rate_hz / 20.0,

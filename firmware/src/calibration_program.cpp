@@ -23,9 +23,8 @@ double CalibrationPlan::drive_s() const {
 
 double CalibrationPlan::duration_s(double sensor_rate_hz) const {
   const int rests = 1 + CalibrationProgram::kHolds + 1 + 2 * kFractions * frequencies;
-  const double readings =
-      CalibrationProgram::kNoiseReadings +
-      rests * (CalibrationProgram::kFlushReadings + CalibrationProgram::kRestReadings + 1);
+  const double readings = CalibrationProgram::kNoiseReadings +
+                          rests * (flush_readings + CalibrationProgram::kRestReadings + 1);
   return drive_s() + readings / sensor_rate_hz;
 }
 
@@ -89,7 +88,7 @@ void CalibrationProgram::begin(int index, double t) {
     done_.store(true);
     return;
   }
-  flush_ = kFlushReadings;
+  flush_ = plan_.flush_readings;
   taken_ = 0;
   sum_ = sum2_ = 0.0;
 }

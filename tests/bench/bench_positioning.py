@@ -212,7 +212,7 @@ def plot(rows, sensors, png):
                 vals.append(max((r["time"] if r.get("on_target") else 30.0) for r in c))
             f.write(f'{i} "{p}" {vals[0]} {vals[1]}\n')
     script = f"""
-set terminal pngcairo size 1000,520
+set terminal pngcairo size 1000,520 noenhanced
 set output '{png}'
 set title 'Slowest of four moves (+0.3, -3, +30, -100 mrad) to 25 urad, 1 kHz sensor'
 set style data histograms

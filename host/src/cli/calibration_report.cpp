@@ -45,9 +45,9 @@ model::FitData full_amplitude_window(const model::FitData& all, const json& cal,
   if (first + 1 >= peaks.size()) {
     throw std::runtime_error(fmt::format("the log has no full-amplitude steps at {:g} Hz", f));
   }
-  const double rest_s = (firmware::CalibrationProgram::kFlushReadings +
-                         firmware::CalibrationProgram::kRestReadings + 2) /
-                        sensor_rate_hz;
+  const json rest = cal.value("rest_readings", json::object());
+  const double rest_s =
+      (rest.value("skipped", 10) + rest.value("averaged", 32) + 2) / sensor_rate_hz;
   // The steps begin a rise before the first peak, after a rest whose
   // second half is the rotor at rest: the fit's zero.
   const double steps_begin = peaks[first] - D / f;

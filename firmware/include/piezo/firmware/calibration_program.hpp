@@ -13,8 +13,10 @@
 ///    period each way (the mean angle at rest after, minus before, over the
 ///    count). Forward and reverse alternate, so the rotor ends near where it
 ///    began.
-/// Rests are counted in readings (a settle of kFlushReadings, then the
-/// mean of kRestReadings), so a slow sensor gets as many as a fast one.
+/// Rests are counted in readings (a settle of `flush_readings`, at least
+/// 0.1 s: a rotor stepped at 40 Hz still creeps 2 mrad/s 30 ms after the
+/// drive stopped; then the mean of kRestReadings), so a slow sensor gets
+/// as many as a fast one.
 /// Everything after construction happens inside next_voltage(): no
 /// allocation, lock or throw.
 
@@ -37,6 +39,7 @@ struct CalibrationPlan {
   std::array<double, kMaxFrequencies> f_hz{10.0, 20.0, 40.0, 0.0};  ///< ascending
   int frequencies = 3;
   int steps = 4;             ///< periods per amplitude and direction
+  int flush_readings = 100;  ///< readings skipped at the start of each rest
   double hold_V_max = 64.0;  ///< the fine range's top [V]
   double slow_slew_V_per_s = 400.0;
   double fast_slew_V_per_s = 8000.0;
@@ -62,7 +65,6 @@ class CalibrationProgram final : public DriveProgram {
  public:
   static constexpr int kNoiseReadings = 64;
   static constexpr int kRestReadings = 32;
-  static constexpr int kFlushReadings = 10;
   static constexpr int kHolds = 4;
 
   CalibrationProgram(const CalibrationPlan& plan, const PositionFeed& feed);
