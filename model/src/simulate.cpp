@@ -6,6 +6,7 @@
 
 #include "piezo/model/coulomb_closed_form.hpp"
 #include "piezo/model/dopri5.hpp"
+#include "piezo/model/lugre_taylor.hpp"
 #include "piezo/model/step_control.hpp"
 
 namespace piezo::model {
@@ -28,12 +29,15 @@ std::string_view to_string(Integrator i) {
       return "dopri5";
     case Integrator::closed_form:
       return "closed_form";
+    case Integrator::taylor:
+      return "taylor";
   }
   return "?";
 }
 
 std::optional<Integrator> parse_integrator(std::string_view text) {
-  for (auto i : {Integrator::model_default, Integrator::dopri5, Integrator::closed_form}) {
+  for (auto i : {Integrator::model_default, Integrator::dopri5, Integrator::closed_form,
+                 Integrator::taylor}) {
     if (text == to_string(i)) return i;
   }
   return std::nullopt;
@@ -223,6 +227,12 @@ Trajectory simulate(const MotorParameters& p, const Excitation& drive, FrictionM
             "use dopri5");
       }
       return simulate_coulomb_closed_form(p, drive, sample_times, settings);
+    case Integrator::taylor:
+      if (model == FrictionModel::coulomb) {
+        throw std::invalid_argument(
+            "integrator taylor: LuGre model only (Coulomb runs in closed form); use closed_form");
+      }
+      return simulate_lugre_taylor(p, drive, sample_times, settings);
   }
   return model == FrictionModel::lugre ? simulate_lugre(p, drive, sample_times, settings)
                                        : simulate_coulomb(p, drive, sample_times, settings);

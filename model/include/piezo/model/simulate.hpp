@@ -26,6 +26,7 @@ enum class Integrator {
   model_default,  ///< closed_form for Coulomb, dopri5 for LuGre
   dopri5,         ///< adaptive Dormand-Prince 5(4), events located on its dense output
   closed_form,    ///< Coulomb only: exact between switches (coulomb_closed_form.hpp)
+  taylor,         ///< LuGre only: Taylor series between reversals (lugre_taylor.hpp)
 };
 
 [[nodiscard]] std::string_view to_string(Integrator i);
@@ -47,7 +48,8 @@ struct IntegratorSettings {
 struct IntegrationStats {
   std::size_t steps = 0;
   std::size_t rhs_evaluations = 0;
-  std::size_t mode_switches = 0;               ///< stick/slip transitions (Coulomb only)
+  /// Stick/slip transitions (Coulomb), reversals of the sliding velocity (LuGre by taylor).
+  std::size_t mode_switches = 0;
   /// Stretches held stuck through chattering contact (closed form only).
   std::size_t chatter_holds = 0;
   Integrator integrator = Integrator::dopri5;  ///< the one that ran (model_default resolved)
