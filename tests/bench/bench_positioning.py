@@ -9,8 +9,11 @@ them (1 kHz, 1x noise). The simulated rig on the virtual clock, in-process.
 Prints one row per cell (figures, not assertions), writes matrix.csv and
 draws positioning.png (time to target before and after calibration).
 
-Usage: bench_positioning.py PIEZO OUT_DIR [--quick]
+Usage: bench_positioning.py PIEZO OUT_DIR [--quick] [--check]
   --quick: the 1 kHz sensor only, 1x and 5x noise.
+  --check: exit non-zero unless every move, before and after calibration,
+           ends on target within the tolerance (the ctest
+           `positioning_matrix` runs it with --quick).
 """
 import csv
 import json
@@ -196,6 +199,12 @@ def main():
             print(f"{p:14s} {r:5.0f}Hz x{x} | {parts[0]} | {parts[1]} | {1e3 * ol:.2f} mrad")
     plot(rows, sensors, os.path.join(out, "positioning.png"))
     print(f"\nmatrix: {os.path.join(out, 'matrix.csv')}; plot: {os.path.join(out, 'positioning.png')}")
+    if "--check" in sys.argv:
+        missed = [r for r in rows if not r.get("on_target") or abs(r["error"]) > TOLERANCE]
+        for r in missed:
+            print(f"MISSED: {r['plant']} {r['rate']:g} Hz x{r['noise_x']} {r['phase']} "
+                  f"{1e3 * r['target']:+g} mrad: {r['result']}")
+        sys.exit(1 if missed else 0)
 
 
 def plot(rows, sensors, png):
