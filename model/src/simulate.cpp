@@ -6,7 +6,7 @@
 
 #include "piezo/model/coulomb_closed_form.hpp"
 #include "piezo/model/dopri5.hpp"
-#include "piezo/model/lugre_taylor.hpp"
+#include "piezo/model/lugre_hybrid.hpp"
 #include "piezo/model/step_control.hpp"
 
 namespace piezo::model {
@@ -29,17 +29,18 @@ std::string_view to_string(Integrator i) {
       return "dopri5";
     case Integrator::closed_form:
       return "closed_form";
-    case Integrator::taylor:
-      return "taylor";
+    case Integrator::hybrid:
+      return "hybrid";
   }
   return "?";
 }
 
 std::optional<Integrator> parse_integrator(std::string_view text) {
   for (auto i : {Integrator::model_default, Integrator::dopri5, Integrator::closed_form,
-                 Integrator::taylor}) {
+                 Integrator::hybrid}) {
     if (text == to_string(i)) return i;
   }
+  if (text == "taylor") return Integrator::hybrid;  // the name of its first form (series only)
   return std::nullopt;
 }
 
@@ -159,8 +160,19 @@ Trajectory simulate_lugre(const MotorParameters& p, const Excitation& drive,
     record(out, t, drive.voltage(t), y, motor.friction(y).force);
     report_progress(settings, out.t.size(), t);
   };
-  auto no_events = [](const auto&) { return std::optional<Event<5>>{}; };
-  out.stats = integrate<5>(p, rhs, drive, times, settings.tolerance, emit, no_events);
+  // With reversal events, a step in which v changed sign ends at the zero
+  // (located on the dense output), so that no step straddles the kink of |v|.
+  auto reversals = [&](const auto& stepper) -> std::optional<Event<5>> {
+    if (!settings.reversal_events) return std::nullopt;
+    const double before = sliding_velocity(p, stepper.dense(stepper.previous_time()));
+    const double after = sliding_velocity(p, stepper.state());
+    if (before == 0.0 || (before > 0.0) == (after > 0.0)) return std::nullopt;
+    const auto [t_event, y] = locate(stepper, [&](double, const LuGreState& ys) {
+      return (sliding_velocity(p, ys) > 0.0) != (before > 0.0);
+    });
+    return Event<5>{t_event, y};
+  };
+  out.stats = integrate<5>(p, rhs, drive, times, settings.tolerance, emit, reversals);
   return out;
 }
 
@@ -214,7 +226,9 @@ Trajectory simulate(const MotorParameters& p, const Excitation& drive, FrictionM
                     std::span<const double> sample_times, const IntegratorSettings& settings) {
   switch (settings.integrator) {
     case Integrator::model_default:
-      if (model == FrictionModel::coulomb && coulomb_closed_form_applies(p)) {
+      if (model == FrictionModel::lugre)
+        return simulate_lugre_hybrid(p, drive, sample_times, settings);
+      if (coulomb_closed_form_applies(p)) {
         return simulate_coulomb_closed_form(p, drive, sample_times, settings);
       }
       break;
@@ -227,12 +241,12 @@ Trajectory simulate(const MotorParameters& p, const Excitation& drive, FrictionM
             "use dopri5");
       }
       return simulate_coulomb_closed_form(p, drive, sample_times, settings);
-    case Integrator::taylor:
+    case Integrator::hybrid:
       if (model == FrictionModel::coulomb) {
         throw std::invalid_argument(
-            "integrator taylor: LuGre model only (Coulomb runs in closed form); use closed_form");
+            "integrator hybrid: LuGre model only (Coulomb runs in closed form); use closed_form");
       }
-      return simulate_lugre_taylor(p, drive, sample_times, settings);
+      return simulate_lugre_hybrid(p, drive, sample_times, settings);
   }
   return model == FrictionModel::lugre ? simulate_lugre(p, drive, sample_times, settings)
                                        : simulate_coulomb(p, drive, sample_times, settings);

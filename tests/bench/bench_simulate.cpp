@@ -42,7 +42,7 @@ int main(int argc, char** argv) {
       std::vector<model::Integrator> integrators{model::Integrator::dopri5};
       integrators.push_back(friction == model::FrictionModel::coulomb
                                 ? model::Integrator::closed_form
-                                : model::Integrator::taylor);
+                                : model::Integrator::hybrid);
       for (auto integrator : integrators) {
         const model::IntegratorSettings settings{.integrator = integrator};
         const double times[] = {kRuntime};

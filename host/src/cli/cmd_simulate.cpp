@@ -99,15 +99,15 @@ int run(const SimulateOptions& o) {
   if (!integrator) {
     throw config::ConfigError("--integrator", o.integrator,
                               "allowed: model_default, dopri5, closed_form (Coulomb only), "
-                              "taylor (LuGre only)");
+                              "hybrid (LuGre only)");
   }
   if (*integrator == model::Integrator::closed_form && *friction == model::FrictionModel::lugre) {
     throw config::ConfigError("--integrator", o.integrator,
-                              "closed_form solves the Coulomb model only; LuGre: dopri5 or taylor");
+                              "closed_form solves the Coulomb model only; LuGre: hybrid or dopri5");
   }
-  if (*integrator == model::Integrator::taylor && *friction == model::FrictionModel::coulomb) {
+  if (*integrator == model::Integrator::hybrid && *friction == model::FrictionModel::coulomb) {
     throw config::ConfigError("--integrator", o.integrator,
-                              "taylor solves the LuGre model only; Coulomb: closed_form or dopri5");
+                              "hybrid solves the LuGre model only; Coulomb: closed_form or dopri5");
   }
   model::IntegratorSettings settings{.tolerance = o.tolerance, .integrator = *integrator};
   // Long simulations (minutes of simulated time take seconds to minutes)

@@ -23,10 +23,10 @@ enum class FrictionModel { lugre, coulomb };
 
 /// How the motor's equations are solved.
 enum class Integrator {
-  model_default,  ///< closed_form for Coulomb, dopri5 for LuGre
+  model_default,  ///< closed_form for Coulomb, hybrid for LuGre
   dopri5,         ///< adaptive Dormand-Prince 5(4), events located on its dense output
   closed_form,    ///< Coulomb only: exact between switches (coulomb_closed_form.hpp)
-  taylor,         ///< LuGre only: Taylor series between reversals (lugre_taylor.hpp)
+  hybrid,         ///< LuGre only: series, linear and stiff modes by event (lugre_hybrid.hpp)
 };
 
 [[nodiscard]] std::string_view to_string(Integrator i);
@@ -39,6 +39,9 @@ struct IntegratorSettings {
   /// convergence tests in tests/model prove it.
   double tolerance = 1e-6;
   Integrator integrator = Integrator::model_default;
+  /// DOPRI5 with LuGre: stop at every zero of the sliding velocity (the kink
+  /// of |v|) and count them, as the references of the convergence tests do.
+  bool reversal_events = false;
   /// Called now and then (every 10,000 output samples) with the simulated
   /// time reached, for progress on long simulations; may be empty.
   std::function<void(double t)> progress = {};
@@ -48,8 +51,13 @@ struct IntegratorSettings {
 struct IntegrationStats {
   std::size_t steps = 0;
   std::size_t rhs_evaluations = 0;
-  /// Stick/slip transitions (Coulomb), reversals of the sliding velocity (LuGre by taylor).
+  /// Stick/slip transitions (Coulomb), reversals of the sliding velocity
+  /// (LuGre by hybrid, or by dopri5 with reversal_events).
   std::size_t mode_switches = 0;
+  /// The hybrid's steps by mode, its closed-form bristle flips and its
+  /// rejected stiff steps.
+  std::size_t series_steps = 0, linear_steps = 0, stick_steps = 0;
+  std::size_t saturations = 0, rejected_steps = 0;
   /// Stretches held stuck through chattering contact (closed form only).
   std::size_t chatter_holds = 0;
   Integrator integrator = Integrator::dopri5;  ///< the one that ran (model_default resolved)

@@ -1,0 +1,101 @@
+#pragma once
+/// @file
+/// The LuGre motor by an event-driven hybrid integrator (issue 23): each
+/// stretch of the motion is advanced by the method that suits it.
+///
+/// - Series mode (the ringing after each drive corner, and bristle flips):
+///   Taylor series of order 14 between events, zeros of the sliding
+///   velocity v located on the series (hybrid/series.hpp).
+/// - Linear mode (sliding with a saturated bristle): the closed-form finish
+///   of the bristle's flip, then the exact propagator of the then linear
+///   motor in fixed steps while the smooth part of v stays clear of the
+///   ringing (hybrid/linear_slide.hpp).
+/// - Stick mode (bristle far from saturation, ringing died away): the stiff
+///   stick phase by a Rosenbrock method (hybrid/stick_rosenbrock.hpp).
+///
+/// Every drive corner (every advance) restarts in series mode. Samples come
+/// from the series, or from cubic Hermite interpolation between the other
+/// modes' steps. Allocation-free.
+
+#include <limits>
+#include <span>
+
+#include "piezo/model/hybrid/linear_slide.hpp"
+#include "piezo/model/hybrid/series.hpp"
+#include "piezo/model/hybrid/stick_rosenbrock.hpp"
+#include "piezo/model/motor.hpp"
+#include "piezo/model/parameters.hpp"
+#include "piezo/model/simulate.hpp"
+#include "piezo/model/waveform.hpp"
+
+namespace piezo::model {
+
+/// Receives the state at the times it asks for during an advance.
+class StateSamples {
+ public:
+  /// The next time wanted (infinity: none).
+  [[nodiscard]] virtual double next() const = 0;
+  /// The state at next(); the sink moves on to its following time.
+  virtual void take(const LuGreState& y) = 0;
+
+ protected:
+  ~StateSamples() = default;
+};
+
+/// The LuGre motor advanced piece by piece of drive, from a given state.
+class LuGreHybrid {
+ public:
+  /// @param tolerance the error per step relative to each state's scale
+  explicit LuGreHybrid(const MotorParameters& p, double tolerance = 1e-6);
+
+  /// Restarts at time t in state y.
+  void reset(double t, const LuGreState& y);
+
+  /// Advances to t_end with the voltage following `piece`, handing
+  /// `samples` (if any) the state at each time it asks for up to t_end.
+  void advance(const LinearPiece& piece, double t_end, StateSamples* samples = nullptr);
+
+  [[nodiscard]] const LuGreState& state() const { return y_; }
+  [[nodiscard]] double time() const { return t_; }
+  [[nodiscard]] const IntegrationStats& stats() const { return stats_; }
+
+ private:
+  enum class Mode { series, linear, stick };
+  /// One step in the mode in force; false when the mode must change first.
+  void series_step(const LinearPiece& piece, double t_end, StateSamples* samples);
+  void expand(const LinearPiece& piece);
+  bool linear_step(const LinearPiece& piece, double t_end, StateSamples* samples);
+  bool stick_step(const LinearPiece& piece, double t_end, StateSamples* samples);
+  /// After a series step: the mode the motion has entered.
+  void choose_mode(const LinearPiece& piece, double t_end, bool crawling);
+  /// Hands out the samples in (t_, t1] by Hermite interpolation to y1.
+  void interpolate(StateSamples* samples, const LinearPiece& piece, double t1,
+                   const LuGreState& y1) const;
+
+  MotorParameters p_;
+  LuGreMotor motor_;
+  hybrid::SeriesMotor series_;
+  hybrid::StickRosenbrock stick_;
+  hybrid::LinearSlide slide_;
+  LuGreState scale_;
+  double tolerance_, omega_n_, kappa_;
+
+  double t_ = 0.0;
+  LuGreState y_{};
+  double s_ = 0.0;          ///< the sliding sign; 0: to be found at the next step
+  bool saturated_ = false;  ///< the bristle held at s/kappa until v reverses
+  bool stiff_ = false;      ///< in stick mode because the series crawled, not because it sticks
+  bool settle_ = false;     ///< the stick mode's first step settles the stator's ringing
+  Mode mode_ = Mode::series;
+  double stick_h_ = 0.0;          ///< the Rosenbrock's next step
+  double no_stick_before_ = 0.0;  ///< after a stick step that met a reversal
+  hybrid::Expansion e_{};
+  IntegrationStats stats_{};
+};
+
+/// Simulates the LuGre motor from rest (see simulate()).
+[[nodiscard]] Trajectory simulate_lugre_hybrid(const MotorParameters& p, const Excitation& drive,
+                                               std::span<const double> sample_times,
+                                               const IntegratorSettings& settings);
+
+}  // namespace piezo::model

@@ -1,0 +1,294 @@
+#include "piezo/model/lugre_hybrid.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "piezo/model/hybrid/ringing.hpp"
+#include "piezo/model/step_control.hpp"
+
+namespace piezo::model {
+namespace {
+
+using namespace hybrid;
+
+/// Bristle states 1 - s kappa z that select the modes: below the first the
+/// flip is finished in closed form; above the second the contact sticks.
+constexpr double kSaturated = 1e-4;
+constexpr double kSticking = 0.3;
+/// The smooth part of v must exceed the ringing's velocity amplitude this
+/// many times for the ringing not to reverse it.
+constexpr double kClearance = 2.0;
+/// A series step below this many 1/omega_n is the sign of a stiff bristle.
+constexpr double kCrawl = 0.05;
+
+/// Cubic Hermite interpolation of the state between two steps.
+LuGreState hermite(double t0, const LuGreState& y0, const LuGreState& f0, double t1,
+                   const LuGreState& y1, const LuGreState& f1, double t) {
+  const double h = t1 - t0;
+  const double u = (t - t0) / h;
+  const double h00 = (1 + 2 * u) * (1 - u) * (1 - u), h10 = u * (1 - u) * (1 - u);
+  const double h01 = u * u * (3 - 2 * u), h11 = u * u * (u - 1);
+  LuGreState out{};
+  for (std::size_t i = 0; i < 5; ++i) {
+    out[i] = h00 * y0[i] + h10 * h * f0[i] + h01 * y1[i] + h11 * h * f1[i];
+  }
+  return out;
+}
+
+/// The state with the stator's free oscillation removed (see ringing.hpp).
+LuGreState settle_stator(const MotorParameters& p, LuGreState y, double V, double slope,
+                         double F_f) {
+  const double X_p = p.d_e * slope;
+  y[kX] = p.d_e * V - (F_f + p.C * X_p) / p.K;
+  y[kXDot] = X_p;
+  return y;
+}
+
+LuGreState scaled(LuGreState scale, double tolerance) {
+  for (double& a : scale) a *= tolerance;
+  return scale;
+}
+
+}  // namespace
+
+LuGreHybrid::LuGreHybrid(const MotorParameters& p, double tolerance)
+    : p_(p),
+      motor_(p),
+      series_(p),
+      stick_(p, scaled(state_scale<5>(p), tolerance), tolerance),
+      slide_(p, 16.0 / std::sqrt(p.K / p.M)),
+      scale_(state_scale<5>(p)),
+      tolerance_(tolerance),
+      omega_n_(std::sqrt(p.K / p.M)),
+      kappa_(p.sigma0 / p.F_c()) {}
+
+void LuGreHybrid::reset(double t, const LuGreState& y) {
+  t_ = t;
+  y_ = y;
+  s_ = 0.0;
+  mode_ = Mode::series;
+  saturated_ = false;
+  no_stick_before_ = t;
+}
+
+void LuGreHybrid::advance(const LinearPiece& piece, double t_end, StateSamples* samples) {
+  mode_ = Mode::series;  // a corner of the drive: the stator rings
+  while (t_ < t_end) {
+    switch (mode_) {
+      case Mode::linear:
+        if (linear_step(piece, t_end, samples)) continue;
+        mode_ = Mode::series;
+        break;
+      case Mode::stick:
+        if (stick_step(piece, t_end, samples)) continue;
+        mode_ = Mode::series;
+        break;
+      case Mode::series:
+        series_step(piece, t_end, samples);
+        break;
+    }
+  }
+  while (samples != nullptr && samples->next() <= t_end) samples->take(y_);
+}
+
+void LuGreHybrid::expand(const LinearPiece& piece) {
+  const double V0 = piece.at(t_);
+  if (s_ == 0.0) {
+    series_.expand(y_, V0, piece.slope, 1.0, false, e_);
+    s_ = sliding_sign(e_.v);
+  }
+  series_.expand(y_, V0, piece.slope, s_, saturated_, e_);
+  // A contact that slides the other way than s says (v crossed zero by a
+  // rounding at the last event): the sign it really has.
+  if (s_ * e_.v[0] < 0.0 && s_ * e_.v[1] <= 0.0) {
+    s_ = -s_;
+    saturated_ = false;
+    series_.expand(y_, V0, piece.slope, s_, false, e_);
+  }
+}
+
+void LuGreHybrid::series_step(const LinearPiece& piece, double t_end, StateSamples* samples) {
+  expand(piece);
+  // The series' last term is its truncation error, held to the tolerance
+  // per step; the cap keeps one extremum of v per half step.
+  double h = hybrid::series_step(e_, scale_, tolerance_, std::min(4.0 / omega_n_, t_end - t_));
+  h = std::max(h, 1e-14 * std::max(1.0, t_));
+  const double tau = first_zero(e_.v, s_, h);
+  const bool reversal = tau < h;
+  const double t1 = tau == t_end - t_ ? t_end : t_ + tau;
+  while (samples != nullptr && samples->next() <= t1) samples->take(e_.state(samples->next() - t_));
+  y_ = e_.state(tau);
+  ++stats_.steps;
+  ++stats_.series_steps;
+  stats_.rhs_evaluations += kOrder;
+  t_ = t1;
+  if (reversal) {
+    // A zero of v: the contact slides the way v' points there.
+    ++stats_.mode_switches;
+    s_ = slope_at(e_.v, tau) >= 0.0 ? 1.0 : -1.0;
+    saturated_ = false;
+    return;
+  }
+  if (t_ < t_end) choose_mode(piece, t_end, h < kCrawl / omega_n_);
+}
+
+void LuGreHybrid::choose_mode(const LinearPiece& piece, double t_end, bool crawling) {
+  const double rest = 1.0 - s_ * kappa_ * y_[kZ];
+  if (!saturated_ && rest < kSaturated) {
+    slide_.saturate(y_, s_);
+    saturated_ = true;
+    ++stats_.saturations;
+  }
+  const double V = piece.at(t_);
+  const double F_f = motor_.friction(y_).force;
+  const Ringing ring = split_ringing(p_, y_, V, piece.slope, F_f);
+  const bool clear = s_ * ring.smooth_v > kClearance * ring.amplitude;
+  // The linear and stick modes pay off over long pieces of drive; a drive
+  // that turns every sample (a replayed log) stays in series mode, which
+  // also keeps the stick mode's settling of the stator from adding up.
+  const bool long_piece = t_end - t_ >= 2.0 * slide_.step();
+  if (saturated_ && clear && long_piece) {
+    mode_ = Mode::linear;
+  } else if (!saturated_ && rest > kSticking && clear && long_piece && t_ >= no_stick_before_) {
+    stick_h_ = std::max(stick_h_, 10.0 / omega_n_);
+    mode_ = Mode::stick;
+    stiff_ = false;
+    settle_ = true;
+  } else if (!saturated_ && crawling && t_ >= no_stick_before_) {
+    // Parameters far from the prototype's (identification tries them) can
+    // make the bristle stiff where it does not stick: the Rosenbrock takes
+    // over until v reverses.
+    stick_h_ = 10.0 / omega_n_;
+    mode_ = Mode::stick;
+    stiff_ = true;
+    settle_ = false;
+  }
+}
+
+bool LuGreHybrid::linear_step(const LinearPiece& piece, double t_end, StateSamples* samples) {
+  const double h = slide_.step();
+  if (t_ + h > t_end) return false;  // the rest of the piece by series
+  const double V0 = piece.at(t_);
+  LuGreState y1 = y_;
+  slide_.advance(y1, V0, piece.slope, s_);
+  const double V1 = V0 + piece.slope * h;
+  const double F1 = s_ * p_.F_c() + p_.sigma2 * (y1[kXDot] - p_.r * y1[kThetaDot]);
+  const Ringing ring = split_ringing(p_, y1, V1, piece.slope, F1);
+  if (s_ * ring.smooth_v <= kClearance * ring.amplitude) return false;  // may reverse: resolve
+  interpolate(samples, piece, t_ + h, y1);
+  y_ = y1;
+  t_ += h;
+  ++stats_.steps;
+  ++stats_.linear_steps;
+  return true;
+}
+
+bool LuGreHybrid::stick_step(const LinearPiece& piece, double t_end, StateSamples* samples) {
+  const double V0 = piece.at(t_);
+  // The first step from a ringing stator starts from it settled: the
+  // Rosenbrock would resolve the ringing in microsecond steps, and its part
+  // in the rotor's motion is below the tolerance once the smooth v clears
+  // it (three times the stick steps at 10 Hz without this). Kept only if
+  // the step holds, so that a series that takes over again starts from the
+  // state as it was.
+  const LuGreState y0 =
+      settle_ ? settle_stator(p_, y_, V0, piece.slope, motor_.friction(y_).force) : y_;
+  double h = std::min(stick_h_, t_end - t_);
+  LuGreState y1{};
+  for (;;) {
+    const double error = stick_.step(y0, V0, piece.slope, s_, h, y1);
+    const double factor = 0.9 * std::pow(std::max(error, 1e-10), -0.25);
+    stats_.rhs_evaluations += 6;
+    if (error <= 1.0) {
+      stick_h_ = h * std::clamp(factor, 0.2, 5.0);
+      break;
+    }
+    h *= std::clamp(factor, 0.2, 0.9);
+    ++stats_.rejected_steps;
+  }
+  if (s_ * (y1[kXDot] - p_.r * y1[kThetaDot]) <= 0.0) {
+    no_stick_before_ = t_ + h;  // v reversed in this step: the series locates it
+    return false;
+  }
+  y_ = y0;
+  settle_ = false;
+  const double t1 = h == t_end - t_ ? t_end : t_ + h;
+  interpolate(samples, piece, t1, y1);
+  y_ = y1;
+  t_ = t1;
+  ++stats_.steps;
+  ++stats_.stick_steps;
+  if (!stiff_ && 1.0 - s_ * kappa_ * y_[kZ] < kSticking) mode_ = Mode::series;  // it lets go
+  return true;
+}
+
+void LuGreHybrid::interpolate(StateSamples* samples, const LinearPiece& piece, double t1,
+                              const LuGreState& y1) const {
+  if (samples == nullptr || samples->next() > t1) return;
+  LuGreState f0{}, f1{};
+  stick_.derivative(y_, piece.at(t_), s_, f0);
+  stick_.derivative(y1, piece.at(t1), s_, f1);
+  while (samples->next() <= t1) {
+    samples->take(hermite(t_, y_, f0, t1, y1, f1, samples->next()));
+  }
+}
+
+namespace {
+
+/// simulate()'s samples: every requested time, recorded into a Trajectory.
+class Recorder final : public StateSamples {
+ public:
+  Recorder(std::span<const double> times, const MotorParameters& p, const Excitation& drive,
+           const IntegratorSettings& settings, Trajectory& out)
+      : times_(times), motor_(p), drive_(drive), settings_(settings), out_(out) {}
+
+  [[nodiscard]] double next() const override {
+    return next_ < times_.size() ? times_[next_] : std::numeric_limits<double>::infinity();
+  }
+  void take(const LuGreState& y) override {
+    const double t = times_[next_++];
+    out_.t.push_back(t);
+    out_.V.push_back(drive_.voltage(t));
+    out_.x.push_back(y[kX]);
+    out_.x_dot.push_back(y[kXDot]);
+    out_.theta.push_back(y[kTheta]);
+    out_.theta_dot.push_back(y[kThetaDot]);
+    out_.z.push_back(y[kZ]);
+    out_.F_f.push_back(motor_.friction(y).force);
+    if (settings_.progress && out_.t.size() % 10000 == 0) settings_.progress(t);
+  }
+  [[nodiscard]] bool done() const { return next_ >= times_.size(); }
+
+ private:
+  std::span<const double> times_;
+  LuGreMotor motor_;
+  const Excitation& drive_;
+  const IntegratorSettings& settings_;
+  Trajectory& out_;
+  std::size_t next_ = 0;
+};
+
+}  // namespace
+
+Trajectory simulate_lugre_hybrid(const MotorParameters& p, const Excitation& drive,
+                                 std::span<const double> times,
+                                 const IntegratorSettings& settings) {
+  Trajectory out;
+  if (!times.empty() && (times.front() < 0.0 || !std::is_sorted(times.begin(), times.end()))) {
+    throw std::invalid_argument("sample times must be non-negative and non-decreasing");
+  }
+  Recorder recorder(times, p, drive, settings, out);
+  LuGreHybrid motor(p, settings.tolerance);
+  motor.reset(0.0, LuGreState{});
+  while (recorder.next() <= 0.0) recorder.take(motor.state());
+  while (!recorder.done()) {
+    const double t = motor.time();
+    motor.advance(drive.piece(t), std::min(drive.next_breakpoint(t), times.back()), &recorder);
+  }
+  out.stats = motor.stats();
+  out.stats.integrator = Integrator::hybrid;
+  return out;
+}
+
+}  // namespace piezo::model
