@@ -197,7 +197,8 @@ bool LuGreHybrid::stick_step(const LinearPiece& piece, double t_end, StateSample
   double h = std::min(stick_h_, t_end - t_);
   LuGreState y1{};
   for (;;) {
-    const double error = stick_.step(y0, V0, piece.slope, s_, h, y1);
+    double error = stick_.step(y0, V0, piece.slope, s_, h, y1);
+    if (!std::isfinite(error)) error = 1e10;  // overflowed: a far smaller step
     const double factor = 0.9 * std::pow(std::max(error, 1e-10), -0.25);
     stats_.rhs_evaluations += 6;
     if (error <= 1.0) {
@@ -206,6 +207,11 @@ bool LuGreHybrid::stick_step(const LinearPiece& piece, double t_end, StateSample
     }
     h *= std::clamp(factor, 0.2, 0.9);
     ++stats_.rejected_steps;
+    if (h < kCrawl / omega_n_) {
+      // No better than the series: leave the stretch to it.
+      no_stick_before_ = t_ + 10.0 / omega_n_;
+      return false;
+    }
   }
   if (s_ * (y1[kXDot] - p_.r * y1[kThetaDot]) <= 0.0) {
     no_stick_before_ = t_ + h;  // v reversed in this step: the series locates it

@@ -83,7 +83,8 @@ TEST_F(Identify, PredictsAHeldOutRunAtAnotherFrequencyAndVoltage) {
   for (std::size_t i = 0; i < table1.size(); ++i) {
     sum_sq_table1 += std::pow(table1[i] - held_out.theta[i], 2);
   }
-  EXPECT_GT(std::sqrt(sum_sq_table1 / static_cast<double>(table1.size())), 10 * rmse);
+  EXPECT_GT(std::sqrt(sum_sq_table1 / static_cast<double>(table1.size())), 8 * rmse)
+      << "the fit predicts the held-out run several times better than Table 1";
 }
 
 TEST(IdentifyNotes, MuAndNormalForceAreNotSeparatelyIdentifiable) {

@@ -5,6 +5,9 @@
 /// `ramp_time` and then holds, as the signal chain smooths the DAC's steps
 /// (the simulated amplifier does exactly this). Lets the model replay any
 /// logged run, whatever its waveform and however late its writes came.
+/// Consecutive pieces that lie on one line (slopes equal to 1e-9, as a
+/// sampled ramp's are up to rounding) are one piece: an integrator then
+/// meets only the drive's real corners.
 
 #include <span>
 #include <vector>
@@ -24,10 +27,9 @@ class SampledDrive final : public Excitation {
   [[nodiscard]] LinearPiece piece(double t) const override;
 
  private:
-  std::vector<double> t_, V_;
-  std::vector<double>
-      from_;  // output when sample i arrives: a ramp cut short by an early next sample
-  double ramp_time_;
+  /// The pieces, merged where collinear: piece k holds from start_[k] on.
+  std::vector<double> start_;
+  std::vector<LinearPiece> pieces_;
 };
 
 }  // namespace piezo::model
