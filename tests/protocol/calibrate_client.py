@@ -86,7 +86,9 @@ summary, progress = follow_run(started["result"]["run"])
 check(summary["cause"] == "completed", "the calibration completed: " + summary["cause"])
 cal = summary["calibration"]
 check(cal is not None, "a calibration: " + str(summary.get("calibration_error")))
-check(progress > 0.5, f"progress was published: {progress}")
+# health comes every 250 ms of wall time, and a virtual-clock calibration
+# may take under a second: how far it got by the last one varies.
+check(progress > 0.0, f"progress was published: {progress}")
 for key in ("noise_m", "rad_per_V", "fastest_f_hz", "smallest_tolerance_rad", "frequencies"):
     check(key in cal, f"the calibration has {key}")
 status = call("status")["result"]

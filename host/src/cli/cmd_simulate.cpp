@@ -142,7 +142,11 @@ int run(const SimulateOptions& o) {
                        {"tolerance", o.tolerance},
                        {"steps", tr.stats.steps},
                        {"rhs_evaluations", tr.stats.rhs_evaluations},
-                       {"mode_switches", tr.stats.mode_switches}}}};
+                       {"mode_switches", tr.stats.mode_switches},
+                       {"steps_by_mode",
+                        {{"series", tr.stats.series_steps},
+                         {"linear", tr.stats.linear_steps},
+                         {"stick", tr.stats.stick_steps}}}}}};
     std::cout << j.dump() << "\n";
   } else {
     fmt::print("model {}  {}  duration {} s  theta_end {:.6g} rad  mean velocity {:.6g} rad/s\n",
@@ -178,9 +182,9 @@ CommandRunner add_simulate_command(CLI::App& app) {
       ->check(CLI::Range(1e-14, 1e-2))
       ->capture_default_str();
   cmd->add_option("--integrator", o->integrator,
-                  "dopri5 (adaptive, both models), closed_form (Coulomb: exact between "
-                  "stick/slip switches), or model_default (closed_form for Coulomb, dopri5 "
-                  "for LuGre)")
+                  "hybrid (LuGre: series, linear and stiff modes by event), dopri5 "
+                  "(adaptive, both models), closed_form (Coulomb: exact between stick/slip "
+                  "switches), or model_default (hybrid for LuGre, closed_form for Coulomb)")
       ->capture_default_str();
   cmd->add_option("--out", o->out, "Write the trajectory: FILE.csv or FILE.h5");
   cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
