@@ -112,7 +112,7 @@ void LuGreHybrid::series_step(const LinearPiece& piece, double t_end, StateSampl
   expand(piece);
   // The series' last term is its truncation error, held to the tolerance
   // per step; the cap keeps one extremum of v per half step.
-  double h = hybrid::series_step(e_, scale_, tolerance_, std::min(4.0 / omega_n_, t_end - t_));
+  double h = hybrid::allowed_step(e_, scale_, tolerance_, std::min(4.0 / omega_n_, t_end - t_));
   h = std::max(h, 1e-14 * std::max(1.0, t_));
   const double tau = first_zero(e_.v, s_, h);
   const bool reversal = tau < h;

@@ -65,7 +65,7 @@ void SeriesMotor::expand(const LuGreState& y0, double V0, double slope, double s
   e.v[kOrder] = X[kOrder] - p_.r * W[kOrder];
 }
 
-double series_step(const Expansion& e, const LuGreState& scale, double tolerance, double h_max) {
+double allowed_step(const Expansion& e, const LuGreState& scale, double tolerance, double h_max) {
   double h = h_max;
   double last = 0.0, before = 0.0;  // the largest scaled coefficient of each order
   for (std::size_t i = 0; i < 5; ++i) {

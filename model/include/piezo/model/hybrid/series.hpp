@@ -55,8 +55,8 @@ class SeriesMotor {
 
 /// The step the series allows: the last two orders' coefficients, against
 /// each state's scale, held to `tolerance`, and at most h_max.
-[[nodiscard]] double series_step(const Expansion& e, const LuGreState& scale, double tolerance,
-                                 double h_max);
+[[nodiscard]] double allowed_step(const Expansion& e, const LuGreState& scale, double tolerance,
+                                  double h_max);
 
 /// Where s*v first turns negative in (0, h] (h when it does not): a sign
 /// change at h/2 or h, or a dip of s*v below zero inside a half step (the
