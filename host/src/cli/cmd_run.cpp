@@ -14,6 +14,7 @@
 #include <optional>
 
 #include "calibration_report.hpp"
+#include "catalogue.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
 #include "live_feed.hpp"
@@ -229,12 +230,12 @@ std::string summary_text(const RunSummary& s, const fs::path& log, const std::st
 
 void append_catalogue(const fs::path& run_dir, const std::string& utc_start,
                       const config::RunConfig& config, const RunSummary& s) {
-  const fs::path catalogue = fs::absolute(run_dir).parent_path() / "catalogue.csv";
-  const bool fresh = !fs::exists(catalogue);
-  std::ofstream out(catalogue, std::ios::app);
-  if (fresh) out << "run_dir,utc_start,status,stop_cause,config,t_end_s,theta_end_rad\n";
-  out << fmt::format("{},{},{},{},{},{:.6g},{:.9g}\n", run_dir.filename().string(), utc_start,
-                     s.status(), s.stop_cause(), config.source, s.t_end_s, s.theta_end_rad);
+  append_to_catalogue(run_dir, {.utc_start = utc_start,
+                                .status = s.status(),
+                                .stop_cause = s.stop_cause(),
+                                .config = config.source,
+                                .t_end_s = s.t_end_s,
+                                .theta_end_rad = s.theta_end_rad});
 }
 
 void show_status(const LiveStatus& st) {

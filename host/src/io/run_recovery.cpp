@@ -14,6 +14,7 @@
 #include <optional>
 #include <utility>
 
+#include "catalogue.hpp"
 #include "config_error.hpp"
 #include "h5_file.hpp"
 #include "log_schema.hpp"
@@ -212,13 +213,12 @@ void add_to_catalogue(const fs::path& dir, const std::map<std::string, std::stri
     const auto it = attributes.find(key);
     return it == attributes.end() ? std::string() : it->second;
   };
-  const fs::path catalogue = fs::absolute(dir).parent_path() / "catalogue.csv";
-  const bool fresh_catalogue = !fs::exists(catalogue);
-  std::ofstream cat(catalogue, std::ios::app);
-  if (fresh_catalogue) cat << "run_dir,utc_start,status,stop_cause,config,t_end_s,theta_end_rad\n";
-  cat << fmt::format("{},{},recovered,unknown,{},{:.6g},{:.9g}\n",
-                     fs::absolute(dir).filename().string(), get("utc_start"), get("config_source"),
-                     last_finite(rows.drive.t), last_finite(rows.sensor.theta));
+  append_to_catalogue(dir, {.utc_start = get("utc_start"),
+                            .status = "recovered",
+                            .stop_cause = "unknown",
+                            .config = get("config_source"),
+                            .t_end_s = last_finite(rows.drive.t),
+                            .theta_end_rad = last_finite(rows.sensor.theta)});
 }
 
 }  // namespace
