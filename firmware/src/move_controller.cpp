@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "piezo/firmware/voltage_limiter.hpp"
+#include "piezo/model/waveform.hpp"
 
 namespace piezo::firmware {
 namespace {
@@ -91,10 +92,8 @@ double MoveController::next_voltage(double t, double dt) {
         flush_ = kFlush;
         return V_ = 0.0;
       }
-      const double rise_time = rise_ * T;
-      V_ =
-          tau < rise_time ? amplitude_ * tau / rise_time : amplitude_ * (T - tau) / (T - rise_time);
-      return V_;
+      // One period of the paper's sawtooth at this step's amplitude and rise.
+      return V_ = model::Sawtooth(amplitude_, s_.f, rise_).voltage(tau);
     }
     case MoveState::holding:
       if (t >= hold_until_) {
