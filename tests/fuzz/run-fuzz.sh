@@ -31,7 +31,7 @@ case "$target" in
   config)
     sources=("$src"/firmware/config/{section_reader,model_config,run_config,modbus_config}.cpp
              "$src"/hal/modbus/src/register_map.cpp "$src"/model/src/{parameters,waveform}.cpp)
-    flags=(-I"$src/firmware/config" -I"$src/firmware/include" "${hal_includes[@]}"
+    flags=(-I"$src/firmware/config" -I"$src/firmware/config/error" -I"$src/firmware/include" "${hal_includes[@]}"
            -I"$src/model/include" -I/usr/include/eigen3 $(pkg-config --cflags libmodbus))
     libs=(-lfmt) ;;
   modbus)
@@ -42,7 +42,7 @@ case "$target" in
   logs)
     sources=("$src"/host/src/io/{fit_io,h5_file,run_journal,run_recovery,parameters_json}.cpp
              "$src"/model/src/{parameters,waveform}.cpp)
-    flags=(-I"$src/host/src/io" -I"$src/firmware/config" -I"$src/model/include"
+    flags=(-I"$src/host/src/io" -I"$src/firmware/config" -I"$src/firmware/config/error" -I"$src/model/include"
            -I/usr/include/eigen3 $(pkg-config --cflags hdf5))
     libs=($(pkg-config --libs hdf5) -lz -lfmt) ;;
   *) echo "unknown fuzz target $target"; exit 2 ;;
