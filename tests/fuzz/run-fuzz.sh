@@ -40,7 +40,7 @@ case "$target" in
     flags=("${hal_includes[@]}" $(pkg-config --cflags libmodbus))
     libs=($(pkg-config --libs libmodbus) -lfmt) ;;
   logs)
-    sources=("$src"/host/src/io/{fit_io,h5_file,run_journal,run_recovery,parameters_json}.cpp
+    sources=("$src"/host/src/io/{fit_io,h5_file,run_journal,run_recovery,catalogue,parameters_json}.cpp
              "$src"/model/src/{parameters,waveform}.cpp)
     flags=(-I"$src/host/src/io" -I"$src/firmware/config" -I"$src/firmware/config/error" -I"$src/model/include"
            -I/usr/include/eigen3 $(pkg-config --cflags hdf5))
