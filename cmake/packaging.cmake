@@ -10,13 +10,19 @@ install(FILES ${PROJECT_SOURCE_DIR}/configs/piezod-sim.toml DESTINATION /etc
         RENAME piezod.toml COMPONENT piezod)
 install(FILES ${PROJECT_SOURCE_DIR}/firmware/daemon/systemd/piezod.service
         DESTINATION lib/systemd/system COMPONENT piezod)
-install(FILES ${PROJECT_SOURCE_DIR}/docs/protocol.md
+install(FILES ${PROJECT_SOURCE_DIR}/docs/protocol.md ${PROJECT_SOURCE_DIR}/docs/board.md
+        ${PROJECT_SOURCE_DIR}/docs/configuration.md ${PROJECT_SOURCE_DIR}/docs/safety.md
+        ${PROJECT_SOURCE_DIR}/docs/hardware.md
         DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/piezod COMPONENT piezod)
 install(FILES ${PROJECT_SOURCE_DIR}/configs/rig-example.toml
         DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/piezod/examples COMPONENT piezod)
 if(PIEZO_HOST)
   install(TARGETS piezo RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT piezo)
-  install(FILES ${PROJECT_SOURCE_DIR}/README.md ${PROJECT_SOURCE_DIR}/configs/sim.toml
+  file(GLOB guides ${PROJECT_SOURCE_DIR}/docs/*.md)
+  install(FILES ${guides} DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/piezo/docs COMPONENT piezo)
+  install(DIRECTORY ${PROJECT_SOURCE_DIR}/docs/images
+          DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/piezo/docs COMPONENT piezo)
+  install(FILES ${PROJECT_SOURCE_DIR}/README.md ${PROJECT_SOURCE_DIR}/CHANGELOG.md ${PROJECT_SOURCE_DIR}/configs/sim.toml
           ${PROJECT_SOURCE_DIR}/configs/modbus-hil.toml ${PROJECT_SOURCE_DIR}/configs/paper.toml
           DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/piezo COMPONENT piezo)
 endif()

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The README's worked example: a simulated rig whose motor differs from
+# The worked example of docs/analysis.md: a simulated rig whose motor differs from
 # Table 1 is run, its log identified, and the Coulomb and LuGre models
 # compared on it. Writes out/worked-example/. Expects a built tree
 # (scripts/setup.sh); the run uses the virtual clock so the figures repeat.

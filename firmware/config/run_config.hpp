@@ -54,7 +54,7 @@ struct DriveSettings {
 
 struct SensorSettings {
   SensorBackend backend = SensorBackend::sim;
-  double r2_m = 0.062;  ///< reflector radius: theta = (d - d_tare) / r2 (MODEL.md section 4)
+  double r2_m = 0.062;  ///< reflector radius: theta = (d - d_tare) / r2 (docs/model.md section 4)
   /// The sensor's measuring range [m]: readings outside are out_of_range.
   /// The defaults only catch the absurd (a wrong word order reads 1e9 m);
   /// set them to the sensor's data sheet.

@@ -54,7 +54,7 @@ int lugre_rhs(sunrealtype t, N_Vector y, N_Vector ydot, void* data) {
   return 0;
 }
 
-// d(rhs)/dy of the LuGre equations (MODEL.md section 2), with sgn(0) = 0.
+// d(rhs)/dy of the LuGre equations (docs/model.md section 2), with sgn(0) = 0.
 int lugre_jacobian(sunrealtype, N_Vector y, N_Vector, SUNMatrix J, void* data, N_Vector, N_Vector,
                    N_Vector) {
   const auto& p = static_cast<Problem*>(data)->p;

@@ -4,7 +4,7 @@ against the simulated board, with 50 live pages reading, 50 slow senders
 trickling a byte a second and unauthenticated requests flooding, all at
 once. Twenty E-stops and Stops from the view (alternately) must each be
 answered, and the board must hold the E-stop. Prints the answers' latency
-(the README quotes it; a figure, not an assertion: machines are noisy) and
+(docs/live-view.md quotes it; a figure, not an assertion: machines are noisy) and
 what the viewers and the flood got meanwhile.
 
 Usage: view_load_check.py PIEZO PIEZOD

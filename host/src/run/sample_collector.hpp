@@ -19,7 +19,7 @@ using firmware::SensorSample;
 
 /// Turns ring samples into log columns; theta is the displacement change
 /// from the zero (the board's, for a move; else the first good reading)
-/// over r2 (MODEL.md section 4).
+/// over r2 (docs/model.md section 4).
 class SampleCollector {
  public:
   /// `zero_m`: the displacement the angle is measured from (a move's: the

@@ -18,7 +18,7 @@ struct StepMetrics {
   double mean_velocity_rad_s = 0.0;  ///< theta(t_end) / t_end
   double step_rad = 0.0;             ///< net angle per period, over the periods after settling
   /// Backward slip per period: how far the rotor falls back from the
-  /// period's highest angle by the period's end (MODEL.md section 2: the
+  /// period's highest angle by the period's end (docs/model.md section 2: the
   /// fast edge drags the rotor back where friction cannot hold it).
   double backslip_rad = 0.0;
   std::size_t integrator_steps = 0;

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Right-hand sides of the two motor models of MODEL.md section 2. Pure,
+/// Right-hand sides of the two motor models of docs/model.md section 2. Pure,
 /// allocation-free functions: the integrators, the observer and the
 /// simulated plant all evaluate these same equations.
 

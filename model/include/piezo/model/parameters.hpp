@@ -30,7 +30,7 @@ enum class Direction { forward, reverse };
   return direction == Direction::forward ? D : 1.0 - D;
 }
 
-/// Drive waveform parameters (MODEL.md section 1).
+/// Drive waveform parameters (docs/model.md section 1).
 struct DriveParameters {
   double V0 = 80.0;     ///< peak amplifier output voltage [V]
   double f = 10.0;      ///< drive frequency [Hz]
@@ -45,7 +45,7 @@ struct DriveParameters {
   [[nodiscard]] double rise() const { return rise_fraction(D(), direction); }
 };
 
-/// Mechanical and friction parameters (MODEL.md sections 2 and 3), SI units.
+/// Mechanical and friction parameters (docs/model.md sections 2 and 3), SI units.
 struct MotorParameters {
   double d_e = 0.55e-6;  ///< effective piezo coefficient [m/V] (10 Hz value)
   double M = 21.7e-3;    ///< stator mass [kg]

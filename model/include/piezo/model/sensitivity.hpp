@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// The paper's section 5 sensitivity study (MODEL.md sections 5 and 6):
+/// The paper's section 5 sensitivity study (docs/model.md sections 5 and 6):
 /// sweeps, mean velocity, elasticity and ranking. Pure functions; the host
 /// decides how to schedule the runs.
 

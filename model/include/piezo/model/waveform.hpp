@@ -27,7 +27,7 @@ class Excitation {
   [[nodiscard]] virtual LinearPiece piece(double t) const = 0;
 };
 
-/// The paper's sawtooth (MODEL.md section 1): a slow rise over D*T, a fast
+/// The paper's sawtooth (docs/model.md section 1): a slow rise over D*T, a fast
 /// fall back to zero over the rest of each period.
 class Sawtooth final : public Excitation {
  public:
