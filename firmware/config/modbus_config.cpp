@@ -53,19 +53,10 @@ void read_modbus_sensor(SectionReader& r, LinkSettings& link, RegisterMap& map) 
   r.number("response_timeout_s", link.response_timeout_s, {0.001, 10.0}, "s");
   r.number("byte_timeout_s", link.byte_timeout_s, {0.0001, 1.0}, "s");
   r.integer("unit_id", map.unit_id, 0, 247);
-  r.choice("function", map.function, {{"input", Function::input}, {"holding", Function::holding}});
+  r.choice("function", map.function, hal::modbus::kFunctionNames);
   r.integer("address", map.address, 0, 65535);
-  r.choice("type", map.type,
-           {{"u16", RegisterType::u16},
-            {"s16", RegisterType::s16},
-            {"u32", RegisterType::u32},
-            {"s32", RegisterType::s32},
-            {"f32", RegisterType::f32}});
-  r.choice("word_order", map.order,
-           {{"ABCD", WordOrder::ABCD},
-            {"CDAB", WordOrder::CDAB},
-            {"BADC", WordOrder::BADC},
-            {"DCBA", WordOrder::DCBA}});
+  r.choice("type", map.type, hal::modbus::kRegisterTypeNames);
+  r.choice("word_order", map.order, hal::modbus::kWordOrderNames);
   r.number("scale", map.scale, {-1e6, 1e6}, "m per raw unit");
   r.number("offset", map.offset, {-1e3, 1e3}, "m");
 }

@@ -48,8 +48,7 @@ double parse_number(const std::string& text, const std::string& source, const st
 
 void read_waveform(SectionReader& drive, model::Parameters& p) {
   read_specs(drive, "drive", p);
-  drive.choice("direction", p.drive.direction,
-               {{"forward", model::Direction::forward}, {"reverse", model::Direction::reverse}});
+  drive.choice("direction", p.drive.direction, model::kDirectionNames);
 }
 
 void read_motor(SectionReader& section, model::MotorParameters& motor) {

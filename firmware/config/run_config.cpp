@@ -12,6 +12,7 @@
 #include "config_error.hpp"
 #include "modbus_config.hpp"
 #include "model_config.hpp"
+#include "piezo/firmware/request_limits.hpp"
 #include "section_reader.hpp"
 
 namespace piezo::config {
@@ -23,10 +24,7 @@ constexpr Range kPositive{0.0, kInf, true, true};
 constexpr Range kNonNegative{0.0, kInf, false, true};
 
 void read_drive(SectionReader r, DriveSettings& d, model::Parameters& waveform) {
-  r.choice("backend", d.backend,
-           {{"sim", DriveBackend::sim},
-            {"modbus-ao", DriveBackend::modbus_ao},
-            {"gpiod-dac", DriveBackend::gpiod_dac}});
+  r.choice("backend", d.backend, kDriveBackendNames);
   read_waveform(r, waveform);
   r.number("rate_hz", d.rate_hz, {100.0, 100'000.0}, "Hz");
   r.number("V_min", d.limits.V_min, {0.0, 1000.0}, "V");
@@ -59,10 +57,7 @@ void read_drive(SectionReader r, DriveSettings& d, model::Parameters& waveform) 
 }
 
 void read_sensor(SectionReader r, SensorSettings& s) {
-  r.choice("backend", s.backend,
-           {{"sim", SensorBackend::sim},
-            {"modbus-tcp", SensorBackend::modbus_tcp},
-            {"modbus-rtu", SensorBackend::modbus_rtu}});
+  r.choice("backend", s.backend, kSensorBackendNames);
   r.number("rate_hz", s.sim.rate_hz, {1.0, 100'000.0}, "Hz");
   s.link.transport = s.backend == SensorBackend::modbus_rtu
                          ? hal::modbus::LinkSettings::Transport::rtu
@@ -90,9 +85,7 @@ void read_sensor(SectionReader r, SensorSettings& s) {
 }
 
 void read_lines(SectionReader r, LinesSettings& l) {
-  r.choice(
-      "backend", l.backend,
-      {{"sim", LinesBackend::sim}, {"gpiod", LinesBackend::gpiod}, {"none", LinesBackend::none}});
+  r.choice("backend", l.backend, kLinesBackendNames);
   r.number("estop_at_s", l.sim.estop_at_s, kNonNegative, "s");
   auto& g = l.gpiod;
   r.text("chip", g.chip);
@@ -108,8 +101,7 @@ void read_lines(SectionReader r, LinesSettings& l) {
 
 void read_run(SectionReader r, RunSettings& run) {
   r.number("duration_s", run.duration_s, {0.0, 1e6, true}, "s");
-  r.choice("clock", run.clock,
-           {{"realtime", RunClock::realtime}, {"virtual", RunClock::virtual_time}});
+  r.choice("clock", run.clock, kRunClockNames);
   r.integer("priority", run.priority, 0, 99);
   r.flag("lock_memory", run.lock_memory);
   r.number("flush_interval_s", run.flush_interval_s, {0.01, 1.0}, "s");
@@ -348,27 +340,12 @@ void check_whole(const RunConfig& c, const std::map<std::string, std::string>& s
         src("drive.V_min"), "drive.V_min",
         fmt::format("{:g} V must be below drive.V_max = {:g} V", lim.V_min, lim.V_max));
   }
-  const auto& d = c.model.drive;
-  // The board refuses the same (a run with nothing to drive is a mistake).
-  if (!(d.V0 > 0.0) || d.V0 > lim.V_max || lim.V_min > 0.0) {
-    throw ConfigError(src("drive.V0"), "drive.V0",
-                      fmt::format("{:g} V is outside the drive's limits; allowed: (0, drive.V_max "
-                                  "= {:g}] V with drive.V_min = {:g} V <= 0 (the sawtooth spans "
-                                  "0..V0)",
-                                  d.V0, lim.V_max, lim.V_min));
-  }
-  const double fastest = d.V0 * d.f / std::min(d.D(), 1.0 - d.D());
-  if (fastest > lim.slew_V_per_s) {
-    throw ConfigError(src("drive.slew_V_per_s"), "drive.slew_V_per_s",
-                      fmt::format("{:g} V/s is below the sawtooth's fastest edge, "
-                                  "V0*f/min(D, 1-D) = {:.4g} V/s; allowed: >= {:.4g}",
-                                  lim.slew_V_per_s, fastest, fastest));
-  }
-  if (c.drive.rate_hz < 20.0 * d.f) {
-    throw ConfigError(src("drive.rate_hz"), "drive.rate_hz",
-                      fmt::format("{:g} Hz gives under 20 samples per waveform period at f = "
-                                  "{:g} Hz; allowed: >= {:g} Hz",
-                                  c.drive.rate_hz, d.f, 20.0 * d.f));
+  // The board checks its requests by the same rule (a run with nothing to
+  // drive is a mistake).
+  if (const auto breach =
+          firmware::check_drive(c.model.drive, c.run.duration_s, {lim, c.drive.rate_hz})) {
+    const std::string key = "drive." + breach->key;
+    throw ConfigError(src(key), key, breach->message);
   }
   if (c.sensor.sim.rate_hz > c.drive.rate_hz) {
     throw ConfigError(src("sensor.rate_hz"), "sensor.rate_hz",
@@ -447,49 +424,16 @@ RunConfig load_run_config(const std::vector<std::string>& paths,
 }
 
 std::string_view name(DriveBackend b) {
-  switch (b) {
-    case DriveBackend::sim:
-      return "sim";
-    case DriveBackend::modbus_ao:
-      return "modbus-ao";
-    case DriveBackend::gpiod_dac:
-      return "gpiod-dac";
-  }
-  return "?";
+  return kDriveBackendNames.name(b);
 }
-
 std::string_view name(SensorBackend b) {
-  switch (b) {
-    case SensorBackend::sim:
-      return "sim";
-    case SensorBackend::modbus_tcp:
-      return "modbus-tcp";
-    case SensorBackend::modbus_rtu:
-      return "modbus-rtu";
-  }
-  return "?";
+  return kSensorBackendNames.name(b);
 }
-
 std::string_view name(LinesBackend b) {
-  switch (b) {
-    case LinesBackend::sim:
-      return "sim";
-    case LinesBackend::gpiod:
-      return "gpiod";
-    case LinesBackend::none:
-      return "none";
-  }
-  return "?";
+  return kLinesBackendNames.name(b);
 }
-
 std::string_view name(RunClock c) {
-  switch (c) {
-    case RunClock::realtime:
-      return "realtime";
-    case RunClock::virtual_time:
-      return "virtual";
-  }
-  return "?";
+  return kRunClockNames.name(c);
 }
 
 model::Parameters load_model_config(const std::string& path) {

@@ -34,7 +34,20 @@ enum class LinesBackend { sim, gpiod, none };
 /// The run's clock: the board's, or the simulated rig's virtual one.
 enum class RunClock { realtime, virtual_time };
 
-/// The names the config and the protocol use.
+/// The names the config and the protocol use, both ways.
+inline constexpr auto kDriveBackendNames =
+    names<DriveBackend>({{DriveBackend::sim, "sim"},
+                         {DriveBackend::modbus_ao, "modbus-ao"},
+                         {DriveBackend::gpiod_dac, "gpiod-dac"}});
+inline constexpr auto kSensorBackendNames =
+    names<SensorBackend>({{SensorBackend::sim, "sim"},
+                          {SensorBackend::modbus_tcp, "modbus-tcp"},
+                          {SensorBackend::modbus_rtu, "modbus-rtu"}});
+inline constexpr auto kLinesBackendNames = names<LinesBackend>(
+    {{LinesBackend::sim, "sim"}, {LinesBackend::gpiod, "gpiod"}, {LinesBackend::none, "none"}});
+inline constexpr auto kRunClockNames =
+    names<RunClock>({{RunClock::realtime, "realtime"}, {RunClock::virtual_time, "virtual"}});
+
 [[nodiscard]] std::string_view name(DriveBackend b);
 [[nodiscard]] std::string_view name(SensorBackend b);
 [[nodiscard]] std::string_view name(LinesBackend b);

@@ -13,6 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include "piezo/name_table.hpp"
+
 namespace piezo::config {
 
 /// An allowed interval; open ends exclude the bound.
@@ -39,16 +41,14 @@ class SectionReader {
               const std::string& unit = "");
   void integer(const std::string& key, int& value, int min, int max);
   void choice(const std::string& key, std::string& value, const std::vector<std::string>& allowed);
-  /// One of a fixed set of names, each standing for an enum value.
-  template <class Enum>
-  void choice(const std::string& key, Enum& value,
-              std::initializer_list<std::pair<std::string_view, Enum>> names) {
+  /// One of an enum's names (its table's, which the value's writers use too).
+  template <class Enum, std::size_t N>
+  void choice(const std::string& key, Enum& value, const NameTable<Enum, N>& names) {
     std::vector<std::string> allowed;
-    for (const auto& [name, e] : names) allowed.emplace_back(name);
+    for (const auto& [e, name] : names.entries()) allowed.emplace_back(name);
     std::string text;
     choice(key, text, allowed);
-    for (const auto& [name, e] : names)
-      if (name == text) value = e;
+    if (const auto e = names.parse(text)) value = *e;
   }
   void flag(const std::string& key, bool& value);
   /// A non-empty array of integers, each in [min, max].

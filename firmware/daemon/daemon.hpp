@@ -1,8 +1,15 @@
 #pragma once
-// piezod's core: owns the rig built from the board config, serves the
-// command socket (ROUTER) and the sample stream (PUB), runs the state
-// machine, the recorder and the lease. One network thread does all of it;
-// the real-time loops run under a LoopRunner beside it.
+// piezod's core: owns the rig built from the board config and serves the
+// command socket (ROUTER) and the sample stream (PUB) from one network
+// thread; the real-time loops run under a LoopRunner beside it. Its rooms:
+//   daemon.cpp          sockets, CURVE, the poll loop and the command table
+//   daemon_run.cpp      a run's life: configure, start, step, stop, lease, its end
+//   daemon_programs.cpp what a run follows besides a waveform: moves, calibration;
+//                       the zero and readings at rest
+//   daemon_reports.cpp  what the board says: hello, status, events (typed messages)
+//   run_state.*         the state machine and its latching rules
+//   command_table.*     commands, their arguments and who may send them
+//   sample_hub.*        recorder, spill file, publishing and fetch
 
 #include <atomic>
 #include <chrono>
@@ -14,25 +21,21 @@
 #include <optional>
 #include <ostream>
 #include <string>
-#include <vector>
 #include <zmq.hpp>
 
+#include "command_table.hpp"
 #include "curve.hpp"
-#include "fetch_budget.hpp"
+#include "piezo/firmware/angle_zero.hpp"
 #include "piezo/firmware/calibration_program.hpp"
-#include "piezo/firmware/loop_runner.hpp"
 #include "piezo/firmware/move_controller.hpp"
-#include "piezo/firmware/run_guard.hpp"
-#include "piezo/model/waveform.hpp"
-#include "recorder.hpp"
+#include "piezo/firmware/move_planner.hpp"
+#include "piezo/protocol/messages.hpp"
 #include "rig.hpp"
 #include "run_config.hpp"
-#include "spill_file.hpp"
+#include "run_state.hpp"
+#include "sample_hub.hpp"
 
 namespace piezo::daemon {
-
-enum class State { idle, running, ramping_down, fault };
-[[nodiscard]] const char* to_string(State s);
 
 class Daemon {
  public:
@@ -59,56 +62,75 @@ class Daemon {
   [[nodiscard]] const std::string& stream_endpoint() const { return stream_endpoint_; }
 
  private:
-  struct RunRequest {
-    model::DriveParameters drive;
-    double duration_s = 0.0;
-  };
-  struct Run;  // the run under way, or the last one
-
-  void poll_once();
-  void on_command(std::vector<zmq::message_t>& frames);
-  nlohmann::json handle(const std::string& client, const std::string& cmd,
-                        const nlohmann::json& args);
-  nlohmann::json hello() const;
-  nlohmann::json status(const std::string& client) const;
-  /// `cmd` names the command in refusals (step and move_to configure too).
-  nlohmann::json configure(const std::string& client, const nlohmann::json& args,
-                           const char* cmd = "configure");
+  struct Run;  // the run under way, or the last one (daemon_run.hpp)
   /// What a run follows: the configured waveform, a closed-loop move, or
   /// the calibration experiment.
   struct Program {
     std::optional<firmware::MoveSettings> move;
     std::optional<firmware::CalibrationPlan> calibration;
   };
-  nlohmann::json start(const std::string& client, const nlohmann::json& args,
+  struct AtRest {
+    double mean_m = 0.0, stddev_m = 0.0;
+    int good = 0;
+  };
+
+  // daemon.cpp
+  void bind_sockets();
+  void load_calibration_file();
+  void poll_once();
+  void on_command(std::vector<zmq::message_t>& frames);
+  CommandTable command_table();
+  void log_event(const std::string& line);
+  [[nodiscard]] bool running() const { return run_state_.under_way(); }
+  /// False once a run's drive loop has counted no cycle for a second on
+  /// the real clock.
+  [[nodiscard]] bool drive_loop_progressing();
+
+  // daemon_run.cpp
+  nlohmann::json configure(const std::string& client, const nlohmann::json& args);
+  /// Checks and keeps a waveform; `cmd` names the command in refusals.
+  protocol::ConfigureRequest apply_configuration(const protocol::ConfigureRequest& request,
+                                                 const char* cmd);
+  /// `lease` holds the request's `lease_s`, if it named one.
+  nlohmann::json start(const std::string& client, const nlohmann::json& lease,
                        const Program& program = {}, const char* cmd = "start");
+  /// The loop runner for the program, over the run's own parts.
+  void build_runner(Run& run, const Program& program);
   nlohmann::json step(const std::string& client, const nlohmann::json& args);
+  nlohmann::json stop_run(const std::string& client);
+  nlohmann::json estop(const std::string& client);
+  nlohmann::json reset_fault();
+  nlohmann::json renew_lease(const std::string& client, const nlohmann::json& args);
+  void check_lease_on_wall_clock();
+  void pump_samples();
+  void finish_run();
+  void take_calibration(Run& run);
+
+  // daemon_programs.cpp
   nlohmann::json move_to(const std::string& client, const nlohmann::json& args);
+  /// The move's settings from its request: limits, zero, noise, waveform, steps.
+  firmware::MoveSettings plan_move(const protocol::MoveToRequest& request, bool& calibrated);
   nlohmann::json calibrate(const std::string& client, const nlohmann::json& args);
   nlohmann::json set_calibration(const std::string& client, const nlohmann::json& args);
   /// Installs a checked calibration and keeps it in the board's file.
   void install_calibration(nlohmann::json c);
   nlohmann::json set_zero(const std::string& client);
-  nlohmann::json position_json() const;
-  nlohmann::json move_json(const Run& run) const;
-  nlohmann::json stop_run(const std::string& client);
-  nlohmann::json estop(const std::string& client);
-  nlohmann::json reset_fault();
-  nlohmann::json renew_lease(const std::string& client, const nlohmann::json& args);
-  nlohmann::json fetch(const std::string& client, const nlohmann::json& args);
-  void require_controller(const std::string& client, const char* cmd) const;
-  /// Refuses `cmd` (start, step, move_to) under a latched fault or a run.
-  void require_can_start(const std::string& client, const char* cmd) const;
-  void pump_samples();
+  /// Reads the sensor `n` times at its rate with the loops stopped and the
+  /// drive at 0 V: the mean of the good readings and their spread (they
+  /// also become the recent ones, so `status` says the same).
+  [[nodiscard]] AtRest read_at_rest(std::size_t n);
+  [[nodiscard]] std::optional<double> recent_displacement_m() const;
+  void remember_reading(double displacement_m);
+
+  // daemon_reports.cpp
+  [[nodiscard]] protocol::Hello hello() const;
+  [[nodiscard]] nlohmann::json status(const std::string& client) const;
+  [[nodiscard]] nlohmann::json position_json() const;
+  [[nodiscard]] nlohmann::json fault_json() const;
+  [[nodiscard]] nlohmann::json move_json(const Run& run) const;
+  [[nodiscard]] protocol::RunSummary summary(const Run& run) const;
   void publish_state();
   void publish_health();
-  void finish_run();
-  void check_lease_on_wall_clock();
-  void log_event(const std::string& line);
-  [[nodiscard]] bool running() const;
-  /// False once a run's drive loop has counted no cycle for a second on
-  /// the real clock.
-  [[nodiscard]] bool drive_loop_progressing();
 
   config::RunConfig board_;
   std::ostream& log_;
@@ -117,39 +139,23 @@ class Daemon {
   zmq::socket_t commands_, stream_;
   std::unique_ptr<ZapHandler> zap_;
   std::string command_endpoint_, stream_endpoint_;
-  State state_ = State::idle;
-  firmware::StopCause fault_cause_ = firmware::StopCause::none;
-  std::optional<RunRequest> configured_;
+  RunState run_state_;
+  std::optional<protocol::ConfigureRequest> configured_;
   std::unique_ptr<Run> run_;
   std::uint64_t run_count_ = 0;
-  std::string controller_;  ///< routing id of the controlling client, while a run is on
-  Recorder<firmware::DriveSample> drive_recorder_;
-  Recorder<firmware::SensorSample> sensor_recorder_;
-  std::optional<SpillFile> spill_;
-  FetchBudget fetch_budget_;
-  std::uint64_t drive_published_ = 0, sensor_published_ = 0;
-  /// The user's zero of the angle (a displacement [m]): set by `zero`, or
-  /// else the first good reading since the daemon started.
-  std::optional<double> zero_displacement_m_;
+  SampleHub samples_;
+  /// The angle's zero: set by `zero` or a move, else the first good reading
+  /// since the daemon started.
+  firmware::AngleZero zero_;
   /// The installed calibration (docs/protocol.md, "Calibration"), if any.
   std::optional<nlohmann::json> calibration_;
-  static constexpr std::size_t kZeroReadings = 8;  ///< averaged for a zero or a position
-  std::vector<double> zero_readings_;              ///< toward the zero at the start
-  std::deque<double> recent_readings_;             ///< the last good readings of any run
-  [[nodiscard]] std::optional<double> recent_displacement_m() const;
-  /// Reads the sensor kZeroReadings times at its rate, after a run with the
-  /// loops stopped and the drive at 0 V: the mean of the good readings (they
-  /// also become the recent ones, so `status` says the same).
-  struct AtRest {
-    double mean_m = 0.0, stddev_m = 0.0;
-    int good = 0;
-  };
-  [[nodiscard]] std::optional<double> read_at_rest();
-  /// The same for `n` readings, with their spread.
-  [[nodiscard]] AtRest read_at_rest(std::size_t n);
+  static constexpr std::size_t kRecentReadings = 8;  ///< averaged for a position
+  std::deque<double> recent_readings_;               ///< the last good readings of any run
   std::chrono::steady_clock::time_point last_health_;
   std::uint64_t last_drive_cycles_ = 0;
   std::chrono::steady_clock::time_point last_drive_progress_;
+  firmware::MovePlanner planner_;  ///< the model's step tables, per waveform
+  CommandTable command_table_;     ///< last: its handlers use the members above
 };
 
 }  // namespace piezo::daemon

@@ -25,27 +25,8 @@ constexpr double kLiftExtra_V = 2.0;
 }  // namespace
 
 const char* to_string(MoveState s) {
-  switch (s) {
-    case MoveState::none:
-      return "none";
-    case MoveState::coarse:
-      return "coarse";
-    case MoveState::fine:
-      return "fine";
-    case MoveState::release:
-      return "release";
-    case MoveState::settle:
-      return "settle";
-    case MoveState::on_target:
-      return "on_target";
-    case MoveState::stalled:
-      return "stalled";
-    case MoveState::sensor_implausible:
-      return "sensor_implausible";
-    case MoveState::holding:
-      return "holding";
-  }
-  return "unknown";
+  // The table's names are literals, so their data is a C string.
+  return kMoveStateNames.name(s).data();
 }
 
 MoveController::MoveController(const MoveSettings& settings, const PositionFeed& feed)
@@ -53,6 +34,7 @@ MoveController::MoveController(const MoveSettings& settings, const PositionFeed&
       feed_(feed),
       seen_(feed.count()),
       flush_(kNoiseReadings),  // the first decision waits for the noise at rest
+      zero_(settings.zero_displacement_m),
       zero_m_(settings.zero_displacement_m),
       noise_m_(kNaN),
       position_(kNaN),
@@ -153,10 +135,10 @@ void MoveController::on_reading(double t, double displacement_m) {
     if (++noise_n_ == kNoiseReadings) {
       const double n = kNoiseReadings, mean = noise_sum_ / n;
       noise_m_.store(std::sqrt(std::max(0.0, noise_sum2_ / n - mean * mean) * n / (n - 1.0)));
-      if (std::isnan(s_.zero_displacement_m)) {
+      if (!zero_.known()) {
         // No zero yet: the mean of the readings at rest (one reading's
         // noise would offset every later move).
-        s_.zero_displacement_m = mean;
+        zero_.set(mean);
         zero_m_.store(mean);
       }
     }
@@ -167,8 +149,8 @@ void MoveController::on_reading(double t, double displacement_m) {
   double sum = 0.0;
   for (int i = 0; i < filled_; ++i) sum += window_[static_cast<std::size_t>(i)];
   const double mean_m = sum / filled_;
-  if (std::isnan(s_.zero_displacement_m)) return;  // until the readings at rest give it
-  theta_f_ = (mean_m - s_.zero_displacement_m) / s_.r2_m;
+  if (!zero_.known()) return;  // until the readings at rest give it
+  theta_f_ = zero_.angle_rad(mean_m, s_.r2_m);
   position_.store(theta_f_, std::memory_order_relaxed);
   if (flush_ > 0) {
     --flush_;
@@ -177,7 +159,7 @@ void MoveController::on_reading(double t, double displacement_m) {
   if (in_step_) {
     // The raw readings' extremes: a mean of 8 would smooth away the swing
     // of steps shorter than 8 readings (40 Hz with a 200 Hz sensor).
-    const double theta = (displacement_m - s_.zero_displacement_m) / s_.r2_m;
+    const double theta = zero_.angle_rad(displacement_m, s_.r2_m);
     step_low_ = std::min(step_low_, theta);
     step_high_ = std::max(step_high_, theta);
   }
@@ -247,7 +229,7 @@ void MoveController::settle(double t, double displacement_m) {
         settle_ring_[static_cast<std::size_t>((settle_next_ - 1 - settle_n_ + kRing) % kRing)];
   }
   if (settle_count_ < settle_n_) return;
-  const double theta = (settle_sum_ / settle_n_ - s_.zero_displacement_m) / s_.r2_m;
+  const double theta = zero_.angle_rad(settle_sum_ / settle_n_, s_.r2_m);
   const double error = s_.target_rad - theta;
   const double noise = this->noise();
   const double interval =

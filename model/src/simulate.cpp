@@ -11,37 +11,32 @@
 
 namespace piezo::model {
 
+namespace {
+
+constexpr auto kFrictionModelNames =
+    names<FrictionModel>({{FrictionModel::lugre, "lugre"}, {FrictionModel::coulomb, "coulomb"}});
+constexpr auto kIntegratorNames = names<Integrator>({{Integrator::model_default, "model_default"},
+                                                     {Integrator::dopri5, "dopri5"},
+                                                     {Integrator::closed_form, "closed_form"},
+                                                     {Integrator::hybrid, "hybrid"}});
+
+}  // namespace
+
 std::string_view to_string(FrictionModel m) {
-  return m == FrictionModel::lugre ? "lugre" : "coulomb";
+  return kFrictionModelNames.name(m);
 }
 
 std::optional<FrictionModel> parse_friction_model(std::string_view text) {
-  if (text == "lugre") return FrictionModel::lugre;
-  if (text == "coulomb") return FrictionModel::coulomb;
-  return std::nullopt;
+  return kFrictionModelNames.parse(text);
 }
 
 std::string_view to_string(Integrator i) {
-  switch (i) {
-    case Integrator::model_default:
-      return "model_default";
-    case Integrator::dopri5:
-      return "dopri5";
-    case Integrator::closed_form:
-      return "closed_form";
-    case Integrator::hybrid:
-      return "hybrid";
-  }
-  return "?";
+  return kIntegratorNames.name(i);
 }
 
 std::optional<Integrator> parse_integrator(std::string_view text) {
-  for (auto i : {Integrator::model_default, Integrator::dopri5, Integrator::closed_form,
-                 Integrator::hybrid}) {
-    if (text == to_string(i)) return i;
-  }
   if (text == "taylor") return Integrator::hybrid;  // the name of its first form (series only)
-  return std::nullopt;
+  return kIntegratorNames.parse(text);
 }
 
 std::vector<double> uniform_times(double duration, double interval) {

@@ -106,13 +106,11 @@ const std::string kMinimal = "[drive]\n[sensor]\n[run]\nclock = \"virtual\"\n";
 INSTANTIATE_TEST_SUITE_P(
     Cli, RunBadInput,
     ::testing::Values(
-        BadRun{
-            "V0AboveLimit", "--set drive.V0=90", "",
-            "--set: drive.V0: 90 V is outside the drive's limits; allowed: (0, drive.V_max = 80] "
-            "V"},
+        BadRun{"V0AboveLimit", "--set drive.V0=90", "",
+               "--set: drive.V0: 90 V is outside the drive's limits; allowed: (0, 80] V (V_max"},
         // Refused here, as the board would, before a run directory exists.
         BadRun{"V0Zero", "--set drive.V0=0", "",
-               "--set: drive.V0: 0 V is outside the drive's limits; allowed: (0, drive.V_max"},
+               "--set: drive.V0: 0 V is outside the drive's limits; allowed: (0, 80] V"},
         BadRun{"TargetDistanceZero", "--set sensor.target_distance_m=0", "",
                "--set: sensor.target_distance_m: value 0 m is outside the allowed range (0, 10] m"},
         BadRun{"TargetDistanceNegative", "--set sensor.target_distance_m=-0.05", "",
@@ -142,8 +140,10 @@ INSTANTIATE_TEST_SUITE_P(
         BadRun{"BadSetSyntax", "--set V0=70", "", "--set: V0=70: expected SECTION.KEY=VALUE"},
         BadRun{"BadClock", "--set run.clock=fast", "",
                "run.clock: must be one of: \"realtime\", \"virtual\""},
+        // The board's rule: the waveform asked for must fit the slew limit.
         BadRun{"SlewTooLow", "--set drive.slew_V_per_s=1000", "",
-               "drive.slew_V_per_s: 1000 V/s is below the sawtooth's fastest edge"},
+               "drive.V0: the sawtooth's fastest edge, V0*f/min(D, 1-D) = 3194 V/s, exceeds the "
+               "slew limit slew_V_per_s = 1000 V/s"},
         BadRun{"BadPlant", "--set plant.mu=-0.1", "", "plant.mu"},
         BadRun{"RampTooSlow", "--set safety.ramp_down_V_per_s=1e-3", "",
                "safety.ramp_down_V_per_s: 0.001 V/s takes 8e+04 s to ramp from drive.V_max = 80 "

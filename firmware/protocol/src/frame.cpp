@@ -74,12 +74,11 @@ hal::Status status_from(std::uint8_t raw, const char* key) {
 }  // namespace
 
 std::string_view to_string(Stream s) {
-  return s == Stream::drive ? "drive" : "sensor";
+  return kStreamNames.name(s);
 }
 
 Stream stream_from_string(std::string_view name, std::string_view key) {
-  if (name == "drive") return Stream::drive;
-  if (name == "sensor") return Stream::sensor;
+  if (const auto s = kStreamNames.parse(name)) return *s;
   throw ProtocolError(
       code::bad_argument, std::string(key),
       fmt::format("{}: \"{}\" is not a stream (allowed: \"drive\", \"sensor\")", key, name));

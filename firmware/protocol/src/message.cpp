@@ -190,7 +190,7 @@ std::uint64_t uint_arg(const json& args, const std::string& key,
   return v->get<std::uint64_t>();
 }
 
-void refuse_unknown_args(const json& args, std::initializer_list<std::string_view> known,
+void refuse_unknown_args(const json& args, const std::vector<std::string_view>& known,
                          std::string_view cmd) {
   for (const auto& [key, value] : args.items()) {
     if (std::find(known.begin(), known.end(), key) != known.end()) continue;

@@ -97,26 +97,15 @@ void encode(RegisterType type, WordOrder order, double value, std::span<std::uin
 }
 
 std::optional<Function> parse_function(std::string_view text) {
-  if (text == "input") return Function::input;
-  if (text == "holding") return Function::holding;
-  return std::nullopt;
+  return kFunctionNames.parse(text);
 }
 
 std::optional<RegisterType> parse_register_type(std::string_view text) {
-  if (text == "u16") return RegisterType::u16;
-  if (text == "s16") return RegisterType::s16;
-  if (text == "u32") return RegisterType::u32;
-  if (text == "s32") return RegisterType::s32;
-  if (text == "f32") return RegisterType::f32;
-  return std::nullopt;
+  return kRegisterTypeNames.parse(text);
 }
 
 std::optional<WordOrder> parse_word_order(std::string_view text) {
-  if (text == "ABCD") return WordOrder::ABCD;
-  if (text == "CDAB") return WordOrder::CDAB;
-  if (text == "BADC") return WordOrder::BADC;
-  if (text == "DCBA") return WordOrder::DCBA;
-  return std::nullopt;
+  return kWordOrderNames.parse(text);
 }
 
 }  // namespace piezo::hal::modbus

@@ -12,8 +12,8 @@
 namespace piezo::host {
 using nlohmann::json;
 
-BoardWatch::BoardWatch(const config::RunConfig& config, RigClient& client, const json& hello,
-                       view::LiveFeed& feed)
+BoardWatch::BoardWatch(const config::RunConfig& config, RigClient& client,
+                       const protocol::Hello& hello, view::LiveFeed& feed)
     : config_(config), client_(client), hello_(hello), feed_(feed) {
   client_.subscribe({"drive", "sensor", "state", "health"});
 }
@@ -33,9 +33,9 @@ void BoardWatch::follow_run(std::uint64_t run) {
   const auto t0 = r.at("t0_ns").get<hal::TimeNs>();
   observer_.reset();
   if (config_.observer.enabled) {
-    observer_ = std::make_unique<ObserverStage>(config_.model.motor, config_.observer.gains,
-                                                1.0 / hello_.at("drive_rate_hz").get<double>(),
-                                                hello_.at("output_latency_s").get<double>());
+    observer_ =
+        std::make_unique<ObserverStage>(config_.model.motor, config_.observer.gains,
+                                        1.0 / hello_.drive_rate_hz, hello_.output_latency_s);
   }
   collector_ = std::make_unique<SampleCollector>(t0, config_.sensor.r2_m, observer_.get());
   sensor_samples_ = drive_received_ = 0;

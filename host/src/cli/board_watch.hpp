@@ -22,7 +22,7 @@ namespace piezo::host {
 class BoardWatch {
  public:
   /// `hello` is the board's answer to `hello` (rates, latency).
-  BoardWatch(const config::RunConfig& config, RigClient& client, const nlohmann::json& hello,
+  BoardWatch(const config::RunConfig& config, RigClient& client, const protocol::Hello& hello,
              view::LiveFeed& feed);
 
   /// Handles what the stream brought within `wait`, and renews the lease of
@@ -44,7 +44,7 @@ class BoardWatch {
 
   config::RunConfig config_;
   RigClient& client_;
-  nlohmann::json hello_;
+  protocol::Hello hello_;
   view::LiveFeed& feed_;
   std::mutex commands_;  ///< the command socket, shared by the watch and the page
 

@@ -20,6 +20,7 @@
 #include "live_feed.hpp"
 #include "log_schema.hpp"
 #include "parameters_json.hpp"
+#include "piezo/firmware/request_limits.hpp"
 #include "remote_run.hpp"
 #include "rig.hpp"
 #include "rig_client.hpp"
@@ -31,6 +32,16 @@
 
 namespace piezo::host {
 namespace {
+
+/// The command-line option that sets a move's `key`.
+std::string move_option(const std::string& key) {
+  if (key == "target_rad") return "--to";
+  if (key == "tolerance_rad") return "--tolerance";
+  if (key == "settle_s") return "--settle";
+  if (key == "timeout_s") return "--timeout";
+  if (key == "hold_s") return "--hold";
+  return "--stall-steps";
+}
 
 namespace fs = std::filesystem;
 
@@ -384,19 +395,14 @@ int run(const RunOptions& o) {
     config.run.duration_s = static_cast<double>(o.step_periods) / config.model.drive.f;
   }
   if (o.move_to) {
-    // The board refuses the same; checked here first so that a refused move
-    // leaves no run directory behind.
-    const auto require = [](bool ok, const char* key, double value, const char* allowed) {
-      if (!ok) throw config::ConfigError(key, fmt::format("{:g}", value), allowed);
-    };
-    require(std::abs(*o.move_to) <= 10.0, "--to", *o.move_to, "allowed: [-10, 10] rad");
-    require(o.move.tolerance_rad > 0.0 && o.move.tolerance_rad <= 0.1, "--tolerance",
-            o.move.tolerance_rad, "allowed: (0, 0.1] rad");
-    require(o.move.settle_s >= 0.0 && o.move.settle_s <= 10.0, "--settle", o.move.settle_s,
-            "allowed: [0, 10] s");
-    require(o.move.timeout_s > 0.0, "--timeout", o.move.timeout_s, "allowed: > 0 s");
-    require(o.move.hold_s >= 0.0 && o.move.hold_s < o.move.timeout_s, "--hold", o.move.hold_s,
-            "allowed: [0, --timeout) s");
+    // The board refuses the same (one rule); checked here first so that a
+    // refused move leaves no run directory behind.
+    const firmware::MoveRequest asked{
+        *o.move_to,       o.move.tolerance_rad, o.move.settle_s,
+        o.move.timeout_s, o.move.hold_s,        static_cast<std::uint64_t>(o.move.stall_steps)};
+    if (const auto breach = firmware::check_move(asked)) {
+      throw config::ConfigError(move_option(breach->key), breach->key, breach->message);
+    }
     config.run.move = o.move;
     config.run.move->target_rad = *o.move_to;
     config.run.move->protect = !o.no_protect;
@@ -413,7 +419,7 @@ int run(const RunOptions& o) {
   // The rig: piezod at an address, or the firmware in this process.
   std::optional<config::Rig> rig;
   std::optional<RigClient> client;
-  nlohmann::json hello;
+  protocol::Hello hello;
   std::string geometry_note;  ///< the board's sensor radius differed from the config's
   double drive_latency_s = 0.0;
   if (config.rig.address.empty()) {
@@ -421,14 +427,13 @@ int run(const RunOptions& o) {
     drive_latency_s = rig->drive->output_latency_s();
   } else {
     client.emplace(config.rig);
-    hello = client->call("hello");
-    require_protocol(hello, client->address());
+    hello = client->hello();
     if (const std::string note = adopt_board_sensor(config, hello); !note.empty()) {
       write_out(stderr, "piezo: " + note + "\n");
       geometry_note = note;
     }
     configure_remote(config, *client);
-    drive_latency_s = hello.at("output_latency_s").get<double>();
+    drive_latency_s = hello.output_latency_s;
   }
 
   // The live view binds before anything is created: a busy port is bad input.
@@ -471,8 +476,7 @@ int run(const RunOptions& o) {
        {"version", PIEZO_VERSION},
        {"utc_start", utc_start},
        {"host", host_name()},
-       {"clock",
-        client ? hello.value("clock", std::string()) : std::string(name(config.run.clock))},
+       {"clock", client ? hello.clock : std::string(name(config.run.clock))},
        {log_schema::kDriveLatency, fmt::format("{:.9g}", drive_latency_s)},
        {"time_origin", "seconds from the run's start (first drive deadline)"},
        {"theta", fmt::format("(displacement - first good displacement) / sensor.r2_m, "

@@ -45,8 +45,7 @@ int serve(const ViewCliOptions& o) {
       o.config.empty() ? config::RunConfig{} : config::load_run_config(o.config, {});
   config.rig.address = o.rig;
   RigClient client(config.rig);
-  const nlohmann::json hello = client.call("hello");
-  require_protocol(hello, client.address());
+  const protocol::Hello hello = client.hello();
   if (const std::string note = adopt_board_sensor(config, hello); !note.empty()) {
     std::cerr << "piezo view: " << note << "\n";
   }

@@ -34,24 +34,23 @@ std::int64_t host_ns() {
 }
 
 hal::Status status_from(const std::string& name) {
-  for (std::uint8_t i = 0; i <= static_cast<std::uint8_t>(hal::kLastStatus); ++i) {
-    if (hal::to_string(static_cast<hal::Status>(i)) == name) return static_cast<hal::Status>(i);
-  }
-  return hal::Status::io_error;
+  return hal::kStatusNames.parse(name).value_or(hal::Status::io_error);
 }
 
-LoopSummary loop_summary(const json& j) {
+LoopSummary loop_summary(const protocol::LoopHealth& h) {
   LoopSummary s;
-  s.samples = j.value("cycles", std::uint64_t{0});
-  s.overruns = j.value("overruns", std::uint64_t{0});
-  s.missed_cycles = j.value("missed_cycles", std::uint64_t{0});
-  s.dropped = j.value("dropped", std::uint64_t{0});
-  s.errors = j.value("errors", std::uint64_t{0});
-  s.p50_us = j.value("p50_us", 0.0);
-  s.p99_us = j.value("p99_us", 0.0);
-  s.max_us = j.value("max_us", 0.0);
-  s.mean_us = j.value("mean_us", 0.0);
-  s.histogram = j.value("histogram_us", std::vector<double>{});
+  s.samples = h.cycles;
+  s.overruns = h.overruns;
+  s.missed_cycles = h.missed_cycles;
+  s.dropped = h.dropped;
+  s.errors = h.errors;
+  if (h.timing) {
+    s.p50_us = h.timing->p50_us;
+    s.p99_us = h.timing->p99_us;
+    s.max_us = h.timing->max_us;
+    s.mean_us = h.timing->mean_us;
+    s.histogram = h.timing->histogram_us;
+  }
   return s;
 }
 
@@ -118,31 +117,21 @@ class StreamCursor {
 }  // namespace
 
 firmware::StopCause stop_cause_from(const std::string& name) {
-  using firmware::StopCause;
-  for (int i = 0; i <= static_cast<int>(firmware::kLastStopCause); ++i) {
-    const auto c = static_cast<StopCause>(i);
-    if (firmware::to_string(c) == name) return c;
-  }
-  return StopCause::drive_fault;
+  return firmware::kStopCauseNames.parse(name).value_or(firmware::StopCause::drive_fault);
 }
 
 namespace {
 
 json configure_args(const config::RunConfig& c) {
-  const auto& d = c.model.drive;
-  return {{"V0", d.V0},
-          {"f", d.f},
-          {"C_dr", d.C_dr},
-          {"e_dr", d.e_dr},
-          {"direction", model::name(d.direction)},
-          {"duration_s", c.run.duration_s}};
+  return protocol::ConfigureRequest{c.model.drive, c.run.duration_s};
 }
 
 /// The observer's model: the config's, with the parameters the board's
 /// calibration fitted (its `model`) in their place; the log says which.
-model::MotorParameters observer_model(const config::RunConfig& c, const json& hello, RunLog& log) {
+model::MotorParameters observer_model(const config::RunConfig& c, const protocol::Hello& hello,
+                                      RunLog& log) {
   model::Parameters p{c.model.drive, c.model.motor};
-  const json cal = hello.value("calibration", json());
+  const json& cal = hello.calibration;
   if (!cal.is_object() || !cal.value("model", json()).is_object()) return p.motor;
   std::vector<std::string> used;
   const json parameters = cal.at("model").value("parameters", json::object());
@@ -168,19 +157,19 @@ json start_remote(const config::RunConfig& c, RigClient& client, std::optional<d
   if (c.run.move) {
     const auto& d = c.model.drive;
     const auto& m = *c.run.move;
-    json args{{"target_rad", m.target_rad},
-              {"tolerance_rad", m.tolerance_rad},
-              {"settle_s", m.settle_s},
-              {"timeout_s", m.timeout_s},
-              {"hold_s", m.hold_s},
-              {"protect", m.protect},
-              {"stall_steps", m.stall_steps},
-              {"C_dr", d.C_dr},
-              {"e_dr", d.e_dr}};
-    if (m.V0) args["V0"] = *m.V0;
-    if (m.f) args["f"] = *m.f;
-    if (lease) args["lease_s"] = *lease;
-    return client.call("move_to", args);
+    const protocol::MoveToRequest request{m.target_rad,
+                                          m.tolerance_rad,
+                                          m.settle_s,
+                                          m.timeout_s,
+                                          m.hold_s,
+                                          m.protect,
+                                          static_cast<std::uint64_t>(m.stall_steps),
+                                          m.V0,
+                                          m.f,
+                                          d.C_dr,
+                                          d.e_dr,
+                                          lease};
+    return client.call("move_to", request);
   }
   if (c.run.calibrate) {
     json args = json::object();
@@ -191,11 +180,7 @@ json start_remote(const config::RunConfig& c, RigClient& client, std::optional<d
   if (c.run.step_periods == 0) {
     return client.call("start", lease ? json{{"lease_s", *lease}} : json::object());
   }
-  json args = configure_args(c);
-  args.erase("duration_s");
-  args["count"] = c.run.step_periods;
-  if (lease) args["lease_s"] = *lease;
-  return client.call("step", args);
+  return client.call("step", protocol::StepRequest{c.run.step_periods, c.model.drive, lease});
 }
 
 }  // namespace
@@ -224,8 +209,9 @@ ClockMapping estimate_clock_offset(RigClient& client, int round_trips) {
   return best;
 }
 
-RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, const json& hello,
-                              RunLog& log, const std::atomic<bool>& stop,
+RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client,
+                              const protocol::Hello& hello, RunLog& log,
+                              const std::atomic<bool>& stop,
                               const std::function<void(const LiveStatus&)>& on_status,
                               std::optional<double> lease, const std::atomic<bool>* estop) {
   RunSummary summary;
@@ -244,15 +230,15 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
 
   const json started = start_remote(c, client, lease);
   const auto t0 = started.at("t0_ns").get<hal::TimeNs>();
+  const auto run_id = started.at("run").get<std::uint64_t>();
   const double lease_s = started.at("lease_s").get<double>();
   log.set_attribute("board_t0_ns", std::to_string(t0));
   log.set_attribute("rig", client.address());
 
   std::optional<ObserverStage> observer;
   if (c.observer.enabled) {
-    observer.emplace(observer_model(c, hello, log), c.observer.gains,
-                     1.0 / hello.at("drive_rate_hz").get<double>(),
-                     hello.at("output_latency_s").get<double>());
+    observer.emplace(observer_model(c, hello, log), c.observer.gains, 1.0 / hello.drive_rate_hz,
+                     hello.output_latency_s);
   }
   // A move's angles are from the board's zero (the frame of its target and
   // of every position it reports); a run's from its first good reading.
@@ -266,7 +252,7 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
   }
   std::vector<std::string> gaps;
   const std::int64_t host_start = host_ns();
-  const bool virtual_clock = hello.value("clock", std::string()) == "virtual";
+  const bool virtual_clock = hello.clock == "virtual";
   StreamCursor cursor(client, collector, gaps, [&] {
     return virtual_clock ? 1e-9 * static_cast<double>(host_ns() - host_start)
                          : hal::to_seconds(host_ns() + clock.offset_ns - t0);
@@ -295,8 +281,9 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
   const auto flush_interval = std::chrono::duration<double>(c.run.flush_interval_s);
   auto last_lease = SteadyClock::now(), last_flush = last_lease, last_status = last_lease,
        last_heard = last_lease;
-  std::optional<json> final_state;
-  json health = json::object();
+  std::optional<protocol::RunSummary> final_summary;
+  protocol::HealthEvent health;
+  health.state = "running";  // until the board says otherwise
   // Spans with nothing heard from the board, on the board's run time.
   std::vector<std::string> outages;
   double quiet_since_s = std::nan("");  // NaN: heard recently
@@ -304,7 +291,7 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
     return virtual_clock ? collector.last_t() : hal::to_seconds(host_ns() + clock.offset_ns - t0);
   };
   auto last_contact = last_lease;
-  while (!final_state) {
+  while (!final_summary) {
     if (SteadyClock::now() - last_contact >= kBoardGone) break;
     if ((stop.load() || !log_ok) && !stop_sent) {
       try {
@@ -338,12 +325,12 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
         quiet_since_s = std::nan("");
       }
       if (parts[0].to_string_view() == "health") {
-        health = protocol::decode_map(parts[1].to_string_view());
+        health = protocol::decode<protocol::HealthEvent>(
+            protocol::decode_map(parts[1].to_string_view()));
       } else if (parts[0].to_string_view() == "state") {
-        const json state = protocol::decode_map(parts[1].to_string_view());
-        if (state.contains("summary") && state.value("run", json()) == started.at("run")) {
-          final_state = state;
-        }
+        const auto state =
+            protocol::decode<protocol::StateEvent>(protocol::decode_map(parts[1].to_string_view()));
+        if (state.summary && state.run == run_id) final_summary = state.summary;
       } else {
         cursor.on_frame(parts[1].to_string_view());
         last_contact = last_heard;  // samples: the board is running this run
@@ -362,8 +349,7 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
     }
     // The board is idle or faulted but its end-of-run event went unheard
     // (published while the link was down): ask for it.
-    const std::string board_state = health.value("state", std::string("running"));
-    const bool board_done = board_state == "idle" || board_state == "fault";
+    const bool board_done = health.state == "idle" || health.state == "fault";
     const bool quiet = now - last_heard >= kQuietBeforeAsking;
     if (board_done || quiet) {
       // Quiet stream: the link may be down, or the run's end went unheard.
@@ -377,10 +363,10 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
         const json& run = s.value("run", json::object());
         // A board that restarted answers, but knows nothing of this run (its
         // ids start again: the start time tells): that is silence too.
-        const bool ours = run.value("id", json()) == started.at("run") &&
-                          run.value("t0_ns", json()) == started.at("t0_ns");
+        const bool ours =
+            run.value("id", json()) == run_id && run.value("t0_ns", json()) == started.at("t0_ns");
         if (ours && run.value("finished", false)) {
-          final_state = json{{"summary", run.at("summary")}};
+          final_summary = protocol::decode<protocol::RunSummary>(run.at("summary"));
         }
         last_heard = SteadyClock::now();
         if (ours) last_contact = last_heard;
@@ -393,19 +379,17 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
       last_flush = now;
     }
     if (on_status && now - last_status >= kStatusPeriod) {
-      const json sensor = health.value("sensor", json::object());
-      const json drive = health.value("drive", json::object());
       on_status({collector.last_t(), started.value("duration_s", c.run.duration_s),
                  collector.last_V(), collector.last_theta(),
                  observer ? observer->summary().last_residual_rad : 0.0, cursor.sensor_next(),
-                 sensor.value("errors", std::uint64_t{0}),
-                 drive.value("overruns", std::uint64_t{0}), health,
+                 health.sensor ? health.sensor->errors : 0,
+                 health.drive ? health.drive->overruns : 0, health,
                  json{{"drive", collector.drive_errors()}, {"sensor", collector.sensor_errors()}},
                  lease_s});
       last_status = now;
     }
   }
-  if (!final_state) {
+  if (!final_summary) {
     if (observer) observer->finish(collector.rows().observer);
     finish_writing();
     outages.push_back(fmt::format("[{:.3f}, end of run]", quiet_since_s));
@@ -420,10 +404,10 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
     summary.t_end_s = collector.last_good_t();
     return summary;
   }
-  const json& board = final_state->at("summary");
+  const protocol::RunSummary& board = *final_summary;
   // The stream's tail may still be in flight or lost: the recorder has it all.
-  cursor.fetch(protocol::Stream::drive, board.at("samples").at("drive").get<std::uint64_t>());
-  cursor.fetch(protocol::Stream::sensor, board.at("samples").at("sensor").get<std::uint64_t>());
+  cursor.fetch(protocol::Stream::drive, board.drive_samples);
+  cursor.fetch(protocol::Stream::sensor, board.sensor_samples);
   if (observer) observer->finish(collector.rows().observer);
   finish_writing();
   if (!std::isnan(quiet_since_s)) {
@@ -434,17 +418,16 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
   log.set_attribute("stream_gaps_fetched",
                     gaps.empty() ? "none" : fmt::format("{}", fmt::join(gaps, "; ")));
 
-  summary.cause = stop_cause_from(board.at("cause").get<std::string>());
-  const json& out = board.at("output");
-  summary.output.enabled_ever = out.value("enabled_ever", true);
-  summary.output.zero_confirmed = out.at("zero_confirmed").get<bool>();
-  summary.output.zero_status = status_from(out.value("zero_status", "ok"));
-  summary.output.acknowledged_V =
-      out.at("acknowledged_V").is_null() ? std::nan("") : out.at("acknowledged_V").get<double>();
-  summary.output.zero_writes = out.at("zero_writes").get<std::uint32_t>();
-  summary.output.enable_status = status_from(out.at("enable_status").get<std::string>());
-  summary.drive = loop_summary(board.at("drive"));
-  summary.sensor = loop_summary(board.at("sensor"));
+  summary.cause = stop_cause_from(board.cause);
+  const auto& out = board.output;
+  summary.output.enabled_ever = out.enabled_ever;
+  summary.output.zero_confirmed = out.zero_confirmed;
+  summary.output.zero_status = status_from(out.zero_status);
+  summary.output.acknowledged_V = out.acknowledged_V.value_or(std::nan(""));
+  summary.output.zero_writes = out.zero_writes;
+  summary.output.enable_status = status_from(out.enable_status);
+  summary.drive = loop_summary(board.drive);
+  summary.sensor = loop_summary(board.sensor);
   summary.drive.errors_by_class = collector.drive_errors();
   summary.sensor.errors_by_class = collector.sensor_errors();
   if (observer) summary.observer = observer->summary();
@@ -452,11 +435,12 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client, con
   summary.t_end_s = collector.last_good_t();
   summary.mean_velocity_rad_s =
       summary.t_end_s > 0.0 ? summary.theta_end_rad / summary.t_end_s : 0.0;
-  summary.realtime_notes = board.value("realtime", std::vector<std::string>{});
-  if (board.contains("move")) summary.move = board.at("move");
-  if (board.contains("calibration")) {
-    summary.calibration = {{"calibration", board.at("calibration")},
-                           {"error", board.value("calibration_error", json())}};
+  summary.realtime_notes = board.realtime;
+  if (!board.move.is_null()) summary.move = board.move;
+  if (board.has_calibration) {
+    summary.calibration = {
+        {"calibration", board.calibration},
+        {"error", board.calibration_error ? json(*board.calibration_error) : json(nullptr)}};
   }
   if (!client.address().starts_with("inproc://")) {
     summary.realtime_notes.push_back("board " + client.address());

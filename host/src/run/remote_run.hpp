@@ -30,7 +30,7 @@ void configure_remote(const config::RunConfig& config, RigClient& client);
 
 /// Runs what configure_remote set up; `hello` is the daemon's hello.
 [[nodiscard]] RunSummary execute_remote_run(const config::RunConfig& config, RigClient& client,
-                                            const nlohmann::json& hello, RunLog& log,
+                                            const protocol::Hello& hello, RunLog& log,
                                             const std::atomic<bool>& stop,
                                             const std::function<void(const LiveStatus&)>& on_status,
                                             std::optional<double> lease_s = std::nullopt,

@@ -98,22 +98,20 @@ void RigClient::subscribe(std::initializer_list<const char*> topics) {
   for (const char* t : topics) stream_.set(zmq::sockopt::subscribe, t);
 }
 
-void require_protocol(const nlohmann::json& hello, const std::string& address) {
+protocol::Hello RigClient::hello() {
+  const nlohmann::json hello = call("hello");
+  // The version first: another version's hello may hold other fields.
   const auto version = hello.value("protocol", std::uint64_t{0});
   if (version != protocol::kProtocolVersion) {
     throw std::runtime_error(fmt::format(
         "piezod at {} speaks protocol version {}, this piezo version {}: update one of them",
-        address, version, protocol::kProtocolVersion));
+        address_, version, protocol::kProtocolVersion));
   }
+  return protocol::decode<protocol::Hello>(hello);
 }
 
-std::string adopt_board_sensor(config::RunConfig& c, const nlohmann::json& hello) {
-  const auto sensor = hello.find("sensor");
-  if (sensor == hello.end() || !sensor->is_object() || !sensor->contains("r2_m") ||
-      !sensor->at("r2_m").is_number()) {
-    return {};
-  }
-  const double board_r2 = sensor->at("r2_m").get<double>();
+std::string adopt_board_sensor(config::RunConfig& c, const protocol::Hello& hello) {
+  const double board_r2 = hello.sensor_r2_m;
   if (!(board_r2 > 0.0)) return {};
   std::string note;
   if (board_r2 != c.sensor.r2_m) {

@@ -12,6 +12,7 @@
 #include <zmq.hpp>
 
 #include "piezo/protocol/error.hpp"
+#include "piezo/protocol/messages.hpp"
 #include "run_config.hpp"
 
 namespace piezo::host {
@@ -44,6 +45,11 @@ class RigClient {
   /// that arrive meanwhile are dropped. Throws RemoteError or LinkTimeout.
   nlohmann::json call(const std::string& cmd, const nlohmann::json& args = nlohmann::json::object(),
                       std::chrono::milliseconds timeout = std::chrono::milliseconds(2000));
+  /// The board's `hello`, typed. Throws (naming the board's address and
+  /// both versions) when the board speaks another protocol version than
+  /// this host, and ProtocolError when its hello lacks what the protocol
+  /// says it holds.
+  [[nodiscard]] protocol::Hello hello();
   /// Sends a command without waiting (lease renewals); its reply is dropped.
   void send(const std::string& cmd, const nlohmann::json& args = nlohmann::json::object());
 
@@ -61,14 +67,10 @@ class RigClient {
   std::uint64_t next_id_ = 1;
 };
 
-/// Throws (naming the board's address and both versions) when the board
-/// speaks another protocol version than this host.
-void require_protocol(const nlohmann::json& hello, const std::string& address);
-
 /// Takes the board's sensor geometry from its `hello` (`sensor.r2_m`) into
 /// `c`: the board's sensor measured the samples, so its radius turns them
 /// into angles. Returns a note when the host's config said otherwise
 /// (empty when they agree or the board does not say).
-[[nodiscard]] std::string adopt_board_sensor(config::RunConfig& c, const nlohmann::json& hello);
+[[nodiscard]] std::string adopt_board_sensor(config::RunConfig& c, const protocol::Hello& hello);
 
 }  // namespace piezo::host

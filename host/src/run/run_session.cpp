@@ -58,7 +58,7 @@ RunSummary execute_run(const config::RunConfig& c, config::Rig rig, RunLog& log,
   RunSummary summary;
   {
     RigClient client(config::RigAddress{board.address(), "", ""}, board.context());
-    const nlohmann::json hello = client.call("hello");
+    const protocol::Hello hello = client.hello();
     configure_remote(c, client);
     summary = execute_remote_run(c, client, hello, log, stop, on_status, kLocalLease_s, estop);
   }

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "observer_stage.hpp"
+#include "piezo/firmware/angle_zero.hpp"
 #include "piezo/firmware/samples.hpp"
 #include "run_log.hpp"
 
@@ -18,15 +19,16 @@ using firmware::DriveSample;
 using firmware::SensorSample;
 
 /// Turns ring samples into log columns; theta is the displacement change
-/// from the zero (the board's, for a move; else the first good reading)
-/// over r2 (docs/model.md section 4).
+/// from the zero (the board's, for a move; else the first good reading:
+/// firmware::AngleZero's rule, the board's too) over r2 (docs/model.md
+/// section 4).
 class SampleCollector {
  public:
   /// `zero_m`: the displacement the angle is measured from (a move's: the
   /// board's zero); NaN: the first good reading.
   SampleCollector(hal::TimeNs t0, double r2, ObserverStage* observer,
                   double zero_m = std::numeric_limits<double>::quiet_NaN())
-      : t0_(t0), r2_(r2), observer_(observer), tare_(zero_m) {}
+      : t0_(t0), r2_(r2), observer_(observer), zero_(zero_m) {}
 
   void add(const DriveSample& s) {
     if (s.status != hal::Status::ok) ++drive_errors_[std::string(hal::to_string(s.status))];
@@ -46,9 +48,9 @@ class SampleCollector {
   void add(const SensorSample& s) {
     const bool good = s.status == hal::Status::ok;
     if (!good) ++sensor_errors_[std::string(hal::to_string(s.status))];
-    if (good && std::isnan(tare_)) tare_ = s.displacement_m;
+    if (good) zero_.offer(s.displacement_m);
     const double theta =
-        good ? (s.displacement_m - tare_) / r2_ : std::numeric_limits<double>::quiet_NaN();
+        good ? zero_.angle_rad(s.displacement_m, r2_) : std::numeric_limits<double>::quiet_NaN();
     const double t = hal::to_seconds(s.t_request - t0_);
     auto& r = rows_.sensor;
     r.t.push_back(t);
@@ -85,7 +87,7 @@ class SampleCollector {
   hal::TimeNs t0_;
   double r2_;
   ObserverStage* observer_;
-  double tare_;
+  firmware::AngleZero zero_;
   double last_theta_ = 0.0, last_good_t_ = 0.0, last_V_ = 0.0, last_t_ = 0.0;
   double received_s_ = std::numeric_limits<double>::quiet_NaN();
   LogRows rows_;

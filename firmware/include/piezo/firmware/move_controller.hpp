@@ -38,8 +38,10 @@
 #include <cstdint>
 #include <limits>
 
+#include "piezo/firmware/angle_zero.hpp"
 #include "piezo/firmware/drive_program.hpp"
 #include "piezo/firmware/position_feed.hpp"
+#include "piezo/name_table.hpp"
 
 namespace piezo::firmware {
 
@@ -55,13 +57,25 @@ enum class MoveState : std::uint8_t {
   holding = 8,             ///< on target, the fine servo kept on for hold_s
 };
 
+inline constexpr auto kMoveStateNames =
+    names<MoveState>({{MoveState::none, "none"},
+                      {MoveState::coarse, "coarse"},
+                      {MoveState::fine, "fine"},
+                      {MoveState::release, "release"},
+                      {MoveState::settle, "settle"},
+                      {MoveState::on_target, "on_target"},
+                      {MoveState::stalled, "stalled"},
+                      {MoveState::sensor_implausible, "sensor_implausible"},
+                      {MoveState::holding, "holding"}});
+
 [[nodiscard]] const char* to_string(MoveState s);
 
 struct MoveSettings {
   double target_rad = 0.0;
   double tolerance_rad = 25e-6;
   double settle_s = 0.1;
-  /// The user's zero: theta = (d - zero) / r2; NaN: the first reading is the zero.
+  /// The board's zero: theta = (d - zero) / r2; NaN: the mean of the
+  /// readings at rest before the first step.
   double zero_displacement_m = 0.0;
   double r2_m = 0.062;
   double V0 = 80.0;            ///< coarse step amplitude at most [V]
@@ -211,7 +225,8 @@ class MoveController final : public DriveProgram {
   std::uint64_t hold_n_ = 0;
 
   std::atomic<MoveState> state_{MoveState::coarse};
-  std::atomic<double> zero_m_;
+  AngleZero zero_;              ///< the move's frame (the drive loop's own)
+  std::atomic<double> zero_m_;  ///< the same, for the network thread
   std::atomic<double> noise_m_;
   std::atomic<double> position_;
   std::atomic<std::uint32_t> steps_{0};

@@ -15,6 +15,7 @@
 #include "piezo/firmware/position_feed.hpp"
 #include "piezo/firmware/sensor_health.hpp"
 #include "piezo/hal/digital_lines.hpp"
+#include "piezo/name_table.hpp"
 
 namespace piezo::firmware {
 
@@ -62,30 +63,20 @@ struct RemoteControl {
   std::atomic<bool> estop{false};  ///< operator e-stop: disable at once
 };
 
+inline constexpr auto kStopCauseNames =
+    names<StopCause>({{StopCause::none, "none"},
+                      {StopCause::completed, "completed"},
+                      {StopCause::interrupted, "interrupted"},
+                      {StopCause::estop, "estop"},
+                      {StopCause::sensor_fault, "sensor_fault"},
+                      {StopCause::drive_fault, "drive_fault"},
+                      {StopCause::link_lost, "link_lost"},
+                      {StopCause::stalled, "stalled"},
+                      {StopCause::sensor_implausible, "sensor_implausible"},
+                      {StopCause::travel_limit, "travel_limit"}});
+
 [[nodiscard]] constexpr std::string_view to_string(StopCause c) {
-  switch (c) {
-    case StopCause::none:
-      return "none";
-    case StopCause::completed:
-      return "completed";
-    case StopCause::interrupted:
-      return "interrupted";
-    case StopCause::estop:
-      return "estop";
-    case StopCause::sensor_fault:
-      return "sensor_fault";
-    case StopCause::drive_fault:
-      return "drive_fault";
-    case StopCause::link_lost:
-      return "link_lost";
-    case StopCause::stalled:
-      return "stalled";
-    case StopCause::sensor_implausible:
-      return "sensor_implausible";
-    case StopCause::travel_limit:
-      return "travel_limit";
-  }
-  return "unknown";
+  return kStopCauseNames.name(c);
 }
 
 enum class SafetyAction : std::uint8_t { run, ramp_down, disable_now };

@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <string_view>
 
+#include "piezo/name_table.hpp"
+
 namespace piezo::hal {
 
 enum class [[nodiscard]] Status : std::uint8_t{
@@ -24,28 +26,18 @@ enum class [[nodiscard]] Status : std::uint8_t{
 /// The highest code: codes above it are not a Status.
 inline constexpr Status kLastStatus = Status::bad_reply;
 
+inline constexpr auto kStatusNames = names<Status>({{Status::ok, "ok"},
+                                                    {Status::timeout, "timeout"},
+                                                    {Status::invalid_reading, "invalid_reading"},
+                                                    {Status::crc_error, "crc_error"},
+                                                    {Status::exception_reply, "exception_reply"},
+                                                    {Status::disconnected, "disconnected"},
+                                                    {Status::io_error, "io_error"},
+                                                    {Status::out_of_range, "out_of_range"},
+                                                    {Status::bad_reply, "bad_reply"}});
+
 [[nodiscard]] constexpr std::string_view to_string(Status s) {
-  switch (s) {
-    case Status::ok:
-      return "ok";
-    case Status::timeout:
-      return "timeout";
-    case Status::invalid_reading:
-      return "invalid_reading";
-    case Status::crc_error:
-      return "crc_error";
-    case Status::exception_reply:
-      return "exception_reply";
-    case Status::disconnected:
-      return "disconnected";
-    case Status::io_error:
-      return "io_error";
-    case Status::out_of_range:
-      return "out_of_range";
-    case Status::bad_reply:
-      return "bad_reply";
-  }
-  return "unknown";
+  return kStatusNames.name(s);
 }
 
 }  // namespace piezo::hal

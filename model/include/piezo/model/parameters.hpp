@@ -9,6 +9,8 @@
 #include <string_view>
 #include <vector>
 
+#include "piezo/name_table.hpp"
+
 namespace piezo::model {
 
 /// Which way the sawtooth turns the rotor: forward is the paper's slow rise
@@ -16,13 +18,14 @@ namespace piezo::model {
 /// fraction D becomes 1 - D), so the rotor slips the other way.
 enum class Direction { forward, reverse };
 
+inline constexpr auto kDirectionNames =
+    names<Direction>({{Direction::forward, "forward"}, {Direction::reverse, "reverse"}});
+
 [[nodiscard]] inline std::string_view name(Direction d) {
-  return d == Direction::forward ? "forward" : "reverse";
+  return kDirectionNames.name(d);
 }
 [[nodiscard]] inline std::optional<Direction> parse_direction(std::string_view text) {
-  if (text == "forward") return Direction::forward;
-  if (text == "reverse") return Direction::reverse;
-  return std::nullopt;
+  return kDirectionNames.parse(text);
 }
 
 /// The rise fraction that drives the rotor in `direction` with a drive of rise fraction D.

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "piezo/firmware/samples.hpp"
+#include "piezo/name_table.hpp"
 #include "piezo/protocol/error.hpp"
 
 namespace piezo::protocol {
@@ -31,6 +32,8 @@ inline constexpr std::size_t kDriveRecordBytes = 24;
 inline constexpr std::size_t kSensorRecordBytes = 32;
 
 enum class Stream : std::uint16_t { drive = 1, sensor = 2 };
+inline constexpr auto kStreamNames =
+    names<Stream>({{Stream::drive, "drive"}, {Stream::sensor, "sensor"}});
 
 [[nodiscard]] std::string_view to_string(Stream s);
 /// "drive" or "sensor"; throws ProtocolError (bad_argument, key) otherwise.

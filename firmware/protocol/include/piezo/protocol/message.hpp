@@ -7,11 +7,11 @@
 ///   error    {"id": uint|nil, "ok": false, "error": {"code", "key", "message"}}
 
 #include <cstdint>
-#include <initializer_list>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "piezo/protocol/error.hpp"
 
@@ -69,7 +69,7 @@ struct Reply {
                             std::optional<bool> fallback = std::nullopt);
 /// Refuses (bad_argument, naming the key and what `cmd` takes) any argument
 /// not in `known`: a misspelt optional argument is an error, never ignored.
-void refuse_unknown_args(const nlohmann::json& args, std::initializer_list<std::string_view> known,
+void refuse_unknown_args(const nlohmann::json& args, const std::vector<std::string_view>& known,
                          std::string_view cmd);
 
 }  // namespace piezo::protocol

@@ -11,14 +11,27 @@
 #include <string>
 #include <string_view>
 
+#include "piezo/name_table.hpp"
+
 namespace piezo::hal::modbus {
 
 enum class Function : std::uint8_t { holding = 3, input = 4 };
+inline constexpr auto kFunctionNames =
+    names<Function>({{Function::input, "input"}, {Function::holding, "holding"}});
 enum class RegisterType : std::uint8_t { u16, s16, u32, s32, f32 };
+inline constexpr auto kRegisterTypeNames = names<RegisterType>({{RegisterType::u16, "u16"},
+                                                                {RegisterType::s16, "s16"},
+                                                                {RegisterType::u32, "u32"},
+                                                                {RegisterType::s32, "s32"},
+                                                                {RegisterType::f32, "f32"}});
 /// Byte order of a 32-bit value over its two registers, bytes A B C D from
 /// most to least significant: ABCD big-endian, CDAB word-swapped, BADC
 /// byte-swapped, DCBA little-endian.
 enum class WordOrder : std::uint8_t { ABCD, CDAB, BADC, DCBA };
+inline constexpr auto kWordOrderNames = names<WordOrder>({{WordOrder::ABCD, "ABCD"},
+                                                          {WordOrder::CDAB, "CDAB"},
+                                                          {WordOrder::BADC, "BADC"},
+                                                          {WordOrder::DCBA, "DCBA"}});
 
 struct RegisterMap {
   Function function = Function::input;

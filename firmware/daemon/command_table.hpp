@@ -1,0 +1,45 @@
+#pragma once
+// piezod's commands as data (docs/protocol.md, "Commands"): each with the
+// arguments it takes, who may send it while a run is under way, and its
+// handler. Dispatch refuses an unknown command (the reply lists them all),
+// an argument the command does not take, and a caller the command does not
+// admit, before the handler runs.
+
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "run_state.hpp"
+
+namespace piezo::daemon {
+
+/// Who may send a command while a client controls the rig.
+enum class Caller {
+  anyone,      ///< watching, fetching and e-stopping are everyone's
+  controller,  ///< anything that changes the run or the rig
+};
+
+struct Command {
+  using Handler = std::function<nlohmann::json(const std::string& client, const nlohmann::json&)>;
+  std::string_view name;
+  Caller caller;
+  std::vector<std::string_view> args;
+  Handler handler;
+};
+
+class CommandTable {
+ public:
+  explicit CommandTable(std::vector<Command> commands) : commands_(std::move(commands)) {}
+  /// Runs `cmd` for `client`; throws ProtocolError for what it refuses.
+  [[nodiscard]] nlohmann::json dispatch(const std::string& client, const std::string& cmd,
+                                        const nlohmann::json& args, const RunState& state) const;
+  /// The commands' names, comma-separated, in the table's order.
+  [[nodiscard]] std::string names() const;
+
+ private:
+  std::vector<Command> commands_;
+};
+
+}  // namespace piezo::daemon

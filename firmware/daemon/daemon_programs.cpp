@@ -1,0 +1,273 @@
+// What a run follows besides a waveform (a closed-loop move, the
+// calibration experiment), and the board's zero and readings at rest.
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <vector>
+
+#include "calibration.hpp"
+#include "daemon_run.hpp"
+#include "piezo/firmware/request_limits.hpp"
+#include "piezo/protocol/message.hpp"
+
+namespace piezo::daemon {
+namespace {
+
+using nlohmann::json;
+using protocol::ProtocolError;
+namespace code = protocol::code;
+
+json lease_of(const std::optional<double>& lease_s) {
+  return lease_s ? json{{"lease_s", *lease_s}} : json::object();
+}
+
+}  // namespace
+
+json Daemon::move_to(const std::string& client, const json& args) {
+  run_state_.require_can_start(client,
+                               "move_to");  // before configure: a refused move changes nothing
+  const auto request = protocol::decode<protocol::MoveToRequest>(args);
+  if (const auto breach =
+          firmware::check_move({request.target_rad, request.tolerance_rad, request.settle_s,
+                                request.timeout_s, request.hold_s, request.stall_steps},
+                               board_.daemon.duration_max_s)) {
+    throw out_of_limits(breach->key, breach->message);
+  }
+  bool calibrated = false;
+  const firmware::MoveSettings m = plan_move(request, calibrated);
+  // Known now unless the readings at rest failed: then the move takes its
+  // own, and the board keeps it afterwards.
+  const bool zero_before = zero_.known();
+  json started = start(client, lease_of(request.lease_s), {m, std::nullopt}, "move_to");
+  json asked = request;
+  asked.erase("lease_s");
+  started.update(asked);
+  const auto& d = configured_->drive;
+  started.update(json{{"V0", d.V0}, {"f", d.f}, {"C_dr", d.C_dr}, {"e_dr", d.e_dr}});
+  started["zero_displacement_m"] = zero_before ? json(m.zero_displacement_m) : json(nullptr);
+  started["calibrated"] = calibrated;
+  run_->move_takes_its_zero = !zero_before;
+  return started;
+}
+
+firmware::MoveSettings Daemon::plan_move(const protocol::MoveToRequest& request, bool& calibrated) {
+  firmware::MoveSettings m;
+  m.target_rad = request.target_rad;
+  m.tolerance_rad = request.tolerance_rad;
+  m.settle_s = request.settle_s;
+  m.hold_s = request.hold_s;
+  m.protect = request.protect;
+  m.stall_steps = static_cast<int>(request.stall_steps);
+  // At rest before the move: the board's zero when it has none (the frame
+  // of the target, and of the log's angles), and the sensor's noise when
+  // no calibration gives it.
+  const AtRest rest =
+      !zero_.known() || !calibration_ ? read_at_rest(2 * kRecentReadings) : AtRest{};
+  if (!zero_.known() && rest.good >= 4) {
+    zero_.set(rest.mean_m);
+    log_event(fmt::format("zero set at {:.9g} m (the mean of {} readings at rest before a move)",
+                          rest.mean_m, rest.good));
+  }
+  const std::optional<double> noise = calibration_
+                                          ? std::optional(calibration_->at("noise_m").get<double>())
+                                      : rest.good >= 4 ? std::optional(rest.stddev_m)
+                                                       : std::nullopt;
+  // A tolerance finer than the sensor resolves would never be reached.
+  if (noise) {
+    const double smallest = smallest_tolerance_rad(*noise, board_.sensor.r2_m);
+    if (m.tolerance_rad < smallest) {
+      throw out_of_limits(
+          "tolerance_rad",
+          fmt::format("{:g} rad is below what the sensor resolves: its noise is {:.3g} m "
+                      "({:.3g} rad a reading, {} at rest); allowed: at least {:.3g} rad",
+                      m.tolerance_rad, *noise, *noise / board_.sensor.r2_m,
+                      calibration_ ? "calibrated" : "measured now", smallest));
+    }
+  }
+  // The coarse steps' waveform: the caller's, or the calibration's fastest
+  // frequency, or the board's [drive] values.
+  model::DriveParameters d = board_.model.drive;
+  d.direction = model::Direction::forward;
+  d.V0 = request.V0.value_or(d.V0);
+  d.C_dr = request.C_dr.value_or(d.C_dr);
+  d.e_dr = request.e_dr.value_or(d.e_dr);
+  d.f = request.f.value_or(d.f);
+  if (!request.f && calibration_ && calibration_->at("fastest_f_hz").is_number() &&
+      std::abs(calibration_->at("V0").get<double>() - d.V0) <= 1e-9 * d.V0) {
+    d.f = calibration_->at("fastest_f_hz").get<double>();
+  }
+  (void)apply_configuration({d, request.timeout_s}, "move_to");
+  m.zero_displacement_m = zero_.displacement_m();
+  m.r2_m = board_.sensor.r2_m;
+  m.V0 = d.V0;
+  m.f = d.f;
+  m.D = d.D();
+  m.fine_V_max = 0.8 * board_.drive.limits.V_max;
+  m.fast_slew_V_per_s = board_.drive.limits.slew_V_per_s;
+  // The model's (or a fitted config's) view of the motor; a calibration
+  // replaces the step tables with measured ones. Uncalibrated, and with no
+  // frequency asked for: the model's tables at 2f and 4f too.
+  planner_.plan(m, false, board_.drive.rate_hz, board_.drive.limits.slew_V_per_s);
+  calibrated = calibration_ && apply_calibration(*calibration_, request.f, m);
+  if (!calibrated && !request.f) {
+    planner_.plan(m, true, board_.drive.rate_hz, board_.drive.limits.slew_V_per_s);
+  }
+  return m;
+}
+
+json Daemon::calibrate(const std::string& client, const json& args) {
+  run_state_.require_can_start(client,
+                               "calibrate");  // before configure: a refused one changes nothing
+  const auto& lim = board_.drive.limits;
+  const auto& d0 = board_.model.drive;
+  firmware::CalibrationPlan plan;
+  plan.V0 = protocol::number_arg(args, "V0", std::min(d0.V0, lim.V_max));
+  plan.D = d0.D();
+  plan.r2_m = board_.sensor.r2_m;
+  plan.hold_V_max = 0.8 * lim.V_max;
+  plan.fast_slew_V_per_s = lim.slew_V_per_s;
+  plan.flush_readings = std::max(10, static_cast<int>(std::ceil(0.1 * board_.sensor.rate_hz())));
+  // The board's frequency, twice and four times it: as many as the board's
+  // rate and slew limit allow at V0.
+  const double f_max = std::min(board_.drive.rate_hz / 20.0,
+                                lim.slew_V_per_s * std::min(plan.D, 1.0 - plan.D) / plan.V0);
+  plan.frequencies = 0;
+  for (const double factor : {1.0, 2.0, 4.0}) {
+    if (factor * d0.f > f_max) break;
+    plan.f_hz[static_cast<std::size_t>(plan.frequencies++)] = factor * d0.f;
+  }
+  if (plan.frequencies == 0) {
+    throw out_of_limits("V0", fmt::format("at {:g} V the board's frequency {:g} Hz exceeds its "
+                                          "slew limit; allowed: a lower V0",
+                                          plan.V0, d0.f));
+  }
+  model::DriveParameters d = d0;
+  d.direction = model::Direction::forward;
+  d.V0 = plan.V0;
+  d.f = plan.f_hz[static_cast<std::size_t>(plan.frequencies - 1)];
+  (void)apply_configuration({d, 1.5 * plan.duration_s(board_.sensor.rate_hz()) + 1.0}, "calibrate");
+  json lease = json::object();
+  if (args.contains("lease_s")) lease["lease_s"] = args["lease_s"];
+  json started = start(client, lease, {std::nullopt, plan}, "calibrate");
+  started["V0"] = plan.V0;
+  started["f_hz"] = std::vector<double>(plan.f_hz.begin(), plan.f_hz.begin() + plan.frequencies);
+  started["steps_per_point"] = plan.steps;
+  return started;
+}
+
+json Daemon::set_calibration(const std::string&, const json& args) {
+  // The command table admitted the caller: a run under way is the controller's.
+  if (running()) throw ProtocolError(code::bad_state, "", "set_calibration: a run is under way");
+  if (!args.contains("calibration")) {
+    throw ProtocolError(code::bad_argument, "calibration",
+                        "calibration: missing (a calibration map, or nil to clear it)");
+  }
+  const json& given = args.at("calibration");
+  if (given.is_null()) {
+    calibration_.reset();
+    if (!board_.daemon.calibration_file.empty()) {
+      std::error_code ignored;
+      std::filesystem::remove(board_.daemon.calibration_file, ignored);
+    }
+    log_event("calibration cleared");
+    return {{"calibration", nullptr}};
+  }
+  install_calibration(
+      checked_calibration(given, {board_.drive.limits.V_max, board_.drive.rate_hz / 20.0}));
+  return {{"calibration", *calibration_}};
+}
+
+void Daemon::install_calibration(json c) {
+  calibration_ = std::move(c);
+  std::string kept = "in memory only (no piezod.calibration_file)";
+  if (!board_.daemon.calibration_file.empty()) {
+    try {
+      save_calibration(board_.daemon.calibration_file, *calibration_);
+      kept = "kept in " + board_.daemon.calibration_file;
+    } catch (const std::exception& e) {
+      kept = fmt::format("NOT kept: {}", e.what());
+    }
+  }
+  const json& fastest = calibration_->at("fastest_f_hz");
+  log_event(fmt::format(
+      "calibration installed: fastest reliable {}, noise {:.3g} m; {}",
+      fastest.is_number() ? fmt::format("{:g} Hz", fastest.get<double>()) : std::string("none"),
+      calibration_->at("noise_m").get<double>(), kept));
+}
+
+json Daemon::set_zero(const std::string&) {
+  // The frame of a run's target (a move's) must not shift under it: the
+  // zero is the controller's between runs, and nobody's during one.
+  if (running())
+    throw ProtocolError(code::bad_state, "", "zero: a run is under way; zero after it ends");
+  const auto last = recent_displacement_m();
+  if (!last) {
+    throw ProtocolError(code::bad_state, "",
+                        "zero: no sensor reading yet; the zero is the first reading of the "
+                        "next run or move until then");
+  }
+  zero_.set(*last);
+  log_event(fmt::format("zero set at {:.9g} m", *last));
+  return {{"position", position_json()}};
+}
+
+Daemon::AtRest Daemon::read_at_rest(std::size_t n) {
+  hal::Clock& clock = *rig_.clock;
+  clock.add_sleeper();  // the virtual clock schedules the threads it knows of
+  const hal::TimeNs period = hal::from_seconds(1.0 / board_.sensor.rate_hz());
+  hal::TimeNs next = clock.now();
+  std::vector<double> readings;
+  // The first readings after an idle gap may be the sensor's last ones
+  // from before it (a simulated sensor's, measured 37 um off after a run of
+  // steps): skipped.
+  constexpr std::size_t kSkipped = 2;
+  for (std::size_t i = 0; i < n + kSkipped; ++i, next += period) {
+    clock.sleep_until(next);
+    // 0 V again (the output holds it anyway, the amplifier is off): a
+    // simulated plant advances only at a write, so the reading sees the
+    // rotor at its time, not extrapolated from the stop.
+    (void)rig_.drive->write(0.0);
+    const hal::DisplacementReading r = rig_.sensor->read();
+    if (i < kSkipped || r.status != hal::Status::ok || !std::isfinite(r.displacement_m)) continue;
+    readings.push_back(r.displacement_m);
+    remember_reading(r.displacement_m);
+  }
+  clock.remove_sleeper();
+  AtRest r;
+  r.good = static_cast<int>(readings.size());
+  if (readings.empty()) return r;
+  double sum = 0.0;
+  for (const double d : readings) sum += d;
+  r.mean_m = sum / static_cast<double>(readings.size());
+  if (readings.size() > 2) {
+    // The noise from successive differences, by their median: a rotor
+    // still creeping or one odd reading does not pass for noise.
+    std::vector<double> steps;
+    for (std::size_t i = 1; i < readings.size(); ++i) {
+      steps.push_back(std::abs(readings[i] - readings[i - 1]));
+    }
+    std::nth_element(steps.begin(), steps.begin() + static_cast<long>(steps.size() / 2),
+                     steps.end());
+    // For Gaussian noise the difference of two readings has sigma*sqrt(2),
+    // and its absolute value's median is 0.6745 of that.
+    r.stddev_m = steps[steps.size() / 2] / (0.6745 * std::sqrt(2.0));
+  }
+  return r;
+}
+
+void Daemon::remember_reading(double displacement_m) {
+  recent_readings_.push_back(displacement_m);
+  if (recent_readings_.size() > kRecentReadings) recent_readings_.pop_front();
+}
+
+std::optional<double> Daemon::recent_displacement_m() const {
+  if (recent_readings_.empty()) return std::nullopt;
+  double sum = 0.0;
+  for (double d : recent_readings_) sum += d;
+  return sum / static_cast<double>(recent_readings_.size());
+}
+
+}  // namespace piezo::daemon

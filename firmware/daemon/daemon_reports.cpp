@@ -1,0 +1,189 @@
+// What the board says about itself: hello, status and the stream's events,
+// built as the protocol's typed messages (piezo/protocol/messages.hpp).
+
+#include <fmt/format.h>
+
+#include <array>
+#include <cmath>
+#include <zmq_addon.hpp>
+
+#include "daemon_run.hpp"
+#include "piezo/protocol/frame.hpp"
+#include "piezo/protocol/message.hpp"
+
+namespace piezo::daemon {
+namespace {
+
+using nlohmann::json;
+
+protocol::LoopHealth health_of(const firmware::LoopHealth& h, bool with_timing) {
+  protocol::LoopHealth m{h.cycles.load(),          h.overruns.load(), h.missed_cycles.load(),
+                         h.dropped_samples.load(), h.errors.load(),   std::nullopt};
+  if (with_timing) {
+    // The histogram's counters may be read while the loop runs.
+    const auto bins = h.period_error.bins();
+    std::size_t used = bins.size();
+    while (used > 0 && bins[used - 1] == 0) --used;
+    m.timing = protocol::LoopHealth::Timing{
+        h.period_error.quantile_us(0.5), h.period_error.quantile_us(0.99), h.period_error.max_us(),
+        h.period_error.mean_us(),
+        std::vector<double>(bins.begin(), bins.begin() + static_cast<long>(used))};
+  }
+  return m;
+}
+
+json nil_if_nan(double v) {
+  return std::isnan(v) ? json(nullptr) : json(v);
+}
+
+}  // namespace
+
+protocol::Hello Daemon::hello() const {
+  const auto& lim = board_.drive.limits;
+  protocol::Hello h;
+  h.protocol = protocol::kProtocolVersion;
+  h.frame_version = protocol::kFrameVersion;
+  h.daemon = PIEZO_VERSION;
+  h.stream = stream_endpoint_;
+  h.clock = config::name(board_.run.clock);
+  h.backends = {std::string(config::name(board_.drive.backend)),
+                std::string(config::name(board_.sensor.backend)),
+                std::string(config::name(board_.lines.backend))};
+  h.limits = {lim.V_min,
+              lim.V_max,
+              lim.slew_V_per_s,
+              board_.safety.ramp_down_V_per_s,
+              board_.safety.sensor_stale_s,
+              board_.drive.rate_hz / 20.0,
+              board_.daemon.duration_max_s,
+              board_.daemon.lease_max_s};
+  h.sensor_r2_m = board_.sensor.r2_m;
+  h.drive_rate_hz = board_.drive.rate_hz;
+  h.sensor_rate_hz = board_.sensor.rate_hz();
+  h.output_latency_s = rig_.drive->output_latency_s();
+  h.lease_s = board_.daemon.lease_s;
+  h.recorder_s = board_.daemon.recorder_s;
+  h.calibration = calibration_ ? *calibration_ : json(nullptr);
+  return h;
+}
+
+json Daemon::status(const std::string& client) const {
+  json j{{"state", to_string(run_state_.state())},
+         {"board_ns", rig_.clock->now()},
+         {"controller", run_state_.is_controller(client)},
+         {"controlled", run_state_.controlled()},
+         {"fault", fault_json()},
+         {"recorder", samples_.recorder_json()},
+         {"position", position_json()},
+         {"calibration", calibration_ ? *calibration_ : json(nullptr)}};
+  if (configured_) j["configured"] = *configured_;
+  if (run_) {
+    json r{{"id", run_->id},
+           {"t0_ns", run_->t0},
+           {"duration_s", run_->request.duration_s},
+           {"lease_s", run_->lease_s},
+           {"finished", run_->finished},
+           {"drive", health_of(run_->runner->drive_health(), false)},
+           {"sensor", health_of(run_->runner->sensor_health(), false)}};
+    if (run_->finished) r["summary"] = run_->summary;
+    if (run_->move) r["move"] = move_json(*run_);
+    if (run_->calibration) r["calibration_progress"] = run_->calibration->progress();
+    j["run"] = r;
+  }
+  return j;
+}
+
+json Daemon::fault_json() const {
+  return run_state_.state() == State::fault ? json(firmware::to_string(run_state_.fault()))
+                                            : json(nullptr);
+}
+
+json Daemon::position_json() const {
+  const auto last = recent_displacement_m();
+  const bool known = zero_.known() && last;
+  return {
+      {"position_rad", known ? json(zero_.angle_rad(*last, board_.sensor.r2_m)) : json(nullptr)},
+      {"zero_displacement_m", zero_.known() ? json(zero_.displacement_m()) : json(nullptr)}};
+}
+
+json Daemon::move_json(const Run& run) const {
+  const firmware::MoveController& m = *run.move;
+  const double zero = m.zero_displacement_m();
+  // On target, the settle's mean (read at 0 V, of as many readings as the
+  // noise asks for); any other end, the readings taken after the stop.
+  const bool on_target = m.state() == firmware::MoveState::on_target;
+  const double position = !on_target && run.final_displacement_m && !std::isnan(zero)
+                              ? (*run.final_displacement_m - zero) / m.settings().r2_m
+                              : m.position_rad();
+  json j{{"state", firmware::to_string(m.state())},
+         {"target_rad", m.settings().target_rad},
+         {"tolerance_rad", m.settings().tolerance_rad},
+         {"position_rad", nil_if_nan(position)},
+         {"error_rad", nil_if_nan(m.settings().target_rad - position)},
+         {"on_target", on_target},
+         {"on_target_at_s", on_target ? json(m.on_target_at_s()) : json(nullptr)},
+         {"steps", m.steps()},
+         {"f_hz", m.f_hz()},
+         {"noise_m", nil_if_nan(m.noise_m())}};
+  if (m.settings().hold_s > 0.0) {
+    j["hold_s"] = m.settings().hold_s;
+    j["hold_rms_error_rad"] = nil_if_nan(m.hold_rms_error_rad());
+    j["hold_max_error_rad"] = nil_if_nan(m.hold_max_error_rad());
+  }
+  if (run.finished) {
+    const auto cause = run.runner->cause();
+    j["stop_cause"] = on_target ? std::string("on_target")
+                      : cause == firmware::StopCause::completed
+                          ? std::string("timeout")
+                          : std::string(firmware::to_string(cause));
+  }
+  return j;
+}
+
+protocol::RunSummary Daemon::summary(const Run& run) const {
+  const auto& out = run.runner->outcome();
+  protocol::RunSummary s;
+  s.cause = firmware::to_string(run.runner->cause());
+  s.output = {firmware::output_state(out),
+              out.zero_confirmed,
+              std::isnan(out.acknowledged_V) ? std::nullopt : std::optional(out.acknowledged_V),
+              out.zero_writes,
+              std::string(hal::to_string(out.zero_status)),
+              out.enabled_ever,
+              std::string(hal::to_string(out.enable_status))};
+  s.drive = health_of(run.runner->drive_health(), true);
+  s.sensor = health_of(run.runner->sensor_health(), true);
+  s.realtime = run.runner->realtime_notes();
+  s.drive_samples = samples_.drive_recorded();
+  s.sensor_samples = samples_.sensor_recorded();
+  return s;
+}
+
+void Daemon::publish_state() {
+  protocol::StateEvent e;
+  e.state = to_string(run_state_.state());
+  e.board_ns = rig_.clock->now();
+  if (run_) e.run = run_->id;
+  if (run_state_.state() == State::fault) e.fault = firmware::to_string(run_state_.fault());
+  if (run_ && run_->finished) e.summary = run_->summary;
+  const std::string body = protocol::encode_map(e);
+  std::array<zmq::const_buffer, 2> parts{zmq::str_buffer("state"), zmq::buffer(body)};
+  (void)zmq::send_multipart(stream_, parts, zmq::send_flags::dontwait);
+}
+
+void Daemon::publish_health() {
+  protocol::HealthEvent e;
+  e.state = to_string(run_state_.state());
+  e.board_ns = rig_.clock->now();
+  if (running()) {
+    e.drive = health_of(run_->runner->drive_health(), true);
+    e.sensor = health_of(run_->runner->sensor_health(), true);
+    if (run_->move) e.move = move_json(*run_);
+    if (run_->calibration) e.calibration_progress = run_->calibration->progress();
+  }
+  const std::string body = protocol::encode_map(e);
+  std::array<zmq::const_buffer, 2> parts{zmq::str_buffer("health"), zmq::buffer(body)};
+  (void)zmq::send_multipart(stream_, parts, zmq::send_flags::dontwait);
+}
+
+}  // namespace piezo::daemon

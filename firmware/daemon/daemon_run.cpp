@@ -1,0 +1,309 @@
+// A run's life on the board: configure, start (step), stop, the lease, and
+// how its end is taken.
+
+#include "daemon_run.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "calibration.hpp"
+#include "piezo/firmware/request_limits.hpp"
+#include "piezo/protocol/message.hpp"
+
+namespace piezo::daemon {
+namespace {
+
+using nlohmann::json;
+using protocol::ProtocolError;
+namespace code = protocol::code;
+using Clock = std::chrono::steady_clock;
+
+// Samples published but not yet acknowledged by the controller's lease
+// renewals hold the virtual clock back past this share of the recorder, or
+// past this many seconds of drive samples: the host acknowledges what it
+// has logged, so its memory holds at most that much not yet written.
+constexpr double kVirtualAckWindow = 0.5;
+constexpr double kVirtualAckWindow_s = 20.0;
+
+std::int64_t wall_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch())
+      .count();
+}
+
+json configured_json(const protocol::ConfigureRequest& r) {
+  json j = r;
+  j["D"] = r.drive.D();
+  return j;
+}
+
+}  // namespace
+
+json Daemon::configure(const std::string& client, const json& args) {
+  run_state_.require_controller(client, "configure");
+  if (running()) throw ProtocolError(code::bad_state, "", "configure: a run is under way");
+  return configured_json(
+      apply_configuration(protocol::decode<protocol::ConfigureRequest>(args), "configure"));
+}
+
+protocol::ConfigureRequest Daemon::apply_configuration(const protocol::ConfigureRequest& r,
+                                                       const char* cmd) {
+  if (running())
+    throw ProtocolError(code::bad_state, "", fmt::format("{}: a run is under way", cmd));
+  if (const auto breach = firmware::check_drive(
+          r.drive, r.duration_s,
+          {board_.drive.limits, board_.drive.rate_hz, board_.daemon.duration_max_s})) {
+    throw out_of_limits(breach->key, breach->message);
+  }
+  configured_ = r;
+  return r;
+}
+
+json Daemon::start(const std::string& client, const json& lease, const Program& program,
+                   const char* cmd) {
+  run_state_.require_can_start(client, cmd);
+  if (!configured_) {
+    throw ProtocolError(code::bad_state, "", fmt::format("{}: send configure first", cmd));
+  }
+  const double lease_s = protocol::number_arg(lease, "lease_s", board_.daemon.lease_s);
+  if (!(lease_s > 0.0 && lease_s <= board_.daemon.lease_max_s)) {
+    throw out_of_limits(
+        "lease_s", fmt::format("{:g} s; allowed: (0, {:g}] s", lease_s, board_.daemon.lease_max_s));
+  }
+  run_.reset();  // the last run's runner (joined) goes; its samples are overwritten below
+  auto run = std::make_unique<Run>(*configured_);
+  run->id = ++run_count_;
+  run->lease_s = lease_s;
+  samples_.clear();
+  build_runner(*run, program);
+  const bool virtual_clock = board_.virtual_clock();
+  run->lease_renewed_ns = wall_ns();
+  std::function<bool()> lagging;
+  if (virtual_clock) {
+    // Time waits for a controller that is alive but behind.
+    Run* r = run.get();
+    const auto window = static_cast<std::uint64_t>(
+        std::min(kVirtualAckWindow * static_cast<double>(samples_.drive_capacity()),
+                 kVirtualAckWindow_s * board_.drive.rate_hz));
+    const auto lease_ns = static_cast<std::int64_t>(lease_s * 1e9);
+    lagging = [r, window, lease_ns] {
+      return wall_ns() - r->lease_renewed_ns.load() < lease_ns &&
+             r->drive_recorded.load() > r->drive_acked.load() + window;
+    };
+  }
+  // The lease counts from the time origin, fixed once the loops are set up:
+  // the real-time set-up (mlockall, thread priorities) may take longer than
+  // a lease on a slow board, and the client renews only once it has the
+  // start's reply.
+  Run* starting = run.get();
+  run->t0 = run->runner->start(
+      [this, starting, virtual_clock, lease_s](hal::TimeNs t0) {
+        rig_.start_at(t0);
+        starting->lease_renewed_ns = wall_ns();
+        if (!virtual_clock) starting->remote.lease_deadline = t0 + hal::from_seconds(lease_s);
+      },
+      lagging);
+  run_ = std::move(run);
+  run_state_.started(client);
+  log_event(fmt::format("run {} started: V0 {:g} V, f {:g} Hz, {:g} s, lease {:g} s", run_->id,
+                        run_->request.drive.V0, run_->request.drive.f, run_->request.duration_s,
+                        lease_s));
+  publish_state();
+  return {{"run", run_->id},
+          {"t0_ns", run_->t0},
+          {"lease_s", lease_s},
+          {"duration_s", run_->request.duration_s}};
+}
+
+void Daemon::build_runner(Run& run, const Program& program) {
+  firmware::LoopRunnerSettings settings{{board_.drive.rate_hz, run.request.duration_s,
+                                         1.0 / run.request.drive.f, board_.drive.limits},
+                                        board_.safety,
+                                        board_.sensor.rate_hz(),
+                                        !board_.virtual_clock(),
+                                        board_.run.priority,
+                                        board_.run.lock_memory};
+  settings.r2_m = board_.sensor.r2_m;
+  settings.zero_m = zero_.displacement_m();
+  const firmware::LoopDevices devices{*rig_.clock, *rig_.drive, *rig_.sensor, *rig_.lines};
+  const auto runner = [&](auto& program_to_follow) {
+    run.runner = std::make_unique<firmware::LoopRunner>(settings, program_to_follow, devices,
+                                                        &run.remote, &run.feed);
+  };
+  if (program.move) {
+    run.move = std::make_unique<firmware::MoveController>(*program.move, run.feed);
+    runner(*run.move);
+  } else if (program.calibration) {
+    run.calibration =
+        std::make_unique<firmware::CalibrationProgram>(*program.calibration, run.feed);
+    runner(*run.calibration);
+  } else if (board_.safety.protect_runs) {
+    firmware::RunGuardSettings g;
+    g.periods = board_.safety.stall_periods;
+    g.f = run.request.drive.f;
+    g.direction = run.request.drive.direction == model::Direction::forward ? 1.0 : -1.0;
+    g.r2_m = board_.sensor.r2_m;
+    const double rad_per_V = calibration_ ? calibration_->at("rad_per_V").get<double>()
+                                          : board_.model.motor.d_e / board_.model.motor.r;
+    g.stroke_rad = rad_per_V * run.request.drive.V0;
+    // The noise at rest, measured now (a few readings before the drive
+    // starts), or the calibration's if larger.
+    const AtRest rest = read_at_rest(2 * kRecentReadings);
+    g.noise_m = std::max(rest.good >= 4 ? rest.stddev_m : 0.0,
+                         calibration_ ? calibration_->at("noise_m").get<double>() : 0.0);
+    run.guard = std::make_unique<firmware::RunGuard>(run.waveform, g, run.feed);
+    runner(*run.guard);
+  } else {
+    runner(run.waveform);
+  }
+}
+
+json Daemon::step(const std::string& client, const json& args) {
+  // A step is a run of whole drive periods: each period ends at 0 V (after
+  // the fast edge forward, the slow edge in reverse), so the run ends there
+  // with nothing left to ramp and the rotor is not pulled back.
+  run_state_.require_can_start(client, "step");  // before configure: a refused step changes nothing
+  const auto request = protocol::decode<protocol::StepRequest>(args);
+  const double f = request.drive.f;
+  const double max_count = std::floor(board_.daemon.duration_max_s * f);
+  if (request.count < 1 || !(static_cast<double>(request.count) <= max_count)) {
+    throw out_of_limits("count", fmt::format("{} periods at {:g} Hz; allowed: [1, {:g}] (the "
+                                             "board's longest run, {:g} s)",
+                                             request.count, f, std::max(max_count, 0.0),
+                                             board_.daemon.duration_max_s));
+  }
+  const auto configured =
+      apply_configuration({request.drive, static_cast<double>(request.count) / f}, "step");
+  json started =
+      start(client, request.lease_s ? json{{"lease_s", *request.lease_s}} : json::object(),
+            Program{}, "step");
+  started["count"] = request.count;
+  started["direction"] = model::name(configured.drive.direction);
+  return started;
+}
+
+json Daemon::stop_run(const std::string& client) {
+  if (running()) {
+    run_state_.require_controller(client, "stop");
+    run_->runner->request_stop();
+    log_event(fmt::format("run {}: stop requested", run_->id));
+  }
+  return {{"state", to_string(run_state_.state())}};
+}
+
+json Daemon::estop(const std::string& client) {
+  // The enable line drops from this thread at once, where the backend has
+  // one, even while the drive loop is blocked in a slow write; the loop then
+  // stops itself.
+  if (running()) {
+    run_->remote.estop.store(true);
+    (void)rig_.lines->trip();
+  } else {
+    run_state_.estop_at_rest();
+    publish_state();
+  }
+  log_event(fmt::format("e-stop from a client{}",
+                        run_state_.is_controller(client) ? " (the controller)" : ""));
+  return {{"state", to_string(run_state_.state())}};
+}
+
+json Daemon::reset_fault() {
+  if (const auto cleared = run_state_.reset(); cleared != firmware::StopCause::none) {
+    log_event(fmt::format("fault {} reset", firmware::to_string(cleared)));
+    publish_state();
+  }
+  return {{"state", to_string(run_state_.state())}};
+}
+
+json Daemon::renew_lease(const std::string& client, const json& args) {
+  if (!running()) throw ProtocolError(code::bad_state, "", "lease: no run is under way");
+  if (!run_state_.is_controller(client)) {
+    throw ProtocolError(code::not_controller, "", "lease: only the controlling client renews it");
+  }
+  if (args.contains("drive_received")) {
+    run_->drive_acked = protocol::uint_arg(args, "drive_received");
+  }
+  if (board_.virtual_clock()) {
+    run_->lease_renewed_ns = wall_ns();
+  } else {
+    run_->remote.lease_deadline = rig_.clock->now() + hal::from_seconds(run_->lease_s);
+  }
+  return {{"lease_s", run_->lease_s}};
+}
+
+void Daemon::check_lease_on_wall_clock() {
+  if (!running() || !board_.virtual_clock()) return;
+  if (static_cast<double>(wall_ns() - run_->lease_renewed_ns.load()) > run_->lease_s * 1e9) {
+    // Expire it on the board clock, as of now: the drive loop stops with
+    // link_lost (unless the run's duration had already ended by then).
+    run_->remote.lease_deadline.store(
+        std::min(run_->remote.lease_deadline.load(), rig_.clock->now()));
+  }
+}
+
+void Daemon::pump_samples() {
+  if (!run_) return;
+  const bool ramping = samples_.take(*run_->runner, [this](double d) {
+    remember_reading(d);
+    zero_.offer(d);  // no zero yet: the first good reading
+  });
+  run_->drive_recorded = samples_.drive_recorded();
+  // The drive's own phase says when the stop began.
+  if (ramping && run_state_.ramping()) publish_state();
+}
+
+void Daemon::finish_run() {
+  auto& run = *run_;
+  run.runner->join();
+  pump_samples();
+  if (run.move || run.calibration) {
+    const AtRest rest = read_at_rest(kRecentReadings);
+    if (rest.good > 0) run.final_displacement_m = rest.mean_m;
+  }
+  run.finished = true;
+  const auto cause = run.runner->cause();
+  run.summary = summary(run);
+  if (run.move) {
+    run.summary.move = move_json(run);
+    // The move's own zero, to the last bit, when it took one because the
+    // board had none; a zero acknowledged before the move is never undone.
+    if (const double z = run.move->zero_displacement_m();
+        run.move_takes_its_zero && !std::isnan(z)) {
+      zero_.set(z);
+    }
+  }
+  if (run.calibration) take_calibration(run);
+  run_state_.ended(cause, run.summary.output.state == "confirmed");
+  log_event(fmt::format(
+      "run {} ended: {}, output {}{}", run.id, firmware::to_string(cause), run.summary.output.state,
+      run_state_.state() == State::fault ? " (fault latched: reset_fault to go on)" : ""));
+  publish_state();
+}
+
+void Daemon::take_calibration(Run& run) {
+  const auto cause = run.runner->cause();
+  const auto& result = run.calibration->result();
+  run.summary.has_calibration = true;
+  run.summary.calibration = nullptr;
+  if (!result.complete || cause != firmware::StopCause::completed) {
+    run.summary.calibration_error = fmt::format(
+        "the experiment ended {} before it was complete; the board keeps {}",
+        firmware::to_string(cause), calibration_ ? "its calibration" : "no calibration");
+    return;
+  }
+  try {
+    install_calibration(
+        checked_calibration(calibration_json(run.calibration->plan(), result),
+                            {board_.drive.limits.V_max, board_.drive.rate_hz / 20.0}));
+    run.summary.calibration = *calibration_;
+  } catch (const std::exception& e) {
+    // Measurements no calibration can hold (no motion, a sensor that saw
+    // nothing): the old calibration stays; the summary says why.
+    run.summary.calibration_error = e.what();
+    log_event(fmt::format("calibration not installed: {}", e.what()));
+  }
+}
+
+}  // namespace piezo::daemon

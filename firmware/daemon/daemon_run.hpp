@@ -1,0 +1,49 @@
+#pragma once
+// The run under way, or the last one: its request, the loop runner with
+// the program it follows, and what the network thread tracks beside it.
+// Internal to the daemon's sources.
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <optional>
+
+#include "daemon.hpp"
+#include "piezo/firmware/loop_runner.hpp"
+#include "piezo/firmware/run_guard.hpp"
+#include "piezo/model/waveform.hpp"
+
+namespace piezo::daemon {
+
+struct Daemon::Run {
+  std::uint64_t id = 0;
+  protocol::ConfigureRequest request;
+  model::Sawtooth waveform;
+  firmware::RemoteControl remote;
+  std::unique_ptr<firmware::LoopRunner> runner;
+  hal::TimeNs t0 = 0;
+  double lease_s = 0.5;
+  bool finished = false;
+  protocol::RunSummary summary;                    ///< once finished
+  firmware::PositionFeed feed;                     ///< the acquire loop's readings, for a move
+  std::unique_ptr<firmware::MoveController> move;  ///< a closed-loop move's program, if it is one
+  std::unique_ptr<firmware::CalibrationProgram> calibration;  ///< the calibration's, if it is one
+  std::unique_ptr<firmware::RunGuard> guard;  ///< a plain run's, with [safety] protect_runs
+  bool move_takes_its_zero = false;           ///< the board had no zero when it began
+  /// Measured after the run, at 0 V: the position a finished move reports
+  /// (the controller's last reading came before the stop's ramp).
+  std::optional<double> final_displacement_m;
+  // The virtual clock's lease runs on wall time, checked by the network thread.
+  std::atomic<std::int64_t> lease_renewed_ns{0};
+  std::atomic<std::uint64_t> drive_acked{0}, drive_recorded{0};
+
+  explicit Run(const protocol::ConfigureRequest& r)
+      : request(r), waveform(r.drive.V0, r.drive.f, r.drive.rise()) {}
+};
+
+/// A refusal of a value beyond the board's limits, naming its key.
+inline protocol::ProtocolError out_of_limits(const std::string& key, const std::string& message) {
+  return {protocol::code::out_of_limits, key, key + ": " + message};
+}
+
+}  // namespace piezo::daemon

@@ -1,0 +1,124 @@
+#include "sample_hub.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <vector>
+#include <zmq_addon.hpp>
+
+#include "piezo/protocol/error.hpp"
+#include "piezo/protocol/frame.hpp"
+#include "piezo/protocol/message.hpp"
+
+namespace piezo::daemon {
+namespace {
+
+using nlohmann::json;
+using protocol::ProtocolError;
+namespace code = protocol::code;
+
+constexpr std::size_t kMaxBatch = 2000;  // samples per published frame
+
+json binary(const std::string& frame) {
+  return json::binary(std::vector<std::uint8_t>(frame.begin(), frame.end()));
+}
+
+}  // namespace
+
+SampleHub::SampleHub(double recorder_s, double drive_rate_hz, double sensor_rate_hz,
+                     const std::string& spill_file, double fetch_samples_per_s,
+                     zmq::socket_t& stream)
+    : drive_(static_cast<std::size_t>(recorder_s * drive_rate_hz)),
+      sensor_(static_cast<std::size_t>(recorder_s * sensor_rate_hz)),
+      budget_(fetch_samples_per_s, static_cast<double>(kMaxFetch)),
+      stream_(stream) {
+  if (!spill_file.empty()) spill_.emplace(spill_file);
+}
+
+void SampleHub::clear() {
+  drive_.clear();
+  sensor_.clear();
+  if (spill_) spill_->clear();
+  drive_published_ = sensor_published_ = 0;
+}
+
+bool SampleHub::take(firmware::LoopRunner& runner,
+                     const std::function<void(double)>& on_good_reading) {
+  bool ramping = false;
+  runner.drain(
+      [&](const firmware::DriveSample& s) {
+        drive_.push(s);
+        ramping = ramping || s.phase == firmware::DrivePhase::ramping_down;
+      },
+      [&](const firmware::SensorSample& s) {
+        sensor_.push(s);
+        if (s.status == hal::Status::ok) on_good_reading(s.displacement_m);
+      });
+  publish("drive", drive_, drive_published_);
+  publish("sensor", sensor_, sensor_published_);
+  return ramping;
+}
+
+template <class Sample>
+void SampleHub::publish(const char* topic, const Recorder<Sample>& recorder,
+                        std::uint64_t& published) {
+  std::vector<Sample> batch;
+  while (published < recorder.next()) {
+    published = std::max(published, recorder.first());
+    recorder.copy(published, kMaxBatch, batch);
+    if (batch.empty()) break;
+    const std::string frame = protocol::encode_frame(published, batch);
+    if (spill_) spill_->append(frame);
+    std::array<zmq::const_buffer, 2> parts{zmq::buffer(std::string_view(topic)),
+                                           zmq::buffer(frame)};
+    (void)zmq::send_multipart(stream_, parts, zmq::send_flags::dontwait);
+    published += batch.size();
+  }
+}
+
+json SampleHub::fetch(const std::string& client, const json& args, bool budgeted) {
+  const auto stream = protocol::stream_from_string(protocol::string_arg(args, "stream"), "stream");
+  const std::uint64_t first = protocol::uint_arg(args, "first");
+  const std::uint64_t count = protocol::uint_arg(args, "count");
+  if (count > kMaxFetch) {
+    throw ProtocolError(code::out_of_limits, "count",
+                        fmt::format("count: {}; allowed: at most {} per fetch", count, kMaxFetch));
+  }
+  // A watcher's fetches cost the run a bounded amount; the controller's gap
+  // filling (which its own lease waits on) is not budgeted.
+  if (const double wait_s = budgeted ? budget_.take(client, static_cast<double>(count)) : 0.0;
+      wait_s > 0) {
+    throw ProtocolError(code::rate_limited, "count",
+                        fmt::format("fetch: over this client's budget of {:g} samples/s; "
+                                    "retry in {:.3f} s",
+                                    budget_.samples_per_s(), wait_s));
+  }
+  const bool drive = stream == protocol::Stream::drive;
+  const std::uint64_t held_first = drive ? drive_.first() : sensor_.first();
+  const std::uint64_t held_next = drive ? drive_.next() : sensor_.next();
+  if (spill_ && first < held_first) {
+    // Past the memory ring: the spill file has it.
+    if (auto frame = spill_->fetch(stream, first, count)) return {{"frame", binary(*frame)}};
+  }
+  if (first < held_first || first > held_next) {
+    throw ProtocolError(code::not_available, "first",
+                        fmt::format("first: {} is not recorded; the recorder holds [{}, {})", first,
+                                    held_first, held_next));
+  }
+  if (drive) {
+    std::vector<firmware::DriveSample> samples;
+    drive_.copy(first, count, samples);
+    return {{"frame", binary(protocol::encode_frame(first, samples))}};
+  }
+  std::vector<firmware::SensorSample> samples;
+  sensor_.copy(first, count, samples);
+  return {{"frame", binary(protocol::encode_frame(first, samples))}};
+}
+
+json SampleHub::recorder_json() const {
+  return {{"drive", {{"first", drive_.first()}, {"next", drive_.next()}}},
+          {"sensor", {{"first", sensor_.first()}, {"next", sensor_.next()}}}};
+}
+
+}  // namespace piezo::daemon

@@ -1,0 +1,147 @@
+#pragma once
+/// @file
+/// The protocol's messages as types (docs/protocol.md): the board encodes
+/// them and the host decodes them through these, and nowhere else. Each
+/// converts to and from the JSON value that travels as a MessagePack map
+/// (nlohmann's to_json/from_json, found by argument-dependent lookup);
+/// decoding a map that lacks a field, or holds one of the wrong type,
+/// throws ProtocolError (malformed, naming the field). Optional fields are
+/// nil on the wire when absent.
+
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "piezo/model/parameters.hpp"
+
+namespace piezo::protocol {
+
+/// `hello`'s reply: what a client needs before it asks for anything, and to
+/// interpret the samples (the sensor's radius).
+struct Hello {
+  std::uint32_t protocol = 0;
+  std::uint32_t frame_version = 0;
+  std::string daemon;  ///< piezod's version
+  std::string stream;  ///< the PUB endpoint
+  std::string clock;   ///< "realtime" or "virtual"
+  struct Backends {
+    std::string drive, sensor, lines;
+  } backends;
+  struct Limits {
+    double V_min = 0.0, V_max = 0.0, slew_V_per_s = 0.0, ramp_down_V_per_s = 0.0,
+           sensor_stale_s = 0.0, f_max_hz = 0.0, duration_max_s = 0.0, lease_max_s = 0.0;
+  } limits;
+  double sensor_r2_m = 0.0;  ///< `sensor.r2_m`: angles are displacements over it
+  double drive_rate_hz = 0.0;
+  double sensor_rate_hz = 0.0;
+  double output_latency_s = 0.0;
+  double lease_s = 0.0;
+  double recorder_s = 0.0;
+  nlohmann::json calibration;  ///< the installed calibration, or nil
+};
+
+/// A loop's health counters, and its period-error statistics where given
+/// (health events and run summaries).
+struct LoopHealth {
+  std::uint64_t cycles = 0, overruns = 0, missed_cycles = 0, dropped = 0, errors = 0;
+  struct Timing {
+    double p50_us = 0.0, p99_us = 0.0, max_us = 0.0, mean_us = 0.0;
+    std::vector<double> histogram_us;  ///< counts per 1 us bin of period error
+  };
+  std::optional<Timing> timing;
+};
+
+/// `configure`'s arguments. Requests decode through the argument readers
+/// (message.hpp), so a missing or mistyped argument is `bad_argument`.
+struct ConfigureRequest {
+  model::DriveParameters drive;
+  double duration_s = 0.0;
+};
+
+/// `step`'s arguments.
+struct StepRequest {
+  std::uint64_t count = 0;
+  model::DriveParameters drive;
+  std::optional<double> lease_s;
+};
+
+/// `move_to`'s arguments (absent ones take the board's defaults).
+struct MoveToRequest {
+  double target_rad = 0.0;
+  double tolerance_rad = 25e-6;
+  double settle_s = 0.1;
+  double timeout_s = 30.0;
+  double hold_s = 0.0;
+  bool protect = true;
+  std::uint64_t stall_steps = 2;
+  std::optional<double> V0, f, C_dr, e_dr, lease_s;
+};
+
+/// How the drive's output ended (a run summary's `output`).
+struct OutputEnd {
+  std::string state;  ///< confirmed, output_unconfirmed, enable_unconfirmed
+  bool zero_confirmed = false;
+  std::optional<double> acknowledged_V;
+  std::uint32_t zero_writes = 0;
+  std::string zero_status = "ok";
+  bool enabled_ever = true;
+  std::string enable_status = "ok";
+};
+
+/// A finished run's account (in the `state` event, and in `status`).
+struct RunSummary {
+  std::string cause;  ///< a StopCause name
+  OutputEnd output;
+  LoopHealth drive, sensor;
+  std::vector<std::string> realtime;
+  std::uint64_t drive_samples = 0, sensor_samples = 0;  ///< `samples` {drive, sensor}
+  nlohmann::json move;                                  ///< a move's account, or nil
+  nlohmann::json calibration;    ///< a calibration run's result (nil when none was installed)
+  bool has_calibration = false;  ///< a calibration run: `calibration` is present (maybe nil)
+  std::optional<std::string> calibration_error;
+};
+
+/// The `state` event: published at every change of state.
+struct StateEvent {
+  std::string state;  ///< idle, running, ramping_down, fault
+  std::int64_t board_ns = 0;
+  std::optional<std::uint64_t> run;
+  std::optional<std::string> fault;
+  std::optional<RunSummary> summary;  ///< once the run `run` ended
+};
+
+/// The `health` event: about four a second.
+struct HealthEvent {
+  std::string state;
+  std::int64_t board_ns = 0;
+  std::optional<LoopHealth> drive, sensor;  ///< while a run is under way
+  nlohmann::json move;                      ///< a move's progress, or nil
+  std::optional<double> calibration_progress;
+};
+
+void to_json(nlohmann::json& j, const Hello& m);
+void from_json(const nlohmann::json& j, Hello& m);
+void to_json(nlohmann::json& j, const LoopHealth& m);
+void from_json(const nlohmann::json& j, LoopHealth& m);
+void to_json(nlohmann::json& j, const ConfigureRequest& m);
+void from_json(const nlohmann::json& j, ConfigureRequest& m);
+void to_json(nlohmann::json& j, const StepRequest& m);
+void from_json(const nlohmann::json& j, StepRequest& m);
+void to_json(nlohmann::json& j, const MoveToRequest& m);
+void from_json(const nlohmann::json& j, MoveToRequest& m);
+void to_json(nlohmann::json& j, const OutputEnd& m);
+void from_json(const nlohmann::json& j, OutputEnd& m);
+void to_json(nlohmann::json& j, const RunSummary& m);
+void from_json(const nlohmann::json& j, RunSummary& m);
+void to_json(nlohmann::json& j, const StateEvent& m);
+void from_json(const nlohmann::json& j, StateEvent& m);
+void to_json(nlohmann::json& j, const HealthEvent& m);
+void from_json(const nlohmann::json& j, HealthEvent& m);
+
+/// Decodes `j` as a T, any failure a ProtocolError naming the field.
+template <class T>
+[[nodiscard]] T decode(const nlohmann::json& j);
+
+}  // namespace piezo::protocol

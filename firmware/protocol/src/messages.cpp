@@ -1,0 +1,306 @@
+#include "piezo/protocol/messages.hpp"
+
+#include <fmt/format.h>
+
+#include "piezo/protocol/error.hpp"
+#include "piezo/protocol/message.hpp"
+
+namespace piezo::protocol {
+namespace {
+
+using nlohmann::json;
+
+/// A field of a reply or event; a missing or mistyped one is malformed.
+template <class T>
+T field(const json& j, const char* key) {
+  const auto it = j.find(key);
+  if (it == j.end() || it->is_null()) {
+    throw ProtocolError(code::malformed, key, fmt::format("{}: missing", key));
+  }
+  try {
+    return it->get<T>();
+  } catch (const json::exception&) {
+    throw ProtocolError(code::malformed, key,
+                        fmt::format("{}: of the wrong type ({})", key, it->type_name()));
+  }
+}
+
+template <class T>
+std::optional<T> optional_field(const json& j, const char* key) {
+  const auto it = j.find(key);
+  if (it == j.end() || it->is_null()) return std::nullopt;
+  return field<T>(j, key);
+}
+
+json object_field(const json& j, const char* key) {
+  const json v = j.value(key, json());
+  if (!v.is_null() && !v.is_object()) {
+    throw ProtocolError(code::malformed, key, fmt::format("{}: not a map", key));
+  }
+  return v.is_null() ? json::object() : v;
+}
+
+template <class T>
+json nil_or(const std::optional<T>& v) {
+  return v ? json(*v) : json(nullptr);
+}
+
+/// A request's waveform: V0 and f required, the rest defaulted as the
+/// protocol documents.
+model::DriveParameters drive_args(const json& args) {
+  model::DriveParameters d;
+  d.V0 = number_arg(args, "V0");
+  d.f = number_arg(args, "f");
+  d.C_dr = number_arg(args, "C_dr", d.C_dr);
+  d.e_dr = number_arg(args, "e_dr", d.e_dr);
+  const std::string direction = string_arg(args, "direction", "forward");
+  if (const auto dir = model::parse_direction(direction)) {
+    d.direction = *dir;
+  } else {
+    throw ProtocolError(
+        code::bad_argument, "direction",
+        fmt::format("direction: \"{}\"; allowed: {}", direction, model::kDirectionNames.list()));
+  }
+  return d;
+}
+
+json drive_json(const model::DriveParameters& d) {
+  return {{"V0", d.V0},
+          {"f", d.f},
+          {"C_dr", d.C_dr},
+          {"e_dr", d.e_dr},
+          {"direction", model::name(d.direction)}};
+}
+
+}  // namespace
+
+void to_json(json& j, const Hello& m) {
+  const auto& l = m.limits;
+  j = {{"protocol", m.protocol},
+       {"frame_version", m.frame_version},
+       {"daemon", m.daemon},
+       {"stream", m.stream},
+       {"clock", m.clock},
+       {"backends",
+        {{"drive", m.backends.drive}, {"sensor", m.backends.sensor}, {"lines", m.backends.lines}}},
+       {"limits",
+        {{"V_min", l.V_min},
+         {"V_max", l.V_max},
+         {"slew_V_per_s", l.slew_V_per_s},
+         {"ramp_down_V_per_s", l.ramp_down_V_per_s},
+         {"sensor_stale_s", l.sensor_stale_s},
+         {"f_max_hz", l.f_max_hz},
+         {"duration_max_s", l.duration_max_s},
+         {"lease_max_s", l.lease_max_s}}},
+       {"sensor", {{"r2_m", m.sensor_r2_m}}},
+       {"drive_rate_hz", m.drive_rate_hz},
+       {"sensor_rate_hz", m.sensor_rate_hz},
+       {"output_latency_s", m.output_latency_s},
+       {"lease_s", m.lease_s},
+       {"recorder_s", m.recorder_s},
+       {"calibration", m.calibration}};
+}
+
+void from_json(const json& j, Hello& m) {
+  m.protocol = field<std::uint32_t>(j, "protocol");
+  m.frame_version = field<std::uint32_t>(j, "frame_version");
+  m.daemon = field<std::string>(j, "daemon");
+  m.stream = field<std::string>(j, "stream");
+  m.clock = field<std::string>(j, "clock");
+  const json b = object_field(j, "backends");
+  m.backends = {field<std::string>(b, "drive"), field<std::string>(b, "sensor"),
+                field<std::string>(b, "lines")};
+  const json l = object_field(j, "limits");
+  m.limits = {field<double>(l, "V_min"),          field<double>(l, "V_max"),
+              field<double>(l, "slew_V_per_s"),   field<double>(l, "ramp_down_V_per_s"),
+              field<double>(l, "sensor_stale_s"), field<double>(l, "f_max_hz"),
+              field<double>(l, "duration_max_s"), field<double>(l, "lease_max_s")};
+  m.sensor_r2_m = field<double>(object_field(j, "sensor"), "r2_m");
+  m.drive_rate_hz = field<double>(j, "drive_rate_hz");
+  m.sensor_rate_hz = field<double>(j, "sensor_rate_hz");
+  m.output_latency_s = field<double>(j, "output_latency_s");
+  m.lease_s = field<double>(j, "lease_s");
+  m.recorder_s = field<double>(j, "recorder_s");
+  m.calibration = j.value("calibration", json());
+}
+
+void to_json(json& j, const LoopHealth& m) {
+  j = {{"cycles", m.cycles},
+       {"overruns", m.overruns},
+       {"missed_cycles", m.missed_cycles},
+       {"dropped", m.dropped},
+       {"errors", m.errors}};
+  if (m.timing) {
+    j["p50_us"] = m.timing->p50_us;
+    j["p99_us"] = m.timing->p99_us;
+    j["max_us"] = m.timing->max_us;
+    j["mean_us"] = m.timing->mean_us;
+    j["histogram_us"] = m.timing->histogram_us;
+  }
+}
+
+void from_json(const json& j, LoopHealth& m) {
+  m.cycles = field<std::uint64_t>(j, "cycles");
+  m.overruns = field<std::uint64_t>(j, "overruns");
+  m.missed_cycles = field<std::uint64_t>(j, "missed_cycles");
+  m.dropped = field<std::uint64_t>(j, "dropped");
+  m.errors = field<std::uint64_t>(j, "errors");
+  m.timing.reset();
+  if (j.contains("p50_us")) {
+    m.timing = LoopHealth::Timing{field<double>(j, "p50_us"), field<double>(j, "p99_us"),
+                                  field<double>(j, "max_us"), field<double>(j, "mean_us"),
+                                  field<std::vector<double>>(j, "histogram_us")};
+  }
+}
+
+void to_json(json& j, const ConfigureRequest& m) {
+  j = drive_json(m.drive);
+  j["duration_s"] = m.duration_s;
+}
+
+void from_json(const json& j, ConfigureRequest& m) {
+  m.drive = drive_args(j);
+  m.duration_s = number_arg(j, "duration_s");
+}
+
+void to_json(json& j, const StepRequest& m) {
+  j = drive_json(m.drive);
+  j["count"] = m.count;
+  if (m.lease_s) j["lease_s"] = *m.lease_s;
+}
+
+void from_json(const json& j, StepRequest& m) {
+  m.count = uint_arg(j, "count");
+  m.drive = drive_args(j);
+  m.lease_s = j.contains("lease_s") ? std::optional(number_arg(j, "lease_s")) : std::nullopt;
+}
+
+void to_json(json& j, const MoveToRequest& m) {
+  j = {{"target_rad", m.target_rad},  {"tolerance_rad", m.tolerance_rad},
+       {"settle_s", m.settle_s},      {"timeout_s", m.timeout_s},
+       {"hold_s", m.hold_s},          {"protect", m.protect},
+       {"stall_steps", m.stall_steps}};
+  if (m.V0) j["V0"] = *m.V0;
+  if (m.f) j["f"] = *m.f;
+  if (m.C_dr) j["C_dr"] = *m.C_dr;
+  if (m.e_dr) j["e_dr"] = *m.e_dr;
+  if (m.lease_s) j["lease_s"] = *m.lease_s;
+}
+
+void from_json(const json& j, MoveToRequest& m) {
+  const MoveToRequest defaults;
+  const auto optional_number = [&](const char* key) {
+    return j.contains(key) && !j.at(key).is_null() ? std::optional(number_arg(j, key))
+                                                   : std::nullopt;
+  };
+  m.target_rad = number_arg(j, "target_rad");
+  m.tolerance_rad = number_arg(j, "tolerance_rad", defaults.tolerance_rad);
+  m.settle_s = number_arg(j, "settle_s", defaults.settle_s);
+  m.timeout_s = number_arg(j, "timeout_s", defaults.timeout_s);
+  m.hold_s = number_arg(j, "hold_s", defaults.hold_s);
+  m.protect = bool_arg(j, "protect", defaults.protect);
+  m.stall_steps = uint_arg(j, "stall_steps", defaults.stall_steps);
+  m.V0 = optional_number("V0");
+  m.f = optional_number("f");
+  m.C_dr = optional_number("C_dr");
+  m.e_dr = optional_number("e_dr");
+  m.lease_s = optional_number("lease_s");
+}
+
+void to_json(json& j, const OutputEnd& m) {
+  j = {{"state", m.state},
+       {"zero_confirmed", m.zero_confirmed},
+       {"acknowledged_V", nil_or(m.acknowledged_V)},
+       {"zero_writes", m.zero_writes},
+       {"zero_status", m.zero_status},
+       {"enabled_ever", m.enabled_ever},
+       {"enable_status", m.enable_status}};
+}
+
+void from_json(const json& j, OutputEnd& m) {
+  m.state = field<std::string>(j, "state");
+  m.zero_confirmed = field<bool>(j, "zero_confirmed");
+  m.acknowledged_V = optional_field<double>(j, "acknowledged_V");
+  m.zero_writes = field<std::uint32_t>(j, "zero_writes");
+  m.zero_status = optional_field<std::string>(j, "zero_status").value_or("ok");
+  m.enabled_ever = optional_field<bool>(j, "enabled_ever").value_or(true);
+  m.enable_status = field<std::string>(j, "enable_status");
+}
+
+void to_json(json& j, const RunSummary& m) {
+  j = {{"cause", m.cause},
+       {"output", m.output},
+       {"drive", m.drive},
+       {"sensor", m.sensor},
+       {"realtime", m.realtime},
+       {"samples", {{"drive", m.drive_samples}, {"sensor", m.sensor_samples}}}};
+  if (!m.move.is_null()) j["move"] = m.move;
+  if (m.has_calibration) j["calibration"] = m.calibration;
+  if (m.calibration_error) j["calibration_error"] = *m.calibration_error;
+}
+
+void from_json(const json& j, RunSummary& m) {
+  m.cause = field<std::string>(j, "cause");
+  m.output = field<OutputEnd>(j, "output");
+  m.drive = field<LoopHealth>(j, "drive");
+  m.sensor = field<LoopHealth>(j, "sensor");
+  m.realtime =
+      optional_field<std::vector<std::string>>(j, "realtime").value_or(std::vector<std::string>{});
+  const json samples = object_field(j, "samples");
+  m.drive_samples = field<std::uint64_t>(samples, "drive");
+  m.sensor_samples = field<std::uint64_t>(samples, "sensor");
+  m.move = j.value("move", json());
+  m.has_calibration = j.contains("calibration");
+  m.calibration = j.value("calibration", json());
+  m.calibration_error = optional_field<std::string>(j, "calibration_error");
+}
+
+void to_json(json& j, const StateEvent& m) {
+  j = {{"state", m.state},
+       {"board_ns", m.board_ns},
+       {"run", nil_or(m.run)},
+       {"fault", nil_or(m.fault)}};
+  if (m.summary) j["summary"] = *m.summary;
+}
+
+void from_json(const json& j, StateEvent& m) {
+  m.state = field<std::string>(j, "state");
+  m.board_ns = field<std::int64_t>(j, "board_ns");
+  m.run = optional_field<std::uint64_t>(j, "run");
+  m.fault = optional_field<std::string>(j, "fault");
+  m.summary = optional_field<RunSummary>(j, "summary");
+}
+
+void to_json(json& j, const HealthEvent& m) {
+  j = {{"state", m.state}, {"board_ns", m.board_ns}};
+  if (m.drive) j["drive"] = *m.drive;
+  if (m.sensor) j["sensor"] = *m.sensor;
+  if (!m.move.is_null()) j["move"] = m.move;
+  if (m.calibration_progress) j["calibration_progress"] = *m.calibration_progress;
+}
+
+void from_json(const json& j, HealthEvent& m) {
+  m.state = field<std::string>(j, "state");
+  m.board_ns = field<std::int64_t>(j, "board_ns");
+  m.drive = optional_field<LoopHealth>(j, "drive");
+  m.sensor = optional_field<LoopHealth>(j, "sensor");
+  m.move = j.value("move", json());
+  m.calibration_progress = optional_field<double>(j, "calibration_progress");
+}
+
+template <class T>
+T decode(const json& j) {
+  if (!j.is_object()) throw ProtocolError(code::malformed, "", "not a map");
+  return j.get<T>();
+}
+
+template Hello decode<Hello>(const json&);
+template LoopHealth decode<LoopHealth>(const json&);
+template ConfigureRequest decode<ConfigureRequest>(const json&);
+template StepRequest decode<StepRequest>(const json&);
+template MoveToRequest decode<MoveToRequest>(const json&);
+template RunSummary decode<RunSummary>(const json&);
+template StateEvent decode<StateEvent>(const json&);
+template HealthEvent decode<HealthEvent>(const json&);
+
+}  // namespace piezo::protocol

@@ -1,0 +1,123 @@
+// The daemon's state machine without sockets: who may do what, and what
+// each way a run ends leaves latched (docs/protocol.md, "States").
+
+#include "run_state.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "piezo/protocol/error.hpp"
+
+namespace piezo::daemon {
+namespace {
+
+using firmware::StopCause;
+
+/// The code of the ProtocolError `f` throws, or "" when it throws none.
+template <class F>
+std::string refusal(F&& f) {
+  try {
+    f();
+  } catch (const protocol::ProtocolError& e) {
+    return e.code();
+  }
+  return "";
+}
+
+TEST(RunState, IdleAnyoneMayStartAndNobodyControls) {
+  RunState s;
+  EXPECT_EQ(s.state(), State::idle);
+  EXPECT_FALSE(s.under_way());
+  EXPECT_FALSE(s.controlled());
+  EXPECT_EQ(refusal([&] { s.require_can_start("a", "start"); }), "");
+  EXPECT_EQ(refusal([&] { s.require_controller("b", "zero"); }), "");
+}
+
+TEST(RunState, DuringARunOnlyTheControllerIsHeardAndNobodyStartsAnother) {
+  RunState s;
+  s.started("a");
+  EXPECT_EQ(s.state(), State::running);
+  EXPECT_TRUE(s.under_way());
+  EXPECT_TRUE(s.is_controller("a"));
+  EXPECT_FALSE(s.is_controller("b"));
+  EXPECT_EQ(refusal([&] { s.require_controller("b", "zero"); }), "not_controller");
+  EXPECT_EQ(refusal([&] { s.require_controller("a", "zero"); }), "");
+  EXPECT_EQ(refusal([&] { s.require_can_start("b", "start"); }), "not_controller");
+  EXPECT_EQ(refusal([&] { s.require_can_start("a", "start"); }), "bad_state");
+  EXPECT_EQ(refusal([&] { (void)s.reset(); }), "bad_state");
+}
+
+TEST(RunState, TheRampIsEnteredOnce) {
+  RunState s;
+  EXPECT_FALSE(s.ramping()) << "no run: nothing ramps";
+  s.started("a");
+  EXPECT_TRUE(s.ramping());
+  EXPECT_EQ(s.state(), State::ramping_down);
+  EXPECT_TRUE(s.under_way());
+  EXPECT_FALSE(s.ramping()) << "already ramping";
+}
+
+TEST(RunState, CompletedOrInterruptedAtConfirmedZeroLeavesItIdleAndUncontrolled) {
+  for (const StopCause cause : {StopCause::completed, StopCause::interrupted}) {
+    RunState s;
+    s.started("a");
+    s.ended(cause, true);
+    EXPECT_EQ(s.state(), State::idle) << firmware::to_string(cause);
+    EXPECT_EQ(s.fault(), StopCause::none);
+    EXPECT_FALSE(s.controlled());
+    EXPECT_EQ(refusal([&] { s.require_can_start("b", "start"); }), "");
+  }
+}
+
+TEST(RunState, EveryOtherCauseLatchesUntilReset) {
+  for (auto c = static_cast<int>(StopCause::estop); c <= static_cast<int>(firmware::kLastStopCause);
+       ++c) {
+    const auto cause = static_cast<StopCause>(c);
+    EXPECT_TRUE(RunState::latches(cause)) << firmware::to_string(cause);
+    RunState s;
+    s.started("a");
+    s.ended(cause, true);
+    EXPECT_EQ(s.state(), State::fault);
+    EXPECT_EQ(s.fault(), cause);
+    EXPECT_FALSE(s.controlled());
+    EXPECT_EQ(refusal([&] { s.require_can_start("a", "move_to"); }), "fault_latched");
+    EXPECT_EQ(s.reset(), cause);
+    EXPECT_EQ(s.state(), State::idle);
+    EXPECT_EQ(refusal([&] { s.require_can_start("b", "move_to"); }), "");
+  }
+  EXPECT_FALSE(RunState::latches(StopCause::none));
+}
+
+TEST(RunState, AnOutputNotConfirmedAtZeroLatchesADriveFaultWhateverTheCause) {
+  RunState s;
+  s.started("a");
+  s.ended(StopCause::completed, false);
+  EXPECT_EQ(s.state(), State::fault);
+  EXPECT_EQ(s.fault(), StopCause::drive_fault);
+  RunState t;
+  t.started("a");
+  t.ended(StopCause::link_lost, false);
+  EXPECT_EQ(t.fault(), StopCause::link_lost) << "the run's own cause is the better name";
+}
+
+TEST(RunState, AnEstopAtRestLatchesAndAResetWithNothingLatchedChangesNothing) {
+  RunState s;
+  EXPECT_EQ(s.reset(), StopCause::none);
+  EXPECT_EQ(s.state(), State::idle);
+  s.estop_at_rest();
+  EXPECT_EQ(s.state(), State::fault);
+  EXPECT_EQ(s.fault(), StopCause::estop);
+  EXPECT_EQ(refusal([&] { s.require_can_start("a", "step"); }), "fault_latched");
+  EXPECT_EQ(s.reset(), StopCause::estop);
+}
+
+TEST(RunState, StatesHaveTheirProtocolNames) {
+  EXPECT_STREQ(to_string(State::idle), "idle");
+  EXPECT_STREQ(to_string(State::running), "running");
+  EXPECT_STREQ(to_string(State::ramping_down), "ramping_down");
+  EXPECT_STREQ(to_string(State::fault), "fault");
+}
+
+}  // namespace
+}  // namespace piezo::daemon

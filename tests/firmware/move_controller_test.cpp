@@ -1,0 +1,180 @@
+// The move controller on its own, without loops, threads or HAL: a test
+// plant of stick-slip kinematics (the rotor follows the stator while the
+// voltage changes slowly and stays where it is while it changes fast)
+// seen by a noisy sensor at 1 kHz, driven at 10 kHz. What is checked is
+// the plant's own rotor, not only what the controller believes.
+
+#include "piezo/firmware/move_controller.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "piezo/firmware/position_feed.hpp"
+
+namespace piezo::firmware {
+namespace {
+
+constexpr double kDt = 1e-4;          // drive period [s]
+constexpr int kTicksPerReading = 10;  // 1 kHz sensor
+constexpr double kR2 = 0.062;         // sensor radius [m]
+constexpr double kZero = 0.07;        // reading at the rotor's start [m]
+constexpr double kSlipRate = 2000.0;  // |dV/dt| above this slips [V/s]
+
+/// The rig the controller drives, reduced to kinematics.
+struct TestPlant {
+  double stick_rad_per_V = 31.4e-6;  ///< the rotor's angle per stator volt while it sticks
+  double noise_m = 0.5e-6;
+  bool blocked = false;      ///< the rotor cannot turn at all: the sensor sees nothing swing
+  bool never_slips = false;  ///< too much normal force: the rotor swings, no net step
+  bool frozen = false;       ///< the sensor repeats its first reading
+  double theta = 0.0;        ///< the rotor's true angle [rad]
+  double V = 0.0;
+  std::mt19937 rng{7};
+  std::normal_distribution<double> gauss{0.0, 1.0};
+  double first_reading = std::nan("");
+
+  void drive(double V_new) {
+    const double dV = V_new - V;
+    if (!blocked && (never_slips || std::abs(dV) / kDt <= kSlipRate)) {
+      theta += stick_rad_per_V * dV;
+    }
+    V = V_new;
+  }
+  double read() {
+    const double d = kZero + kR2 * theta + noise_m * gauss(rng);
+    if (std::isnan(first_reading)) first_reading = d;
+    return frozen ? first_reading : d;
+  }
+};
+
+struct Outcome {
+  MoveState state;
+  StopCause fault;
+  double t_end;
+  double V_end;
+};
+
+/// Runs the controller against the plant until it finishes, faults or
+/// `timeout_s` passes.
+Outcome run(MoveController& m, PositionFeed& feed, TestPlant& plant, double timeout_s = 30.0) {
+  double t = 0.0;
+  for (long tick = 0; t < timeout_s; ++tick, t += kDt) {
+    if (tick % kTicksPerReading == 0) feed.publish(plant.read());
+    plant.drive(m.next_voltage(t, kDt));
+    if (m.finished() || m.fault() != StopCause::none) break;
+  }
+  return {m.state(), m.fault(), t, plant.V};
+}
+
+MoveSettings settings(double target_rad) {
+  MoveSettings s;
+  s.target_rad = target_rad;
+  s.zero_displacement_m = kZero;
+  s.r2_m = kR2;
+  return s;
+}
+
+TEST(MoveController, ComesOnTargetBothWaysAndTheRotorIsThere) {
+  for (const double target : {0.02, -0.013, 0.0004, -0.00007}) {
+    TestPlant plant;
+    PositionFeed feed;
+    MoveController m(settings(target), feed);
+    const Outcome o = run(m, feed, plant);
+    ASSERT_EQ(o.state, MoveState::on_target) << target << ": ended " << to_string(o.state);
+    EXPECT_GT(o.t_end, 0.1) << target << ": noise at rest, steps and the settle take time";
+    EXPECT_EQ(o.V_end, 0.0) << target << ": on target at 0 V";
+    // The settle's mean is within the tolerance; the rotor itself within
+    // that and what the noise leaves in the mean.
+    EXPECT_NEAR(m.position_rad(), target, m.settings().tolerance_rad) << target;
+    EXPECT_NEAR(plant.theta, target, 1.5 * m.settings().tolerance_rad) << target;
+    EXPECT_GT(m.noise_m(), 0.2e-6) << "measured at rest before the first step";
+    EXPECT_LT(m.noise_m(), 1.0e-6);
+  }
+}
+
+TEST(MoveController, LearnsAPlantThatStepsFarLessThanPredicted) {
+  TestPlant plant;
+  plant.stick_rad_per_V = 8e-6;  // a weaker piezo: a quarter of the model's stroke
+  PositionFeed feed;
+  MoveController m(settings(0.01), feed);
+  const Outcome o = run(m, feed, plant);
+  ASSERT_EQ(o.state, MoveState::on_target) << to_string(o.state);
+  EXPECT_NEAR(plant.theta, 0.01, 1.5 * m.settings().tolerance_rad);
+  EXPECT_GT(m.steps(), 10u) << "many small steps";
+}
+
+TEST(MoveController, AMotorThatSwingsButNeverStepsStopsStalled) {
+  TestPlant plant;
+  plant.never_slips = true;
+  PositionFeed feed;
+  MoveController m(settings(0.01), feed);
+  const Outcome o = run(m, feed, plant);
+  EXPECT_EQ(o.fault, StopCause::stalled) << to_string(o.state);
+  EXPECT_EQ(o.state, MoveState::stalled);
+  EXPECT_NEAR(plant.theta, 0.0, 1e-3) << "no net step";
+  EXPECT_LE(m.steps(), 2u * MoveSettings::kMaxStallSteps) << "given up after a few steps";
+}
+
+TEST(MoveController, AReadingThatNeverSwingsWhileTheStatorDoesIsImplausible) {
+  TestPlant plant;
+  plant.blocked = true;  // the sensor sees no rotor move at all, not even in stick
+  PositionFeed feed;
+  MoveController m(settings(0.01), feed);
+  const Outcome o = run(m, feed, plant);
+  EXPECT_EQ(o.fault, StopCause::sensor_implausible) << to_string(o.state);
+  EXPECT_EQ(plant.theta, 0.0);
+}
+
+TEST(MoveController, AFrozenSensorIsImplausible) {
+  TestPlant plant;
+  plant.frozen = true;
+  PositionFeed feed;
+  MoveController m(settings(0.01), feed);
+  const Outcome o = run(m, feed, plant);
+  EXPECT_EQ(o.fault, StopCause::sensor_implausible) << to_string(o.state);
+  EXPECT_LT(o.t_end, 5.0) << "found within a few steps";
+}
+
+TEST(MoveController, WithoutProtectionItDrivesOnUntilTheCallerStopsIt) {
+  TestPlant plant;
+  plant.blocked = true;
+  PositionFeed feed;
+  MoveSettings s = settings(0.01);
+  s.protect = false;
+  MoveController m(s, feed);
+  const Outcome o = run(m, feed, plant, 5.0);
+  EXPECT_EQ(o.fault, StopCause::none);
+  EXPECT_GE(o.t_end, 5.0 - kDt) << "the run's timeout is the only end";
+}
+
+TEST(MoveController, WithoutAZeroItTakesTheMeanOfTheReadingsAtRest) {
+  TestPlant plant;
+  PositionFeed feed;
+  MoveSettings s = settings(0.005);
+  s.zero_displacement_m = std::nan("");
+  MoveController m(s, feed);
+  const Outcome o = run(m, feed, plant);
+  ASSERT_EQ(o.state, MoveState::on_target) << to_string(o.state);
+  // 16 readings of 0.5 um noise: the zero within a few tenths of a micrometre.
+  EXPECT_NEAR(m.zero_displacement_m(), kZero, 0.5e-6);
+  EXPECT_NEAR(plant.theta, 0.005, 1.5 * s.tolerance_rad + 0.5e-6 / kR2);
+}
+
+TEST(MoveController, AHoldKeepsTheServoOnThenSettlesAgain) {
+  TestPlant plant;
+  PositionFeed feed;
+  MoveSettings s = settings(0.003);
+  s.hold_s = 0.5;
+  MoveController m(s, feed);
+  const Outcome o = run(m, feed, plant);
+  ASSERT_EQ(o.state, MoveState::on_target) << to_string(o.state);
+  EXPECT_EQ(o.V_end, 0.0);
+  EXPECT_TRUE(std::isfinite(m.hold_rms_error_rad()));
+  EXPECT_LT(m.hold_rms_error_rad(), s.tolerance_rad);
+  EXPECT_NEAR(plant.theta, 0.003, 1.5 * s.tolerance_rad);
+}
+
+}  // namespace
+}  // namespace piezo::firmware

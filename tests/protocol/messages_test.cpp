@@ -1,0 +1,180 @@
+// Every protocol message round-trips through its type and MessagePack, and
+// a map that lacks a field is refused naming it (docs/protocol.md).
+
+#include "piezo/protocol/messages.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "piezo/protocol/error.hpp"
+#include "piezo/protocol/message.hpp"
+
+namespace piezo::protocol {
+namespace {
+
+using nlohmann::json;
+
+/// Encoded as the wire carries it (a MessagePack map), decoded back.
+template <class T>
+T over_the_wire(const T& m) {
+  json j = m;
+  return decode<T>(decode_map(encode_map(j)));
+}
+
+template <class T>
+std::string refusal_key(const json& j) {
+  try {
+    (void)decode<T>(j);
+  } catch (const ProtocolError& e) {
+    return e.code() + " " + e.key();
+  }
+  return "accepted";
+}
+
+Hello a_hello() {
+  Hello h;
+  h.protocol = 2;
+  h.frame_version = 1;
+  h.daemon = "0.9.0";
+  h.stream = "tcp://127.0.0.1:5556";
+  h.clock = "virtual";
+  h.backends = {"sim", "modbus-tcp", "none"};
+  h.limits = {0.0, 80.0, 20000.0, 1000.0, 0.1, 500.0, 86400.0, 10.0};
+  h.sensor_r2_m = 0.05;
+  h.drive_rate_hz = 10000.0;
+  h.sensor_rate_hz = 1000.0;
+  h.output_latency_s = 1e-4;
+  h.lease_s = 0.5;
+  h.recorder_s = 120.0;
+  h.calibration = {{"created", "2026-11-26T03:00:00Z"}, {"noise_m", 5e-7}};
+  return h;
+}
+
+LoopHealth a_health(bool timing) {
+  LoopHealth l{48000, 2, 3, 1, 4, std::nullopt};
+  if (timing) l.timing = LoopHealth::Timing{12.5, 40.0, 55.0, 14.0, {3.0, 0.0, 7.0}};
+  return l;
+}
+
+RunSummary a_summary() {
+  RunSummary s;
+  s.cause = "link_lost";
+  s.output = {"confirmed", true, 0.0, 3, "ok", true, "ok"};
+  s.drive = a_health(true);
+  s.sensor = a_health(true);
+  s.realtime = {"SCHED_FIFO refused"};
+  s.drive_samples = 48000;
+  s.sensor_samples = 4800;
+  s.move = {{"state", "on_target"}, {"position_rad", 0.01}};
+  s.has_calibration = true;
+  s.calibration = nullptr;
+  s.calibration_error = "the experiment ended link_lost before it was complete";
+  return s;
+}
+
+TEST(Messages, HelloRoundTripsWithTheSensorRadius) {
+  const Hello h = a_hello();
+  const Hello back = over_the_wire(h);
+  EXPECT_EQ(json(back), json(h));
+  EXPECT_EQ(back.sensor_r2_m, 0.05);
+  EXPECT_EQ(json(h).at("sensor").at("r2_m"), 0.05) << "the documented place: sensor.r2_m";
+}
+
+TEST(Messages, LoopHealthRoundTripsWithAndWithoutTiming) {
+  for (const bool timing : {false, true}) {
+    const LoopHealth l = a_health(timing);
+    EXPECT_EQ(json(over_the_wire(l)), json(l));
+    EXPECT_EQ(over_the_wire(l).timing.has_value(), timing);
+  }
+}
+
+TEST(Messages, RequestsRoundTrip) {
+  ConfigureRequest c;
+  c.drive = {60.0, 20.0, 0.9, 0.7, model::Direction::reverse};
+  c.duration_s = 2.5;
+  EXPECT_EQ(json(over_the_wire(c)), json(c));
+  EXPECT_EQ(over_the_wire(c).drive.direction, model::Direction::reverse);
+
+  StepRequest s;
+  s.count = 7;
+  s.drive = {40.0, 100.0, 0.95, 0.789, model::Direction::forward};
+  s.lease_s = 1.0;
+  EXPECT_EQ(json(over_the_wire(s)), json(s));
+  s.lease_s.reset();
+  EXPECT_FALSE(over_the_wire(s).lease_s.has_value());
+
+  MoveToRequest m;
+  m.target_rad = -0.002;
+  m.tolerance_rad = 3e-5;
+  m.hold_s = 0.5;
+  m.protect = false;
+  m.stall_steps = 4;
+  m.f = 40.0;
+  m.lease_s = 2.0;
+  EXPECT_EQ(json(over_the_wire(m)), json(m));
+  EXPECT_FALSE(over_the_wire(m).V0.has_value());
+}
+
+TEST(Messages, RequestsTakeTheDocumentedDefaults) {
+  const auto c = decode<ConfigureRequest>({{"V0", 60.0}, {"f", 10.0}, {"duration_s", 1.0}});
+  EXPECT_EQ(c.drive.C_dr, 0.95);
+  EXPECT_EQ(c.drive.e_dr, 0.789);
+  EXPECT_EQ(c.drive.direction, model::Direction::forward);
+  const auto m = decode<MoveToRequest>({{"target_rad", 0.01}});
+  EXPECT_EQ(m.tolerance_rad, 25e-6);
+  EXPECT_EQ(m.settle_s, 0.1);
+  EXPECT_EQ(m.timeout_s, 30.0);
+  EXPECT_EQ(m.stall_steps, 2u);
+  EXPECT_TRUE(m.protect);
+}
+
+TEST(Messages, ABadRequestArgumentIsABadArgumentNamingIt) {
+  EXPECT_EQ(refusal_key<ConfigureRequest>({{"V0", "high"}, {"f", 10.0}, {"duration_s", 1.0}}),
+            "bad_argument V0");
+  EXPECT_EQ(refusal_key<ConfigureRequest>({{"V0", 60.0}, {"duration_s", 1.0}}), "bad_argument f");
+  EXPECT_EQ(refusal_key<ConfigureRequest>(
+                {{"V0", 60.0}, {"f", 10.0}, {"duration_s", 1.0}, {"direction", "sideways"}}),
+            "bad_argument direction");
+  EXPECT_EQ(refusal_key<StepRequest>({{"V0", 60.0}, {"f", 10.0}, {"count", -1}}),
+            "bad_argument count");
+  EXPECT_EQ(refusal_key<MoveToRequest>({{"target_rad", 0.0}, {"protect", 1}}),
+            "bad_argument protect");
+}
+
+TEST(Messages, EventsAndSummariesRoundTrip) {
+  const RunSummary s = a_summary();
+  EXPECT_EQ(json(over_the_wire(s)), json(s));
+  RunSummary plain = a_summary();
+  plain.move = nullptr;
+  plain.has_calibration = false;
+  plain.calibration_error.reset();
+  plain.output.acknowledged_V.reset();
+  EXPECT_EQ(json(over_the_wire(plain)), json(plain));
+  EXPECT_FALSE(json(plain).contains("calibration")) << "only a calibration run has one";
+
+  StateEvent e{"fault", 123456789, 3, std::string("link_lost"), s};
+  EXPECT_EQ(json(over_the_wire(e)), json(e));
+  StateEvent idle{"idle", 5, std::nullopt, std::nullopt, std::nullopt};
+  EXPECT_EQ(json(over_the_wire(idle)), json(idle));
+  EXPECT_TRUE(json(idle).at("run").is_null()) << "nil, as documented";
+
+  HealthEvent h{"running", 99, a_health(true), a_health(true), json{{"state", "coarse"}}, 0.25};
+  EXPECT_EQ(json(over_the_wire(h)), json(h));
+  HealthEvent quiet{"idle", 1, std::nullopt, std::nullopt, nullptr, std::nullopt};
+  EXPECT_EQ(json(over_the_wire(quiet)), json(quiet));
+}
+
+TEST(Messages, AReplyOrEventMissingAFieldIsMalformedNamingIt) {
+  json hello = a_hello();
+  hello.at("sensor").erase("r2_m");
+  EXPECT_EQ(refusal_key<Hello>(hello), "malformed r2_m");
+  json summary = a_summary();
+  summary.at("output").erase("zero_confirmed");
+  EXPECT_EQ(refusal_key<RunSummary>(summary), "malformed zero_confirmed");
+  EXPECT_EQ(refusal_key<StateEvent>({{"state", 3}, {"board_ns", 1}}), "malformed state");
+  EXPECT_EQ(refusal_key<HealthEvent>(json::array()), "malformed ");
+}
+
+}  // namespace
+}  // namespace piezo::protocol
