@@ -21,7 +21,8 @@ if ! echo 'extern "C" int LLVMFuzzerTestOneInput(const unsigned char*, unsigned 
   echo "SKIP: clang's libFuzzer runtime missing (Debian: libclang-rt-14-dev)"
   exit 77
 fi
-hal_includes=(-I"$src/hal/include")
+# The name tables (model/names) are the bottom of the tree: every layer's headers use them.
+hal_includes=(-I"$src/hal/include" -I"$src/model/names/include")
 for d in "$src"/hal/*/include; do hal_includes+=(-I"$d"); done
 case "$target" in
   protocol)
@@ -30,6 +31,7 @@ case "$target" in
     libs=(-lfmt) ;;
   config)
     sources=("$src"/firmware/config/{section_reader,model_config,run_config,modbus_config}.cpp
+             "$src"/firmware/src/request_limits.cpp
              "$src"/hal/modbus/src/register_map.cpp "$src"/model/src/{parameters,waveform}.cpp)
     flags=(-I"$src/firmware/config" -I"$src/firmware/config/error" -I"$src/firmware/include" "${hal_includes[@]}"
            -I"$src/model/include" -I/usr/include/eigen3 $(pkg-config --cflags libmodbus))
@@ -43,6 +45,7 @@ case "$target" in
     sources=("$src"/host/src/io/{fit_io,h5_file,run_journal,run_recovery,catalogue,parameters_json}.cpp
              "$src"/model/src/{parameters,waveform}.cpp)
     flags=(-I"$src/host/src/io" -I"$src/firmware/config" -I"$src/firmware/config/error" -I"$src/model/include"
+           -I"$src/model/names/include"
            -I/usr/include/eigen3 $(pkg-config --cflags hdf5))
     libs=($(pkg-config --libs hdf5) -lz -lfmt) ;;
   *) echo "unknown fuzz target $target"; exit 2 ;;
