@@ -29,7 +29,7 @@ ctest --preset asan -j "$(nproc)"
 # rest too, but costs CI minutes.
 phase "ThreadSanitizer"
 cmake --preset tsan >/dev/null
-cmake --build --preset tsan -j "$(nproc)" --target firmware_tests hal_tests hil_tests view_tests
-ctest --preset tsan -j "$(nproc)" -L "firmware_tests|hal_tests|hil_tests|view" \
+cmake --build --preset tsan -j "$(nproc)" --target firmware_tests hal_tests sim_run_tests view_tests
+ctest --preset tsan -j "$(nproc)" -L "firmware_tests|hal_tests|sim_run_tests|view" \
   -E "^view_(browser|rig|load|wide_bind)$"
 phase "done"

@@ -30,10 +30,7 @@ json Daemon::move_to(const std::string& client, const json& args) {
   run_state_.require_can_start(client,
                                "move_to");  // before configure: a refused move changes nothing
   const auto request = protocol::decode<protocol::MoveToRequest>(args);
-  if (const auto breach =
-          firmware::check_move({request.target_rad, request.tolerance_rad, request.settle_s,
-                                request.timeout_s, request.hold_s, request.stall_steps},
-                               board_.daemon.duration_max_s)) {
+  if (const auto breach = firmware::check_move(request.move, board_.daemon.duration_max_s)) {
     throw out_of_limits(breach->key, breach->message);
   }
   bool calibrated = false;
@@ -55,12 +52,12 @@ json Daemon::move_to(const std::string& client, const json& args) {
 
 firmware::MoveSettings Daemon::plan_move(const protocol::MoveToRequest& request, bool& calibrated) {
   firmware::MoveSettings m;
-  m.target_rad = request.target_rad;
-  m.tolerance_rad = request.tolerance_rad;
-  m.settle_s = request.settle_s;
-  m.hold_s = request.hold_s;
+  m.target_rad = request.move.target_rad;
+  m.tolerance_rad = request.move.tolerance_rad;
+  m.settle_s = request.move.settle_s;
+  m.hold_s = request.move.hold_s;
   m.protect = request.protect;
-  m.stall_steps = static_cast<int>(request.stall_steps);
+  m.stall_steps = static_cast<int>(request.move.stall_steps);
   // At rest before the move: the board's zero when it has none (the frame
   // of the target, and of the log's angles), and the sensor's noise when
   // no calibration gives it.
@@ -99,7 +96,7 @@ firmware::MoveSettings Daemon::plan_move(const protocol::MoveToRequest& request,
       std::abs(calibration_->at("V0").get<double>() - d.V0) <= 1e-9 * d.V0) {
     d.f = calibration_->at("fastest_f_hz").get<double>();
   }
-  (void)apply_configuration({d, request.timeout_s}, "move_to");
+  (void)apply_configuration({d, request.move.timeout_s}, "move_to");
   m.zero_displacement_m = zero_.displacement_m();
   m.r2_m = board_.sensor.r2_m;
   m.V0 = d.V0;

@@ -47,33 +47,92 @@ void DriveLoop::stop_output(hal::TimeNs t) {
   }
 }
 
-StopCause DriveLoop::run(hal::TimeNs t0) {
-  const auto period = hal::from_seconds(1.0 / settings_.rate_hz);
-  const double dt_nominal = 1.0 / settings_.rate_hz;
-  // Enable only once the drive holds 0 V and the e-stop has been looked at.
+namespace {
+// A waveform's end within this of 0 V is 0 V (the period's end, up to the
+// rounding of t).
+constexpr double kOnZero_V = 1e-6;
+}  // namespace
+
+bool DriveLoop::enable() {
   const hal::Status zeroed = io_.drive.write(0.0);
   supervisor_.report_start(zeroed);
   if (supervisor_.check(io_.clock.now(), io_.lines.poll_estop(),
                         io_.stop_requested.load(std::memory_order_relaxed),
                         false) == SafetyAction::disable_now) {
-    stop_output(t0);
-    return supervisor_.cause();
+    return false;
   }
   outcome_.enabled_ever = true;
   count_failure(io_.lines.set_amplifier_enable(true));
+  return true;
+}
 
+SafetyAction DriveLoop::check(hal::TimeNs now, double t) {
+  if (const StopCause fault = program_.fault(); fault != StopCause::none) {
+    supervisor_.report_program_fault(fault);
+  }
+  return supervisor_.check(now, io_.lines.poll_estop(),
+                           io_.stop_requested.load(std::memory_order_relaxed),
+                           t >= settings_.duration_s || program_.finished());
+}
+
+void DriveLoop::begin_ramp(Output& out) {
+  out.phase = DrivePhase::ramping_down;
+  // A waveform that ran its whole duration ends on its own value there
+  // (0 V at a period's end) at the slew limit, as its own edges go, instead
+  // of ramping from its last sample: a step's fast edge stays fast, also
+  // when missed deadlines left the drive behind it.
+  const double end = program_.end_voltage(settings_.duration_s);
+  if (supervisor_.cause() == StopCause::completed && std::isfinite(end)) {
+    out.end_V = std::abs(end) < kOnZero_V ? 0.0 : end;
+  }
+}
+
+double DriveLoop::next_value(Output& out, double t, double dt) {
+  // Each step is bounded as the hardware applies it, within about one
+  // update period: after a stall the drive catches up at the slew limit
+  // instead of jumping by all the time it lost.
+  if (out.phase == DrivePhase::driving) {
+    return limit_voltage(settings_.limits, program_.next_voltage(t, dt), out.V, dt);
+  }
+  if (!std::isnan(out.end_V)) {
+    const double V = limit_voltage(settings_.limits, out.end_V, out.V, dt);
+    if (std::abs(V - out.end_V) >= kOnZero_V) return V;
+    const double end = out.end_V;
+    out.end_V = std::numeric_limits<double>::quiet_NaN();  // 0 V stops; else the ramp goes on
+    return end;
+  }
+  return step_towards(out.V, 0.0, supervisor_.settings().ramp_down_V_per_s, dt);
+}
+
+void DriveLoop::update_sync(Output& out, double t) {
+  const auto waveform_period = static_cast<long>(std::floor(t / settings_.period_s));
+  const bool want_sync =
+      out.phase == DrivePhase::driving && waveform_period != out.last_waveform_period;
+  out.last_waveform_period = waveform_period;
+  if (want_sync != out.sync_high) {
+    count_failure(io_.lines.set_sync(want_sync));
+    out.sync_high = want_sync;
+  }
+}
+
+void DriveLoop::count_lateness(hal::TimeNs deadline, hal::TimeNs period) {
+  const hal::TimeNs done = io_.clock.now();
+  if (done > deadline) {
+    health_.count(health_.overruns);
+    health_.count(health_.missed_cycles, skip_missed(deadline, done, period));
+  }
+}
+
+StopCause DriveLoop::run(hal::TimeNs t0) {
+  const auto period = hal::from_seconds(1.0 / settings_.rate_hz);
+  const double dt = 1.0 / settings_.rate_hz;
+  // Enable only once the drive holds 0 V and the e-stop has been looked at.
+  if (!enable()) {
+    stop_output(t0);
+    return supervisor_.cause();
+  }
   hal::TimeNs deadline = t0;
-  double V = 0.0;
-  long last_waveform_period = -1;
-  bool sync_high = false;
-  DrivePhase phase = DrivePhase::driving;
-  // The value a completed waveform ends on, approached at the slew limit
-  // (NaN: none, or reached).
-  double end_V = std::numeric_limits<double>::quiet_NaN();
-  // A waveform's end within this of 0 V is 0 V (the period's end, up to
-  // the rounding of t).
-  constexpr double kOnZero_V = 1e-6;
-
+  Output out;
   for (;;) {
     io_.clock.sleep_until(deadline);
     const hal::TimeNs now = io_.clock.now();
@@ -82,69 +141,24 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
     // The value belongs to its deadline: a hardware-timed DAC latches it on
     // the grid, so wake-up jitter must not shift the waveform's phase.
     const double t = hal::to_seconds(deadline - t0);
-
-    if (const StopCause fault = program_.fault(); fault != StopCause::none) {
-      supervisor_.report_program_fault(fault);
-    }
-    const SafetyAction action = supervisor_.check(
-        now, io_.lines.poll_estop(), io_.stop_requested.load(std::memory_order_relaxed),
-        t >= settings_.duration_s || program_.finished());
+    const SafetyAction action = check(now, t);
     if (action == SafetyAction::disable_now) {
       stop_output(deadline);  // instead of this deadline's value
       return supervisor_.cause();
     }
-    if (action == SafetyAction::ramp_down && phase == DrivePhase::driving) {
-      phase = DrivePhase::ramping_down;
-      // A waveform that ran its whole duration ends on its own value there
-      // (0 V at a period's end) at the slew limit, as its own edges go,
-      // instead of ramping from its last sample: a step's fast edge stays
-      // fast, also when missed deadlines left the drive behind it.
-      const double end = program_.end_voltage(settings_.duration_s);
-      if (supervisor_.cause() == StopCause::completed && std::isfinite(end)) {
-        end_V = std::abs(end) < kOnZero_V ? 0.0 : end;
-      }
-    }
-
-    // Each step is bounded as the hardware applies it, within about one
-    // update period: after a stall the drive catches up at the slew limit
-    // instead of jumping by all the time it lost.
-    const double dt = dt_nominal;
-    if (phase == DrivePhase::driving) {
-      V = limit_voltage(settings_.limits, program_.next_voltage(t, dt), V, dt);
-    } else if (!std::isnan(end_V)) {
-      V = limit_voltage(settings_.limits, end_V, V, dt);
-      if (std::abs(V - end_V) < kOnZero_V) {
-        V = end_V;
-        end_V = std::numeric_limits<double>::quiet_NaN();  // 0 V stops below; else the ramp goes on
-      }
-    } else {
-      V = step_towards(V, 0.0, supervisor_.settings().ramp_down_V_per_s, dt);
-    }
-    const hal::Status written = io_.drive.write(V);
+    if (action == SafetyAction::ramp_down && out.phase == DrivePhase::driving) begin_ramp(out);
+    out.V = next_value(out, t, dt);
+    const hal::Status written = io_.drive.write(out.V);
     supervisor_.report_drive_write(written);
-
-    // Sync: high for the first drive cycle of each waveform period.
-    const auto waveform_period = static_cast<long>(std::floor(t / settings_.period_s));
-    const bool want_sync = phase == DrivePhase::driving && waveform_period != last_waveform_period;
-    last_waveform_period = waveform_period;
-    if (want_sync != sync_high) {
-      count_failure(io_.lines.set_sync(want_sync));
-      sync_high = want_sync;
-    }
-    emit(deadline, V, phase, written);
-
-    if (phase == DrivePhase::ramping_down && V == 0.0) {
+    update_sync(out, t);
+    emit(deadline, out.V, out.phase, written);
+    if (out.phase == DrivePhase::ramping_down && out.V == 0.0) {
       // The stop record belongs to the grid too: the next deadline.
       stop_output(deadline + period);
       return supervisor_.cause();
     }
-
     deadline += period;
-    const hal::TimeNs done = io_.clock.now();
-    if (done > deadline) {
-      health_.count(health_.overruns);
-      health_.count(health_.missed_cycles, skip_missed(deadline, done, period));
-    }
+    count_lateness(deadline, period);
   }
 }
 

@@ -20,10 +20,10 @@
 #include <zmq_addon.hpp>
 
 #include "../support/rig_sim.hpp"
+#include "board_client.hpp"
 #include "piezo/firmware/loop_runner.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "rig.hpp"
-#include "rig_client.hpp"
 #include "run_config.hpp"
 
 namespace {
@@ -71,7 +71,7 @@ Latencies over_the_protocol(double seconds, double& cpu_percent) {
       {PIEZOD_BINARY, "--config", PIEZO_SOURCE_DIR "/configs/piezod-sim.toml", "--listen", address},
       "/dev/null");
   piezo::testing::wait_for_tcp(port);
-  host::RigClient client({address, "", ""});
+  host::BoardClient client({address, "", ""});
   (void)client.call("configure", {{"V0", 80.0}, {"f", 10.0}, {"duration_s", seconds}});
   client.subscribe({"drive", "sensor", "state"});
   std::this_thread::sleep_for(200ms);

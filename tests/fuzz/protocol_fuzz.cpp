@@ -8,6 +8,7 @@
 
 #include "piezo/protocol/frame.hpp"
 #include "piezo/protocol/message.hpp"
+#include "piezo/protocol/messages.hpp"
 
 using namespace piezo::protocol;
 
@@ -33,14 +34,34 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
           (void)string_arg(r.args, "stream", "drive");
         } catch (const ProtocolError&) {
         }
+        // The typed requests read the same arguments.
+        for (int kind = 0; kind < 3; ++kind) {
+          try {
+            if (kind == 0) (void)decode<ConfigureRequest>(r.args);
+            if (kind == 1) (void)decode<StepRequest>(r.args);
+            if (kind == 2) (void)decode<MoveToRequest>(r.args);
+          } catch (const ProtocolError&) {
+          }
+        }
         break;
       }
       case 1:
         (void)decode_reply(bytes);
         break;
-      case 2:
-        (void)decode_map(bytes);
+      case 2: {
+        // A stream map as every typed event and summary (refusals expected).
+        const nlohmann::json map = decode_map(bytes);
+        for (int kind = 0; kind < 4; ++kind) {
+          try {
+            if (kind == 0) (void)decode<StateEvent>(map);
+            if (kind == 1) (void)decode<HealthEvent>(map);
+            if (kind == 2) (void)decode<RunSummary>(map);
+            if (kind == 3) (void)decode<Hello>(map);
+          } catch (const ProtocolError&) {
+          }
+        }
         break;
+      }
       default: {
         const FrameHeader h = decode_header(bytes);
         if (h.stream == Stream::drive) {

@@ -26,8 +26,9 @@ hal_includes=(-I"$src/hal/include" -I"$src/model/names/include")
 for d in "$src"/hal/*/include; do hal_includes+=(-I"$d"); done
 case "$target" in
   protocol)
-    sources=("$src/firmware/protocol/src/frame.cpp" "$src/firmware/protocol/src/message.cpp")
-    flags=(-I"$src/firmware/protocol/include" -I"$src/firmware/include" "${hal_includes[@]}")
+    sources=("$src"/firmware/protocol/src/{frame,message,messages}.cpp)
+    flags=(-I"$src/firmware/protocol/include" -I"$src/firmware/include" -I"$src/model/include"
+           "${hal_includes[@]}")
     libs=(-lfmt) ;;
   config)
     sources=("$src"/firmware/config/{section_reader,model_config,run_config,modbus_config}.cpp

@@ -105,11 +105,11 @@ TEST(Messages, RequestsRoundTrip) {
   EXPECT_FALSE(over_the_wire(s).lease_s.has_value());
 
   MoveToRequest m;
-  m.target_rad = -0.002;
-  m.tolerance_rad = 3e-5;
-  m.hold_s = 0.5;
+  m.move.target_rad = -0.002;
+  m.move.tolerance_rad = 3e-5;
+  m.move.hold_s = 0.5;
   m.protect = false;
-  m.stall_steps = 4;
+  m.move.stall_steps = 4;
   m.f = 40.0;
   m.lease_s = 2.0;
   EXPECT_EQ(json(over_the_wire(m)), json(m));
@@ -122,10 +122,10 @@ TEST(Messages, RequestsTakeTheDocumentedDefaults) {
   EXPECT_EQ(c.drive.e_dr, 0.789);
   EXPECT_EQ(c.drive.direction, model::Direction::forward);
   const auto m = decode<MoveToRequest>({{"target_rad", 0.01}});
-  EXPECT_EQ(m.tolerance_rad, 25e-6);
-  EXPECT_EQ(m.settle_s, 0.1);
-  EXPECT_EQ(m.timeout_s, 30.0);
-  EXPECT_EQ(m.stall_steps, 2u);
+  EXPECT_EQ(m.move.tolerance_rad, 25e-6);
+  EXPECT_EQ(m.move.settle_s, 0.1);
+  EXPECT_EQ(m.move.timeout_s, 30.0);
+  EXPECT_EQ(m.move.stall_steps, 2u);
   EXPECT_TRUE(m.protect);
 }
 

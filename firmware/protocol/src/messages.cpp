@@ -176,10 +176,11 @@ void from_json(const json& j, StepRequest& m) {
 }
 
 void to_json(json& j, const MoveToRequest& m) {
-  j = {{"target_rad", m.target_rad},  {"tolerance_rad", m.tolerance_rad},
-       {"settle_s", m.settle_s},      {"timeout_s", m.timeout_s},
-       {"hold_s", m.hold_s},          {"protect", m.protect},
-       {"stall_steps", m.stall_steps}};
+  const auto& v = m.move;
+  j = {{"target_rad", v.target_rad},  {"tolerance_rad", v.tolerance_rad},
+       {"settle_s", v.settle_s},      {"timeout_s", v.timeout_s},
+       {"hold_s", v.hold_s},          {"protect", m.protect},
+       {"stall_steps", v.stall_steps}};
   if (m.V0) j["V0"] = *m.V0;
   if (m.f) j["f"] = *m.f;
   if (m.C_dr) j["C_dr"] = *m.C_dr;
@@ -189,17 +190,19 @@ void to_json(json& j, const MoveToRequest& m) {
 
 void from_json(const json& j, MoveToRequest& m) {
   const MoveToRequest defaults;
+  const auto& d = defaults.move;
   const auto optional_number = [&](const char* key) {
     return j.contains(key) && !j.at(key).is_null() ? std::optional(number_arg(j, key))
                                                    : std::nullopt;
   };
-  m.target_rad = number_arg(j, "target_rad");
-  m.tolerance_rad = number_arg(j, "tolerance_rad", defaults.tolerance_rad);
-  m.settle_s = number_arg(j, "settle_s", defaults.settle_s);
-  m.timeout_s = number_arg(j, "timeout_s", defaults.timeout_s);
-  m.hold_s = number_arg(j, "hold_s", defaults.hold_s);
+  auto& v = m.move;
+  v.target_rad = number_arg(j, "target_rad");
+  v.tolerance_rad = number_arg(j, "tolerance_rad", d.tolerance_rad);
+  v.settle_s = number_arg(j, "settle_s", d.settle_s);
+  v.timeout_s = number_arg(j, "timeout_s", d.timeout_s);
+  v.hold_s = number_arg(j, "hold_s", d.hold_s);
   m.protect = bool_arg(j, "protect", defaults.protect);
-  m.stall_steps = uint_arg(j, "stall_steps", defaults.stall_steps);
+  v.stall_steps = uint_arg(j, "stall_steps", d.stall_steps);
   m.V0 = optional_number("V0");
   m.f = optional_number("f");
   m.C_dr = optional_number("C_dr");

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <limits>
 #include <stdexcept>
 #include <vector>
 #include <zmq_addon.hpp>
@@ -12,10 +13,15 @@
 namespace piezo::host {
 using nlohmann::json;
 
-BoardWatch::BoardWatch(const config::RunConfig& config, RigClient& client,
+BoardWatch::BoardWatch(const config::RunConfig& config, BoardClient& client,
                        const protocol::Hello& hello, view::LiveFeed& feed)
-    : config_(config), client_(client), hello_(hello), feed_(feed) {
-  client_.subscribe({"drive", "sensor", "state", "health"});
+    : config_(config),
+      client_(client),
+      hello_(hello),
+      feed_(feed),
+      follower_(client,
+                [this](const std::string& cmd, const json& args) { return call(cmd, args); }) {
+  StreamFollower::subscribe(client_);
 }
 
 json BoardWatch::call(const std::string& cmd, const json& args) {
@@ -38,56 +44,36 @@ void BoardWatch::follow_run(std::uint64_t run) {
                                         1.0 / hello_.drive_rate_hz, hello_.output_latency_s);
   }
   collector_ = std::make_unique<SampleCollector>(t0, config_.sensor.r2_m, observer_.get());
-  sensor_samples_ = drive_received_ = 0;
+  follower_.follow(
+      *collector_, [] { return std::numeric_limits<double>::quiet_NaN(); }, false);
 }
 
-void BoardWatch::on_frame(std::string_view frame) {
-  if (!collector_) return;  // not yet following a run: frames before its start are skipped
-  const auto header = protocol::decode_header(frame);
-  if (header.stream == protocol::Stream::drive) {
-    for (const auto& s : protocol::decode_drive(frame)) collector_->add(s);
-    drive_received_ = header.first_seq + header.count;
-  } else {
-    for (const auto& s : protocol::decode_sensor(frame)) collector_->add(s);
-    sensor_samples_ = header.first_seq + header.count;
+void BoardWatch::on_state(const protocol::StateEvent& state) {
+  if (state.state == "running" && state.run && *state.run != run_.value_or(0)) {
+    follow_run(*state.run);
+  }
+  if (state.summary && state.run) {
+    const std::lock_guard lock(commands_);
+    if (*state.run == controlled_run_.value_or(0)) {
+      controlled_run_.reset();  // the move this watch started has ended
+    }
+  }
+  health_["state"] = state.state;
+  if (state.summary) {
+    health_["summary"] = last_summary_ = *state.summary;
   }
 }
 
 void BoardWatch::poll(std::chrono::milliseconds wait) {
-  if (poll_in(client_.stream(), wait)) {
-    for (int i = 0; i < 256; ++i) {
-      std::vector<zmq::message_t> parts;
-      if (!zmq::recv_multipart(client_.stream(), std::back_inserter(parts),
-                               zmq::recv_flags::dontwait) ||
-          parts.size() != 2) {
-        break;
-      }
-      const std::string_view topic = parts[0].to_string_view();
-      if (topic == "health") {
-        // The periodic health replaces the last; the end of the last run
-        // (its summary, from the state event) stays until the next starts.
-        health_ = protocol::decode_map(parts[1].to_string_view());
-        if (!last_summary_.is_null()) health_["summary"] = last_summary_;
-      } else if (topic == "state") {
-        const json state = protocol::decode_map(parts[1].to_string_view());
-        const json run = state.value("run", json());
-        if (state.value("state", "") == "running" && run.is_number() &&
-            run.get<std::uint64_t>() != run_.value_or(0)) {
-          follow_run(run.get<std::uint64_t>());
-        }
-        if (state.contains("summary") && run.is_number()) {
-          const std::lock_guard lock(commands_);
-          if (run.get<std::uint64_t>() == controlled_run_.value_or(0)) {
-            controlled_run_.reset();  // the move this watch started has ended
-          }
-        }
-        health_["state"] = state.value("state", "");
-        if (state.contains("summary")) health_["summary"] = last_summary_ = state["summary"];
-      } else {
-        on_frame(parts[1].to_string_view());
-      }
-    }
-  }
+  StreamFollower::Handlers handlers;
+  handlers.on_health = [this](const protocol::HealthEvent& health) {
+    // The periodic health replaces the last; the end of the last run (its
+    // summary, from the state event) stays until the next starts.
+    health_ = health;
+    if (!last_summary_.is_null()) health_["summary"] = last_summary_;
+  };
+  handlers.on_state = [this](const protocol::StateEvent& state) { on_state(state); };
+  follower_.drain(wait, 256, handlers);
   // A run already under way when the watch started: its start event was missed.
   if (!run_ && health_.value("state", "") == "running") {
     const json status = call("status");
@@ -97,7 +83,7 @@ void BoardWatch::poll(std::chrono::milliseconds wait) {
     const std::lock_guard lock(commands_);
     if (controlled_run_ && std::chrono::steady_clock::now() - last_lease_ >=
                                std::chrono::duration<double>(lease_s_ / 4.0)) {
-      client_.send("lease", {{"drive_received", drive_received_}});
+      client_.send("lease", {{"drive_received", follower_.drive_next()}});
       last_lease_ = std::chrono::steady_clock::now();
     }
   }
@@ -109,7 +95,7 @@ void BoardWatch::poll(std::chrono::milliseconds wait) {
          {"V", collector_->last_V()},
          {"theta_rad", collector_->last_theta()},
          {"residual_rad", observer_ ? observer_->summary().last_residual_rad : 0.0},
-         {"sensor_samples", sensor_samples_},
+         {"sensor_samples", follower_.sensor_next()},
          {"sensor_errors", health_.value("sensor", json::object()).value("errors", 0)},
          {"board", health_},
          {"errors_by_class",

@@ -11,18 +11,19 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "board_client.hpp"
 #include "live_feed.hpp"
 #include "observer_stage.hpp"
-#include "rig_client.hpp"
 #include "run_config.hpp"
 #include "sample_collector.hpp"
+#include "stream_follower.hpp"
 
 namespace piezo::host {
 
 class BoardWatch {
  public:
   /// `hello` is the board's answer to `hello` (rates, latency).
-  BoardWatch(const config::RunConfig& config, RigClient& client, const protocol::Hello& hello,
+  BoardWatch(const config::RunConfig& config, BoardClient& client, const protocol::Hello& hello,
              view::LiveFeed& feed);
 
   /// Handles what the stream brought within `wait`, and renews the lease of
@@ -38,12 +39,12 @@ class BoardWatch {
   void follow_run(std::uint64_t run);
   [[nodiscard]] bool controlling();
   [[nodiscard]] nlohmann::json lease_json();  ///< the lease of a move this watch started, or null
-  void on_frame(std::string_view frame);
+  void on_state(const protocol::StateEvent& state);
   nlohmann::json call(const std::string& cmd,
                       const nlohmann::json& args = nlohmann::json::object());
 
   config::RunConfig config_;
-  RigClient& client_;
+  BoardClient& client_;
   protocol::Hello hello_;
   view::LiveFeed& feed_;
   std::mutex commands_;  ///< the command socket, shared by the watch and the page
@@ -51,9 +52,9 @@ class BoardWatch {
   std::optional<std::uint64_t> run_;
   std::unique_ptr<ObserverStage> observer_;
   std::unique_ptr<SampleCollector> collector_;
+  StreamFollower follower_;      ///< after commands_: its fetches go through call()
   nlohmann::json last_summary_;  ///< the last run's end, kept across health updates
   nlohmann::json health_ = nlohmann::json::object();
-  std::uint64_t sensor_samples_ = 0, drive_received_ = 0;
 
   // Under commands_: the page's threads start a move, the watch renews it.
   std::optional<std::uint64_t> controlled_run_;  ///< a move this watch started

@@ -198,7 +198,7 @@ std::string summary_text(const json& cal, const std::string& kept) {
 
 CalibrationReport finish_calibration(const fs::path& dir, const fs::path& log,
                                      const json& board_calibration, const config::RunConfig& config,
-                                     RigClient* client) {
+                                     BoardClient* client) {
   CalibrationReport report;
   json cal = board_calibration;
   const double sensor_rate_hz = config.sensor.rate_hz();

@@ -10,7 +10,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "rig_client.hpp"
+#include "board_client.hpp"
 #include "run_config.hpp"
 
 namespace piezo::host {
@@ -28,6 +28,6 @@ struct CalibrationReport {
                                                    const std::filesystem::path& log,
                                                    const nlohmann::json& board_calibration,
                                                    const config::RunConfig& config,
-                                                   RigClient* client);
+                                                   BoardClient* client);
 
 }  // namespace piezo::host

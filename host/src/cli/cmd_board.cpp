@@ -6,8 +6,8 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include "board_client.hpp"
 #include "commands.hpp"
-#include "rig_client.hpp"
 
 namespace piezo::host {
 namespace {
@@ -43,14 +43,14 @@ std::string status_text(const nlohmann::json& s) {
   const nlohmann::json cal = s.value("calibration", nlohmann::json());
   if (cal.is_object()) {
     const nlohmann::json& fastest = cal.at("fastest_f_hz");
-    out += fmt::format("calibrated {}: steps fastest at {}, noise {:.3g} m, smallest tolerance "
-                       "{:.3g} rad{}\n",
-                       cal.at("created").get<std::string>(),
-                       fastest.is_number() ? fmt::format("{:g} Hz", fastest.get<double>())
-                                           : std::string("(none reliable)"),
-                       cal.at("noise_m").get<double>(),
-                       cal.at("smallest_tolerance_rad").get<double>(),
-                       cal.at("model").is_object() ? ", model fitted" : "");
+    out += fmt::format(
+        "calibrated {}: steps fastest at {}, noise {:.3g} m, smallest tolerance "
+        "{:.3g} rad{}\n",
+        cal.at("created").get<std::string>(),
+        fastest.is_number() ? fmt::format("{:g} Hz", fastest.get<double>())
+                            : std::string("(none reliable)"),
+        cal.at("noise_m").get<double>(), cal.at("smallest_tolerance_rad").get<double>(),
+        cal.at("model").is_object() ? ", model fitted" : "");
   } else {
     out += "calibrated no (piezo calibrate --rig ADDRESS)\n";
   }
@@ -58,7 +58,7 @@ std::string status_text(const nlohmann::json& s) {
 }
 
 int call(const BoardOptions& o, const std::string& cmd) {
-  RigClient client(o.rig);
+  BoardClient client(o.rig);
   const nlohmann::json result = client.call(cmd == "reset-fault" ? "reset_fault" : cmd);
   if (o.json) {
     std::cout << result.dump() << "\n";

@@ -48,6 +48,67 @@ std::vector<double> scaled(const std::vector<double>& v, double k) {
   return out;
 }
 
+/// The measured angle beside the model's, over the whole run.
+void plot_angle(const fs::path& out, const std::string& title, const std::string& angle_csv) {
+  run_gnuplot(fmt::format(
+      "set terminal pngcairo size 1000,600 noenhanced\nset output {}\n"
+      "set title {}\nset xlabel 't [s]'\nset ylabel 'theta [mrad]'\nset key top left\nset grid\n"
+      "plot {} using 1:2 skip 1 with points pt 7 ps 0.2 lc rgb '#1f77b4' title 'measured',"
+      " '' using 1:3 skip 1 with lines lw 2 lc rgb '#d62728' title 'model (LuGre, logged drive)'\n",
+      gnuplot_quote((out / "angle.png").string()), gnuplot_quote(title + ": rotor angle"),
+      gnuplot_quote(angle_csv)));
+}
+
+/// A few drive periods from the middle of the logged drive (a recovered log
+/// may have lost part of it: the window must hold drive samples, or gnuplot
+/// finds nothing to plot).
+void plot_zoom(const fs::path& out, const std::string& title, const LoadedRun& run,
+               const std::string& drive_csv, const std::string& angle_csv) {
+  const auto& drive_t = run.data.drive_t;
+  const double t_from = std::min(drive_t[drive_t.size() / 2], run.data.t.back());
+  const double t_to = t_from + 3.0 / run.parameters.drive.f;
+  run_gnuplot(fmt::format(
+      "set terminal pngcairo size 1000,600 noenhanced\nset output {}\n"
+      "set title {}\nset xlabel 't [s]'\nset ylabel 'V [V]'\nset y2label 'theta [mrad]'\n"
+      "set ytics nomirror\nset y2tics\nset xrange [{}:{}]\nset key top left\nset grid\n"
+      "plot {} using 1:2 skip 1 with steps lc rgb '#7f7f7f' title 'drive V' axes x1y1,"
+      " {} using 1:2 skip 1 with points pt 7 ps 0.5 lc rgb '#1f77b4' title 'measured theta' axes "
+      "x1y2,"
+      " '' using 1:3 skip 1 with lines lw 2 lc rgb '#d62728' title 'model theta' axes x1y2\n",
+      gnuplot_quote((out / "zoom.png").string()), gnuplot_quote(title + ": three drive periods"),
+      t_from, t_to, gnuplot_quote(drive_csv), gnuplot_quote(angle_csv), gnuplot_quote(angle_csv)));
+}
+
+/// The drive loop's wake-up lateness histogram, when the log holds one;
+/// returns the plot's path ("" without one).
+std::string plot_timing(const fs::path& out, const std::string& title,
+                        const std::optional<H5File>& log) {
+  if (!log || !log->exists(log_schema::kDrivePeriodErrorUs)) return "";
+  const auto counts = log->read(log_schema::kDrivePeriodErrorUs);
+  std::vector<double> bin_us(counts.size());
+  for (std::size_t i = 0; i < bin_us.size(); ++i) bin_us[i] = static_cast<double>(i) + 0.5;
+  const std::string timing_csv = (out / "timing.csv").string();
+  write_csv(timing_csv, {{"period_error_us", bin_us}, {"cycles", counts}});
+  const std::string timing_png = (out / "timing.png").string();
+  run_gnuplot(fmt::format(
+      "set terminal pngcairo size 1000,600 noenhanced\nset output {}\n"
+      "set title {}\nset xlabel 'wake-up lateness [us] (1 us bins)'\nset ylabel 'cycles'\n"
+      "set logscale y\nset xrange [0:*]\nset yrange [0.5:*]\nset grid\n"
+      "plot {} using 1:($2 > 0 ? $2 : NaN) skip 1 with impulses lw 2 lc rgb '#2ca02c' title "
+      "'drive loop'\n",
+      gnuplot_quote(timing_png), gnuplot_quote(title + ": drive loop period error"),
+      gnuplot_quote(timing_csv)));
+  return timing_png;
+}
+
+double rmse(const std::vector<double>& measured, const std::vector<double>& predicted) {
+  double sum_sq = 0.0;
+  for (std::size_t i = 0; i < predicted.size(); ++i) {
+    sum_sq += std::pow(measured[i] - predicted[i], 2);
+  }
+  return std::sqrt(sum_sq / static_cast<double>(predicted.size()));
+}
+
 int run(const ReportOptions& o) {
   const bool run_dir = fs::is_directory(o.input);
   const fs::path log_path = run_dir ? fs::path(o.input) / "run.h5" : fs::path(o.input);
@@ -66,86 +127,36 @@ int run(const ReportOptions& o) {
   // reached the output (after the drive's latency, over one period).
   LoadedRun run = load_run_for_fit(log_path.string(), o.layout);
   if (!o.config.empty()) run.parameters = config::load_model_config(o.config);
-  const auto& drive_t = run.data.drive_t;
-  const auto& drive_V = run.data.drive_V;
-  struct {
-    const std::vector<double>& t;
-    const std::vector<double>& value;
-  } theta{run.data.t, run.data.theta};
   const auto predicted = model::predict(run.parameters, run.data, model::FrictionModel::lugre);
-  double sum_sq = 0.0;
-  for (std::size_t i = 0; i < predicted.size(); ++i) {
-    sum_sq += std::pow(theta.value[i] - predicted[i], 2);
-  }
-  const double rmse = std::sqrt(sum_sq / static_cast<double>(predicted.size()));
+  const double error_rad = rmse(run.data.theta, predicted);
 
   const fs::path out = !o.out.empty() ? fs::path(o.out)
                        : run_dir      ? fs::path(o.input) / "report"
                                  : log_path.parent_path() / (log_path.stem().string() + "-report");
   fs::create_directories(out);
-  const auto theta_mrad = scaled(theta.value, 1e3), predicted_mrad = scaled(predicted, 1e3);
   const std::string angle_csv = (out / "angle.csv").string();
-  write_csv(angle_csv,
-            {{"t", theta.t}, {"theta_mrad", theta_mrad}, {"model_mrad", predicted_mrad}});
+  write_csv(angle_csv, {{"t", run.data.t},
+                        {"theta_mrad", scaled(run.data.theta, 1e3)},
+                        {"model_mrad", scaled(predicted, 1e3)}});
   const std::string drive_csv = (out / "drive.csv").string();
-  write_csv(drive_csv, {{"t", drive_t}, {"V", drive_V}});
-
+  write_csv(drive_csv, {{"t", run.data.drive_t}, {"V", run.data.drive_V}});
   const std::string name = run_dir ? fs::absolute(o.input).lexically_normal().filename().string()
                                    : log_path.filename().string();
   const std::string title = fmt::format("{} ({})", name.empty() ? o.input : name, status);
-  run_gnuplot(fmt::format(
-      "set terminal pngcairo size 1000,600 noenhanced\nset output {}\n"
-      "set title {}\nset xlabel 't [s]'\nset ylabel 'theta [mrad]'\nset key top left\nset grid\n"
-      "plot {} using 1:2 skip 1 with points pt 7 ps 0.2 lc rgb '#1f77b4' title 'measured',"
-      " '' using 1:3 skip 1 with lines lw 2 lc rgb '#d62728' title 'model (LuGre, logged drive)'\n",
-      gnuplot_quote((out / "angle.png").string()), gnuplot_quote(title + ": rotor angle"),
-      gnuplot_quote(angle_csv)));
-
-  // A few drive periods from the middle of the logged drive (a recovered
-  // log may have lost part of it: the window must hold drive samples, or
-  // gnuplot finds nothing to plot).
-  const double periods_per_s = run.parameters.drive.f;
-  const double t_from = std::min(drive_t[drive_t.size() / 2], theta.t.back());
-  const double t_to = t_from + 3.0 / periods_per_s;
-  run_gnuplot(fmt::format(
-      "set terminal pngcairo size 1000,600 noenhanced\nset output {}\n"
-      "set title {}\nset xlabel 't [s]'\nset ylabel 'V [V]'\nset y2label 'theta [mrad]'\n"
-      "set ytics nomirror\nset y2tics\nset xrange [{}:{}]\nset key top left\nset grid\n"
-      "plot {} using 1:2 skip 1 with steps lc rgb '#7f7f7f' title 'drive V' axes x1y1,"
-      " {} using 1:2 skip 1 with points pt 7 ps 0.5 lc rgb '#1f77b4' title 'measured theta' axes "
-      "x1y2,"
-      " '' using 1:3 skip 1 with lines lw 2 lc rgb '#d62728' title 'model theta' axes x1y2\n",
-      gnuplot_quote((out / "zoom.png").string()), gnuplot_quote(title + ": three drive periods"),
-      t_from, t_to, gnuplot_quote(drive_csv), gnuplot_quote(angle_csv), gnuplot_quote(angle_csv)));
-
-  std::string timing_png;
-  if (log && log->exists(log_schema::kDrivePeriodErrorUs)) {
-    const auto counts = log->read(log_schema::kDrivePeriodErrorUs);
-    std::vector<double> bin_us(counts.size());
-    for (std::size_t i = 0; i < bin_us.size(); ++i) bin_us[i] = static_cast<double>(i) + 0.5;
-    const std::string timing_csv = (out / "timing.csv").string();
-    write_csv(timing_csv, {{"period_error_us", bin_us}, {"cycles", counts}});
-    timing_png = (out / "timing.png").string();
-    run_gnuplot(fmt::format(
-        "set terminal pngcairo size 1000,600 noenhanced\nset output {}\n"
-        "set title {}\nset xlabel 'wake-up lateness [us] (1 us bins)'\nset ylabel 'cycles'\n"
-        "set logscale y\nset xrange [0:*]\nset yrange [0.5:*]\nset grid\n"
-        "plot {} using 1:($2 > 0 ? $2 : NaN) skip 1 with impulses lw 2 lc rgb '#2ca02c' title "
-        "'drive loop'\n",
-        gnuplot_quote(timing_png), gnuplot_quote(title + ": drive loop period error"),
-        gnuplot_quote(timing_csv)));
-  }
+  plot_angle(out, title, angle_csv);
+  plot_zoom(out, title, run, drive_csv, angle_csv);
+  const std::string timing_png = plot_timing(out, title, log);
 
   if (o.json) {
     std::cout << nlohmann::json{{"status", status},
-                                {"rmse_model_rad", rmse},
+                                {"rmse_model_rad", error_rad},
                                 {"angle_png", (out / "angle.png").string()},
                                 {"zoom_png", (out / "zoom.png").string()},
                                 {"timing_png", timing_png}}
                      .dump()
               << "\n";
   } else {
-    fmt::print("run {}: model RMSE {:.4f} mrad over {} samples\n", status, 1e3 * rmse,
+    fmt::print("run {}: model RMSE {:.4f} mrad over {} samples\n", status, 1e3 * error_rad,
                predicted.size());
     fmt::print("plots in {}\n", out.string());
   }

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "board_client.hpp"
 #include "calibration_report.hpp"
 #include "catalogue.hpp"
 #include "commands.hpp"
@@ -23,7 +24,6 @@
 #include "piezo/firmware/request_limits.hpp"
 #include "remote_run.hpp"
 #include "rig.hpp"
-#include "rig_client.hpp"
 #include "run_config.hpp"
 #include "run_log.hpp"
 #include "run_session.hpp"
@@ -330,7 +330,7 @@ int exit_code(const RunSummary& summary) {
 /// `piezo calibrate`'s end: the fit, the files and the board told, or why not.
 int report_calibration(const RunOptions& o, const RunSummary& summary, nlohmann::json result,
                        const fs::path& dir, const fs::path& log_path,
-                       const config::RunConfig& config, RigClient* client) {
+                       const config::RunConfig& config, BoardClient* client) {
   const nlohmann::json measured = summary.calibration.is_object()
                                       ? summary.calibration.value("calibration", nlohmann::json())
                                       : nlohmann::json();
@@ -376,10 +376,9 @@ int report_calibration(const RunOptions& o, const RunSummary& summary, nlohmann:
   return 0;
 }
 
-int run(const RunOptions& o) {
-  // From here on every stopping signal ends the run through the ramp; one
-  // that comes during set-up stops it before the amplifier is enabled.
-  const StopOnSignals signals;
+/// The run's config: the file and --set, the command's own options (steps,
+/// a move, the calibration) and the board's address.
+config::RunConfig run_config(const RunOptions& o) {
   std::vector<std::string> sets = o.sets;
   if (o.duration > 0.0) sets.push_back(fmt::format("run.duration_s={}", o.duration));
   if (o.V0) sets.push_back(fmt::format("drive.V0={}", *o.V0));
@@ -415,60 +414,68 @@ int run(const RunOptions& o) {
     config.run.duration_s = 60.0;  // the board's plan says how long; its start reply tells
   }
   if (!o.rig.empty()) config.rig.address = o.rig;
-  const fs::path dir = choose_run_dir(o.out);
-  // The rig: piezod at an address, or the firmware in this process.
+  return config;
+}
+
+/// What drives: piezod at an address, or the firmware in this process.
+struct Board {
   std::optional<config::Rig> rig;
-  std::optional<RigClient> client;
+  std::optional<BoardClient> client;
   protocol::Hello hello;
   std::string geometry_note;  ///< the board's sensor radius differed from the config's
   double drive_latency_s = 0.0;
+};
+
+void connect(Board& board, config::RunConfig& config) {
   if (config.rig.address.empty()) {
-    rig.emplace(config::build_rig(config));
-    drive_latency_s = rig->drive->output_latency_s();
-  } else {
-    client.emplace(config.rig);
-    hello = client->hello();
-    if (const std::string note = adopt_board_sensor(config, hello); !note.empty()) {
-      write_out(stderr, "piezo: " + note + "\n");
-      geometry_note = note;
-    }
-    configure_remote(config, *client);
-    drive_latency_s = hello.output_latency_s;
+    board.rig.emplace(config::build_rig(config));
+    board.drive_latency_s = board.rig->drive->output_latency_s();
+    return;
   }
-
-  // The live view binds before anything is created: a busy port is bad input.
-  std::optional<view::LiveFeed> live;
-  std::unique_ptr<view::ViewServer> server;
-  std::atomic<bool> estop_requested{false};
-  if (o.view) {
-    live.emplace(20.0, 3.0 / config.model.drive.f);
-    server = std::make_unique<view::ViewServer>(
-        view::ViewOptions{o.view_listen.empty() ? "127.0.0.1:8080" : o.view_listen,
-                          fs::absolute(dir).parent_path().string(), o.control, o.allow_hosts},
-        &*live,
-        view::ViewControls{[&signals](const nlohmann::json&) {
-                             signals.request_stop();
-                             return nlohmann::json::object();
-                           },
-                           [&estop_requested](const nlohmann::json&) {
-                             estop_requested.store(true);
-                             return nlohmann::json::object();
-                           },
-                           {}});
-    write_out(stderr, server->banner() + "\n");
+  board.client.emplace(config.rig);
+  board.hello = board.client->hello();
+  if (const std::string note = adopt_board_sensor(config, board.hello); !note.empty()) {
+    write_out(stderr, "piezo: " + note + "\n");
+    board.geometry_note = note;
   }
+  configure_remote(config, *board.client);
+  board.drive_latency_s = board.hello.output_latency_s;
+}
 
-  // Everything is checked: only now does the run leave traces.
+/// The live view, bound before anything is created: a busy port is bad input.
+std::unique_ptr<view::ViewServer> open_view(const RunOptions& o, const fs::path& dir,
+                                            view::LiveFeed& live, const StopOnSignals& signals,
+                                            std::atomic<bool>& estop_requested) {
+  auto server = std::make_unique<view::ViewServer>(
+      view::ViewOptions{o.view_listen.empty() ? "127.0.0.1:8080" : o.view_listen,
+                        fs::absolute(dir).parent_path().string(), o.control, o.allow_hosts},
+      &live,
+      view::ViewControls{[&signals](const nlohmann::json&) {
+                           signals.request_stop();
+                           return nlohmann::json::object();
+                         },
+                         [&estop_requested](const nlohmann::json&) {
+                           estop_requested.store(true);
+                           return nlohmann::json::object();
+                         },
+                         {}});
+  write_out(stderr, server->banner() + "\n");
+  return server;
+}
+
+/// The run's directory and log, once everything is checked: only now does
+/// the run leave traces.
+RunLog create_log(const fs::path& dir, const config::RunConfig& config, const Board& board,
+                  const std::string& utc_start) {
   fs::create_directories(dir);
   if (!fs::is_empty(dir)) {
     // Another run took the name between the check and now: never mix two.
     throw config::ConfigError("--out", dir.string(), "was taken by another run meanwhile");
   }
   std::ofstream(dir / "config.toml") << config.text;
-  const std::string utc_start = utc_stamp("%Y-%m-%dT%H:%M:%SZ");
-  const fs::path log_path = dir / "run.h5";
+  const bool remote = board.client.has_value();
   RunLog log = RunLog::create(
-      log_path.string(),
+      (dir / "run.h5").string(),
       {{"config", config.text},
        {"config_source", config.source},
        {log_schema::kModelParameters, to_json(config.model).dump()},
@@ -476,46 +483,52 @@ int run(const RunOptions& o) {
        {"version", PIEZO_VERSION},
        {"utc_start", utc_start},
        {"host", host_name()},
-       {"clock", client ? hello.clock : std::string(name(config.run.clock))},
-       {log_schema::kDriveLatency, fmt::format("{:.9g}", drive_latency_s)},
+       {"clock", remote ? board.hello.clock : std::string(name(config.run.clock))},
+       {log_schema::kDriveLatency, fmt::format("{:.9g}", board.drive_latency_s)},
        {"time_origin", "seconds from the run's start (first drive deadline)"},
        {"theta", fmt::format("(displacement - first good displacement) / sensor.r2_m, "
                              "r2_m = {:.9g} m{}",
-                             config.sensor.r2_m, client ? " (the board's, from its hello)" : "")}});
-  if (!geometry_note.empty()) log.set_attribute("sensor_geometry_note", geometry_note);
+                             config.sensor.r2_m, remote ? " (the board's, from its hello)" : "")}});
+  if (!board.geometry_note.empty()) log.set_attribute("sensor_geometry_note", board.geometry_note);
+  return log;
+}
 
-  if (live) log.set_tap([&live](const log_schema::LogRows& rows) { live->add(rows); });
-  std::function<void(const LiveStatus&)> status_line;
-  if (!o.json || live) {
-    status_line = [&o, &live](const LiveStatus& st) {
-      if (!o.json) show_status(st);
-      if (live) {
-        live->set_status({{"t_s", st.t_s},
-                          {"duration_s", st.duration_s},
-                          {"V", st.V},
-                          {"theta_rad", st.theta_rad},
-                          {"residual_rad", st.residual_rad},
-                          {"sensor_samples", st.sensor_samples},
-                          {"sensor_errors", st.sensor_errors},
-                          {"overruns", st.overruns},
-                          {"board", st.board},
-                          {"errors_by_class", st.errors_by_class},
-                          {"lease_s", st.lease_s}});
-      }
-    };
-  }
-  RunSummary summary;
+/// The terminal's status line and the live page's status, as a run reports.
+std::function<void(const LiveStatus&)> status_reporter(const RunOptions& o, view::LiveFeed* live) {
+  if (o.json && live == nullptr) return {};
+  return [&o, live](const LiveStatus& st) {
+    if (!o.json) show_status(st);
+    if (live == nullptr) return;
+    live->set_status({{"t_s", st.t_s},
+                      {"duration_s", st.duration_s},
+                      {"V", st.V},
+                      {"theta_rad", st.theta_rad},
+                      {"residual_rad", st.residual_rad},
+                      {"sensor_samples", st.sensor_samples},
+                      {"sensor_errors", st.sensor_errors},
+                      {"overruns", st.overruns},
+                      {"board", st.board},
+                      {"errors_by_class", st.errors_by_class},
+                      {"lease_s", st.lease_s}});
+  };
+}
+
+/// Runs it; a failure before the run's end leaves the log marked failed
+/// with the reason (the log keeps what it has) and is thrown on.
+RunSummary drive(Board& board, const config::RunConfig& config, RunLog& log,
+                 const StopOnSignals& signals,
+                 const std::function<void(const LiveStatus&)>& status_line,
+                 const std::atomic<bool>& estop_requested) {
   try {
-    summary = client
-                  ? execute_remote_run(
-                        config, *client, hello, log, signals.flag(), status_line,
-                        config.rig.lease_s > 0.0 ? std::optional(config.rig.lease_s) : std::nullopt,
-                        &estop_requested)
-                  : execute_run(config, std::move(*rig), log, signals.flag(), status_line,
-                                &estop_requested);
+    if (board.client) {
+      return execute_remote_run(
+          config, *board.client, board.hello, log, signals.flag(), status_line,
+          config.rig.lease_s > 0.0 ? std::optional(config.rig.lease_s) : std::nullopt,
+          &estop_requested);
+    }
+    return execute_run(config, std::move(*board.rig), log, signals.flag(), status_line,
+                       &estop_requested);
   } catch (const std::exception& e) {
-    // Failed before the run's end (the board did not answer its start, say):
-    // the log keeps what it has, marked failed with the reason.
     if (!log.broken()) {
       try {
         log.set_attribute("stop_cause", "host_error");
@@ -527,22 +540,13 @@ int run(const RunOptions& o) {
     }
     throw;
   }
-  if (!o.json && isatty(STDERR_FILENO)) write_out(stderr, "\n");
+}
 
-  {
-    // The log keeps the move's account (target, controller's result) too.
-    nlohmann::json logged = summary_json(summary, dir, log_path, signals.received());
-    if (!summary.move.is_null()) logged["move"] = summary.move;
-    if (!summary.calibration.is_null()) logged["calibration"] = summary.calibration;
-    finish_log(log, summary, logged);
-  }
-  try {
-    append_catalogue(dir, utc_start, config, summary);
-  } catch (const std::exception& e) {
-    write_out(stderr, fmt::format("piezo: warning: catalogue not updated: {}\n", e.what()));
-  }
+/// What the command prints, and its exit code.
+int report(const RunOptions& o, const RunSummary& summary, const config::RunConfig& config,
+           const fs::path& dir, const fs::path& log_path, Board& board, const std::string& signal) {
   // The result, rebuilt: finishing the log may have failed the run.
-  nlohmann::json result = summary_json(summary, dir, log_path, signals.received());
+  nlohmann::json result = summary_json(summary, dir, log_path, signal);
   if (!summary.move.is_null()) result["move"] = summary.move;
   nlohmann::json steps = nullptr;
   if (o.step_periods > 0) {
@@ -552,22 +556,21 @@ int run(const RunOptions& o) {
              {"mean_step_rad", summary.theta_end_rad / static_cast<double>(o.step_periods)}};
     result["steps"] = steps;
   }
-  if (o.calibrate)
+  if (o.calibrate) {
     return report_calibration(o, summary, result, dir, log_path, config,
-                              client ? &*client : nullptr);
+                              board.client ? &*board.client : nullptr);
+  }
   if (o.move_to) {
     const nlohmann::json move = move_result(summary, result);
     write_out(stdout, o.json ? move.dump() + "\n"
-                             : move_text(move) +
-                                   summary_text(summary, log_path, signals.received(), steps));
+                             : move_text(move) + summary_text(summary, log_path, signal, steps));
     if (summary.output_state() != "confirmed") {
       write_out(stderr, "piezo: " + output_line(summary) + "\n");
     }
     if (exit_code(summary) != 0) return exit_code(summary);
     return move.at("on_target").get<bool>() ? 0 : kExitFailed;
   }
-  write_out(stdout, o.json ? result.dump() + "\n"
-                           : summary_text(summary, log_path, signals.received(), steps));
+  write_out(stdout, o.json ? result.dump() + "\n" : summary_text(summary, log_path, signal, steps));
   if (summary.output_state() != "confirmed") {
     write_out(stderr, "piezo: " + output_line(summary) + "\n");
   }
@@ -575,6 +578,41 @@ int run(const RunOptions& o) {
     write_out(stderr, fmt::format("piezo: error: {}\n", summary.host_error));
   }
   return exit_code(summary);
+}
+
+int run(const RunOptions& o) {
+  // From here on every stopping signal ends the run through the ramp; one
+  // that comes during set-up stops it before the amplifier is enabled.
+  const StopOnSignals signals;
+  config::RunConfig config = run_config(o);
+  const fs::path dir = choose_run_dir(o.out);
+  Board board;
+  connect(board, config);
+  std::optional<view::LiveFeed> live;
+  std::unique_ptr<view::ViewServer> server;
+  std::atomic<bool> estop_requested{false};
+  if (o.view) {
+    live.emplace(20.0, 3.0 / config.model.drive.f);
+    server = open_view(o, dir, *live, signals, estop_requested);
+  }
+  const std::string utc_start = utc_stamp("%Y-%m-%dT%H:%M:%SZ");
+  const fs::path log_path = dir / "run.h5";
+  RunLog log = create_log(dir, config, board, utc_start);
+  if (live) log.set_tap([&live](const log_schema::LogRows& rows) { live->add(rows); });
+  RunSummary summary = drive(board, config, log, signals,
+                             status_reporter(o, live ? &*live : nullptr), estop_requested);
+  if (!o.json && isatty(STDERR_FILENO)) write_out(stderr, "\n");
+  // The log keeps the move's account (target, controller's result) too.
+  nlohmann::json logged = summary_json(summary, dir, log_path, signals.received());
+  if (!summary.move.is_null()) logged["move"] = summary.move;
+  if (!summary.calibration.is_null()) logged["calibration"] = summary.calibration;
+  finish_log(log, summary, logged);
+  try {
+    append_catalogue(dir, utc_start, config, summary);
+  } catch (const std::exception& e) {
+    write_out(stderr, fmt::format("piezo: warning: catalogue not updated: {}\n", e.what()));
+  }
+  return report(o, summary, config, dir, log_path, board, signals.received());
 }
 
 }  // namespace

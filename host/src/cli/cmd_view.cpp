@@ -10,11 +10,11 @@
 #include <optional>
 #include <thread>
 
+#include "board_client.hpp"
 #include "board_watch.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
 #include "live_feed.hpp"
-#include "rig_client.hpp"
 #include "run_config.hpp"
 #include "signals.hpp"
 #include "view_server.hpp"
@@ -44,7 +44,7 @@ int serve(const ViewCliOptions& o) {
   config::RunConfig config =
       o.config.empty() ? config::RunConfig{} : config::load_run_config(o.config, {});
   config.rig.address = o.rig;
-  RigClient client(config.rig);
+  BoardClient client(config.rig);
   const protocol::Hello hello = client.hello();
   if (const std::string note = adopt_board_sensor(config, hello); !note.empty()) {
     std::cerr << "piezo view: " << note << "\n";

@@ -12,6 +12,7 @@
 #include "piezo/protocol/frame.hpp"
 #include "piezo/protocol/message.hpp"
 #include "sample_collector.hpp"
+#include "stream_follower.hpp"
 
 namespace piezo::host {
 namespace {
@@ -26,7 +27,6 @@ constexpr auto kQuietBeforeAsking = 500ms;  // no state event: ask for the statu
 // lease stopped its drive long ago, so the host ends the run as failed and
 // keeps what it received, instead of waiting for an end it cannot hear.
 constexpr auto kBoardGone = 10s;
-constexpr std::uint64_t kFetchChunk = 50'000;
 
 std::int64_t host_ns() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(SteadyClock::now().time_since_epoch())
@@ -53,66 +53,6 @@ LoopSummary loop_summary(const protocol::LoopHealth& h) {
   }
   return s;
 }
-
-/// Keeps each stream in sequence: frames that skip ahead have their gap
-/// fetched from the recorder first; repeats are dropped.
-class StreamCursor {
- public:
-  StreamCursor(RigClient& client, SampleCollector& collector, std::vector<std::string>& gaps,
-               std::function<double()> received_s)
-      : client_(client), collector_(collector), gaps_(gaps), received_s_(std::move(received_s)) {}
-
-  void on_frame(std::string_view frame) {
-    const auto header = protocol::decode_header(frame);
-    std::uint64_t& next = header.stream == protocol::Stream::drive ? drive_next_ : sensor_next_;
-    if (header.first_seq > next) fetch(header.stream, header.first_seq);
-    add(frame, header);
-  }
-
-  /// Fetches everything up to `end` not yet received, and notes the gap.
-  void fetch(protocol::Stream stream, std::uint64_t end) {
-    std::uint64_t& next = stream == protocol::Stream::drive ? drive_next_ : sensor_next_;
-    if (next < end)
-      gaps_.push_back(fmt::format("{} [{}, {})", protocol::to_string(stream), next, end));
-    while (next < end) {
-      const json r = client_.call("fetch",
-                                  {{"stream", protocol::to_string(stream)},
-                                   {"first", next},
-                                   {"count", std::min(kFetchChunk, end - next)}},
-                                  5s);
-      const auto& bytes = r.at("frame").get_binary();
-      const std::string frame(bytes.begin(), bytes.end());
-      const auto header = protocol::decode_header(frame);
-      if (header.count == 0) break;
-      add(frame, header);
-    }
-  }
-
-  [[nodiscard]] std::uint64_t drive_next() const { return drive_next_; }
-  [[nodiscard]] std::uint64_t sensor_next() const { return sensor_next_; }
-
- private:
-  void add(std::string_view frame, const protocol::FrameHeader& h) {
-    std::uint64_t& next = h.stream == protocol::Stream::drive ? drive_next_ : sensor_next_;
-    if (h.first_seq > next || h.first_seq + h.count <= next) return;  // a gap left, or a repeat
-    const std::size_t skip = next - h.first_seq;
-    collector_.set_received(received_s_());
-    if (h.stream == protocol::Stream::drive) {
-      const auto samples = protocol::decode_drive(frame);
-      for (std::size_t i = skip; i < samples.size(); ++i) collector_.add(samples[i]);
-    } else {
-      const auto samples = protocol::decode_sensor(frame);
-      for (std::size_t i = skip; i < samples.size(); ++i) collector_.add(samples[i]);
-    }
-    next = h.first_seq + h.count;
-  }
-
-  RigClient& client_;
-  SampleCollector& collector_;
-  std::vector<std::string>& gaps_;
-  std::function<double()> received_s_;
-  std::uint64_t drive_next_ = 0, sensor_next_ = 0;
-};
 
 }  // namespace
 
@@ -153,17 +93,13 @@ model::MotorParameters observer_model(const config::RunConfig& c, const protocol
 }
 
 /// `start`, or for `piezo step` the protocol's `step`: the board runs whole periods.
-json start_remote(const config::RunConfig& c, RigClient& client, std::optional<double> lease) {
+json start_remote(const config::RunConfig& c, BoardClient& client, std::optional<double> lease) {
   if (c.run.move) {
     const auto& d = c.model.drive;
     const auto& m = *c.run.move;
-    const protocol::MoveToRequest request{m.target_rad,
-                                          m.tolerance_rad,
-                                          m.settle_s,
-                                          m.timeout_s,
-                                          m.hold_s,
+    const protocol::MoveToRequest request{{m.target_rad, m.tolerance_rad, m.settle_s, m.timeout_s,
+                                           m.hold_s, static_cast<std::uint64_t>(m.stall_steps)},
                                           m.protect,
-                                          static_cast<std::uint64_t>(m.stall_steps),
                                           m.V0,
                                           m.f,
                                           d.C_dr,
@@ -185,7 +121,7 @@ json start_remote(const config::RunConfig& c, RigClient& client, std::optional<d
 
 }  // namespace
 
-void configure_remote(const config::RunConfig& c, RigClient& client) {
+void configure_remote(const config::RunConfig& c, BoardClient& client) {
   try {
     (void)client.call("configure", configure_args(c));
   } catch (const RemoteError& e) {
@@ -195,7 +131,7 @@ void configure_remote(const config::RunConfig& c, RigClient& client) {
   }
 }
 
-ClockMapping estimate_clock_offset(RigClient& client, int round_trips) {
+ClockMapping estimate_clock_offset(BoardClient& client, int round_trips) {
   ClockMapping best{0, std::numeric_limits<std::int64_t>::max()};
   for (int i = 0; i < round_trips; ++i) {
     const std::int64_t sent = host_ns();
@@ -209,215 +145,256 @@ ClockMapping estimate_clock_offset(RigClient& client, int round_trips) {
   return best;
 }
 
-RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client,
-                              const protocol::Hello& hello, RunLog& log,
-                              const std::atomic<bool>& stop,
-                              const std::function<void(const LiveStatus&)>& on_status,
-                              std::optional<double> lease, const std::atomic<bool>* estop) {
-  RunSummary summary;
-  if (stop.load()) {
-    // Stopped during set-up: the drive is never started.
-    summary.cause = firmware::StopCause::interrupted;
-    summary.output.zero_confirmed = true;
-    summary.realtime_notes.push_back("stopped before the start");
-    return summary;
-  }
-  const ClockMapping clock = estimate_clock_offset(client);
-  log.set_attribute("board_clock_offset_ns", std::to_string(clock.offset_ns));
-  log.set_attribute("board_clock_round_trip_ns", std::to_string(clock.round_trip_ns));
-  client.subscribe({"drive", "sensor", "state", "health"});
-  std::this_thread::sleep_for(100ms);  // let the subscription reach the board first
+namespace {
 
-  const json started = start_remote(c, client, lease);
-  const auto t0 = started.at("t0_ns").get<hal::TimeNs>();
-  const auto run_id = started.at("run").get<std::uint64_t>();
-  const double lease_s = started.at("lease_s").get<double>();
-  log.set_attribute("board_t0_ns", std::to_string(t0));
-  log.set_attribute("rig", client.address());
-
-  std::optional<ObserverStage> observer;
-  if (c.observer.enabled) {
-    observer.emplace(observer_model(c, hello, log), c.observer.gains, 1.0 / hello.drive_rate_hz,
-                     hello.output_latency_s);
+/// A run on the board, followed by its controller: the stream into the log
+/// (and the observer), the lease, stop and e-stop requests, the outages,
+/// and the board's account of the run's end.
+class FollowedRun {
+ public:
+  FollowedRun(const config::RunConfig& c, BoardClient& client, const protocol::Hello& hello,
+              RunLog& log, const json& started, const ClockMapping& clock, ObserverStage* observer)
+      : c_(c),
+        client_(client),
+        log_(log),
+        started_(started),
+        t0_(started.at("t0_ns").get<hal::TimeNs>()),
+        run_id_(started.at("run").get<std::uint64_t>()),
+        lease_s_(started.at("lease_s").get<double>()),
+        clock_(clock),
+        virtual_clock_(hello.clock == "virtual"),
+        observer_(observer),
+        collector_(t0_, c.sensor.r2_m, observer, zero_of(started)),
+        follower_(client,
+                  [board = &client](const std::string& cmd, const json& args) {
+                    return board->call(cmd, args, 5s);
+                  }),
+        writer_(log) {
+    follower_.follow(collector_, [this] {
+      return virtual_clock_ ? 1e-9 * static_cast<double>(host_ns() - host_start_)
+                            : hal::to_seconds(host_ns() + clock_.offset_ns - t0_);
+    });
   }
-  // A move's angles are from the board's zero (the frame of its target and
-  // of every position it reports); a run's from its first good reading.
-  const json zero = started.value("zero_displacement_m", json());
-  SampleCollector collector(
-      t0, c.sensor.r2_m, observer ? &*observer : nullptr,
-      zero.is_number() ? zero.get<double>() : std::numeric_limits<double>::quiet_NaN());
-  if (zero.is_number()) {
-    log.set_attribute("theta_zero_m",
-                      fmt::format("{:.12g} (the board's zero)", zero.get<double>()));
-  }
-  std::vector<std::string> gaps;
-  const std::int64_t host_start = host_ns();
-  const bool virtual_clock = hello.clock == "virtual";
-  StreamCursor cursor(client, collector, gaps, [&] {
-    return virtual_clock ? 1e-9 * static_cast<double>(host_ns() - host_start)
-                         : hal::to_seconds(host_ns() + clock.offset_ns - t0);
-  });
 
-  bool log_ok = true;
-  bool stop_sent = false, estop_sent = false;
-  // From here until writer.finish() only the writer's thread touches the log.
-  LogWriter writer(log);
-  auto append_log = [&] {
-    if (!log_ok) return;
-    writer.submit(collector.rows());
-    if (std::string e = writer.error(); !e.empty()) {
-      log_ok = false;
-      summary.host_error = std::move(e);
-    }
-  };
-  auto finish_writing = [&] {
-    append_log();
-    if (std::string e = writer.finish(); !e.empty() && log_ok) {
-      log_ok = false;
-      summary.host_error = std::move(e);
-    }
-  };
-  const auto lease_period = std::chrono::duration<double>(lease_s / 4.0);
-  const auto flush_interval = std::chrono::duration<double>(c.run.flush_interval_s);
-  auto last_lease = SteadyClock::now(), last_flush = last_lease, last_status = last_lease,
-       last_heard = last_lease;
-  std::optional<protocol::RunSummary> final_summary;
-  protocol::HealthEvent health;
-  health.state = "running";  // until the board says otherwise
+  /// Follows until the board's account of the run's end, or until the
+  /// board is gone (nullopt).
+  std::optional<protocol::RunSummary> follow(
+      const std::atomic<bool>& stop, const std::atomic<bool>* estop,
+      const std::function<void(const LiveStatus&)>& on_status);
+  /// The run's account from the board's summary; with none, a board gone.
+  RunSummary finish(const std::optional<protocol::RunSummary>& board);
+
+ private:
+  static double zero_of(const json& started) {
+    // A move's angles are from the board's zero (the frame of its target and
+    // of every position it reports); a run's from its first good reading.
+    const json zero = started.value("zero_displacement_m", json());
+    return zero.is_number() ? zero.get<double>() : std::numeric_limits<double>::quiet_NaN();
+  }
+  [[nodiscard]] double board_run_s() const {
+    return virtual_clock_ ? collector_.last_t()
+                          : hal::to_seconds(host_ns() + clock_.offset_ns - t0_);
+  }
+  void request_stops(const std::atomic<bool>& stop, const std::atomic<bool>* estop);
+  void drain(std::optional<protocol::RunSummary>& end);
+  void renew_lease_if_due();
+  void ask_when_quiet(std::optional<protocol::RunSummary>& end);
+  void append_log();
+  void finish_writing();
+  void report(const std::function<void(const LiveStatus&)>& on_status);
+  void note_outages();
+
+  const config::RunConfig& c_;
+  BoardClient& client_;
+  RunLog& log_;
+  json started_;
+  hal::TimeNs t0_;
+  std::uint64_t run_id_;
+  double lease_s_;
+  ClockMapping clock_;
+  bool virtual_clock_;
+  ObserverStage* observer_;
+  std::int64_t host_start_ = host_ns();
+  SampleCollector collector_;
+  StreamFollower follower_;
+  // From here until writer_.finish() only the writer's thread touches the log.
+  LogWriter writer_;
+  RunSummary summary_;
+  bool log_ok_ = true, stop_sent_ = false, estop_sent_ = false;
+  SteadyClock::time_point last_lease_ = SteadyClock::now(), last_flush_ = last_lease_,
+                          last_status_ = last_lease_, last_contact_ = last_lease_;
   // Spans with nothing heard from the board, on the board's run time.
-  std::vector<std::string> outages;
-  double quiet_since_s = std::nan("");  // NaN: heard recently
-  const auto board_run_s = [&] {
-    return virtual_clock ? collector.last_t() : hal::to_seconds(host_ns() + clock.offset_ns - t0);
-  };
-  auto last_contact = last_lease;
-  while (!final_summary) {
-    if (SteadyClock::now() - last_contact >= kBoardGone) break;
-    if ((stop.load() || !log_ok) && !stop_sent) {
-      try {
-        (void)client.call("stop", json::object(), 1s);
-        stop_sent = true;
-      } catch (const LinkTimeout&) {
-      }  // the lease stops the board by itself
-    }
-    if (estop != nullptr && estop->load() && !estop_sent) {
-      try {
-        (void)client.call("estop", json::object(), 1s);
-        estop_sent = true;
-      } catch (const LinkTimeout&) {
-      }  // tried again on the next turn
-    }
-    const bool ready = poll_in(client.stream(), 5ms);
-    // Frames are drained until the lease is due, never past it: with the
-    // observer on, a virtual-clock board's backlog (up to 20 s of samples)
-    // took the loop longer than a lease to work through, and the board
-    // stopped a run the host was following with link_lost.
-    for (int i = 0; i < 256 && ready && SteadyClock::now() - last_lease < lease_period; ++i) {
-      std::vector<zmq::message_t> parts;
-      if (!zmq::recv_multipart(client.stream(), std::back_inserter(parts),
-                               zmq::recv_flags::dontwait) ||
-          parts.size() != 2) {
-        break;
-      }
-      last_heard = SteadyClock::now();
-      if (!std::isnan(quiet_since_s)) {
-        outages.push_back(fmt::format("[{:.3f}, {:.3f}] s", quiet_since_s, board_run_s()));
-        quiet_since_s = std::nan("");
-      }
-      if (parts[0].to_string_view() == "health") {
-        health = protocol::decode<protocol::HealthEvent>(
-            protocol::decode_map(parts[1].to_string_view()));
-      } else if (parts[0].to_string_view() == "state") {
-        const auto state =
-            protocol::decode<protocol::StateEvent>(protocol::decode_map(parts[1].to_string_view()));
-        if (state.summary && state.run == run_id) final_summary = state.summary;
-      } else {
-        cursor.on_frame(parts[1].to_string_view());
-        last_contact = last_heard;  // samples: the board is running this run
-      }
-    }
-    const auto now = SteadyClock::now();
-    if (now - last_lease >= lease_period) {
-      // Acknowledged: what is logged, not only received (see LogWriter).
-      // A failed log logs nothing more: everything received is acknowledged,
-      // so a virtual-clock board does not wait on it.
-      const std::uint64_t received = cursor.drive_next();
-      const std::uint64_t unlogged =
-          log_ok ? writer.pending_drive_rows() + collector.rows().drive.t.size() : 0;
-      client.send("lease", {{"drive_received", received - std::min(received, unlogged)}});
-      last_lease = now;
-    }
-    // The board is idle or faulted but its end-of-run event went unheard
-    // (published while the link was down): ask for it.
-    const bool board_done = health.state == "idle" || health.state == "fault";
-    const bool quiet = now - last_heard >= kQuietBeforeAsking;
-    if (board_done || quiet) {
-      // Quiet stream: the link may be down, or the run's end went unheard.
-      // Only silence is an outage: a board that looks done (the health
-      // published before the start may still say idle) is just asked.
-      if (quiet && std::isnan(quiet_since_s)) {
-        quiet_since_s = board_run_s() - std::chrono::duration<double>(now - last_heard).count();
-      }
-      try {
-        const json s = client.call("status", json::object(), 500ms);
-        const json& run = s.value("run", json::object());
-        // A board that restarted answers, but knows nothing of this run (its
-        // ids start again: the start time tells): that is silence too.
-        const bool ours =
-            run.value("id", json()) == run_id && run.value("t0_ns", json()) == started.at("t0_ns");
-        if (ours && run.value("finished", false)) {
-          final_summary = protocol::decode<protocol::RunSummary>(run.at("summary"));
-        }
-        last_heard = SteadyClock::now();
-        if (ours) last_contact = last_heard;
-      } catch (const LinkTimeout&) {
-        last_heard = SteadyClock::now();  // ZeroMQ reconnects with back-off; ask again later
-      }
-    }
-    if (now - last_flush >= flush_interval) {
+  std::vector<std::string> outages_;
+  double quiet_since_s_ = std::nan("");  // NaN: heard recently
+};
+
+std::optional<protocol::RunSummary> FollowedRun::follow(
+    const std::atomic<bool>& stop, const std::atomic<bool>* estop,
+    const std::function<void(const LiveStatus&)>& on_status) {
+  std::optional<protocol::RunSummary> end;
+  while (!end) {
+    if (SteadyClock::now() - last_contact_ >= kBoardGone) break;
+    request_stops(stop, estop);
+    drain(end);
+    renew_lease_if_due();
+    ask_when_quiet(end);
+    if (SteadyClock::now() - last_flush_ >=
+        std::chrono::duration<double>(c_.run.flush_interval_s)) {
       append_log();
-      last_flush = now;
+      last_flush_ = SteadyClock::now();
     }
-    if (on_status && now - last_status >= kStatusPeriod) {
-      on_status({collector.last_t(), started.value("duration_s", c.run.duration_s),
-                 collector.last_V(), collector.last_theta(),
-                 observer ? observer->summary().last_residual_rad : 0.0, cursor.sensor_next(),
-                 health.sensor ? health.sensor->errors : 0,
-                 health.drive ? health.drive->overruns : 0, health,
-                 json{{"drive", collector.drive_errors()}, {"sensor", collector.sensor_errors()}},
-                 lease_s});
-      last_status = now;
-    }
+    report(on_status);
   }
-  if (!final_summary) {
-    if (observer) observer->finish(collector.rows().observer);
-    finish_writing();
-    outages.push_back(fmt::format("[{:.3f}, end of run]", quiet_since_s));
-    log.set_attribute("link_outages", fmt::format("{}", fmt::join(outages, "; ")));
+  return end;
+}
+
+void FollowedRun::request_stops(const std::atomic<bool>& stop, const std::atomic<bool>* estop) {
+  if ((stop.load() || !log_ok_) && !stop_sent_) {
+    try {
+      (void)client_.call("stop", json::object(), 1s);
+      stop_sent_ = true;
+    } catch (const LinkTimeout&) {
+    }  // the lease stops the board by itself
+  }
+  if (estop != nullptr && estop->load() && !estop_sent_) {
+    try {
+      (void)client_.call("estop", json::object(), 1s);
+      estop_sent_ = true;
+    } catch (const LinkTimeout&) {
+    }  // tried again on the next turn
+  }
+}
+
+void FollowedRun::drain(std::optional<protocol::RunSummary>& end) {
+  // Frames are drained until the lease is due, never past it: with the
+  // observer on, a virtual-clock board's backlog (up to 20 s of samples)
+  // took the loop longer than a lease to work through, and the board
+  // stopped a run the host was following with link_lost.
+  const auto lease_period = std::chrono::duration<double>(lease_s_ / 4.0);
+  const std::uint64_t samples_before = follower_.drive_next() + follower_.sensor_next();
+  StreamFollower::Handlers handlers;
+  handlers.keep_going = [&] { return SteadyClock::now() - last_lease_ < lease_period; };
+  handlers.on_heard = [&] {
+    if (!std::isnan(quiet_since_s_)) {
+      outages_.push_back(fmt::format("[{:.3f}, {:.3f}] s", quiet_since_s_, board_run_s()));
+      quiet_since_s_ = std::nan("");
+    }
+  };
+  handlers.on_state = [&](const protocol::StateEvent& state) {
+    if (state.summary && state.run == run_id_) end = state.summary;
+  };
+  follower_.drain(5ms, 256, handlers);
+  // Samples: the board is running this run.
+  if (follower_.drive_next() + follower_.sensor_next() != samples_before) {
+    last_contact_ = follower_.last_heard();
+  }
+}
+
+void FollowedRun::renew_lease_if_due() {
+  const auto now = SteadyClock::now();
+  if (now - last_lease_ < std::chrono::duration<double>(lease_s_ / 4.0)) return;
+  // Acknowledged: what is logged, not only received (see LogWriter). A
+  // failed log logs nothing more: everything received is acknowledged, so
+  // a virtual-clock board does not wait on it.
+  const std::uint64_t received = follower_.drive_next();
+  const std::uint64_t unlogged =
+      log_ok_ ? writer_.pending_drive_rows() + collector_.rows().drive.t.size() : 0;
+  client_.send("lease", {{"drive_received", received - std::min(received, unlogged)}});
+  last_lease_ = now;
+}
+
+void FollowedRun::ask_when_quiet(std::optional<protocol::RunSummary>& end) {
+  // The board is idle or faulted but its end-of-run event went unheard
+  // (published while the link was down): ask for it.
+  const auto now = SteadyClock::now();
+  const auto& state = follower_.health().state;
+  const bool board_done = state == "idle" || state == "fault";
+  const bool quiet = now - follower_.last_heard() >= kQuietBeforeAsking;
+  if (!board_done && !quiet) return;
+  // Quiet stream: the link may be down, or the run's end went unheard. Only
+  // silence is an outage: a board that looks done (the health published
+  // before the start may still say idle) is just asked.
+  if (quiet && std::isnan(quiet_since_s_)) {
+    quiet_since_s_ =
+        board_run_s() - std::chrono::duration<double>(now - follower_.last_heard()).count();
+  }
+  try {
+    const json s = client_.call("status", json::object(), 500ms);
+    const json& run = s.value("run", json::object());
+    // A board that restarted answers, but knows nothing of this run (its
+    // ids start again: the start time tells): that is silence too.
+    const bool ours =
+        run.value("id", json()) == run_id_ && run.value("t0_ns", json()) == started_.at("t0_ns");
+    if (ours && run.value("finished", false)) {
+      end = protocol::decode<protocol::RunSummary>(run.at("summary"));
+    }
+    follower_.heard();
+    if (ours) last_contact_ = follower_.last_heard();
+  } catch (const LinkTimeout&) {
+    follower_.heard();  // ZeroMQ reconnects with back-off; ask again later
+  }
+}
+
+void FollowedRun::append_log() {
+  if (!log_ok_) return;
+  writer_.submit(collector_.rows());
+  if (std::string e = writer_.error(); !e.empty()) {
+    log_ok_ = false;
+    summary_.host_error = std::move(e);
+  }
+}
+
+void FollowedRun::finish_writing() {
+  if (observer_) observer_->finish(collector_.rows().observer);
+  append_log();
+  if (std::string e = writer_.finish(); !e.empty() && log_ok_) {
+    log_ok_ = false;
+    summary_.host_error = std::move(e);
+  }
+}
+
+void FollowedRun::report(const std::function<void(const LiveStatus&)>& on_status) {
+  const auto now = SteadyClock::now();
+  if (!on_status || now - last_status_ < kStatusPeriod) return;
+  const auto& health = follower_.health();
+  on_status({collector_.last_t(), started_.value("duration_s", c_.run.duration_s),
+             collector_.last_V(), collector_.last_theta(),
+             observer_ ? observer_->summary().last_residual_rad : 0.0, follower_.sensor_next(),
+             health.sensor ? health.sensor->errors : 0, health.drive ? health.drive->overruns : 0,
+             health,
+             json{{"drive", collector_.drive_errors()}, {"sensor", collector_.sensor_errors()}},
+             lease_s_});
+  last_status_ = now;
+}
+
+RunSummary FollowedRun::finish(const std::optional<protocol::RunSummary>& end) {
+  if (end) {
+    // The stream's tail may still be in flight or lost: the recorder has it all.
+    follower_.fetch(protocol::Stream::drive, end->drive_samples);
+    follower_.fetch(protocol::Stream::sensor, end->sensor_samples);
+  }
+  finish_writing();
+  if (!std::isnan(quiet_since_s_) || !end) {
+    outages_.push_back(fmt::format("[{:.3f}, end of run]", quiet_since_s_));
+  }
+  log_.set_attribute("link_outages",
+                     outages_.empty() ? "none" : fmt::format("{}", fmt::join(outages_, "; ")));
+  RunSummary& summary = summary_;
+  summary.theta_end_rad = collector_.last_theta();
+  summary.t_end_s = collector_.last_good_t();
+  if (!end) {
     summary.cause = firmware::StopCause::link_lost;
     summary.board_gone = true;
     summary.host_error = fmt::format(
         "board {} silent about this run for {} s (gone, or restarted): the run's end is unknown "
         "(the board's lease stops its drive by itself); the log holds what was received",
-        client.address(), std::chrono::duration_cast<std::chrono::seconds>(kBoardGone).count());
-    summary.theta_end_rad = collector.last_theta();
-    summary.t_end_s = collector.last_good_t();
+        client_.address(), std::chrono::duration_cast<std::chrono::seconds>(kBoardGone).count());
     return summary;
   }
-  const protocol::RunSummary& board = *final_summary;
-  // The stream's tail may still be in flight or lost: the recorder has it all.
-  cursor.fetch(protocol::Stream::drive, board.drive_samples);
-  cursor.fetch(protocol::Stream::sensor, board.sensor_samples);
-  if (observer) observer->finish(collector.rows().observer);
-  finish_writing();
-  if (!std::isnan(quiet_since_s)) {
-    outages.push_back(fmt::format("[{:.3f}, end of run]", quiet_since_s));
-  }
-  log.set_attribute("link_outages",
-                    outages.empty() ? "none" : fmt::format("{}", fmt::join(outages, "; ")));
-  log.set_attribute("stream_gaps_fetched",
-                    gaps.empty() ? "none" : fmt::format("{}", fmt::join(gaps, "; ")));
-
+  const auto& gaps = follower_.gaps();
+  log_.set_attribute("stream_gaps_fetched",
+                     gaps.empty() ? "none" : fmt::format("{}", fmt::join(gaps, "; ")));
+  const protocol::RunSummary& board = *end;
   summary.cause = stop_cause_from(board.cause);
   const auto& out = board.output;
   summary.output.enabled_ever = out.enabled_ever;
@@ -428,11 +405,9 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client,
   summary.output.enable_status = status_from(out.enable_status);
   summary.drive = loop_summary(board.drive);
   summary.sensor = loop_summary(board.sensor);
-  summary.drive.errors_by_class = collector.drive_errors();
-  summary.sensor.errors_by_class = collector.sensor_errors();
-  if (observer) summary.observer = observer->summary();
-  summary.theta_end_rad = collector.last_theta();
-  summary.t_end_s = collector.last_good_t();
+  summary.drive.errors_by_class = collector_.drive_errors();
+  summary.sensor.errors_by_class = collector_.sensor_errors();
+  if (observer_) summary.observer = observer_->summary();
   summary.mean_velocity_rad_s =
       summary.t_end_s > 0.0 ? summary.theta_end_rad / summary.t_end_s : 0.0;
   summary.realtime_notes = board.realtime;
@@ -442,10 +417,48 @@ RunSummary execute_remote_run(const config::RunConfig& c, RigClient& client,
         {"calibration", board.calibration},
         {"error", board.calibration_error ? json(*board.calibration_error) : json(nullptr)}};
   }
-  if (!client.address().starts_with("inproc://")) {
-    summary.realtime_notes.push_back("board " + client.address());
+  if (!client_.address().starts_with("inproc://")) {
+    summary.realtime_notes.push_back("board " + client_.address());
   }
   return summary;
+}
+
+}  // namespace
+
+RunSummary execute_remote_run(const config::RunConfig& c, BoardClient& client,
+                              const protocol::Hello& hello, RunLog& log,
+                              const std::atomic<bool>& stop,
+                              const std::function<void(const LiveStatus&)>& on_status,
+                              std::optional<double> lease, const std::atomic<bool>* estop) {
+  if (stop.load()) {
+    // Stopped during set-up: the drive is never started.
+    RunSummary summary;
+    summary.cause = firmware::StopCause::interrupted;
+    summary.output.zero_confirmed = true;
+    summary.realtime_notes.push_back("stopped before the start");
+    return summary;
+  }
+  const ClockMapping clock = estimate_clock_offset(client);
+  log.set_attribute("board_clock_offset_ns", std::to_string(clock.offset_ns));
+  log.set_attribute("board_clock_round_trip_ns", std::to_string(clock.round_trip_ns));
+  std::optional<ObserverStage> observer;
+  if (c.observer.enabled) {
+    observer.emplace(observer_model(c, hello, log), c.observer.gains, 1.0 / hello.drive_rate_hz,
+                     hello.output_latency_s);
+  }
+  // Subscribed before the start, so that the run's first samples come.
+  StreamFollower::subscribe(client);
+  std::this_thread::sleep_for(100ms);  // let the subscription reach the board first
+  const json started = start_remote(c, client, lease);
+  log.set_attribute("board_t0_ns", std::to_string(started.at("t0_ns").get<hal::TimeNs>()));
+  log.set_attribute("rig", client.address());
+  if (const json zero = started.value("zero_displacement_m", json()); zero.is_number()) {
+    log.set_attribute("theta_zero_m",
+                      fmt::format("{:.12g} (the board's zero)", zero.get<double>()));
+  }
+  FollowedRun run(c, client, hello, log, started, clock, observer ? &*observer : nullptr);
+  const auto end = run.follow(stop, estop, on_status);
+  return run.finish(end);
 }
 
 }  // namespace piezo::host

@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
-#include "rig_client.hpp"
+#include "board_client.hpp"
 #include "run_config.hpp"
 #include "run_log.hpp"
 #include "run_session.hpp"
@@ -22,14 +22,14 @@ struct ClockMapping {
   std::int64_t round_trip_ns = 0;
 };
 
-[[nodiscard]] ClockMapping estimate_clock_offset(RigClient& client, int round_trips = 16);
+[[nodiscard]] ClockMapping estimate_clock_offset(BoardClient& client, int round_trips = 16);
 
 /// Asks the board for the config's waveform and duration; a refusal (beyond
 /// the board's limits) becomes a ConfigError naming the key.
-void configure_remote(const config::RunConfig& config, RigClient& client);
+void configure_remote(const config::RunConfig& config, BoardClient& client);
 
 /// Runs what configure_remote set up; `hello` is the daemon's hello.
-[[nodiscard]] RunSummary execute_remote_run(const config::RunConfig& config, RigClient& client,
+[[nodiscard]] RunSummary execute_remote_run(const config::RunConfig& config, BoardClient& client,
                                             const protocol::Hello& hello, RunLog& log,
                                             const std::atomic<bool>& stop,
                                             const std::function<void(const LiveStatus&)>& on_status,

@@ -1,8 +1,8 @@
 #include "run_session.hpp"
 
+#include "board_client.hpp"
 #include "local_board.hpp"
 #include "remote_run.hpp"
-#include "rig_client.hpp"
 
 namespace piezo::host {
 namespace {
@@ -57,7 +57,7 @@ RunSummary execute_run(const config::RunConfig& c, config::Rig rig, RunLog& log,
   LocalBoard board(c, std::move(rig));
   RunSummary summary;
   {
-    RigClient client(config::RigAddress{board.address(), "", ""}, board.context());
+    BoardClient client(config::RigAddress{board.address(), "", ""}, board.context());
     const protocol::Hello hello = client.hello();
     configure_remote(c, client);
     summary = execute_remote_run(c, client, hello, log, stop, on_status, kLocalLease_s, estop);

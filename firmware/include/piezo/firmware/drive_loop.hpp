@@ -79,6 +79,28 @@ class DriveLoop {
   [[nodiscard]] const LoopHealth& health() const { return health_; }
 
  private:
+  /// What the loop carries from one cycle to the next.
+  struct Output {
+    double V = 0.0;
+    DrivePhase phase = DrivePhase::driving;
+    /// The value a completed waveform ends on, approached at the slew limit
+    /// (NaN: none, or reached).
+    double end_V = std::numeric_limits<double>::quiet_NaN();
+    long last_waveform_period = -1;
+    bool sync_high = false;
+  };
+
+  /// 0 V written and the e-stop looked at, then the amplifier enabled; false
+  /// when the supervisor stops the run before that.
+  bool enable();
+  /// The supervisor's verdict for the cycle at t [s from the time origin].
+  SafetyAction check(hal::TimeNs now, double t);
+  void begin_ramp(Output& out);
+  /// The next value: the program's, a completed waveform's end, or the ramp.
+  [[nodiscard]] double next_value(Output& out, double t, double dt);
+  /// Sync: high for the first drive cycle of each waveform period.
+  void update_sync(Output& out, double t);
+  void count_lateness(hal::TimeNs deadline, hal::TimeNs period);
   void emit(hal::TimeNs t, double V, DrivePhase phase, hal::Status status);
   void stop_output(hal::TimeNs t);
   void count_failure(hal::Status s);

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "piezo/firmware/request_limits.hpp"
 #include "piezo/model/parameters.hpp"
 
 namespace piezo::protocol {
@@ -69,13 +70,8 @@ struct StepRequest {
 
 /// `move_to`'s arguments (absent ones take the board's defaults).
 struct MoveToRequest {
-  double target_rad = 0.0;
-  double tolerance_rad = 25e-6;
-  double settle_s = 0.1;
-  double timeout_s = 30.0;
-  double hold_s = 0.0;
+  firmware::MoveRequest move;  ///< target, tolerance, settle, timeout, hold, stall steps
   bool protect = true;
-  std::uint64_t stall_steps = 2;
   std::optional<double> V0, f, C_dr, e_dr, lease_s;
 };
 

@@ -33,13 +33,13 @@ class LinkTimeout : public std::runtime_error {
 /// (the caller looks at its stop flag and polls again).
 bool poll_in(zmq::socket_t& socket, std::chrono::milliseconds timeout);
 
-class RigClient {
+class BoardClient {
  public:
   /// Connects both sockets (ZeroMQ reconnects by itself after an outage);
   /// with CURVE key files in `rig`, as an authorized client.
-  explicit RigClient(const config::RigAddress& rig);
+  explicit BoardClient(const config::RigAddress& rig);
   /// On a context shared with an in-process piezod (inproc:// addresses).
-  RigClient(const config::RigAddress& rig, zmq::context_t& shared);
+  BoardClient(const config::RigAddress& rig, zmq::context_t& shared);
 
   /// Sends a command and waits for its reply; replies to earlier commands
   /// that arrive meanwhile are dropped. Throws RemoteError or LinkTimeout.
@@ -59,7 +59,7 @@ class RigClient {
   [[nodiscard]] const std::string& address() const { return address_; }
 
  private:
-  RigClient(const config::RigAddress& rig, std::shared_ptr<zmq::context_t> context);
+  BoardClient(const config::RigAddress& rig, std::shared_ptr<zmq::context_t> context);
 
   std::string address_;
   std::shared_ptr<zmq::context_t> context_;  ///< its own, or a shared one (not owned)

@@ -1,4 +1,4 @@
-#include "rig_client.hpp"
+#include "board_client.hpp"
 
 #include <fmt/format.h>
 
@@ -11,13 +11,13 @@
 
 namespace piezo::host {
 
-RigClient::RigClient(const config::RigAddress& rig)
-    : RigClient(rig, std::make_shared<zmq::context_t>()) {}
+BoardClient::BoardClient(const config::RigAddress& rig)
+    : BoardClient(rig, std::make_shared<zmq::context_t>()) {}
 
-RigClient::RigClient(const config::RigAddress& rig, zmq::context_t& shared)
-    : RigClient(rig, std::shared_ptr<zmq::context_t>(&shared, [](zmq::context_t*) {})) {}
+BoardClient::BoardClient(const config::RigAddress& rig, zmq::context_t& shared)
+    : BoardClient(rig, std::shared_ptr<zmq::context_t>(&shared, [](zmq::context_t*) {})) {}
 
-RigClient::RigClient(const config::RigAddress& rig, std::shared_ptr<zmq::context_t> context)
+BoardClient::BoardClient(const config::RigAddress& rig, std::shared_ptr<zmq::context_t> context)
     : address_(rig.address),
       context_(std::move(context)),
       commands_(*context_, zmq::socket_type::dealer),
@@ -67,13 +67,13 @@ bool poll_in(zmq::socket_t& socket, std::chrono::milliseconds timeout) {
   return (item.revents & ZMQ_POLLIN) != 0;
 }
 
-void RigClient::send(const std::string& cmd, const nlohmann::json& args) {
+void BoardClient::send(const std::string& cmd, const nlohmann::json& args) {
   const std::string body = protocol::encode_request({next_id_++, cmd, args});
   (void)commands_.send(zmq::buffer(body), zmq::send_flags::dontwait);
 }
 
-nlohmann::json RigClient::call(const std::string& cmd, const nlohmann::json& args,
-                               std::chrono::milliseconds timeout) {
+nlohmann::json BoardClient::call(const std::string& cmd, const nlohmann::json& args,
+                                 std::chrono::milliseconds timeout) {
   const std::uint64_t id = next_id_;
   send(cmd, args);
   const auto give_up = std::chrono::steady_clock::now() + timeout;
@@ -94,11 +94,11 @@ nlohmann::json RigClient::call(const std::string& cmd, const nlohmann::json& arg
   }
 }
 
-void RigClient::subscribe(std::initializer_list<const char*> topics) {
+void BoardClient::subscribe(std::initializer_list<const char*> topics) {
   for (const char* t : topics) stream_.set(zmq::sockopt::subscribe, t);
 }
 
-protocol::Hello RigClient::hello() {
+protocol::Hello BoardClient::hello() {
   const nlohmann::json hello = call("hello");
   // The version first: another version's hello may hold other fields.
   const auto version = hello.value("protocol", std::uint64_t{0});

@@ -1,0 +1,112 @@
+#include "stream_follower.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <zmq_addon.hpp>
+
+#include "piezo/protocol/message.hpp"
+
+namespace piezo::host {
+namespace {
+
+constexpr std::uint64_t kFetchChunk = 50'000;
+
+}  // namespace
+
+void StreamFollower::subscribe(BoardClient& client) {
+  client.subscribe({"drive", "sensor", "state", "health"});
+}
+
+void StreamFollower::follow(SampleCollector& collector, std::function<double()> received_s,
+                            bool from_sample_zero) {
+  collector_ = &collector;
+  received_s_ = std::move(received_s);
+  from_sample_zero_ = from_sample_zero;
+  drive_started_ = sensor_started_ = false;
+  drive_next_ = sensor_next_ = 0;
+  gaps_.clear();
+}
+
+void StreamFollower::drain(std::chrono::milliseconds wait, int max_messages,
+                           const Handlers& handlers) {
+  if (!poll_in(client_.stream(), wait)) return;
+  for (int i = 0; i < max_messages && (!handlers.keep_going || handlers.keep_going()); ++i) {
+    std::vector<zmq::message_t> parts;
+    if (!zmq::recv_multipart(client_.stream(), std::back_inserter(parts),
+                             zmq::recv_flags::dontwait) ||
+        parts.size() != 2) {
+      break;
+    }
+    last_heard_ = SteadyClock::now();
+    if (handlers.on_heard) handlers.on_heard();
+    const std::string_view topic = parts[0].to_string_view();
+    const std::string_view body = parts[1].to_string_view();
+    if (topic == "health") {
+      health_ = protocol::decode<protocol::HealthEvent>(protocol::decode_map(body));
+      if (handlers.on_health) handlers.on_health(health_);
+    } else if (topic == "state") {
+      const auto state = protocol::decode<protocol::StateEvent>(protocol::decode_map(body));
+      if (handlers.on_state) handlers.on_state(state);
+    } else if (collector_ != nullptr) {
+      on_frame(body);
+    }
+  }
+}
+
+void StreamFollower::on_frame(std::string_view frame) {
+  const auto header = protocol::decode_header(frame);
+  const bool drive = header.stream == protocol::Stream::drive;
+  bool& started = drive ? drive_started_ : sensor_started_;
+  if (!started && !from_sample_zero_) {
+    // A watcher joining a run under way starts where each stream is.
+    (drive ? drive_next_ : sensor_next_) = header.first_seq;
+  }
+  started = true;
+  const std::uint64_t next = header.stream == protocol::Stream::drive ? drive_next_ : sensor_next_;
+  if (header.first_seq > next) fetch(header.stream, header.first_seq);
+  add(frame, header);
+}
+
+void StreamFollower::fetch(protocol::Stream stream, std::uint64_t end) {
+  if (collector_ == nullptr) return;
+  std::uint64_t& next = stream == protocol::Stream::drive ? drive_next_ : sensor_next_;
+  if (next < end) {
+    gaps_.push_back(fmt::format("{} [{}, {})", protocol::to_string(stream), next, end));
+  }
+  while (next < end) {
+    nlohmann::json r;
+    try {
+      r = call_("fetch", {{"stream", protocol::to_string(stream)},
+                          {"first", next},
+                          {"count", std::min(kFetchChunk, end - next)}});
+    } catch (const RemoteError& e) {
+      if (from_sample_zero_) throw;  // the controller's log must not miss a sample
+      gaps_.back() += fmt::format(" (not fetched: {})", e.what());
+      next = end;
+      return;
+    }
+    const auto& bytes = r.at("frame").get_binary();
+    const std::string frame(bytes.begin(), bytes.end());
+    const auto header = protocol::decode_header(frame);
+    if (header.count == 0) break;
+    add(frame, header);
+  }
+}
+
+void StreamFollower::add(std::string_view frame, const protocol::FrameHeader& h) {
+  std::uint64_t& next = h.stream == protocol::Stream::drive ? drive_next_ : sensor_next_;
+  if (h.first_seq > next || h.first_seq + h.count <= next) return;  // a gap left, or a repeat
+  const std::size_t skip = next - h.first_seq;
+  collector_->set_received(received_s_());
+  if (h.stream == protocol::Stream::drive) {
+    const auto samples = protocol::decode_drive(frame);
+    for (std::size_t i = skip; i < samples.size(); ++i) collector_->add(samples[i]);
+  } else {
+    const auto samples = protocol::decode_sensor(frame);
+    for (std::size_t i = skip; i < samples.size(); ++i) collector_->add(samples[i]);
+  }
+  next = h.first_seq + h.count;
+}
+
+}  // namespace piezo::host
