@@ -225,7 +225,7 @@ CommandTable Daemon::command_table() {
   using Who = const std::string&;
   return CommandTable({
       {"hello", C::anyone, {}, [this](Who, Args) { return json(hello()); }},
-      {"status", C::anyone, {}, [this](Who c, Args) { return status(c); }},
+      {"status", C::anyone, {}, [this](Who c, Args) { return json(status(c)); }},
       {"clock",
        C::anyone,
        {},

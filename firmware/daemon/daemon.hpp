@@ -124,7 +124,7 @@ class Daemon {
 
   // daemon_reports.cpp
   [[nodiscard]] protocol::Hello hello() const;
-  [[nodiscard]] nlohmann::json status(const std::string& client) const;
+  [[nodiscard]] protocol::Status status(const std::string& client) const;
   [[nodiscard]] nlohmann::json position_json() const;
   [[nodiscard]] nlohmann::json fault_json() const;
   [[nodiscard]] nlohmann::json move_json(const Run& run) const;

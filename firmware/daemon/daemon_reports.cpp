@@ -58,6 +58,7 @@ protocol::Hello Daemon::hello() const {
               board_.daemon.duration_max_s,
               board_.daemon.lease_max_s};
   h.sensor_r2_m = board_.sensor.r2_m;
+  h.sensor_zero_m = zero_.value();
   h.drive_rate_hz = board_.drive.rate_hz;
   h.sensor_rate_hz = board_.sensor.rate_hz();
   h.output_latency_s = rig_.drive->output_latency_s();
@@ -67,30 +68,35 @@ protocol::Hello Daemon::hello() const {
   return h;
 }
 
-json Daemon::status(const std::string& client) const {
-  json j{{"state", to_string(run_state_.state())},
-         {"board_ns", rig_.clock->now()},
-         {"controller", run_state_.is_controller(client)},
-         {"controlled", run_state_.controlled()},
-         {"fault", fault_json()},
-         {"recorder", samples_.recorder_json()},
-         {"position", position_json()},
-         {"calibration", calibration_ ? *calibration_ : json(nullptr)}};
-  if (configured_) j["configured"] = *configured_;
+protocol::Status Daemon::status(const std::string& client) const {
+  protocol::Status s;
+  s.state = to_string(run_state_.state());
+  s.board_ns = rig_.clock->now();
+  s.controller = run_state_.is_controller(client);
+  s.controlled = run_state_.controlled();
+  if (run_state_.state() == State::fault) s.fault = firmware::to_string(run_state_.fault());
+  s.drive_recorded = {samples_.drive_first(), samples_.drive_recorded()};
+  s.sensor_recorded = {samples_.sensor_first(), samples_.sensor_recorded()};
+  const auto last = recent_displacement_m();
+  if (zero_.known() && last) s.position_rad = zero_.angle_rad(*last, board_.sensor.r2_m);
+  s.zero_displacement_m = zero_.value();
+  s.calibration = calibration_ ? *calibration_ : json(nullptr);
+  s.configured = configured_;
   if (run_) {
-    json r{{"id", run_->id},
-           {"t0_ns", run_->t0},
-           {"duration_s", run_->request.duration_s},
-           {"lease_s", run_->lease_s},
-           {"finished", run_->finished},
-           {"drive", health_of(run_->runner->drive_health(), false)},
-           {"sensor", health_of(run_->runner->sensor_health(), false)}};
-    if (run_->finished) r["summary"] = run_->summary;
-    if (run_->move) r["move"] = move_json(*run_);
-    if (run_->calibration) r["calibration_progress"] = run_->calibration->progress();
-    j["run"] = r;
+    protocol::RunStatus r;
+    r.id = run_->id;
+    r.t0_ns = run_->t0;
+    r.duration_s = run_->request.duration_s;
+    r.lease_s = run_->lease_s;
+    r.finished = run_->finished;
+    r.drive = health_of(run_->runner->drive_health(), false);
+    r.sensor = health_of(run_->runner->sensor_health(), false);
+    if (run_->finished) r.summary = run_->summary;
+    if (run_->move) r.move = move_json(*run_);
+    if (run_->calibration) r.calibration_progress = run_->calibration->progress();
+    s.run = r;
   }
-  return j;
+  return s;
 }
 
 json Daemon::fault_json() const {
@@ -99,11 +105,8 @@ json Daemon::fault_json() const {
 }
 
 json Daemon::position_json() const {
-  const auto last = recent_displacement_m();
-  const bool known = zero_.known() && last;
-  return {
-      {"position_rad", known ? json(zero_.angle_rad(*last, board_.sensor.r2_m)) : json(nullptr)},
-      {"zero_displacement_m", zero_.known() ? json(zero_.displacement_m()) : json(nullptr)}};
+  const protocol::Status s = status("");
+  return json(s).at("position");
 }
 
 json Daemon::move_json(const Run& run) const {

@@ -116,9 +116,4 @@ json SampleHub::fetch(const std::string& client, const json& args, bool budgeted
   return {{"frame", binary(protocol::encode_frame(first, samples))}};
 }
 
-json SampleHub::recorder_json() const {
-  return {{"drive", {{"first", drive_.first()}, {"next", drive_.next()}}},
-          {"sensor", {{"first", sensor_.first()}, {"next", sensor_.next()}}}};
-}
-
 }  // namespace piezo::daemon

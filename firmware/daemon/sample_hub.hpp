@@ -39,8 +39,8 @@ class SampleHub {
   [[nodiscard]] nlohmann::json fetch(const std::string& client, const nlohmann::json& args,
                                      bool budgeted);
 
-  /// `status`'s `recorder` {drive, sensor: {first, next}}.
-  [[nodiscard]] nlohmann::json recorder_json() const;
+  [[nodiscard]] std::uint64_t drive_first() const { return drive_.first(); }
+  [[nodiscard]] std::uint64_t sensor_first() const { return sensor_.first(); }
   [[nodiscard]] std::uint64_t drive_recorded() const { return drive_.next(); }
   [[nodiscard]] std::uint64_t sensor_recorded() const { return sensor_.next(); }
   [[nodiscard]] std::size_t drive_capacity() const { return drive_.capacity(); }

@@ -42,6 +42,7 @@ Hello a_hello() {
   h.backends = {"sim", "modbus-tcp", "none"};
   h.limits = {0.0, 80.0, 20000.0, 1000.0, 0.1, 500.0, 86400.0, 10.0};
   h.sensor_r2_m = 0.05;
+  h.sensor_zero_m = 0.0701;
   h.drive_rate_hz = 10000.0;
   h.sensor_rate_hz = 1000.0;
   h.output_latency_s = 1e-4;
@@ -79,6 +80,11 @@ TEST(Messages, HelloRoundTripsWithTheSensorRadius) {
   EXPECT_EQ(json(back), json(h));
   EXPECT_EQ(back.sensor_r2_m, 0.05);
   EXPECT_EQ(json(h).at("sensor").at("r2_m"), 0.05) << "the documented place: sensor.r2_m";
+  EXPECT_EQ(back.sensor_zero_m, 0.0701);
+  Hello none = h;
+  none.sensor_zero_m.reset();
+  EXPECT_TRUE(json(none).at("sensor").at("zero_displacement_m").is_null());
+  EXPECT_FALSE(over_the_wire(none).sensor_zero_m.has_value());
 }
 
 TEST(Messages, LoopHealthRoundTripsWithAndWithoutTiming) {
@@ -163,6 +169,43 @@ TEST(Messages, EventsAndSummariesRoundTrip) {
   EXPECT_EQ(json(over_the_wire(h)), json(h));
   HealthEvent quiet{"idle", 1, std::nullopt, std::nullopt, nullptr, std::nullopt};
   EXPECT_EQ(json(over_the_wire(quiet)), json(quiet));
+}
+
+TEST(Messages, StatusRoundTripsIdleAndDuringARun) {
+  Status idle;
+  idle.state = "idle";
+  idle.board_ns = 42;
+  idle.drive_recorded = {0, 0};
+  idle.calibration = nullptr;
+  EXPECT_EQ(json(over_the_wire(idle)), json(idle));
+  EXPECT_TRUE(json(idle).at("position").at("position_rad").is_null());
+  EXPECT_FALSE(json(idle).contains("run"));
+
+  Status busy = idle;
+  busy.state = "fault";
+  busy.controller = true;
+  busy.controlled = true;
+  busy.fault = "link_lost";
+  busy.drive_recorded = {100, 48000};
+  busy.sensor_recorded = {10, 4800};
+  busy.position_rad = 0.0123;
+  busy.zero_displacement_m = 0.07;
+  busy.calibration = {{"noise_m", 4e-7}};
+  busy.configured = ConfigureRequest{{80.0, 10.0, 0.95, 0.789, model::Direction::forward}, 4.8};
+  RunStatus r;
+  r.id = 3;
+  r.t0_ns = 1'000'000;
+  r.duration_s = 4.8;
+  r.lease_s = 0.5;
+  r.finished = true;
+  r.drive = a_health(false);
+  r.sensor = a_health(false);
+  r.summary = a_summary();
+  r.move = {{"state", "on_target"}};
+  r.calibration_progress = 1.0;
+  busy.run = r;
+  EXPECT_EQ(json(over_the_wire(busy)), json(busy));
+  EXPECT_EQ(over_the_wire(busy).run->summary->cause, "link_lost");
 }
 
 TEST(Messages, AReplyOrEventMissingAFieldIsMalformedNamingIt) {

@@ -92,7 +92,7 @@ void to_json(json& j, const Hello& m) {
          {"f_max_hz", l.f_max_hz},
          {"duration_max_s", l.duration_max_s},
          {"lease_max_s", l.lease_max_s}}},
-       {"sensor", {{"r2_m", m.sensor_r2_m}}},
+       {"sensor", {{"r2_m", m.sensor_r2_m}, {"zero_displacement_m", nil_or(m.sensor_zero_m)}}},
        {"drive_rate_hz", m.drive_rate_hz},
        {"sensor_rate_hz", m.sensor_rate_hz},
        {"output_latency_s", m.output_latency_s},
@@ -115,7 +115,9 @@ void from_json(const json& j, Hello& m) {
               field<double>(l, "slew_V_per_s"),   field<double>(l, "ramp_down_V_per_s"),
               field<double>(l, "sensor_stale_s"), field<double>(l, "f_max_hz"),
               field<double>(l, "duration_max_s"), field<double>(l, "lease_max_s")};
-  m.sensor_r2_m = field<double>(object_field(j, "sensor"), "r2_m");
+  const json sensor = object_field(j, "sensor");
+  m.sensor_r2_m = field<double>(sensor, "r2_m");
+  m.sensor_zero_m = optional_field<double>(sensor, "zero_displacement_m");
   m.drive_rate_hz = field<double>(j, "drive_rate_hz");
   m.sensor_rate_hz = field<double>(j, "sensor_rate_hz");
   m.output_latency_s = field<double>(j, "output_latency_s");
@@ -291,6 +293,69 @@ void from_json(const json& j, HealthEvent& m) {
   m.calibration_progress = optional_field<double>(j, "calibration_progress");
 }
 
+void to_json(json& j, const RunStatus& m) {
+  j = {{"id", m.id},           {"t0_ns", m.t0_ns},       {"duration_s", m.duration_s},
+       {"lease_s", m.lease_s}, {"finished", m.finished}, {"drive", m.drive},
+       {"sensor", m.sensor}};
+  if (m.summary) j["summary"] = *m.summary;
+  if (!m.move.is_null()) j["move"] = m.move;
+  if (m.calibration_progress) j["calibration_progress"] = *m.calibration_progress;
+}
+
+void from_json(const json& j, RunStatus& m) {
+  m.id = field<std::uint64_t>(j, "id");
+  m.t0_ns = field<std::int64_t>(j, "t0_ns");
+  m.duration_s = field<double>(j, "duration_s");
+  m.lease_s = field<double>(j, "lease_s");
+  m.finished = field<bool>(j, "finished");
+  m.drive = field<LoopHealth>(j, "drive");
+  m.sensor = field<LoopHealth>(j, "sensor");
+  m.summary = optional_field<RunSummary>(j, "summary");
+  m.move = j.value("move", json());
+  m.calibration_progress = optional_field<double>(j, "calibration_progress");
+}
+
+void to_json(json& j, const Status& m) {
+  const auto span = [](const Status::Span& s) {
+    return json{{"first", s.first}, {"next", s.next}};
+  };
+  j = {{"state", m.state},
+       {"board_ns", m.board_ns},
+       {"controller", m.controller},
+       {"controlled", m.controlled},
+       {"fault", nil_or(m.fault)},
+       {"recorder", {{"drive", span(m.drive_recorded)}, {"sensor", span(m.sensor_recorded)}}},
+       {"position",
+        {{"position_rad", nil_or(m.position_rad)},
+         {"zero_displacement_m", nil_or(m.zero_displacement_m)}}},
+       {"calibration", m.calibration}};
+  if (m.configured) j["configured"] = *m.configured;
+  if (m.run) j["run"] = *m.run;
+}
+
+void from_json(const json& j, Status& m) {
+  const auto span = [](const json& s) {
+    return Status::Span{field<std::uint64_t>(s, "first"), field<std::uint64_t>(s, "next")};
+  };
+  m.state = field<std::string>(j, "state");
+  m.board_ns = field<std::int64_t>(j, "board_ns");
+  m.controller = field<bool>(j, "controller");
+  m.controlled = field<bool>(j, "controlled");
+  m.fault = optional_field<std::string>(j, "fault");
+  const json recorder = object_field(j, "recorder");
+  m.drive_recorded = span(object_field(recorder, "drive"));
+  m.sensor_recorded = span(object_field(recorder, "sensor"));
+  const json position = object_field(j, "position");
+  m.position_rad = optional_field<double>(position, "position_rad");
+  m.zero_displacement_m = optional_field<double>(position, "zero_displacement_m");
+  m.calibration = j.value("calibration", json());
+  m.configured.reset();
+  if (j.contains("configured") && !j.at("configured").is_null()) {
+    m.configured = field<ConfigureRequest>(j, "configured");
+  }
+  m.run = optional_field<RunStatus>(j, "run");
+}
+
 template <class T>
 T decode(const json& j) {
   if (!j.is_object()) throw ProtocolError(code::malformed, "", "not a map");
@@ -305,5 +370,7 @@ template MoveToRequest decode<MoveToRequest>(const json&);
 template RunSummary decode<RunSummary>(const json&);
 template StateEvent decode<StateEvent>(const json&);
 template HealthEvent decode<HealthEvent>(const json&);
+template RunStatus decode<RunStatus>(const json&);
+template Status decode<Status>(const json&);
 
 }  // namespace piezo::protocol

@@ -30,13 +30,12 @@ json BoardWatch::call(const std::string& cmd, const json& args) {
 }
 
 void BoardWatch::follow_run(std::uint64_t run) {
-  const json status = call("status");
-  const json& r = status.value("run", json::object());
-  if (r.value("id", std::uint64_t{0}) != run) return;
+  const auto status = protocol::decode<protocol::Status>(call("status"));
+  if (!status.run || status.run->id != run) return;
   run_ = run;
   last_summary_ = nullptr;
   health_.erase("summary");
-  const auto t0 = r.at("t0_ns").get<hal::TimeNs>();
+  const hal::TimeNs t0 = status.run->t0_ns;
   observer_.reset();
   if (config_.observer.enabled) {
     observer_ =
@@ -76,8 +75,8 @@ void BoardWatch::poll(std::chrono::milliseconds wait) {
   follower_.drain(wait, 256, handlers);
   // A run already under way when the watch started: its start event was missed.
   if (!run_ && health_.value("state", "") == "running") {
-    const json status = call("status");
-    if (status.contains("run")) follow_run(status["run"].at("id").get<std::uint64_t>());
+    const auto status = protocol::decode<protocol::Status>(call("status"));
+    if (status.run) follow_run(status.run->id);
   }
   {
     const std::lock_guard lock(commands_);

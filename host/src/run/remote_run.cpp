@@ -319,15 +319,12 @@ void FollowedRun::ask_when_quiet(std::optional<protocol::RunSummary>& end) {
         board_run_s() - std::chrono::duration<double>(now - follower_.last_heard()).count();
   }
   try {
-    const json s = client_.call("status", json::object(), 500ms);
-    const json& run = s.value("run", json::object());
+    const auto s =
+        protocol::decode<protocol::Status>(client_.call("status", json::object(), 500ms));
     // A board that restarted answers, but knows nothing of this run (its
     // ids start again: the start time tells): that is silence too.
-    const bool ours =
-        run.value("id", json()) == run_id_ && run.value("t0_ns", json()) == started_.at("t0_ns");
-    if (ours && run.value("finished", false)) {
-      end = protocol::decode<protocol::RunSummary>(run.at("summary"));
-    }
+    const bool ours = s.run && s.run->id == run_id_ && s.run->t0_ns == t0_;
+    if (ours && s.run->finished) end = s.run->summary;
     follower_.heard();
     if (ours) last_contact_ = follower_.last_heard();
   } catch (const LinkTimeout&) {

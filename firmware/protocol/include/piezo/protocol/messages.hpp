@@ -35,6 +35,9 @@ struct Hello {
            sensor_stale_s = 0.0, f_max_hz = 0.0, duration_max_s = 0.0, lease_max_s = 0.0;
   } limits;
   double sensor_r2_m = 0.0;  ///< `sensor.r2_m`: angles are displacements over it
+  /// `sensor.zero_displacement_m`: the board's zero when asked (nil: none
+  /// yet); a move's reply and `status` say it again as it changes.
+  std::optional<double> sensor_zero_m;
   double drive_rate_hz = 0.0;
   double sensor_rate_hz = 0.0;
   double output_latency_s = 0.0;
@@ -108,6 +111,35 @@ struct StateEvent {
   std::optional<RunSummary> summary;  ///< once the run `run` ended
 };
 
+/// The run in `status`: the one under way, or the last.
+struct RunStatus {
+  std::uint64_t id = 0;
+  std::int64_t t0_ns = 0;
+  double duration_s = 0.0, lease_s = 0.0;
+  bool finished = false;
+  LoopHealth drive, sensor;
+  std::optional<RunSummary> summary;  ///< once finished
+  nlohmann::json move;                ///< a move's progress, or nil
+  std::optional<double> calibration_progress;
+};
+
+/// `status`'s reply: the board's full snapshot.
+struct Status {
+  std::string state;
+  std::int64_t board_ns = 0;
+  bool controller = false;  ///< the caller controls the rig
+  bool controlled = false;  ///< some client does
+  std::optional<std::string> fault;
+  struct Span {
+    std::uint64_t first = 0, next = 0;
+  } drive_recorded, sensor_recorded;  ///< `recorder` {drive, sensor}
+  /// `position` {position_rad, zero_displacement_m}
+  std::optional<double> position_rad, zero_displacement_m;
+  nlohmann::json calibration;  ///< as in hello
+  std::optional<ConfigureRequest> configured;
+  std::optional<RunStatus> run;
+};
+
 /// The `health` event: about four a second.
 struct HealthEvent {
   std::string state;
@@ -135,6 +167,10 @@ void to_json(nlohmann::json& j, const StateEvent& m);
 void from_json(const nlohmann::json& j, StateEvent& m);
 void to_json(nlohmann::json& j, const HealthEvent& m);
 void from_json(const nlohmann::json& j, HealthEvent& m);
+void to_json(nlohmann::json& j, const RunStatus& m);
+void from_json(const nlohmann::json& j, RunStatus& m);
+void to_json(nlohmann::json& j, const Status& m);
+void from_json(const nlohmann::json& j, Status& m);
 
 /// Decodes `j` as a T, any failure a ProtocolError naming the field.
 template <class T>
