@@ -9,6 +9,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -64,6 +66,68 @@ TEST(DocCommands, EveryShellBlockInTheDocsRunsAsWritten) {
     }
   }
   EXPECT_GE(ran, 7u) << "the getting-started page's session should be among them";
+}
+
+/// The `piezo` command lines shown in a page's code (indented blocks and
+/// fenced ones), continuation lines joined.
+std::vector<std::string> piezo_lines(const fs::path& page) {
+  std::ifstream in(page);
+  std::vector<std::string> out;
+  bool fenced = false;
+  std::string pending;
+  const std::regex command(R"((^|\s|/)piezo ([a-z][a-z-]*)( |$))");
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("```", 0) == 0) {
+      fenced = !fenced;
+      continue;
+    }
+    const bool code = fenced || line.rfind("    ", 0) == 0;
+    if (!pending.empty()) {
+      pending += " " + line;
+    } else if (code && std::regex_search(line, command)) {
+      pending = line;
+    }
+    if (!pending.empty() && (pending.empty() || pending.back() != '\\')) {
+      out.push_back(pending);
+      pending.clear();
+    }
+  }
+  return out;
+}
+
+// Commands shown as synopses or examples (not run: they take a board, a
+// port or minutes) must still exist, with the options they show.
+TEST(DocCommands, EveryPiezoCommandShownExistsWithTheOptionsItShows) {
+  const std::regex command(R"((?:^|\s|/)piezo ([a-z][a-z-]*)(?: (read))?(?= |$))");
+  const std::regex option(R"(--[a-z][a-z0-9-]*)");
+  std::map<std::string, std::string> help;  // subcommand -> its --help
+  std::size_t checked = 0;
+  for (const auto& page : pages()) {
+    for (const auto& line : piezo_lines(page)) {
+      std::smatch m;
+      if (!std::regex_search(line, m, command)) continue;
+      const std::string sub = m[2].matched ? m[1].str() + " " + m[2].str() : m[1].str();
+      if (!help.count(sub)) {
+        const auto r = run_command(kPiezo + " " + sub + " --help");
+        ASSERT_EQ(r.exit_code, 0) << page.filename().string() << ": `piezo " << sub
+                                  << "` is not a command\n"
+                                  << line << "\n"
+                                  << r.err;
+        help[sub] = r.out;
+      }
+      // The options after this command (another command on the line starts over).
+      const std::string rest = m.suffix().str().substr(0, m.suffix().str().find("piezo "));
+      for (std::sregex_iterator it(rest.begin(), rest.end(), option), end; it != end; ++it) {
+        EXPECT_NE(help[sub].find(it->str()), std::string::npos)
+            << page.filename().string() << ": `piezo " << sub << "` has no option " << it->str()
+            << "\n"
+            << line;
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GE(help.size(), 15u) << "most commands are shown somewhere";
+  EXPECT_GE(checked, 50u);
 }
 
 }  // namespace
