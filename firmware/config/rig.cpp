@@ -23,17 +23,16 @@ std::unique_ptr<hal::Clock> make_clock(RunClock clock) {
   return nullptr;
 }
 
-hal::sim::SimRigSettings sim_rig_settings(const RunConfig& c) {
-  return {c.plant, c.drive.amplifier, c.drive.dac, c.sensor.sim, c.lines.sim,
-          c.plant_end_stop_rad};
+hal::sim::SimRigSettings sim_rig_settings(const RigConfig& c) {
+  return {c.plant, c.drive.amplifier, c.drive.dac, c.sensor.sim, c.lines.sim, c.plant_end_stop_rad};
 }
 
-std::unique_ptr<hal::DisplacementSensor> make_modbus_sensor(const RunConfig& c,
+std::unique_ptr<hal::DisplacementSensor> make_modbus_sensor(const RigConfig& c,
                                                             const hal::Clock& clock) {
   return std::make_unique<hal::modbus::ModbusSensor>(c.sensor.link, c.sensor.map, clock);
 }
 
-std::unique_ptr<hal::DisplacementSensor> held_to_range(const RunConfig& c,
+std::unique_ptr<hal::DisplacementSensor> held_to_range(const RigConfig& c,
                                                        hal::DisplacementSensor& sensor) {
   return std::make_unique<hal::RangeCheckedSensor>(sensor, c.sensor.range_min_m,
                                                    c.sensor.range_max_m);
@@ -41,7 +40,7 @@ std::unique_ptr<hal::DisplacementSensor> held_to_range(const RunConfig& c,
 
 }  // namespace
 
-Rig build_rig(const RunConfig& c) {
+Rig build_rig(const RigConfig& c) {
   Rig rig;
   rig.clock = make_clock(c.run.clock);
   rig.t0 = rig.clock->now();
@@ -93,7 +92,7 @@ Rig build_rig(const RunConfig& c) {
   return rig;
 }
 
-SensorRig build_sensor(const RunConfig& c) {
+SensorRig build_sensor(const RigConfig& c) {
   SensorRig s;
   s.clock = std::make_unique<hal::posix::MonotonicClock>();
   switch (c.sensor.backend) {

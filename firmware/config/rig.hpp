@@ -11,7 +11,7 @@
 #include "piezo/hal/displacement_sensor.hpp"
 #include "piezo/hal/drive.hpp"
 #include "piezo/hal/sim/sim_rig.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 
 namespace piezo::config {
 
@@ -42,7 +42,7 @@ struct Rig {
 /// Builds the clock and the backends; throws ConfigError when the drive
 /// hardware cannot honour the configured limits, std::runtime_error when a
 /// device cannot be reached.
-[[nodiscard]] Rig build_rig(const RunConfig& config);
+[[nodiscard]] Rig build_rig(const RigConfig& config);
 
 /// Just the sensor, on the real clock: for `piezo sensor read`.
 struct SensorRig {
@@ -52,6 +52,6 @@ struct SensorRig {
   std::unique_ptr<hal::DisplacementSensor> checked_sensor;  ///< as in Rig
   hal::DisplacementSensor* sensor = nullptr;
 };
-[[nodiscard]] SensorRig build_sensor(const RunConfig& config);
+[[nodiscard]] SensorRig build_sensor(const RigConfig& config);
 
 }  // namespace piezo::config

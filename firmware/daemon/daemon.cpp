@@ -24,11 +24,11 @@ constexpr auto kHealthPeriod = std::chrono::milliseconds(250);
 
 }  // namespace
 
-Daemon::Daemon(const config::RunConfig& board, zmq::context_t& context, const std::string& listen,
+Daemon::Daemon(const config::RigConfig& board, zmq::context_t& context, const std::string& listen,
                std::ostream& log)
     : Daemon(board, config::build_rig(board), context, listen, log) {}
 
-Daemon::Daemon(const config::RunConfig& board, config::Rig rig, zmq::context_t& context,
+Daemon::Daemon(const config::RigConfig& board, config::Rig rig, zmq::context_t& context,
                const std::string& listen, std::ostream& log)
     : board_(board),
       log_(log),

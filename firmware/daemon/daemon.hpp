@@ -31,7 +31,7 @@
 #include "piezo/firmware/move_planner.hpp"
 #include "piezo/protocol/messages.hpp"
 #include "rig.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 #include "run_state.hpp"
 #include "sample_hub.hpp"
 
@@ -42,11 +42,11 @@ class Daemon {
   /// Builds the rig (opens the hardware) and binds both sockets; throws
   /// with a clear message when either fails. `listen` overrides the
   /// config's address; `log` receives one line per event.
-  Daemon(const config::RunConfig& board, zmq::context_t& context, const std::string& listen,
+  Daemon(const config::RigConfig& board, zmq::context_t& context, const std::string& listen,
          std::ostream& log);
   /// The same on a rig built by the caller (the host's one-machine default,
   /// tests that look at the simulated devices afterwards).
-  Daemon(const config::RunConfig& board, config::Rig rig, zmq::context_t& context,
+  Daemon(const config::RigConfig& board, config::Rig rig, zmq::context_t& context,
          const std::string& listen, std::ostream& log);
   ~Daemon();
   Daemon(const Daemon&) = delete;
@@ -132,7 +132,7 @@ class Daemon {
   void publish_state();
   void publish_health();
 
-  config::RunConfig board_;
+  config::RigConfig board_;
   std::ostream& log_;
   config::Rig rig_;
   zmq::context_t& context_;

@@ -10,7 +10,7 @@
 #include "config_error.hpp"
 #include "curve.hpp"
 #include "daemon.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 #include "service_manager.hpp"
 
 namespace {
@@ -60,7 +60,7 @@ int main(int argc, char** argv) {
                 << key_name << ".pub\n";
       return 0;
     }
-    auto board = piezo::config::load_run_config(config_path, sets);
+    auto board = piezo::config::load_rig_config(config_path, sets);
     if (insecure) board.daemon.insecure = true;
     zmq::context_t context;
     piezo::daemon::ServiceManager service;

@@ -24,7 +24,7 @@
 #include "piezo/firmware/loop_runner.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "rig.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 
 namespace {
 
@@ -111,7 +111,7 @@ Latencies over_the_protocol(double seconds, double& cpu_percent) {
 }
 
 Latencies in_process(double seconds) {
-  auto config = config::load_run_config(PIEZO_SOURCE_DIR "/configs/sim.toml");
+  auto config = config::load_rig_config(PIEZO_SOURCE_DIR "/configs/sim.toml");
   config::Rig rig = config::build_rig(config);
   const model::Sawtooth waveform(80.0, 10.0, config.model.drive.D());
   firmware::LoopRunner runner({{config.drive.rate_hz, seconds, 0.1, config.drive.limits},

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "config_error.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 
 namespace {
 
@@ -38,7 +38,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   using piezo::config::ConfigScope;
   for (const ConfigScope scope : {ConfigScope::rig, ConfigScope::sensor}) {
     try {
-      (void)piezo::config::load_run_config(scratch_file(), sets, scope);
+      (void)piezo::config::load_rig_config(scratch_file(), sets, scope);
     } catch (const ConfigError&) {
     }
   }

@@ -31,7 +31,7 @@ case "$target" in
            "${hal_includes[@]}")
     libs=(-lfmt) ;;
   config)
-    sources=("$src"/firmware/config/{section_reader,model_config,run_config,modbus_config}.cpp
+    sources=("$src"/firmware/config/{section_reader,model_config,rig_config,modbus_config}.cpp
              "$src"/firmware/src/request_limits.cpp
              "$src"/hal/modbus/src/register_map.cpp "$src"/model/src/{parameters,waveform}.cpp)
     flags=(-I"$src/firmware/config" -I"$src/firmware/config/error" -I"$src/firmware/include" "${hal_includes[@]}"

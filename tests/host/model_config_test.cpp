@@ -4,7 +4,7 @@
 
 #include "../support/run_command.hpp"
 #include "config_error.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 
 namespace piezo::config {
 namespace {
@@ -117,7 +117,7 @@ TEST(ParameterOverride, RejectsBadInput) {
 }  // namespace
 }  // namespace piezo::config
 
-#include "run_config.hpp"
+#include "rig_config.hpp"
 
 namespace piezo::config {
 namespace {
@@ -127,10 +127,10 @@ namespace {
 TEST(RigConfigs, ShippedConfigsLoad) {
   for (const char* name : {"sim.toml", "modbus-hil.toml", "rig-example.toml"}) {
     const std::string path = std::string(PIEZO_SOURCE_DIR) + "/configs/" + name;
-    EXPECT_NO_THROW((void)load_run_config(path)) << name;
+    EXPECT_NO_THROW((void)load_rig_config(path)) << name;
   }
-  const RunConfig rig =
-      load_run_config(std::string(PIEZO_SOURCE_DIR) + "/configs/rig-example.toml");
+  const RigConfig rig =
+      load_rig_config(std::string(PIEZO_SOURCE_DIR) + "/configs/rig-example.toml");
   EXPECT_EQ(rig.drive.gpio_dac.dac.bits, 12);
   EXPECT_TRUE(rig.drive.gpio_dac.dac.has_strobe);
   EXPECT_EQ(rig.sensor.map.address, 202);

@@ -17,7 +17,7 @@
 #include "piezo/model/sampled_drive.hpp"
 #include "piezo/model/simulate.hpp"
 #include "rig.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 #include "run_log.hpp"
 #include "run_session.hpp"
 
@@ -42,7 +42,7 @@ Outcome run_virtual(std::vector<std::string> sets, double stop_at_s = -1.0,
                     const std::string& tag = "hil", std::uint64_t step_periods = 0,
                     std::optional<config::RunSettings::Move> move = std::nullopt) {
   sets.push_back("run.clock=virtual");
-  config::RunConfig config = config::load_run_config(PIEZO_SOURCE_DIR "/configs/sim.toml", sets);
+  config::RigConfig config = config::load_rig_config(PIEZO_SOURCE_DIR "/configs/sim.toml", sets);
   if (step_periods > 0) {
     config.run.step_periods = step_periods;
     config.run.duration_s = static_cast<double>(step_periods) / config.model.drive.f;
@@ -445,8 +445,8 @@ TEST(SimRun, EveryEndLeavesTheSimulatedAmplifierDisabled) {
 // building the rig and starting: the time origin is fixed after it, so the
 // first cycles are not late and the sensor is not taken for stale.
 TEST(SimRun, SlowSetUpBeforeTheStartIsNoSensorFault) {
-  const config::RunConfig config =
-      config::load_run_config(PIEZO_SOURCE_DIR "/configs/sim.toml",
+  const config::RigConfig config =
+      config::load_rig_config(PIEZO_SOURCE_DIR "/configs/sim.toml",
                               {"run.duration_s=0.3", "run.lock_memory=false", "run.priority=0"});
   config::Rig rig = config::build_rig(config);
   std::this_thread::sleep_for(std::chrono::milliseconds(400));
@@ -471,8 +471,8 @@ TEST(SimRun, EstopDisablesWithinOneDrivePeriod) {
 // the daemon's thread at once, seen on the simulated amplifier itself, not
 // when the write returns. In real time, the run on a thread of its own.
 TEST(SimRun, AnEstopActsDuringASlowDriveWrite) {
-  config::RunConfig config =
-      config::load_run_config(PIEZO_SOURCE_DIR "/configs/sim.toml",
+  config::RigConfig config =
+      config::load_rig_config(PIEZO_SOURCE_DIR "/configs/sim.toml",
                               {"drive.stall_at_s=0.5", "drive.stall_for_s=5", "run.duration_s=10",
                                "run.priority=0", "run.lock_memory=false"});
   config::Rig rig = config::build_rig(config);

@@ -13,7 +13,7 @@
 namespace piezo::host {
 using nlohmann::json;
 
-BoardWatch::BoardWatch(const config::RunConfig& config, BoardClient& client,
+BoardWatch::BoardWatch(const config::RigConfig& config, BoardClient& client,
                        const protocol::Hello& hello, view::LiveFeed& feed)
     : config_(config),
       client_(client),
@@ -132,7 +132,7 @@ json BoardWatch::move_to(const json& args) {
   for (const char* key : {"target_rad", "tolerance_rad", "settle_s", "timeout_s"}) {
     if (args.contains(key)) request[key] = args[key];
   }
-  request["lease_s"] = config_.rig.lease_s > 0.0 ? config_.rig.lease_s : 1.0;
+  request["lease_s"] = config_.board.lease_s > 0.0 ? config_.board.lease_s : 1.0;
   const std::lock_guard lock(commands_);
   const json started = client_.call("move_to", request);
   lease_s_ = started.at("lease_s").get<double>();

@@ -14,7 +14,7 @@
 #include "board_client.hpp"
 #include "live_feed.hpp"
 #include "observer_stage.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 #include "sample_collector.hpp"
 #include "stream_follower.hpp"
 
@@ -23,7 +23,7 @@ namespace piezo::host {
 class BoardWatch {
  public:
   /// `hello` is the board's answer to `hello` (rates, latency).
-  BoardWatch(const config::RunConfig& config, BoardClient& client, const protocol::Hello& hello,
+  BoardWatch(const config::RigConfig& config, BoardClient& client, const protocol::Hello& hello,
              view::LiveFeed& feed);
 
   /// Handles what the stream brought within `wait`, and renews the lease of
@@ -43,7 +43,7 @@ class BoardWatch {
   nlohmann::json call(const std::string& cmd,
                       const nlohmann::json& args = nlohmann::json::object());
 
-  config::RunConfig config_;
+  config::RigConfig config_;
   BoardClient& client_;
   protocol::Hello hello_;
   view::LiveFeed& feed_;

@@ -197,7 +197,7 @@ std::string summary_text(const json& cal, const std::string& kept) {
 }  // namespace
 
 CalibrationReport finish_calibration(const fs::path& dir, const fs::path& log,
-                                     const json& board_calibration, const config::RunConfig& config,
+                                     const json& board_calibration, const config::RigConfig& config,
                                      BoardClient* client) {
   CalibrationReport report;
   json cal = board_calibration;

@@ -11,7 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "board_client.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 
 namespace piezo::host {
 
@@ -27,7 +27,7 @@ struct CalibrationReport {
 [[nodiscard]] CalibrationReport finish_calibration(const std::filesystem::path& dir,
                                                    const std::filesystem::path& log,
                                                    const nlohmann::json& board_calibration,
-                                                   const config::RunConfig& config,
+                                                   const config::RigConfig& config,
                                                    BoardClient* client);
 
 }  // namespace piezo::host

@@ -13,7 +13,7 @@ namespace piezo::host {
 namespace {
 
 struct BoardOptions {
-  config::RigAddress rig;
+  config::BoardAddress rig;
   bool json = false;
 };
 

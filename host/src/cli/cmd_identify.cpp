@@ -9,7 +9,7 @@
 #include "config_error.hpp"
 #include "fit_io.hpp"
 #include "model_config.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 
 namespace piezo::host {
 namespace {

@@ -17,9 +17,9 @@
 #include "config_error.hpp"
 #include "piezo/protocol/error.hpp"
 #include "piezo/protocol/frame.hpp"
-#include "run_config.hpp"
-#include "run_recovery.hpp"
+#include "rig_config.hpp"
 #include "run_log.hpp"
+#include "run_recovery.hpp"
 #include "sample_collector.hpp"
 
 namespace piezo::host {
@@ -43,7 +43,7 @@ int recover_spill(const RecoverOptions& o) {
   const double r2 =
       o.config.empty()
           ? config::SensorSettings{}.r2_m
-          : config::load_run_config(o.config, {}, config::ConfigScope::sensor).sensor.r2_m;
+          : config::load_rig_config(o.config, {}, config::ConfigScope::sensor).sensor.r2_m;
   std::ifstream in(o.spill, std::ios::binary);
   if (!in) throw config::ConfigError(o.spill, "file", "cannot be read");
   std::vector<firmware::DriveSample> drive;
@@ -128,7 +128,8 @@ int run(const RecoverOptions& o) {
     fmt::print("{}: run.h5 is readable ({}); nothing to recover\n", o.run_dir, r.status);
   }
   // Less than was found: said on stderr and in the exit code, whatever the format.
-  for (const std::string& loss : r.losses) fmt::print(stderr, "{}: not recovered: {}\n", o.run_dir, loss);
+  for (const std::string& loss : r.losses)
+    fmt::print(stderr, "{}: not recovered: {}\n", o.run_dir, loss);
   return r.kept_less() ? 1 : 0;
 }
 

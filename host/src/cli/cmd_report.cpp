@@ -21,7 +21,7 @@
 #include "log_schema.hpp"
 #include "parameters_json.hpp"
 #include "piezo/model/simulate.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 #include "run_recovery.hpp"
 
 namespace piezo::host {

@@ -9,7 +9,7 @@
 #include "commands.hpp"
 #include "config_error.hpp"
 #include "piezo/hal/sim/modbus_rig_device.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 
 namespace piezo::host {
 namespace {
@@ -33,7 +33,7 @@ std::pair<std::string, int> split_host_port(const std::string& text) {
   }
 }
 
-hal::sim::ModbusRigDeviceSettings device_settings(const config::RunConfig& c) {
+hal::sim::ModbusRigDeviceSettings device_settings(const config::RigConfig& c) {
   hal::sim::ModbusRigDeviceSettings s;
   s.plant = c.plant;
   s.amplifier = c.drive.amplifier;
@@ -49,8 +49,8 @@ hal::sim::ModbusRigDeviceSettings device_settings(const config::RunConfig& c) {
 }
 
 int run(const RigSimOptions& o) {
-  const config::RunConfig config =
-      config::load_run_config(o.config, o.sets, config::ConfigScope::sensor);
+  const config::RigConfig config =
+      config::load_rig_config(o.config, o.sets, config::ConfigScope::sensor);
   std::string tcp = o.tcp;
   if (tcp.empty() && o.rtu.empty()) {
     tcp = config.sensor.link.host + ":" + std::to_string(config.sensor.link.port);

@@ -24,7 +24,7 @@
 #include "piezo/firmware/request_limits.hpp"
 #include "remote_run.hpp"
 #include "rig.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 #include "run_log.hpp"
 #include "run_session.hpp"
 #include "signals.hpp"
@@ -240,7 +240,7 @@ std::string summary_text(const RunSummary& s, const fs::path& log, const std::st
 }
 
 void append_catalogue(const fs::path& run_dir, const std::string& utc_start,
-                      const config::RunConfig& config, const RunSummary& s) {
+                      const config::RigConfig& config, const RunSummary& s) {
   append_to_catalogue(run_dir, {.utc_start = utc_start,
                                 .status = s.status(),
                                 .stop_cause = s.stop_cause(),
@@ -330,7 +330,7 @@ int exit_code(const RunSummary& summary) {
 /// `piezo calibrate`'s end: the fit, the files and the board told, or why not.
 int report_calibration(const RunOptions& o, const RunSummary& summary, nlohmann::json result,
                        const fs::path& dir, const fs::path& log_path,
-                       const config::RunConfig& config, BoardClient* client) {
+                       const config::RigConfig& config, BoardClient* client) {
   const nlohmann::json measured = summary.calibration.is_object()
                                       ? summary.calibration.value("calibration", nlohmann::json())
                                       : nlohmann::json();
@@ -378,7 +378,7 @@ int report_calibration(const RunOptions& o, const RunSummary& summary, nlohmann:
 
 /// The run's config: the file and --set, the command's own options (steps,
 /// a move, the calibration) and the board's address.
-config::RunConfig run_config(const RunOptions& o) {
+config::RigConfig rig_config(const RunOptions& o) {
   std::vector<std::string> sets = o.sets;
   if (o.duration > 0.0) sets.push_back(fmt::format("run.duration_s={}", o.duration));
   if (o.V0) sets.push_back(fmt::format("drive.V0={}", *o.V0));
@@ -388,7 +388,7 @@ config::RunConfig run_config(const RunOptions& o) {
     throw config::ConfigError("command line", "--config",
                               "required, or --rig ADDRESS (a board with its own config)");
   }
-  config::RunConfig config = config::load_run_config(o.config, sets);
+  config::RigConfig config = config::load_rig_config(o.config, sets);
   if (o.step_periods > 0) {
     config.run.step_periods = o.step_periods;
     config.run.duration_s = static_cast<double>(o.step_periods) / config.model.drive.f;
@@ -413,7 +413,7 @@ config::RunConfig run_config(const RunOptions& o) {
     config.run.calibrate = config::RunSettings::Calibrate{o.V0};
     config.run.duration_s = 60.0;  // the board's plan says how long; its start reply tells
   }
-  if (!o.rig.empty()) config.rig.address = o.rig;
+  if (!o.rig.empty()) config.board.address = o.rig;
   return config;
 }
 
@@ -426,13 +426,13 @@ struct Board {
   double drive_latency_s = 0.0;
 };
 
-void connect(Board& board, config::RunConfig& config) {
-  if (config.rig.address.empty()) {
+void connect(Board& board, config::RigConfig& config) {
+  if (config.board.address.empty()) {
     board.rig.emplace(config::build_rig(config));
     board.drive_latency_s = board.rig->drive->output_latency_s();
     return;
   }
-  board.client.emplace(config.rig);
+  board.client.emplace(config.board);
   board.hello = board.client->hello();
   if (const std::string note = adopt_board_sensor(config, board.hello); !note.empty()) {
     write_out(stderr, "piezo: " + note + "\n");
@@ -465,7 +465,7 @@ std::unique_ptr<view::ViewServer> open_view(const RunOptions& o, const fs::path&
 
 /// The run's directory and log, once everything is checked: only now does
 /// the run leave traces.
-RunLog create_log(const fs::path& dir, const config::RunConfig& config, const Board& board,
+RunLog create_log(const fs::path& dir, const config::RigConfig& config, const Board& board,
                   const std::string& utc_start) {
   fs::create_directories(dir);
   if (!fs::is_empty(dir)) {
@@ -515,7 +515,7 @@ std::function<void(const LiveStatus&)> status_reporter(const RunOptions& o, view
 
 /// Runs it; a failure before the run's end leaves the log marked failed
 /// with the reason (the log keeps what it has) and is thrown on.
-RunSummary drive(Board& board, const config::RunConfig& config, RunLog& log,
+RunSummary drive(Board& board, const config::RigConfig& config, RunLog& log,
                  const StopOnSignals& signals,
                  const std::function<void(const LiveStatus&)>& status_line,
                  const std::atomic<bool>& estop_requested) {
@@ -523,7 +523,7 @@ RunSummary drive(Board& board, const config::RunConfig& config, RunLog& log,
     if (board.client) {
       return execute_remote_run(
           config, *board.client, board.hello, log, signals.flag(), status_line,
-          config.rig.lease_s > 0.0 ? std::optional(config.rig.lease_s) : std::nullopt,
+          config.board.lease_s > 0.0 ? std::optional(config.board.lease_s) : std::nullopt,
           &estop_requested);
     }
     return execute_run(config, std::move(*board.rig), log, signals.flag(), status_line,
@@ -543,7 +543,7 @@ RunSummary drive(Board& board, const config::RunConfig& config, RunLog& log,
 }
 
 /// What the command prints, and its exit code.
-int report(const RunOptions& o, const RunSummary& summary, const config::RunConfig& config,
+int report(const RunOptions& o, const RunSummary& summary, const config::RigConfig& config,
            const fs::path& dir, const fs::path& log_path, Board& board, const std::string& signal) {
   // The result, rebuilt: finishing the log may have failed the run.
   nlohmann::json result = summary_json(summary, dir, log_path, signal);
@@ -584,7 +584,7 @@ int run(const RunOptions& o) {
   // From here on every stopping signal ends the run through the ramp; one
   // that comes during set-up stops it before the amplifier is enabled.
   const StopOnSignals signals;
-  config::RunConfig config = run_config(o);
+  config::RigConfig config = rig_config(o);
   const fs::path dir = choose_run_dir(o.out);
   Board board;
   connect(board, config);

@@ -15,7 +15,7 @@
 #include "model_config.hpp"
 #include "parallel.hpp"
 #include "piezo/model/sensitivity.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 
 namespace piezo::host {
 namespace {

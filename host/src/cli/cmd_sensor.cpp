@@ -12,7 +12,7 @@
 #include "commands.hpp"
 #include "piezo/hal/modbus/modbus_sensor.hpp"
 #include "rig.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 
 namespace piezo::host {
 namespace {
@@ -65,8 +65,8 @@ struct SensorReadOptions {
 };
 
 int run(const SensorReadOptions& o) {
-  const config::RunConfig config =
-      config::load_run_config(o.config, o.sets, config::ConfigScope::sensor);
+  const config::RigConfig config =
+      config::load_rig_config(o.config, o.sets, config::ConfigScope::sensor);
   config::SensorRig rig = config::build_sensor(config);
   hal::Clock& clock = *rig.clock;
   const auto period = hal::from_seconds(1.0 / config.sensor.rate_hz());

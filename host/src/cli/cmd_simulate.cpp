@@ -19,7 +19,7 @@
 #include "model_config.hpp"
 #include "parameters_json.hpp"
 #include "piezo/model/simulate.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 
 namespace piezo::host {
 namespace {

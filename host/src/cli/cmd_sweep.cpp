@@ -16,7 +16,7 @@
 #include "parallel.hpp"
 #include "piezo/model/frequency_sweep.hpp"
 #include "piezo/model/sensitivity.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 
 namespace piezo::host {
 namespace {

@@ -15,7 +15,7 @@
 #include "commands.hpp"
 #include "config_error.hpp"
 #include "live_feed.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 #include "signals.hpp"
 #include "view_server.hpp"
 
@@ -41,10 +41,10 @@ int serve(const ViewCliOptions& o) {
     return 0;
   }
   // The host's view of the model and the sensor's radius: a config, or the defaults.
-  config::RunConfig config =
-      o.config.empty() ? config::RunConfig{} : config::load_run_config(o.config, {});
-  config.rig.address = o.rig;
-  BoardClient client(config.rig);
+  config::RigConfig config =
+      o.config.empty() ? config::RigConfig{} : config::load_rig_config(o.config, {});
+  config.board.address = o.rig;
+  BoardClient client(config.board);
   const protocol::Hello hello = client.hello();
   if (const std::string note = adopt_board_sensor(config, hello); !note.empty()) {
     std::cerr << "piezo view: " << note << "\n";

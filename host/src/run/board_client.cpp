@@ -11,13 +11,13 @@
 
 namespace piezo::host {
 
-BoardClient::BoardClient(const config::RigAddress& rig)
+BoardClient::BoardClient(const config::BoardAddress& rig)
     : BoardClient(rig, std::make_shared<zmq::context_t>()) {}
 
-BoardClient::BoardClient(const config::RigAddress& rig, zmq::context_t& shared)
+BoardClient::BoardClient(const config::BoardAddress& rig, zmq::context_t& shared)
     : BoardClient(rig, std::shared_ptr<zmq::context_t>(&shared, [](zmq::context_t*) {})) {}
 
-BoardClient::BoardClient(const config::RigAddress& rig, std::shared_ptr<zmq::context_t> context)
+BoardClient::BoardClient(const config::BoardAddress& rig, std::shared_ptr<zmq::context_t> context)
     : address_(rig.address),
       context_(std::move(context)),
       commands_(*context_, zmq::socket_type::dealer),
@@ -110,7 +110,7 @@ protocol::Hello BoardClient::hello() {
   return protocol::decode<protocol::Hello>(hello);
 }
 
-std::string adopt_board_sensor(config::RunConfig& c, const protocol::Hello& hello) {
+std::string adopt_board_sensor(config::RigConfig& c, const protocol::Hello& hello) {
   const double board_r2 = hello.sensor_r2_m;
   if (!(board_r2 > 0.0)) return {};
   std::string note;

@@ -13,7 +13,7 @@
 
 #include "piezo/protocol/error.hpp"
 #include "piezo/protocol/messages.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 
 namespace piezo::host {
 
@@ -37,9 +37,9 @@ class BoardClient {
  public:
   /// Connects both sockets (ZeroMQ reconnects by itself after an outage);
   /// with CURVE key files in `rig`, as an authorized client.
-  explicit BoardClient(const config::RigAddress& rig);
+  explicit BoardClient(const config::BoardAddress& rig);
   /// On a context shared with an in-process piezod (inproc:// addresses).
-  BoardClient(const config::RigAddress& rig, zmq::context_t& shared);
+  BoardClient(const config::BoardAddress& rig, zmq::context_t& shared);
 
   /// Sends a command and waits for its reply; replies to earlier commands
   /// that arrive meanwhile are dropped. Throws RemoteError or LinkTimeout.
@@ -59,7 +59,7 @@ class BoardClient {
   [[nodiscard]] const std::string& address() const { return address_; }
 
  private:
-  BoardClient(const config::RigAddress& rig, std::shared_ptr<zmq::context_t> context);
+  BoardClient(const config::BoardAddress& rig, std::shared_ptr<zmq::context_t> context);
 
   std::string address_;
   std::shared_ptr<zmq::context_t> context_;  ///< its own, or a shared one (not owned)
@@ -71,6 +71,6 @@ class BoardClient {
 /// `c`: the board's sensor measured the samples, so its radius turns them
 /// into angles. Returns a note when the host's config said otherwise
 /// (empty when they agree or the board does not say).
-[[nodiscard]] std::string adopt_board_sensor(config::RunConfig& c, const protocol::Hello& hello);
+[[nodiscard]] std::string adopt_board_sensor(config::RigConfig& c, const protocol::Hello& hello);
 
 }  // namespace piezo::host

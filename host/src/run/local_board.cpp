@@ -7,8 +7,8 @@
 namespace piezo::host {
 namespace {
 
-config::RunConfig board_config(const config::RunConfig& c) {
-  config::RunConfig board = c;
+config::RigConfig board_config(const config::RigConfig& c) {
+  config::RigConfig board = c;
   // The config's own limits are the board's; only the run's length is the host's to choose.
   board.daemon.duration_max_s = std::max(board.daemon.duration_max_s, c.run.duration_s);
   return board;
@@ -21,7 +21,7 @@ std::string inproc_address() {
 
 }  // namespace
 
-LocalBoard::LocalBoard(const config::RunConfig& config, config::Rig rig)
+LocalBoard::LocalBoard(const config::RigConfig& config, config::Rig rig)
     : address_(inproc_address()),
       daemon_(std::make_unique<daemon::Daemon>(board_config(config), std::move(rig), context_,
                                                address_, events_)),

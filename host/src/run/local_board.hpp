@@ -12,14 +12,14 @@
 
 #include "daemon.hpp"
 #include "rig.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 
 namespace piezo::host {
 
 class LocalBoard {
  public:
   /// Serves `rig` with the config's own limits as the board's.
-  LocalBoard(const config::RunConfig& config, config::Rig rig);
+  LocalBoard(const config::RigConfig& config, config::Rig rig);
   /// Stops the daemon (a run under way ramps down first) and joins it.
   ~LocalBoard();
   LocalBoard(const LocalBoard&) = delete;

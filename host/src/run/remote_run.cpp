@@ -62,13 +62,13 @@ firmware::StopCause stop_cause_from(const std::string& name) {
 
 namespace {
 
-json configure_args(const config::RunConfig& c) {
+json configure_args(const config::RigConfig& c) {
   return protocol::ConfigureRequest{c.model.drive, c.run.duration_s};
 }
 
 /// The observer's model: the config's, with the parameters the board's
 /// calibration fitted (its `model`) in their place; the log says which.
-model::MotorParameters observer_model(const config::RunConfig& c, const protocol::Hello& hello,
+model::MotorParameters observer_model(const config::RigConfig& c, const protocol::Hello& hello,
                                       RunLog& log) {
   model::Parameters p{c.model.drive, c.model.motor};
   const json& cal = hello.calibration;
@@ -93,7 +93,7 @@ model::MotorParameters observer_model(const config::RunConfig& c, const protocol
 }
 
 /// `start`, or for `piezo step` the protocol's `step`: the board runs whole periods.
-json start_remote(const config::RunConfig& c, BoardClient& client, std::optional<double> lease) {
+json start_remote(const config::RigConfig& c, BoardClient& client, std::optional<double> lease) {
   if (c.run.move) {
     const auto& d = c.model.drive;
     const auto& m = *c.run.move;
@@ -121,7 +121,7 @@ json start_remote(const config::RunConfig& c, BoardClient& client, std::optional
 
 }  // namespace
 
-void configure_remote(const config::RunConfig& c, BoardClient& client) {
+void configure_remote(const config::RigConfig& c, BoardClient& client) {
   try {
     (void)client.call("configure", configure_args(c));
   } catch (const RemoteError& e) {
@@ -152,7 +152,7 @@ namespace {
 /// and the board's account of the run's end.
 class FollowedRun {
  public:
-  FollowedRun(const config::RunConfig& c, BoardClient& client, const protocol::Hello& hello,
+  FollowedRun(const config::RigConfig& c, BoardClient& client, const protocol::Hello& hello,
               RunLog& log, const json& started, const ClockMapping& clock, ObserverStage* observer)
       : c_(c),
         client_(client),
@@ -204,7 +204,7 @@ class FollowedRun {
   void report(const std::function<void(const LiveStatus&)>& on_status);
   void note_outages();
 
-  const config::RunConfig& c_;
+  const config::RigConfig& c_;
   BoardClient& client_;
   RunLog& log_;
   json started_;
@@ -422,7 +422,7 @@ RunSummary FollowedRun::finish(const std::optional<protocol::RunSummary>& end) {
 
 }  // namespace
 
-RunSummary execute_remote_run(const config::RunConfig& c, BoardClient& client,
+RunSummary execute_remote_run(const config::RigConfig& c, BoardClient& client,
                               const protocol::Hello& hello, RunLog& log,
                               const std::atomic<bool>& stop,
                               const std::function<void(const LiveStatus&)>& on_status,

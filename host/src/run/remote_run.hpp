@@ -10,7 +10,7 @@
 #include <optional>
 
 #include "board_client.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 #include "run_log.hpp"
 #include "run_session.hpp"
 
@@ -26,10 +26,10 @@ struct ClockMapping {
 
 /// Asks the board for the config's waveform and duration; a refusal (beyond
 /// the board's limits) becomes a ConfigError naming the key.
-void configure_remote(const config::RunConfig& config, BoardClient& client);
+void configure_remote(const config::RigConfig& config, BoardClient& client);
 
 /// Runs what configure_remote set up; `hello` is the daemon's hello.
-[[nodiscard]] RunSummary execute_remote_run(const config::RunConfig& config, BoardClient& client,
+[[nodiscard]] RunSummary execute_remote_run(const config::RigConfig& config, BoardClient& client,
                                             const protocol::Hello& hello, RunLog& log,
                                             const std::atomic<bool>& stop,
                                             const std::function<void(const LiveStatus&)>& on_status,

@@ -48,7 +48,7 @@ std::string RunSummary::status() const {
   }
 }
 
-RunSummary execute_run(const config::RunConfig& c, config::Rig rig, RunLog& log,
+RunSummary execute_run(const config::RigConfig& c, config::Rig rig, RunLog& log,
                        const std::atomic<bool>& stop,
                        const std::function<void(const LiveStatus&)>& on_status,
                        const std::atomic<bool>* estop) {
@@ -57,7 +57,7 @@ RunSummary execute_run(const config::RunConfig& c, config::Rig rig, RunLog& log,
   LocalBoard board(c, std::move(rig));
   RunSummary summary;
   {
-    BoardClient client(config::RigAddress{board.address(), "", ""}, board.context());
+    BoardClient client(config::BoardAddress{board.address(), "", ""}, board.context());
     const protocol::Hello hello = client.hello();
     configure_remote(c, client);
     summary = execute_remote_run(c, client, hello, log, stop, on_status, kLocalLease_s, estop);

@@ -17,7 +17,7 @@
 #include "piezo/firmware/period_histogram.hpp"
 #include "piezo/firmware/safety_supervisor.hpp"
 #include "rig.hpp"
-#include "run_config.hpp"
+#include "rig_config.hpp"
 #include "run_log.hpp"
 
 namespace piezo::host {
@@ -71,7 +71,7 @@ struct LiveStatus {
 /// through the protocol as a remote run does (execute_remote_run), until
 /// the duration elapses, `stop` is set, the supervisor trips or the log
 /// fails (then host_error says why; the drive stops as on `stop`).
-[[nodiscard]] RunSummary execute_run(const config::RunConfig& config, config::Rig rig, RunLog& log,
+[[nodiscard]] RunSummary execute_run(const config::RigConfig& config, config::Rig rig, RunLog& log,
                                      const std::atomic<bool>& stop,
                                      const std::function<void(const LiveStatus&)>& on_status,
                                      const std::atomic<bool>* estop = nullptr);

@@ -148,14 +148,14 @@ struct DaemonSettings {
 
 /// The host's side ([rig]): which piezod to drive. Empty address: the
 /// one-machine default, the firmware started by the host itself.
-struct RigAddress {
+struct BoardAddress {
   std::string address;
   std::string server_public_key_file;  ///< CURVE: the board's public key (Z85)
   std::string client_secret_key_file;  ///< CURVE: this host's key pair, from `piezod keygen`
   double lease_s = 0.0;                ///< the lease a run asks for; 0: the board's default
 };
 
-struct RunConfig {
+struct RigConfig {
   std::string source;            ///< the config file
   std::string text;              ///< the file's text plus the --set lines: stored with the log
   model::Parameters model;       ///< [drive] waveform + [model]
@@ -171,7 +171,7 @@ struct RunConfig {
   hal::sim::TcpLimits rig_sim_tcp;       ///< what `piezo rig-sim`'s TCP clients may hold
   ObserverSettings observer;
   DaemonSettings daemon;
-  RigAddress rig;
+  BoardAddress board;  ///< [rig]: the board (piezod) to drive
 
   [[nodiscard]] bool virtual_clock() const { return run.clock == RunClock::virtual_time; }
 };
@@ -181,12 +181,12 @@ enum class ConfigScope { rig, sensor };
 
 /// Reads and checks a rig config. Throws ConfigError naming the key, the
 /// source (the file, or "--set") and what is allowed.
-[[nodiscard]] RunConfig load_run_config(const std::string& path,
+[[nodiscard]] RigConfig load_rig_config(const std::string& path,
                                         const std::vector<std::string>& sets = {},
                                         ConfigScope scope = ConfigScope::rig);
 
 /// The same over several files, each overlaying the ones before it.
-[[nodiscard]] RunConfig load_run_config(const std::vector<std::string>& paths,
+[[nodiscard]] RigConfig load_rig_config(const std::vector<std::string>& paths,
                                         const std::vector<std::string>& sets,
                                         ConfigScope scope = ConfigScope::rig);
 
@@ -195,6 +195,6 @@ enum class ConfigScope { rig, sensor };
 [[nodiscard]] model::Parameters load_model_config(const std::string& path);
 
 /// Checks the drive limits against what the built drive hardware can do.
-void check_drive_hardware(const RunConfig& config, double hardware_V_min, double hardware_V_max);
+void check_drive_hardware(const RigConfig& config, double hardware_V_min, double hardware_V_max);
 
 }  // namespace piezo::config

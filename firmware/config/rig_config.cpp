@@ -1,4 +1,4 @@
-#include "run_config.hpp"
+#include "rig_config.hpp"
 
 #include <fmt/format.h>
 
@@ -146,7 +146,7 @@ void read_daemon(SectionReader r, DaemonSettings& d) {
   r.finish();
 }
 
-void read_rig(SectionReader r, RigAddress& a) {
+void read_board_address(SectionReader r, BoardAddress& a) {
   r.text("address", a.address);
   r.number("lease_s", a.lease_s, {0.0, 600.0}, "s");
   r.text("server_public_key_file", a.server_public_key_file);
@@ -173,7 +173,7 @@ void read_safety(SectionReader r, firmware::SafetySettings& s) {
 
 /// Everything one table (the file, or one --set) says, read over `c`.
 /// [plant] keys are collected apart: the plant is [model] overlaid with them.
-void read_tables(const toml::table& t, const std::string& source, RunConfig& c,
+void read_tables(const toml::table& t, const std::string& source, RigConfig& c,
                  model::MotorParameters& plant_keys) {
   TableReader file(t, source);
   read_drive(file.section("drive"), c.drive, c.model);
@@ -191,7 +191,7 @@ void read_tables(const toml::table& t, const std::string& source, RunConfig& c,
   read_rig_sim(file.section("rig_sim"), c.rig_sim, c.rig_sim_tcp);
   read_observer(file.section("observer"), c.observer);
   read_daemon(file.section("piezod"), c.daemon);
-  read_rig(file.section("rig"), c.rig);
+  read_board_address(file.section("rig"), c.board);
   file.finish();
 }
 
@@ -244,7 +244,7 @@ model::MotorParameters all_nan() {
   return p.motor;
 }
 
-void check_backends(const RunConfig& c, const std::function<std::string(const std::string&)>& src) {
+void check_backends(const RigConfig& c, const std::function<std::string(const std::string&)>& src) {
   if (!(c.sensor.range_min_m < c.sensor.range_max_m)) {
     throw ConfigError(src("sensor.range_max_m"), "sensor.range_max_m",
                       fmt::format("{:g} m; allowed: above sensor.range_min_m ({:g} m)",
@@ -285,7 +285,7 @@ void check_backends(const RunConfig& c, const std::function<std::string(const st
 }
 
 /// The analog-output module's registers and the guard against a dead link.
-void check_analog_output(const RunConfig& c,
+void check_analog_output(const RigConfig& c,
                          const std::function<std::string(const std::string&)>& src) {
   const auto& ao = c.drive.ao;
   const double full_scale_counts = ao.counts_per_V * ao.full_scale_V;
@@ -318,7 +318,7 @@ void check_analog_output(const RunConfig& c,
   }
 }
 
-void check_whole(const RunConfig& c, const std::map<std::string, std::string>& source_of,
+void check_whole(const RigConfig& c, const std::map<std::string, std::string>& source_of,
                  ConfigScope scope) {
   auto src = [&](const std::string& key) {
     const auto it = source_of.find(key);
@@ -379,14 +379,14 @@ void check_whole(const RunConfig& c, const std::map<std::string, std::string>& s
 
 }  // namespace
 
-RunConfig load_run_config(const std::string& path, const std::vector<std::string>& sets,
+RigConfig load_rig_config(const std::string& path, const std::vector<std::string>& sets,
                           ConfigScope scope) {
-  return load_run_config(std::vector<std::string>{path}, sets, scope);
+  return load_rig_config(std::vector<std::string>{path}, sets, scope);
 }
 
-RunConfig load_run_config(const std::vector<std::string>& paths,
+RigConfig load_rig_config(const std::vector<std::string>& paths,
                           const std::vector<std::string>& sets, ConfigScope scope) {
-  RunConfig c;
+  RigConfig c;
   apply_baumer_om30(c.sensor.link, c.sensor.map);
   // No file: the defaults (a host whose rig is a board with its own config).
   c.source = paths.empty() ? std::string("defaults") : paths.front();
@@ -439,14 +439,14 @@ std::string_view name(RunClock c) {
 model::Parameters load_model_config(const std::string& path) {
   // Every section is read (and so checked), whatever command asks: one
   // reader per section, one meaning per key.
-  RunConfig c;
+  RigConfig c;
   model::MotorParameters plant_keys = all_nan();
   read_tables(parse_config_file(path), path, c, plant_keys);
   require_valid(c.model, path);
   return c.model;
 }
 
-void check_drive_hardware(const RunConfig& c, double hardware_V_min, double hardware_V_max) {
+void check_drive_hardware(const RigConfig& c, double hardware_V_min, double hardware_V_max) {
   const auto& lim = c.drive.limits;
   if (lim.V_max > hardware_V_max || lim.V_min < hardware_V_min) {
     throw ConfigError(
