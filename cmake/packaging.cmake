@@ -44,6 +44,9 @@ set(CPACK_COMPONENTS_ALL piezod)
 if(PIEZO_HOST)
   list(APPEND CPACK_COMPONENTS_ALL piezo)
 endif()
+if(PIEZO_PYTHON)
+  list(APPEND CPACK_COMPONENTS_ALL python)
+endif()
 set(CPACK_DEBIAN_PIEZOD_PACKAGE_NAME piezod)
 set(CPACK_DEBIAN_PIEZOD_DESCRIPTION
     "piezo-rig board daemon: the drive-and-acquire firmware of a stick-slip piezo motor rig")
@@ -58,4 +61,11 @@ set(CPACK_DEBIAN_PIEZO_PACKAGE_NAME piezo)
 set(CPACK_DEBIAN_PIEZO_DESCRIPTION
     "piezo-rig host tools: runs, logs, observer, identification and sensitivity of the rig")
 set(CPACK_DEBIAN_PIEZO_PACKAGE_DEPENDS "gnuplot-nox")
+# piezo_rig for Debian's python3 (its module is built for that version).
+set(CPACK_DEBIAN_PYTHON_PACKAGE_NAME python3-piezo-rig)
+set(CPACK_DEBIAN_PYTHON_PACKAGE_SECTION python)
+set(CPACK_DEBIAN_PYTHON_DESCRIPTION
+    "piezo-rig from Python: the motor model, a piezod client and the run logs (piezo_rig)")
+set(CPACK_DEBIAN_PYTHON_PACKAGE_DEPENDS
+    "python3 (>= ${Python3_VERSION_MAJOR}.${Python3_VERSION_MINOR}), python3 (<< ${Python3_VERSION_MAJOR}.${Python3_VERSION_MINOR}.99), python3-numpy, python3-zmq, python3-msgpack, python3-h5py, python3-pandas")
 include(CPack)

@@ -1,21 +1,24 @@
 #!/usr/bin/env bash
 # Installs what piezo-rig needs from Debian 12 (apt-get, as root or via sudo)
 # and the npm registry (uPlot, for the web view), and builds it.
-# Usage: scripts/setup.sh [preset] [--gpio-sim] [--arm64]
+# Usage: scripts/setup.sh [preset] [--gpio-sim] [--arm64] [--peers]
 # (default preset: default; --gpio-sim adds what the gpio-sim test needs:
 # qemu, busybox-static, the kernel source and its build tools; --arm64, or
 # the preset arm64, adds Debian's arm64 cross toolchain, the :arm64 -dev
 # packages (dpkg --add-architecture arm64) and qemu-user, and builds the
-# board build in build/arm64 as well)
+# board build in build/arm64 as well; --peers adds SciPy and GNU Octave,
+# which only tests/bench/bench_peers.py uses)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 preset="default"
 gpio_sim=""
 arm64=""
+peers=""
 for arg in "$@"; do
   case "$arg" in
     --gpio-sim) gpio_sim=yes ;;
     --arm64) arm64=yes ;;
+    --peers) peers=yes ;;
     -*) echo "setup: unknown option $arg" >&2; exit 2 ;;
     *) preset="$arg" ;;
   esac
@@ -32,7 +35,10 @@ packages=(
   libsystemd-dev systemd debootstrap iproute2 libboost-dev python3-openturns libopenmpi-dev openmpi-bin
   libsundials-dev
   libcpp-httplib-dev chromium chromium-driver python3-selenium fonts-dejavu-core
+  pybind11-dev python3-dev python3-pandas python3-pytest python3-matplotlib
+  python3-nbclient python3-nbformat python3-ipykernel
 )
+if [ -n "$peers" ]; then packages+=(python3-scipy octave); fi
 # The web view's plots (uPlot) come from the npm registry; npm from Debian
 # unless a Node.js install already brings its own.
 command -v npm > /dev/null || packages+=(npm)

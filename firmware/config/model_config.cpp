@@ -14,16 +14,6 @@
 namespace piezo::config {
 namespace {
 
-void set_checked(model::Parameters& p, const model::ParameterSpec& spec, double value,
-                 const std::string& source, const std::string& key) {
-  if (!spec.admits(value)) {
-    throw ConfigError(source, key,
-                      "value " + std::to_string(value) + " " + std::string(spec.unit) +
-                          " is outside the allowed range " + spec.range_text());
-  }
-  spec.ref(p) = value;
-}
-
 /// Reads every parameter of `section` ("drive" or "model") into `p`.
 void read_specs(SectionReader& r, std::string_view section, model::Parameters& p) {
   for (const auto& spec : model::parameter_specs()) {
@@ -58,20 +48,32 @@ void read_motor(SectionReader& section, model::MotorParameters& motor) {
   motor = p.motor;
 }
 
+void set_parameter(model::Parameters& p, const std::string& name, double value,
+                   const std::string& source) {
+  const model::ParameterSpec* spec = model::find_parameter(name);
+  if (spec == nullptr) {
+    std::string allowed;
+    for (const auto& s : model::parameter_specs())
+      allowed += (allowed.empty() ? "" : ", ") + std::string(s.name);
+    throw ConfigError(source, name, "unknown parameter (allowed: " + allowed + ")");
+  }
+  if (!spec->admits(value)) {
+    throw ConfigError(source, name,
+                      "value " + std::to_string(value) + " " + std::string(spec->unit) +
+                          " is outside the allowed range " + spec->range_text());
+  }
+  spec->ref(p) = value;
+}
+
 void apply_parameter_override(const std::string& assignment, model::Parameters& p) {
   const auto eq = assignment.find('=');
   if (eq == std::string::npos) {
     throw ConfigError("--set", assignment, "expected KEY=VALUE");
   }
   const std::string key = assignment.substr(0, eq);
-  const model::ParameterSpec* spec = model::find_parameter(key);
-  if (spec == nullptr) {
-    std::string allowed;
-    for (const auto& s : model::parameter_specs())
-      allowed += (allowed.empty() ? "" : ", ") + std::string(s.name);
-    throw ConfigError("--set", key, "unknown parameter (allowed: " + allowed + ")");
-  }
-  set_checked(p, *spec, parse_number(assignment.substr(eq + 1), "--set", key), "--set", key);
+  // An unknown name is refused (naming the known ones) before its value is read.
+  if (model::find_parameter(key) == nullptr) set_parameter(p, key, 0.0, "--set");
+  set_parameter(p, key, parse_number(assignment.substr(eq + 1), "--set", key), "--set");
 }
 
 void require_ascii_outside_comments(std::string_view text, const std::string& source) {

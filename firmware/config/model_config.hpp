@@ -25,6 +25,12 @@ void read_motor(SectionReader& section, model::MotorParameters& motor);
 /// Parses a number strictly: the whole text, finite. Throws ConfigError.
 double parse_number(const std::string& text, const std::string& source, const std::string& key);
 
+/// Sets one parameter by its paper symbol, refusing an unknown name or a
+/// value outside its range (ConfigError from `source`, naming it and the
+/// range): `--set` and the Python package's Parameters.
+void set_parameter(model::Parameters& p, const std::string& name, double value,
+                   const std::string& source);
+
 /// Applies "KEY=VALUE" (KEY a paper symbol) to `p`. Throws ConfigError.
 void apply_parameter_override(const std::string& assignment, model::Parameters& p);
 

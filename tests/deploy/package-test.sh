@@ -40,13 +40,14 @@ mount -t proc proc "$root/proc"
 mount --bind /dev "$root/dev"
 cp "$debs"/piezod_*.deb "$root/tmp/piezod.deb"
 cp "$debs"/piezo_*.deb "$root/tmp/piezo.deb"
+cp "$debs"/python3-piezo-rig_*.deb "$root/tmp/python3-piezo-rig.deb"
 in_root() { chroot "$root" /usr/bin/env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin "$@"; }
 fail() { echo "FAIL: $*"; exit 1; }
 
-echo "package-test: apt-get install ./piezod.deb ./piezo.deb (their dependencies from Debian)"
+echo "package-test: apt-get install ./piezod.deb ./piezo.deb ./python3-piezo-rig.deb (their dependencies from Debian)"
 in_root apt-get update -q > "$work/apt.log" 2>&1 || { tail "$work/apt.log"; exit 1; }
 in_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends \
-  /tmp/piezod.deb /tmp/piezo.deb >> "$work/apt.log" 2>&1 || { tail -30 "$work/apt.log"; fail "install"; }
+  /tmp/piezod.deb /tmp/piezo.deb /tmp/python3-piezo-rig.deb >> "$work/apt.log" 2>&1 || { tail -30 "$work/apt.log"; fail "install"; }
 
 for f in /usr/bin/piezod /etc/piezod.toml /usr/lib/systemd/system/piezod.service \
          /usr/share/doc/piezod/protocol.md; do
@@ -61,6 +62,16 @@ version=$(in_root piezod --version) || fail "piezod --version"
 echo "PASS $version"
 host_version=$(in_root piezo --version) || fail "piezo --version"
 echo "PASS $host_version"
+# The installed Python package: its model is the CLI's to the last digit.
+in_root python3 -c '
+import json, subprocess
+from piezo_rig import model
+sim = model.simulate(model.Parameters(V0=60), 0.5)
+cli = json.loads(subprocess.run(["piezo", "simulate", "--json", "--set", "V0=60", "--duration", "0.5"],
+                                capture_output=True, text=True, check=True).stdout)
+assert sim.theta_end_rad == cli["theta_end_rad"], (sim.theta_end_rad, cli["theta_end_rad"])
+print("theta_end", sim.theta_end_rad, "rad")' || fail "python3-piezo-rig: simulate against piezo simulate --json"
+echo "PASS import piezo_rig from python3-piezo-rig: simulate matches piezo simulate --json"
 # The installed unit, verified by this machine's systemd (a minimal root has
 # none); its ExecStart pointed at the installed binary inside the root.
 mkdir -p "$work/unit"
@@ -81,6 +92,12 @@ for _ in $(seq 1 50); do
 done
 [ "$state" = idle ] || { cat "$work/piezod.log"; fail "piezo status against the packaged piezod: '$state'"; }
 echo "PASS the packaged piezod, run as piezod, answers the packaged piezo status: $state"
+in_root python3 -c "
+from piezo_rig.board import Board
+with Board('tcp://127.0.0.1:$port') as b:
+    assert b.hello()['protocol'] == 2 and b.status()['state'] == 'idle'
+" || fail "piezo_rig.board against the packaged piezod"
+echo "PASS piezo_rig.board talks to the packaged piezod"
 kill -TERM "$daemon_pid"; wait "$daemon_pid" || fail "piezod exit on SIGTERM"
 daemon_pid=""
 
@@ -89,6 +106,8 @@ in_root env DEBIAN_FRONTEND=noninteractive dpkg -i --force-confold /tmp/piezod.d
 grep -q "a researcher's edit" "$root/etc/piezod.toml" || fail "reinstall overwrote the edited config"
 echo "PASS an edited /etc/piezod.toml survives a reinstall"
 
+in_root dpkg -r python3-piezo-rig > /dev/null
+[ ! -e "$root/usr/lib/python3/dist-packages/piezo_rig" ] || fail "dpkg -r left piezo_rig"
 in_root dpkg -r piezo > /dev/null
 [ ! -e "$root/usr/bin/piezo" ] || fail "dpkg -r left /usr/bin/piezo"
 in_root dpkg -r piezod > /dev/null

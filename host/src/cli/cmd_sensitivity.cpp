@@ -13,7 +13,7 @@
 #include "global_sensitivity_study.hpp"
 #include "gnuplot.hpp"
 #include "model_config.hpp"
-#include "parallel.hpp"
+#include "oat_study.hpp"
 #include "piezo/model/sensitivity.hpp"
 #include "rig_config.hpp"
 
@@ -29,14 +29,6 @@ struct SensitivityOptions {
   std::string method = "oat";
   std::string params;  // comma-separated
   GlobalStudyOptions global;
-};
-
-constexpr double kTraceInterval = 1e-3;  // angle traces for the plots [s]
-
-struct LevelRun {
-  std::size_t sweep;
-  std::size_t level;
-  model::Trajectory trace;
 };
 
 void write_outputs(const std::string& dir, const std::vector<model::SweepResult>& results,
@@ -121,58 +113,13 @@ int run(const SensitivityOptions& o) {
     throw config::ConfigError("--method", o.method, "allowed: oat, morris, sobol");
   }
 
-  const auto sweeps = model::paper_sweeps();
-  std::vector<LevelRun> runs;
-  for (std::size_t s = 0; s < sweeps.size(); ++s) {
-    for (std::size_t l = 0; l < sweeps[s].levels.size(); ++l) runs.push_back({s, l, {}});
-  }
-  // Validate every level before spending time on any run.
-  for (const auto& run : runs) {
-    const auto& sw = sweeps[run.sweep];
-    config::require_valid(model::with_level(base, sw.name, sw.levels[run.level]),
-                          fmt::format("sweep {}={}", sw.name, sw.levels[run.level]));
-  }
-  const auto times = model::uniform_times(model::kSensitivityRuntime, kTraceInterval);
-  parallel_for(
-      runs.size(),
-      [&](std::size_t i) {
-        const auto& sw = sweeps[runs[i].sweep];
-        const model::Parameters p = model::with_level(base, sw.name, sw.levels[runs[i].level]);
-        const model::Sawtooth drive(p.drive.V0, p.drive.f, p.drive.D());
-        runs[i].trace = model::simulate(p.motor, drive, *friction, times);
-      },
-      [](std::size_t done, std::size_t total) {
-        fmt::print(stderr, "\rsensitivity: {}/{} runs done", done, total);
-        if (done == total) fmt::print(stderr, "\n");
-      });
-
-  std::vector<model::SweepResult> results;
-  for (std::size_t s = 0; s < sweeps.size(); ++s) {
-    model::SweepResult r{sweeps[s].name, sweeps[s].levels, {}, 0.0};
-    for (const auto& run : runs) {
-      if (run.sweep == s)
-        r.mean_velocity.push_back(run.trace.theta.back() / model::kSensitivityRuntime);
-    }
-    r.elasticity = model::elasticity(r.levels, r.mean_velocity);
-    results.push_back(std::move(r));
-  }
-  const auto ranking = model::rank_by_influence(results);
-  if (!o.out.empty()) write_outputs(o.out, results, runs);
+  const OatStudy study = oat_study(base, *friction);
+  const auto& results = study.results;
+  const auto& ranking = study.ranking;
+  if (!o.out.empty()) write_outputs(o.out, results, study.runs);
 
   if (o.json) {
-    nlohmann::json params = nlohmann::json::array();
-    for (const auto& r : results) {
-      params.push_back({{"name", r.name},
-                        {"levels", r.levels},
-                        {"mean_velocity_rad_s", r.mean_velocity},
-                        {"elasticity", r.elasticity}});
-    }
-    std::cout << nlohmann::json{{"model", o.model},
-                                {"runtime_s", model::kSensitivityRuntime},
-                                {"parameters", params},
-                                {"ranking", ranking}}
-                     .dump()
-              << "\n";
+    std::cout << to_json(study, o.model).dump() << "\n";
     return 0;
   }
   for (const auto& r : results) {

@@ -20,6 +20,7 @@
 #include "parameters_json.hpp"
 #include "piezo/model/simulate.hpp"
 #include "rig_config.hpp"
+#include "simulate_checks.hpp"
 
 namespace piezo::host {
 namespace {
@@ -60,10 +61,6 @@ void write_trajectory(const std::string& path, const model::Trajectory& tr,
   write_csv(path, trajectory_columns(tr));
 }
 
-/// An hour of motor time takes about ten seconds to simulate; beyond that a
-/// duration is a typo (1e300 would run forever).
-constexpr double kMaxDuration_s = 3600.0;
-
 /// Checks that `path` can be written before any work is done (exit 2, not
 /// a failure after the simulation).
 void require_writable(const std::string& path) {
@@ -79,37 +76,17 @@ int run(const SimulateOptions& o) {
       o.config.empty() ? model::Parameters{} : config::load_model_config(o.config);
   for (const auto& s : o.sets) config::apply_parameter_override(s, p);
   config::require_valid(p, o.sets.empty() ? (o.config.empty() ? "defaults" : o.config) : "--set");
-  const auto friction = model::parse_friction_model(o.model);
-  if (!friction) throw config::ConfigError("--model", o.model, "allowed: lugre, coulomb");
+  const auto friction = checked_friction_model(o.model, "--model");
   if (!o.out.empty() && !ends_with(o.out, ".csv") && !ends_with(o.out, ".h5")) {
     throw config::ConfigError("--out", o.out, "must end in .csv or .h5");
   }
   if (!o.out.empty()) require_writable(o.out);
 
-  if (!o.direction.empty()) {
-    const auto direction = model::parse_direction(o.direction);
-    if (!direction) {
-      throw config::ConfigError("--direction", o.direction, "allowed: forward, reverse");
-    }
-    p.drive.direction = *direction;
-  }
+  if (!o.direction.empty()) p.drive.direction = checked_direction(o.direction, "--direction");
   const model::Sawtooth drive(p.drive.V0, p.drive.f, p.drive.rise());
   const auto times = model::uniform_times(o.duration, o.sample_interval);
-  const auto integrator = model::parse_integrator(o.integrator);
-  if (!integrator) {
-    throw config::ConfigError("--integrator", o.integrator,
-                              "allowed: model_default, dopri5, closed_form (Coulomb only), "
-                              "hybrid (LuGre only)");
-  }
-  if (*integrator == model::Integrator::closed_form && *friction == model::FrictionModel::lugre) {
-    throw config::ConfigError("--integrator", o.integrator,
-                              "closed_form solves the Coulomb model only; LuGre: hybrid or dopri5");
-  }
-  if (*integrator == model::Integrator::hybrid && *friction == model::FrictionModel::coulomb) {
-    throw config::ConfigError("--integrator", o.integrator,
-                              "hybrid solves the LuGre model only; Coulomb: closed_form or dopri5");
-  }
-  model::IntegratorSettings settings{.tolerance = o.tolerance, .integrator = *integrator};
+  const auto integrator = checked_integrator(o.integrator, friction, "--integrator");
+  model::IntegratorSettings settings{.tolerance = o.tolerance, .integrator = integrator};
   // Long simulations (minutes of simulated time take seconds to minutes)
   // show how far they are, once a second, on stderr.
   auto last_shown = std::chrono::steady_clock::now();
@@ -124,9 +101,9 @@ int run(const SimulateOptions& o) {
                                          100.0 * t / o.duration);
     std::fputs((tty ? "\r" + line + "\x1b[K" : line + "\n").c_str(), stderr);
   };
-  const model::Trajectory tr = model::simulate(p.motor, drive, *friction, times, settings);
+  const model::Trajectory tr = model::simulate(p.motor, drive, friction, times, settings);
   if (tty && shown) std::fputs("\n", stderr);
-  if (!o.out.empty()) write_trajectory(o.out, tr, p, *friction);
+  if (!o.out.empty()) write_trajectory(o.out, tr, p, friction);
 
   const double theta_end = tr.theta.back();
   const double mean_velocity = theta_end / o.duration;
@@ -169,9 +146,9 @@ CommandRunner add_simulate_command(CLI::App& app) {
       ->check(CLI::Validator(
           [](const std::string& text) -> std::string {
             const double v = std::strtod(text.c_str(), nullptr);
-            return v > 0.0 && v <= kMaxDuration_s
+            return v > 0.0 && v <= kMaxSimulatedDuration_s
                        ? std::string()
-                       : fmt::format("{} s; allowed: (0, {:g}] s", text, kMaxDuration_s);
+                       : fmt::format("{} s; allowed: (0, {:g}] s", text, kMaxSimulatedDuration_s);
           },
           "(0, 3600]"))
       ->capture_default_str();

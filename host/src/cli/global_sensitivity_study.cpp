@@ -102,13 +102,13 @@ void write_design(const std::string& dir, const std::vector<model::Factor>& f,
   write_csv(dir + "/design.csv", c);
 }
 
-int sobol(const model::Parameters& base, const GlobalStudyOptions& o) {
+json sobol(const model::Parameters& base, const GlobalStudyOptions& o) {
   const auto f = factors(base, o);
   const std::size_t n = o.samples == 0 ? 1024 : o.samples;
   const std::size_t k = f.size();
   const auto rows = model::saltelli_design(f, n, o.seed);
   const auto y = evaluate(base, f, rows, o);
-  if (!MpiRanks::get().root()) return 0;  // rank 0 computes and writes
+  if (!MpiRanks::get().root()) return nullptr;  // rank 0 computes and writes
   const auto s = model::sobol_indices(y, n, k, n, o.bootstrap, o.seed);
   std::vector<std::size_t> order(k);
   for (std::size_t i = 0; i < k; ++i) order[i] = i;
@@ -171,28 +171,16 @@ int sobol(const model::Parameters& base, const GlobalStudyOptions& o) {
                       {"ST", s.total[i]},
                       {"ST_interval", {s.total_low[i], s.total_high[i]}}});
   }
-  if (o.json) {
-    std::cout << json{{"method", "sobol"},   {"output", o.output},     {"samples", n},
-                      {"runs", rows.size()}, {"variance", s.variance}, {"parameters", params}}
-                     .dump()
-              << "\n";
-    return 0;
-  }
-  fmt::print("{:>8} {:>8} {:>19} {:>8} {:>19}\n", "param", "S1", "95 %", "ST", "95 %");
-  for (std::size_t i : order) {
-    fmt::print("{:>8} {:8.4f} [{:8.4f}, {:8.4f}] {:8.4f} [{:8.4f}, {:8.4f}]\n", f[i].name,
-               s.first[i], s.first_low[i], s.first_high[i], s.total[i], s.total_low[i],
-               s.total_high[i]);
-  }
-  return 0;
+  return json{{"method", "sobol"},   {"output", o.output},     {"samples", n},
+              {"runs", rows.size()}, {"variance", s.variance}, {"parameters", params}};
 }
 
-int morris(const model::Parameters& base, const GlobalStudyOptions& o) {
+json morris(const model::Parameters& base, const GlobalStudyOptions& o) {
   const auto f = factors(base, o);
   const std::size_t r = o.samples == 0 ? 20 : o.samples;
   const auto d = model::morris_design(f, r, o.seed);
   const auto y = evaluate(base, f, d.rows, o);
-  if (!MpiRanks::get().root()) return 0;
+  if (!MpiRanks::get().root()) return nullptr;
   const auto m = model::morris_indices(d, f.size(), y);
   std::vector<std::size_t> order(f.size());
   for (std::size_t i = 0; i < f.size(); ++i) order[i] = i;
@@ -220,26 +208,35 @@ int morris(const model::Parameters& base, const GlobalStudyOptions& o) {
     params.push_back(
         {{"name", f[i].name}, {"mu", m.mu[i]}, {"mu_star", m.mu_star[i]}, {"sigma", m.sigma[i]}});
   }
-  if (o.json) {
-    std::cout << json{{"method", "morris"},
-                      {"output", o.output},
-                      {"trajectories", r},
-                      {"runs", d.rows.size()},
-                      {"parameters", params}}
-                     .dump()
-              << "\n";
-    return 0;
+  return json{{"method", "morris"},
+              {"output", o.output},
+              {"trajectories", r},
+              {"runs", d.rows.size()},
+              {"parameters", params}};
+}
+
+void print_table(const json& result) {
+  if (result["method"] == "sobol") {
+    fmt::print("{:>8} {:>8} {:>19} {:>8} {:>19}\n", "param", "S1", "95 %", "ST", "95 %");
+    for (const auto& p : result["parameters"]) {
+      fmt::print("{:>8} {:8.4f} [{:8.4f}, {:8.4f}] {:8.4f} [{:8.4f}, {:8.4f}]\n",
+                 p["name"].get<std::string>(), p["S1"].get<double>(),
+                 p["S1_interval"][0].get<double>(), p["S1_interval"][1].get<double>(),
+                 p["ST"].get<double>(), p["ST_interval"][0].get<double>(),
+                 p["ST_interval"][1].get<double>());
+    }
+    return;
   }
   fmt::print("{:>8} {:>12} {:>12} {:>12}\n", "param", "mu*", "mu", "sigma");
-  for (std::size_t i : order) {
-    fmt::print("{:>8} {:12.4g} {:12.4g} {:12.4g}\n", f[i].name, m.mu_star[i], m.mu[i], m.sigma[i]);
+  for (const auto& p : result["parameters"]) {
+    fmt::print("{:>8} {:12.4g} {:12.4g} {:12.4g}\n", p["name"].get<std::string>(),
+               p["mu_star"].get<double>(), p["mu"].get<double>(), p["sigma"].get<double>());
   }
-  return 0;
 }
 
 }  // namespace
 
-int run_global_study(const model::Parameters& base, const GlobalStudyOptions& o) {
+json global_study(const model::Parameters& base, const GlobalStudyOptions& o) {
   if (!(o.range_pct > 0.0 && o.range_pct < 100.0)) {
     throw config::ConfigError("--range", fmt::format("{:g}", o.range_pct), "allowed: (0, 100) %");
   }
@@ -253,6 +250,17 @@ int run_global_study(const model::Parameters& base, const GlobalStudyOptions& o)
     throw config::ConfigError("--samples", std::to_string(o.samples), "allowed: >= 8 for sobol");
   }
   return o.method == "sobol" ? sobol(base, o) : morris(base, o);
+}
+
+int run_global_study(const model::Parameters& base, const GlobalStudyOptions& o) {
+  const json result = global_study(base, o);
+  if (result.is_null()) return 0;  // an MPI rank other than 0
+  if (o.json) {
+    std::cout << result.dump() << "\n";
+  } else {
+    print_table(result);
+  }
+  return 0;
 }
 
 }  // namespace piezo::host

@@ -4,6 +4,7 @@
 // design (all cores, progress on stderr), the indices with their plots.
 
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,12 @@ struct GlobalStudyOptions {
   bool json = false;
 };
 
+/// Validates the options, simulates the design and returns the indices as
+/// `--json` prints them (writing tables and plots to o.out when set); null
+/// on MPI ranks other than 0.
+nlohmann::json global_study(const model::Parameters& base, const GlobalStudyOptions& o);
+
+/// global_study, printed as a table or (o.json) as one JSON object.
 int run_global_study(const model::Parameters& base, const GlobalStudyOptions& o);
 
 }  // namespace piezo::host

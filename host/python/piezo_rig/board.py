@@ -1,0 +1,477 @@
+"""A client of ``piezod``, the board's daemon, written against
+docs/protocol.md (protocol 2) on python3-zmq and python3-msgpack.
+
+    from piezo_rig.board import Board
+
+    with Board("tcp://127.0.0.1:5555") as board:
+        print(board.hello()["sensor"]["r2_m"])
+        with board.run(V0=60, f=10, duration=2) as run:
+            for block in run:                  # numpy blocks, in sequence, gaps fetched
+                ...
+        print(run.summary["cause"], len(run.sensor), run.theta()[-1])
+        move = board.move_to(0.01)             # waits for on target
+        print(move["position_rad"])
+
+Every refusal raises the exception of its protocol error code
+(``piezo_rig.errors``: ``OutOfLimits``, ``NotController``, ...).
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+import stat
+import threading
+import time
+import tomllib
+from dataclasses import dataclass
+from typing import Iterator, Optional
+
+import msgpack
+import numpy as np
+import zmq
+
+from . import frames
+from .errors import BoardError, NoReply, RunEnded, board_error
+
+PROTOCOL = 2
+FETCH_MAX = 100_000
+LOOPBACK = ("tcp://127.0.0.1:", "tcp://localhost:", "tcp://[::1]:")
+# Causes that are the end a caller asked for: the run ran its course, or
+# this client stopped it.
+EXPECTED_ENDS = ("completed", "interrupted")
+
+
+def stream_address(address: str) -> str:
+    """The stream's address for a command address: TCP port + 1, else the
+    address with ``-stream`` appended."""
+    if address.startswith("tcp://"):
+        host, port = address.rsplit(":", 1)
+        return f"{host}:{int(port) + 1}"
+    return address + "-stream"
+
+
+def _read_key(path: str, entry: str) -> bytes:
+    """A key from a ``piezod keygen`` file (TOML: ``public-key``, ``secret-key``)."""
+    if entry == "secret-key" and os.stat(path).st_mode & (stat.S_IRWXG | stat.S_IRWXO):
+        raise PermissionError(f"{path}: readable by others; a secret key must be private: "
+                              f"chmod 600 {path}")
+    with open(path, "rb") as f:
+        keys = tomllib.load(f)
+    if entry not in keys:
+        raise ValueError(f"{path}: {entry}: missing")
+    return keys[entry].encode()
+
+
+@dataclass
+class Block:
+    """Consecutive samples of one stream: ``stream`` is "drive" or "sensor",
+    ``first`` the first's sequence number, ``records`` a numpy structured
+    array (drive: t_ns, V, phase, status, move_state; sensor: t_request_ns,
+    t_response_ns, displacement_m, status)."""
+
+    stream: str
+    first: int
+    records: np.ndarray
+
+
+class Board:
+    """One connection to a board's ``piezod``.
+
+    address: the command socket, e.g. ``tcp://127.0.0.1:5555`` (the stream is
+        on port + 1).
+    keys: ``(server_public_key_file, client_secret_key_file)``, the files
+        ``piezod keygen`` writes, for CURVE; needed on any address but
+        loopback.
+    timeout: seconds to wait for each reply before raising ``NoReply``.
+    stream_queue: frames the stream socket holds before ZeroMQ drops newer
+        ones (a run fetches what was dropped from the board's recorder).
+    """
+
+    def __init__(self, address: str = "tcp://127.0.0.1:5555",
+                 keys: Optional[tuple[str, str]] = None, timeout: float = 3.0,
+                 stream_queue: int = 1000):
+        if keys is None and not address.startswith(LOOPBACK) and address.startswith("tcp://"):
+            raise ValueError(f"{address}: a network address needs CURVE keys "
+                             "(keys=(server_public_key_file, client_secret_key_file))")
+        self.address, self.timeout, self.stream_queue = address, timeout, stream_queue
+        self._context = zmq.Context()
+        self._curve = None
+        if keys is not None:
+            server_file, client_file = keys
+            self._curve = (_read_key(server_file, "public-key"),
+                           _read_key(client_file, "public-key"),
+                           _read_key(client_file, "secret-key"))
+        self._socket = self._socket_for(zmq.DEALER)
+        self._socket.connect(address)
+        self._lock = threading.Lock()
+        self._ids = itertools.count(1)
+        self._hello: Optional[dict] = None
+
+    def _socket_for(self, kind: int) -> zmq.Socket:
+        s = self._context.socket(kind)
+        s.setsockopt(zmq.LINGER, 0)
+        if self._curve is not None:
+            s.curve_serverkey, s.curve_publickey, s.curve_secretkey = self._curve
+        return s
+
+    def close(self) -> None:
+        """Closes the sockets (a run in progress goes on until its lease lapses)."""
+        self._socket.close()
+        self._context.term()
+
+    def __enter__(self) -> "Board":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # -- requests -----------------------------------------------------------
+    def call(self, command: str, **args) -> dict:
+        """Sends one request and returns its ``result`` map; raises the
+        error code's exception (``piezo_rig.errors``) when refused, and
+        ``NoReply`` after ``timeout`` seconds. Thread-safe."""
+        with self._lock:
+            request_id = next(self._ids)
+            request = {"id": request_id, "cmd": command}
+            if args:
+                request["args"] = args
+            self._socket.send(msgpack.packb(request))
+            deadline = time.monotonic() + self.timeout
+            while True:
+                left = deadline - time.monotonic()
+                if left <= 0 or not self._socket.poll(int(left * 1000) + 1):
+                    raise NoReply(f"{command}: no reply from {self.address} in {self.timeout:g} s")
+                reply = msgpack.unpackb(self._socket.recv(), raw=False)
+                # An earlier request's late reply is dropped; a refusal with
+                # no id is the board's answer to a request it could not read
+                # far enough to find one (this one: one request at a time).
+                if reply.get("id") == request_id or reply.get("id") is None:
+                    break
+        if not reply["ok"]:
+            raise board_error(command, reply["error"])
+        return reply["result"]
+
+    def hello(self) -> dict:
+        """The board: protocol, limits, sensor radius (``sensor.r2_m``) and
+        zero, rates, calibration. Raises ``BoardError`` for a protocol other
+        than 2."""
+        hello = self.call("hello")
+        if hello.get("protocol") != PROTOCOL:
+            raise BoardError("hello", "protocol",
+                             f"the board speaks protocol {hello.get('protocol')}, "
+                             f"this client {PROTOCOL}")
+        self._hello = hello
+        return hello
+
+    def status(self) -> dict:
+        """The board's state now: ``state``, ``fault``, ``position``, ``run``
+        (with its ``summary`` once finished), ``calibration``."""
+        return self.call("status")
+
+    def clock(self) -> int:
+        """The board's CLOCK_MONOTONIC [ns]."""
+        return self.call("clock")["board_ns"]
+
+    def zero(self) -> dict:
+        """Makes the rotor's position now (the mean of the last 8 good
+        readings) the zero; returns ``position``. Between runs only."""
+        return self.call("zero")["position"]
+
+    def stop(self) -> str:
+        """Ramps the drive to 0 V and ends the run (the controller only)."""
+        return self.call("stop")["state"]
+
+    def estop(self) -> str:
+        """Disables the amplifier at once; any client may. Latches the fault
+        ``estop`` when no run is on (``reset_fault`` clears it)."""
+        return self.call("estop")["state"]
+
+    def reset_fault(self) -> str:
+        """Clears a latched fault (not during a run)."""
+        return self.call("reset_fault")["state"]
+
+    def set_calibration(self, calibration: Optional[dict]) -> Optional[dict]:
+        """Installs a calibration (a map as ``calibrate`` measures it, perhaps
+        with a fitted ``model``), or clears it with None."""
+        return self.call("set_calibration", calibration=calibration)["calibration"]
+
+    def fetch(self, stream: str, first: int, count: int) -> np.ndarray:
+        """Recorded samples of the current or last run from sequence number
+        ``first``, up to ``count`` (fewer at the end), as a structured array.
+        Raises ``NotAvailable`` for samples the recorder no longer holds."""
+        out = []
+        while count > 0:
+            frame = self.call("fetch", stream=stream, first=first,
+                              count=min(count, FETCH_MAX))["frame"]
+            _, _, records = frames.decode(frame)
+            out.append(records)
+            if len(records) == 0:
+                break
+            first += len(records)
+            count -= len(records)
+        dtype = frames.DRIVE_RECORD if stream == "drive" else frames.SENSOR_RECORD
+        return np.concatenate(out) if out else np.empty(0, dtype)
+
+    # -- runs -----------------------------------------------------------------
+    def run(self, V0: float, f: float, duration: float, *, C_dr: Optional[float] = None,
+            e_dr: Optional[float] = None, direction: str = "forward",
+            lease_s: Optional[float] = None, renew: bool = True) -> "Run":
+        """A sawtooth run (paper Eq. 1) of ``duration`` seconds, as a context
+        manager that keeps the lease on a thread and yields ``Block`` s:
+
+            with board.run(V0=60, f=10, duration=2) as run:
+                for block in run: ...
+
+        Leaving the block early stops the run (ramp to 0 V). After the loop,
+        ``run.summary``, ``run.drive``, ``run.sensor`` and ``run.theta()``
+        hold the whole run. A run that ends other than completed or stopped
+        by this client (a fault, a lease lost) raises ``RunEnded`` at the end
+        of the loop. ``renew=False`` never renews the lease: the board then
+        stops by itself (``link_lost``), as it would for a dead host."""
+        args = {"V0": V0, "f": f, "duration_s": duration, "direction": direction}
+        if C_dr is not None:
+            args["C_dr"] = C_dr
+        if e_dr is not None:
+            args["e_dr"] = e_dr
+        self.call("configure", **args)
+        start = {} if lease_s is None else {"lease_s": lease_s}
+        return Run(self, "start", start, renew)
+
+    def step(self, count: int, V0: float, f: float, *, direction: str = "forward",
+             C_dr: Optional[float] = None, e_dr: Optional[float] = None,
+             lease_s: Optional[float] = None) -> "Run":
+        """Exactly ``count`` whole sawtooth periods, ending at 0 V; waits for
+        the end and returns the finished ``Run`` (its ``summary``,
+        samples and ``theta()``)."""
+        args = {"count": count, "V0": V0, "f": f, "direction": direction}
+        for key, value in (("C_dr", C_dr), ("e_dr", e_dr), ("lease_s", lease_s)):
+            if value is not None:
+                args[key] = value
+        with Run(self, "step", args, True) as run:
+            run.wait()
+        return run
+
+    def move_to(self, target_rad: float, *, tolerance_rad: Optional[float] = None,
+                settle_s: Optional[float] = None, timeout_s: Optional[float] = None,
+                hold_s: Optional[float] = None, V0: Optional[float] = None,
+                f: Optional[float] = None, protect: Optional[bool] = None,
+                stall_steps: Optional[int] = None, lease_s: Optional[float] = None) -> dict:
+        """Moves the rotor to ``target_rad`` from the board's zero in closed
+        loop (the board's move controller) and waits until the move ends.
+
+        Returns the move's map: ``position_rad`` (measured at 0 V),
+        ``error_rad``, ``on_target_at_s``, ``steps``, ``f_hz``, ... (see
+        docs/protocol.md, "Closed-loop moves").
+
+        Raises ``RunEnded`` (``cause``: ``stalled``, ``sensor_implausible``,
+        ``timeout``, ``estop``, ``link_lost``, ...) when the move ends other
+        than on target, and ``OutOfLimits`` for a target, tolerance or
+        waveform beyond the board's limits (the tolerance at least the
+        sensor's ``smallest_tolerance_rad``). Defaults are the board's:
+        tolerance 25 urad, settle 0.1 s, timeout 30 s, the board's drive."""
+        args = {"target_rad": target_rad}
+        for key, value in (("tolerance_rad", tolerance_rad), ("settle_s", settle_s),
+                           ("timeout_s", timeout_s), ("hold_s", hold_s), ("V0", V0), ("f", f),
+                           ("protect", protect), ("stall_steps", stall_steps),
+                           ("lease_s", lease_s)):
+            if value is not None:
+                args[key] = value
+        with Run(self, "move_to", args, True, raise_on_fault=False) as run:
+            run.wait()
+        move = run.summary.get("move") or {}
+        if move.get("stop_cause") != "on_target":
+            raise RunEnded("move_to", move.get("stop_cause") or run.summary.get("cause", "?"),
+                           run.summary)
+        return move
+
+    def calibrate(self, V0: Optional[float] = None, lease_s: Optional[float] = None) -> dict:
+        """Runs the board's calibration experiment (about 14 s at 10 Hz) and
+        returns the calibration the board installed; raises ``RunEnded``
+        when it measured none (``summary.calibration_error`` says why)."""
+        args = {} if V0 is None else {"V0": V0}
+        if lease_s is not None:
+            args["lease_s"] = lease_s
+        with Run(self, "calibrate", args, True) as run:
+            run.wait()
+        calibration = run.summary.get("calibration")
+        if calibration is None:
+            raise RunEnded("calibrate", run.summary.get("calibration_error", "no calibration"),
+                           run.summary)
+        return calibration
+
+
+class Run:
+    """A run this client controls (from ``Board.run``, ``step``, ...):
+    iterate it for ``Block`` s in sequence, gaps fetched from the board's
+    recorder. ``started`` is the start's reply, ``summary`` the summary once
+    the run ended; ``drive`` and ``sensor`` every record so far."""
+
+    def __init__(self, board: Board, command: str, args: dict, renew: bool,
+                 raise_on_fault: bool = True):
+        self.board = board
+        self.hello = board._hello or board.hello()
+        self._raise_on_fault = raise_on_fault
+        self._sub = board._socket_for(zmq.SUB)
+        self._sub.setsockopt(zmq.RCVHWM, board.stream_queue)
+        self._sub.connect(stream_address(board.address))
+        for topic in (b"drive", b"sensor", b"state"):
+            self._sub.setsockopt(zmq.SUBSCRIBE, topic)
+        self._wait_for_subscription()
+        self.started = board.call(command, **args)
+        self.summary: Optional[dict] = None
+        self.gaps_fetched = 0
+        self._next = {frames.DRIVE: 0, frames.SENSOR: 0}
+        self._blocks = {frames.DRIVE: [], frames.SENSOR: []}
+        self._pending: list[Block] = []
+        self._stopping = threading.Event()
+        self._lease = threading.Thread(target=self._renew, args=(renew,), daemon=True)
+        self._lease.start()
+
+    def _wait_for_subscription(self) -> None:
+        # A PUB socket drops what it publishes before a subscription reaches
+        # it: wait for the 250 ms health beat, which shows the link is up.
+        self._sub.setsockopt(zmq.SUBSCRIBE, b"health")
+        deadline = time.monotonic() + 2.0
+        while time.monotonic() < deadline and self._sub.poll(100):
+            if self._sub.recv_multipart()[0] == b"health":
+                break
+        self._sub.setsockopt(zmq.UNSUBSCRIBE, b"health")
+
+    def _renew(self, renew: bool) -> None:
+        period = float(self.started.get("lease_s", 0.5)) / 4
+        while renew and not self._stopping.wait(period):
+            try:
+                self.board.call("lease", drive_received=self._next[frames.DRIVE])
+            except BoardError:
+                return  # the run has ended (bad_state / not_controller)
+            except NoReply:
+                continue  # the link is down; the board's lease decides
+
+    def __enter__(self) -> "Run":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        try:
+            if self.summary is None:
+                try:
+                    self.board.stop()
+                except BoardError:
+                    pass  # ended meanwhile
+                self._drain(raise_on_fault=False)
+        finally:
+            self._stopping.set()
+            self._lease.join()
+            self._sub.close()
+
+    def __iter__(self) -> Iterator[Block]:
+        while self.summary is None or self._pending:
+            if self._pending:
+                yield self._pending.pop(0)
+                continue
+            self._receive(0.5)
+        if self._raise_on_fault and self.summary["cause"] not in EXPECTED_ENDS:
+            raise RunEnded("run", self.summary["cause"], self.summary)
+
+    def wait(self) -> dict:
+        """Receives the run to its end and returns its summary."""
+        for _ in self:
+            pass
+        return self.summary
+
+    def _drain(self, raise_on_fault: bool) -> None:
+        keep, self._raise_on_fault = self._raise_on_fault, raise_on_fault
+        try:
+            self.wait()
+        finally:
+            self._raise_on_fault = keep
+
+    def _receive(self, seconds: float) -> None:
+        if not self._sub.poll(int(seconds * 1000)):
+            self._check_alive()
+            return
+        topic, body = self._sub.recv_multipart()
+        if topic == b"state":
+            event = msgpack.unpackb(body, raw=False)
+            if "summary" in event and event.get("state") in ("idle", "fault"):
+                self._finish(event["summary"])
+            return
+        stream, first, records = frames.decode(body)
+        if first > self._next[stream]:
+            self._fetch_gap(stream, first)
+        if first + len(records) > self._next[stream]:
+            self._accept(stream, records[self._next[stream] - first:])
+
+    def _check_alive(self) -> None:
+        # Nothing heard: a state event sent while the link was down is not
+        # repeated, but status reports the finished run.
+        try:
+            status = self.board.status()
+        except NoReply:
+            return  # the link is down; ZeroMQ reconnects, the board's lease decides
+
+        run = status.get("run") or {}
+        if run.get("id") == self.started.get("run") and run.get("summary") is not None:
+            self._finish(run["summary"])
+
+    def _fetch_gap(self, stream: int, until: int) -> None:
+        name = frames.STREAM_NAMES[stream]
+        missing = until - self._next[stream]
+        self._accept(stream, self.board.fetch(name, self._next[stream], missing))
+        self.gaps_fetched += missing
+
+    def _accept(self, stream: int, records: np.ndarray) -> None:
+        if len(records) == 0:
+            return
+        block = Block(frames.STREAM_NAMES[stream], self._next[stream], records)
+        self._next[stream] += len(records)
+        self._blocks[stream].append(records)
+        self._pending.append(block)
+
+    def _finish(self, summary: dict) -> None:
+        # The tail the stream had not delivered yet is in the recorder.
+        for stream, name in frames.STREAM_NAMES.items():
+            total = summary.get("samples", {}).get(name, self._next[stream])
+            if total > self._next[stream]:
+                self._fetch_gap(stream, total)
+        self.summary = summary
+
+    @property
+    def drive(self) -> np.ndarray:
+        """Every drive record so far (t_ns, V, phase, status, move_state)."""
+        return _joined(self._blocks[frames.DRIVE], frames.DRIVE_RECORD)
+
+    @property
+    def sensor(self) -> np.ndarray:
+        """Every sensor record so far (t_request_ns, t_response_ns,
+        displacement_m, status)."""
+        return _joined(self._blocks[frames.SENSOR], frames.SENSOR_RECORD)
+
+    @property
+    def zero_displacement_m(self) -> Optional[float]:
+        """The angles' zero: the move's (its reply carries it), else the
+        run's first good reading (docs/protocol.md, "Angles")."""
+        if self.started.get("zero_displacement_m") is not None:
+            return self.started["zero_displacement_m"]
+        good = self.sensor[self.sensor["status"] == 0]
+        return float(good["displacement_m"][0]) if len(good) else None
+
+    def t(self, records: Optional[np.ndarray] = None) -> np.ndarray:
+        """Times [s] from the run's origin ``t0_ns`` of drive or sensor
+        records (sensor: the request's time)."""
+        records = self.sensor if records is None else records
+        field = "t_ns" if "t_ns" in records.dtype.names else "t_request_ns"
+        return (records[field] - self.started["t0_ns"]) * 1e-9
+
+    def theta(self, records: Optional[np.ndarray] = None) -> np.ndarray:
+        """Angles [rad] of sensor records (all of the run's by default): the
+        displacement from the zero over the board's sensor radius; NaN where
+        the reading failed."""
+        records = self.sensor if records is None else records
+        zero = self.zero_displacement_m
+        theta = (records["displacement_m"] - (zero or 0.0)) / self.hello["sensor"]["r2_m"]
+        return np.where(records["status"] == 0, theta, np.nan)
+
+
+def _joined(blocks: list, dtype: np.dtype) -> np.ndarray:
+    return np.concatenate(blocks) if blocks else np.empty(0, dtype)

@@ -1,0 +1,55 @@
+#!/usr/bin/python3
+"""Executes every notebook in examples/ (nbclient, the python3 kernel)
+against a piezod on the simulated rig that it starts, with a `piezo run`
+log for the identification notebook; writes the executed notebooks (with
+their plots) to OUT and exits non-zero on the first cell that fails.
+usage: run_notebooks.py EXAMPLES_DIR OUT_DIR  (PIEZOD_BINARY, PIEZO_BINARY,
+PIEZO_SOURCE_DIR and PYTHONPATH as CTest sets them)"""
+
+import glob
+import os
+import subprocess
+import sys
+import time
+
+import nbformat
+from nbclient import NotebookClient
+from nbclient.exceptions import CellExecutionError
+
+examples, out = sys.argv[1], sys.argv[2]
+source = os.environ["PIEZO_SOURCE_DIR"]
+sys.path.insert(0, os.path.join(source, "tests", "support"))
+import peers  # noqa: E402
+
+os.makedirs(out, exist_ok=True)
+board, address = peers.start_piezod(os.environ["PIEZOD_BINARY"],
+                                    os.path.join(source, "configs", "piezod-sim.toml"),
+                                    os.path.join(out, "piezod.err"))
+run_dir = os.path.join(out, "runs", "first")
+subprocess.run(["rm", "-rf", run_dir])
+subprocess.run([os.environ["PIEZO_BINARY"], "run", "--config",
+                os.path.join(source, "configs", "sim.toml"), "--set", "run.clock=virtual",
+                "--duration", "1", "--out", run_dir], check=True, stdout=subprocess.DEVNULL)
+os.environ["PIEZO_BOARD"], os.environ["PIEZO_RUN"] = address, os.path.abspath(run_dir)
+# The kernels run in OUT: the package's path must not be relative.
+os.environ["PYDEVD_DISABLE_FILE_VALIDATION"] = "1"  # the kernel's debugger notice
+os.environ["PYTHONPATH"] = os.pathsep.join(
+    os.path.abspath(p) for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p)
+failed = []
+try:
+    for path in sorted(glob.glob(os.path.join(examples, "*.ipynb"))):
+        name = os.path.basename(path)
+        nb = nbformat.read(path, as_version=4)
+        started = time.monotonic()
+        try:
+            NotebookClient(nb, timeout=300, kernel_name="python3",
+                           resources={"metadata": {"path": out}}).execute()
+            print(f"{name}: ok in {time.monotonic() - started:.1f} s", flush=True)
+        except CellExecutionError as e:
+            print(f"{name}: FAILED\n{e}", flush=True)
+            failed.append(name)
+        nbformat.write(nb, os.path.join(out, name))
+finally:
+    board.terminate()
+    board.wait(10)
+sys.exit(1 if failed else 0)

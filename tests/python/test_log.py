@@ -1,0 +1,79 @@
+"""piezo_rig.log on piezo's own logs, another tool's HDF5 file and a file in
+MATLAB v7.3's layout; h5py is the reference."""
+
+import json
+import os
+
+import h5py
+import numpy as np
+import pytest
+
+from piezo_rig import log, model
+
+
+@pytest.fixture(scope="module")
+def logged_run(tmp_path_factory, piezo, source):
+    out = tmp_path_factory.mktemp("runs") / "first"
+    piezo("run", "--config", os.path.join(source, "configs", "sim.toml"), "--set",
+          "run.clock=virtual", "--duration", "1", "--out", str(out), "--json")
+    return out
+
+
+def test_a_piezo_log_reads_whole(logged_run):
+    run = log.open_run(logged_run)
+    with h5py.File(logged_run / "run.h5") as f:
+        for group, frame in (("drive", run.drive), ("sensor", run.sensor),
+                             ("observer", run.observer)):
+            for name in f[group]:
+                np.testing.assert_array_equal(frame[name].to_numpy(), f[group][name][()])
+        assert run.status == f.attrs["status"].decode() == "completed"
+    assert len(run.drive) > 10000 and len(run.sensor) > 1000
+    assert run.summary["stop_cause"] == run.stop_cause == "completed"
+    assert run.config["drive"]["backend"] == "sim"
+    assert run.model_parameters["V0"] > 0
+    drive_t, drive_V, t, theta = run.fit_arrays()
+    assert len(t) == np.count_nonzero(~np.isnan(run.sensor["theta"]))
+
+
+def test_identify_takes_a_log_as_the_cli_does(logged_run, piezo):
+    cli = piezo("identify", "--log", str(logged_run / "run.h5"), "--params", "F_N", "--json")
+    fit = model.identify(log.open_run(logged_run), free=["F_N"])
+    assert fit.parameters["F_N"] == cli["parameters"]["F_N"]
+    assert fit.samples == cli["samples"]
+
+
+def foreign_file(path, matlab):
+    """A run as another tool would save it: our simulation, its own names;
+    MATLAB v7.3 keeps vectors as 1 x n matrices after a 512-byte user block."""
+    sim = model.simulate(model.Parameters(F_N=5.2e-3), 0.3)
+    with h5py.File(path, "w", userblock_size=512 if matlab else 0) as f:
+        for name, values in (("t", sim.t), ("u", sim.V), ("phi", sim.theta)):
+            data = values.reshape(1, -1) if matlab else values
+            d = f.create_dataset(f"data/{name}", data=data)
+            if matlab:
+                d.attrs["MATLAB_class"] = np.bytes_("double")
+    return sim
+
+
+@pytest.mark.parametrize("matlab", [False, True])
+def test_another_tools_file_by_its_dataset_names(tmp_path, piezo, matlab):
+    path = tmp_path / ("bench.mat" if matlab else "bench.h5")
+    sim = foreign_file(path, matlab)
+    run = log.open_run(path, t="/data/t", V="/data/u", theta="/data/phi")
+    np.testing.assert_array_equal(run.sensor["theta"], sim.theta)
+    np.testing.assert_array_equal(run.drive["V"], sim.V)
+    layout = {"t": "/data/t", "V": "/data/u", "theta": "/data/phi"}
+    fit = model.identify(str(path), free=["F_N"], layout=layout)
+    assert fit.parameters["F_N"] == pytest.approx(5.2e-3, rel=5e-3)
+    cli = piezo("identify", "--log", str(path), "--t", "/data/t", "--V", "/data/u", "--theta",
+                "/data/phi", "--params", "F_N", "--json")
+    assert fit.parameters["F_N"] == cli["parameters"]["F_N"]
+
+
+def test_a_missing_dataset_is_named(tmp_path):
+    path = tmp_path / "bench.h5"
+    foreign_file(path, False)
+    with pytest.raises(KeyError, match="/data/theta"):
+        log.open_run(path, t="/data/t", V="/data/u", theta="/data/theta")
+    with pytest.raises(FileNotFoundError):
+        log.open_run(tmp_path / "nothing")
