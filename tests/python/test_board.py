@@ -183,3 +183,11 @@ def test_curve_keys(tmp_path):
     finally:
         process.terminate()
         process.wait(10)
+
+
+def test_calibrate_installs_what_it_measured(board):
+    calibration = board.calibrate()
+    assert calibration["rad_per_V"] > 0 and calibration["noise_m"] > 0
+    assert board.hello()["calibration"]["created"] == calibration["created"]
+    assert board.set_calibration(None) is None
+    assert board.hello()["calibration"] is None
