@@ -285,10 +285,17 @@ Parameters.from_config(path) reads a TOML config's [drive] and [model].)");
   });
   cls.def_static("from_config",
                  [](const std::string& path) { return piezo::config::load_model_config(path); });
-  cls.def(py::pickle([](const model::Parameters& p) { return host::to_json(p).dump(); },
-                     [](const std::string& text) {
-                       return host::parameters_from_json(nlohmann::json::parse(text));
-                     }));
+  // Pickled as the parameters' JSON and the direction (processes of a pool).
+  cls.def(py::pickle(
+      [](const model::Parameters& p) {
+        return py::make_tuple(host::to_json(p).dump(), std::string(model::name(p.drive.direction)));
+      },
+      [](const py::tuple& state) {
+        model::Parameters p =
+            host::parameters_from_json(nlohmann::json::parse(state[0].cast<std::string>()));
+        p.drive.direction = host::checked_direction(state[1].cast<std::string>(), "direction");
+        return p;
+      }));
 }
 
 }  // namespace

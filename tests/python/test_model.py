@@ -115,3 +115,10 @@ def test_simulation_as_a_dataframe():
     frame = model.simulate(duration=0.01).to_dataframe()
     assert list(frame.columns) == ["V", "x", "x_dot", "theta", "theta_dot", "z", "F_f"]
     assert frame.index.name == "t" and len(frame) == 101
+
+
+def test_parameters_pickle_whole():
+    import pickle
+    p = model.Parameters(V0=50, mu=0.12, direction="reverse")
+    q = pickle.loads(pickle.dumps(p))
+    assert q.to_dict() == p.to_dict()
