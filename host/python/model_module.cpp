@@ -9,6 +9,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -18,6 +19,7 @@
 #include "global_sensitivity_study.hpp"
 #include "model_config.hpp"
 #include "oat_study.hpp"
+#include "observer_stage.hpp"
 #include "parallel.hpp"
 #include "parameters_json.hpp"
 #include "piezo/model/frequency_sweep.hpp"
@@ -204,6 +206,57 @@ py::dict identify(const model::Parameters& start, const model::FitData& data,
   return fit_result(std::move(r), data.t.size());
 }
 
+/// The LuGre observer of `piezo run` (host/src/run/observer_stage.hpp) on a
+/// recorded drive and angle, as the host runs it beside a live run.
+py::dict observe(const model::Parameters& p, const model::FitData& data,
+                 const model::ObserverGains& gains, double latency) {
+  piezo::config::require_valid(p, "Parameters");
+  // The ranges of the config's [observer] keys (docs/configuration.md).
+  if (!(gains.alpha >= 0.0 && gains.alpha <= 1.0)) {
+    throw ConfigError("observe", "alpha", fmt::format("{:g}; allowed: [0, 1]", gains.alpha));
+  }
+  if (!(gains.beta >= 0.0 && gains.beta <= 1.0)) {
+    throw ConfigError("observe", "beta", fmt::format("{:g}; allowed: [0, 1]", gains.beta));
+  }
+  if (!(gains.gate_rad > 0.0 && gains.gate_rad <= 10.0)) {
+    throw ConfigError("observe", "gate_rad",
+                      fmt::format("{:g}; allowed: (0, 10] rad", gains.gate_rad));
+  }
+  if (!(latency >= 0.0 && data.ramp_time > 0.0)) {
+    throw ConfigError("observe", "latency", "allowed: latency >= 0 s, ramp_time > 0 s");
+  }
+  host::log_schema::ObserverRows rows;
+  host::ObserverSummary summary;
+  {
+    py::gil_scoped_release free_python;
+    host::ObserverStage stage(p.motor, gains, data.ramp_time, latency);
+    // The stage holds each measurement until the drive is known up to it,
+    // so the whole drive first, then the angles, is the live order's result.
+    for (std::size_t i = 0; i < data.drive_t.size(); ++i) {
+      stage.on_drive(data.drive_t[i], data.drive_V[i], rows);
+    }
+    for (std::size_t i = 0; i < data.t.size(); ++i) {
+      if (std::isfinite(data.theta[i])) stage.on_measurement(data.t[i], data.theta[i], rows);
+    }
+    stage.finish(rows);
+    summary = stage.summary();
+  }
+  py::dict out;
+  out["t"] = to_numpy(std::move(rows.t));
+  out["theta_hat"] = to_numpy(std::move(rows.theta_hat));
+  out["theta_dot_hat"] = to_numpy(std::move(rows.theta_dot_hat));
+  out["x_hat"] = to_numpy(std::move(rows.x_hat));
+  out["z_hat"] = to_numpy(std::move(rows.z_hat));
+  out["F_hat"] = to_numpy(std::move(rows.F_hat));
+  out["residual"] = to_numpy(std::move(rows.residual));
+  out["theta_open"] = to_numpy(std::move(rows.theta_open));
+  out["summary"] = py::dict(
+      py::arg("samples") = summary.samples, py::arg("residual_rms_rad") = summary.residual_rms_rad,
+      py::arg("open_loop_rms_rad") = summary.open_loop_rms_rad,
+      py::arg("outliers") = summary.outliers, py::arg("restarts") = summary.restarts);
+  return out;
+}
+
 /// A run as identify reads it: a piezo log, or another tool's HDF5 / MATLAB
 /// v7.3 file / CSV with the datasets named.
 py::tuple load_run(const std::string& path, const host::LogLayout& layout) {
@@ -344,6 +397,14 @@ PYBIND11_MODULE(_model, m) {
         py::arg("model"));
   m.def("identify", &identify, py::arg("params"), py::arg("data"), py::arg("free"),
         py::arg("model"), py::arg("max_iterations"));
+  m.def(
+      "observe",
+      [](const model::Parameters& p, const model::FitData& data, double alpha, double beta,
+         double gate_rad, double latency) {
+        return observe(p, data, {alpha, beta, gate_rad}, latency);
+      },
+      py::arg("params"), py::arg("data"), py::arg("alpha"), py::arg("beta"), py::arg("gate_rad"),
+      py::arg("latency"));
   m.def("load_run", &load_run, py::arg("path"), py::arg("layout"));
   m.def("parameter_specs", [] {
     py::list out;

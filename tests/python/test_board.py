@@ -191,3 +191,20 @@ def test_calibrate_installs_what_it_measured(board):
     assert board.hello()["calibration"]["created"] == calibration["created"]
     assert board.set_calibration(None) is None
     assert board.hello()["calibration"] is None
+
+
+def test_a_board_that_dies_mid_run_is_reported(tmp_path):
+    process, address = start_board(tmp_path)
+    try:
+        with Board(address, timeout=1.0, silence_s=2.0) as board:
+            started = time.monotonic()
+            with pytest.raises(errors.NoReply, match="silent"):
+                with board.run(V0=40, f=10, duration=30, lease_s=1.0) as run:
+                    for block in run:
+                        if process.poll() is None:
+                            process.kill()
+            assert time.monotonic() - started < 20
+    finally:
+        if process.poll() is None:
+            process.kill()
+        process.wait()

@@ -77,3 +77,25 @@ def test_a_missing_dataset_is_named(tmp_path):
         log.open_run(path, t="/data/t", V="/data/u", theta="/data/theta")
     with pytest.raises(FileNotFoundError):
         log.open_run(tmp_path / "nothing")
+
+
+def test_the_observer_on_a_log_is_the_logs_observer(logged_run):
+    # piezo run's observer ran beside the run; the same code on the logged
+    # drive and angle, with the run's ramp (a drive period) and latency,
+    # gives the same rows.
+    run = log.open_run(logged_run)
+    gains = run.config.get("observer", {})
+    seen = model.observe(run.drive["t"], run.drive["V"], run.sensor["t"], run.sensor["theta"],
+                         model.Parameters.from_json(json.dumps(run.model_parameters)),
+                         alpha=gains.get("alpha", 0.3), beta=gains.get("beta", 0.05),
+                         gate_rad=gains.get("gate_rad", 1e-3),
+                         ramp_time=1 / run.config["drive"]["rate_hz"],
+                         latency=float(run.attrs["drive_latency_s"]))
+    assert len(seen.t) == len(run.observer) > 1000
+    for column in ("t", "theta_hat", "theta_dot_hat", "x_hat", "z_hat", "F_hat", "residual",
+                   "theta_open"):  # bit for bit
+        np.testing.assert_array_equal(getattr(seen, column), run.observer[column],
+                                      err_msg=column)
+    assert seen.summary["samples"] == len(seen.t)
+    with pytest.raises(ValueError, match="alpha"):
+        model.observe([0, 1], [0, 0], [0.5], [0.0], alpha=2)

@@ -86,15 +86,20 @@ class Board:
     timeout: seconds to wait for each reply before raising ``NoReply``.
     stream_queue: frames the stream socket holds before ZeroMQ drops newer
         ones (a run fetches what was dropped from the board's recorder).
+    silence_s: a run whose board is heard from neither on the stream (its
+        health beat comes every 250 ms) nor in a reply for this long raises
+        ``NoReply``: the board or the link is gone, and the board's lease
+        stops the drive by itself.
     """
 
     def __init__(self, address: str = "tcp://127.0.0.1:5555",
                  keys: Optional[tuple[str, str]] = None, timeout: float = 3.0,
-                 stream_queue: int = 1000):
+                 stream_queue: int = 1000, silence_s: float = 10.0):
         if keys is None and not address.startswith(LOOPBACK) and address.startswith("tcp://"):
             raise ValueError(f"{address}: a network address needs CURVE keys "
                              "(keys=(server_public_key_file, client_secret_key_file))")
         self.address, self.timeout, self.stream_queue = address, timeout, stream_queue
+        self.silence_s = silence_s
         self._context = zmq.Context()
         self._curve = None
         if keys is not None:
@@ -304,8 +309,10 @@ class Board:
 class Run:
     """A run this client controls (from ``Board.run``, ``step``, ...):
     iterate it for ``Block`` s in sequence, gaps fetched from the board's
-    recorder. ``started`` is the start's reply, ``summary`` the summary once
-    the run ended; ``drive`` and ``sensor`` every record so far."""
+    recorder (``NotAvailable`` if a gap is older than the recorder holds:
+    samples lost, never silently skipped). ``started`` is the start's reply,
+    ``summary`` the summary once the run ended; ``drive`` and ``sensor``
+    every record so far."""
 
     def __init__(self, board: Board, command: str, args: dict, renew: bool,
                  raise_on_fault: bool = True):
@@ -315,10 +322,15 @@ class Run:
         self._sub = board._socket_for(zmq.SUB)
         self._sub.setsockopt(zmq.RCVHWM, board.stream_queue)
         self._sub.connect(stream_address(board.address))
-        for topic in (b"drive", b"sensor", b"state"):
+        for topic in (b"drive", b"sensor", b"state", b"health"):
             self._sub.setsockopt(zmq.SUBSCRIBE, topic)
-        self._wait_for_subscription()
-        self.started = board.call(command, **args)
+        try:
+            self._wait_for_subscription()
+            self.started = board.call(command, **args)
+        except BaseException:
+            self._sub.close()
+            raise
+        self._heard = time.monotonic()
         self.summary: Optional[dict] = None
         self.gaps_fetched = 0
         self._next = {frames.DRIVE: 0, frames.SENSOR: 0}
@@ -331,12 +343,10 @@ class Run:
     def _wait_for_subscription(self) -> None:
         # A PUB socket drops what it publishes before a subscription reaches
         # it: wait for the 250 ms health beat, which shows the link is up.
-        self._sub.setsockopt(zmq.SUBSCRIBE, b"health")
         deadline = time.monotonic() + 2.0
-        while time.monotonic() < deadline and self._sub.poll(100):
-            if self._sub.recv_multipart()[0] == b"health":
+        while time.monotonic() < deadline:
+            if self._sub.poll(100) and self._sub.recv_multipart()[0] == b"health":
                 break
-        self._sub.setsockopt(zmq.UNSUBSCRIBE, b"health")
 
     def _renew(self, renew: bool) -> None:
         period = float(self.started.get("lease_s", 0.5)) / 4
@@ -355,10 +365,14 @@ class Run:
         try:
             if self.summary is None:
                 try:
-                    self.board.stop()
-                except BoardError:
-                    pass  # ended meanwhile
-                self._drain(raise_on_fault=False)
+                    try:
+                        self.board.stop()
+                    except BoardError:
+                        pass  # it ended meanwhile
+                    self._drain(raise_on_fault=False)
+                except NoReply:
+                    if exc_type is None:
+                        raise  # else the exception that left the block says more
         finally:
             self._stopping.set()
             self._lease.join()
@@ -391,6 +405,9 @@ class Run:
             self._check_alive()
             return
         topic, body = self._sub.recv_multipart()
+        self._heard = time.monotonic()
+        if topic == b"health":
+            return
         if topic == b"state":
             event = msgpack.unpackb(body, raw=False)
             if "summary" in event and event.get("state") in ("idle", "fault"):
@@ -408,7 +425,13 @@ class Run:
         try:
             status = self.board.status()
         except NoReply:
-            return  # the link is down; ZeroMQ reconnects, the board's lease decides
+            # The link is down; ZeroMQ reconnects, the board's lease decides.
+            silent = time.monotonic() - self._heard
+            if silent > self.board.silence_s:
+                raise NoReply(f"the board at {self.board.address} has been silent for "
+                              f"{silent:.0f} s; its lease stops the drive") from None
+            return
+        self._heard = time.monotonic()
 
         run = status.get("run") or {}
         if run.get("id") == self.started.get("run") and run.get("summary") is not None:

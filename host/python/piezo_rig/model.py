@@ -24,8 +24,8 @@ import numpy as np
 from . import _model
 from ._model import FitData, LogLayout, ParameterError, Parameters
 
-__all__ = ["Parameters", "ParameterError", "Simulation", "Fit", "simulate", "sensitivity",
-           "sobol", "morris", "sweep", "identify", "parameter_specs"]
+__all__ = ["Parameters", "ParameterError", "Simulation", "Fit", "Observation", "simulate",
+           "sensitivity", "sobol", "morris", "sweep", "identify", "observe", "parameter_specs"]
 
 def _parameters(params: Optional[Parameters], overrides: dict) -> Parameters:
     p = Parameters() if params is None else params.copy()
@@ -189,3 +189,39 @@ def identify(log_or_arrays: Any, params: Optional[Parameters] = None, *,
         start = params
     out = _model.identify(start, data, list(free), model, max_iterations)
     return Fit(model=model, data=data, **out)
+
+
+@dataclass
+class Observation:
+    """The LuGre observer along a recorded run, one row per angle used:
+    ``t`` [s], the corrected estimates ``theta_hat``, ``theta_dot_hat``,
+    ``x_hat``, ``z_hat``, ``F_hat``, the ``residual`` (measured minus
+    predicted, before the correction) and ``theta_open`` (the model alone);
+    ``summary`` the residual's and the open loop's RMS, outliers, restarts."""
+
+    t: np.ndarray
+    theta_hat: np.ndarray
+    theta_dot_hat: np.ndarray
+    x_hat: np.ndarray
+    z_hat: np.ndarray
+    F_hat: np.ndarray
+    residual: np.ndarray
+    theta_open: np.ndarray
+    summary: dict
+
+
+def observe(drive_t, drive_V, t, theta, params: Optional[Parameters] = None, *,
+            alpha: float = 0.3, beta: float = 0.05, gate_rad: float = 1e-3,
+            ramp_time: float = 1e-4, latency: float = 0.0) -> Observation:
+    """Runs ``piezo run``'s LuGre observer (docs/analysis.md) on a recorded
+    drive (``drive_t`` [s], ``drive_V`` [V]) and measured angle (``t``,
+    ``theta``; NaN readings skipped): the same code the host runs beside a
+    live run, so on a ``piezo run`` log it gives the log's /observer.
+
+    alpha, beta, gate_rad: the config's ``[observer]`` gains; ramp_time: how
+    long the signal chain takes to reach each command (a drive period,
+    1 / ``hello["drive_rate_hz"]``); latency: the board's
+    ``hello["output_latency_s"]`` (a log's ``drive_latency_s``)."""
+    data = FitData(drive_t, drive_V, t, theta, ramp_time)
+    out = _model.observe(_parameters(params, {}), data, alpha, beta, gate_rad, latency)
+    return Observation(**out)
