@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""Executes every notebook in examples/ (nbclient, the python3 kernel)
+"""Runs examples/board_script.py and executes every notebook in examples/
+(nbclient, the python3 kernel)
 against a piezod on the simulated rig that it starts, with a `piezo run`
 log for the identification notebook; writes the executed notebooks (with
 their plots) to OUT and exits non-zero on the first cell that fails.
@@ -37,6 +38,12 @@ os.environ["PYTHONPATH"] = os.pathsep.join(
     os.path.abspath(p) for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p)
 failed = []
 try:
+    script = subprocess.run([sys.executable, os.path.join(examples, "board_script.py"), address],
+                            capture_output=True, text=True, timeout=120)
+    print(f"board_script.py: {'ok' if script.returncode == 0 else 'FAILED'}\n{script.stdout}"
+          f"{script.stderr}", flush=True)
+    if script.returncode != 0:
+        failed.append("board_script.py")
     for path in sorted(glob.glob(os.path.join(examples, "*.ipynb"))):
         name = os.path.basename(path)
         nb = nbformat.read(path, as_version=4)
