@@ -99,3 +99,15 @@ def test_the_observer_on_a_log_is_the_logs_observer(logged_run):
     assert seen.summary["samples"] == len(seen.t)
     with pytest.raises(ValueError, match="alpha"):
         model.observe([0, 1], [0, 0], [0.5], [0.0], alpha=2)
+
+
+def test_a_csv_as_identify_reads_it(tmp_path):
+    sim = model.simulate(duration=0.05)
+    path = tmp_path / "run.csv"
+    np.savetxt(path, np.column_stack([sim.t, sim.V, sim.theta]), delimiter=",",
+               header="t,V,theta", comments="", fmt="%.17g")
+    run = log.open_run(path)
+    np.testing.assert_array_equal(run.sensor["theta"], sim.theta)
+    np.testing.assert_array_equal(run.drive["V"], sim.V)
+    with pytest.raises(KeyError, match="phi"):
+        log.open_run(path, theta="phi")

@@ -95,19 +95,35 @@ def _datasets(f: h5py.File) -> list:
     return names
 
 
+def _csv(path: str, t: Optional[str], V: Optional[str], theta: Optional[str]) -> RunLog:
+    # round_trip: the numbers as written (pandas' fast parser is off in the last bits).
+    table = pd.read_csv(path, float_precision="round_trip")
+    names = {"t": t or "t", "V": V or "V", "theta": theta or "theta"}
+    for role, column in names.items():
+        if column not in table:
+            raise KeyError(f"{path}: {column}: no such column (columns: {', '.join(table)})")
+    drive = pd.DataFrame({"t": table[names["t"]], "V": table[names["V"]]})
+    sensor = pd.DataFrame({"t": table[names["t"]], "theta": table[names["theta"]]})
+    return RunLog(path, drive, sensor, pd.DataFrame())
+
+
 def open_run(path: Union[str, os.PathLike], *, t: Optional[str] = None,
              V: Optional[str] = None, theta: Optional[str] = None,
              theta_t: Optional[str] = None) -> RunLog:
     """Reads a ``piezo`` run (its directory or ``run.h5``) whole. With
     dataset names (``t``, ``V``, ``theta``, and ``theta_t`` when the angle
     has its own time), reads another tool's HDF5 or MATLAB v7.3 file
-    instead: ``drive`` gets t and V, ``sensor`` t and theta. Raises
-    ``FileNotFoundError``, or ``KeyError`` naming a missing dataset."""
+    instead: ``drive`` gets t and V, ``sensor`` t and theta. A CSV has the
+    columns t, V and theta (or the names given). Every file ``piezo
+    identify`` accepts. Raises ``FileNotFoundError``, or ``KeyError``
+    naming a missing dataset or column."""
     path = os.fspath(path)
     if os.path.isdir(path):
         path = os.path.join(path, "run.h5")
     if not os.path.exists(path):
         raise FileNotFoundError(f"{path}: no such log")
+    if path.endswith(".csv"):
+        return _csv(path, t, V, theta)
     with h5py.File(path, "r") as f:
         attrs = {k: _text(v) for k, v in f.attrs.items()}
         if t is not None or V is not None or theta is not None:
