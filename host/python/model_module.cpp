@@ -17,6 +17,7 @@
 #include "config_error.hpp"
 #include "fit_io.hpp"
 #include "global_sensitivity_study.hpp"
+#include "interruption.hpp"
 #include "model_config.hpp"
 #include "oat_study.hpp"
 #include "observer_stage.hpp"
@@ -35,6 +36,14 @@ namespace model = piezo::model;
 namespace host = piezo::host;
 
 namespace {
+
+/// KeyboardInterrupt (Ctrl-C, a notebook's interrupt) stops the C++ at its
+/// next interruption point: Python's signal flag is read with the
+/// interpreter lock held, on the thread that started the work.
+void check_python_signals() {
+  py::gil_scoped_acquire hold;
+  if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+}
 
 /// A numpy array that owns the vector's storage (no copy).
 py::array_t<double> to_numpy(std::vector<double>&& values) {
@@ -86,7 +95,9 @@ py::dict simulate(model::Parameters p, double duration, const std::string& frict
     const model::Sawtooth drive(p.drive.V0, p.drive.f, p.drive.rise());
     const auto times = model::uniform_times(duration, dt);
     tr = model::simulate(p.motor, drive, friction, times,
-                         {.tolerance = tolerance, .integrator = integrator});
+                         {.tolerance = tolerance, .integrator = integrator, .progress = [](double) {
+                            host::interruption_point();
+                          }});
   }
   py::dict out;
   out["theta_end_rad"] = tr.theta.back();
@@ -356,6 +367,7 @@ Parameters.from_config(path) reads a TOML config's [drive] and [model].)");
 PYBIND11_MODULE(_model, m) {
   m.doc() = "The piezo-rig motor model (C++); use piezo_rig.model.";
   py::register_exception<ConfigError>(m, "ParameterError", PyExc_ValueError);
+  host::set_interruption_check(&check_python_signals);
   bind_parameters(m);
 
   py::class_<model::FitData>(m, "FitData")

@@ -122,3 +122,30 @@ def test_parameters_pickle_whole():
     p = model.Parameters(V0=50, mu=0.12, direction="reverse")
     q = pickle.loads(pickle.dumps(p))
     assert q.to_dict() == p.to_dict()
+
+
+def interrupt_in(seconds):
+    """Ctrl-C to this process after `seconds` (as a notebook's interrupt)."""
+    import signal
+    timer = threading.Timer(seconds, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    return timer
+
+
+def test_ctrl_c_stops_a_long_study():
+    # About 35,000 simulations, minutes on two cores: the interrupt stops it
+    # once the jobs under way have finished.
+    started = time.monotonic()
+    interrupt_in(0.5)
+    with pytest.raises(KeyboardInterrupt):
+        model.sobol(samples=2048, runtime=4.8, bootstrap=0)
+    assert time.monotonic() - started < 45
+
+
+def test_ctrl_c_stops_a_long_simulation():
+    # An hour of motor time at a tight tolerance: tens of seconds.
+    started = time.monotonic()
+    interrupt_in(0.5)
+    with pytest.raises(KeyboardInterrupt):
+        model.simulate(duration=3600, dt=1e-2, tolerance=1e-8)
+    assert time.monotonic() - started < 10

@@ -12,11 +12,15 @@
 #include <thread>
 #include <vector>
 
+#include "interruption.hpp"
+
 namespace piezo::host {
 
 /// Calls job(i) for i in [0, count) on up to hardware_concurrency threads and
 /// progress(done, count) after each job finishes. The first exception thrown
-/// by a job is rethrown once all threads have stopped.
+/// by a job is rethrown once all threads have stopped. An interruption
+/// (interruption.hpp), or a progress call that throws, stops the jobs not
+/// yet begun; it is rethrown once the ones under way have finished.
 inline void parallel_for(std::size_t count, const std::function<void(std::size_t)>& job,
                          const std::function<void(std::size_t, std::size_t)>& progress) {
   std::atomic<std::size_t> next{0};
@@ -43,16 +47,25 @@ inline void parallel_for(std::size_t count, const std::function<void(std::size_t
   std::vector<std::thread> threads;
   for (std::size_t t = 0; t < n_threads; ++t) threads.emplace_back(worker);
   std::size_t reported = 0;
+  std::exception_ptr interrupted;
   while (reported < count) {
-    const std::size_t now = done.load();
-    if (now != reported) {
-      reported = now;
-      progress(reported, count);
-    } else {
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    try {
+      interruption_point();
+      const std::size_t now = done.load();
+      if (now != reported) {
+        reported = now;
+        progress(reported, count);
+      } else {
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+    } catch (...) {
+      interrupted = std::current_exception();
+      next = count;  // the workers take no further job
+      break;
     }
   }
   for (auto& t : threads) t.join();
+  if (interrupted) std::rethrow_exception(interrupted);
   if (failure) std::rethrow_exception(failure);
 }
 
