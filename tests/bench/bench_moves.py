@@ -21,6 +21,9 @@ import h5py
 import numpy as np
 
 SOURCE = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+sys.path.insert(0, os.path.join(SOURCE, "tests", "support"))
+from peers import free_port  # noqa: E402
+
 SIM = os.path.join(SOURCE, "configs", "sim.toml")
 MODBUS = os.path.join(SOURCE, "configs", "modbus-hil.toml")
 # The plant against the controller's model: mu +25 %, d_e -24 %, sigma0 +21 %.
@@ -102,12 +105,6 @@ unset multiplot
     subprocess.run(["gnuplot"], input=script, text=True, check=True)
     for suffix in ("_sensor.dat", "_drive.dat"):
         os.remove(base + suffix)
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def modbus_moves(exe, out):

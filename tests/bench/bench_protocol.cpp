@@ -65,7 +65,7 @@ void print_row(const std::string& name, const Latencies& l, const std::string& c
 }
 
 Latencies over_the_protocol(double seconds, double& cpu_percent) {
-  const int port = piezo::testing::free_port_pair();
+  const int port = piezo::testing::free_port(2);
   const std::string address = "tcp://127.0.0.1:" + std::to_string(port);
   piezo::testing::Spawned board(
       {PIEZOD_BINARY, "--config", PIEZO_SOURCE_DIR "/configs/piezod-sim.toml", "--listen", address},

@@ -256,7 +256,7 @@ TEST_F(ModbusRtu, ALateRtuReplyIsNeverTakenForTheNextOne) {
 TEST_F(ModbusSafety, PiezodOnModbusStopsItselfWhenTheHostDies) {
   auto rig = start_rig_sim();
   ASSERT_TRUE(wait_for_tcp(port));
-  const int board_port = free_port_pair();
+  const int board_port = free_port(2);
   const std::string address = "tcp://127.0.0.1:" + std::to_string(board_port);
   Spawned board({PIEZOD_BINARY, "--config", kConfig, "--set", "sensor.port=" + std::to_string(port),
                  "--set", "drive.ao_port=" + std::to_string(port), "--listen", address},

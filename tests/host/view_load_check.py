@@ -24,14 +24,8 @@ import time
 
 SOURCE = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.join(SOURCE, "tests", "support"))
-from peers import start_piezod  # noqa: E402
+from peers import free_port, start_piezod  # noqa: E402
 LIVE_PAGES, SLOW_SENDERS, FLOODERS, TRIES = 50, 50, 8, 20
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def check(condition, what):

@@ -10,7 +10,6 @@ import json
 import os
 import re
 import shutil
-import socket
 import subprocess
 import sys
 import tempfile
@@ -19,12 +18,8 @@ import urllib.error
 import urllib.request
 
 SOURCE = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+sys.path.insert(0, os.path.join(SOURCE, "tests", "support"))
+from peers import free_port, start_piezod  # noqa: E402
 
 
 def check(condition, what):
@@ -62,22 +57,13 @@ def wait_for(predicate, seconds, what):
 def main():
     piezod, piezo = sys.argv[1], sys.argv[2]
     work = tempfile.mkdtemp(prefix="piezo-view-rig-")
-    board_port, view_port = free_port(), free_port()
-    # The stream is on the next port: keep looking until both are free.
-    while True:
-        try:
-            socket.create_server(("127.0.0.1", board_port + 1)).close()
-            break
-        except OSError:
-            board_port = free_port()
-    address = f"tcp://127.0.0.1:{board_port}"
-    board = subprocess.Popen([piezod, "--config", os.path.join(SOURCE, "configs", "piezod-sim.toml"),
-                              "--listen", address], stderr=open(os.path.join(work, "piezod.log"), "w"))
+    view_port = free_port()
+    board, address = start_piezod(piezod, os.path.join(SOURCE, "configs", "piezod-sim.toml"),
+                                  os.path.join(work, "piezod.log"))
     err = os.path.join(work, "view.err")
     view = None
     url = None
     try:
-        wait_for(lambda: socket.socket().connect_ex(("127.0.0.1", board_port)) == 0, 10, "piezod up")
         view = subprocess.Popen([piezo, "view", "--rig", address, "--listen", f"127.0.0.1:{view_port}",
                                  "--control", "--runs", work], stderr=open(err, "w"))
         m = wait_for(lambda: re.search(r"live view: (http://\S+?)\?token=([0-9a-f]+)", open(err).read()),

@@ -31,7 +31,7 @@ class Piezod : public ::testing::Test {
  protected:
   void start(const std::string& extra_toml = "", const std::vector<std::string>& extra_args = {}) {
     dir_ = fresh_temp_dir("piezod");
-    port_ = free_port_pair();
+    port_ = free_port(2);
     address_ = "tcp://127.0.0.1:" + std::to_string(port_);
     // Extra [piezod] keys go right under the section's header, in place of
     // the file's own lines for the same keys.
@@ -379,7 +379,7 @@ struct OutageRun {
 
 OutageRun run_through_an_outage(const Piezod& board, int board_port, const fs::path& dir,
                                 const std::string& extra) {
-  const int port = free_port_pair();
+  const int port = free_port(2);
   Spawned proxy({"/usr/bin/python3", kSource + "/tests/protocol/link_proxy.py",
                  std::to_string(port), std::to_string(board_port), "2.0"},
                 (dir / "proxy.log").string());
@@ -492,7 +492,7 @@ TEST_F(Piezod, ANetworkAddressNeedsCurveAndRefusesUnknownClients) {
   // Without keys, a network address is refused at start.
   const auto plain = run_command(
       kPiezod + " --config " + kSource +
-      "/configs/piezod-sim.toml --listen tcp://0.0.0.0:" + std::to_string(free_port_pair()));
+      "/configs/piezod-sim.toml --listen tcp://0.0.0.0:" + std::to_string(free_port(2)));
   EXPECT_EQ(plain.exit_code, 1);
   EXPECT_NE(plain.err.find("CURVE"), std::string::npos) << plain.err;
 }
@@ -523,13 +523,13 @@ TEST(PiezodConfig, ASecretKeyOthersCanReadIsRefusedAndKeygenKeepsAPair) {
   write_file(keys / "authorized_keys", read_all(keys / "board.pub"));
   const auto board = run_command(
       kPiezod + " --config " + kSource +
-      "/configs/piezod-sim.toml --listen tcp://127.0.0.1:" + std::to_string(free_port_pair()) +
+      "/configs/piezod-sim.toml --listen tcp://127.0.0.1:" + std::to_string(free_port(2)) +
       " --set piezod.secret_key_file=\"" + (keys / "board.key").string() +
       "\" --set piezod.authorized_keys_file=\"" + (keys / "authorized_keys").string() + "\"");
   EXPECT_NE(board.exit_code, 0);
   EXPECT_NE(board.err.find("readable by others (mode 0644)"), std::string::npos) << board.err;
   const auto host =
-      run_command(kPiezo + " status --rig tcp://127.0.0.1:" + std::to_string(free_port_pair()) +
+      run_command(kPiezo + " status --rig tcp://127.0.0.1:" + std::to_string(free_port(2)) +
                   " --server-key " + (keys / "board.pub").string() + " --client-key " +
                   (keys / "board.key").string());
   EXPECT_NE(host.exit_code, 0);
@@ -541,7 +541,7 @@ TEST(PiezodConfig, ASecretKeyOthersCanReadIsRefusedAndKeygenKeepsAPair) {
 TEST(PiezodConfig, LocalhostAndIpv6LoopbackCanBeBound) {
   for (const std::string host : {"localhost", "[::1]"}) {
     SCOPED_TRACE(host);
-    const int port = free_port_pair();
+    const int port = free_port(2);
     const std::string address = "tcp://" + host + ":" + std::to_string(port);
     const auto dir = fresh_temp_dir("piezod-loopback");
     Spawned daemon({kPiezod, "--config", kSource + "/configs/piezod-sim.toml", "--listen", address},

@@ -8,7 +8,6 @@ import subprocess
 import sys
 import time
 
-import msgpack
 import numpy as np
 import pytest
 
@@ -49,7 +48,7 @@ def test_gaps_after_a_link_outage_are_fetched(board_address, source):
     # The link pulled for 0.4 s mid-run (a proxy that drops every
     # connection): the stream loses what was published meanwhile, the
     # client fetches it from the board's recorder.
-    port = peers.free_port()
+    port = peers.free_port(2)
     proxy = subprocess.Popen([sys.executable, os.path.join(source, "tests", "protocol",
                                                            "link_proxy.py"),
                               str(port), board_address.rsplit(":", 1)[1], "0.4"])

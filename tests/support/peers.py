@@ -1,6 +1,7 @@
 """Helpers shared by the Python tests that start real peers (piezod,
 rig-sim) on loopback."""
 
+import random
 import socket
 import time
 
@@ -17,10 +18,36 @@ def wait_for_tcp(port, seconds=20):
     return False
 
 
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+def _ephemeral_start():
+    try:
+        with open("/proc/sys/net/ipv4/ip_local_port_range") as f:
+            return int(f.read().split()[0])
+    except (OSError, ValueError, IndexError):
+        return 32768
+
+
+def _bindable(port):
+    try:
+        socket.create_server(("127.0.0.1", port)).close()
+        return True
+    except OSError:
+        return False
+
+
+def free_port(count=1):
+    """A port P on loopback with P .. P + count - 1 free (piezod takes two:
+    its commands on P, its stream on P + 1).
+
+    Chosen below the kernel's ephemeral range: the outgoing connections of
+    every other test on a busy machine take their local ports from that range
+    (even ones first, right beside the odd ones bind(0) hands out), and one
+    can take a port between this check and the listener's bind. Below it, only
+    another listener can, and it would have to pick the same random port."""
+    top = _ephemeral_start() - count
+    while True:
+        port = random.randrange(10000, top)
+        if all(_bindable(port + i) for i in range(count)):
+            return port
 
 
 def start_piezod(piezod, config, err_path, tries=5):
@@ -32,9 +59,7 @@ def start_piezod(piezod, config, err_path, tries=5):
     import subprocess
 
     for _ in range(tries):
-        port = free_port()
-        while port >= 65534:
-            port = free_port()
+        port = free_port(2)
         board = subprocess.Popen([piezod, "--config", config, "--listen", f"tcp://127.0.0.1:{port}"],
                                  stderr=open(err_path, "w"))
         deadline = time.monotonic() + 30

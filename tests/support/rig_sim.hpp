@@ -11,8 +11,10 @@
 
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <string>
 #include <thread>
 #include <vector>
@@ -28,31 +30,35 @@ using namespace std::chrono_literals;
 inline const std::string kPiezo = PIEZO_BINARY;
 inline const std::string kConfig = std::string(PIEZO_SOURCE_DIR) + "/configs/modbus-hil.toml";
 
-/// A port of this test process's own (tests run in parallel, one process each).
-inline int free_port() {
+/// True when nothing on this machine holds `port` on loopback.
+inline bool port_is_free(int port) {
   const int fd = socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<std::uint16_t>(port));
   addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr);
-  socklen_t len = sizeof addr;
-  getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
+  const bool free = bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
   close(fd);
-  return ntohs(addr.sin_port);
+  return free;
 }
 
-/// A port P with P + 1 free as well (piezod's command and stream sockets).
-inline int free_port_pair() {
+/// A port P with P .. P + count - 1 free (piezod takes two: commands on P,
+/// its stream on P + 1). Chosen below the kernel's ephemeral range: the
+/// outgoing connections of the other tests on a busy machine take their
+/// local ports from that range and can take one between this check and the
+/// listener's bind; below it only another listener can, on the same random
+/// port.
+inline int free_port(int count = 1) {
+  int ephemeral_start = 32768;
+  if (std::ifstream range("/proc/sys/net/ipv4/ip_local_port_range"); range) {
+    range >> ephemeral_start;
+  }
+  static std::mt19937 pick{std::random_device{}()};
+  std::uniform_int_distribution<int> below(10000, ephemeral_start - count - 1);
   for (;;) {
-    const int port = free_port();
-    if (port >= 65534) continue;
-    const int fd = socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_port = htons(static_cast<std::uint16_t>(port + 1));
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    const bool free = bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
-    close(fd);
+    const int port = below(pick);
+    bool free = true;
+    for (int i = 0; i < count && free; ++i) free = port_is_free(port + i);
     if (free) return port;
   }
 }
