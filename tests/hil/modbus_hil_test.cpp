@@ -77,7 +77,7 @@ TEST_F(ModbusHil, PymodbusSensorOverTcpIsDecodedRight) {
 
 TEST_F(ModbusRtu, OurClientReadsRigSimOverRtu) {
   auto rig = start_rig_sim({"--rtu", (dir / "ptyA").string()});
-  std::this_thread::sleep_for(300ms);  // rig-sim opens its end of the pair
+  ASSERT_TRUE(wait_for_peer(rtu_sets()));
   const auto j = sensor_read(10, rtu_sets());
   EXPECT_EQ(j.at("errors"), 0) << j.dump();
   for (const auto& r : j.at("readings")) {
@@ -89,9 +89,10 @@ TEST_F(ModbusRtu, PymodbusSensorOverRtuIsDecodedRight) {
   // pyserial cannot set parity on a pseudo-terminal twice (EINVAL): 8N1 here.
   Spawned sensor({"/usr/bin/python3", kPymodbusSensor, "rtu", (dir / "ptyA").string(), "N"},
                  (dir / "pymodbus.txt").string());
-  std::this_thread::sleep_for(1500ms);  // the python server starts slowly
-  const auto j = sensor_read(3, rtu_sets("N") + " --set sensor.preset=baumer-om30" +
-                                    " --set sensor.parity=N --set sensor.response_timeout_s=0.5");
+  const std::string sets =
+      rtu_sets("N") + " --set sensor.preset=baumer-om30" + " --set sensor.response_timeout_s=0.5";
+  ASSERT_TRUE(wait_for_peer(sets)) << read_all(dir / "pymodbus.txt");
+  const auto j = sensor_read(3, sets);
   EXPECT_EQ(j.at("errors"), 0) << j.dump();
   for (const auto& r : j.at("readings")) {
     EXPECT_NEAR(r.at("displacement_m").get<double>(), 0.0697426, 1e-7) << j.dump();
@@ -158,18 +159,32 @@ TEST_F(ModbusHil, ExceptionRepliesAreCountedAsSuch) {
   for (const auto& r : j.at("readings")) EXPECT_EQ(r.at("status"), "exception_reply");
 }
 
+/// Readings of a sensor that answers late or never: the first, on a fresh
+/// connection, times out; after a timeout the link reconnects before the
+/// next request, which waits up to one response timeout for it (docs/
+/// hardware.md) and is `disconnected` if a loaded machine takes longer.
+/// None may pass for a good reading.
+void expect_timeouts(const nlohmann::json& j) {
+  const auto& readings = j.at("readings");
+  ASSERT_EQ(readings.size(), 3u) << j.dump();
+  EXPECT_EQ(readings.front().at("status"), "timeout") << j.dump();
+  for (const auto& r : readings) {
+    EXPECT_TRUE(r.at("status") == "timeout" || r.at("status") == "disconnected") << j.dump();
+  }
+}
+
 TEST_F(ModbusHil, SlowRepliesTimeOut) {
   auto rig = start_rig_sim({"--set", "rig_sim.response_delay_s=0.2"});
   ASSERT_TRUE(wait_for_tcp(port));
   const auto j = sensor_read(3, tcp_sets() + " --set sensor.response_timeout_s=0.05", 1);
-  for (const auto& r : j.at("readings")) EXPECT_EQ(r.at("status"), "timeout");
+  expect_timeouts(j);
 }
 
 TEST_F(ModbusHil, DroppedRepliesTimeOut) {
   auto rig = start_rig_sim({"--set", "rig_sim.drop_probability=1"});
   ASSERT_TRUE(wait_for_tcp(port));
   const auto j = sensor_read(3, tcp_sets(), 1);
-  for (const auto& r : j.at("readings")) EXPECT_EQ(r.at("status"), "timeout");
+  expect_timeouts(j);
 }
 
 /// A run whose rig-sim dies: the stop gives up writing 0 V after

@@ -18,13 +18,6 @@ const std::string kPiezod = PIEZOD_BINARY;
 const std::string kSource = PIEZO_SOURCE_DIR;
 const std::string kSimConfig = kSource + "/configs/sim.toml";
 
-std::string read_all(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 /// piezod on the simulated rig, on a free loopback port, with extra
 /// [piezod]/[run] lines.
 class Piezod : public ::testing::Test {
@@ -528,10 +521,9 @@ TEST(PiezodConfig, ASecretKeyOthersCanReadIsRefusedAndKeygenKeepsAPair) {
       "\" --set piezod.authorized_keys_file=\"" + (keys / "authorized_keys").string() + "\"");
   EXPECT_NE(board.exit_code, 0);
   EXPECT_NE(board.err.find("readable by others (mode 0644)"), std::string::npos) << board.err;
-  const auto host =
-      run_command(kPiezo + " status --rig tcp://127.0.0.1:" + std::to_string(free_port(2)) +
-                  " --server-key " + (keys / "board.pub").string() + " --client-key " +
-                  (keys / "board.key").string());
+  const auto host = run_command(
+      kPiezo + " status --rig tcp://127.0.0.1:" + std::to_string(free_port(2)) + " --server-key " +
+      (keys / "board.pub").string() + " --client-key " + (keys / "board.key").string());
   EXPECT_NE(host.exit_code, 0);
   EXPECT_NE(host.err.find("chmod 600"), std::string::npos) << host.err;
 }

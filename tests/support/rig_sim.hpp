@@ -148,6 +148,16 @@ class ModbusRtu : public ModbusHil {
     return "--set sensor.backend=modbus-rtu --set sensor.device=" + (dir / "ptyB").string() +
            " --set sensor.parity=" + parity;
   }
+  /// Waits until a peer on the pty's other end answers a read (a server
+  /// that starts slowly on a loaded machine: pymodbus takes seconds).
+  [[nodiscard]] bool wait_for_peer(const std::string& sets) const {
+    return poll_until(
+        [&] {
+          return run_command(kPiezo + " sensor read --config " + kConfig + " --count 1 " + sets)
+                     .exit_code == 0;
+        },
+        60s, 100ms);
+  }
   std::unique_ptr<Spawned> pty_pair;
 };
 
