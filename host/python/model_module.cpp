@@ -9,6 +9,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <atomic>
 #include <cmath>
 #include <memory>
 #include <string>
@@ -27,6 +28,7 @@
 #include "piezo/model/identify.hpp"
 #include "piezo/model/sensitivity.hpp"
 #include "piezo/model/simulate.hpp"
+#include "progress.hpp"
 #include "rig_config.hpp"
 #include "simulate_checks.hpp"
 
@@ -43,6 +45,19 @@ namespace {
 void check_python_signals() {
   py::gil_scoped_acquire hold;
   if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+}
+
+/// Progress of long work goes to Python's sys.stderr, which a notebook
+/// shows under the running cell; show_progress(False) silences it.
+std::atomic<bool> progress_shown{true};
+
+void write_to_python_stderr(const std::string& text) {
+  if (!progress_shown.load()) return;
+  py::gil_scoped_acquire hold;
+  const py::object stderr_ = py::module_::import("sys").attr("stderr");
+  if (stderr_.is_none()) return;
+  stderr_.attr("write")(text);
+  stderr_.attr("flush")();
 }
 
 /// A numpy array that owns the vector's storage (no copy).
@@ -94,10 +109,14 @@ py::dict simulate(model::Parameters p, double duration, const std::string& frict
     py::gil_scoped_release free_python;
     const model::Sawtooth drive(p.drive.V0, p.drive.f, p.drive.rise());
     const auto times = model::uniform_times(duration, dt);
-    tr = model::simulate(p.motor, drive, friction, times,
-                         {.tolerance = tolerance, .integrator = integrator, .progress = [](double) {
-                            host::interruption_point();
-                          }});
+    host::SimulationProgress progress(duration, true);
+    tr = model::simulate(
+        p.motor, drive, friction, times,
+        {.tolerance = tolerance, .integrator = integrator, .progress = [&](double t) {
+           host::interruption_point();
+           progress(t);
+         }});
+    progress.finish();
   }
   py::dict out;
   out["theta_end_rad"] = tr.theta.back();
@@ -163,7 +182,7 @@ py::dict sweep(const model::Parameters& base, const std::string& name,
           points[i] =
               model::period_metrics(model::with_level(base, name, values[i]), friction, settings);
         },
-        [](std::size_t, std::size_t) {});
+        host::counted_progress("sweep", "points"));
   }
   std::vector<double> velocity, step, backslip;
   for (const auto& m : points) {
@@ -368,6 +387,11 @@ PYBIND11_MODULE(_model, m) {
   m.doc() = "The piezo-rig motor model (C++); use piezo_rig.model.";
   py::register_exception<ConfigError>(m, "ParameterError", PyExc_ValueError);
   host::set_interruption_check(&check_python_signals);
+  host::set_progress_sink(&write_to_python_stderr);
+  m.def(
+      "show_progress", [](bool shown) { progress_shown = shown; }, py::arg("shown") = true,
+      "Whether long work (studies, sweeps, fits, simulations of more than a second) "
+      "reports its progress on sys.stderr, under the running cell in a notebook; on by default.");
   bind_parameters(m);
 
   py::class_<model::FitData>(m, "FitData")

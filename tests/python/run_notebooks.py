@@ -3,7 +3,8 @@
 (nbclient, the python3 kernel)
 against a piezod on the simulated rig that it starts, with a `piezo run`
 log for the identification notebook; writes the executed notebooks (with
-their plots) to OUT and exits non-zero on the first cell that fails.
+their plots) to OUT and exits non-zero on the first cell that fails, or
+when a notebook's long work shows no progress under its cell.
 usage: run_notebooks.py EXAMPLES_DIR OUT_DIR  (PIEZOD_BINARY, PIEZO_BINARY,
 PIEZO_SOURCE_DIR and PYTHONPATH as CTest sets them)"""
 
@@ -21,6 +22,16 @@ examples, out = sys.argv[1], sys.argv[2]
 source = os.environ["PIEZO_SOURCE_DIR"]
 sys.path.insert(0, os.path.join(source, "tests", "support"))
 import peers  # noqa: E402
+
+# What a reader sees under the cells of long work: its progress (the
+# study's runs counted on the kernel's sys.stderr).
+PROGRESS = {"01-simulate-sweep-sobol.ipynb": ["sweep: 24/24 points done", "runs done"]}
+
+
+def stderr_text(nb):
+    return "".join(o.get("text", "") for cell in nb.cells for o in cell.get("outputs", [])
+                   if o.get("output_type") == "stream" and o.get("name") == "stderr")
+
 
 os.makedirs(out, exist_ok=True)
 board, address = peers.start_piezod(os.environ["PIEZOD_BINARY"],
@@ -51,7 +62,11 @@ try:
         try:
             NotebookClient(nb, timeout=300, kernel_name="python3",
                            resources={"metadata": {"path": out}}).execute()
-            print(f"{name}: ok in {time.monotonic() - started:.1f} s", flush=True)
+            missing = [p for p in PROGRESS.get(name, []) if p not in stderr_text(nb)]
+            print(f"{name}: {'FAILED, no progress shown: ' + str(missing) if missing else 'ok'}"
+                  f" in {time.monotonic() - started:.1f} s", flush=True)
+            if missing:
+                failed.append(name)
         except CellExecutionError as e:
             print(f"{name}: FAILED\n{e}", flush=True)
             failed.append(name)

@@ -98,6 +98,20 @@ def test_identify_recovers_a_friction_level_and_matches_the_cli(piezo, tmp_path)
     assert from_file.rmse_rad == cli["rmse_rad"]
 
 
+def test_long_work_shows_its_progress_on_pythons_stderr(capsys):
+    # sys.stderr, not the process's: a notebook shows it under the cell.
+    model.sweep("f", [100, 200, 400], periods=4)
+    assert capsys.readouterr().err.endswith("\rsweep: 3/3 points done\n")
+    model.morris(names=["V0", "f"], trajectories=2, runtime=0.05)
+    assert "sensitivity (morris): 6/6 runs done\n" in capsys.readouterr().err
+    model.show_progress(False)
+    try:
+        model.sweep("f", [100, 200], periods=4)
+        assert capsys.readouterr().err == ""
+    finally:
+        model.show_progress(True)
+
+
 def test_the_interpreter_goes_on_while_the_model_runs():
     done = []
     worker = threading.Thread(target=lambda: done.append(model.simulate(duration=30.0, dt=1e-2)))

@@ -25,7 +25,16 @@ from . import _model
 from ._model import FitData, LogLayout, ParameterError, Parameters
 
 __all__ = ["Parameters", "ParameterError", "Simulation", "Fit", "Observation", "simulate",
-           "sensitivity", "sobol", "morris", "sweep", "identify", "observe", "parameter_specs"]
+           "sensitivity", "sobol", "morris", "sweep", "identify", "observe", "parameter_specs",
+           "show_progress"]
+
+
+def show_progress(shown: bool = True) -> None:
+    """Whether long work reports how far it is on ``sys.stderr`` (under the
+    running cell in a notebook): studies and sweeps count their runs, fits
+    their iterations, simulations of more than a second their time. On by
+    default; ``show_progress(False)`` silences it."""
+    _model.show_progress(shown)
 
 def _parameters(params: Optional[Parameters], overrides: dict) -> Parameters:
     p = Parameters() if params is None else params.copy()

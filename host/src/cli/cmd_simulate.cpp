@@ -4,7 +4,6 @@
 #include <unistd.h>
 
 #include <cerrno>
-#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -19,6 +18,7 @@
 #include "model_config.hpp"
 #include "parameters_json.hpp"
 #include "piezo/model/simulate.hpp"
+#include "progress.hpp"
 #include "rig_config.hpp"
 #include "simulate_checks.hpp"
 
@@ -88,21 +88,11 @@ int run(const SimulateOptions& o) {
   const auto integrator = checked_integrator(o.integrator, friction, "--integrator");
   model::IntegratorSettings settings{.tolerance = o.tolerance, .integrator = integrator};
   // Long simulations (minutes of simulated time take seconds to minutes)
-  // show how far they are, once a second, on stderr.
-  auto last_shown = std::chrono::steady_clock::now();
-  const bool tty = isatty(STDERR_FILENO) != 0;
-  bool shown = false;
-  settings.progress = [&](double t) {
-    const auto now = std::chrono::steady_clock::now();
-    if (now - last_shown < std::chrono::seconds(1)) return;
-    last_shown = now;
-    shown = true;
-    const std::string line = fmt::format("simulate: t {:.1f} of {:g} s ({:.0f} %)", t, o.duration,
-                                         100.0 * t / o.duration);
-    std::fputs((tty ? "\r" + line + "\x1b[K" : line + "\n").c_str(), stderr);
-  };
+  // show how far they are.
+  SimulationProgress progress(o.duration, isatty(STDERR_FILENO) != 0);
+  settings.progress = [&](double t) { progress(t); };
   const model::Trajectory tr = model::simulate(p.motor, drive, friction, times, settings);
-  if (tty && shown) std::fputs("\n", stderr);
+  progress.finish();
   if (!o.out.empty()) write_trajectory(o.out, tr, p, friction);
 
   const double theta_end = tr.theta.back();

@@ -16,6 +16,7 @@
 #include "parallel.hpp"
 #include "piezo/model/frequency_sweep.hpp"
 #include "piezo/model/sensitivity.hpp"
+#include "progress.hpp"
 #include "rig_config.hpp"
 
 namespace piezo::host {
@@ -140,10 +141,7 @@ int run_map(const SweepOptions& o, const model::Parameters& base,
         maps[m][cell] = model::period_metrics(at(cell / values2.size(), cell % values2.size()),
                                               models[m], settings);
       },
-      [](std::size_t done, std::size_t total) {
-        fmt::print(stderr, "\rsweep map: {}/{} points done", done, total);
-        if (done == total) fmt::print(stderr, "\n");
-      });
+      counted_progress("sweep map", "points"));
   nlohmann::json result{{"param", o.param},
                         {"values", values},
                         {"param2", o.param2},
@@ -238,10 +236,7 @@ int run(const SweepOptions& o) {
         c.points[i] =
             model::period_metrics(model::with_level(base, o.param, values[i]), c.model, settings);
       },
-      [](std::size_t done, std::size_t total) {
-        fmt::print(stderr, "\rsweep: {}/{} points done", done, total);
-        if (done == total) fmt::print(stderr, "\n");
-      });
+      counted_progress("sweep", "points"));
   if (!o.out.empty()) write_outputs(o, values, curves);
 
   nlohmann::json result{{"param", o.param}, {"values", values}, {"periods", o.periods}};

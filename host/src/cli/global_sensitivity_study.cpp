@@ -16,6 +16,7 @@
 #include "piezo/model/frequency_sweep.hpp"
 #include "piezo/model/global_sensitivity.hpp"
 #include "piezo/model/sensitivity.hpp"
+#include "progress.hpp"
 
 namespace piezo::host {
 namespace {
@@ -82,9 +83,10 @@ std::vector<double> evaluate(const model::Parameters& base, const std::vector<mo
       mine.size(), [&](std::size_t j) { y[mine[j]] = output(at(base, f, rows[mine[j]]), o); },
       [&](std::size_t done, std::size_t total) {
         if (mpi.root() && (done % 64 == 0 || done == total)) {
-          fmt::print(stderr, "\rsensitivity ({}): {}/{} runs done{}", o.method, done, total,
-                     mpi.size() > 1 ? fmt::format(" on rank 0 of {}", mpi.size()) : "");
-          if (done == total) fmt::print(stderr, "\n");
+          show_progress(
+              fmt::format("\rsensitivity ({}): {}/{} runs done{}{}", o.method, done, total,
+                          mpi.size() > 1 ? fmt::format(" on rank 0 of {}", mpi.size()) : "",
+                          done == total ? "\n" : ""));
         }
       });
   mpi.gather_to_root(y);

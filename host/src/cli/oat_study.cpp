@@ -4,6 +4,7 @@
 
 #include "model_config.hpp"
 #include "parallel.hpp"
+#include "progress.hpp"
 
 namespace piezo::host {
 
@@ -33,10 +34,7 @@ OatStudy oat_study(const model::Parameters& base, model::FrictionModel friction)
         const model::Sawtooth drive(p.drive.V0, p.drive.f, p.drive.D());
         runs[i].trace = model::simulate(p.motor, drive, friction, times);
       },
-      [](std::size_t done, std::size_t total) {
-        fmt::print(stderr, "\rsensitivity: {}/{} runs done", done, total);
-        if (done == total) fmt::print(stderr, "\n");
-      });
+      counted_progress("sensitivity", "runs"));
 
   for (std::size_t s = 0; s < sweeps.size(); ++s) {
     model::SweepResult r{sweeps[s].name, sweeps[s].levels, {}, 0.0};

@@ -206,6 +206,7 @@ std::vector<std::string> parse_parameter_list(const std::string& list) {
 #include <fmt/format.h>
 
 #include "parallel.hpp"
+#include "progress.hpp"
 
 namespace piezo::host {
 
@@ -218,7 +219,8 @@ model::FitSettings cli_fit_settings(const std::vector<std::string>& free,
     parallel_for(n, job, [](std::size_t, std::size_t) {});
   };
   s.progress = [label](int iteration, double rmse) {
-    fmt::print(stderr, "{}: iteration {}, RMSE {:.3f} urad\n", label, iteration, 1e6 * rmse);
+    show_progress(
+        fmt::format("{}: iteration {}, RMSE {:.3f} urad\n", label, iteration, 1e6 * rmse));
   };
   return s;
 }
