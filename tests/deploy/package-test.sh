@@ -44,6 +44,12 @@ cp "$debs"/python3-piezo-rig_*.deb "$root/tmp/python3-piezo-rig.deb"
 in_root() { chroot "$root" /usr/bin/env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin "$@"; }
 fail() { echo "FAIL: $*"; exit 1; }
 
+# The Python package is one process, one rank: it must not pull in Open MPI
+# (only piezo's studies split across MPI ranks).
+py_depends=$(dpkg-deb -f "$root/tmp/python3-piezo-rig.deb" Depends)
+case "$py_depends" in *mpi*) fail "python3-piezo-rig depends on MPI: $py_depends" ;; esac
+echo "PASS python3-piezo-rig depends on no MPI: $py_depends"
+
 echo "package-test: apt-get install ./piezod.deb ./piezo.deb ./python3-piezo-rig.deb (their dependencies from Debian)"
 in_root apt-get update -q > "$work/apt.log" 2>&1 || { tail "$work/apt.log"; exit 1; }
 in_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends \
