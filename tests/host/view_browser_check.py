@@ -70,21 +70,25 @@ def main():
     os.makedirs(shots, exist_ok=True)
     work = tempfile.mkdtemp(prefix="piezo-view-")
     runs = os.path.join(work, "runs")
+    # The browser first: on a loaded machine (a sanitizer build beside it)
+    # its start takes seconds the 8 s run must not spend before the page
+    # opens.
+    driver = browser()
     port = free_port()
     err = os.path.join(work, "run.err")
     run = subprocess.Popen(
         [piezo, "run", "--config", os.path.join(SOURCE, "configs", "sim.toml"), "--duration", "8",
          "--view", f"127.0.0.1:{port}", "--control", "--json", "--out", os.path.join(runs, "r1")],
         stdout=subprocess.PIPE, stderr=open(err, "w"), text=True)
-    driver = None
     try:
         url, token = wait_for_banner(err, time.time() + 20)
         check(token, "a token with --control")
-        driver = browser()
         driver.get(f"{url}?token={token}")
         deadline = time.time() + 20
         while time.time() < deadline and driver.execute_script("return window.piezoView.updates") < 3:
             time.sleep(0.1)
+        updates = driver.execute_script("return window.piezoView.updates")
+        check(updates >= 3, f"the live page updated {updates} times in 20 s of an 8 s run")
         first = driver.execute_script("return [window.piezoView.t, window.piezoView.points]")
         angle_first = driver.find_element("id", "angle").text
         time.sleep(2.0)
