@@ -331,17 +331,25 @@ TEST_F(Piezod, MovesAreAbsoluteFromTheBoardsZeroAndStepsNeedNoHostConfig) {
 
 // The host dies in the middle of a closed-loop move: the board's lease ends
 // the move by itself, the drive at 0 V (its own last record, as the
-// simulated drive acknowledged it), the move's cause link_lost.
+// simulated drive acknowledged it), the move's cause link_lost. A 2 s lease:
+// the default 0.5 s can lapse before the kill when a loaded machine starves
+// the host.
 TEST_F(Piezod, KillNineOfTheHostMidMoveEndsTheMoveAtZeroVoltsWithLinkLost) {
   start();
   Spawned host({kPiezo, "move", "--to", "0.2", "--timeout", "60", "--config", kSimConfig, "--rig",
-                address_, "--out", (dir_ / "killed-move").string()},
+                address_, "--set", "rig.lease_s=2", "--out", (dir_ / "killed-move").string()},
                (dir_ / "host.log").string());
   std::this_thread::sleep_for(1500ms);
   ASSERT_EQ(status().at("state"), "running") << read_all(dir_ / "host.log");
   host.signal(SIGKILL);
   EXPECT_EQ(host.wait_exit(), 128 + SIGKILL);
-  std::this_thread::sleep_for(1500ms);
+  // The lease, then the ramp to 0 V: the fault and the run's summary.
+  ASSERT_TRUE(poll_until(
+      [&] {
+        const auto now = status();
+        return now.at("fault").is_string() && now.at("run").contains("summary");
+      },
+      30000ms, 50ms));
   const auto s = status();
   EXPECT_EQ(s.at("fault"), "link_lost");
   const auto& summary = s.at("run").at("summary");
