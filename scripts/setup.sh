@@ -35,7 +35,7 @@ packages=(
   libsystemd-dev systemd debootstrap iproute2 libboost-dev python3-openturns libopenmpi-dev openmpi-bin
   libsundials-dev
   libcpp-httplib-dev chromium chromium-driver python3-selenium fonts-dejavu-core
-  pybind11-dev python3-dev python3-pandas python3-pytest python3-matplotlib
+  pybind11-dev python3-dev python3-pandas python3-pytest python3-matplotlib mypy
   python3-nbclient python3-nbformat python3-ipykernel
 )
 if [ -n "$peers" ]; then packages+=(python3-scipy octave); fi

@@ -6,30 +6,92 @@
 # qemu-aarch64, the suite under AddressSanitizer + UndefinedBehaviorSanitizer
 # (all but the kill test and the soak, which the optimised leg runs), and the
 # threaded suites under ThreadSanitizer.
+#
+# Every leg runs even when an earlier one failed, so one failing test does
+# not hide whether the others pass; the exit status is non-zero when any leg
+# failed, and the last lines name them. After each leg no process that its
+# tests started may be left running.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+
 # Each leg says when it starts, so a slow leg shows in the log.
 phase() { printf '\n== %s (at %dm%02ds)\n' "$1" $((SECONDS / 60)) $((SECONDS % 60)); }
-phase "set-up and the optimised build"
-scripts/setup.sh ci --gpio-sim --arm64
-phase "the whole suite"
-ctest --preset ci -j "$(nproc)"
-phase "the board build under qemu-aarch64"
-# The board build's tests run under the emulator: the command line shows it.
-ctest --test-dir build/arm64 -R piezod_version -V | grep -E "Test command|^[0-9]+: piezod"
-ctest --preset arm64 -j "$(nproc)"
-phase "AddressSanitizer + UndefinedBehaviorSanitizer"
-cmake --preset asan >/dev/null
-cmake --build --preset asan -j "$(nproc)"
-phase "the suite under AddressSanitizer (without the kill test and the soak)"
-ctest --preset asan -j "$(nproc)"
+
+# Every process a leg starts inherits this mark in its environment (CTest,
+# the tests, the helpers they spawn, the browser); one still alive after its
+# leg has outlived the test that started it.
+export PIEZO_TEST_MARK="piezo-test-$$-$RANDOM"
+leftovers() {
+  local env pid found=()
+  for env in /proc/[0-9]*/environ; do
+    pid=${env#/proc/}
+    pid=${pid%/environ}
+    [ "$pid" = "$$" ] && continue
+    grep -qzx "PIEZO_TEST_MARK=$PIEZO_TEST_MARK" "$env" 2>/dev/null && found+=("$pid")
+  done
+  ((${#found[@]})) || return 0
+  echo "processes left behind by the tests:"
+  for pid in "${found[@]}"; do
+    printf '  %s: %s\n' "$pid" "$(tr '\0' ' ' < "/proc/$pid/cmdline" 2>/dev/null)"
+  done
+  kill -KILL "${found[@]}" 2>/dev/null || true
+  return 1
+}
+
+failed=()
+# leg NAME FUNCTION [tests]: runs the function with errexit in force (a
+# background job is outside the `if` that would suspend it); after a leg of
+# tests, looks for leftovers (the set-up's package scripts may start
+# services of their own).
+leg() {
+  local name=$1 rc=0
+  phase "$name"
+  "$2" &
+  wait $! || rc=$?
+  if [ "${3:-}" = tests ]; then leftovers || rc=$?; fi
+  if ((rc)); then
+    failed+=("$name")
+    echo "== $name: FAILED (exit $rc)"
+  fi
+}
+
+set_up() { scripts/setup.sh ci --gpio-sim --arm64; }
+
+whole_suite() { ctest --preset ci -j "$(nproc)"; }
+
+board_build() {
+  # The board build's tests run under the emulator: the command line shows it.
+  ctest --test-dir build/arm64 -R piezod_version -V | grep -E "Test command|^[0-9]+: piezod"
+  ctest --preset arm64 -j "$(nproc)"
+}
+
+address_sanitizer() {
+  cmake --preset asan >/dev/null
+  cmake --build --preset asan -j "$(nproc)"
+  # Without the kill test and the soak (docs/testing.md says why).
+  ctest --preset asan -j "$(nproc)"
+}
+
 # The thread sanitizer on the suites whose code runs on several threads
 # in-process (rings, clocks, loops, whole runs with the observer, the view's
 # server with its event loop and workers); the full tsan build passes the
 # rest too, but costs CI minutes.
-phase "ThreadSanitizer"
-cmake --preset tsan >/dev/null
-cmake --build --preset tsan -j "$(nproc)" --target firmware_tests hal_tests sim_run_tests view_tests
-ctest --preset tsan -j "$(nproc)" -L "firmware_tests|hal_tests|sim_run_tests|view" \
-  -E "^view_(browser|rig|load|wide_bind)$"
+thread_sanitizer() {
+  cmake --preset tsan >/dev/null
+  cmake --build --preset tsan -j "$(nproc)" --target firmware_tests hal_tests sim_run_tests view_tests
+  ctest --preset tsan -j "$(nproc)" -L "firmware_tests|hal_tests|sim_run_tests|view" \
+    -E "^view_(browser|rig|load|wide_bind)$"
+}
+
+leg "set-up and the optimised build" set_up
+leg "the whole suite" whole_suite tests
+leg "the board build under qemu-aarch64" board_build tests
+leg "AddressSanitizer + UndefinedBehaviorSanitizer" address_sanitizer tests
+leg "ThreadSanitizer" thread_sanitizer tests
 phase "done"
+if ((${#failed[@]})); then
+  echo "failed legs:"
+  printf '  %s\n' "${failed[@]}"
+  exit 1
+fi
+echo "all legs passed"

@@ -12,6 +12,7 @@
 #include <atomic>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -70,14 +71,88 @@ py::array_t<double> to_numpy(std::vector<double>&& values) {
 
 std::vector<double> to_vector(
     const py::array_t<double, py::array::c_style | py::array::forcecast>& a,
-    const std::string& key) {
-  if (a.ndim() != 1) throw ConfigError(key, fmt::format("{} dimensions", a.ndim()), "allowed: 1");
+    const std::string& source, const std::string& key) {
+  if (a.ndim() != 1) {
+    throw ConfigError(source, key, fmt::format("{} dimensions (allowed: 1, a flat array)", a.ndim()));
+  }
   return {a.data(), a.data() + a.size()};
 }
 
-/// Sets one Table 1 parameter, refused (ValueError) as `--set` refuses it.
-void set_parameter(model::Parameters& p, const std::string& name, double value) {
-  piezo::config::set_parameter(p, name, value, "Parameters");
+/// A Python number as a double; anything else (a string, None, a bool)
+/// is a TypeError naming the parameter, not pybind11's cast error.
+double number(const py::handle& value, const std::string& where, const std::string& name) {
+  if (PyBool_Check(value.ptr()) || !PyNumber_Check(value.ptr()) || PyUnicode_Check(value.ptr())) {
+    throw py::type_error(fmt::format("{}: {}: expected a number (float or int), got {} {}", where,
+                                     name, py::str(py::type::of(value).attr("__name__")).cast<std::string>(),
+                                     py::repr(value).cast<std::string>()));
+  }
+  return py::float_(py::reinterpret_borrow<py::object>(value)).cast<double>();
+}
+
+/// Sets Table 1 parameters by symbol (and the direction), each refused
+/// (ValueError) as `--set` refuses it, then the whole set checked (C_dr *
+/// e_dr <= 1, ...): a bad value is refused at the call that gives it, and
+/// `p` is left as it was.
+void set_parameters(model::Parameters& p, const py::dict& values, const std::string& where) {
+  model::Parameters next = p;
+  for (const auto& [key, value] : values) {
+    const auto name = py::str(key).cast<std::string>();
+    if (name == "direction") {
+      if (!py::isinstance<py::str>(value)) {
+        throw py::type_error(fmt::format("{}: direction: expected 'forward' or 'reverse', got {}",
+                                         where, py::repr(value).cast<std::string>()));
+      }
+      next.drive.direction = host::checked_direction(value.cast<std::string>(), "direction");
+    } else {
+      if (model::find_parameter(name) == nullptr) {
+        piezo::config::set_parameter(next, name, 0.0, where);  // refused, naming the known ones
+      }
+      piezo::config::set_parameter(next, name, number(value, where, name), where);
+    }
+  }
+  piezo::config::require_valid(next, where);
+  p = next;
+}
+
+/// Parameters as JSON: every symbol and the direction (a round trip keeps both).
+std::string parameters_to_json(const model::Parameters& p) {
+  auto j = host::to_json(p);
+  j["direction"] = std::string(model::name(p.drive.direction));
+  return j.dump();
+}
+
+model::Parameters parameters_from_json(const std::string& text) {
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    throw ConfigError("Parameters.from_json", "text", std::string("not JSON: ") + e.what());
+  }
+  if (!j.is_object()) throw ConfigError("Parameters.from_json", "text", "not a JSON object");
+  std::string direction = "forward";
+  if (j.contains("direction")) {
+    if (!j["direction"].is_string()) {
+      throw ConfigError("Parameters.from_json", "direction", "allowed: forward, reverse");
+    }
+    direction = j["direction"].get<std::string>();
+    j.erase("direction");
+  }
+  model::Parameters p;
+  try {
+    p = host::parameters_from_json(j);
+  } catch (const std::runtime_error& e) {
+    throw ConfigError("Parameters.from_json", "text", e.what());
+  }
+  p.drive.direction = host::checked_direction(direction, "Parameters.from_json: direction");
+  piezo::config::require_valid(p, "Parameters.from_json");
+  return p;
+}
+
+bool same_parameters(const model::Parameters& a, const model::Parameters& b) {
+  for (const auto& s : model::parameter_specs()) {
+    if (*model::get_parameter(a, s.name) != *model::get_parameter(b, s.name)) return false;
+  }
+  return a.drive.direction == b.drive.direction;
 }
 
 py::dict stats_dict(const model::IntegrationStats& s) {
@@ -99,9 +174,11 @@ py::dict simulate(model::Parameters p, double duration, const std::string& frict
   const auto friction = host::checked_friction_model(friction_name, "model");
   if (!direction.empty()) p.drive.direction = host::checked_direction(direction, "direction");
   host::check_duration(duration, "duration");
-  if (!(dt > 0.0)) throw ConfigError("dt", fmt::format("{:g} s", dt), "allowed: > 0 s");
+  if (!(dt > 0.0 && dt <= duration)) {
+    throw ConfigError("simulate", "dt", fmt::format("{:g} s (allowed: (0, duration])", dt));
+  }
   if (!(tolerance >= 1e-14 && tolerance <= 1e-2)) {
-    throw ConfigError("tolerance", fmt::format("{:g}", tolerance), "allowed: [1e-14, 1e-2]");
+    throw ConfigError("simulate", "tolerance", fmt::format("{:g} (allowed: [1e-14, 1e-2])", tolerance));
   }
   const auto integrator = host::checked_integrator(integrator_name, friction, "integrator");
   model::Trajectory tr;
@@ -156,6 +233,10 @@ std::string global_study(const model::Parameters& p, const std::string& method,
   o.runtime_s = runtime_s;
   o.bootstrap = bootstrap;
   o.model = host::checked_friction_model(friction_name, "model");
+  // Errors name the Python call's keyword arguments, not the CLI's flags.
+  const std::string at = method + ": ";
+  o.names = {at + "names",  at + "range_pct", at + (method == "morris" ? "trajectories" : "samples"),
+             at + "output", at + "runtime",   at + "bootstrap"};
   py::gil_scoped_release free_python;
   return host::global_study(p, o).dump();
 }
@@ -164,13 +245,14 @@ py::dict sweep(const model::Parameters& base, const std::string& name,
                const std::vector<double>& values, int periods, const std::string& friction_name) {
   const auto friction = host::checked_friction_model(friction_name, "model");
   if (name != "D" && model::find_parameter(name) == nullptr) {
-    throw ConfigError("param", name, "allowed: a Table 1 symbol (V0, f, mu, ...) or D");
+    throw ConfigError("sweep", "name", name + ": unknown (allowed: a Table 1 symbol (V0, f, mu, ...) or D)");
   }
   if (periods < 3 || periods > 100000) {
-    throw ConfigError("periods", std::to_string(periods), "allowed: [3, 100000]");
+    throw ConfigError("sweep", "periods", std::to_string(periods) + " (allowed: [3, 100000])");
   }
   for (double v : values) {
-    piezo::config::require_valid(model::with_level(base, name, v), fmt::format("{}={:g}", name, v));
+    piezo::config::require_valid(model::with_level(base, name, v),
+                                 fmt::format("sweep: values: {}={:g}", name, v));
   }
   std::vector<model::StepMetrics> points(values.size());
   {
@@ -220,16 +302,19 @@ py::dict fit_result(model::FitResult&& r, std::size_t samples) {
 }
 
 py::dict identify(const model::Parameters& start, const model::FitData& data,
-                  const std::vector<std::string>& free, const std::string& friction_name,
-                  int max_iterations) {
+                  const std::optional<std::vector<std::string>>& free,
+                  const std::string& friction_name, int max_iterations) {
   const auto friction = host::checked_friction_model(friction_name, "model");
-  if (max_iterations < 1) {
-    throw ConfigError("max_iterations", std::to_string(max_iterations), "allowed: >= 1");
+  if (max_iterations < 1 || max_iterations > 10000) {
+    throw ConfigError("identify", "max_iterations",
+                      std::to_string(max_iterations) + " (allowed: [1, 10000])");
   }
+  piezo::config::require_valid(start, "identify: params");
+  const auto names = host::checked_free_parameters(free, friction, "identify", "free");
   model::FitResult r;
   {
     py::gil_scoped_release free_python;
-    auto settings = host::cli_fit_settings(free, friction, "identify");
+    auto settings = host::cli_fit_settings(names, friction, "identify");
     settings.max_iterations = max_iterations;
     r = model::identify(start, data, settings);
   }
@@ -240,20 +325,24 @@ py::dict identify(const model::Parameters& start, const model::FitData& data,
 /// recorded drive and angle, as the host runs it beside a live run.
 py::dict observe(const model::Parameters& p, const model::FitData& data,
                  const model::ObserverGains& gains, double latency) {
-  piezo::config::require_valid(p, "Parameters");
+  piezo::config::require_valid(p, "observe: params");
   // The ranges of the config's [observer] keys (docs/configuration.md).
   if (!(gains.alpha >= 0.0 && gains.alpha <= 1.0)) {
-    throw ConfigError("observe", "alpha", fmt::format("{:g}; allowed: [0, 1]", gains.alpha));
+    throw ConfigError("observe", "alpha", fmt::format("{:g} (allowed: [0, 1])", gains.alpha));
   }
   if (!(gains.beta >= 0.0 && gains.beta <= 1.0)) {
-    throw ConfigError("observe", "beta", fmt::format("{:g}; allowed: [0, 1]", gains.beta));
+    throw ConfigError("observe", "beta", fmt::format("{:g} (allowed: [0, 1])", gains.beta));
   }
   if (!(gains.gate_rad > 0.0 && gains.gate_rad <= 10.0)) {
     throw ConfigError("observe", "gate_rad",
-                      fmt::format("{:g}; allowed: (0, 10] rad", gains.gate_rad));
+                      fmt::format("{:g} (allowed: (0, 10] rad)", gains.gate_rad));
   }
-  if (!(latency >= 0.0 && data.ramp_time > 0.0)) {
-    throw ConfigError("observe", "latency", "allowed: latency >= 0 s, ramp_time > 0 s");
+  if (!(latency >= 0.0 && latency <= 1.0)) {
+    throw ConfigError("observe", "latency", fmt::format("{:g} s (allowed: [0, 1] s)", latency));
+  }
+  if (!(data.ramp_time > 0.0 && data.ramp_time <= 1.0)) {
+    throw ConfigError("observe", "ramp_time",
+                      fmt::format("{:g} s (allowed: (0, 1] s)", data.ramp_time));
   }
   host::log_schema::ObserverRows rows;
   host::ObserverSummary summary;
@@ -305,17 +394,23 @@ Parameters(**values) starts from Table 1. A value outside its range raises Value
 Parameters.from_config(path) reads a TOML config's [drive] and [model].)");
   cls.def(py::init([](const py::kwargs& values) {
             model::Parameters p;
-            for (const auto& [key, value] : values) {
-              const auto name = key.cast<std::string>();
-              if (name == "direction") {
-                p.drive.direction = host::checked_direction(value.cast<std::string>(), "direction");
-              } else {
-                set_parameter(p, name, value.cast<double>());
-              }
-            }
+            set_parameters(p, values, "Parameters");
             return p;
           }),
           "Parameters(**values): Table 1, with the values given by symbol.");
+  cls.def(
+      "replace",
+      [](const model::Parameters& p, const py::kwargs& values) {
+        model::Parameters next = p;
+        set_parameters(next, values, "Parameters.replace");
+        return next;
+      },
+      "A copy with the values given by symbol, checked together (C_dr and e_dr at once, say).");
+  cls.def("__eq__", [](const model::Parameters& a, const py::object& b) -> py::object {
+    if (!py::isinstance<model::Parameters>(b)) return py::reinterpret_borrow<py::object>(Py_NotImplemented);
+    return py::bool_(same_parameters(a, b.cast<const model::Parameters&>()));
+  });
+  cls.attr("__hash__") = py::none();  // mutable: equal by value, not hashable
   cls.def(
       "to_dict",
       [](const model::Parameters& p) {
@@ -342,7 +437,11 @@ Parameters.from_config(path) reads a TOML config's [drive] and [model].)");
     const model::ParameterSpec* s = &spec;
     cls.def_property(
         name.c_str(), [s](model::Parameters& p) { return s->ref(p); },
-        [name](model::Parameters& p, double v) { set_parameter(p, name, v); },
+        [name](model::Parameters& p, const py::object& v) {
+          py::dict one;
+          one[name.c_str()] = v;
+          set_parameters(p, one, "Parameters");
+        },
         fmt::format("{} [{}], allowed {} (section [{}])", name, spec.unit, spec.range_text(),
                     spec.section)
             .c_str());
@@ -350,8 +449,10 @@ Parameters.from_config(path) reads a TOML config's [drive] and [model].)");
   cls.def_property(
       "direction",
       [](const model::Parameters& p) { return std::string(model::name(p.drive.direction)); },
-      [](model::Parameters& p, const std::string& d) {
-        p.drive.direction = host::checked_direction(d, "direction");
+      [](model::Parameters& p, const py::object& d) {
+        py::dict one;
+        one["direction"] = d;
+        set_parameters(p, one, "Parameters");
       },
       "forward (slow rise, fast fall) or reverse (the mirrored sawtooth)");
   cls.def_property_readonly(
@@ -360,25 +461,18 @@ Parameters.from_config(path) reads a TOML config's [drive] and [model].)");
   cls.def(
       "validate", [](const model::Parameters& p) { piezo::config::require_valid(p, "Parameters"); },
       "Raises ValueError naming the first parameter out of its range.");
-  cls.def("to_json", [](const model::Parameters& p) { return host::to_json(p).dump(); });
-  cls.def_static("from_json", [](const std::string& text) {
-    model::Parameters p = host::parameters_from_json(nlohmann::json::parse(text));
-    piezo::config::require_valid(p, "Parameters");
-    return p;
-  });
+  cls.def("to_json", &parameters_to_json,
+          "Every parameter by symbol and the direction, as JSON (from_json reads it back).");
+  cls.def_static("from_json", &parameters_from_json, py::arg("text"),
+                 "Parameters from to_json's text (or a log's model_parameters); the direction "
+                 "forward when the text has none.");
   cls.def_static("from_config",
                  [](const std::string& path) { return piezo::config::load_model_config(path); });
-  // Pickled as the parameters' JSON and the direction (processes of a pool).
-  cls.def(py::pickle(
-      [](const model::Parameters& p) {
-        return py::make_tuple(host::to_json(p).dump(), std::string(model::name(p.drive.direction)));
-      },
-      [](const py::tuple& state) {
-        model::Parameters p =
-            host::parameters_from_json(nlohmann::json::parse(state[0].cast<std::string>()));
-        p.drive.direction = host::checked_direction(state[1].cast<std::string>(), "direction");
-        return p;
-      }));
+  // Pickled as the parameters' JSON, the direction included (processes of a pool).
+  cls.def(py::pickle([](const model::Parameters& p) { return py::make_tuple(parameters_to_json(p)); },
+                     [](const py::tuple& state) {
+                       return parameters_from_json(state[0].cast<std::string>());
+                     }));
 }
 
 }  // namespace
@@ -395,17 +489,17 @@ PYBIND11_MODULE(_model, m) {
   bind_parameters(m);
 
   py::class_<model::FitData>(m, "FitData")
-      .def(
-          py::init([](const py::array_t<double, py::array::c_style | py::array::forcecast>& drive_t,
-                      const py::array_t<double, py::array::c_style | py::array::forcecast>& drive_V,
-                      const py::array_t<double, py::array::c_style | py::array::forcecast>& t,
-                      const py::array_t<double, py::array::c_style | py::array::forcecast>& theta,
-                      double ramp_time) {
-            return model::FitData{to_vector(drive_t, "drive_t"), to_vector(drive_V, "drive_V"),
-                                  ramp_time, to_vector(t, "t"), to_vector(theta, "theta")};
-          }),
-          py::arg("drive_t"), py::arg("drive_V"), py::arg("t"), py::arg("theta"),
-          py::arg("ramp_time") = 1e-4)
+      .def(py::init([](const py::array_t<double, py::array::c_style | py::array::forcecast>& drive_t,
+                       const py::array_t<double, py::array::c_style | py::array::forcecast>& drive_V,
+                       const py::array_t<double, py::array::c_style | py::array::forcecast>& t,
+                       const py::array_t<double, py::array::c_style | py::array::forcecast>& theta,
+                       std::optional<double> ramp_time, const std::string& source) {
+             return host::checked_fit_data(
+                 to_vector(drive_t, source, "drive_t"), to_vector(drive_V, source, "drive_V"),
+                 to_vector(t, source, "t"), to_vector(theta, source, "theta"), ramp_time, source);
+           }),
+           py::arg("drive_t"), py::arg("drive_V"), py::arg("t"), py::arg("theta"),
+           py::arg("ramp_time") = py::none(), py::arg("source") = "FitData")
       .def_property_readonly(
           "drive_t", [](const model::FitData& d) { return to_numpy(std::vector(d.drive_t)); })
       .def_property_readonly(
@@ -435,11 +529,21 @@ PYBIND11_MODULE(_model, m) {
         py::arg("model"), py::arg("max_iterations"));
   m.def(
       "observe",
-      [](const model::Parameters& p, const model::FitData& data, double alpha, double beta,
-         double gate_rad, double latency) {
+      [](const model::Parameters& p,
+         const py::array_t<double, py::array::c_style | py::array::forcecast>& drive_t,
+         const py::array_t<double, py::array::c_style | py::array::forcecast>& drive_V,
+         const py::array_t<double, py::array::c_style | py::array::forcecast>& t,
+         const py::array_t<double, py::array::c_style | py::array::forcecast>& theta,
+         double ramp_time, double alpha, double beta, double gate_rad, double latency) {
+        // As recorded, nothing left out: the live observer saw every record.
+        model::FitData data{to_vector(drive_t, "observe", "drive_t"),
+                            to_vector(drive_V, "observe", "drive_V"), ramp_time,
+                            to_vector(t, "observe", "t"), to_vector(theta, "observe", "theta")};
+        host::check_run_arrays(data.drive_t, data.drive_V, data.t, data.theta, "observe");
         return observe(p, data, {alpha, beta, gate_rad}, latency);
       },
-      py::arg("params"), py::arg("data"), py::arg("alpha"), py::arg("beta"), py::arg("gate_rad"),
+      py::arg("params"), py::arg("drive_t"), py::arg("drive_V"), py::arg("t"), py::arg("theta"),
+      py::arg("ramp_time"), py::arg("alpha"), py::arg("beta"), py::arg("gate_rad"),
       py::arg("latency"));
   m.def("load_run", &load_run, py::arg("path"), py::arg("layout"));
   m.def("parameter_specs", [] {

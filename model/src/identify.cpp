@@ -108,7 +108,18 @@ std::vector<double> predict(const Parameters& p, const FitData& data, FrictionMo
   return simulate(p.motor, drive, model, times, {tolerance}).theta;
 }
 
+std::vector<std::string> default_free_parameters(FrictionModel model) {
+  if (model == FrictionModel::coulomb) return {"F_N", "d_e"};
+  return {"sigma0", "sigma1", "F_N", "d_e"};
+}
+
+bool model_uses(FrictionModel model, std::string_view name) {
+  return model != FrictionModel::coulomb ||
+         (name != "sigma0" && name != "sigma1" && name != "sigma2");
+}
+
 FitResult identify(const Parameters& start, const FitData& data, const FitSettings& settings) {
+  if (settings.free.empty()) throw std::invalid_argument("identify: no parameter to fit");
   if (data.t.size() < settings.free.size() + 2 || data.t.size() != data.theta.size()) {
     throw std::invalid_argument("identify: too few measurements");
   }
@@ -116,6 +127,9 @@ FitResult identify(const Parameters& start, const FitData& data, const FitSettin
   for (const auto& name : settings.free) {
     const ParameterSpec* s = find_parameter(name);
     if (s == nullptr) throw std::invalid_argument("identify: unknown parameter '" + name + "'");
+    if (!model_uses(settings.model, name)) {
+      throw std::invalid_argument("identify: the model does not use '" + name + "'");
+    }
     if (!(s->min >= 0.0) || !(get_parameter(start, name).value() > 0.0)) {
       throw std::invalid_argument("identify: '" + name + "' must be positive to be fitted");
     }

@@ -6,13 +6,35 @@
 
 namespace piezo::model {
 
-std::vector<Sweep> paper_sweeps() {
-  return {
+namespace {
+/// `value` to 12 significant digits: a scaled level of the paper's then
+/// reads as written (0.09 * 1.2 would be 0.10799999999999998).
+double rounded(double value) {
+  if (value == 0.0 || !std::isfinite(value)) return value;
+  const double scale =
+      std::pow(10.0, 11 - static_cast<int>(std::floor(std::log10(std::abs(value)))));
+  return std::round(value * scale) / scale;
+}
+
+double value_of(const Parameters& p, const std::string& name) {
+  return name == "D" ? p.drive.D() : *get_parameter(p, name);
+}
+}  // namespace
+
+std::vector<Sweep> paper_sweeps(const Parameters& base) {
+  std::vector<Sweep> sweeps{
       {"V0", {72, 76, 80, 84, 88}},
       {"f", {8, 9, 10, 11, 12}},
       {"mu", {0.09, 0.095, 0.1, 0.105, 0.11}},
       {"D", {0.675, 0.7125, 0.75, 0.7875, 0.825}},
   };
+  const Parameters table_1;
+  for (auto& sweep : sweeps) {
+    const double ratio = value_of(base, sweep.name) / value_of(table_1, sweep.name);
+    if (ratio == 1.0) continue;  // the paper's study as printed
+    for (double& level : sweep.levels) level = rounded(level * ratio);
+  }
+  return sweeps;
 }
 
 Parameters with_level(const Parameters& base, const std::string& name, double value) {

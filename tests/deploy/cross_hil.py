@@ -18,6 +18,7 @@ import h5py
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+import peers  # noqa: E402
 from peers import wait_for_tcp  # noqa: E402
 
 arm64_piezod, piezo, source, work, port = sys.argv[1:6]
@@ -42,7 +43,7 @@ procs = []
 
 
 def spawn(args, log):
-    p = subprocess.Popen(args, stdout=open(log, "w"), stderr=subprocess.STDOUT)
+    p = peers.spawn(args, stdout=open(log, "w"), stderr=subprocess.STDOUT)
     procs.append(p)
     return p
 

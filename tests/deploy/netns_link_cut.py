@@ -18,6 +18,9 @@ import time
 import h5py
 import numpy as np
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+import peers  # noqa: E402
+
 piezod, piezo, source, work, port = sys.argv[1:6]
 # A directory of its own, emptied: a second run of the suite finds no old
 # keys (keygen keeps a pair unless forced) and no old run.
@@ -71,7 +74,7 @@ try:
         out.write(f.read())
 
     board_log = open(os.path.join(work, "piezod.log"), "w")
-    board = subprocess.Popen(in_ns(board_ns, piezod, "--config", f"{source}/configs/piezod-sim.toml",
+    board = peers.spawn(in_ns(board_ns, piezod, "--config", f"{source}/configs/piezod-sim.toml",
                                    "--listen", address,
                                    "--set", f"piezod.secret_key_file=\"{keys}/board.key\"",
                                    "--set", f"piezod.authorized_keys_file=\"{keys}/authorized_keys\""),
@@ -88,7 +91,7 @@ try:
 
     out_dir = os.path.join(work, "run")
     host_out = open(os.path.join(work, "host.txt"), "w")
-    host = subprocess.Popen(in_ns(host_ns, piezo, "run", "--config", f"{source}/configs/sim.toml",
+    host = peers.spawn(in_ns(host_ns, piezo, "run", "--config", f"{source}/configs/sim.toml",
                                   "--rig", address, "--duration", "5", "--json", "--out", out_dir,
                                   *client_keys),
                             stdout=host_out, stderr=subprocess.STDOUT)

@@ -12,6 +12,9 @@ import sys
 import tempfile
 import time
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+import peers  # noqa: E402
+
 piezod, config, port = sys.argv[1], sys.argv[2], sys.argv[3]
 watchdog_s = 0.4
 
@@ -21,7 +24,7 @@ with tempfile.TemporaryDirectory() as tmp:
     sock.bind(path)
     sock.settimeout(10)
     env = dict(os.environ, NOTIFY_SOCKET=path, WATCHDOG_USEC=str(int(watchdog_s * 1e6)))
-    daemon = subprocess.Popen(
+    daemon = peers.spawn(
         [piezod, "--config", config, "--listen", f"tcp://127.0.0.1:{port}"],
         env=env, stderr=subprocess.DEVNULL)
 

@@ -33,6 +33,7 @@ import h5py
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+import peers  # noqa: E402
 from peers import wait_for_tcp  # noqa: E402
 
 args = sys.argv[1:]
@@ -133,7 +134,7 @@ fractions = []
 t0 = time.monotonic()
 for i in range(kills):
     run_dir = f"{work}/host-{i:03d}"
-    p = subprocess.Popen([piezo, "run", "--config", config, *virtual, "--duration", DURATION,
+    p = peers.spawn([piezo, "run", "--config", config, *virtual, "--duration", DURATION,
                           "--json", "--out", run_dir], stdout=subprocess.DEVNULL,
                          stderr=subprocess.DEVNULL)
     time.sleep(rng.uniform(0.0, 1.1 * wall))
@@ -162,7 +163,7 @@ remote = ["run", "--config", config, *virtual, "--duration", DURATION, "--rig", 
 
 
 def start_board():
-    b = subprocess.Popen(board_args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    b = peers.spawn(board_args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     children.append(b)
     if not wait_for_tcp(port):
         fail("piezod did not listen")
@@ -178,7 +179,7 @@ board_classes = {}
 for i in range(daemon_kills):
     run_dir = f"{work}/board-{i:03d}"
     host_err = open(f"{run_dir}.stderr", "w")
-    host = subprocess.Popen([piezo, *remote, "--out", run_dir], stdout=subprocess.PIPE,
+    host = peers.spawn([piezo, *remote, "--out", run_dir], stdout=subprocess.PIPE,
                             stderr=host_err, text=True)
     time.sleep(rng.uniform(0.05, 0.9 * remote_wall))
     board.send_signal(signal.SIGKILL)
@@ -244,7 +245,7 @@ for cls, count in sorted(board_classes.items()):
 remote_classes = {}
 for i in range(daemon_kills):
     run_dir = f"{work}/remote-host-{i:03d}"
-    p = subprocess.Popen([piezo, *remote, "--out", run_dir], stdout=subprocess.DEVNULL,
+    p = peers.spawn([piezo, *remote, "--out", run_dir], stdout=subprocess.DEVNULL,
                          stderr=subprocess.DEVNULL)
     time.sleep(rng.uniform(0.0, 1.1 * remote_wall))
     p.send_signal(signal.SIGKILL)

@@ -24,6 +24,7 @@ import time
 
 SOURCE = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.join(SOURCE, "tests", "support"))
+import peers  # noqa: E402
 from peers import free_port, start_piezod  # noqa: E402
 LIVE_PAGES, SLOW_SENDERS, FLOODERS, TRIES = 50, 50, 8, 20
 
@@ -155,7 +156,7 @@ def main():
         url = token = None
         for _ in range(5):  # a board still starting may leave the view's hello unanswered
             port = free_port()
-            view = subprocess.Popen([piezo, "view", "--rig", address, "--control", "--listen",
+            view = peers.spawn([piezo, "view", "--rig", address, "--control", "--listen",
                                      f"127.0.0.1:{port}"], stderr=open(err, "w"))
             deadline = time.time() + 60
             while time.time() < deadline and view.poll() is None and not url:

@@ -19,6 +19,7 @@ import urllib.request
 
 SOURCE = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.join(SOURCE, "tests", "support"))
+import peers  # noqa: E402
 from peers import free_port, start_piezod  # noqa: E402
 
 
@@ -64,7 +65,7 @@ def main():
     view = None
     url = None
     try:
-        view = subprocess.Popen([piezo, "view", "--rig", address, "--listen", f"127.0.0.1:{view_port}",
+        view = peers.spawn([piezo, "view", "--rig", address, "--listen", f"127.0.0.1:{view_port}",
                                  "--control", "--runs", work], stderr=open(err, "w"))
         m = wait_for(lambda: re.search(r"live view: (http://\S+?)\?token=([0-9a-f]+)", open(err).read()),
                      10, "the view's banner")

@@ -17,6 +17,9 @@ import time
 import urllib.error
 import urllib.request
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+import peers  # noqa: E402
+
 piezo = sys.argv[1]
 if os.geteuid() != 0:
     print("SKIP: a network namespace needs root")
@@ -46,7 +49,7 @@ def get(path, headers=None):
 
 port = 18931
 runs = tempfile.mkdtemp(prefix="view-wide-")
-view = subprocess.Popen([piezo, "view", "--runs", runs, "--listen", f"0.0.0.0:{port}",
+view = peers.spawn([piezo, "view", "--runs", runs, "--listen", f"0.0.0.0:{port}",
                          "--allow-host", "lab-pc"], stderr=subprocess.PIPE, text=True)
 try:
     banner = view.stderr.readline()

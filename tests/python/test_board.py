@@ -49,7 +49,7 @@ def test_gaps_after_a_link_outage_are_fetched(board_address, source):
     # connection): the stream loses what was published meanwhile, the
     # client fetches it from the board's recorder.
     port = peers.free_port(2)
-    proxy = subprocess.Popen([sys.executable, os.path.join(source, "tests", "protocol",
+    proxy = peers.spawn([sys.executable, os.path.join(source, "tests", "protocol",
                                                            "link_proxy.py"),
                               str(port), board_address.rsplit(":", 1)[1], "0.4"])
     try:
@@ -207,3 +207,158 @@ def test_a_board_that_dies_mid_run_is_reported(tmp_path):
         if process.poll() is None:
             process.kill()
         process.wait()
+
+
+# -- what a stranger met (each failed before its fix) ---------------------
+
+def run_script(code, timeout=60):
+    """A user's script in its own interpreter: a hang is a timeout here,
+    not a hung test."""
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=timeout)
+
+
+def test_leaving_a_board_ends_a_run_used_without_its_own_with(board_address):
+    out = run_script(f"""
+from piezo_rig.board import Board
+with Board({board_address!r}) as board:
+    run = board.run(V0=60, f=10, duration=0.5)
+    run.wait()
+print("left", run.summary["cause"])
+""")
+    assert out.returncode == 0 and out.stdout == "left completed\n", out.stderr
+    assert "Error" not in out.stderr, out.stderr
+
+
+def test_leaving_a_board_mid_run_stops_the_run_on_the_board(board, board_address):
+    out = run_script(f"""
+import time
+from piezo_rig.board import Board
+with Board({board_address!r}) as board:
+    run = board.run(V0=60, f=10, duration=30)
+    time.sleep(0.5)
+print("left")
+""")
+    assert out.returncode == 0 and out.stdout == "left\n", out.stderr
+    # The board, not the client, says how it ended: stopped at 0 V, no fault.
+    status = board.status()
+    assert status["state"] == "idle", status
+    assert status["run"]["summary"]["cause"] == "interrupted"
+    assert board.fetch("drive", 0, 400000)["V"][-1] == 0.0
+    board.close()
+    board.close()  # twice is harmless
+    with pytest.raises(errors.ClientClosed):
+        board.status()
+
+
+def test_ctrl_c_while_streaming_is_a_keyboard_interrupt(board_address):
+    # SIGINT from another process at a random moment of the stream, twelve
+    # times: always KeyboardInterrupt, and the run stopped on the board.
+    script = f"""
+import sys
+from piezo_rig.board import Board
+with Board({board_address!r}) as board:
+    try:
+        with board.run(V0=40, f=10, duration=30) as run:
+            print("streaming", flush=True)
+            for block in run:
+                pass
+    except KeyboardInterrupt:
+        print("KeyboardInterrupt", flush=True)
+"""
+    rng = np.random.default_rng(7)
+    for _ in range(12):
+        child = peers.spawn([sys.executable, "-c", script], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+        assert child.stdout.readline() == "streaming\n"
+        time.sleep(rng.uniform(0.05, 0.4))
+        child.send_signal(signal.SIGINT)
+        out, err = child.communicate(timeout=30)
+        assert out == "KeyboardInterrupt\n", err
+
+
+def test_an_interrupt_between_a_messages_two_parts_leaves_no_stray_part(board):
+    # The moment a signal can land while a sample frame is being taken:
+    # after its topic, before its body. The rest of that message must not be
+    # read as a message of its own when the run is then stopped.
+    with pytest.raises(KeyboardInterrupt):
+        with board.run(V0=40, f=10, duration=30) as run:
+            sub = run._sub
+            socket_class = type(sub)
+
+            class InterruptedOnce(socket_class):
+                fired = False
+
+                def recv(self, *args, **kwargs):
+                    part = super().recv(*args, **kwargs)
+                    if not InterruptedOnce.fired and part == b"sensor":
+                        InterruptedOnce.fired = True
+                        raise KeyboardInterrupt
+                    return part
+
+            sub.__class__ = InterruptedOnce
+            for _ in run:
+                pass
+    assert InterruptedOnce.fired
+    status = board.status()
+    assert status["state"] == "idle" and status["run"]["summary"]["cause"] == "interrupted"
+
+
+def test_refusals_pickle_for_a_worker_process(board):
+    import pickle
+
+    with pytest.raises(errors.OutOfLimits) as beyond:
+        board.run(V0=board.hello()["limits"]["V_max"] + 10, f=10, duration=1)
+    back = pickle.loads(pickle.dumps(beyond.value))
+    assert type(back) is errors.OutOfLimits and back.key == "V0"
+    assert str(back) == str(beyond.value) and back.message == beyond.value.message
+    ended = pickle.loads(pickle.dumps(errors.RunEnded("move_to", "stalled", {"cause": "x"})))
+    assert ended.cause == "stalled" and ended.summary == {"cause": "x"}
+    assert str(ended) == "move_to ended: stalled"
+    unknown = errors.board_error("fetch", {"code": "newer_code", "key": "k", "message": "m"})
+    again = pickle.loads(pickle.dumps(unknown))
+    assert again.code == "newer_code" and str(again) == str(unknown)
+
+
+def test_a_second_clients_refusal_says_its_command_once(board, board_address):
+    with board.run(V0=40, f=10, duration=3, lease_s=1.0) as run:
+        with Board(board_address) as other:
+            with pytest.raises(errors.NotController) as refused:
+                other.stop()
+        board.stop()
+        run.wait()
+    text = str(refused.value)
+    assert text.startswith("stop: not_controller: ") and text.count("stop:") == 1, text
+
+
+def test_calibrate_shows_its_progress(board, capfd):
+    board.calibrate()
+    err = capfd.readouterr().err
+    lines = [line for line in err.splitlines() if line.startswith("calibrate: ")]
+    assert len(lines) >= 5 and "of about" in lines[0], err
+    board.set_calibration(None)
+
+
+def test_a_refused_move_prints_one_json_object_and_keeps_its_config(board, board_address,
+                                                                     piezo, tmp_path):
+    import json
+    import tomllib
+
+    board.estop()  # latched: the board refuses the move
+    out = subprocess.run([piezo.binary, "move", "--to", "0.001", "--rig", board_address, "--json",
+                          "--out", str(tmp_path / "refused")], capture_output=True, text=True)
+    board.reset_fault()
+    assert out.returncode == 1, out.stderr
+    reply = json.loads(out.stdout)  # one object, nothing else on stdout
+    assert out.stdout.count("\n") == 1
+    assert reply["status"] == "failed" and reply["code"] == "fault_latched", reply
+    assert "reset_fault" in reply["error"]
+    with open(tmp_path / "refused" / "config.toml", "rb") as f:
+        used = tomllib.load(f)
+    assert used["drive"]["V0"] > 0 and used["model"]["sigma0"] > 0
+    assert used["rig"]["address"] == board_address and used["run"]["duration_s"] > 0
+    # A bad option is one object too (bad input, exit 2).
+    bad = subprocess.run([piezo.binary, "move", "--to", "0.001", "--rig", board_address, "--json",
+                          "--tolerance", "-1", "--out", str(tmp_path / "bad")],
+                         capture_output=True, text=True)
+    assert bad.returncode == 2 and json.loads(bad.stdout)["code"] == "bad_input", bad.stdout

@@ -27,6 +27,10 @@ def test_a_piezo_log_reads_whole(logged_run):
             for name in f[group]:
                 np.testing.assert_array_equal(frame[name].to_numpy(), f[group][name][()])
         assert run.status == f.attrs["status"].decode() == "completed"
+        # Attributes in their types: numbers as numbers, JSON maps parsed.
+        assert run.attrs["drive_latency_s"] == float(f.attrs["drive_latency_s"].decode())
+        assert run.attrs["model_parameters"] == json.loads(f.attrs["model_parameters"].decode())
+        assert run.attrs["version"] == f.attrs["version"].decode()
     assert len(run.drive) > 10000 and len(run.sensor) > 1000
     assert run.summary["stop_cause"] == run.stop_cause == "completed"
     assert run.config["drive"]["backend"] == "sim"
@@ -90,7 +94,7 @@ def test_the_observer_on_a_log_is_the_logs_observer(logged_run):
                          alpha=gains.get("alpha", 0.3), beta=gains.get("beta", 0.05),
                          gate_rad=gains.get("gate_rad", 1e-3),
                          ramp_time=1 / run.config["drive"]["rate_hz"],
-                         latency=float(run.attrs["drive_latency_s"]))
+                         latency=run.attrs["drive_latency_s"])
     assert len(seen.t) == len(run.observer) > 1000
     for column in ("t", "theta_hat", "theta_dot_hat", "x_hat", "z_hat", "F_hat", "residual",
                    "theta_open"):  # bit for bit

@@ -1,6 +1,7 @@
 """piezo_rig.model against the CLI: the same parameters give the same
 figures to the last digit (the same C++), the same refusals."""
 
+import json
 import os
 import subprocess
 import threading
@@ -163,3 +164,122 @@ def test_ctrl_c_stops_a_long_simulation():
     with pytest.raises(KeyboardInterrupt):
         model.simulate(duration=3600, dt=1e-2, tolerance=1e-8)
     assert time.monotonic() - started < 10
+
+
+# -- what a stranger met (each failed before its fix) ---------------------
+
+def test_observe_checks_its_arrays_and_names_them():
+    t = np.linspace(0, 0.1, 1001)
+    V = np.zeros_like(t)
+    with pytest.raises(ValueError, match="observe: theta: 1 values against 2000000 of t"):
+        model.observe(t, V, np.linspace(0, 1, 2_000_000), [0.0])
+    with pytest.raises(ValueError, match="observe: drive_V: 3 values against 1001 of drive_t"):
+        model.observe(t, [0.0, 1.0, 2.0], t, np.zeros_like(t))
+    with pytest.raises(ValueError, match="observe: t: 2 dimensions"):
+        model.observe(t, V, np.zeros((2, 3)), np.zeros(6))
+    with pytest.raises(ValueError, match="observe: drive_t: sample 5 is nan"):
+        model.observe(np.where(np.arange(1001) == 5, np.nan, t), V, t, np.zeros_like(t))
+    with pytest.raises(ValueError, match="observe: t: sample 2 .* is before the one before"):
+        model.observe(t, V, [0.0, 0.2, 0.1], [0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="observe: theta: sample 0 is inf"):
+        model.observe(t, V, [0.0], [np.inf])
+    with pytest.raises(TypeError, match="observe: theta: expected an array of numbers"):
+        model.observe(t, V, [0.0], ["a"])
+    # NaN angles are failed readings, skipped.
+    seen = model.observe(t, V, [0.0, 0.05], [0.0, np.nan])
+    assert len(seen.t) == 1
+    with pytest.raises(ValueError, match="identify: theta: 2 values against 3 of t"):
+        model.identify((t, V, [0.0, 0.1, 0.2], [0.0, 0.0]))
+
+
+def test_studies_are_about_the_parameters_they_are_given():
+    default, at_60 = model.sensitivity(), model.sensitivity(model.Parameters(V0=60))
+    assert default["parameters"][0]["levels"] == [72.0, 76.0, 80.0, 84.0, 88.0]  # the paper's
+    assert at_60["parameters"][0]["levels"] == [54.0, 57.0, 60.0, 63.0, 66.0]
+    assert at_60["parameters"][1]["levels"] == [8.0, 9.0, 10.0, 11.0, 12.0]
+    assert at_60["parameters"][0]["mean_velocity_rad_s"] != default["parameters"][0][
+        "mean_velocity_rad_s"]
+    with pytest.raises(ValueError, match="morris: trajectories: 0: allowed: >= 2"):
+        model.morris(trajectories=0)
+    with pytest.raises(ValueError, match="sobol: samples: 4: allowed: >= 8"):
+        model.sobol(samples=4)
+    with pytest.raises(ValueError, match="sobol: range_pct: 150: allowed: \\(0, 100\\) %"):
+        model.sobol(range_pct=150)
+    with pytest.raises(ValueError, match="morris: names: V: .*allowed"):
+        model.morris(names=["V"])
+    one = model.sobol(names="V0", samples=8, runtime=0.2, bootstrap=10)  # one name, not letters
+    assert [p["name"] for p in one["parameters"]] == ["V0"]
+
+
+def test_errors_name_the_python_argument_at_the_call_that_got_it():
+    with pytest.raises(TypeError, match="Parameters: V0: expected a number .*got str '60'"):
+        model.Parameters(V0="60")
+    with pytest.raises(TypeError, match="simulate: duration: expected a number .*got str '1'"):
+        model.simulate(model.Parameters(), "1")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="Parameters: C_dr\\*e_dr: .* 1.9 .*allowed range"):
+        model.Parameters(e_dr=2)
+    p = model.Parameters()
+    with pytest.raises(ValueError, match="C_dr\\*e_dr"):
+        p.e_dr = 2
+    assert p.e_dr == model.Parameters().e_dr  # left as it was
+    assert p.replace(C_dr=0.5, e_dr=1.5).D == pytest.approx(0.75)  # together, they fit
+    with pytest.raises(TypeError, match="Parameters: sigma0: expected a number"):
+        p.sigma0 = "x"  # type: ignore[assignment]
+    with pytest.raises(ValueError, match="simulate: model: 'lugre2' \\(allowed: lugre, coulomb\\)"):
+        model.simulate(duration=0.1, model="lugre2")
+    with pytest.raises(TypeError, match="sweep: periods: expected an integer"):
+        model.sweep("f", [5.0], periods=2.5)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="sweep: name: Vx: unknown"):
+        model.sweep("Vx", [5.0])
+
+
+def test_parameters_round_trip():
+    p = model.Parameters(V0=60, direction="reverse")
+    assert model.Parameters() == model.Parameters() and p != model.Parameters()
+    assert model.Parameters.from_json(p.to_json()) == p
+    assert model.Parameters.from_json(p.to_json()).direction == "reverse"
+    import pickle
+    assert pickle.loads(pickle.dumps(p)) == p
+    with pytest.raises(TypeError):
+        hash(p)  # mutable: equal by value, so not hashable
+    with pytest.raises(ValueError, match="Parameters.from_json: direction"):
+        model.Parameters.from_json('{"direction": "sideways"}')
+
+
+def test_a_fit_frees_only_what_its_model_uses(tmp_path, piezo, source):
+    log_dir = tmp_path / "run"
+    piezo("run", "--config", os.path.join(source, "configs", "sim.toml"), "--set",
+          "run.clock=virtual", "--duration", "0.5", "--out", str(log_dir), "--json")
+    coulomb = model.identify(log_dir, model="coulomb", max_iterations=5)
+    assert sorted(coulomb.parameters) == ["F_N", "d_e"]
+    with pytest.raises(ValueError, match="identify: free: sigma0: the coulomb model does not "
+                                         "use it"):
+        model.identify(log_dir, model="coulomb", free=["sigma0", "F_N"])
+    with pytest.raises(ValueError, match="identify: free: no parameter named"):
+        model.identify(log_dir, free=[])
+    cli = subprocess.run([piezo.binary, "identify", "--log", str(log_dir / "run.h5"), "--model",
+                          "coulomb", "--json"], capture_output=True, text=True)
+    assert sorted(json.loads(cli.stdout)["parameters"]) == ["F_N", "d_e"], cli.stderr
+
+
+def test_a_logs_arrays_give_the_logs_fit(tmp_path, piezo, source):
+    from piezo_rig import log
+
+    log_dir = tmp_path / "run"
+    piezo("run", "--config", os.path.join(source, "configs", "sim.toml"), "--set",
+          "run.clock=virtual", "--duration", "0.5", "--out", str(log_dir), "--json")
+    run = log.open_run(log_dir)
+    whole = model.identify(run, free=["F_N"], max_iterations=5)
+    arrays = model.identify(run.fit_arrays(), run.parameters, free=["F_N"],
+                            max_iterations=5)
+    assert arrays.rmse_rad == whole.rmse_rad and arrays.parameters == whole.parameters
+
+
+def test_a_csv_with_empty_cells_is_read(tmp_path):
+    sim = model.simulate(duration=0.05)
+    rows = ["t,V,theta"] + [f"{t!r},{V!r},{'' if i % 10 == 3 else repr(th)}"
+                            for i, (t, V, th) in enumerate(zip(sim.t, sim.V, sim.theta))]
+    path = tmp_path / "gaps.csv"
+    path.write_text("\n".join(rows) + "\n")
+    data, _ = model.load_fit_data(path)
+    assert len(data.t) == len(sim.t) - len(range(3, len(sim.t), 10))

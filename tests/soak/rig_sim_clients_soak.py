@@ -29,6 +29,7 @@ import time
 import h5py
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+import peers  # noqa: E402
 from peers import wait_for_tcp  # noqa: E402
 
 GOOD_READ = bytes([0, 1, 0, 0, 0, 6, 1, 3, 0, 0, 0, 2])
@@ -137,7 +138,7 @@ def main():
     os.makedirs(a.work)
     config = os.path.join(a.source, "configs", "modbus-hil.toml")
     port_set = ["--set", f"sensor.port={a.port}"]
-    rig = subprocess.Popen([a.piezo, "rig-sim", "--config", config] + port_set,
+    rig = peers.spawn([a.piezo, "rig-sim", "--config", config] + port_set,
                            stdout=subprocess.DEVNULL,
                            stderr=open(os.path.join(a.work, "rig-sim.txt"), "w"))
     problems = []

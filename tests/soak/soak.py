@@ -37,6 +37,7 @@ import h5py
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+import peers  # noqa: E402
 from peers import wait_for_tcp  # noqa: E402
 
 args = sys.argv[1:]
@@ -93,7 +94,7 @@ class MemoryWatch:
 duration = 3600.0 * hours
 run_dir = f"{work}/long"
 start = time.monotonic()
-p = subprocess.Popen([piezo, "run", "--config", f"{source}/configs/sim.toml", "--set",
+p = peers.spawn([piezo, "run", "--config", f"{source}/configs/sim.toml", "--set",
                       "run.clock=virtual", "--set", "sensor.dropout_probability=0.02",
                       "--set", "safety.max_sensor_errors=1000", "--duration", str(duration),
                       "--json", "--out", run_dir], stdout=subprocess.PIPE, text=True)
@@ -159,7 +160,7 @@ for cycle in range(modbus_cycles):
               "rig_sim.drop_probability=0.002"]
     if disconnect:
         faults += ["--set", "rig_sim.disconnect_at_s=1.5"]
-    rig = subprocess.Popen([piezo, "rig-sim", "--config", config, *sets, *faults, "--tcp",
+    rig = peers.spawn([piezo, "rig-sim", "--config", config, *sets, *faults, "--tcp",
                             f"127.0.0.1:{modbus_port}"], stdout=subprocess.DEVNULL,
                            stderr=subprocess.DEVNULL)
     children.append(rig)
@@ -201,7 +202,7 @@ print(f"modbus: {modbus_cycles} cycles with exceptions and drops (0.2 % each), a
 
 # 3. Link outages to piezod: the host frozen shorter or longer than the lease.
 address = f"tcp://127.0.0.1:{port}"
-board = subprocess.Popen([piezod, "--config", f"{source}/configs/piezod-sim.toml", "--listen",
+board = peers.spawn([piezod, "--config", f"{source}/configs/piezod-sim.toml", "--listen",
                           address], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 children.append(board)
 check(wait_for_tcp(port), "piezod did not listen")
@@ -209,7 +210,7 @@ link = {}
 for i in range(pauses):
     long_pause = i % 2 == 1
     run_dir = f"{work}/link-{i:02d}"
-    host = subprocess.Popen([piezo, "run", "--config", f"{source}/configs/sim.toml", "--rig",
+    host = peers.spawn([piezo, "run", "--config", f"{source}/configs/sim.toml", "--rig",
                              address, "--duration", "3", "--json", "--out", run_dir],
                             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     time.sleep(1.5)

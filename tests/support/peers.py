@@ -1,9 +1,28 @@
 """Helpers shared by the Python tests that start real peers (piezod,
 rig-sim) on loopback."""
 
+import ctypes
 import random
+import signal
 import socket
+import subprocess
 import time
+
+_PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent():
+    # Runs in the child between fork and exec: the kernel sends SIGKILL when
+    # the test that started it ends, however it ends (a failed check, an
+    # exception, CTest's timeout killing it), so no helper outlives its test.
+    ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+
+
+def spawn(argv, **popen_args):
+    """subprocess.Popen for a test's helper (piezod, piezo, a proxy): the
+    helper is killed by the kernel when the test's process ends, on every
+    exit path, the ones no ``finally`` reaches included."""
+    return subprocess.Popen(argv, preexec_fn=_die_with_parent, **popen_args)
 
 
 def wait_for_tcp(port, seconds=20):
@@ -56,11 +75,9 @@ def start_piezod(piezod, config, err_path, tries=5):
     machine runs many tests) makes it exit, and it is started again on
     another. Returns (process, address); raises with its stderr if it never
     listens."""
-    import subprocess
-
     for _ in range(tries):
         port = free_port(2)
-        board = subprocess.Popen([piezod, "--config", config, "--listen", f"tcp://127.0.0.1:{port}"],
+        board = spawn([piezod, "--config", config, "--listen", f"tcp://127.0.0.1:{port}"],
                                  stderr=open(err_path, "w"))
         deadline = time.monotonic() + 30
         while time.monotonic() < deadline and board.poll() is None:

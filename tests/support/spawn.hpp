@@ -4,6 +4,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -16,8 +17,14 @@ class Spawned {
  public:
   /// Runs argv[0] with its arguments; stdout and stderr go to `log_path`.
   Spawned(const std::vector<std::string>& argv, const std::string& log_path) {
+    const pid_t test = getpid();
     pid_ = fork();
     if (pid_ == 0) {
+      // Killed by the kernel when the test ends, however it ends (CTest's
+      // timeout kills the test, and no destructor runs): no helper outlives
+      // its test. The parent may have gone before the call.
+      prctl(PR_SET_PDEATHSIG, SIGKILL);
+      if (getppid() != test) _exit(127);
       const int fd = open(log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
       dup2(fd, STDOUT_FILENO);
       dup2(fd, STDERR_FILENO);

@@ -1,16 +1,16 @@
 """A client of ``piezod``, the board's daemon, written against
 docs/protocol.md (protocol 2) on python3-zmq and python3-msgpack.
 
-    from piezo_rig.board import Board
-
-    with Board("tcp://127.0.0.1:5555") as board:
-        print(board.hello()["sensor"]["r2_m"])
-        with board.run(V0=60, f=10, duration=2) as run:
-            for block in run:                  # numpy blocks, in sequence, gaps fetched
-                ...
-        print(run.summary["cause"], len(run.sensor), run.theta()[-1])
-        move = board.move_to(0.01)             # waits for on target
-        print(move["position_rad"])
+>>> from piezo_rig.board import Board
+>>> with Board("tcp://127.0.0.1:5555") as board:
+...     with board.run(V0=60, f=10, duration=0.5) as run:
+...         for block in run:              # numpy blocks, in sequence, gaps fetched
+...             pass
+...     move = board.move_to(0.001)        # waits for on target
+>>> run.summary["cause"], len(run.sensor) == run.summary["samples"]["sensor"]
+('completed', True)
+>>> move["stop_cause"]
+'on_target'
 
 Every refusal raises the exception of its protocol error code
 (``piezo_rig.errors``: ``OutOfLimits``, ``NotController``, ...).
@@ -21,18 +21,20 @@ from __future__ import annotations
 import itertools
 import os
 import stat
+import sys
 import threading
 import time
 import tomllib
+import weakref
 from dataclasses import dataclass
-from typing import Iterator, Optional
+from typing import Any, Iterator, Optional
 
 import msgpack
 import numpy as np
 import zmq
 
 from . import frames
-from .errors import BoardError, NoReply, RunEnded, board_error
+from .errors import BoardError, ClientClosed, NoReply, RunEnded, board_error
 
 PROTOCOL = 2
 FETCH_MAX = 100_000
@@ -112,6 +114,8 @@ class Board:
         self._lock = threading.Lock()
         self._ids = itertools.count(1)
         self._hello: Optional[dict] = None
+        self._runs: "weakref.WeakSet[Run]" = weakref.WeakSet()
+        self._closed = False
 
     def _socket_for(self, kind: int) -> zmq.Socket:
         s = self._context.socket(kind)
@@ -121,7 +125,14 @@ class Board:
         return s
 
     def close(self) -> None:
-        """Closes the sockets (a run in progress goes on until its lease lapses)."""
+        """Ends this client: a run of it still going is stopped (ramp to
+        0 V) and its lease thread ended, then every socket is closed. Safe
+        to call twice, and whatever became of the runs before."""
+        if self._closed:
+            return
+        for run in list(self._runs):
+            run.close()
+        self._closed = True
         self._socket.close()
         self._context.term()
 
@@ -132,11 +143,13 @@ class Board:
         self.close()
 
     # -- requests -----------------------------------------------------------
-    def call(self, command: str, **args) -> dict:
+    def call(self, command: str, **args: Any) -> dict:
         """Sends one request and returns its ``result`` map; raises the
         error code's exception (``piezo_rig.errors``) when refused, and
         ``NoReply`` after ``timeout`` seconds. Thread-safe."""
         with self._lock:
+            if self._closed:
+                raise ClientClosed(f"{command}: this Board was closed")
             request_id = next(self._ids)
             request = {"id": request_id, "cmd": command}
             if args:
@@ -225,8 +238,11 @@ class Board:
         """A sawtooth run (paper Eq. 1) of ``duration`` seconds, as a context
         manager that keeps the lease on a thread and yields ``Block`` s:
 
-            with board.run(V0=60, f=10, duration=2) as run:
-                for block in run: ...
+        >>> with Board("tcp://127.0.0.1:5555") as board:
+        ...     with board.run(V0=60, f=10, duration=0.3) as run:
+        ...         streams = {block.stream for block in run}
+        >>> sorted(streams), run.summary["cause"]
+        (['drive', 'sensor'], 'completed')
 
         Leaving the block early stops the run (ramp to 0 V). After the loop,
         ``run.summary``, ``run.drive``, ``run.sensor`` and ``run.theta()``
@@ -275,7 +291,7 @@ class Board:
         waveform beyond the board's limits (the tolerance at least the
         sensor's ``smallest_tolerance_rad``). Defaults are the board's:
         tolerance 25 urad, settle 0.1 s, timeout 30 s, the board's drive."""
-        args = {"target_rad": target_rad}
+        args: dict[str, Any] = {"target_rad": target_rad}
         for key, value in (("tolerance_rad", tolerance_rad), ("settle_s", settle_s),
                            ("timeout_s", timeout_s), ("hold_s", hold_s), ("V0", V0), ("f", f),
                            ("protect", protect), ("stall_steps", stall_steps),
@@ -283,26 +299,41 @@ class Board:
             if value is not None:
                 args[key] = value
         with Run(self, "move_to", args, True, raise_on_fault=False) as run:
-            run.wait()
-        move = run.summary.get("move") or {}
+            summary = run.wait()
+        move = summary.get("move") or {}
         if move.get("stop_cause") != "on_target":
-            raise RunEnded("move_to", move.get("stop_cause") or run.summary.get("cause", "?"),
-                           run.summary)
+            raise RunEnded("move_to", str(move.get("stop_cause") or summary.get("cause", "?")),
+                           summary)
         return move
 
-    def calibrate(self, V0: Optional[float] = None, lease_s: Optional[float] = None) -> dict:
+    def calibrate(self, V0: Optional[float] = None, lease_s: Optional[float] = None, *,
+                  progress: bool = True) -> dict:
         """Runs the board's calibration experiment (about 14 s at 10 Hz) and
         returns the calibration the board installed; raises ``RunEnded``
-        when it measured none (``summary.calibration_error`` says why)."""
-        args = {} if V0 is None else {"V0": V0}
+        when it measured none (``summary.calibration_error`` says why).
+        While it runs, how far it is shows on ``sys.stderr`` (under the
+        running cell in a notebook) about once a second; ``progress=False``
+        keeps it quiet."""
+        args: dict[str, Any] = {} if V0 is None else {"V0": V0}
         if lease_s is not None:
             args["lease_s"] = lease_s
         with Run(self, "calibrate", args, True) as run:
-            run.wait()
-        calibration = run.summary.get("calibration")
+            # The experiment's length: its steps at each frequency it names.
+            planned = sum(run.started.get("steps_per_point", 0) / f
+                          for f in run.started.get("f_hz", []) if f > 0)
+            shown = time.monotonic()
+            began = shown
+            for _ in run:
+                now = time.monotonic()
+                if progress and now - shown >= 1.0:
+                    shown = now
+                    of = f" of about {planned:.0f} s" if planned > 0 else ""
+                    print(f"calibrate: {now - began:.0f} s{of}", file=sys.stderr, flush=True)
+        summary = run.summary
+        calibration = summary.get("calibration")
         if calibration is None:
-            raise RunEnded("calibrate", run.summary.get("calibration_error", "no calibration"),
-                           run.summary)
+            raise RunEnded("calibrate", summary.get("calibration_error", "no calibration"),
+                           summary)
         return calibration
 
 
@@ -331,14 +362,16 @@ class Run:
             self._sub.close()
             raise
         self._heard = time.monotonic()
-        self.summary: Optional[dict] = None
+        self._summary: Optional[dict] = None  # the board's, once the run ended
         self.gaps_fetched = 0
         self._next = {frames.DRIVE: 0, frames.SENSOR: 0}
-        self._blocks = {frames.DRIVE: [], frames.SENSOR: []}
+        self._blocks: dict[int, list[np.ndarray]] = {frames.DRIVE: [], frames.SENSOR: []}
         self._pending: list[Block] = []
         self._stopping = threading.Event()
+        self._closed = False
         self._lease = threading.Thread(target=self._renew, args=(renew,), daemon=True)
         self._lease.start()
+        board._runs.add(self)
 
     def _wait_for_subscription(self) -> None:
         # A PUB socket drops what it publishes before a subscription reaches
@@ -353,45 +386,69 @@ class Run:
         while renew and not self._stopping.wait(period):
             try:
                 self.board.call("lease", drive_received=self._next[frames.DRIVE])
-            except BoardError:
-                return  # the run has ended (bad_state / not_controller)
+            except (BoardError, ClientClosed):
+                return  # the run has ended (bad_state / not_controller), or the client
             except NoReply:
                 continue  # the link is down; the board's lease decides
+
+    def close(self) -> None:
+        """Stops the run if it is still going (ramp to 0 V, cause
+        ``interrupted``), ends the lease thread and closes the stream
+        socket. ``with`` does this; ``Board.close`` too, for a run used
+        without ``with``. Safe to call twice."""
+        if self._closed:
+            return
+        try:
+            if self._summary is None:
+                try:
+                    self.board.stop()
+                except (BoardError, NoReply, ClientClosed):
+                    pass  # it ended meanwhile, or the board is gone: its lease stops it
+        finally:
+            self._closed = True
+            self._stopping.set()
+            if self._lease is not threading.current_thread():
+                self._lease.join()
+            self._sub.close()
 
     def __enter__(self) -> "Run":
         return self
 
-    def __exit__(self, exc_type, exc, tb) -> None:
+    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
         try:
-            if self.summary is None:
+            if self._summary is None and not self._closed:
                 try:
                     try:
                         self.board.stop()
                     except BoardError:
                         pass  # it ended meanwhile
                     self._drain(raise_on_fault=False)
-                except NoReply:
+                except Exception:
                     if exc_type is None:
-                        raise  # else the exception that left the block says more
+                        raise
+                    # else the exception that left the block (a KeyboardInterrupt,
+                    # say) says more; the stop was sent, the board's lease does the rest
         finally:
-            self._stopping.set()
-            self._lease.join()
-            self._sub.close()
+            self.close()
 
     def __iter__(self) -> Iterator[Block]:
-        while self.summary is None or self._pending:
+        if self._closed and self._summary is None:
+            raise ClientClosed("this run was closed before its end")
+        while self._summary is None or self._pending:
             if self._pending:
                 yield self._pending.pop(0)
                 continue
             self._receive(0.5)
-        if self._raise_on_fault and self.summary["cause"] not in EXPECTED_ENDS:
-            raise RunEnded("run", self.summary["cause"], self.summary)
+        assert self._summary is not None
+        if self._raise_on_fault and self._summary["cause"] not in EXPECTED_ENDS:
+            raise RunEnded("run", self._summary["cause"], self._summary)
 
     def wait(self) -> dict:
         """Receives the run to its end and returns its summary."""
         for _ in self:
             pass
-        return self.summary
+        assert self._summary is not None
+        return self._summary
 
     def _drain(self, raise_on_fault: bool) -> None:
         keep, self._raise_on_fault = self._raise_on_fault, raise_on_fault
@@ -404,8 +461,13 @@ class Run:
         if not self._sub.poll(int(seconds * 1000)):
             self._check_alive()
             return
-        topic, body = self._sub.recv_multipart()
+        parts = self._sub.recv_multipart()
         self._heard = time.monotonic()
+        if len(parts) != 2:
+            # The rest of a message whose first part was taken by a receive
+            # that a signal (Ctrl-C) interrupted: not a message on its own.
+            return
+        topic, body = parts
         if topic == b"health":
             return
         if topic == b"state":
@@ -457,7 +519,13 @@ class Run:
             total = summary.get("samples", {}).get(name, self._next[stream])
             if total > self._next[stream]:
                 self._fetch_gap(stream, total)
-        self.summary = summary
+        self._summary = summary
+
+    @property
+    def summary(self) -> dict:
+        """The board's summary of the run once it ended (``cause``,
+        ``samples``, each loop's health, a move's ``move``); empty before."""
+        return self._summary or {}
 
     @property
     def drive(self) -> np.ndarray:

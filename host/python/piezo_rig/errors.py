@@ -1,5 +1,14 @@
 """The board's refusals as exceptions, one per protocol error code
-(docs/protocol.md, "Errors"), and the client's own failures."""
+(docs/protocol.md, "Errors"), and the client's own failures. Each keeps
+its fields through pickling, so a worker process can send it back:
+
+>>> import pickle
+>>> from piezo_rig.errors import OutOfLimits
+>>> refused = OutOfLimits("start", "V0", "95 V is above V_max 80 V")
+>>> again = pickle.loads(pickle.dumps(refused))
+>>> str(again), again.key, isinstance(again, ValueError)
+('start: out_of_limits (V0): 95 V is above V_max 80 V', 'V0', True)
+"""
 
 from __future__ import annotations
 
@@ -10,10 +19,18 @@ class BoardError(Exception):
 
     code = ""
 
-    def __init__(self, command: str, key: str, message: str):
+    def __init__(self, command: str, key: str, message: str, code: str = ""):
         self.command, self.key, self.message = command, key, message
+        if code:
+            self.code = code
         where = f" ({key})" if key else ""
-        super().__init__(f"{command}: {self.code}{where}: {message}")
+        # The board's message may begin with the command already ("stop: ...").
+        text = message[len(command) + 2:] if message.startswith(command + ": ") else message
+        super().__init__(f"{command}: {self.code}{where}: {text}")
+
+    def __reduce__(self) -> tuple:
+        # Pickled by its fields (a worker process sends it back whole).
+        return (type(self), (self.command, self.key, self.message, self.code))
 
 
 class Malformed(BoardError):
@@ -69,14 +86,16 @@ def board_error(command: str, error: dict) -> BoardError:
     """The exception for an error reply's ``error`` map (an unknown code, from
     a newer board, is a plain BoardError carrying it)."""
     code = error.get("code", "")
-    cls = ERRORS.get(code)
-    if cls is None:
-        cls = type("BoardError_" + code, (BoardError,), {"code": code})
-    return cls(command, error.get("key", "") or "", error.get("message", ""))
+    cls = ERRORS.get(code, BoardError)
+    return cls(command, error.get("key", "") or "", error.get("message", ""), code)
 
 
 class NoReply(TimeoutError):
     """The board did not answer in time (it is down, or the link is)."""
+
+
+class ClientClosed(RuntimeError):
+    """A request through a ``Board`` (or a run of it) that was closed."""
 
 
 class RunEnded(RuntimeError):
@@ -84,5 +103,8 @@ class RunEnded(RuntimeError):
     ``cause`` is the run's stop cause, ``summary`` its summary map."""
 
     def __init__(self, what: str, cause: str, summary: dict):
-        self.cause, self.summary = cause, summary
+        self.what, self.cause, self.summary = what, cause, summary
         super().__init__(f"{what} ended: {cause}")
+
+    def __reduce__(self) -> tuple:
+        return (type(self), (self.what, self.cause, self.summary))

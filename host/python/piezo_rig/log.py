@@ -1,15 +1,18 @@
 """Run logs as numpy arrays and pandas DataFrames (docs/run-logs.md).
 
     from piezo_rig.log import open_run
-    run = open_run("runs/20261122T010000Z")      # the directory or its run.h5
-    run.status, run.summary["cause"]
-    run.sensor[["t", "theta"]]                   # a DataFrame
-    run.observer["theta_hat"].to_numpy()
+>>> from piezo_rig.log import open_run
+>>> run = open_run("runs/first")              # the directory or its run.h5
+>>> run.status, run.summary["stop_cause"]
+('completed', 'completed')
+>>> list(run.sensor.columns)                  # DataFrames, one column per dataset
+['displacement_m', 'status', 't', 't_received', 't_response', 'theta']
+>>> type(run.attrs["drive_latency_s"])        # attributes in their types
+<class 'float'>
 
 Another tool's HDF5 file, or a MATLAB v7.3 .mat (which is HDF5), is read the
 way ``piezo identify`` reads it, by naming its datasets:
-
-    run = open_run("bench.mat", t="/data/t", V="/data/u", theta="/data/phi")
+``open_run("bench.mat", t="/data/t", V="/data/u", theta="/data/phi")``.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from __future__ import annotations
 import json
 import os
 from dataclasses import dataclass, field
-from typing import Optional, Union
+from typing import Any, Optional, Union
 
 import h5py
 import numpy as np
@@ -35,8 +38,10 @@ class RunLog:
     effective config: a dict parsed from the log's TOML, empty for another
     tool's file), ``summary`` (the run's ``--json`` summary, or {}),
     ``status`` (``completed``, ``interrupted``, ``failed`` or
-    ``incomplete``) and ``stop_cause``, ``attrs`` every root attribute,
-    ``path`` the file."""
+    ``incomplete``) and ``stop_cause``, ``attrs`` every root attribute in
+    its type (numbers as int or float, JSON maps and lists parsed, other
+    text as str), ``path`` the file, ``layout`` the dataset or column
+    names another tool's file was read with ({} for a ``piezo`` log)."""
 
     path: str
     drive: pd.DataFrame
@@ -47,30 +52,71 @@ class RunLog:
     status: str = ""
     stop_cause: str = ""
     attrs: dict = field(default_factory=dict)
+    layout: dict = field(default_factory=dict)
 
     @property
     def model_parameters(self) -> dict:
         """The model's parameters the run used (the log's ``model_parameters``), or {}."""
-        return _json_attr(self.attrs, "model_parameters")
+        value = self.attrs.get("model_parameters", {})
+        return value if isinstance(value, dict) else {}
+
+    @property
+    def parameters(self) -> Any:
+        """The run's model parameters as a ``piezo_rig.model.Parameters``
+        (Table 1 where the log has none): the start ``identify(run)`` takes."""
+        from .model import Parameters
+        return Parameters.from_json(json.dumps(self.model_parameters)) \
+            if self.model_parameters else Parameters()
 
     def fit_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(drive_t, drive_V, t, theta) for ``piezo_rig.model.identify``: the
-        readings that failed (NaN angle) left out."""
-        good = self.sensor["theta"].notna()
-        return (self.drive["t"].to_numpy(), self.drive["V"].to_numpy(),
-                self.sensor["t"][good].to_numpy(), self.sensor["theta"][good].to_numpy())
+        """(drive_t, drive_V, t, theta) as ``piezo_rig.model.identify`` reads
+        this log (the same reader): the drive shifted by the run's recorded
+        latency, a repeated drive time and the failed readings (NaN angle)
+        left out. ``identify(run.fit_arrays(), run.parameters)`` is
+        ``identify(run)``: the same data, ramp and start."""
+        from .model import load_fit_data
+        data, _ = load_fit_data(self.path, **self.layout)
+        return data.drive_t, data.drive_V, data.t, data.theta
+
+    def observe(self) -> Any:
+        """``piezo_rig.model.observe`` on this run as ``piezo run`` ran its
+        observer beside it: the run's parameters, its config's
+        ``[observer]`` gains, a drive period as the ramp and the drive's
+        recorded latency, so the rows are the log's /observer bit for bit."""
+        from . import model
+        gains = self.config.get("observer", {})
+        return model.observe(
+            self.drive["t"], self.drive["V"], self.sensor["t"], self.sensor["theta"],
+            self.parameters,
+            alpha=gains.get("alpha", 0.3), beta=gains.get("beta", 0.05),
+            gate_rad=gains.get("gate_rad", 1e-3),
+            ramp_time=1 / self.config.get("drive", {}).get("rate_hz", 10000.0),
+            latency=self.attrs.get("drive_latency_s", 0.0))
 
 
-def _text(value) -> str:
+def _text(value: Any) -> str:
     return value.decode() if isinstance(value, bytes) else str(value)
 
 
-def _json_attr(attrs: dict, name: str) -> dict:
-    text = attrs.get(name, "")
-    try:
-        return json.loads(text) if text else {}
-    except json.JSONDecodeError:
-        return {}
+def _typed(value: Any) -> Any:
+    """An attribute in its type: the log keeps every one as text (numbers,
+    JSON maps); another tool's file may hold numbers and arrays."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic) and not isinstance(value, (np.bytes_, np.str_)):
+        return value.item()
+    text = _text(value)
+    for parse in (int, float):
+        try:
+            return parse(text)
+        except ValueError:
+            pass
+    if text[:1] in ("{", "["):
+        try:
+            return json.loads(text)
+        except json.JSONDecodeError:
+            pass
+    return text
 
 
 def _group(f: h5py.File, name: str) -> pd.DataFrame:
@@ -104,7 +150,10 @@ def _csv(path: str, t: Optional[str], V: Optional[str], theta: Optional[str]) ->
             raise KeyError(f"{path}: {column}: no such column (columns: {', '.join(table)})")
     drive = pd.DataFrame({"t": table[names["t"]], "V": table[names["V"]]})
     sensor = pd.DataFrame({"t": table[names["t"]], "theta": table[names["theta"]]})
-    return RunLog(path, drive, sensor, pd.DataFrame())
+    layout = {role: column for role, column, given in
+              (("t", names["t"], t), ("V", names["V"], V), ("theta", names["theta"], theta))
+              if given}
+    return RunLog(path, drive, sensor, pd.DataFrame(), layout=layout)
 
 
 def open_run(path: Union[str, os.PathLike], *, t: Optional[str] = None,
@@ -125,7 +174,7 @@ def open_run(path: Union[str, os.PathLike], *, t: Optional[str] = None,
     if path.endswith(".csv"):
         return _csv(path, t, V, theta)
     with h5py.File(path, "r") as f:
-        attrs = {k: _text(v) for k, v in f.attrs.items()}
+        attrs = {k: _typed(v) for k, v in f.attrs.items()}
         if t is not None or V is not None or theta is not None:
             if t is None or V is None or theta is None:
                 raise KeyError(f"{path}: another tool's file needs t, V and theta datasets named")
@@ -133,15 +182,18 @@ def open_run(path: Union[str, os.PathLike], *, t: Optional[str] = None,
             drive = pd.DataFrame({"t": drive_t, "V": _dataset(f, V, path)})
             sensor_t = _dataset(f, theta_t, path) if theta_t else drive_t
             sensor = pd.DataFrame({"t": sensor_t, "theta": _dataset(f, theta, path)})
-            return RunLog(path, drive, sensor, pd.DataFrame(), attrs=attrs)
+            layout = {"t": t, "V": V, "theta": theta, "theta_t": theta_t or ""}
+            return RunLog(path, drive, sensor, pd.DataFrame(), attrs=attrs, layout=layout)
         drive, sensor, observer = (_group(f, g) for g in GROUPS)
     config = {}
-    if attrs.get("config"):
+    if isinstance(attrs.get("config"), str):
         import tomllib
         try:
             config = tomllib.loads(attrs["config"])
         except tomllib.TOMLDecodeError:
             config = {}
+    summary = attrs.get("summary", {})
     return RunLog(path, drive, sensor, observer, config=config,
-                  summary=_json_attr(attrs, "summary"), status=attrs.get("status", ""),
-                  stop_cause=attrs.get("stop_cause", ""), attrs=attrs)
+                  summary=summary if isinstance(summary, dict) else {},
+                  status=str(attrs.get("status", "")), stop_cause=str(attrs.get("stop_cause", "")),
+                  attrs=attrs)

@@ -1,20 +1,32 @@
 """The motor's LuGre and Coulomb models (docs/model.md), the project's own
-C++ at native speed: the same code, checks and messages as ``piezo
+C++ at native speed: the same code, checks and figures as ``piezo
 simulate``, ``sensitivity``, ``sweep`` and ``identify``. The interpreter
 lock is released while the C++ runs.
 
-    from piezo_rig import model
-    p = model.Parameters(V0=60)               # Table 1 defaults otherwise
-    sim = model.simulate(p, duration=1.0)
-    sim.theta[-1], sim.mean_velocity_rad_s
+>>> from piezo_rig import model
+>>> p = model.Parameters(V0=60)               # Table 1 defaults otherwise
+>>> sim = model.simulate(p, duration=1.0)
+>>> bool(sim.theta[-1] == sim.theta_end_rad > 0)
+True
 
 A parameter outside its physical range raises ``ValueError``
-(``model.ParameterError``) naming it and the allowed range.
+(``model.ParameterError``) naming it and the allowed range; an argument of
+the wrong type raises ``TypeError`` naming it:
+
+>>> model.Parameters(V0=-5)
+Traceback (most recent call last):
+...
+piezo_rig._model.ParameterError: Parameters: V0: value -5.000000 V is outside the allowed range (0, 1000]
+>>> model.simulate(p, "1")
+Traceback (most recent call last):
+...
+TypeError: simulate: duration: expected a number (float or int), got str '1'
 """
 
 from __future__ import annotations
 
 import json
+import numbers
 import os
 from dataclasses import dataclass, field
 from typing import Any, Iterable, Optional, Sequence, Union
@@ -24,9 +36,9 @@ import numpy as np
 from . import _model
 from ._model import FitData, LogLayout, ParameterError, Parameters
 
-__all__ = ["Parameters", "ParameterError", "Simulation", "Fit", "Observation", "simulate",
-           "sensitivity", "sobol", "morris", "sweep", "identify", "observe", "parameter_specs",
-           "show_progress"]
+__all__ = ["Parameters", "ParameterError", "FitData", "Simulation", "Fit", "Observation",
+           "simulate", "sensitivity", "sobol", "morris", "sweep", "identify", "fit_data",
+           "load_fit_data", "observe", "parameter_specs", "show_progress"]
 
 
 def show_progress(shown: bool = True) -> None:
@@ -36,14 +48,74 @@ def show_progress(shown: bool = True) -> None:
     default; ``show_progress(False)`` silences it."""
     _model.show_progress(shown)
 
-def _parameters(params: Optional[Parameters], overrides: dict) -> Parameters:
-    p = Parameters() if params is None else params.copy()
-    for name, value in overrides.items():
-        if name != "direction" and not any(s["name"] == name for s in parameter_specs()):
-            raise ParameterError(f"Parameters: {name}: unknown parameter (allowed: "
-                                 + ", ".join(s["name"] for s in parameter_specs()) + ")")
-        setattr(p, name, value)
-    return p
+def _parameters(function: str, params: Optional[Parameters], overrides: dict) -> Parameters:
+    """``params`` (Table 1 when None) with ``overrides`` applied together."""
+    if params is None:
+        params = Parameters()
+    elif not isinstance(params, Parameters):
+        raise TypeError(f"{function}: params: expected piezo_rig.model.Parameters, got "
+                        f"{type(params).__name__}")
+    return params.replace(**overrides) if overrides else params.copy()
+
+
+def _number(function: str, name: str, value: Any) -> float:
+    """``value`` as a float; a TypeError naming the argument otherwise."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{function}: {name}: expected a number (float or int), got "
+                        f"{type(value).__name__} {value!r}")
+    return float(value)
+
+
+def _integer(function: str, name: str, value: Any) -> int:
+    """``value`` as an int; a TypeError naming the argument otherwise."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{function}: {name}: expected an integer, got "
+                        f"{type(value).__name__} {value!r}")
+    return int(value)
+
+
+def _text(function: str, name: str, value: Any, allowed: Sequence[str]) -> str:
+    """``value``, one of ``allowed``: a TypeError or ValueError naming the argument otherwise."""
+    if not isinstance(value, str):
+        raise TypeError(f"{function}: {name}: expected one of {', '.join(allowed)}, got "
+                        f"{type(value).__name__} {value!r}")
+    if value not in allowed:
+        raise ValueError(f"{function}: {name}: {value!r} (allowed: {', '.join(allowed)})")
+    return value
+
+
+def _array(function: str, name: str, value: Any) -> np.ndarray:
+    """``value`` as a flat float array; a TypeError naming the argument when
+    it holds no numbers, a ValueError when it is not one-dimensional."""
+    try:
+        array = np.ascontiguousarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"{function}: {name}: expected an array of numbers, got "
+                        f"{type(value).__name__}") from None
+    if array.ndim != 1:
+        raise ValueError(f"{function}: {name}: {array.ndim} dimensions (allowed: 1, a flat array "
+                         f"of {'one value' if array.ndim == 0 else 'values'})")
+    return array
+
+
+def _names(function: str, value: Any) -> list[str]:
+    """A list of parameter names; one name may be given as a string."""
+    if value is None:
+        return []
+    if isinstance(value, str):
+        return [value]
+    names = list(value)
+    for name in names:
+        if not isinstance(name, str):
+            raise TypeError(f"{function}: names: expected parameter names (str), got "
+                            f"{type(name).__name__} {name!r}")
+    return names
+
+
+MODELS = ("lugre", "coulomb")
+DIRECTIONS = ("forward", "reverse")
+INTEGRATORS = ("model_default", "hybrid", "dopri5", "closed_form")
+OUTPUTS = ("velocity", "step", "backslip")
 
 
 def parameter_specs() -> list[dict]:
@@ -89,19 +161,37 @@ def simulate(params: Optional[Parameters] = None, duration: float = 4.8, *,
     model: "lugre" or "coulomb"; direction: "forward" or "reverse" (default:
     the parameters'); integrator: "model_default" (hybrid for LuGre, closed
     form for Coulomb), "hybrid", "dopri5" or "closed_form"; tolerance: the
-    integrator's, on the scaled state. ``overrides`` set parameters by
-    symbol (``simulate(V0=60)``)."""
-    p = _parameters(params, overrides)
-    out = _model.simulate(p, duration, model, direction or "", dt, tolerance, integrator)
+    integrator's, on the scaled state (the CLI's default 1e-6). ``overrides``
+    set parameters by symbol (``simulate(V0=60)``).
+
+    >>> sim = simulate(V0=60, duration=0.5)
+    >>> len(sim.t), float(sim.t[-1])
+    (5001, 0.5)
+    """
+    p = _parameters("simulate", params, overrides)
+    out = _model.simulate(p, _number("simulate", "duration", duration),
+                          _text("simulate", "model", model, MODELS),
+                          "" if direction is None else _text("simulate", "direction", direction,
+                                                             DIRECTIONS),
+                          _number("simulate", "dt", dt), _number("simulate", "tolerance", tolerance),
+                          _text("simulate", "integrator", integrator, INTEGRATORS))
     return Simulation(model=model, parameters=p, **out)
 
 
 def sensitivity(params: Optional[Parameters] = None, *, model: str = "lugre") -> dict:
-    """The paper's section 5 study: V0, f, mu and D at five levels each, 4.8 s
-    per level (all cores). Returns ``{"parameters": [{"name", "levels",
+    """The paper's section 5 study around ``params`` (Table 1 by default):
+    V0, f, mu and D at the paper's five levels each, scaled by the ratio of
+    their value in ``params`` to Table 1's (at Table 1 the paper's levels),
+    4.8 s per level, on all cores. Returns ``{"parameters": [{"name", "levels",
     "mean_velocity_rad_s", "elasticity"}, ...], "ranking": [...]}``, as
-    ``piezo sensitivity --json``."""
-    return json.loads(_model.sensitivity(_parameters(params, {}), model))
+    ``piezo sensitivity --json``.
+
+    >>> study = sensitivity(Parameters(V0=60))
+    >>> study["parameters"][0]["levels"]
+    [54.0, 57.0, 60.0, 63.0, 66.0]
+    """
+    return json.loads(_model.sensitivity(_parameters("sensitivity", params, {}),
+                                         _text("sensitivity", "model", model, MODELS)))
 
 
 def sobol(params: Optional[Parameters] = None, names: Optional[Sequence[str]] = None, *,
@@ -112,21 +202,32 @@ def sobol(params: Optional[Parameters] = None, names: Optional[Sequence[str]] = 
     intervals) of the output ("velocity", "step" or "backslip") over the
     parameters ``names`` (default: all of Table 1), each uniform within
     ±``range_pct`` % of its value; ``samples`` (N >= 8) points of a Saltelli
-    design, N (k + 2) simulations on all cores. As ``piezo sensitivity
-    --method sobol --json``."""
-    return json.loads(_model.global_study(_parameters(params, {}), "sobol", list(names or []),
-                                          range_pct, samples, seed, output, runtime, bootstrap,
-                                          model))
+    design, N (k + 2) simulations on all cores. One name may be given as a
+    string. As ``piezo sensitivity --method sobol --json``.
+
+    >>> s = sobol(names=["V0", "f"], samples=8, runtime=0.2, bootstrap=20)
+    >>> [p["name"] for p in s["parameters"]], s["runs"]
+    (['V0', 'f'], 32)
+    """
+    return json.loads(_model.global_study(
+        _parameters("sobol", params, {}), "sobol", _names("sobol", names),
+        _number("sobol", "range_pct", range_pct), _integer("sobol", "samples", samples),
+        _integer("sobol", "seed", seed), _text("sobol", "output", output, OUTPUTS),
+        _number("sobol", "runtime", runtime), _integer("sobol", "bootstrap", bootstrap),
+        _text("sobol", "model", model, MODELS)))
 
 
 def morris(params: Optional[Parameters] = None, names: Optional[Sequence[str]] = None, *,
            range_pct: float = 10.0, trajectories: int = 20, seed: int = 1,
            output: str = "velocity", runtime: float = 4.8, model: str = "lugre") -> dict:
     """Morris elementary effects (mu, mu*, sigma) over ``trajectories``
-    trajectories; otherwise as ``sobol``."""
-    return json.loads(_model.global_study(_parameters(params, {}), "morris", list(names or []),
-                                          range_pct, trajectories, seed, output, runtime, 0,
-                                          model))
+    trajectories (at least 2); otherwise as ``sobol``."""
+    return json.loads(_model.global_study(
+        _parameters("morris", params, {}), "morris", _names("morris", names),
+        _number("morris", "range_pct", range_pct),
+        _integer("morris", "trajectories", trajectories), _integer("morris", "seed", seed),
+        _text("morris", "output", output, OUTPUTS), _number("morris", "runtime", runtime), 0,
+        _text("morris", "model", model, MODELS)))
 
 
 def sweep(name: str = "f", values: Iterable[float] = (), params: Optional[Parameters] = None, *,
@@ -135,8 +236,19 @@ def sweep(name: str = "f", values: Iterable[float] = (), params: Optional[Parame
     f), each point simulated for ``periods`` drive periods: returns numpy
     arrays ``values``, ``mean_velocity_rad_s``, ``step_rad`` (net angle per
     period) and ``backslip_rad`` (backward slip per period), as ``piezo
-    sweep``."""
-    return _model.sweep(_parameters(params, {}), name, [float(v) for v in values], periods, model)
+    sweep``.
+
+    >>> out = sweep("f", [5, 10], periods=5)
+    >>> out["values"].tolist(), bool(out["step_rad"][1] > 0)
+    ([5.0, 10.0], True)
+    """
+    if not isinstance(name, str):
+        raise TypeError(f"sweep: name: expected a parameter's symbol (str), got {name!r}")
+    points = _array("sweep", "values", values)
+    if len(points) == 0:
+        raise ValueError("sweep: values: empty (allowed: one or more values)")
+    return _model.sweep(_parameters("sweep", params, {}), name, points.tolist(),
+                        _integer("sweep", "periods", periods), _text("sweep", "model", model, MODELS))
 
 
 @dataclass
@@ -172,31 +284,55 @@ def load_fit_data(log: Union[str, os.PathLike], *, t: str = "", V: str = "", the
     return _model.load_run(path, LogLayout(t, V, theta, theta_t))
 
 
+def fit_data(drive_t: Any, drive_V: Any, t: Any, theta: Any, *,
+             ramp_time: Optional[float] = None, function: str = "fit_data") -> FitData:
+    """A run as arrays, checked and taken as a log is read (what
+    ``identify`` fits): the drive two or more finite samples at
+    non-decreasing times (a repeated time left out), the angle's times
+    finite and non-decreasing, one angle each (NaN: a failed reading, left
+    out). ``ramp_time`` [s]: the drive's median interval unless given.
+    Raises ``TypeError`` or ``ValueError`` naming the argument."""
+    return FitData(_array(function, "drive_t", drive_t), _array(function, "drive_V", drive_V),
+                   _array(function, "t", t), _array(function, "theta", theta),
+                   None if ramp_time is None else _number(function, "ramp_time", ramp_time),
+                   function)
+
+
 def identify(log_or_arrays: Any, params: Optional[Parameters] = None, *,
-             free: Sequence[str] = ("sigma0", "sigma1", "F_N", "d_e"), model: str = "lugre",
+             free: Optional[Sequence[str]] = None, model: str = "lugre",
              max_iterations: int = 40, layout: Optional[dict] = None) -> Fit:
     """Fits ``free`` parameters to a measured run (Levenberg-Marquardt, on
     all cores), as ``piezo identify``.
 
     log_or_arrays: a log path (see ``load_fit_data``; ``layout`` names another
         tool's datasets: ``{"t": ..., "V": ..., "theta": ...}``), a
-        ``piezo_rig.log.RunLog``, or arrays ``(drive_t, drive_V, t, theta)``
-        (a dict with those keys too).
+        ``piezo_rig.log.RunLog`` (``RunLog.fit_arrays()`` gives the same
+        fit), or arrays ``(drive_t, drive_V, t, theta)`` (a dict with those
+        keys too), checked as ``fit_data`` checks them.
     params: the start (default: the log's own parameters, Table 1 for arrays).
+    free: the parameters to fit; default the model's: LuGre sigma0, sigma1,
+        F_N and d_e, Coulomb F_N and d_e. A parameter the model does not use
+        (a bristle's sigma0 under Coulomb) is refused.
     """
     from .log import RunLog
     start = Parameters()
     if isinstance(log_or_arrays, RunLog):
+        layout = log_or_arrays.layout or layout
         log_or_arrays = log_or_arrays.path
     if isinstance(log_or_arrays, (str, os.PathLike)):
         data, start = load_fit_data(log_or_arrays, **(layout or {}))
     elif isinstance(log_or_arrays, dict):
-        data = FitData(**log_or_arrays)
+        data = fit_data(**log_or_arrays, function="identify")
+    elif isinstance(log_or_arrays, (tuple, list)) and len(log_or_arrays) == 4:
+        data = fit_data(*log_or_arrays, function="identify")
     else:
-        data = FitData(*log_or_arrays)
+        raise TypeError("identify: log_or_arrays: expected a log's path, a RunLog, or arrays "
+                        f"(drive_t, drive_V, t, theta); got {type(log_or_arrays).__name__}")
     if params is not None:
-        start = params
-    out = _model.identify(start, data, list(free), model, max_iterations)
+        start = _parameters("identify", params, {})
+    names = None if free is None else _names("identify", free)
+    out = _model.identify(start, data, names, _text("identify", "model", model, MODELS),
+                          _integer("identify", "max_iterations", max_iterations))
     return Fit(model=model, data=data, **out)
 
 
@@ -219,18 +355,27 @@ class Observation:
     summary: dict
 
 
-def observe(drive_t, drive_V, t, theta, params: Optional[Parameters] = None, *,
-            alpha: float = 0.3, beta: float = 0.05, gate_rad: float = 1e-3,
-            ramp_time: float = 1e-4, latency: float = 0.0) -> Observation:
+def observe(drive_t: Any, drive_V: Any, t: Any, theta: Any,
+            params: Optional[Parameters] = None, *, alpha: float = 0.3, beta: float = 0.05,
+            gate_rad: float = 1e-3, ramp_time: float = 1e-4,
+            latency: float = 0.0) -> Observation:
     """Runs ``piezo run``'s LuGre observer (docs/analysis.md) on a recorded
     drive (``drive_t`` [s], ``drive_V`` [V]) and measured angle (``t``,
     ``theta``; NaN readings skipped): the same code the host runs beside a
-    live run, so on a ``piezo run`` log it gives the log's /observer.
+    live run, so on a ``piezo run`` log, with that run's gains, ramp and
+    latency, it gives the log's /observer bit for bit
+    (``piezo_rig.log.RunLog.observe`` passes them).
 
+    The arrays are one-dimensional, finite (theta may hold NaN), their
+    times non-decreasing, ``drive_V`` as long as ``drive_t`` and ``theta``
+    as ``t``: anything else raises ``ValueError`` naming the argument.
     alpha, beta, gate_rad: the config's ``[observer]`` gains; ramp_time: how
     long the signal chain takes to reach each command (a drive period,
     1 / ``hello["drive_rate_hz"]``); latency: the board's
     ``hello["output_latency_s"]`` (a log's ``drive_latency_s``)."""
-    data = FitData(drive_t, drive_V, t, theta, ramp_time)
-    out = _model.observe(_parameters(params, {}), data, alpha, beta, gate_rad, latency)
-    return Observation(**out)
+    f = "observe"
+    return Observation(**_model.observe(
+        _parameters(f, params, {}), _array(f, "drive_t", drive_t), _array(f, "drive_V", drive_V),
+        _array(f, "t", t), _array(f, "theta", theta), _number(f, "ramp_time", ramp_time),
+        _number(f, "alpha", alpha), _number(f, "beta", beta), _number(f, "gate_rad", gate_rad),
+        _number(f, "latency", latency)))

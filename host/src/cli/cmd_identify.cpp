@@ -17,7 +17,7 @@ namespace {
 struct IdentifyOptions {
   LogLayout layout;  ///< where another tool's file keeps t, V and theta
   std::string log;
-  std::string params = "sigma0,sigma1,F_N,d_e";
+  std::string params;  ///< empty: the model's defaults
   std::string model = "lugre";
   std::string config;  // start values instead of the log's
   std::string out;
@@ -31,7 +31,11 @@ int run(const IdentifyOptions& o) {
   if (!o.config.empty()) run.parameters = config::load_model_config(o.config);
   const model::FitResult r =
       model::identify(run.parameters, run.data,
-                      cli_fit_settings(parse_parameter_list(o.params), *friction, "identify"));
+                      cli_fit_settings(checked_free_parameters(
+                                           o.params.empty() ? std::nullopt
+                                                            : std::optional(parse_parameter_list(o.params)),
+                                           *friction, "identify", "--params"),
+                                       *friction, "identify"));
 
   if (!o.out.empty()) {
     write_parameters_toml(o.out, r.parameters,
@@ -81,8 +85,9 @@ CommandRunner add_identify_command(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingFile);
   add_log_layout_options(*cmd, o->layout);
-  cmd->add_option("--params", o->params, "Parameters to fit, comma-separated (simulate's keys)")
-      ->capture_default_str();
+  cmd->add_option("--params", o->params,
+                  "Parameters to fit, comma-separated (simulate's keys); default: lugre "
+                  "sigma0,sigma1,F_N,d_e, coulomb F_N,d_e");
   cmd->add_option("--model", o->model, "Friction model: lugre or coulomb")->capture_default_str();
   cmd->add_option("--config", o->config, "Start values (TOML [drive]/[model]); default: the log's")
       ->check(CLI::ExistingFile);

@@ -20,6 +20,7 @@
 #include "config_error.hpp"
 #include "live_feed.hpp"
 #include "log_schema.hpp"
+#include "effective_config.hpp"
 #include "parameters_json.hpp"
 #include "piezo/firmware/request_limits.hpp"
 #include "remote_run.hpp"
@@ -472,7 +473,7 @@ RunLog create_log(const fs::path& dir, const config::RigConfig& config, const Bo
     // Another run took the name between the check and now: never mix two.
     throw config::ConfigError("--out", dir.string(), "was taken by another run meanwhile");
   }
-  std::ofstream(dir / "config.toml") << config.text;
+  std::ofstream(dir / "config.toml") << config::run_config_file(config);
   const bool remote = board.client.has_value();
   RunLog log = RunLog::create(
       (dir / "run.h5").string(),

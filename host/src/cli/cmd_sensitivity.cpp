@@ -99,6 +99,7 @@ int run(const SensitivityOptions& o) {
   if (o.method == "morris" || o.method == "sobol") {
     GlobalStudyOptions g = o.global;
     g.method = o.method;
+    if (g.samples == 0) g.samples = default_samples(g.method);
     g.model = *friction;
     g.out = o.out;
     g.json = o.json;
@@ -150,7 +151,8 @@ CommandRunner add_sensitivity_command(CLI::App& app) {
   cmd->add_option("--range", o->global.range_pct, "morris/sobol: each parameter varies by ± this %")
       ->capture_default_str();
   cmd->add_option("--samples", o->global.samples,
-                  "sobol: N (runs: N (k + 2), default 1024); morris: trajectories (default 20)");
+                  "sobol: N (runs: N (k + 2), default 1024); morris: trajectories (default 20)")
+      ->check(CLI::PositiveNumber);
   cmd->add_option("--seed", o->global.seed, "morris/sobol: design and bootstrap seed")
       ->capture_default_str();
   cmd->add_option("--output", o->global.output, "morris/sobol: velocity, step or backslip")

@@ -37,7 +37,8 @@ std::vector<model::Factor> factors(const model::Parameters& base, const GlobalSt
       model::Parameters p = base;
       value = spec->ref(p);
     } else {
-      throw config::ConfigError("--params", name, "allowed: Table 1 symbols (V0, f, mu, ...) or D");
+      throw config::ConfigError(o.names.params, name,
+                                "allowed: Table 1 symbols (V0, f, mu, ...) or D");
     }
     const double half = std::abs(value) * o.range_pct / 100.0;
     double low = value - half, high = value + half;
@@ -69,7 +70,7 @@ double output(const model::Parameters& p, const GlobalStudyOptions& o) {
 std::vector<double> evaluate(const model::Parameters& base, const std::vector<model::Factor>& f,
                              const model::DesignRows& rows, const GlobalStudyOptions& o) {
   for (const auto& row : rows) {  // every row checked before any is simulated
-    config::require_valid(at(base, f, row), "--range");
+    config::require_valid(at(base, f, row), o.names.range);
   }
   // Under MPI each rank takes every size-th row; rank 0 gathers them all.
   const MpiRanks& mpi = MpiRanks::get();
@@ -106,7 +107,7 @@ void write_design(const std::string& dir, const std::vector<model::Factor>& f,
 
 json sobol(const model::Parameters& base, const GlobalStudyOptions& o) {
   const auto f = factors(base, o);
-  const std::size_t n = o.samples == 0 ? 1024 : o.samples;
+  const std::size_t n = o.samples;
   const std::size_t k = f.size();
   const auto rows = model::saltelli_design(f, n, o.seed);
   const auto y = evaluate(base, f, rows, o);
@@ -179,7 +180,7 @@ json sobol(const model::Parameters& base, const GlobalStudyOptions& o) {
 
 json morris(const model::Parameters& base, const GlobalStudyOptions& o) {
   const auto f = factors(base, o);
-  const std::size_t r = o.samples == 0 ? 20 : o.samples;
+  const std::size_t r = o.samples;
   const auto d = model::morris_design(f, r, o.seed);
   const auto y = evaluate(base, f, d.rows, o);
   if (!MpiRanks::get().root()) return nullptr;
@@ -238,18 +239,36 @@ void print_table(const json& result) {
 
 }  // namespace
 
+std::size_t default_samples(const std::string& method) { return method == "sobol" ? 1024 : 20; }
+
 json global_study(const model::Parameters& base, const GlobalStudyOptions& o) {
+  const auto& n = o.names;
   if (!(o.range_pct > 0.0 && o.range_pct < 100.0)) {
-    throw config::ConfigError("--range", fmt::format("{:g}", o.range_pct), "allowed: (0, 100) %");
+    throw config::ConfigError(n.range, fmt::format("{:g}", o.range_pct), "allowed: (0, 100) %");
   }
   if (o.output != "velocity" && o.output != "step" && o.output != "backslip") {
-    throw config::ConfigError("--output", o.output, "allowed: velocity, step, backslip");
+    throw config::ConfigError(n.output, o.output, "allowed: velocity, step, backslip");
   }
-  if (!(o.runtime_s > 0.0)) {
-    throw config::ConfigError("--runtime", fmt::format("{:g}", o.runtime_s), "allowed: > 0 s");
+  if (!(o.runtime_s > 0.0 && o.runtime_s <= 3600.0)) {
+    throw config::ConfigError(n.runtime, fmt::format("{:g}", o.runtime_s),
+                              "allowed: (0, 3600] s");
   }
-  if (o.method == "sobol" && o.samples != 0 && o.samples < 8) {
-    throw config::ConfigError("--samples", std::to_string(o.samples), "allowed: >= 8 for sobol");
+  if (o.method == "sobol" && o.samples < 8) {
+    throw config::ConfigError(n.samples, std::to_string(o.samples), "allowed: >= 8 for sobol");
+  }
+  if (o.method == "morris" && o.samples < 2) {
+    throw config::ConfigError(n.samples, std::to_string(o.samples),
+                              "allowed: >= 2 trajectories for morris (sigma needs two)");
+  }
+  if (o.method == "sobol" && (o.bootstrap < 0 || o.bootstrap > 100000)) {
+    throw config::ConfigError(n.bootstrap, std::to_string(o.bootstrap), "allowed: [0, 100000]");
+  }
+  for (std::size_t i = 0; i < o.params.size(); ++i) {
+    for (std::size_t j = 0; j < i; ++j) {
+      if (o.params[i] == o.params[j]) {
+        throw config::ConfigError(n.params, o.params[i], "named twice (allowed: each once)");
+      }
+    }
   }
   return o.method == "sobol" ? sobol(base, o) : morris(base, o);
 }

@@ -13,11 +13,22 @@
 
 namespace piezo::host {
 
+/// What the caller calls each option, so that an error names what the user
+/// typed: the CLI's flags by default, piezo_rig's keyword arguments there.
+struct StudyOptionNames {
+  std::string params = "--params";
+  std::string range = "--range";
+  std::string samples = "--samples";
+  std::string output = "--output";
+  std::string runtime = "--runtime";
+  std::string bootstrap = "--bootstrap";
+};
+
 struct GlobalStudyOptions {
   std::string method;               ///< "morris" or "sobol"
   std::vector<std::string> params;  ///< empty: every Table 1 parameter
   double range_pct = 10.0;
-  std::size_t samples = 0;  ///< Sobol' N, or Morris trajectories (0: 1024 / 20)
+  std::size_t samples = 0;  ///< Sobol' N (>= 8), or Morris trajectories (>= 2)
   std::uint64_t seed = 1;
   std::string output = "velocity";  ///< velocity, step or backslip
   double runtime_s = 4.8;
@@ -25,7 +36,11 @@ struct GlobalStudyOptions {
   model::FrictionModel model = model::FrictionModel::lugre;
   std::string out;
   bool json = false;
+  StudyOptionNames names;
 };
+
+/// Sobol' N, or Morris trajectories, when none is asked for: 1024 / 20.
+std::size_t default_samples(const std::string& method);
 
 /// Validates the options, simulates the design and returns the indices as
 /// `--json` prints them (writing tables and plots to o.out when set); null

@@ -5,12 +5,45 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
+#include "board_client.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
 
 namespace {
 constexpr int kExitBadInput = 2;
+
+/// Whether the command that was parsed (the innermost subcommand) was
+/// given --json: a script then reads one JSON object on stdout, whatever
+/// happens.
+bool json_asked(const CLI::App& app) {
+  for (const CLI::App* sub : app.get_subcommands()) {
+    if (json_asked(*sub)) return true;
+    const CLI::Option* json = sub->get_option_no_throw("--json");
+    if (json != nullptr && json->count() > 0) return true;
+  }
+  return false;
 }
+
+/// The error on stderr, and with --json as one object on stdout: the
+/// status, the error, its code (the protocol's error code for a board's
+/// refusal, bad_input for bad input, no_reply for a silent board) and the
+/// key at fault.
+int report_error(bool json, int exit_code, const std::string& code, const std::string& key,
+                 const std::string& message) {
+  fmt::print(stderr, "piezo: error: {}\n", message);
+  if (json) {
+    fmt::print("{}\n", nlohmann::json{{"status", "failed"},
+                                      {"error", message},
+                                      {"code", code},
+                                      {"key", key.empty() ? nlohmann::json() : nlohmann::json(key)},
+                                      {"exit_code", exit_code}}
+                           .dump());
+  }
+  return exit_code;
+}
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"piezo: drive, log and model stick-slip piezoelectric rotary motors"};
@@ -39,16 +72,19 @@ int main(int argc, char** argv) {
     app.exit(e);
     return kExitBadInput;
   }
+  const bool json = json_asked(app);
   try {
     for (const auto& command : commands) {
       if (const int code = command(); code >= 0) return code;
     }
   } catch (const piezo::config::ConfigError& e) {
-    fmt::print(stderr, "piezo: error: {}\n", e.what());
-    return kExitBadInput;
+    return report_error(json, kExitBadInput, "bad_input", e.key(), e.what());
+  } catch (const piezo::protocol::ProtocolError& e) {
+    return report_error(json, 1, e.code(), e.key(), e.what());
+  } catch (const piezo::host::LinkTimeout& e) {
+    return report_error(json, 1, "no_reply", "", e.what());
   } catch (const std::exception& e) {
-    fmt::print(stderr, "piezo: error: {}\n", e.what());
-    return 1;
+    return report_error(json, 1, "error", "", e.what());
   }
   return 1;
 }

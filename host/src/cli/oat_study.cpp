@@ -13,7 +13,7 @@ constexpr double kTraceInterval = 1e-3;  // angle traces for the plots [s]
 }
 
 OatStudy oat_study(const model::Parameters& base, model::FrictionModel friction) {
-  const auto sweeps = model::paper_sweeps();
+  const auto sweeps = model::paper_sweeps(base);
   OatStudy study;
   for (std::size_t s = 0; s < sweeps.size(); ++s) {
     for (std::size_t l = 0; l < sweeps[s].levels.size(); ++l) study.runs.push_back({s, l, {}});

@@ -1,5 +1,7 @@
 #include "fit_io.hpp"
 
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <toml++/toml.h>
 
 #include <algorithm>
@@ -20,13 +22,6 @@ namespace {
 bool ends_with(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() &&
          s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-
-double median_interval(const std::vector<double>& t) {
-  std::vector<double> d;
-  for (std::size_t i = 1; i < t.size(); ++i) d.push_back(t[i] - t[i - 1]);
-  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
-  return d[d.size() / 2];
 }
 
 /// Drive samples with strictly increasing times (a run's stop record may repeat a time).
@@ -136,16 +131,23 @@ LoadedRun load_csv(const std::string& path, const LogLayout& layout) {
   for (std::string line; std::getline(in, line);) {
     ++line_number;
     if (line.empty()) continue;
+    // Every comma starts a cell, a last one after it included: an empty
+    // or unreadable cell is NaN (a missing reading, left out as in a log).
     std::vector<double> row;
-    std::stringstream ls(line);
-    for (std::string cell; std::getline(ls, cell, ',');) {
+    for (std::size_t at = 0;;) {
+      const std::size_t comma = std::min(line.find(',', at), line.size());
+      const std::string cell = line.substr(at, comma - at);
       char* end = nullptr;
       row.push_back(std::strtod(cell.c_str(), &end));
       if (end == cell.c_str()) row.back() = std::nan("");
+      if (comma == line.size()) break;
+      at = comma + 1;
     }
     if (row.size() < names.size()) {
       throw config::ConfigError(path, "line " + std::to_string(line_number),
-                                "fewer columns than the header");
+                                fmt::format("{} cells, the header names {} columns (empty cells "
+                                            "are allowed, missing commas are not)",
+                                            row.size(), names.size()));
     }
     t.push_back(row[it]);
     V.push_back(row[iV]);
@@ -158,6 +160,121 @@ LoadedRun load_csv(const std::string& path, const LogLayout& layout) {
 }
 
 }  // namespace
+
+double median_interval(const std::vector<double>& t) {
+  std::vector<double> d;
+  for (std::size_t i = 1; i < t.size(); ++i) d.push_back(t[i] - t[i - 1]);
+  if (d.empty()) return 0.0;
+  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+  return d[d.size() / 2];
+}
+
+void check_run_arrays(const std::vector<double>& drive_t, const std::vector<double>& drive_V,
+                      const std::vector<double>& t, const std::vector<double>& theta,
+                      const std::string& source) {
+  const auto same_length = [&](const char* a, std::size_t na, const char* b, std::size_t nb) {
+    if (na != nb) {
+      throw config::ConfigError(source, b,
+                                fmt::format("{} values against {} of {} (allowed: one {} per {})",
+                                            nb, na, a, b, a));
+    }
+  };
+  same_length("drive_t", drive_t.size(), "drive_V", drive_V.size());
+  same_length("t", t.size(), "theta", theta.size());
+  if (drive_t.size() < 2) {
+    throw config::ConfigError(source, "drive_t",
+                              fmt::format("{} samples (allowed: two or more)", drive_t.size()));
+  }
+  for (std::size_t i = 0; i < drive_t.size(); ++i) {
+    if (!std::isfinite(drive_t[i]) || !std::isfinite(drive_V[i])) {
+      throw config::ConfigError(
+          source, std::isfinite(drive_t[i]) ? "drive_V" : "drive_t",
+          fmt::format("sample {} is {} (allowed: finite numbers)", i,
+                      std::isfinite(drive_t[i]) ? drive_V[i] : drive_t[i]));
+    }
+    if (i > 0 && drive_t[i] < drive_t[i - 1]) {
+      throw config::ConfigError(source, "drive_t",
+                                fmt::format("sample {} ({:g} s) is before the one before "
+                                            "(allowed: non-decreasing times)",
+                                            i, drive_t[i]));
+    }
+  }
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    if (!std::isfinite(t[i])) {
+      throw config::ConfigError(source, "t",
+                                fmt::format("sample {} is {} (allowed: finite times)", i, t[i]));
+    }
+    if (i > 0 && t[i] < t[i - 1]) {
+      throw config::ConfigError(source, "t",
+                                fmt::format("sample {} ({:g} s) is before the one before "
+                                            "(allowed: non-decreasing times)",
+                                            i, t[i]));
+    }
+    if (std::isinf(theta[i])) {
+      throw config::ConfigError(source, "theta",
+                                fmt::format("sample {} is {} (allowed: finite angles, or NaN "
+                                            "for a failed reading)",
+                                            i, theta[i]));
+    }
+  }
+}
+
+model::FitData checked_fit_data(const std::vector<double>& drive_t,
+                                const std::vector<double>& drive_V, const std::vector<double>& t,
+                                const std::vector<double>& theta, std::optional<double> ramp_time,
+                                const std::string& source) {
+  check_run_arrays(drive_t, drive_V, t, theta, source);
+  model::FitData data;
+  add_drive(data, drive_t, drive_V);
+  add_measurements(data, t, theta);
+  if (data.drive_t.size() < 2) {
+    throw config::ConfigError(source, "drive_t", "fewer than two distinct times (allowed: two or more)");
+  }
+  if (data.t.empty()) {
+    throw config::ConfigError(source, "theta",
+                              "no reading at t >= 0 (allowed: at least one finite angle)");
+  }
+  data.ramp_time = ramp_time.value_or(median_interval(data.drive_t));
+  if (!(std::isfinite(data.ramp_time) && data.ramp_time > 0.0)) {
+    throw config::ConfigError(source, "ramp_time",
+                              fmt::format("{:g} s (allowed: > 0 s)", data.ramp_time));
+  }
+  return data;
+}
+
+std::vector<std::string> checked_free_parameters(
+    const std::optional<std::vector<std::string>>& free, model::FrictionModel friction,
+    const std::string& source, const std::string& key) {
+  if (!free) return model::default_free_parameters(friction);
+  const std::string model_name(model::to_string(friction));
+  if (free->empty()) {
+    throw config::ConfigError(source, key,
+                              "no parameter named (allowed: one or more the " + model_name +
+                                  " model uses, e.g. its defaults " +
+                                  fmt::format("{}", fmt::join(model::default_free_parameters(
+                                                                  friction), ", ")) + ")");
+  }
+  for (std::size_t i = 0; i < free->size(); ++i) {
+    const std::string& name = (*free)[i];
+    if (model::find_parameter(name) == nullptr) {
+      std::string allowed;
+      for (const auto& s : model::parameter_specs()) {
+        if (model::model_uses(friction, s.name)) allowed += (allowed.empty() ? "" : ", ") + std::string(s.name);
+      }
+      throw config::ConfigError(source, key, name + ": unknown parameter (allowed: " + allowed + ")");
+    }
+    if (!model::model_uses(friction, name)) {
+      throw config::ConfigError(source, key,
+                                name + ": the " + model_name +
+                                    " model does not use it (no bristles: sigma0, sigma1 and "
+                                    "sigma2 are LuGre's); fit F_N, d_e or other parameters it uses");
+    }
+    for (std::size_t j = 0; j < i; ++j) {
+      if ((*free)[j] == name) throw config::ConfigError(source, key, name + ": named twice");
+    }
+  }
+  return *free;
+}
 
 LoadedRun load_run_for_fit(const std::string& path, const LogLayout& layout) {
   const bool hdf5 = ends_with(path, ".h5") || ends_with(path, ".hdf5") || ends_with(path, ".mat");

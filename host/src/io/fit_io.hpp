@@ -3,7 +3,9 @@
 // HDF5 log or a CSV with t, V, theta columns, and a fitted parameter set as
 // a TOML file that `simulate` and `run` accept.
 
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "piezo/model/identify.hpp"
 #include "piezo/model/parameters.hpp"
@@ -39,6 +41,38 @@ void write_parameters_toml(const std::string& path, const model::Parameters& p,
 
 /// Parses "a,b,c" into names, checking each is a parameter.
 [[nodiscard]] std::vector<std::string> parse_parameter_list(const std::string& list);
+
+/// The parameters a fit frees: `free`, each a Table 1 symbol that `model`
+/// uses, named once, at least one; none named (nullopt): the model's
+/// defaults. `source` and `key` are the caller's words for the list
+/// ("identify", "--params" or "free"). Throws ConfigError.
+[[nodiscard]] std::vector<std::string> checked_free_parameters(
+    const std::optional<std::vector<std::string>>& free, model::FrictionModel model,
+    const std::string& source, const std::string& key);
+
+/// The typical interval of strictly increasing times: their median step.
+[[nodiscard]] double median_interval(const std::vector<double>& t);
+
+/// Checks a run given as arrays (Python's identify and observe): the drive
+/// two or more finite samples at non-decreasing times (a run's stop record
+/// may repeat the last), one volt each; the angle's times finite and
+/// non-decreasing, one angle each (NaN: a failed reading; infinite:
+/// refused). Throws ConfigError naming `source` (the function) and the
+/// argument.
+void check_run_arrays(const std::vector<double>& drive_t, const std::vector<double>& drive_V,
+                      const std::vector<double>& t, const std::vector<double>& theta,
+                      const std::string& source);
+
+/// A fit's data from arrays, checked (check_run_arrays) and taken as a log
+/// is read: a repeated drive time and readings that failed or came before
+/// t = 0 left out. ramp_time unset: the drive's median interval, as for a
+/// log.
+[[nodiscard]] model::FitData checked_fit_data(const std::vector<double>& drive_t,
+                                              const std::vector<double>& drive_V,
+                                              const std::vector<double>& t,
+                                              const std::vector<double>& theta,
+                                              std::optional<double> ramp_time,
+                                              const std::string& source);
 
 }  // namespace piezo::host
 

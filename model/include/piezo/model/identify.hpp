@@ -9,6 +9,7 @@
 
 #include <functional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "piezo/model/parameters.hpp"
@@ -22,6 +23,15 @@ struct FitData {
   double ramp_time = 1e-4;               ///< the signal chain reaches each command over this [s]
   std::vector<double> t, theta;          ///< measurement times [s] (non-decreasing), angles [rad]
 };
+
+/// The parameters a fit frees unless told otherwise: LuGre sigma0, sigma1,
+/// F_N and d_e; Coulomb, which has no bristles, F_N and d_e.
+[[nodiscard]] std::vector<std::string> default_free_parameters(FrictionModel model);
+
+/// Whether `model` uses the parameter at all: Coulomb friction has no
+/// bristles, so sigma0, sigma1 and sigma2 change nothing there (a fit of
+/// them would report zero-width intervals).
+[[nodiscard]] bool model_uses(FrictionModel model, std::string_view name);
 
 struct FitSettings {
   std::vector<std::string> free{"sigma0", "sigma1", "F_N", "d_e"};

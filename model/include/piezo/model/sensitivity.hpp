@@ -18,8 +18,12 @@ struct Sweep {
   std::vector<double> levels;
 };
 
-/// The four sweeps of the paper, five levels each.
-[[nodiscard]] std::vector<Sweep> paper_sweeps();
+/// The four sweeps of the paper, five levels each, around `base`: the
+/// paper's levels (72..88 V, 8..12 Hz, 0.09..0.11, D 0.675..0.825) scaled
+/// by the ratio of base's value to Table 1's, to 12 significant digits; at
+/// Table 1, the paper's levels exactly. A study is about the parameters it
+/// is given.
+[[nodiscard]] std::vector<Sweep> paper_sweeps(const Parameters& base = {});
 
 /// Runtime of each sensitivity run [s].
 inline constexpr double kSensitivityRuntime = 4.8;

@@ -1,0 +1,51 @@
+#include "effective_config.hpp"
+
+#include <toml++/toml.h>
+
+#include <sstream>
+
+namespace piezo::config {
+
+std::string effective_config_toml(const RigConfig& c) {
+  toml::table drive, motor;
+  for (const auto& spec : model::parameter_specs()) {
+    const double v = *model::get_parameter(c.model, spec.name);
+    (spec.section == "drive" ? drive : motor).insert(std::string(spec.name), v);
+  }
+  drive.insert("direction", std::string(model::name(c.model.drive.direction)));
+  drive.insert("rate_hz", c.drive.rate_hz);
+  drive.insert("V_min", c.drive.limits.V_min);
+  drive.insert("V_max", c.drive.limits.V_max);
+  drive.insert("slew_V_per_s", c.drive.limits.slew_V_per_s);
+  const toml::table sensor{{"r2_m", c.sensor.r2_m}, {"rate_hz", c.sensor.rate_hz()}};
+  const toml::table run{{"duration_s", c.run.duration_s},
+                        {"clock", std::string(name(c.run.clock))}};
+  const toml::table observer{{"enabled", c.observer.enabled},
+                             {"alpha", c.observer.gains.alpha},
+                             {"beta", c.observer.gains.beta},
+                             {"gate_rad", c.observer.gains.gate_rad}};
+  toml::table out{{"drive", drive}, {"model", motor}, {"sensor", sensor}, {"run", run},
+                  {"observer", observer}};
+  if (!c.board.address.empty()) {
+    out.insert("rig", toml::table{{"address", c.board.address}, {"lease_s", c.board.lease_s}});
+  }
+  std::ostringstream text;
+  text << out << "\n";
+  return text.str();
+}
+
+std::string run_config_file(const RigConfig& c) {
+  const std::string effective = effective_config_toml(c);
+  if (c.text.empty()) {
+    return "# What the run used, defaults included (it had no config file of its own).\n" +
+           effective;
+  }
+  std::string out = c.text;
+  if (!out.empty() && out.back() != '\n') out += '\n';
+  out += "\n# What the run used, defaults included:\n";
+  std::istringstream lines(effective);
+  for (std::string line; std::getline(lines, line);) out += "#   " + line + "\n";
+  return out;
+}
+
+}  // namespace piezo::config

@@ -1,0 +1,110 @@
+"""What the documentation shows a Python user runs as shown: every Python
+block of docs/python.md (in order, one session, as a reader pastes them)
+and every example in the package's docstrings (doctest), against a real
+piezod and a real `piezo run` log; and mypy passes over the package and
+the documentation's examples, so a documented call cannot drift from the
+code."""
+
+import doctest
+import importlib
+import os
+import re
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+
+import piezo_rig
+
+# The documents and docstrings name the default address; the test's board
+# listens on a free port.
+DOCUMENTED_ADDRESS = "tcp://127.0.0.1:5555"
+MODULES = ["piezo_rig", "piezo_rig.model", "piezo_rig.board", "piezo_rig.log",
+           "piezo_rig.errors", "piezo_rig.frames"]
+
+
+def python_blocks(path):
+    with open(path) as f:
+        return re.findall(r"```python\n(.*?)```", f.read(), re.S)
+
+
+@pytest.fixture(scope="module")
+def workdir(tmp_path_factory, piezo, source):
+    """A reader's directory: `runs/first` (a `piezo run` log, as the
+    notebooks' section says to make it) and `bench.mat` (another tool's
+    MATLAB v7.3 file with /data/t, /data/u, /data/phi)."""
+    here = tmp_path_factory.mktemp("reader")
+    piezo("run", "--config", os.path.join(source, "configs", "sim.toml"), "--set",
+          "run.clock=virtual", "--duration", "1", "--out", str(here / "runs" / "first"), "--json")
+    t = np.arange(0, 0.2, 1e-4)
+    with h5py.File(here / "bench.mat", "w", userblock_size=512) as f:
+        for name, values in (("t", t), ("u", 40 * (t * 10 % 1)), ("phi", 1e-3 * t)):
+            f.create_dataset(f"data/{name}", data=values.reshape(1, -1))
+    old = os.getcwd()
+    os.chdir(here)
+    yield here
+    os.chdir(old)
+
+
+def test_every_python_block_of_the_guide_runs(workdir, board_address, source):
+    blocks = python_blocks(os.path.join(source, "docs", "python.md"))
+    assert len(blocks) >= 3
+    session: dict = {}
+    for i, block in enumerate(blocks):
+        code = block.replace(DOCUMENTED_ADDRESS, board_address)
+        try:
+            exec(compile(code, f"docs/python.md, Python block {i + 1}", "exec"), session)
+        except Exception as e:
+            pytest.fail(f"docs/python.md, Python block {i + 1} raised {e!r}:\n{block}")
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_every_docstring_example_runs(workdir, board_address, name):
+    module = importlib.import_module(name)
+    finder = doctest.DocTestFinder(exclude_empty=True)
+    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE |
+                                   doctest.IGNORE_EXCEPTION_DETAIL)
+    tests = finder.find(module, name)
+    for test in tests:
+        for example in test.examples:
+            example.source = example.source.replace(DOCUMENTED_ADDRESS, board_address)
+        runner.run(test, out=sys.stdout.write)
+    assert runner.failures == 0, f"{runner.failures} docstring examples of {name} failed"
+
+
+def test_a_documented_module_has_examples():
+    examples = sum(len(t.examples) for name in MODULES
+                   for t in doctest.DocTestFinder().find(importlib.import_module(name), name))
+    assert examples >= 15
+
+
+def mypy(*paths, cwd):
+    package = os.path.dirname(os.path.dirname(piezo_rig.__file__))
+    config = os.path.join(os.environ["PIEZO_SOURCE_DIR"], "host", "python", "mypy.ini")
+    return subprocess.run([sys.executable, "-m", "mypy", "--config-file", config,
+                           "--cache-dir", os.path.join(str(cwd), ".mypy_cache"), *paths],
+                          capture_output=True, text=True, cwd=cwd,
+                          env={**os.environ, "MYPYPATH": package})
+
+
+def test_mypy_passes_over_the_package_and_the_guide(tmp_path, source):
+    package = os.path.dirname(piezo_rig.__file__)
+    # The guide's blocks as one script, in order, as a reader runs them.
+    script = tmp_path / "python_guide.py"
+    script.write_text("\n".join(python_blocks(os.path.join(source, "docs", "python.md"))))
+    result = mypy(package, str(script), cwd=tmp_path)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert os.path.exists(os.path.join(package, "_model.pyi")), "the compiled module has stubs"
+
+
+def test_mypy_catches_a_wrong_argument_before_it_runs(tmp_path):
+    script = tmp_path / "wrong.py"
+    script.write_text("from piezo_rig import model\nmodel.simulate(model.Parameters(), '1')\n"
+                      "model.Parameters(V0=60).sigma0 = 'x'\n")
+    result = mypy(str(script), cwd=tmp_path)
+    assert result.returncode == 1
+    assert 'Argument 2 to "simulate" has incompatible type "str"; expected "float"' in result.stdout
+    assert 'Incompatible types in assignment (expression has type "str", variable has type ' \
+           '"float")' in result.stdout
