@@ -311,6 +311,12 @@ py::dict identify(const model::Parameters& start, const model::FitData& data,
   }
   piezo::config::require_valid(start, "identify: params");
   const auto names = host::checked_free_parameters(free, friction, "identify", "free");
+  if (data.t.size() < names.size() + 2) {
+    throw ConfigError("identify", "theta",
+                      fmt::format("{} good readings for {} free parameters (allowed: at least "
+                                  "{}, two more than the parameters)",
+                                  data.t.size(), names.size(), names.size() + 2));
+  }
   model::FitResult r;
   {
     py::gil_scoped_release free_python;
