@@ -190,6 +190,8 @@ def test_observe_checks_its_arrays_and_names_them():
     assert len(seen.t) == 1
     with pytest.raises(ValueError, match="identify: theta: 2 values against 3 of t"):
         model.identify((t, V, [0.0, 0.1, 0.2], [0.0, 0.0]))
+    with pytest.raises(ValueError, match="identify: theta: 1 good readings for 1 free"):
+        model.identify(([0.0, 1.0], [0.0, 0.0], [0.5], [0.0]), free="F_N")
 
 
 def test_studies_are_about_the_parameters_they_are_given():
