@@ -108,16 +108,6 @@ std::vector<double> predict(const Parameters& p, const FitData& data, FrictionMo
   return simulate(p.motor, drive, model, times, {tolerance}).theta;
 }
 
-std::vector<std::string> default_free_parameters(FrictionModel model) {
-  if (model == FrictionModel::coulomb) return {"F_N", "d_e"};
-  return {"sigma0", "sigma1", "F_N", "d_e"};
-}
-
-bool model_uses(FrictionModel model, std::string_view name) {
-  return model != FrictionModel::coulomb ||
-         (name != "sigma0" && name != "sigma1" && name != "sigma2");
-}
-
 FitResult identify(const Parameters& start, const FitData& data, const FitSettings& settings) {
   if (settings.free.empty()) throw std::invalid_argument("identify: no parameter to fit");
   if (data.t.size() < settings.free.size() + 2 || data.t.size() != data.theta.size()) {

@@ -44,7 +44,7 @@ case "$target" in
     libs=($(pkg-config --libs libmodbus) -lfmt) ;;
   logs)
     sources=("$src"/host/src/io/{fit_io,h5_file,run_journal,run_recovery,catalogue,parameters_json}.cpp
-             "$src"/model/src/{parameters,waveform}.cpp)
+             "$src"/model/src/{parameters,waveform,simulate_names}.cpp)
     flags=(-I"$src/host/src/io" -I"$src/firmware/config" -I"$src/firmware/config/error" -I"$src/model/include"
            -I"$src/model/names/include"
            -I/usr/include/eigen3 $(pkg-config --cflags hdf5))

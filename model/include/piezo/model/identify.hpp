@@ -26,12 +26,18 @@ struct FitData {
 
 /// The parameters a fit frees unless told otherwise: LuGre sigma0, sigma1,
 /// F_N and d_e; Coulomb, which has no bristles, F_N and d_e.
-[[nodiscard]] std::vector<std::string> default_free_parameters(FrictionModel model);
+[[nodiscard]] inline std::vector<std::string> default_free_parameters(FrictionModel model) {
+  if (model == FrictionModel::coulomb) return {"F_N", "d_e"};
+  return {"sigma0", "sigma1", "F_N", "d_e"};
+}
 
 /// Whether `model` uses the parameter at all: Coulomb friction has no
 /// bristles, so sigma0, sigma1 and sigma2 change nothing there (a fit of
 /// them would report zero-width intervals).
-[[nodiscard]] bool model_uses(FrictionModel model, std::string_view name);
+[[nodiscard]] inline bool model_uses(FrictionModel model, std::string_view name) {
+  return model != FrictionModel::coulomb ||
+         (name != "sigma0" && name != "sigma1" && name != "sigma2");
+}
 
 struct FitSettings {
   std::vector<std::string> free{"sigma0", "sigma1", "F_N", "d_e"};
