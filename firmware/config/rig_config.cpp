@@ -8,11 +8,13 @@
 #include <functional>
 #include <map>
 #include <sstream>
+#include <variant>
 
 #include "config_error.hpp"
 #include "modbus_config.hpp"
 #include "model_config.hpp"
 #include "piezo/firmware/request_limits.hpp"
+#include "piezo/overload.hpp"
 #include "section_reader.hpp"
 
 namespace piezo::config {
@@ -108,6 +110,32 @@ void read_run(SectionReader r, RunSettings& run) {
   r.finish();
 }
 
+/// [move]: the defaults of `piezo move`'s options, one key per declared
+/// field of a move's request (all but the target).
+void read_move(SectionReader r, firmware::MoveRequest& m) {
+  for (const firmware::MoveField& field : firmware::kMoveFields) {
+    if (field.required) continue;
+    const std::string key(field.name);
+    std::visit(Overload{
+                   [&](double firmware::MoveRequest::*p) {
+                     r.number(key, m.*p, field.allowed, std::string(field.unit));
+                   },
+                   [&](std::uint64_t firmware::MoveRequest::*p) {
+                     int v = static_cast<int>(m.*p);
+                     r.integer(key, v, static_cast<int>(field.allowed.min),
+                               static_cast<int>(field.allowed.max));
+                     m.*p = static_cast<std::uint64_t>(v);
+                   },
+                   [&](bool firmware::MoveRequest::*p) { r.flag(key, m.*p); },
+                   [&](firmware::Approach firmware::MoveRequest::*p) {
+                     r.choice(key, m.*p, firmware::kApproachNames);
+                   },
+               },
+               field.member);
+  }
+  r.finish();
+}
+
 void read_rig_sim(SectionReader r, hal::sim::ModbusDeviceFaults& f, hal::sim::TcpLimits& tcp) {
   r.integer("max_clients", tcp.max_clients, 1, 100'000);
   r.number("frame_timeout_s", tcp.frame_timeout_s, {0.001, 60.0}, "s");
@@ -187,6 +215,7 @@ void read_tables(const toml::table& t, const std::string& source, RigConfig& c,
   read_sensor(file.section("sensor"), c.sensor);
   read_lines(file.section("lines"), c.lines);
   read_run(file.section("run"), c.run);
+  read_move(file.section("move"), c.run.move_defaults);
   read_safety(file.section("safety"), c.safety);
   read_rig_sim(file.section("rig_sim"), c.rig_sim, c.rig_sim_tcp);
   read_observer(file.section("observer"), c.observer);
@@ -325,6 +354,11 @@ void check_whole(const RigConfig& c, const std::map<std::string, std::string>& s
     return it == source_of.end() ? c.source : it->second;
   };
   require_valid(c.model, c.source);
+  // [move]'s defaults by the board's own rule (hold below the timeout).
+  if (const auto breach = firmware::check_move(c.run.move_defaults)) {
+    const std::string key = "move." + breach->key;
+    throw ConfigError(src(key), key, breach->message);
+  }
   model::Parameters plant{c.model.drive, c.plant};
   if (const auto issues = model::validate(plant); !issues.empty()) {
     throw ConfigError(c.source, "plant." + issues.front().name, issues.front().message);

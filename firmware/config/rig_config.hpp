@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "modbus_config.hpp"
+#include "piezo/firmware/move_request.hpp"
 #include "piezo/firmware/safety_supervisor.hpp"
 #include "piezo/firmware/voltage_limiter.hpp"
 #include "piezo/hal/gpiod/gpiod_rig.hpp"
@@ -102,19 +103,14 @@ struct RunSettings {
   std::uint64_t step_periods = 0;
   /// Not a file key: `piezo move` sets it to run a closed-loop move (the
   /// protocol's `move_to`) instead of the waveform.
-  struct Move {
-    double target_rad = 0.0;
-    double tolerance_rad = 25e-6;
-    double settle_s = 0.1;
-    double timeout_s = 30.0;
-    double hold_s = 0.0;  ///< the fine servo kept on after on target
-    bool protect = true;  ///< the board's stall and plausibility checks
-    int stall_steps = 2;
+  struct Move : firmware::MoveRequest {
     /// The coarse steps' waveform when the user named it; else the board
     /// chooses (its calibration's fastest frequency, or its [drive]).
     std::optional<double> V0 = std::nullopt, f = std::nullopt;
   };
   std::optional<Move> move;
+  /// [move]: the defaults of `piezo move`'s options (the target aside).
+  firmware::MoveRequest move_defaults;
   /// Not a file key: `piezo calibrate` runs the board's calibration (at
   /// V0 when the user named it; else the board's).
   struct Calibrate {

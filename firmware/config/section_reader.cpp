@@ -9,17 +9,6 @@
 
 namespace piezo::config {
 
-bool Range::admits(double v) const {
-  if (std::isnan(v)) return false;
-  const bool above_min = min_open ? v > min : v >= min;
-  const bool below_max = max_open ? v < max : v <= max;
-  return above_min && below_max;
-}
-
-std::string Range::text() const {
-  return fmt::format("{}{:g}, {:g}{}", min_open ? "(" : "[", min, max, max_open ? ")" : "]");
-}
-
 SectionReader::SectionReader(const toml::table& root, std::string section, std::string source)
     : section_(std::move(section)), source_(std::move(source)) {
   if (const toml::node* node = root.get(section_)) {
@@ -106,10 +95,10 @@ void SectionReader::text(const std::string& key, std::string& value) {
   const auto bad = std::find_if(v->begin(), v->end(),
                                 [](char c) { return static_cast<unsigned char>(c) < 0x20; });
   if (bad != v->end()) {
-    throw ConfigError(source_, name(key),
-                      fmt::format("must not contain control characters (U+{:04X} at character {})",
-                                  static_cast<unsigned>(static_cast<unsigned char>(*bad)),
-                                  bad - v->begin() + 1));
+    throw ConfigError(
+        source_, name(key),
+        fmt::format("must not contain control characters (U+{:04X} at character {})",
+                    static_cast<unsigned>(static_cast<unsigned char>(*bad)), bad - v->begin() + 1));
   }
   value = *v;
 }

@@ -13,20 +13,13 @@
 #include <utility>
 #include <vector>
 
+#include "piezo/interval.hpp"
 #include "piezo/name_table.hpp"
 
 namespace piezo::config {
 
 /// An allowed interval; open ends exclude the bound.
-struct Range {
-  double min;
-  double max;
-  bool min_open = false;
-  bool max_open = false;
-
-  [[nodiscard]] bool admits(double v) const;
-  [[nodiscard]] std::string text() const;
-};
+using Range = Interval;
 
 inline constexpr double kInf = std::numeric_limits<double>::infinity();
 

@@ -22,6 +22,16 @@ using Clock = std::chrono::steady_clock;
 constexpr auto kPollPeriod = std::chrono::milliseconds(2);
 constexpr auto kHealthPeriod = std::chrono::milliseconds(250);
 
+/// `move_to`'s arguments: the declared request's fields and the waveform's.
+std::vector<std::string_view> move_to_args() {
+  std::vector<std::string_view> args;
+  for (const auto& field : firmware::kMoveFields) args.push_back(field.name);
+  for (const std::string_view waveform : {"V0", "f", "C_dr", "e_dr", "lease_s"}) {
+    args.push_back(waveform);
+  }
+  return args;
+}
+
 }  // namespace
 
 Daemon::Daemon(const config::RigConfig& board, zmq::context_t& context, const std::string& listen,
@@ -118,8 +128,9 @@ void Daemon::load_calibration_file() {
   // A file that cannot be used leaves the board uncalibrated (moves use
   // the model), said in the log; it is replaced by the next calibration.
   try {
-    calibration_ = load_calibration(board_.daemon.calibration_file,
-                                    {board_.drive.limits.V_max, board_.drive.rate_hz / 20.0});
+    calibration_ = load_calibration(
+        board_.daemon.calibration_file,
+        {board_.drive.limits.V_max, firmware::max_drive_frequency(board_.drive.rate_hz)});
     if (calibration_) {
       log_event(fmt::format("calibration of {} loaded from {}",
                             calibration_->at("created").get<std::string>(),
@@ -241,11 +252,7 @@ CommandTable Daemon::command_table() {
        C::controller,
        {"count", "V0", "f", "C_dr", "e_dr", "direction", "lease_s"},
        [this](Who c, Args a) { return step(c, a); }},
-      {"move_to",
-       C::controller,
-       {"target_rad", "tolerance_rad", "settle_s", "timeout_s", "V0", "f", "C_dr", "e_dr",
-        "lease_s", "protect", "stall_steps", "hold_s"},
-       [this](Who c, Args a) { return move_to(c, a); }},
+      {"move_to", C::controller, move_to_args(), [this](Who c, Args a) { return move_to(c, a); }},
       {"calibrate",
        C::controller,
        {"V0", "lease_s"},

@@ -52,12 +52,7 @@ json Daemon::move_to(const std::string& client, const json& args) {
 
 firmware::MoveSettings Daemon::plan_move(const protocol::MoveToRequest& request, bool& calibrated) {
   firmware::MoveSettings m;
-  m.target_rad = request.move.target_rad;
-  m.tolerance_rad = request.move.tolerance_rad;
-  m.settle_s = request.move.settle_s;
-  m.hold_s = request.move.hold_s;
-  m.protect = request.protect;
-  m.stall_steps = static_cast<int>(request.move.stall_steps);
+  static_cast<firmware::MoveRequest&>(m) = request.move;
   // At rest before the move: the board's zero when it has none (the frame
   // of the target, and of the log's angles), and the sensor's noise when
   // no calibration gives it.
@@ -102,7 +97,7 @@ firmware::MoveSettings Daemon::plan_move(const protocol::MoveToRequest& request,
   m.V0 = d.V0;
   m.f = d.f;
   m.D = d.D();
-  m.fine_V_max = 0.8 * board_.drive.limits.V_max;
+  m.fine_V_max = firmware::kHoldFractionOfVmax * board_.drive.limits.V_max;
   m.fast_slew_V_per_s = board_.drive.limits.slew_V_per_s;
   // The model's (or a fitted config's) view of the motor; a calibration
   // replaces the step tables with measured ones. Uncalibrated, and with no
@@ -124,12 +119,12 @@ json Daemon::calibrate(const std::string& client, const json& args) {
   plan.V0 = protocol::number_arg(args, "V0", std::min(d0.V0, lim.V_max));
   plan.D = d0.D();
   plan.r2_m = board_.sensor.r2_m;
-  plan.hold_V_max = 0.8 * lim.V_max;
+  plan.hold_V_max = firmware::kHoldFractionOfVmax * lim.V_max;
   plan.fast_slew_V_per_s = lim.slew_V_per_s;
   plan.flush_readings = std::max(10, static_cast<int>(std::ceil(0.1 * board_.sensor.rate_hz())));
   // The board's frequency, twice and four times it: as many as the board's
   // rate and slew limit allow at V0.
-  const double f_max = std::min(board_.drive.rate_hz / 20.0,
+  const double f_max = std::min(firmware::max_drive_frequency(board_.drive.rate_hz),
                                 lim.slew_V_per_s * std::min(plan.D, 1.0 - plan.D) / plan.V0);
   plan.frequencies = 0;
   for (const double factor : {1.0, 2.0, 4.0}) {
@@ -172,8 +167,8 @@ json Daemon::set_calibration(const std::string&, const json& args) {
     log_event("calibration cleared");
     return {{"calibration", nullptr}};
   }
-  install_calibration(
-      checked_calibration(given, {board_.drive.limits.V_max, board_.drive.rate_hz / 20.0}));
+  install_calibration(checked_calibration(
+      given, {board_.drive.limits.V_max, firmware::max_drive_frequency(board_.drive.rate_hz)}));
   return {{"calibration", *calibration_}};
 }
 

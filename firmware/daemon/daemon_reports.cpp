@@ -54,7 +54,7 @@ protocol::Hello Daemon::hello() const {
               lim.slew_V_per_s,
               board_.safety.ramp_down_V_per_s,
               board_.safety.sensor_stale_s,
-              board_.drive.rate_hz / 20.0,
+              firmware::max_drive_frequency(board_.drive.rate_hz),
               board_.daemon.duration_max_s,
               board_.daemon.lease_max_s};
   h.sensor_r2_m = board_.sensor.r2_m;

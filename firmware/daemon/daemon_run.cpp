@@ -294,9 +294,9 @@ void Daemon::take_calibration(Run& run) {
     return;
   }
   try {
-    install_calibration(
-        checked_calibration(calibration_json(run.calibration->plan(), result),
-                            {board_.drive.limits.V_max, board_.drive.rate_hz / 20.0}));
+    install_calibration(checked_calibration(
+        calibration_json(run.calibration->plan(), result),
+        {board_.drive.limits.V_max, firmware::max_drive_frequency(board_.drive.rate_hz)}));
     run.summary.calibration = *calibration_;
   } catch (const std::exception& e) {
     // Measurements no calibration can hold (no motion, a sensor that saw

@@ -178,7 +178,20 @@ void MoveController::on_reading(double t, double displacement_m) {
       // the slew-limited stator must not wind the integrator up.
       if (lifting_ || V_ != V_set_) return;
       const double aim_error = error + aim_offset_;
-      V_set_ = std::clamp(V_set_ + kFineGain * aim_error / s_.rad_per_V, 0.0, s_.fine_V_max);
+      const double V_next =
+          std::clamp(V_set_ + kFineGain * aim_error / s_.rad_per_V, 0.0, s_.fine_V_max);
+      // With an approach side the servo only ever moves the rotor that way
+      // (in stick the rotor follows the stator): an overshoot is released
+      // and passed, never backed out of.
+      const double side = approach_side();
+      V_set_ = side > 0.0   ? std::max(V_set_, V_next)
+               : side < 0.0 ? std::min(V_set_, V_next)
+                            : V_next;
+      if (error * side < -s_.tolerance_rad) {
+        released_from_fine_ = true;  // what the release adds is learnt all the same
+        set_state(MoveState::release);
+        return;
+      }
       // Held once the 8-reading mean stays within half the tolerance; a
       // noise that alone would keep it out widens the window (the settle's
       // longer mean judges the result).
@@ -235,6 +248,14 @@ void MoveController::settle(double t, double displacement_m) {
   const double interval =
       noise > 0.0 ? 2.0 * noise / (s_.r2_m * std::sqrt(static_cast<double>(settle_n_))) : 0.0;
   if (std::abs(error) + interval <= s_.tolerance_rad) {
+    if (wrong_way_) {
+      // Within the tolerance, but reached from the side the move must not
+      // arrive from: the fine stage comes in again from the approach side.
+      within_since_ = -1.0;
+      released_from_fine_ = false;
+      decide(t, error);
+      return;
+    }
     if (within_since_ < 0.0) within_since_ = t;
     if (t - within_since_ >= s_.settle_s) {
       if (s_.hold_s > 0.0 && !held_) {
@@ -288,7 +309,7 @@ void MoveController::begin_run_of_steps() {
 
 void MoveController::check_progress() {
   if (!s_.protect || run_steps_ < 0) return;
-  const int K = std::clamp(s_.stall_steps, 1, MoveSettings::kMaxStallSteps);
+  const int K = static_cast<int>(std::clamp<std::uint64_t>(s_.stall_steps, 1, kMaxStallSteps));
   const auto slot = [K](int i) { return static_cast<std::size_t>(i % (K + 1)); };
   ++run_steps_;
   step_theta_[slot(run_steps_)] = theta_f_;
@@ -375,7 +396,28 @@ void MoveController::on_hold_reading(double error) {
   hold_max_.store(hold_abs_max_);
 }
 
+double MoveController::approach_side() const {
+  switch (s_.approach) {
+    case Approach::forward:
+      return 1.0;
+    case Approach::reverse:
+      return -1.0;
+    case Approach::either:
+      break;
+  }
+  return 0.0;
+}
+
 void MoveController::decide(double t, double error) {
+  // A target on the side the move must not arrive from: a step aimed one
+  // full step past it (a shorter one may not slip at all), so that what
+  // follows comes back from the approach side, as precision stages do
+  // against hysteresis and backlash.
+  const double side = approach_side();
+  if (error * side < 0.0) {
+    start_step(t, error - side * predicted_step(side > 0.0 ? 1 : 0, 1.0));
+    return;
+  }
   // Forward, the fine stage raises the stator through most of its range;
   // backward it first lifts it (with a margin) and then lowers it.
   const double fine_window = (error > 0.0 ? 0.9 : 0.5) * s_.fine_V_max * s_.rad_per_V;
@@ -411,6 +453,7 @@ void MoveController::start_step(double t, double error) {
     begin_run_of_steps();  // a new run of steps: progress is judged from here
   }
   direction_ = direction;
+  wrong_way_ = direction * approach_side() < 0.0;
   const int k = error > 0.0 ? 0 : 1;
   // The amplitude whose predicted step is the distance left (at most V0).
   double fraction = 1.0;
@@ -440,12 +483,19 @@ void MoveController::start_step(double t, double error) {
 
 void MoveController::enter_fine(double error) {
   run_steps_ = -1;
-  const double aim_error = error + aim_offset_;
+  wrong_way_ = false;  // the fine stage moves the approach's way
+  const double side = approach_side();
+  // The approach side decides the fine stage's direction; the aim offset
+  // only corrects how far it goes.
+  const double aim_error =
+      side != 0.0 && (error + aim_offset_) * side < 0.0 ? 0.0 : error + aim_offset_;
   hold_ = 0;
-  if (aim_error >= 0.0) {
-    // Forward: raise the stator slowly; the rotor sticks and follows.
+  if (side > 0.0 || (side == 0.0 && aim_error >= 0.0)) {
+    // Forward: raise the stator slowly; the rotor sticks and follows. With
+    // an approach side the servo cannot back out of an overshoot, so it
+    // starts at half the way and closes in.
     lifting_ = false;
-    V_set_ = std::min(s_.fine_V_max, aim_error / s_.rad_per_V);
+    V_set_ = std::min(s_.fine_V_max, (side > 0.0 ? 0.5 : 1.0) * aim_error / s_.rad_per_V);
   } else {
     // Backward: lift fast (the stator slips under the rotor), then lower slowly.
     lifting_ = true;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "piezo/firmware/request_limits.hpp"
 #include "piezo/model/simulate.hpp"
 #include "piezo/model/waveform.hpp"
 
@@ -35,7 +36,7 @@ void MovePlanner::plan(MoveSettings& m, bool alternatives, double rate_hz, doubl
   const double slew_f_max = slew_V_per_s * std::min(m.D, 1.0 - m.D) / m.V0;
   for (const double factor : {2.0, 4.0}) {
     const double fa = factor * m.f;
-    if (fa > rate_hz / 20.0 || fa > slew_f_max) break;
+    if (fa > max_drive_frequency(rate_hz) || fa > slew_f_max) break;
     auto& a = m.alternatives[static_cast<std::size_t>(m.alternative_count++)];
     const StepTable& t = steps(m.V0, fa, m.D);
     a.f = fa;

@@ -4,8 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
-
-#include "piezo/firmware/move_controller.hpp"
+#include <type_traits>
+#include <variant>
 
 namespace piezo::firmware {
 
@@ -18,7 +18,7 @@ std::optional<LimitBreach> check_drive(const model::DriveParameters& d, double d
                                          "sawtooth spans 0..V0)",
                                          d.V0, lim.V_max, lim.V_min)};
   }
-  const double f_max = b.rate_hz / 20.0;
+  const double f_max = max_drive_frequency(b.rate_hz);
   if (!(d.f > 0.0 && d.f <= f_max)) {
     return LimitBreach{"f", fmt::format("{:g} Hz gives under 20 drive samples per period at the "
                                         "drive's {:g} Hz; allowed: (0, {:g}] Hz",
@@ -52,26 +52,31 @@ std::optional<LimitBreach> check_drive(const model::DriveParameters& d, double d
 }
 
 std::optional<LimitBreach> check_move(const MoveRequest& m, double timeout_max_s) {
-  if (m.stall_steps < 1 ||
-      m.stall_steps > static_cast<std::uint64_t>(MoveSettings::kMaxStallSteps)) {
-    return LimitBreach{"stall_steps", fmt::format("{}; allowed: 1..{}", m.stall_steps,
-                                                  MoveSettings::kMaxStallSteps)};
+  for (const MoveField& field : kMoveFields) {
+    const std::string name(field.name);
+    const std::string unit = field.unit.empty() ? "" : " " + std::string(field.unit);
+    Interval allowed = field.allowed;
+    if (field.name == "timeout_s") allowed.max = std::min(allowed.max, timeout_max_s);
+    std::optional<LimitBreach> breach;
+    std::visit(
+        [&](auto member) {
+          using T = std::remove_cvref_t<decltype(m.*member)>;
+          if constexpr (std::is_same_v<T, double>) {
+            if (!allowed.admits(m.*member)) {
+              breach = LimitBreach{name, fmt::format("{:g}{}; allowed: {}{}", m.*member, unit,
+                                                     allowed.text(), unit)};
+            }
+          } else if constexpr (std::is_same_v<T, std::uint64_t>) {
+            if (!allowed.admits(static_cast<double>(m.*member))) {
+              breach =
+                  LimitBreach{name, fmt::format("{}; allowed: {}", m.*member, allowed_text(field))};
+            }
+          }
+        },
+        field.member);
+    if (breach) return breach;
   }
-  if (!(std::abs(m.target_rad) <= 10.0)) {
-    return LimitBreach{"target_rad", fmt::format("{:g} rad; allowed: [-10, 10] rad", m.target_rad)};
-  }
-  if (!(m.tolerance_rad > 0.0 && m.tolerance_rad <= 0.1)) {
-    return LimitBreach{"tolerance_rad",
-                       fmt::format("{:g} rad; allowed: (0, 0.1] rad", m.tolerance_rad)};
-  }
-  if (!(m.settle_s >= 0.0 && m.settle_s <= 10.0)) {
-    return LimitBreach{"settle_s", fmt::format("{:g} s; allowed: [0, 10] s", m.settle_s)};
-  }
-  if (!(m.timeout_s > 0.0 && m.timeout_s <= timeout_max_s)) {
-    return LimitBreach{"timeout_s",
-                       fmt::format("{:g} s; allowed: (0, {:g}] s", m.timeout_s, timeout_max_s)};
-  }
-  if (!(m.hold_s >= 0.0 && m.hold_s < m.timeout_s)) {
+  if (!(m.hold_s < m.timeout_s)) {
     return LimitBreach{
         "hold_s", fmt::format("{:g} s; allowed: [0, timeout_s = {:g}) s", m.hold_s, m.timeout_s)};
   }

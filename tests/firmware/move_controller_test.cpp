@@ -8,8 +8,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "piezo/firmware/position_feed.hpp"
 
@@ -31,16 +33,30 @@ struct TestPlant {
   bool frozen = false;       ///< the sensor repeats its first reading
   double theta = 0.0;        ///< the rotor's true angle [rad]
   double V = 0.0;
+  /// Where the rotor last rested at 0 V, and how it got there from the rest
+  /// before (signed): the arrival a move ending at 0 V leaves.
+  double rest = 0.0, arrival = 0.0;
+  bool slipping = false;  ///< the last tick was part of a fast edge
+  double last_dV = 0.0;
   std::mt19937 rng{7};
   std::normal_distribution<double> gauss{0.0, 1.0};
   double first_reading = std::nan("");
 
   void drive(double V_new) {
     const double dV = V_new - V;
-    if (!blocked && (never_slips || std::abs(dV) / kDt <= kSlipRate)) {
+    // A fast edge's last tick moves the stator less than a whole tick's
+    // worth, yet just as fast: it slips too.
+    const bool fast = std::abs(dV) / kDt > kSlipRate || (slipping && dV * last_dV > 0.0);
+    slipping = fast;
+    if (dV != 0.0) last_dV = dV;
+    if (!blocked && (never_slips || !fast)) {
       theta += stick_rad_per_V * dV;
     }
     V = V_new;
+    if (V == 0.0 && std::abs(theta - rest) > 1e-9) {
+      arrival = theta - rest;
+      rest = theta;
+    }
   }
   double read() {
     const double d = kZero + kR2 * theta + noise_m * gauss(rng);
@@ -114,7 +130,7 @@ TEST(MoveController, AMotorThatSwingsButNeverStepsStopsStalled) {
   EXPECT_EQ(o.fault, StopCause::stalled) << to_string(o.state);
   EXPECT_EQ(o.state, MoveState::stalled);
   EXPECT_NEAR(plant.theta, 0.0, 1e-3) << "no net step";
-  EXPECT_LE(m.steps(), 2u * MoveSettings::kMaxStallSteps) << "given up after a few steps";
+  EXPECT_LE(m.steps(), 2u * kMaxStallSteps) << "given up after a few steps";
 }
 
 TEST(MoveController, AReadingThatNeverSwingsWhileTheStatorDoesIsImplausible) {
@@ -174,6 +190,51 @@ TEST(MoveController, AHoldKeepsTheServoOnThenSettlesAgain) {
   EXPECT_TRUE(std::isfinite(m.hold_rms_error_rad()));
   EXPECT_LT(m.hold_rms_error_rad(), s.tolerance_rad);
   EXPECT_NEAR(plant.theta, 0.003, 1.5 * s.tolerance_rad);
+}
+
+/// Twenty moves in a row on one rotor, to targets that alternate between
+/// two angles (each move's target is behind the rotor every other time),
+/// with the given approach: how each move's last change of the rotor's
+/// position at rest arrived (a fine hold's release may drag the rotor back
+/// by what the hold moved it: that leaves the position where it was).
+std::vector<double> arrivals(Approach approach) {
+  TestPlant plant;
+  PositionFeed feed;
+  std::vector<double> last_motions;
+  for (int i = 0; i < 20; ++i) {
+    MoveSettings s = settings((i % 2 == 0 ? 3e-3 : 1e-3) + 1e-5 * i);
+    s.approach = approach;
+    MoveController m(s, feed);
+    const Outcome o = run(m, feed, plant);
+    EXPECT_EQ(o.state, MoveState::on_target) << "move " << i << ": " << to_string(o.state);
+    EXPECT_NEAR(plant.theta, s.target_rad, 1.5 * s.tolerance_rad) << "move " << i;
+    last_motions.push_back(plant.arrival);
+  }
+  return last_motions;
+}
+
+TEST(MoveController, AForwardApproachArrivesFromBelowEveryTime) {
+  const auto last = arrivals(Approach::forward);
+  for (std::size_t i = 0; i < last.size(); ++i) {
+    EXPECT_GT(last[i], 0.0) << "move " << i << ": arrived backwards";
+  }
+}
+
+TEST(MoveController, AReverseApproachArrivesFromAboveEveryTime) {
+  const auto last = arrivals(Approach::reverse);
+  for (std::size_t i = 0; i < last.size(); ++i) {
+    EXPECT_LT(last[i], 0.0) << "move " << i << ": arrived forwards";
+  }
+}
+
+TEST(MoveController, EitherApproachArrivesFromWhicheverSideTheRotorIsOn) {
+  // What the two tests above exclude happens without an approach side:
+  // some moves down arrive backwards (a reverse fine stage), so those
+  // tests measure the approach, not the plant.
+  const auto last = arrivals(Approach::either);
+  const auto backwards = std::count_if(last.begin(), last.end(), [](double d) { return d < 0.0; });
+  EXPECT_GE(backwards, 1) << "of 20 moves, half of them down";
+  EXPECT_LT(backwards, 20);
 }
 
 }  // namespace

@@ -114,8 +114,9 @@ TEST(Messages, RequestsRoundTrip) {
   m.move.target_rad = -0.002;
   m.move.tolerance_rad = 3e-5;
   m.move.hold_s = 0.5;
-  m.protect = false;
+  m.move.protect = false;
   m.move.stall_steps = 4;
+  m.move.approach = firmware::Approach::forward;
   m.f = 40.0;
   m.lease_s = 2.0;
   EXPECT_EQ(json(over_the_wire(m)), json(m));
@@ -132,7 +133,8 @@ TEST(Messages, RequestsTakeTheDocumentedDefaults) {
   EXPECT_EQ(m.move.settle_s, 0.1);
   EXPECT_EQ(m.move.timeout_s, 30.0);
   EXPECT_EQ(m.move.stall_steps, 2u);
-  EXPECT_TRUE(m.protect);
+  EXPECT_TRUE(m.move.protect);
+  EXPECT_EQ(m.move.approach, firmware::Approach::either);
 }
 
 TEST(Messages, ABadRequestArgumentIsABadArgumentNamingIt) {

@@ -94,6 +94,15 @@ def test_a_move_reaches_its_target(board):
     assert abs(back["position_rad"]) < 50e-6
 
 
+def test_a_move_with_a_forward_approach_passes_a_target_behind_it(board):
+    start = board.status()["position"]["position_rad"]
+    move = board.move_to(start - 0.002, tolerance_rad=50e-6, approach="forward")
+    assert move["on_target"] and abs(move["position_rad"] - (start - 0.002)) < 50e-6
+    with pytest.raises(errors.BadArgument) as bad:
+        board.move_to(start, approach="sideways")
+    assert bad.value.key == "approach" and "either, forward, reverse" in str(bad.value)
+
+
 def test_steps_and_the_zero(board):
     run = board.step(3, V0=60, f=10, direction="reverse")
     assert run.summary["cause"] == "completed"

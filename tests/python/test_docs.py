@@ -108,3 +108,30 @@ def test_mypy_catches_a_wrong_argument_before_it_runs(tmp_path):
     assert 'Argument 2 to "simulate" has incompatible type "str"; expected "float"' in result.stdout
     assert 'Incompatible types in assignment (expression has type "str", variable has type ' \
            '"float")' in result.stdout
+
+
+def _table_after(page: str, heading: str) -> list[str]:
+    rows, found = [], False
+    for line in page.splitlines():
+        if not found:
+            found = line == heading
+        elif line.startswith("| `"):
+            rows.append(line)
+        elif rows:
+            break
+    assert found, heading
+    return rows
+
+
+def test_move_to_takes_every_argument_protocol_md_lists(source):
+    """Board.move_to's keywords are move_to's arguments: the request's
+    fields (docs/protocol.md's table, which a C++ test holds to the one
+    declaration) and the coarse steps' waveform and lease."""
+    import inspect
+    from piezo_rig.board import Board
+    page = open(os.path.join(source, "docs", "protocol.md"), encoding="utf-8").read()
+    declared = {re.match(r"\| `([a-z_0-9A-Z]+)`", row).group(1)
+                for row in _table_after(page, "### `move_to`'s arguments")}
+    assert "approach" in declared
+    keywords = set(inspect.signature(Board.move_to).parameters) - {"self"}
+    assert keywords == declared | {"V0", "f", "C_dr", "e_dr", "lease_s"}

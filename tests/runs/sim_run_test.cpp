@@ -31,6 +31,9 @@ struct Outcome {
   bool amplifier_enabled_at_end = true;  ///< the simulated amplifier, read after the run
   double amplifier_V_at_end = -1.0;
   double rotor_theta_at_end = 0.0;  ///< the simulated rotor's own angle
+  /// A move's: how the simulated rotor's last change of position at rest
+  /// (amplifier at 0 V) arrived, signed [rad].
+  double arrival_rad = 0.0;
   std::vector<double> drive_t, drive_V, drive_phase, move_state, sensor_t, theta;
 };
 
@@ -63,7 +66,28 @@ Outcome run_virtual(std::vector<std::string> sets, double stop_at_s = -1.0,
   // The device side: the simulated amplifier the drive and lines act on,
   // kept here while the rig goes to the in-process piezod.
   const std::shared_ptr<const hal::sim::SimRig> device = rig.sim;
+  // For a move: the rotor's positions at rest, read off the simulated
+  // device beside the run (every rest lasts milliseconds of run time).
+  std::atomic<bool> run_over{false};
+  std::thread rests;
+  if (move) {
+    rests = std::thread([&] {
+      double rest = 0.0;
+      while (!run_over.load()) {
+        const auto now = device->plant().latest();
+        // Closer than 1 urad (a 25th of the tolerance, an eighth of the
+        // sensor's noise) is the same rest: a release's relaxation.
+        if (now.V_out == 0.0 && std::abs(now.theta - rest) > 1e-6) {
+          out.arrival_rad = now.theta - rest;
+          rest = now.theta;
+        }
+        std::this_thread::sleep_for(50us);
+      }
+    });
+  }
   out.summary = execute_run(config, std::move(rig), log, stop, on_status);
+  run_over.store(true);
+  if (rests.joinable()) rests.join();
   out.amplifier_enabled_at_end = device->plant().enabled();
   out.amplifier_V_at_end = device->plant().latest().V_out;
   out.rotor_theta_at_end = device->plant().latest().theta;
@@ -183,7 +207,7 @@ TEST(SimRun, MovesEndOnTargetOnAMismatchedPlantBothWays) {
   constexpr double kNoise = 0.5e-6 / 0.062;
   for (const double target : {1e-4, 1e-3, 1e-2, 1e-1, -1e-4, -1e-3, -1e-2, -1e-1}) {
     config::RunSettings::Move move{
-        .target_rad = target, .tolerance_rad = 15e-6, .settle_s = 0.1, .timeout_s = 30.0};
+        {.target_rad = target, .tolerance_rad = 15e-6, .settle_s = 0.1, .timeout_s = 30.0}};
     const Outcome o = run_virtual(mismatch, -1.0, "hil-move", 0, move);
     const auto& m = o.summary.move;
     ASSERT_TRUE(m.is_object()) << target;
@@ -225,7 +249,7 @@ TEST(SimRun, MovesEndOnTargetOnAMismatchedPlantBothWays) {
 // disabled, on the simulated amplifier itself.
 TEST(SimRun, AMoveIntoAStalledSensorOrAnEstopStopsAtZeroVolts) {
   config::RunSettings::Move far{
-      .target_rad = 0.05, .tolerance_rad = 15e-6, .settle_s = 0.1, .timeout_s = 10.0};
+      {.target_rad = 0.05, .tolerance_rad = 15e-6, .settle_s = 0.1, .timeout_s = 10.0}};
   for (const auto& [fault, cause] :
        {std::pair{std::string("sensor.stall_at_s=0.3"), std::string("sensor_fault")},
         std::pair{std::string("lines.estop_at_s=0.3"), std::string("estop")}}) {
@@ -245,7 +269,7 @@ TEST(SimRun, AMoveIntoAStalledSensorOrAnEstopStopsAtZeroVolts) {
   }
   // A target out of reach within the timeout ends as such, at 0 V.
   config::RunSettings::Move unreachable{
-      .target_rad = 1.0, .tolerance_rad = 15e-6, .settle_s = 0.1, .timeout_s = 0.5};
+      {.target_rad = 1.0, .tolerance_rad = 15e-6, .settle_s = 0.1, .timeout_s = 0.5}};
   const Outcome o = run_virtual({}, -1.0, "hil-move-timeout", 0, unreachable);
   EXPECT_EQ(o.summary.move.at("stop_cause"), "timeout");
   EXPECT_FALSE(o.amplifier_enabled_at_end);
@@ -269,7 +293,7 @@ TEST(SimRun, AMoveIntoAStalledSensorOrAnEstopStopsAtZeroVolts) {
 // 0.4 rad in the probe).
 TEST(SimRun, AMoveThatCannotProgressStopsAtZeroVoltsWithItsCause) {
   config::RunSettings::Move far{
-      .target_rad = 0.05, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0};
+      {.target_rad = 0.05, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0}};
   const double full_step = 1.4e-3;  // the model's at 80 V, 10 Hz (configs/sim.toml)
   for (const auto& [fault, cause] :
        {std::pair{std::string("plant.mu=2,plant.F_N=0.05"), std::string("stalled")},
@@ -310,7 +334,7 @@ TEST(SimRun, AMoveThatCannotProgressStopsAtZeroVoltsWithItsCause) {
 // tells a blocked rotor from a sensor that does not see it).
 TEST(SimRun, AMoveIntoAnEndStopEndsStalled) {
   config::RunSettings::Move far{
-      .target_rad = 0.05, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0};
+      {.target_rad = 0.05, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0}};
   const Outcome o = run_virtual({"plant.end_stop_rad=0.003"}, -1.0, "hil-move-end-stop", 0, far);
   EXPECT_EQ(o.summary.move.at("stop_cause"), "stalled");
   EXPECT_FALSE(o.amplifier_enabled_at_end);
@@ -376,7 +400,7 @@ TEST(SimRun, AMoveComesOnTargetThroughFiveTimesTheNoise) {
   for (const double target : {0.002, -0.0005}) {
     SCOPED_TRACE(target);
     config::RunSettings::Move move{
-        .target_rad = target, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0};
+        {.target_rad = target, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0}};
     const Outcome o = run_virtual({"sensor.noise_m=2.5e-6"}, -1.0, "hil-move-noisy", 0, move);
     EXPECT_EQ(o.summary.move.at("stop_cause"), "on_target");
     EXPECT_NEAR(o.rotor_theta_at_end, target, 25e-6);
@@ -384,6 +408,28 @@ TEST(SimRun, AMoveComesOnTargetThroughFiveTimesTheNoise) {
               << " s, the rotor " << (o.rotor_theta_at_end - target) * 1e6
               << " urad from the target\n";
   }
+}
+
+// `approach = forward`: every move arrives from below its target, on the
+// simulated rotor itself, also when the target lies behind the start and
+// the move must pass it first.
+TEST(SimRun, TwentyMovesWithAForwardApproachAllArriveFromBelow) {
+  int passed = 0;
+  for (int i = 0; i < 20; ++i) {
+    const double target = (i % 2 == 0 ? 1.0 : -1.0) * (0.4e-3 + 0.1e-3 * i);
+    SCOPED_TRACE(target);
+    config::RunSettings::Move move{{.target_rad = target,
+                                    .tolerance_rad = 25e-6,
+                                    .settle_s = 0.1,
+                                    .timeout_s = 10.0,
+                                    .approach = firmware::Approach::forward}};
+    const Outcome o = run_virtual({}, -1.0, "hil-move-approach", 0, move);
+    ASSERT_EQ(o.summary.move.at("stop_cause"), "on_target");
+    EXPECT_NEAR(o.rotor_theta_at_end, target, 25e-6 + 3 * 0.5e-6 / 0.062);
+    EXPECT_GT(o.arrival_rad, 0.0) << "the last move at rest was backwards";
+    if (target < 0.0) ++passed;
+  }
+  EXPECT_EQ(passed, 10) << "half the targets lie behind the start";
 }
 
 // The board's travel window ([safety] travel_min_rad/travel_max_rad from
@@ -407,7 +453,7 @@ TEST(SimRun, ARunOrAMoveThatWouldLeaveTheTravelWindowStopsAtItsEdge) {
   EXPECT_LT(run.rotor_theta_at_end, 0.005);
   EXPECT_LT(run.drive_t.back(), 1.0) << "the run would have driven 2 s";
   config::RunSettings::Move far{
-      .target_rad = 0.05, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0};
+      {.target_rad = 0.05, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0}};
   const Outcome move = run_virtual({"safety.travel_min_rad=-0.01", "safety.travel_max_rad=0.01"},
                                    -1.0, "hil-move-travel", 0, far);
   EXPECT_EQ(move.summary.move.at("stop_cause"), "travel_limit");

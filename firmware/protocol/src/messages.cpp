@@ -2,6 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <type_traits>
+#include <variant>
+
 #include "piezo/protocol/error.hpp"
 #include "piezo/protocol/message.hpp"
 
@@ -178,11 +181,20 @@ void from_json(const json& j, StepRequest& m) {
 }
 
 void to_json(json& j, const MoveToRequest& m) {
-  const auto& v = m.move;
-  j = {{"target_rad", v.target_rad},  {"tolerance_rad", v.tolerance_rad},
-       {"settle_s", v.settle_s},      {"timeout_s", v.timeout_s},
-       {"hold_s", v.hold_s},          {"protect", m.protect},
-       {"stall_steps", v.stall_steps}};
+  j = json::object();
+  for (const firmware::MoveField& field : firmware::kMoveFields) {
+    const std::string key(field.name);
+    std::visit(
+        [&](auto member) {
+          const auto& value = m.move.*member;
+          if constexpr (std::is_same_v<std::remove_cvref_t<decltype(value)>, firmware::Approach>) {
+            j[key] = firmware::kApproachNames.name(value);
+          } else {
+            j[key] = value;
+          }
+        },
+        field.member);
+  }
   if (m.V0) j["V0"] = *m.V0;
   if (m.f) j["f"] = *m.f;
   if (m.C_dr) j["C_dr"] = *m.C_dr;
@@ -191,20 +203,38 @@ void to_json(json& j, const MoveToRequest& m) {
 }
 
 void from_json(const json& j, MoveToRequest& m) {
-  const MoveToRequest defaults;
-  const auto& d = defaults.move;
+  static const firmware::MoveRequest defaults;
+  for (const firmware::MoveField& field : firmware::kMoveFields) {
+    const std::string key(field.name);
+    std::visit(
+        [&](auto member) {
+          using T = std::remove_cvref_t<decltype(m.move.*member)>;
+          const auto fallback = [&] {
+            return field.required ? std::nullopt : std::optional<T>(defaults.*member);
+          };
+          if constexpr (std::is_same_v<T, double>) {
+            m.move.*member = number_arg(j, key, fallback());
+          } else if constexpr (std::is_same_v<T, std::uint64_t>) {
+            m.move.*member = uint_arg(j, key, fallback());
+          } else if constexpr (std::is_same_v<T, bool>) {
+            m.move.*member = bool_arg(j, key, fallback());
+          } else {
+            const auto& names = firmware::kApproachNames;
+            const std::string text = string_arg(j, key, std::string(names.name(defaults.*member)));
+            const auto value = names.parse(text);
+            if (!value) {
+              throw ProtocolError(code::bad_argument, key,
+                                  fmt::format("{}: \"{}\"; allowed: {}", key, text, names.list()));
+            }
+            m.move.*member = *value;
+          }
+        },
+        field.member);
+  }
   const auto optional_number = [&](const char* key) {
     return j.contains(key) && !j.at(key).is_null() ? std::optional(number_arg(j, key))
                                                    : std::nullopt;
   };
-  auto& v = m.move;
-  v.target_rad = number_arg(j, "target_rad");
-  v.tolerance_rad = number_arg(j, "tolerance_rad", d.tolerance_rad);
-  v.settle_s = number_arg(j, "settle_s", d.settle_s);
-  v.timeout_s = number_arg(j, "timeout_s", d.timeout_s);
-  v.hold_s = number_arg(j, "hold_s", d.hold_s);
-  m.protect = bool_arg(j, "protect", defaults.protect);
-  v.stall_steps = uint_arg(j, "stall_steps", d.stall_steps);
   m.V0 = optional_number("V0");
   m.f = optional_number("f");
   m.C_dr = optional_number("C_dr");

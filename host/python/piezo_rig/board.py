@@ -277,7 +277,9 @@ class Board:
                 settle_s: Optional[float] = None, timeout_s: Optional[float] = None,
                 hold_s: Optional[float] = None, V0: Optional[float] = None,
                 f: Optional[float] = None, protect: Optional[bool] = None,
-                stall_steps: Optional[int] = None, lease_s: Optional[float] = None) -> dict:
+                stall_steps: Optional[int] = None, approach: Optional[str] = None,
+                C_dr: Optional[float] = None, e_dr: Optional[float] = None,
+                lease_s: Optional[float] = None) -> dict:
         """Moves the rotor to ``target_rad`` from the board's zero in closed
         loop (the board's move controller) and waits until the move ends.
 
@@ -289,15 +291,18 @@ class Board:
         ``timeout``, ``estop``, ``link_lost``, ...) when the move ends other
         than on target, and ``OutOfLimits`` for a target, tolerance or
         waveform beyond the board's limits (the tolerance at least the
-        sensor's ``smallest_tolerance_rad``). Defaults are the board's:
-        tolerance 25 urad, settle 0.1 s, timeout 30 s, the board's drive."""
+        sensor's ``smallest_tolerance_rad``). ``approach`` is ``"either"``,
+        ``"forward"`` (arrive from below the target every time) or
+        ``"reverse"``. The keywords are ``move_to``'s arguments in
+        docs/protocol.md; one left out (None) takes the board's default:
+        tolerance 25 urad, settle 0.1 s, timeout 30 s, approach either, the
+        board's drive."""
         args: dict[str, Any] = {"target_rad": target_rad}
-        for key, value in (("tolerance_rad", tolerance_rad), ("settle_s", settle_s),
-                           ("timeout_s", timeout_s), ("hold_s", hold_s), ("V0", V0), ("f", f),
-                           ("protect", protect), ("stall_steps", stall_steps),
-                           ("lease_s", lease_s)):
-            if value is not None:
-                args[key] = value
+        given = {"tolerance_rad": tolerance_rad, "settle_s": settle_s, "timeout_s": timeout_s,
+                 "hold_s": hold_s, "protect": protect, "stall_steps": stall_steps,
+                 "approach": approach, "V0": V0, "f": f, "C_dr": C_dr, "e_dr": e_dr,
+                 "lease_s": lease_s}
+        args.update({key: value for key, value in given.items() if value is not None})
         with Run(self, "move_to", args, True, raise_on_fault=False) as run:
             summary = run.wait()
         move = summary.get("move") or {}

@@ -213,8 +213,8 @@ CalibrationReport finish_calibration(const fs::path& dir, const fs::path& log,
     cal = client->call("set_calibration", {{"calibration", cal}}).at("calibration");
     report.kept = fmt::format("by the board at {}", client->address());
   } else if (!config.daemon.calibration_file.empty()) {
-    cal =
-        daemon::checked_calibration(cal, {config.drive.limits.V_max, config.drive.rate_hz / 20.0});
+    cal = daemon::checked_calibration(
+        cal, {config.drive.limits.V_max, firmware::max_drive_frequency(config.drive.rate_hz)});
     daemon::save_calibration(config.daemon.calibration_file, cal);
     report.kept = fmt::format(
         "in {} ([piezod] calibration_file): in-process moves with this "

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -18,11 +19,13 @@
 #include "catalogue.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
+#include "effective_config.hpp"
 #include "live_feed.hpp"
 #include "log_schema.hpp"
-#include "effective_config.hpp"
 #include "parameters_json.hpp"
+#include "piezo/firmware/move_request.hpp"
 #include "piezo/firmware/request_limits.hpp"
+#include "piezo/overload.hpp"
 #include "remote_run.hpp"
 #include "rig.hpp"
 #include "rig_config.hpp"
@@ -34,17 +37,13 @@
 namespace piezo::host {
 namespace {
 
-/// The command-line option that sets a move's `key`.
-std::string move_option(const std::string& key) {
-  if (key == "target_rad") return "--to";
-  if (key == "tolerance_rad") return "--tolerance";
-  if (key == "settle_s") return "--settle";
-  if (key == "timeout_s") return "--timeout";
-  if (key == "hold_s") return "--hold";
-  return "--stall-steps";
-}
-
 namespace fs = std::filesystem;
+
+std::vector<std::string> approach_names() {
+  std::vector<std::string> out;
+  for (const auto& [value, name] : firmware::kApproachNames.entries()) out.emplace_back(name);
+  return out;
+}
 
 constexpr int kExitFailed = 1;
 constexpr int kExitInterrupted = 130;  // the shell's code for SIGINT
@@ -65,10 +64,11 @@ struct RunOptions {
   std::string view_listen;
   bool control = false;
   std::vector<std::string> allow_hosts;
-  // `piezo move`: a closed-loop move to this angle from the board's zero.
-  std::optional<double> move_to;
-  config::RunSettings::Move move;
-  bool no_protect = false;
+  // `piezo move`: a closed-loop move; the options the user gave (the
+  // others come from the config's [move], or the declared defaults).
+  bool move = false;
+  firmware::MoveRequest move_request;
+  std::vector<std::pair<const firmware::MoveField*, const CLI::Option*>> move_options;
   // `piezo calibrate`: the board's designed experiment, then the fit.
   bool calibrate = false;
 };
@@ -377,6 +377,27 @@ int report_calibration(const RunOptions& o, const RunSummary& summary, nlohmann:
   return 0;
 }
 
+/// `piezo move`'s request: each field from its option when the user gave
+/// it, else from the config's [move]. The board refuses the same (one
+/// rule); checked here first so that a refused move leaves no run
+/// directory behind.
+config::RunSettings::Move move_request(const RunOptions& o, const firmware::MoveRequest& defaults) {
+  config::RunSettings::Move move;
+  static_cast<firmware::MoveRequest&>(move) = defaults;
+  for (const auto& [field, option] : o.move_options) {
+    if (option->count() == 0) continue;
+    std::visit([&](auto member) { move.*member = o.move_request.*member; }, field->member);
+  }
+  if (const auto breach = firmware::check_move(move)) {
+    const firmware::MoveField* field = firmware::find_move_field(breach->key);
+    throw config::ConfigError(field ? std::string(field->option) : "piezo move", breach->key,
+                              breach->message);
+  }
+  move.V0 = o.V0;
+  move.f = o.f;
+  return move;
+}
+
 /// The run's config: the file and --set, the command's own options (steps,
 /// a move, the calibration) and the board's address.
 config::RigConfig rig_config(const RunOptions& o) {
@@ -394,22 +415,8 @@ config::RigConfig rig_config(const RunOptions& o) {
     config.run.step_periods = o.step_periods;
     config.run.duration_s = static_cast<double>(o.step_periods) / config.model.drive.f;
   }
-  if (o.move_to) {
-    // The board refuses the same (one rule); checked here first so that a
-    // refused move leaves no run directory behind.
-    const firmware::MoveRequest asked{
-        *o.move_to,       o.move.tolerance_rad, o.move.settle_s,
-        o.move.timeout_s, o.move.hold_s,        static_cast<std::uint64_t>(o.move.stall_steps)};
-    if (const auto breach = firmware::check_move(asked)) {
-      throw config::ConfigError(move_option(breach->key), breach->key, breach->message);
-    }
-    config.run.move = o.move;
-    config.run.move->target_rad = *o.move_to;
-    config.run.move->protect = !o.no_protect;
-    config.run.move->V0 = o.V0;
-    config.run.move->f = o.f;
-    config.run.duration_s = o.move.timeout_s;
-  }
+  if (o.move) config.run.move = move_request(o, config.run.move_defaults);
+  if (config.run.move) config.run.duration_s = config.run.move->timeout_s;
   if (o.calibrate) {
     config.run.calibrate = config::RunSettings::Calibrate{o.V0};
     config.run.duration_s = 60.0;  // the board's plan says how long; its start reply tells
@@ -561,7 +568,7 @@ int report(const RunOptions& o, const RunSummary& summary, const config::RigConf
     return report_calibration(o, summary, result, dir, log_path, config,
                               board.client ? &*board.client : nullptr);
   }
-  if (o.move_to) {
+  if (o.move) {
     const nlohmann::json move = move_result(summary, result);
     write_out(stdout, o.json ? move.dump() + "\n"
                              : move_text(move) + summary_text(summary, log_path, signal, steps));
@@ -654,18 +661,56 @@ CommandRunner add_run_command(CLI::App& app) {
   return with_view_options(cmd, o);
 }
 
+/// One option per declared field of a move's request (kMoveFields).
+void add_move_options(CLI::App& cmd, RunOptions& o) {
+  for (const firmware::MoveField& field : firmware::kMoveFields) {
+    const std::string option(field.option);
+    const std::string unit = field.unit.empty() ? "" : " [" + std::string(field.unit) + "]";
+    std::string doc = std::string(field.doc) + unit;
+    doc[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(doc[0])));
+    if (!field.required) {
+      doc += " (default: [move] " + std::string(field.name) + ", else " +
+             firmware::default_text(field) + ")";
+    }
+    CLI::Option* added =
+        std::visit(Overload{
+                       [&](double firmware::MoveRequest::*m) {
+                         return cmd.add_option(option, o.move_request.*m, doc);
+                       },
+                       [&](std::uint64_t firmware::MoveRequest::*m) {
+                         return cmd.add_option(option, o.move_request.*m, doc)
+                             ->check(CLI::Range(static_cast<std::uint64_t>(field.allowed.min),
+                                                static_cast<std::uint64_t>(field.allowed.max)));
+                       },
+                       [&](bool firmware::MoveRequest::*m) {
+                         // The flag says the opposite of the default ("--no-protect").
+                         const bool flagged = !(firmware::MoveRequest{}.*m);
+                         return cmd.add_flag_callback(
+                             option, [&o, m, flagged] { o.move_request.*m = flagged; }, doc);
+                       },
+                       [&](firmware::Approach firmware::MoveRequest::*m) {
+                         return cmd
+                             .add_option_function<std::string>(
+                                 option,
+                                 [&o, m](const std::string& text) {
+                                   o.move_request.*m = *firmware::kApproachNames.parse(text);
+                                 },
+                                 doc)
+                             ->check(CLI::IsMember(approach_names()));
+                       },
+                   },
+                   field.member);
+    if (field.required) added->required();
+    o.move_options.emplace_back(&field, added);
+  }
+}
+
 CommandRunner add_move_command(CLI::App& app) {
   auto o = std::make_shared<RunOptions>();
   CLI::App* cmd = app.add_subcommand(
       "move", "Closed-loop move to an angle from the board's zero (logged as a run)");
-  cmd->add_option("--to", o->move_to, "Target angle [rad] from the zero (`piezo zero`)")
-      ->required();
-  cmd->add_option("--tolerance", o->move.tolerance_rad, "On target within this [rad]")
-      ->capture_default_str();
-  cmd->add_option("--settle", o->move.settle_s, "...for this long at 0 V [s]")
-      ->capture_default_str();
-  cmd->add_option("--timeout", o->move.timeout_s, "Give up after this long [s]")
-      ->capture_default_str();
+  o->move = true;
+  add_move_options(*cmd, *o);
   cmd->add_option("--config", o->config,
                   "Rig config (TOML), as for `piezo run` (with --rig: default Table 1)")
       ->check(CLI::ExistingFile);
@@ -673,15 +718,6 @@ CommandRunner add_move_command(CLI::App& app) {
   cmd->add_option("--f", o->f,
                   "Coarse steps' frequency [Hz] (default: the board's calibrated fastest, else "
                   "its [drive] f)");
-  cmd->add_option("--hold", o->move.hold_s,
-                  "Keep the fine servo on for this long once on target [s], then release to 0 V "
-                  "(default 0: release at once)");
-  cmd->add_flag("--no-protect", o->no_protect,
-                "Turn off the board's stall and sensor-plausibility checks");
-  cmd->add_option("--stall-steps", o->move.stall_steps,
-                  "Coarse steps without progress that end the move `stalled`")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 16));
   cmd->add_option("--set", o->sets, "Override a config key: SECTION.KEY=VALUE");
   cmd->add_option("--out", o->out, "Run directory (default: runs/<UTC time>)");
   cmd->add_option("--rig", o->rig, "piezod's address (default: [rig] address, or in-process)");

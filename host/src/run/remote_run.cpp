@@ -97,14 +97,7 @@ json start_remote(const config::RigConfig& c, BoardClient& client, std::optional
   if (c.run.move) {
     const auto& d = c.model.drive;
     const auto& m = *c.run.move;
-    const protocol::MoveToRequest request{{m.target_rad, m.tolerance_rad, m.settle_s, m.timeout_s,
-                                           m.hold_s, static_cast<std::uint64_t>(m.stall_steps)},
-                                          m.protect,
-                                          m.V0,
-                                          m.f,
-                                          d.C_dr,
-                                          d.e_dr,
-                                          lease};
+    const protocol::MoveToRequest request{m, m.V0, m.f, d.C_dr, d.e_dr, lease};
     return client.call("move_to", request);
   }
   if (c.run.calibrate) {

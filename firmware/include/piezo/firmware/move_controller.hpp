@@ -21,6 +21,10 @@
 ///   the tolerance for settle_s at 0 V, so neither oscillating through the
 ///   target nor the noise counts; a mean clearly outside starts the stages
 ///   again. The move then ends at 0 V;
+/// - approach (forward or reverse): the last coarse steps and the fine
+///   servo arrive from that side only; a target on the other side is
+///   passed by one full step and approached again, and an
+///   overshoot in the fine stage is released and passed the same way;
 /// - holding (hold_s > 0, once): on target, the fine servo kept on from the
 ///   middle of its range for hold_s, then release and settle again;
 /// - protection: every `stall_steps` coarse steps the measured progress
@@ -40,6 +44,7 @@
 
 #include "piezo/firmware/angle_zero.hpp"
 #include "piezo/firmware/drive_program.hpp"
+#include "piezo/firmware/move_request.hpp"
 #include "piezo/firmware/position_feed.hpp"
 #include "piezo/name_table.hpp"
 
@@ -70,10 +75,9 @@ inline constexpr auto kMoveStateNames =
 
 [[nodiscard]] const char* to_string(MoveState s);
 
-struct MoveSettings {
-  double target_rad = 0.0;
-  double tolerance_rad = 25e-6;
-  double settle_s = 0.1;
+/// What the controller needs: the request (target, tolerance, settle,
+/// hold, protection, approach) and the board's plan for it.
+struct MoveSettings : MoveRequest {
   /// The board's zero: theta = (d - zero) / r2; NaN: the mean of the
   /// readings at rest before the first step.
   double zero_displacement_m = 0.0;
@@ -105,14 +109,6 @@ struct MoveSettings {
   /// The sensor's noise as a calibration measured it [m] (NaN: none); the
   /// controller uses the larger of it and what it measures at rest.
   double noise_prior_m = std::numeric_limits<double>::quiet_NaN();
-  /// After on target: keep the fine servo on for this long [s] (against
-  /// drift), then release to 0 V and settle again; 0: release at once.
-  double hold_s = 0.0;
-  /// Stall and plausibility checks (see the file's comment); off: a move
-  /// that cannot progress drives until its timeout.
-  bool protect = true;
-  int stall_steps = 2;  ///< coarse steps over which progress is judged (1..kMaxStallSteps)
-  static constexpr int kMaxStallSteps = 16;
   /// A measured step beyond this many times the model's full step is no
   /// motion of this rotor.
   double implausible_step_factor = 6.0;
@@ -181,6 +177,8 @@ class MoveController final : public DriveProgram {
   /// Steps far smaller than predicted: the next alternative frequency.
   [[nodiscard]] bool try_alternative();
   void start_hold(double t);
+  /// +1 forward, -1 reverse: the side every arrival must come from (0: either).
+  [[nodiscard]] double approach_side() const;
   void on_hold_reading(double error);
 
   MoveSettings s_;
@@ -201,6 +199,7 @@ class MoveController final : public DriveProgram {
   bool lifting_ = false, fine_settled_in_ = false;
   int hold_ = 0;
   bool released_from_fine_ = false;
+  bool wrong_way_ = false;  ///< the last motion went against the approach side
   // settle
   double within_since_ = -1.0;
   std::array<double, kSettleMax + 1> settle_ring_{};  ///< one more: the one leaving the mean
@@ -212,10 +211,10 @@ class MoveController final : public DriveProgram {
   int noise_n_ = 0;
   double last_raw_ = 0.0;
   std::uint64_t changes_ = 0;
-  std::array<double, MoveSettings::kMaxStallSteps + 1> step_theta_{};
-  std::array<std::uint64_t, MoveSettings::kMaxStallSteps + 1> step_changes_{};
+  std::array<double, kMaxStallSteps + 1> step_theta_{};
+  std::array<std::uint64_t, kMaxStallSteps + 1> step_changes_{};
   /// The lowest and highest averaged angle during each step.
-  std::array<std::array<double, 2>, MoveSettings::kMaxStallSteps + 1> step_span_{};
+  std::array<std::array<double, 2>, kMaxStallSteps + 1> step_span_{};
   double step_low_ = 0.0, step_high_ = 0.0;
   int run_steps_ = -1;  ///< steps in the current run (-1: none begun)
   int next_alternative_ = 0;

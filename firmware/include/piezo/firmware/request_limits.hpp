@@ -10,6 +10,7 @@
 #include <optional>
 #include <string>
 
+#include "piezo/firmware/move_request.hpp"
 #include "piezo/firmware/voltage_limiter.hpp"
 #include "piezo/model/parameters.hpp"
 
@@ -22,6 +23,16 @@ struct LimitBreach {
   std::string key;
   std::string message;
 };
+
+/// The highest sawtooth frequency a drive loop of `rate_hz` updates at
+/// least 20 times a period: every request, plan and report asks this.
+[[nodiscard]] constexpr double max_drive_frequency(double rate_hz) {
+  return rate_hz / 20.0;
+}
+
+/// The stator's DC holds (a move's fine servo, a calibration's holds) stay
+/// within this fraction of V_max, so the fine stage keeps headroom.
+inline constexpr double kHoldFractionOfVmax = 0.8;
 
 /// What the drive can do.
 struct DriveBounds {
@@ -37,18 +48,8 @@ struct DriveBounds {
 [[nodiscard]] std::optional<LimitBreach> check_drive(const model::DriveParameters& drive,
                                                      double duration_s, const DriveBounds& bounds);
 
-/// What a move asks for besides its waveform.
-struct MoveRequest {
-  double target_rad = 0.0;
-  double tolerance_rad = 25e-6;
-  double settle_s = 0.1;
-  double timeout_s = 30.0;
-  double hold_s = 0.0;
-  std::uint64_t stall_steps = 2;  ///< as the wire carries it: unsigned, unbounded
-};
-
-/// target within ±10 rad, tolerance in (0, 0.1] rad, settle in [0, 10] s,
-/// timeout in (0, max], hold in [0, timeout), stall steps in 1..16.
+/// Every field within its declared interval (kMoveFields), the timeout
+/// also within the board's longest run, and hold below the timeout.
 [[nodiscard]] std::optional<LimitBreach> check_move(
     const MoveRequest& move, double timeout_max_s = std::numeric_limits<double>::infinity());
 

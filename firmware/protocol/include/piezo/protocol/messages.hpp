@@ -73,8 +73,7 @@ struct StepRequest {
 
 /// `move_to`'s arguments (absent ones take the board's defaults).
 struct MoveToRequest {
-  firmware::MoveRequest move;  ///< target, tolerance, settle, timeout, hold, stall steps
-  bool protect = true;
+  firmware::MoveRequest move;  ///< every field of firmware::kMoveFields
   std::optional<double> V0, f, C_dr, e_dr, lease_s;
 };
 
