@@ -24,8 +24,8 @@ std::string effective_config_toml(const RigConfig& c) {
                              {"alpha", c.observer.gains.alpha},
                              {"beta", c.observer.gains.beta},
                              {"gate_rad", c.observer.gains.gate_rad}};
-  toml::table out{{"drive", drive}, {"model", motor}, {"sensor", sensor}, {"run", run},
-                  {"observer", observer}};
+  toml::table out{
+      {"drive", drive}, {"model", motor}, {"sensor", sensor}, {"run", run}, {"observer", observer}};
   if (!c.board.address.empty()) {
     out.insert("rig", toml::table{{"address", c.board.address}, {"lease_s", c.board.lease_s}});
   }

@@ -10,6 +10,7 @@
 #include <string_view>
 
 #include "config_error.hpp"
+#include "piezo/read_file.hpp"
 
 namespace piezo::config {
 namespace {
@@ -108,17 +109,23 @@ void require_ascii_outside_comments(std::string_view text, const std::string& so
   }
 }
 
+std::string read_config_file(const std::string& path) {
+  auto text = read_file(path);
+  if (!text) throw ConfigError(path, "file", "cannot be read");
+  return std::move(*text);
+}
+
 toml::table parse_config_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw ConfigError(path, "file", "cannot be read");
-  std::ostringstream text;
-  text << in.rdbuf();
+  return parse_config_text(read_config_file(path), path);
+}
+
+toml::table parse_config_text(const std::string& text, const std::string& path) {
   // toml++ 3.3 (Debian 12) reaches "unreachable" code on some non-ASCII
   // characters (upstream issue #295, found here by fuzzing): text outside
   // comments is checked first, so that a config never gets that far.
-  require_ascii_outside_comments(text.str(), path);
+  require_ascii_outside_comments(text, path);
   try {
-    return toml::parse(text.str(), path);
+    return toml::parse(text, path);
   } catch (const toml::parse_error& e) {
     const auto& where = e.source().begin;
     throw ConfigError(path, "line " + std::to_string(where.line), std::string(e.description()));

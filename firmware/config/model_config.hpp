@@ -45,7 +45,12 @@ namespace piezo::config {
 /// byte outside a comment.
 void require_ascii_outside_comments(std::string_view text, const std::string& source);
 
-/// Parses a TOML file; parse errors become ConfigError with file and line.
+/// A config file's text; ConfigError (naming the file) when it cannot be read.
+[[nodiscard]] std::string read_config_file(const std::string& path);
+/// Parses a config's text (from `path`); parse errors become ConfigError
+/// with file and line.
+[[nodiscard]] toml::table parse_config_text(const std::string& text, const std::string& path);
+/// Both at once.
 [[nodiscard]] toml::table parse_config_file(const std::string& path);
 
 }  // namespace piezo::config

@@ -247,13 +247,6 @@ toml::table override_table(const std::string& assignment) {
   return toml::table{{section, inner}};
 }
 
-std::string read_text(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 /// The plant: [model] with each [plant] key that was given (NaN marks absent).
 model::MotorParameters overlay(const model::MotorParameters& base,
                                const model::MotorParameters& keys) {
@@ -428,10 +421,12 @@ RigConfig load_rig_config(const std::vector<std::string>& paths,
   std::vector<std::string> present;
   // Each file overlays the ones before it (e.g. a rig config, then fitted parameters).
   for (const auto& path : paths) {
-    const toml::table file = parse_config_file(path);
+    // Read once: the text is parsed and kept as the run's config.
+    const std::string text = read_config_file(path);
+    const toml::table file = parse_config_text(text, path);
     for (const auto& [k, node] : file) present.emplace_back(k.str());
     if (!c.text.empty()) c.text += "\n# ---- " + path + "\n";
-    c.text += read_text(path);
+    c.text += text;
     read_tables(file, path, c, plant_keys);
   }
   const std::vector<std::string> required =

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "piezo/protocol/error.hpp"
+#include "piezo/read_file.hpp"
 
 namespace piezo::daemon {
 namespace {
@@ -222,15 +223,13 @@ bool apply_calibration(const json& c, std::optional<double> f, firmware::MoveSet
 }
 
 std::optional<json> load_calibration(const std::string& path, const CalibrationLimits& limits) {
-  std::ifstream in(path);
-  if (!in) {
+  const auto text = read_file(path);
+  if (!text) {
     if (!std::filesystem::exists(path)) return std::nullopt;
     throw std::runtime_error("piezod.calibration_file: cannot read " + path);
   }
-  std::stringstream text;
-  text << in.rdbuf();
   try {
-    return checked_calibration(json::parse(text.str()), limits);
+    return checked_calibration(json::parse(*text), limits);
   } catch (const std::exception& e) {
     throw std::runtime_error(fmt::format("piezod.calibration_file: {}: {}", path, e.what()));
   }

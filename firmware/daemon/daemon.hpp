@@ -126,7 +126,6 @@ class Daemon {
   [[nodiscard]] protocol::Hello hello() const;
   [[nodiscard]] protocol::Status status(const std::string& client) const;
   [[nodiscard]] nlohmann::json position_json() const;
-  [[nodiscard]] nlohmann::json fault_json() const;
   [[nodiscard]] nlohmann::json move_json(const Run& run) const;
   [[nodiscard]] protocol::RunSummary summary(const Run& run) const;
   void publish_state();

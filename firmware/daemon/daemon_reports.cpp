@@ -99,11 +99,6 @@ protocol::Status Daemon::status(const std::string& client) const {
   return s;
 }
 
-json Daemon::fault_json() const {
-  return run_state_.state() == State::fault ? json(firmware::to_string(run_state_.fault()))
-                                            : json(nullptr);
-}
-
 json Daemon::position_json() const {
   const protocol::Status s = status("");
   return json(s).at("position");

@@ -146,7 +146,16 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
       stop_output(deadline);  // instead of this deadline's value
       return supervisor_.cause();
     }
-    if (action == SafetyAction::ramp_down && out.phase == DrivePhase::driving) begin_ramp(out);
+    if (action == SafetyAction::ramp_down && out.phase == DrivePhase::driving) {
+      begin_ramp(out);
+      // A waveform that completes on its own 0 V (a step's whole periods)
+      // and is there within this update has nothing to ramp: it stops on
+      // this deadline, and no record or state says ramping_down.
+      if (out.end_V == 0.0 && std::abs(limit_voltage(settings_.limits, 0.0, out.V, dt)) == 0.0) {
+        stop_output(deadline);
+        return supervisor_.cause();
+      }
+    }
     out.V = next_value(out, t, dt);
     const hal::Status written = io_.drive.write(out.V);
     supervisor_.report_drive_write(written);

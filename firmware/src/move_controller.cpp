@@ -11,7 +11,7 @@ namespace piezo::firmware {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-/// Below about a third of V0 a stick-slip step shrinks faster than its
+/// Below about half of V0 a stick-slip step shrinks faster than its
 /// amplitude (the rotor hardly slips): shorter steps are the fine stage's.
 constexpr double kMinStepFraction = MoveSettings::kStepFractions.front();
 /// Far from the target (this many full steps) the steps follow each other

@@ -140,6 +140,14 @@ TEST(Message, MalformedRequestsAreNamed) {
   // Nesting that would overflow the parser's stack (found by the fuzzer).
   EXPECT_STREQ(refuse(std::string(60'000, '\x91')).what(), "nested deeper than 32 levels");
   EXPECT_THROW((void)decode_reply(std::string(60'000, '\x91')), ProtocolError);
+  // A map with an integer key: malformed, but under the id read before it.
+  id.reset();
+  const std::string integer_key("\x83\xa2"
+                                "id\x09\xa3"
+                                "cmd\xa5"
+                                "hello\x05\x01");
+  EXPECT_EQ(refuse(integer_key).code(), code::malformed);
+  EXPECT_EQ(id, 9u);
 }
 
 TEST(Message, ArgumentsOfTheWrongTypeAreNamed) {

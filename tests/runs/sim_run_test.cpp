@@ -31,9 +31,6 @@ struct Outcome {
   bool amplifier_enabled_at_end = true;  ///< the simulated amplifier, read after the run
   double amplifier_V_at_end = -1.0;
   double rotor_theta_at_end = 0.0;  ///< the simulated rotor's own angle
-  /// A move's: how the simulated rotor's last change of position at rest
-  /// (amplifier at 0 V) arrived, signed [rad].
-  double arrival_rad = 0.0;
   std::vector<double> drive_t, drive_V, drive_phase, move_state, sensor_t, theta;
 };
 
@@ -66,28 +63,7 @@ Outcome run_virtual(std::vector<std::string> sets, double stop_at_s = -1.0,
   // The device side: the simulated amplifier the drive and lines act on,
   // kept here while the rig goes to the in-process piezod.
   const std::shared_ptr<const hal::sim::SimRig> device = rig.sim;
-  // For a move: the rotor's positions at rest, read off the simulated
-  // device beside the run (every rest lasts milliseconds of run time).
-  std::atomic<bool> run_over{false};
-  std::thread rests;
-  if (move) {
-    rests = std::thread([&] {
-      double rest = 0.0;
-      while (!run_over.load()) {
-        const auto now = device->plant().latest();
-        // Closer than 1 urad (a 25th of the tolerance, an eighth of the
-        // sensor's noise) is the same rest: a release's relaxation.
-        if (now.V_out == 0.0 && std::abs(now.theta - rest) > 1e-6) {
-          out.arrival_rad = now.theta - rest;
-          rest = now.theta;
-        }
-        std::this_thread::sleep_for(50us);
-      }
-    });
-  }
   out.summary = execute_run(config, std::move(rig), log, stop, on_status);
-  run_over.store(true);
-  if (rests.joinable()) rests.join();
   out.amplifier_enabled_at_end = device->plant().enabled();
   out.amplifier_V_at_end = device->plant().latest().V_out;
   out.rotor_theta_at_end = device->plant().latest().theta;
@@ -110,7 +86,10 @@ TEST(SimRun, AFullRunMatchesTheModel) {
   EXPECT_GE(o.summary.sensor.samples, 4'800u);
   EXPECT_EQ(o.summary.drive.dropped + o.summary.sensor.dropped, 0u);
   EXPECT_EQ(o.summary.drive.overruns, 0u);
-  EXPECT_EQ(o.drive_t.size(), o.summary.drive.samples + 1);  // + the final "stopped" record
+  // 4.8 s is 48 whole periods: the deadline at 4.8 s is the period's 0 V
+  // and the stop itself, with no ramp (so one record per deadline).
+  EXPECT_EQ(o.drive_t.size(), o.summary.drive.samples);
+  EXPECT_NEAR(o.drive_t.back(), 4.8, 1e-9);
   EXPECT_EQ(o.sensor_t.size(), o.summary.sensor.samples);
   EXPECT_DOUBLE_EQ(o.drive_t.front(), 0.0);
   EXPECT_DOUBLE_EQ(o.drive_V.back(), 0.0);
@@ -174,14 +153,15 @@ TEST(SimRun, StepsRunWholePeriodsAndReverseTurnsTheRotorBack) {
       EXPECT_LT(o.drive_t[i], kSteps * T - 1e-6) << name;
     }
     EXPECT_EQ(driving, static_cast<std::size_t>(kSteps * T * 1e4 + 0.5)) << name;
-    // The record at N T is the period's 0 V, and the stop follows it on the
-    // next deadline: nothing ramps after the last fast edge.
-    for (std::size_t i = 0; i < o.drive_t.size(); ++i) {
-      if (o.drive_t[i] >= kSteps * T - 1e-9) {
-        EXPECT_EQ(o.drive_V[i], 0.0) << name << " at " << i;
-      }
-    }
-    EXPECT_LE(o.drive_t.back(), kSteps * T + 1.5e-4) << name << ": no ramp after the last period";
+    // The record at N T is the period's 0 V and the stop itself: nothing
+    // ramps after the last fast edge, and no record says ramping_down.
+    EXPECT_NEAR(o.drive_t.back(), kSteps * T, 1e-6) << name << ": stopped on the period's end";
+    EXPECT_EQ(o.drive_V.back(), 0.0) << name;
+    EXPECT_EQ(o.drive_phase.back(), static_cast<double>(firmware::DrivePhase::stopped)) << name;
+    EXPECT_EQ(std::count(o.drive_phase.begin(), o.drive_phase.end(),
+                         static_cast<double>(firmware::DrivePhase::ramping_down)),
+              0)
+        << name;
     // The device's rotor went the commanded way, as far as the model says.
     const model::Sawtooth saw(p.drive.V0, p.drive.f, model::rise_fraction(p.drive.D(), direction));
     const double expected =
@@ -410,11 +390,30 @@ TEST(SimRun, AMoveComesOnTargetThroughFiveTimesTheNoise) {
   }
 }
 
-// `approach = forward`: every move arrives from below its target, on the
-// simulated rotor itself, also when the target lies behind the start and
-// the move must pass it first.
+/// The directions of the coarse steps in records [from, to] of the drive
+/// (each step rises from 0 V and comes back to it): a forward sawtooth
+/// rises slowly and falls fast, a reverse one the other way round.
+std::vector<double> step_directions(const std::vector<double>& V, std::size_t from,
+                                    std::size_t to) {
+  std::vector<double> out;
+  double up = 0.0, down = 0.0;
+  for (std::size_t i = from + 1; i <= to; ++i) {
+    up = std::max(up, V[i] - V[i - 1]);
+    down = std::max(down, V[i - 1] - V[i]);
+    if (V[i] == 0.0 && V[i - 1] != 0.0) {  // a step ended
+      out.push_back(down > up ? 1.0 : -1.0);
+      up = down = 0.0;
+    }
+  }
+  return out;
+}
+
+// `approach = forward`: every move's last motion (the stage before the
+// final release and settle) moves the rotor forward, also when the target
+// lies behind the start and the move must pass it first; the rotor itself
+// ends on target.
 TEST(SimRun, TwentyMovesWithAForwardApproachAllArriveFromBelow) {
-  int passed = 0;
+  constexpr double kCoarse = 1.0, kFine = 2.0, kOnTarget = 5.0;
   for (int i = 0; i < 20; ++i) {
     const double target = (i % 2 == 0 ? 1.0 : -1.0) * (0.4e-3 + 0.1e-3 * i);
     SCOPED_TRACE(target);
@@ -426,10 +425,32 @@ TEST(SimRun, TwentyMovesWithAForwardApproachAllArriveFromBelow) {
     const Outcome o = run_virtual({}, -1.0, "hil-move-approach", 0, move);
     ASSERT_EQ(o.summary.move.at("stop_cause"), "on_target");
     EXPECT_NEAR(o.rotor_theta_at_end, target, 25e-6 + 3 * 0.5e-6 / 0.062);
-    EXPECT_GT(o.arrival_rad, 0.0) << "the last move at rest was backwards";
-    if (target < 0.0) ++passed;
+    const auto& state = o.move_state;
+    const auto on = std::find(state.begin(), state.end(), kOnTarget) - state.begin();
+    // The last stage that moved the rotor, and where it began.
+    auto last = static_cast<std::size_t>(on);
+    while (last > 0 && state[last] != kCoarse && state[last] != kFine) --last;
+    ASSERT_GT(last, 0u);
+    std::size_t first = last;
+    while (first > 0 && state[first - 1] == state[last]) --first;
+    if (state[last] == kFine) {
+      // The fine servo only raised the stator: in stick the rotor followed it up.
+      bool raised_only = true;
+      for (std::size_t k = first + 1; k <= last; ++k) {
+        raised_only = raised_only && o.drive_V[k] >= o.drive_V[k - 1];
+      }
+      EXPECT_TRUE(raised_only) << "the fine stage lowered the stator";
+    } else {
+      const auto steps = step_directions(o.drive_V, first, last);
+      ASSERT_FALSE(steps.empty());
+      EXPECT_EQ(steps.back(), 1.0) << "the last step went backwards";
+    }
+    if (target < 0.0) {
+      // Behind the start: the move stepped backwards past the target first.
+      const auto steps = step_directions(o.drive_V, 0, static_cast<std::size_t>(on));
+      EXPECT_NE(std::find(steps.begin(), steps.end(), -1.0), steps.end());
+    }
   }
-  EXPECT_EQ(passed, 10) << "half the targets lie behind the start";
 }
 
 // The board's travel window ([safety] travel_min_rad/travel_max_rad from

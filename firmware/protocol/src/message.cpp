@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 namespace piezo::protocol {
 namespace {
@@ -15,10 +16,22 @@ using nlohmann::json;
 // (found by tests/fuzz).
 constexpr std::size_t kMaxDepth = 32;
 
-/// nlohmann's DOM builder, refusing to go deeper than kMaxDepth.
+/// nlohmann's DOM builder, refusing to go deeper than kMaxDepth. It notes
+/// the top-level map's "id" as it passes, so that a map that fails later
+/// (an integer key, a truncated value) is still refused under its id.
 class BoundedDomParser : public nlohmann::detail::json_sax_dom_parser<json> {
  public:
   explicit BoundedDomParser(json& result) : json_sax_dom_parser(result, false) {}
+  bool key(std::string& k) {
+    id_next_ = depth_ == 1 && k == "id";
+    return json_sax_dom_parser::key(k);
+  }
+  bool number_unsigned(json::number_unsigned_t v) {
+    if (id_next_ && depth_ == 1) id_ = v;
+    id_next_ = false;
+    return json_sax_dom_parser::number_unsigned(v);
+  }
+  [[nodiscard]] std::optional<std::uint64_t> id() const { return id_; }
   bool start_object(std::size_t n) { return deeper() && json_sax_dom_parser::start_object(n); }
   bool start_array(std::size_t n) { return deeper() && json_sax_dom_parser::start_array(n); }
   bool end_object() {
@@ -38,9 +51,14 @@ class BoundedDomParser : public nlohmann::detail::json_sax_dom_parser<json> {
   }
   std::size_t depth_ = 0;
   bool too_deep_ = false;
+  bool id_next_ = false;
+  std::optional<std::uint64_t> id_;
 };
 
-json parse_msgpack(std::string_view bytes, bool limited = true) {
+/// A MessagePack map; `id_seen`, when given, receives the top-level "id"
+/// read before any fault.
+json parse_msgpack(std::string_view bytes, bool limited = true,
+                   std::optional<std::uint64_t>* id_seen = nullptr) {
   if (limited && bytes.size() > kMaxMessageBytes) {
     throw ProtocolError(
         code::too_large, "",
@@ -50,6 +68,7 @@ json parse_msgpack(std::string_view bytes, bool limited = true) {
   BoundedDomParser sax(j);
   const bool parsed =
       json::sax_parse(bytes.begin(), bytes.end(), &sax, json::input_format_t::msgpack, true);
+  if (id_seen != nullptr) *id_seen = sax.id();
   if (sax.too_deep()) {
     throw ProtocolError(code::malformed, "",
                         fmt::format("nested deeper than {} levels", kMaxDepth));
@@ -99,7 +118,7 @@ Request decode_request(std::string_view bytes, std::optional<std::uint64_t>& id_
       // Not even a map: the refusal goes without an id.
     }
   }
-  const json j = parse_msgpack(bytes);
+  const json j = parse_msgpack(bytes, true, &id_out);
   Request r;
   // Without an id or a cmd it is no request at all: malformed, as the
   // document says, not a command with a bad argument.

@@ -7,13 +7,11 @@ SimLines::SimLines(const SimLinesSettings& settings, Plant& plant, const Clock& 
 
 Status SimLines::set_amplifier_enable(bool enabled) {
   plant_.set_enabled(clock_.now(), enabled);
-  enabled_.store(enabled);
   return Status::ok;
 }
 
 bool SimLines::trip() {
   plant_.trip(clock_.now());
-  enabled_.store(false);
   return true;
 }
 

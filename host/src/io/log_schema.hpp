@@ -9,8 +9,9 @@
 // of precision), uint8 for the small codes (phase, status, move_state);
 // times in seconds from the run's start.
 //   /drive/t, /drive/V, /drive/phase, /drive/status, /drive/move_state (a
-//   closed-loop move's state: 0 none, 1 coarse, 2 fine, 3 release, 4 settle,
-//   5 on_target)
+//   closed-loop move's state, by firmware::kMoveStateNames: 0 none,
+//   1 coarse, 2 fine, 3 release, 4 settle, 5 on_target, 6 stalled,
+//   7 sensor_implausible, 8 holding)
 //   /sensor/t (request time), /sensor/t_response, /sensor/displacement_m,
 //   /sensor/theta (NaN where the reading failed), /sensor/status
 //   /drive/t_received, /sensor/t_received: when the host received each

@@ -1,7 +1,8 @@
 #pragma once
-// One run on a built rig: starts the drive and acquire loops on their own
-// threads, drains their rings into the log while they run, shows a live
-// status line, and summarises loop health and motion at the end.
+// One run on a built rig, the one-machine default: an in-process piezod
+// serves the rig and the run goes through the protocol as a remote run
+// does (execute_remote_run: the stream followed into the log, the live
+// status, the summary at the end).
 
 #include <atomic>
 #include <cstdint>

@@ -40,8 +40,6 @@ class StreamFollower {
   /// (and notes) a gap the board will not serve it (its fetch budget).
   void follow(SampleCollector& collector, std::function<double()> received_s,
               bool from_sample_zero = true);
-  /// Samples are dropped until the next follow().
-  void unfollow() { collector_ = nullptr; }
 
   /// What drain() tells its caller; each may be left empty.
   struct Handlers {

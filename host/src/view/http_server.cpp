@@ -81,7 +81,6 @@ struct HttpServer::Impl {
   HttpHandler handler;
   HttpLimits limits;
   std::atomic<std::size_t> connections{0};
-  std::atomic<int> streams{0};
   asio::io_context ioc{1};
   tcp::acceptor acceptor{ioc};
   asio::steady_timer accept_pause{ioc};
@@ -99,10 +98,7 @@ class Session : public std::enable_shared_from_this<Session> {
       : server_(server), stream_(std::move(socket)), timer_(stream_.get_executor()) {
     ++server_.connections;
   }
-  ~Session() {
-    --server_.connections;
-    if (events_) --server_.streams;
-  }
+  ~Session() { --server_.connections; }
 
   void read_head() {
     head_.emplace();
@@ -200,7 +196,6 @@ class Session : public std::enable_shared_from_this<Session> {
 
   void start_stream(HttpReply reply) {
     events_ = std::move(reply.events);
-    ++server_.streams;
     out_ =
         "HTTP/1.1 200 OK\r\nServer: piezo\r\nContent-Type: text/event-stream\r\n"
         "Cache-Control: no-cache\r\nConnection: close\r\n\r\n";
@@ -329,10 +324,6 @@ HttpServer::~HttpServer() {
 
 int HttpServer::port() const {
   return impl_->acceptor.local_endpoint().port();
-}
-
-int HttpServer::streams() const {
-  return impl_->streams.load();
 }
 
 }  // namespace piezo::host::view

@@ -70,8 +70,6 @@ class HttpServer {
   HttpServer& operator=(const HttpServer&) = delete;
 
   [[nodiscard]] int port() const;
-  /// Event streams open now.
-  [[nodiscard]] int streams() const;
 
   struct Impl;
 

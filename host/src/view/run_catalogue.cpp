@@ -8,6 +8,7 @@
 #include "decimate.hpp"
 #include "h5_file.hpp"
 #include "log_schema.hpp"
+#include "piezo/read_file.hpp"
 
 namespace piezo::host::view {
 namespace fs = std::filesystem;
@@ -19,13 +20,6 @@ std::vector<std::string> split_csv_line(const std::string& line) {
   std::istringstream in(line);
   while (std::getline(in, field, ',')) out.push_back(field);
   return out;
-}
-
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
 }
 
 nlohmann::json series(const Series& s) {
@@ -92,7 +86,7 @@ nlohmann::json run_plots(const fs::path& run_dir, std::size_t columns) {
         std::pair{"acquire_timing", log_schema::kAcquirePeriodErrorUs}}) {
     if (f.exists(std::string(dataset))) out[key] = f.read(std::string(dataset));
   }
-  out["config"] = read_text(run_dir / "config.toml");
+  out["config"] = read_file(run_dir / "config.toml").value_or("");
   return out;
 }
 

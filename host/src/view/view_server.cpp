@@ -12,6 +12,7 @@
 
 #include "http_server.hpp"
 #include "live_feed.hpp"
+#include "piezo/read_file.hpp"
 #include "run_catalogue.hpp"
 #include "web_assets.hpp"
 
@@ -29,14 +30,6 @@ std::string random_token() {
   std::string token;
   for (int i = 0; i < 24; ++i) token += fmt::format("{:02x}", rd() & 0xffu);
   return token;
-}
-
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return {};
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
 }
 
 /// uPlot, installed by the project's set-up from the npm registry.
@@ -206,13 +199,13 @@ HttpReply ViewServer::serve(const HttpRequest& req) {
   if (path == "/live-worker.js") return page(kLiveWorkerJs, "text/javascript");
   if (path == "/vendor/uPlot.iife.min.js" || path == "/vendor/uPlot.min.css") {
     const std::string name = path.substr(path.rfind('/') + 1);
-    std::string body = read_file(vendor_dir() + "/" + name);
-    if (body.empty()) {
+    auto body = read_file(vendor_dir() + "/" + name);
+    if (!body || body->empty()) {
       return refused(404, fmt::format("{} not found in {} (scripts/setup.sh installs uPlot from "
                                       "the npm registry; PIEZO_UPLOT_DIR overrides)",
                                       name, vendor_dir()));
     }
-    return {200, name.ends_with(".js") ? "text/javascript" : "text/css", std::move(body), {}, {}};
+    return {200, name.ends_with(".js") ? "text/javascript" : "text/css", std::move(*body), {}, {}};
   }
   if (path == "/api/live.json") {
     if (live_ == nullptr) return refused(404, "no run under way in this view");
@@ -238,9 +231,11 @@ HttpReply ViewServer::serve(const HttpRequest& req) {
   if (const auto [run, name] = run_file(path); !run.empty()) {
     const auto dir = options_.runs_dir.empty() ? std::nullopt : run_path(options_.runs_dir, run);
     if (!dir) return refused(404, "no such run");
+    auto body = read_file(*dir / name);
+    if (!body) return refused(404, fmt::format("no file {} in run {}", name, run));
     return {200,
             name.ends_with(".h5") ? "application/x-hdf5" : "text/plain",
-            read_file((*dir / name).string()),
+            std::move(*body),
             {{"Content-Disposition", "attachment; filename=\"" + name + "\""}},
             {}};
   }

@@ -77,12 +77,6 @@ class LoopRunner {
 
   /// Asks the drive to ramp down and stop (an operator stop).
   void request_stop() { stop_.store(true); }
-  /// The consumer is gone: time no longer waits for it (the drive is
-  /// stopped as well, so the run ends).
-  void consumer_failed() {
-    consumer_failed_.store(true);
-    stop_.store(true);
-  }
   /// Both loops have returned.
   [[nodiscard]] bool finished() const { return acquire_done_.load(std::memory_order_acquire); }
   /// Waits for both threads; idempotent.

@@ -196,7 +196,7 @@ class MoveController final : public DriveProgram {
   double step_scale_[2] = {1.0, 1.0};  ///< measured over predicted: [0] forward, [1] reverse
   // fine
   double V_set_ = 0.0, aim_offset_ = 0.0;
-  bool lifting_ = false, fine_settled_in_ = false;
+  bool lifting_ = false;
   int hold_ = 0;
   bool released_from_fine_ = false;
   bool wrong_way_ = false;  ///< the last motion went against the approach side

@@ -28,7 +28,6 @@ class SimLines final : public DigitalLines {
 
   /// Presses the e-stop now (any thread): the next poll sees an edge.
   void press_estop() { estop_pressed_.store(true, std::memory_order_release); }
-  [[nodiscard]] bool amplifier_enabled() const { return enabled_.load(); }
   [[nodiscard]] long sync_pulses() const { return sync_pulses_.load(); }
   /// Moves the time origin of estop_at_s, before the run starts.
   void set_time_origin(TimeNs t0) { t0_ = t0; }
@@ -41,7 +40,6 @@ class SimLines final : public DigitalLines {
   bool sync_ = false;
   bool estop_reported_ = false;
   std::atomic<bool> estop_pressed_{false};
-  std::atomic<bool> enabled_{false};
   std::atomic<long> sync_pulses_{0};
 };
 
