@@ -26,8 +26,8 @@ namespace code = protocol::code;
 
 constexpr int kVersion = 1;
 constexpr std::size_t kFractions = firmware::MoveSettings::kStepFractions.size();
-/// The settle's longest mean (MoveController's kSettleMax readings).
-constexpr double kLongestMean = 256.0;
+/// The settle's longest mean.
+constexpr double kLongestMean = firmware::SettleMean::kMax;
 
 ProtocolError bad(const std::string& key, const std::string& message) {
   return {code::bad_argument, "calibration." + key, "calibration." + key + ": " + message};

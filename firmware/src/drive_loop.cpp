@@ -137,12 +137,12 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
     io_.clock.sleep_until(deadline);
     const hal::TimeNs now = io_.clock.now();
     health_.period_error.record(now - deadline);
-    health_.count(health_.cycles);
     // The value belongs to its deadline: a hardware-timed DAC latches it on
     // the grid, so wake-up jitter must not shift the waveform's phase.
     const double t = hal::to_seconds(deadline - t0);
     const SafetyAction action = check(now, t);
     if (action == SafetyAction::disable_now) {
+      health_.count(health_.cycles);
       stop_output(deadline);  // instead of this deadline's value
       return supervisor_.cause();
     }
@@ -150,12 +150,14 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
       begin_ramp(out);
       // A waveform that completes on its own 0 V (a step's whole periods)
       // and is there within this update has nothing to ramp: it stops on
-      // this deadline, and no record or state says ramping_down.
+      // this deadline, and no record or state says ramping_down. Its
+      // samples are the driven ones; the stop record follows them.
       if (out.end_V == 0.0 && std::abs(limit_voltage(settings_.limits, 0.0, out.V, dt)) == 0.0) {
         stop_output(deadline);
         return supervisor_.cause();
       }
     }
+    health_.count(health_.cycles);
     out.V = next_value(out, t, dt);
     const hal::Status written = io_.drive.write(out.V);
     supervisor_.report_drive_write(written);

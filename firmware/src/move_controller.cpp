@@ -13,7 +13,7 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 /// Below about half of V0 a stick-slip step shrinks faster than its
 /// amplitude (the rotor hardly slips): shorter steps are the fine stage's.
-constexpr double kMinStepFraction = MoveSettings::kStepFractions.front();
+constexpr double kMinStepFraction = kStepFractions.front();
 /// Far from the target (this many full steps) the steps follow each other
 /// without waiting for the sensor to settle.
 constexpr double kChainSteps = 3.0;
@@ -41,7 +41,9 @@ MoveController::MoveController(const MoveSettings& settings, const PositionFeed&
       on_target_at_(kNaN),
       f_(settings.f),
       hold_rms_(kNaN),
-      hold_max_(kNaN) {}
+      hold_max_(kNaN) {
+  steps_model_.use(settings.step_forward_rad, settings.step_reverse_rad);
+}
 
 double MoveController::next_voltage(double t, double dt) {
   const std::uint64_t count = feed_.count();
@@ -60,7 +62,7 @@ double MoveController::next_voltage(double t, double dt) {
         if (state() != MoveState::coarse) return V_ = 0.0;
         const double error = s_.target_rad - theta_f_;
         const double chain_from =
-            kChainSteps * predicted_step(direction_ > 0 ? 0 : 1, 1.0) +
+            kChainSteps * steps_model_.predicted(direction_ > 0 ? 0 : 1, 1.0) +
             (direction_ > 0 ? s_.rad_per_V * s_.V0 : 0.0);  // a forward step's peak
         if (error * direction_ > chain_from) {
           // Far away: the next full step at once. The readings lag the
@@ -99,9 +101,7 @@ double MoveController::next_voltage(double t, double dt) {
         set_state(MoveState::settle);
         flush_ = kFlush;
         within_since_ = -1.0;
-        settle_count_ = 0;
-        settle_sum_ = 0.0;
-        settle_n_ = settle_readings();
+        settle_.start(settle_readings());
       }
       return V_;
     case MoveState::none:
@@ -126,8 +126,6 @@ StopCause MoveController::fault() const {
 }
 
 void MoveController::on_reading(double t, double displacement_m) {
-  if (filled_ > 0 && displacement_m != last_raw_) ++changes_;
-  last_raw_ = displacement_m;
   if (noise_n_ < kNoiseReadings && steps_.load(std::memory_order_relaxed) == 0 && !in_step_) {
     // At rest before the first step: the readings' spread is the noise.
     noise_sum_ += displacement_m;
@@ -143,12 +141,7 @@ void MoveController::on_reading(double t, double displacement_m) {
       }
     }
   }
-  window_[static_cast<std::size_t>(next_slot_)] = displacement_m;
-  next_slot_ = (next_slot_ + 1) % kFilter;
-  filled_ = std::min(filled_ + 1, kFilter);
-  double sum = 0.0;
-  for (int i = 0; i < filled_; ++i) sum += window_[static_cast<std::size_t>(i)];
-  const double mean_m = sum / filled_;
+  const double mean_m = window_.add(displacement_m);
   if (!zero_.known()) return;  // until the readings at rest give it
   theta_f_ = zero_.angle_rad(mean_m, s_.r2_m);
   position_.store(theta_f_, std::memory_order_relaxed);
@@ -228,25 +221,18 @@ int MoveController::settle_readings() const {
   const double noise = this->noise();
   if (!(noise > 0.0)) return kFilter;
   const double n = std::pow(8.0 * noise / (s_.r2_m * s_.tolerance_rad), 2.0);
-  return static_cast<int>(std::clamp(std::ceil(n), double{kFilter}, double{kSettleMax}));
+  return static_cast<int>(std::clamp(std::ceil(n), double{kFilter}, double{SettleMean::kMax}));
 }
 
 void MoveController::settle(double t, double displacement_m) {
-  // A sliding mean of settle_n_ readings at 0 V.
-  settle_ring_[static_cast<std::size_t>(settle_next_)] = displacement_m;
-  constexpr int kRing = kSettleMax + 1;
-  settle_next_ = (settle_next_ + 1) % kRing;
-  settle_sum_ += displacement_m;
-  if (++settle_count_ > settle_n_) {
-    settle_sum_ -=
-        settle_ring_[static_cast<std::size_t>((settle_next_ - 1 - settle_n_ + kRing) % kRing)];
-  }
-  if (settle_count_ < settle_n_) return;
-  const double theta = zero_.angle_rad(settle_sum_ / settle_n_, s_.r2_m);
+  // A sliding mean of as many readings at 0 V as the noise asks for.
+  if (!settle_.add(displacement_m)) return;
+  const double theta = zero_.angle_rad(settle_.mean(), s_.r2_m);
   const double error = s_.target_rad - theta;
   const double noise = this->noise();
   const double interval =
-      noise > 0.0 ? 2.0 * noise / (s_.r2_m * std::sqrt(static_cast<double>(settle_n_))) : 0.0;
+      noise > 0.0 ? 2.0 * noise / (s_.r2_m * std::sqrt(static_cast<double>(settle_.readings())))
+                  : 0.0;
   if (std::abs(error) + interval <= s_.tolerance_rad) {
     if (wrong_way_) {
       // Within the tolerance, but reached from the side the move must not
@@ -269,17 +255,8 @@ void MoveController::settle(double t, double displacement_m) {
     return;
   }
   within_since_ = -1.0;
-  if (std::abs(error) - interval <= s_.tolerance_rad && settle_n_ < kSettleMax) {
-    // Not clear either way: a mean of twice the readings narrows it.
-    settle_n_ = std::min(2 * settle_n_, kSettleMax);
-    const int held = std::min(settle_count_, settle_n_);
-    settle_sum_ = 0.0;
-    for (int i = 1; i <= held; ++i) {
-      settle_sum_ += settle_ring_[static_cast<std::size_t>((settle_next_ - i + kRing) % kRing)];
-    }
-    settle_count_ = held;
-    return;
-  }
+  // Not clear either way: a mean of twice the readings narrows it.
+  if (std::abs(error) - interval <= s_.tolerance_rad && settle_.widen()) return;
   if (released_from_fine_) {
     // What the release moved the rotor by: the next hold aims off by it.
     const double limit = 0.25 * s_.fine_V_max * s_.rad_per_V;
@@ -295,58 +272,32 @@ double MoveController::noise() const {
   return std::isnan(measured) ? s_.noise_prior_m : std::max(measured, s_.noise_prior_m);
 }
 
-double MoveController::progress_floor() const {
-  const double noise = this->noise();
-  const double averaged = std::isnan(noise) ? 0.0 : noise / std::sqrt(double{kFilter});
-  return std::max(0.5 * s_.tolerance_rad, 4.0 * averaged / s_.r2_m);
+ProgressFloors MoveController::floors() const {
+  // A move's resolution is half its tolerance; the stroke is this step's.
+  return {noise(), s_.r2_m, s_.rad_per_V * amplitude_, 0.5 * s_.tolerance_rad};
 }
 
 void MoveController::begin_run_of_steps() {
-  run_steps_ = 0;
-  step_theta_[0] = theta_f_;
-  step_changes_[0] = changes_;
+  judge_.begin(static_cast<int>(std::min<std::uint64_t>(s_.stall_steps, kMaxStallSteps)), theta_f_,
+               window_.changes());
 }
 
 void MoveController::check_progress() {
-  if (!s_.protect || run_steps_ < 0) return;
-  const int K = static_cast<int>(std::clamp<std::uint64_t>(s_.stall_steps, 1, kMaxStallSteps));
-  const auto slot = [K](int i) { return static_cast<std::size_t>(i % (K + 1)); };
-  ++run_steps_;
-  step_theta_[slot(run_steps_)] = theta_f_;
-  step_changes_[slot(run_steps_)] = changes_;
-  step_span_[slot(run_steps_)] = {step_low_, step_high_};
-  const auto& table = direction_ > 0 ? s_.step_forward_rad : s_.step_reverse_rad;
-  const double last_step = theta_f_ - step_theta_[slot(run_steps_ - 1)];
+  if (!s_.protect || !judge_.running()) return;
+  const ProgressFloors floors = this->floors();
+  const auto verdict =
+      judge_.end_unit(theta_f_, window_.changes(), step_low_, step_high_, direction_, floors);
   // No step of a stick-slip motor goes far beyond the stator's stroke,
   // whatever the prediction (the model may predict almost none at V0).
+  const auto& table = steps_model_.table(direction_ > 0 ? 0 : 1);
   const double largest =
       std::max(s_.implausible_step_factor * table.back(), 2.0 * s_.rad_per_V * s_.V0);
-  if (std::abs(last_step) > largest + progress_floor()) {
-    set_state(MoveState::sensor_implausible);  // far more than any step of this motor
-    return;
-  }
-  if (run_steps_ < K) return;
-  const int from = run_steps_ - K;
-  const double progress = (theta_f_ - step_theta_[slot(from)]) * direction_;
-  // How far the angle swung within the last K steps: a rotor in contact
-  // with the stator follows its rise or is dragged back in the slip, even
-  // when blocked or stepping nowhere; a sensor that does not see it shows
-  // only its noise.
-  double low = step_theta_[slot(from)], high = low;
-  for (int i = from + 1; i <= run_steps_; ++i) {
-    low = std::min(low, step_span_[slot(i)][0]);
-    high = std::max(high, step_span_[slot(i)][1]);
-  }
-  // Pure noise spans about 5 standard deviations over a few hundred
-  // readings; a rotor in contact swings by a good part of the stroke.
-  const double noise_rad = std::isnan(noise()) ? 0.0 : noise() / s_.r2_m;
-  const double swing_floor = std::max(8.0 * noise_rad, 0.05 * s_.rad_per_V * amplitude_);
-  // Against the drive by more than half the predicted steps: a plant too
-  // stiff to slip rides the stator back a little, never that far.
-  const double against = std::max(progress_floor(), 0.5 * K * table.back());
-  if (changes_ == step_changes_[slot(from)] || high - low < swing_floor || progress < -against) {
-    set_state(MoveState::sensor_implausible);  // frozen, blind, or moving against the drive
-  } else if (progress < progress_floor()) {
+  if (std::abs(judge_.last_unit_rad()) > largest + ProgressJudge::progress_floor(floors) ||
+      verdict == ProgressJudge::Verdict::implausible) {
+    // Far more than any step of this motor; or frozen, blind, or moving
+    // against the drive.
+    set_state(MoveState::sensor_implausible);
+  } else if (verdict == ProgressJudge::Verdict::stalled) {
     // Blocked, or a contact that does not slip at this frequency: another
     // may step; when none is left, stalled.
     if (try_alternative()) {
@@ -354,7 +305,9 @@ void MoveController::check_progress() {
     } else {
       set_state(MoveState::stalled);
     }
-  } else if (progress < 0.25 * K * predicted_ && try_alternative()) {
+  } else if (judge_.completed() >= static_cast<int>(s_.stall_steps) &&
+             judge_.progress_rad() < 0.25 * static_cast<double>(s_.stall_steps) * predicted_ &&
+             try_alternative()) {
     // Progress, but far less than predicted: another frequency may do
     // better (a stiffer contact steps at a higher one); judged afresh.
     begin_run_of_steps();
@@ -366,9 +319,7 @@ bool MoveController::try_alternative() {
   const MoveSettings::Alternative& a =
       s_.alternatives[static_cast<std::size_t>(next_alternative_++)];
   s_.f = a.f;
-  s_.step_forward_rad = a.forward_rad;
-  s_.step_reverse_rad = a.reverse_rad;
-  step_scale_[0] = step_scale_[1] = 1.0;
+  steps_model_.use(a.forward_rad, a.reverse_rad);
   f_.store(a.f);
   return true;
 }
@@ -415,7 +366,7 @@ void MoveController::decide(double t, double error) {
   // against hysteresis and backlash.
   const double side = approach_side();
   if (error * side < 0.0) {
-    start_step(t, error - side * predicted_step(side > 0.0 ? 1 : 0, 1.0));
+    start_step(t, error - side * steps_model_.predicted(side > 0.0 ? 1 : 0, 1.0));
     return;
   }
   // Forward, the fine stage raises the stator through most of its range;
@@ -428,43 +379,24 @@ void MoveController::decide(double t, double error) {
   }
 }
 
-double MoveController::predicted_step(int k, double fraction) const {
-  const auto& table = k == 0 ? s_.step_forward_rad : s_.step_reverse_rad;
-  const auto& at = MoveSettings::kStepFractions;
-  std::size_t i = 1;
-  while (i + 1 < at.size() && fraction > at[i]) ++i;
-  const double w = std::clamp((fraction - at[i - 1]) / (at[i] - at[i - 1]), 0.0, 1.0);
-  return step_scale_[k] * ((1.0 - w) * table[i - 1] + w * table[i]);
-}
-
 void MoveController::learn_from_step() {
   // The step as measured against the step as predicted: the scale moves
   // most of the way (geometrically) toward what was seen. Steps lost in the
   // sensor's noise teach nothing.
-  const double measured = (theta_f_ - theta_before_) * direction_;
-  if (predicted_ < 4.0 * s_.tolerance_rad || measured <= 0.0) return;
-  step_scale_[direction_ > 0 ? 0 : 1] *=
-      std::pow(std::clamp(measured / predicted_, 0.25, 4.0), 0.7);
+  steps_model_.learn(direction_ > 0 ? 0 : 1, (theta_f_ - theta_before_) * direction_, predicted_,
+                     4.0 * s_.tolerance_rad);
 }
 
 void MoveController::start_step(double t, double error) {
   const double direction = error > 0.0 ? 1.0 : -1.0;
-  if (state() != MoveState::coarse || direction != direction_ || run_steps_ < 0) {
+  if (state() != MoveState::coarse || direction != direction_ || !judge_.running()) {
     begin_run_of_steps();  // a new run of steps: progress is judged from here
   }
   direction_ = direction;
   wrong_way_ = direction * approach_side() < 0.0;
   const int k = error > 0.0 ? 0 : 1;
   // The amplitude whose predicted step is the distance left (at most V0).
-  double fraction = 1.0;
-  if (std::abs(error) < predicted_step(k, 1.0)) {
-    fraction = kMinStepFraction;
-    for (double lo = kMinStepFraction, hi = 1.0; hi - lo > 1e-3;) {
-      const double mid = 0.5 * (lo + hi);
-      (predicted_step(k, mid) < std::abs(error) ? lo : hi) = mid;
-      fraction = lo;
-    }
-  }
+  double fraction = steps_model_.fraction_for(k, std::abs(error));
   if (error > 0.0) {
     // Forward, the rotor rides the slow rise (rad_per_V per volt) before
     // the fast fall slips the stator back under it: a step's peak stays
@@ -472,7 +404,7 @@ void MoveController::start_step(double t, double error) {
     fraction = std::clamp(error / (s_.rad_per_V * s_.V0), kMinStepFraction, fraction);
   }
   amplitude_ = fraction * s_.V0;
-  predicted_ = predicted_step(k, fraction);
+  predicted_ = steps_model_.predicted(k, fraction);
   rise_ = error > 0.0 ? s_.D : 1.0 - s_.D;
   step_start_ = t;
   theta_before_ = theta_f_;
@@ -482,7 +414,7 @@ void MoveController::start_step(double t, double error) {
 }
 
 void MoveController::enter_fine(double error) {
-  run_steps_ = -1;
+  judge_.end_run();
   wrong_way_ = false;  // the fine stage moves the approach's way
   const double side = approach_side();
   // The approach side decides the fine stage's direction; the aim offset

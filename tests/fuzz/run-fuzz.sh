@@ -32,7 +32,7 @@ case "$target" in
     libs=(-lfmt) ;;
   config)
     sources=("$src"/firmware/config/{section_reader,model_config,rig_config,modbus_config}.cpp
-             "$src"/firmware/src/request_limits.cpp
+             "$src"/firmware/src/{request_limits,move_request}.cpp
              "$src"/hal/modbus/src/register_map.cpp "$src"/model/src/{parameters,waveform}.cpp)
     flags=(-I"$src/firmware/config" -I"$src/firmware/config/error" -I"$src/firmware/include" "${hal_includes[@]}"
            -I"$src/model/include" -I/usr/include/eigen3 $(pkg-config --cflags libmodbus))

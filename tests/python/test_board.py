@@ -375,3 +375,13 @@ def test_a_refused_move_prints_one_json_object_and_keeps_its_config(board, board
                           "--tolerance", "-1", "--out", str(tmp_path / "bad")],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and json.loads(bad.stdout)["code"] == "bad_input", bad.stdout
+
+
+def test_addresses_follow_the_transport_rule():
+    """The stream's address as docs/protocol.md's "Transport" gives it, and
+    an address piezo refuses refused at once."""
+    from piezo_rig.board import stream_address
+    assert stream_address("tcp://127.0.0.1:5555") == "tcp://127.0.0.1:5556"
+    assert stream_address("ipc:///run/piezod") == "ipc:///run/piezod-stream"
+    with pytest.raises(ValueError, match="allowed tcp://HOST:PORT"):
+        Board("udp://127.0.0.1:5555")

@@ -86,9 +86,8 @@ TEST(SimRun, AFullRunMatchesTheModel) {
   EXPECT_GE(o.summary.sensor.samples, 4'800u);
   EXPECT_EQ(o.summary.drive.dropped + o.summary.sensor.dropped, 0u);
   EXPECT_EQ(o.summary.drive.overruns, 0u);
-  // 4.8 s is 48 whole periods: the deadline at 4.8 s is the period's 0 V
-  // and the stop itself, with no ramp (so one record per deadline).
-  EXPECT_EQ(o.drive_t.size(), o.summary.drive.samples);
+  EXPECT_EQ(o.drive_t.size(), o.summary.drive.samples + 1);  // + the final "stopped" record
+  // 4.8 s is 48 whole periods: the stop is the period's 0 V at 4.8 s, no ramp.
   EXPECT_NEAR(o.drive_t.back(), 4.8, 1e-9);
   EXPECT_EQ(o.sensor_t.size(), o.summary.sensor.samples);
   EXPECT_DOUBLE_EQ(o.drive_t.front(), 0.0);

@@ -45,12 +45,16 @@ EXPECTED_ENDS = ("completed", "interrupted")
 
 
 def stream_address(address: str) -> str:
-    """The stream's address for a command address: TCP port + 1, else the
-    address with ``-stream`` appended."""
+    """The stream's address for a command address (docs/protocol.md,
+    "Transport"): TCP port + 1; ``ipc://`` and ``inproc://`` with
+    ``-stream`` appended; anything else is refused (ValueError), as
+    piezo refuses it."""
     if address.startswith("tcp://"):
         host, port = address.rsplit(":", 1)
         return f"{host}:{int(port) + 1}"
-    return address + "-stream"
+    if address.startswith(("ipc://", "inproc://")):
+        return address + "-stream"
+    raise ValueError(f"address {address!r}: allowed tcp://HOST:PORT, ipc://PATH, inproc://NAME")
 
 
 def _read_key(path: str, entry: str) -> bytes:
@@ -100,6 +104,7 @@ class Board:
         if keys is None and not address.startswith(LOOPBACK) and address.startswith("tcp://"):
             raise ValueError(f"{address}: a network address needs CURVE keys "
                              "(keys=(server_public_key_file, client_secret_key_file))")
+        stream_address(address)  # an address piezo would refuse is refused here, at once
         self.address, self.timeout, self.stream_queue = address, timeout, stream_queue
         self.silence_s = silence_s
         self._context = zmq.Context()

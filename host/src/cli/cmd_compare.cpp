@@ -59,11 +59,14 @@ void write_overlay(const std::string& dir, const model::FitData& data,
 
 int run(const CompareOptions& o) {
   const LoadedRun run = load_run_for_fit(o.log, o.layout);
-  const auto lugre = model::identify(
-      run.parameters, run.data, cli_fit_settings(model::default_free_parameters(model::FrictionModel::lugre), model::FrictionModel::lugre, "lugre"));
-  const auto coulomb =
+  const auto lugre =
       model::identify(run.parameters, run.data,
-                      cli_fit_settings(model::default_free_parameters(model::FrictionModel::coulomb), model::FrictionModel::coulomb, "coulomb"));
+                      cli_fit_settings(model::default_free_parameters(model::FrictionModel::lugre),
+                                       model::FrictionModel::lugre, "lugre"));
+  const auto coulomb = model::identify(
+      run.parameters, run.data,
+      cli_fit_settings(model::default_free_parameters(model::FrictionModel::coulomb),
+                       model::FrictionModel::coulomb, "coulomb"));
   // How many times smaller the LuGre model's error is (Table III: 2.362 / 0.358 = 6.6).
   const double improvement = coulomb.rmse_rad / lugre.rmse_rad;
   if (!o.out.empty()) write_overlay(o.out, run.data, lugre, coulomb);

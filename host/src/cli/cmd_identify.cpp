@@ -29,13 +29,13 @@ int run(const IdentifyOptions& o) {
   if (!friction) throw config::ConfigError("--model", o.model, "allowed: lugre, coulomb");
   LoadedRun run = load_run_for_fit(o.log, o.layout);
   if (!o.config.empty()) run.parameters = config::load_model_config(o.config);
-  const model::FitResult r =
-      model::identify(run.parameters, run.data,
-                      cli_fit_settings(checked_free_parameters(
-                                           o.params.empty() ? std::nullopt
-                                                            : std::optional(parse_parameter_list(o.params)),
-                                           *friction, "identify", "--params"),
-                                       *friction, "identify"));
+  const model::FitResult r = model::identify(
+      run.parameters, run.data,
+      cli_fit_settings(
+          checked_free_parameters(
+              o.params.empty() ? std::nullopt : std::optional(parse_parameter_list(o.params)),
+              *friction, "identify", "--params"),
+          *friction, "identify"));
 
   if (!o.out.empty()) {
     write_parameters_toml(o.out, r.parameters,

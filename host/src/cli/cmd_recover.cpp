@@ -15,6 +15,7 @@
 
 #include "commands.hpp"
 #include "config_error.hpp"
+#include "log_schema.hpp"
 #include "piezo/protocol/error.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "rig_config.hpp"
@@ -76,9 +77,10 @@ int recover_spill(const RecoverOptions& o) {
   const std::string log_path = (fs::path(o.run_dir) / "run.h5").string();
   RunLog log = RunLog::create(
       log_path,
-      {{"recovered_from", fmt::format("piezod spill file {}: {} frames", o.spill, frames)},
-       {"time_origin", "seconds from the first drive sample in the spill file"},
-       {"theta", fmt::format("(displacement - first good displacement) / {} m", r2)}});
+      {{log_schema::kRecoveredFrom,
+        fmt::format("piezod spill file {}: {} frames", o.spill, frames)},
+       {log_schema::kTimeOrigin, "seconds from the first drive sample in the spill file"},
+       {log_schema::kTheta, fmt::format("(displacement - first good displacement) / {} m", r2)}});
   log.append(collector.rows());
   log.close("recovered");
   if (o.json) {

@@ -278,10 +278,11 @@ void finish_log(RunLog& log, RunSummary& summary, const nlohmann::json& result) 
   try {
     log.write(log_schema::kDrivePeriodErrorUs, summary.drive.histogram);
     log.write(log_schema::kAcquirePeriodErrorUs, summary.sensor.histogram);
-    log.set_attribute("summary", result.dump());
-    log.set_attribute("realtime", fmt::format("{}", fmt::join(summary.realtime_notes, "; ")));
-    log.set_attribute("stop_cause", summary.stop_cause());
-    log.set_attribute("output", summary.output_state());
+    log.set_attribute(log_schema::kSummary, result.dump());
+    log.set_attribute(log_schema::kRealtime,
+                      fmt::format("{}", fmt::join(summary.realtime_notes, "; ")));
+    log.set_attribute(log_schema::kStopCause, summary.stop_cause());
+    log.set_attribute(log_schema::kOutput, summary.output_state());
     log.close(summary.status());
   } catch (const std::exception& e) {
     if (summary.host_error.empty()) summary.host_error = e.what();
@@ -484,20 +485,23 @@ RunLog create_log(const fs::path& dir, const config::RigConfig& config, const Bo
   const bool remote = board.client.has_value();
   RunLog log = RunLog::create(
       (dir / "run.h5").string(),
-      {{"config", config.text},
-       {"config_source", config.source},
+      {{log_schema::kConfig, config.text},
+       {log_schema::kConfigSource, config.source},
        {log_schema::kModelParameters, to_json(config.model).dump()},
-       {"plant_parameters", to_json(model::Parameters{config.model.drive, config.plant}).dump()},
-       {"version", PIEZO_VERSION},
-       {"utc_start", utc_start},
-       {"host", host_name()},
-       {"clock", remote ? board.hello.clock : std::string(name(config.run.clock))},
+       {log_schema::kPlantParameters,
+        to_json(model::Parameters{config.model.drive, config.plant}).dump()},
+       {log_schema::kVersion, PIEZO_VERSION},
+       {log_schema::kUtcStart, utc_start},
+       {log_schema::kHost, host_name()},
+       {log_schema::kClock, remote ? board.hello.clock : std::string(name(config.run.clock))},
        {log_schema::kDriveLatency, fmt::format("{:.9g}", board.drive_latency_s)},
-       {"time_origin", "seconds from the run's start (first drive deadline)"},
-       {"theta", fmt::format("(displacement - first good displacement) / sensor.r2_m, "
-                             "r2_m = {:.9g} m{}",
-                             config.sensor.r2_m, remote ? " (the board's, from its hello)" : "")}});
-  if (!board.geometry_note.empty()) log.set_attribute("sensor_geometry_note", board.geometry_note);
+       {log_schema::kTimeOrigin, "seconds from the run's start (first drive deadline)"},
+       {log_schema::kTheta,
+        fmt::format("(displacement - first good displacement) / sensor.r2_m, "
+                    "r2_m = {:.9g} m{}",
+                    config.sensor.r2_m, remote ? " (the board's, from its hello)" : "")}});
+  if (!board.geometry_note.empty())
+    log.set_attribute(log_schema::kSensorGeometryNote, board.geometry_note);
   return log;
 }
 
@@ -539,8 +543,8 @@ RunSummary drive(Board& board, const config::RigConfig& config, RunLog& log,
   } catch (const std::exception& e) {
     if (!log.broken()) {
       try {
-        log.set_attribute("stop_cause", "host_error");
-        log.set_attribute("error", e.what());
+        log.set_attribute(log_schema::kStopCause, "host_error");
+        log.set_attribute(log_schema::kError, e.what());
         log.close("failed");
       } catch (const std::exception&) {
         log.abandon();

@@ -239,7 +239,9 @@ void print_table(const json& result) {
 
 }  // namespace
 
-std::size_t default_samples(const std::string& method) { return method == "sobol" ? 1024 : 20; }
+std::size_t default_samples(const std::string& method) {
+  return method == "sobol" ? 1024 : 20;
+}
 
 json global_study(const model::Parameters& base, const GlobalStudyOptions& o) {
   const auto& n = o.names;
@@ -250,8 +252,7 @@ json global_study(const model::Parameters& base, const GlobalStudyOptions& o) {
     throw config::ConfigError(n.output, o.output, "allowed: velocity, step, backslip");
   }
   if (!(o.runtime_s > 0.0 && o.runtime_s <= 3600.0)) {
-    throw config::ConfigError(n.runtime, fmt::format("{:g}", o.runtime_s),
-                              "allowed: (0, 3600] s");
+    throw config::ConfigError(n.runtime, fmt::format("{:g}", o.runtime_s), "allowed: (0, 3600] s");
   }
   if (o.method == "sobol" && o.samples < 8) {
     throw config::ConfigError(n.samples, std::to_string(o.samples), "allowed: >= 8 for sobol");

@@ -3,9 +3,8 @@
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "board_client.hpp"
 #include "commands.hpp"
@@ -51,14 +50,14 @@ int main(int argc, char** argv) {
                        std::string("piezo ") + PIEZO_VERSION + " (" + PIEZO_BUILD_INFO + ")");
   app.require_subcommand(1);
   const std::vector<piezo::host::CommandRunner> commands{
-      piezo::host::add_simulate_command(app), piezo::host::add_sensitivity_command(app),
-      piezo::host::add_sweep_command(app),    piezo::host::add_run_command(app),
-      piezo::host::add_step_command(app),     piezo::host::add_move_command(app),
-      piezo::host::add_calibrate_command(app),
-      piezo::host::add_view_command(app),     piezo::host::add_report_command(app),
-      piezo::host::add_recover_command(app),  piezo::host::add_sensor_command(app),
-      piezo::host::add_rig_sim_command(app),  piezo::host::add_identify_command(app),
-      piezo::host::add_compare_command(app),  piezo::host::add_board_commands(app),
+      piezo::host::add_simulate_command(app),  piezo::host::add_sensitivity_command(app),
+      piezo::host::add_sweep_command(app),     piezo::host::add_run_command(app),
+      piezo::host::add_step_command(app),      piezo::host::add_move_command(app),
+      piezo::host::add_calibrate_command(app), piezo::host::add_view_command(app),
+      piezo::host::add_report_command(app),    piezo::host::add_recover_command(app),
+      piezo::host::add_sensor_command(app),    piezo::host::add_rig_sim_command(app),
+      piezo::host::add_identify_command(app),  piezo::host::add_compare_command(app),
+      piezo::host::add_board_commands(app),
   };
   try {
     app.parse(argc, argv);

@@ -174,9 +174,9 @@ void check_run_arrays(const std::vector<double>& drive_t, const std::vector<doub
                       const std::string& source) {
   const auto same_length = [&](const char* a, std::size_t na, const char* b, std::size_t nb) {
     if (na != nb) {
-      throw config::ConfigError(source, b,
-                                fmt::format("{} values against {} of {} (allowed: one {} per {})",
-                                            nb, na, a, b, a));
+      throw config::ConfigError(
+          source, b,
+          fmt::format("{} values against {} of {} (allowed: one {} per {})", nb, na, a, b, a));
     }
   };
   same_length("drive_t", drive_t.size(), "drive_V", drive_V.size());
@@ -187,10 +187,9 @@ void check_run_arrays(const std::vector<double>& drive_t, const std::vector<doub
   }
   for (std::size_t i = 0; i < drive_t.size(); ++i) {
     if (!std::isfinite(drive_t[i]) || !std::isfinite(drive_V[i])) {
-      throw config::ConfigError(
-          source, std::isfinite(drive_t[i]) ? "drive_V" : "drive_t",
-          fmt::format("sample {} is {} (allowed: finite numbers)", i,
-                      std::isfinite(drive_t[i]) ? drive_V[i] : drive_t[i]));
+      throw config::ConfigError(source, std::isfinite(drive_t[i]) ? "drive_V" : "drive_t",
+                                fmt::format("sample {} is {} (allowed: finite numbers)", i,
+                                            std::isfinite(drive_t[i]) ? drive_V[i] : drive_t[i]));
     }
     if (i > 0 && drive_t[i] < drive_t[i - 1]) {
       throw config::ConfigError(source, "drive_t",
@@ -228,7 +227,8 @@ model::FitData checked_fit_data(const std::vector<double>& drive_t,
   add_drive(data, drive_t, drive_V);
   add_measurements(data, t, theta);
   if (data.drive_t.size() < 2) {
-    throw config::ConfigError(source, "drive_t", "fewer than two distinct times (allowed: two or more)");
+    throw config::ConfigError(source, "drive_t",
+                              "fewer than two distinct times (allowed: two or more)");
   }
   if (data.t.empty()) {
     throw config::ConfigError(source, "theta",
@@ -248,26 +248,29 @@ std::vector<std::string> checked_free_parameters(
   if (!free) return model::default_free_parameters(friction);
   const std::string model_name(model::to_string(friction));
   if (free->empty()) {
-    throw config::ConfigError(source, key,
-                              "no parameter named (allowed: one or more the " + model_name +
-                                  " model uses, e.g. its defaults " +
-                                  fmt::format("{}", fmt::join(model::default_free_parameters(
-                                                                  friction), ", ")) + ")");
+    throw config::ConfigError(
+        source, key,
+        "no parameter named (allowed: one or more the " + model_name +
+            " model uses, e.g. its defaults " +
+            fmt::format("{}", fmt::join(model::default_free_parameters(friction), ", ")) + ")");
   }
   for (std::size_t i = 0; i < free->size(); ++i) {
     const std::string& name = (*free)[i];
     if (model::find_parameter(name) == nullptr) {
       std::string allowed;
       for (const auto& s : model::parameter_specs()) {
-        if (model::model_uses(friction, s.name)) allowed += (allowed.empty() ? "" : ", ") + std::string(s.name);
+        if (model::model_uses(friction, s.name))
+          allowed += (allowed.empty() ? "" : ", ") + std::string(s.name);
       }
-      throw config::ConfigError(source, key, name + ": unknown parameter (allowed: " + allowed + ")");
+      throw config::ConfigError(source, key,
+                                name + ": unknown parameter (allowed: " + allowed + ")");
     }
     if (!model::model_uses(friction, name)) {
-      throw config::ConfigError(source, key,
-                                name + ": the " + model_name +
-                                    " model does not use it (no bristles: sigma0, sigma1 and "
-                                    "sigma2 are LuGre's); fit F_N, d_e or other parameters it uses");
+      throw config::ConfigError(
+          source, key,
+          name + ": the " + model_name +
+              " model does not use it (no bristles: sigma0, sigma1 and "
+              "sigma2 are LuGre's); fit F_N, d_e or other parameters it uses");
     }
     for (std::size_t j = 0; j < i; ++j) {
       if ((*free)[j] == name) throw config::ConfigError(source, key, name + ": named twice");

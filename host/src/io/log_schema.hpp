@@ -125,9 +125,35 @@ void for_each_column(LogRows& rows, F&& f) {
 inline constexpr const char* kDrivePeriodErrorUs = "/timing/drive_period_error_us";
 inline constexpr const char* kAcquirePeriodErrorUs = "/timing/acquire_period_error_us";
 
-// Root attributes the readers use.
+// Root attributes, every one a writer sets (docs/run-logs.md says what
+// each holds); writers and readers name them by these, never by a string.
 inline constexpr const char* kStatus = "status";
 inline constexpr const char* kModelParameters = "model_parameters";
 inline constexpr const char* kDriveLatency = "drive_latency_s";
+inline constexpr const char* kConfig = "config";
+inline constexpr const char* kConfigSource = "config_source";
+inline constexpr const char* kPlantParameters = "plant_parameters";
+inline constexpr const char* kVersion = "version";
+inline constexpr const char* kUtcStart = "utc_start";
+inline constexpr const char* kHost = "host";
+inline constexpr const char* kClock = "clock";
+inline constexpr const char* kTimeOrigin = "time_origin";
+inline constexpr const char* kTheta = "theta";
+inline constexpr const char* kSensorGeometryNote = "sensor_geometry_note";
+inline constexpr const char* kSummary = "summary";
+inline constexpr const char* kRealtime = "realtime";
+inline constexpr const char* kStopCause = "stop_cause";
+inline constexpr const char* kOutput = "output";
+inline constexpr const char* kError = "error";
+inline constexpr const char* kObserverModel = "observer_model";
+inline constexpr const char* kLinkOutages = "link_outages";
+inline constexpr const char* kStreamGapsFetched = "stream_gaps_fetched";
+inline constexpr const char* kBoardClockOffset = "board_clock_offset_ns";
+inline constexpr const char* kBoardClockRoundTrip = "board_clock_round_trip_ns";
+inline constexpr const char* kBoardT0 = "board_t0_ns";
+inline constexpr const char* kRig = "rig";
+inline constexpr const char* kThetaZero = "theta_zero_m";
+inline constexpr const char* kBoardEvents = "board_events";
+inline constexpr const char* kRecoveredFrom = "recovered_from";
 
 }  // namespace piezo::host::log_schema

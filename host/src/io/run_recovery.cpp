@@ -162,7 +162,7 @@ std::size_t merge_group(const LogCopy& log, const Rows& journal, bool same_run, 
 /// cannot tell: the last rows of a killed log are the ones likely to read
 /// back as fill values.)
 bool same_run(const LogCopy& log, const JournalContents& journal) {
-  for (const char* key : {"utc_start", "host", "config"}) {
+  for (const char* key : {log_schema::kUtcStart, log_schema::kHost, log_schema::kConfig}) {
     const auto in_log = log.attributes.find(key);
     const auto in_journal = journal.header.find(key);
     if (in_log != log.attributes.end() && in_journal != journal.header.end() &&
@@ -213,10 +213,10 @@ void add_to_catalogue(const fs::path& dir, const std::map<std::string, std::stri
     const auto it = attributes.find(key);
     return it == attributes.end() ? std::string() : it->second;
   };
-  append_to_catalogue(dir, {.utc_start = get("utc_start"),
+  append_to_catalogue(dir, {.utc_start = get(log_schema::kUtcStart),
                             .status = "recovered",
                             .stop_cause = "unknown",
-                            .config = get("config_source"),
+                            .config = get(log_schema::kConfigSource),
                             .t_end_s = last_finite(rows.drive.t),
                             .theta_end_rad = last_finite(rows.sensor.theta)});
 }

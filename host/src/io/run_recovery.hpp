@@ -19,9 +19,9 @@ struct Recovery {
   bool rebuilt = false;  ///< false: run.h5 was already whole
   std::string status;    ///< run.h5's status afterwards
   std::size_t drive_rows = 0, sensor_rows = 0, observer_rows = 0;  ///< kept
-  std::size_t blocks = 0;         ///< the journal's whole blocks
-  std::uintmax_t torn_bytes = 0;  ///< the journal's torn tail
-  std::string damaged;            ///< where the replaced run.h5 was kept, if any
+  std::size_t blocks = 0;                                          ///< the journal's whole blocks
+  std::uintmax_t torn_bytes = 0;                                   ///< the journal's torn tail
+  std::string damaged;  ///< where the replaced run.h5 was kept, if any
   /// What was found and could not be kept, one sentence each: a group that
   /// kept fewer rows than a copy claimed, or values lost in a damaged chunk.
   std::vector<std::string> losses;

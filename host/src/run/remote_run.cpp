@@ -8,6 +8,7 @@
 #include <zmq_addon.hpp>
 
 #include "config_error.hpp"
+#include "log_schema.hpp"
 #include "log_writer.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "piezo/protocol/message.hpp"
@@ -85,7 +86,7 @@ model::MotorParameters observer_model(const config::RigConfig& c, const protocol
     used.push_back(fmt::format("{} = {:.6g}", name, value.get<double>()));
   }
   if (!used.empty()) {
-    log.set_attribute("observer_model",
+    log.set_attribute(log_schema::kObserverModel,
                       fmt::format("the board's calibration of {}: {}",
                                   cal.value("created", std::string("?")), fmt::join(used, ", ")));
   }
@@ -367,7 +368,7 @@ RunSummary FollowedRun::finish(const std::optional<protocol::RunSummary>& end) {
   if (!std::isnan(quiet_since_s_) || !end) {
     outages_.push_back(fmt::format("[{:.3f}, end of run]", quiet_since_s_));
   }
-  log_.set_attribute("link_outages",
+  log_.set_attribute(log_schema::kLinkOutages,
                      outages_.empty() ? "none" : fmt::format("{}", fmt::join(outages_, "; ")));
   RunSummary& summary = summary_;
   summary.theta_end_rad = collector_.last_theta();
@@ -382,7 +383,7 @@ RunSummary FollowedRun::finish(const std::optional<protocol::RunSummary>& end) {
     return summary;
   }
   const auto& gaps = follower_.gaps();
-  log_.set_attribute("stream_gaps_fetched",
+  log_.set_attribute(log_schema::kStreamGapsFetched,
                      gaps.empty() ? "none" : fmt::format("{}", fmt::join(gaps, "; ")));
   const protocol::RunSummary& board = *end;
   summary.cause = stop_cause_from(board.cause);
@@ -429,8 +430,8 @@ RunSummary execute_remote_run(const config::RigConfig& c, BoardClient& client,
     return summary;
   }
   const ClockMapping clock = estimate_clock_offset(client);
-  log.set_attribute("board_clock_offset_ns", std::to_string(clock.offset_ns));
-  log.set_attribute("board_clock_round_trip_ns", std::to_string(clock.round_trip_ns));
+  log.set_attribute(log_schema::kBoardClockOffset, std::to_string(clock.offset_ns));
+  log.set_attribute(log_schema::kBoardClockRoundTrip, std::to_string(clock.round_trip_ns));
   std::optional<ObserverStage> observer;
   if (c.observer.enabled) {
     observer.emplace(observer_model(c, hello, log), c.observer.gains, 1.0 / hello.drive_rate_hz,
@@ -438,12 +439,11 @@ RunSummary execute_remote_run(const config::RigConfig& c, BoardClient& client,
   }
   // Subscribed before the start, so that the run's first samples come.
   StreamFollower::subscribe(client);
-  std::this_thread::sleep_for(100ms);  // let the subscription reach the board first
   const json started = start_remote(c, client, lease);
-  log.set_attribute("board_t0_ns", std::to_string(started.at("t0_ns").get<hal::TimeNs>()));
-  log.set_attribute("rig", client.address());
+  log.set_attribute(log_schema::kBoardT0, std::to_string(started.at("t0_ns").get<hal::TimeNs>()));
+  log.set_attribute(log_schema::kRig, client.address());
   if (const json zero = started.value("zero_displacement_m", json()); zero.is_number()) {
-    log.set_attribute("theta_zero_m",
+    log.set_attribute(log_schema::kThetaZero,
                       fmt::format("{:.12g} (the board's zero)", zero.get<double>()));
   }
   FollowedRun run(c, client, hello, log, started, clock, observer ? &*observer : nullptr);

@@ -2,6 +2,7 @@
 
 #include "board_client.hpp"
 #include "local_board.hpp"
+#include "log_schema.hpp"
 #include "remote_run.hpp"
 
 namespace piezo::host {
@@ -64,7 +65,7 @@ RunSummary execute_run(const config::RigConfig& c, config::Rig rig, RunLog& log,
   }
   board.stop();
   try {
-    log.set_attribute("board_events", board.events());
+    log.set_attribute(log_schema::kBoardEvents, board.events());
   } catch (const std::exception&) {
     // a log that failed already says why in the summary
   }

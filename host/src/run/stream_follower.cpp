@@ -16,6 +16,19 @@ constexpr std::uint64_t kFetchChunk = 50'000;
 
 void StreamFollower::subscribe(BoardClient& client) {
   client.subscribe({"drive", "sensor", "state", "health"});
+  // A PUB socket drops what it publishes before a subscription reaches it:
+  // wait for the board's health beat (every 250 ms), which shows the link
+  // is up, for at most 2 s (as piezo_rig.board does).
+  const auto deadline = SteadyClock::now() + std::chrono::seconds(2);
+  while (SteadyClock::now() < deadline) {
+    if (!poll_in(client.stream(), std::chrono::milliseconds(100))) continue;
+    std::vector<zmq::message_t> parts;
+    if (zmq::recv_multipart(client.stream(), std::back_inserter(parts),
+                            zmq::recv_flags::dontwait) &&
+        !parts.empty() && parts[0].to_string_view() == "health") {
+      return;
+    }
+  }
 }
 
 void StreamFollower::follow(SampleCollector& collector, std::function<double()> received_s,

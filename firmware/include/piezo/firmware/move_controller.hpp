@@ -46,6 +46,9 @@
 #include "piezo/firmware/drive_program.hpp"
 #include "piezo/firmware/move_request.hpp"
 #include "piezo/firmware/position_feed.hpp"
+#include "piezo/firmware/progress_judge.hpp"
+#include "piezo/firmware/settle_mean.hpp"
+#include "piezo/firmware/step_model.hpp"
 #include "piezo/name_table.hpp"
 
 namespace piezo::firmware {
@@ -86,9 +89,8 @@ struct MoveSettings : MoveRequest {
   double f = 10.0;             ///< coarse step frequency [Hz]
   double D = 0.74955;          ///< forward rise fraction (reverse: 1 - D)
   double rad_per_V = 31.4e-6;  ///< fine: angle per volt in stick, d_e / r
-  /// Amplitudes (fractions of V0) at which the step is predicted. Below
-  /// about half of V0 the motor hardly steps: that is the fine stage's range.
-  static constexpr std::array<double, 6> kStepFractions{0.5, 0.6, 0.7, 0.8, 0.9, 1.0};
+  /// Amplitudes (fractions of V0) at which the step is predicted (step_model.hpp).
+  static constexpr auto kStepFractions = firmware::kStepFractions;
   /// The predicted step at each of kStepFractions (magnitudes, rad), from
   /// the model or a fitted config; the controller scales them by what it
   /// measures.
@@ -113,6 +115,9 @@ struct MoveSettings : MoveRequest {
   /// motion of this rotor.
   double implausible_step_factor = 6.0;
 };
+
+static_assert(kMaxStallSteps == ProgressJudge::kMaxUnits,
+              "a move's stall_steps are the progress judge's units");
 
 class MoveController final : public DriveProgram {
  public:
@@ -148,27 +153,24 @@ class MoveController final : public DriveProgram {
   [[nodiscard]] double hold_max_error_rad() const { return hold_max_.load(); }
 
  private:
-  static constexpr int kFilter = 8;          ///< readings averaged: noise / sqrt(8)
+  static constexpr int kFilter = ReadingWindow::kSize;  ///< readings averaged
   static constexpr int kFlush = 10;          ///< readings skipped after the rotor was moved
   static constexpr int kHold = 20;           ///< readings within tolerance/2 before the release
   static constexpr int kNoiseReadings = 16;  ///< at rest, before the first step
-  static constexpr int kSettleMax = 256;     ///< readings a settle's mean may take
   static constexpr double kFineGain = 0.1;   ///< integral gain per reading
 
   void on_reading(double t, double displacement_m);
   void decide(double t, double error);
   void start_step(double t, double error);
   void learn_from_step();
-  /// The predicted step [rad, magnitude] at `fraction` of V0 in direction k (0 fwd, 1 rev).
-  [[nodiscard]] double predicted_step(int k, double fraction) const;
   void enter_fine(double error);
   /// At each coarse step's end: progress and plausibility (see protection).
   void check_progress();
   void begin_run_of_steps();
-  /// Progress below this is none [rad]: what the averaged readings' noise allows.
-  [[nodiscard]] double progress_floor() const;
+  /// The progress judge's floors for the current step.
+  [[nodiscard]] ProgressFloors floors() const;
   /// Readings whose mean settles: enough that twice its standard deviation
-  /// is at most a quarter of the tolerance (kFilter..kSettleMax).
+  /// is at most a quarter of the tolerance (kFilter..SettleMean::kMax).
   [[nodiscard]] int settle_readings() const;
   void settle(double t, double displacement_m);
   void set_state(MoveState s) { state_.store(s, std::memory_order_relaxed); }
@@ -184,8 +186,7 @@ class MoveController final : public DriveProgram {
   MoveSettings s_;
   const PositionFeed& feed_;
   std::uint64_t seen_ = 0;
-  std::array<double, kFilter> window_{};
-  int filled_ = 0, next_slot_ = 0;
+  ReadingWindow window_;
   double theta_f_ = 0.0;
   int flush_ = 0;
   double V_ = 0.0;
@@ -193,7 +194,7 @@ class MoveController final : public DriveProgram {
   bool in_step_ = false, step_done_ = false;
   double step_start_ = 0.0, amplitude_ = 0.0, rise_ = 0.0, direction_ = 1.0;
   double predicted_ = 0.0, theta_before_ = 0.0;
-  double step_scale_[2] = {1.0, 1.0};  ///< measured over predicted: [0] forward, [1] reverse
+  StepModel steps_model_;  ///< the step tables in use, scaled by the measured steps
   // fine
   double V_set_ = 0.0, aim_offset_ = 0.0;
   bool lifting_ = false;
@@ -202,21 +203,13 @@ class MoveController final : public DriveProgram {
   bool wrong_way_ = false;  ///< the last motion went against the approach side
   // settle
   double within_since_ = -1.0;
-  std::array<double, kSettleMax + 1> settle_ring_{};  ///< one more: the one leaving the mean
-  int settle_count_ = 0, settle_next_ = 0, settle_n_ = kFilter;
-  double settle_sum_ = 0.0;
-  // protection: the noise at rest, and per coarse step of the current run of
-  // steps in one direction the angle and the count of changed readings
+  SettleMean settle_;
+  // protection: the noise at rest, the judge of the current run of steps
+  // in one direction, and the raw angle's extremes during the step
   double noise_sum_ = 0.0, noise_sum2_ = 0.0;
   int noise_n_ = 0;
-  double last_raw_ = 0.0;
-  std::uint64_t changes_ = 0;
-  std::array<double, kMaxStallSteps + 1> step_theta_{};
-  std::array<std::uint64_t, kMaxStallSteps + 1> step_changes_{};
-  /// The lowest and highest averaged angle during each step.
-  std::array<std::array<double, 2>, kMaxStallSteps + 1> step_span_{};
+  ProgressJudge judge_;
   double step_low_ = 0.0, step_high_ = 0.0;
-  int run_steps_ = -1;  ///< steps in the current run (-1: none begun)
   int next_alternative_ = 0;
   // active hold
   bool held_ = false;

@@ -12,6 +12,7 @@
 #include <limits>
 #include <string_view>
 
+#include "piezo/firmware/angle_zero.hpp"
 #include "piezo/firmware/position_feed.hpp"
 #include "piezo/firmware/sensor_health.hpp"
 #include "piezo/hal/digital_lines.hpp"
@@ -118,13 +119,13 @@ class SafetySupervisor {
     if (program_fault_ == StopCause::none) program_fault_ = c;
   }
 
-  /// Watches the travel window on the readings of `feed`: the angle is
-  /// (d - zero_m) / r2_m, and a NaN zero takes the first reading's. Three
+  /// Watches the travel window on the readings of `feed`: the angle from
+  /// the zero (AngleZero's rule: a NaN zero takes the first reading). Three
   /// readings in a row outside the window stop the run (one wild reading
   /// does not).
   void set_travel_feed(const PositionFeed* feed, double zero_m, double r2_m) {
     feed_ = feed;
-    travel_zero_m_ = zero_m;
+    travel_zero_ = AngleZero(zero_m);
     r2_m_ = r2_m;
     seen_ = feed != nullptr ? feed->count() : 0;
   }
@@ -170,8 +171,8 @@ class SafetySupervisor {
     if (feed_ == nullptr || feed_->count() == seen_) return;
     seen_ = feed_->count();
     const double d = feed_->displacement_m();
-    if (std::isnan(travel_zero_m_)) travel_zero_m_ = d;
-    const double theta = (d - travel_zero_m_) / r2_m_;
+    travel_zero_.offer(d);
+    const double theta = travel_zero_.angle_rad(d, r2_m_);
     const bool inside = theta >= settings_.travel_min_rad && theta <= settings_.travel_max_rad;
     outside_ = inside ? 0 : outside_ + 1;
   }
@@ -186,7 +187,8 @@ class SafetySupervisor {
   StopCause program_fault_ = StopCause::none;
   const PositionFeed* feed_ = nullptr;  ///< readings for the travel window (null: none)
   std::uint64_t seen_ = 0;
-  double travel_zero_m_ = 0.0, r2_m_ = 1.0;
+  AngleZero travel_zero_{0.0};
+  double r2_m_ = 1.0;
   int outside_ = 0;  ///< readings in a row outside the travel window
   StopCause cause_ = StopCause::none;
   std::uint32_t drive_errors_ = 0;

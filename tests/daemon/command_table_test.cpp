@@ -1,0 +1,91 @@
+// piezod's command table without sockets: what dispatch refuses before a
+// handler runs (an unknown command, an argument the command does not take,
+// a caller the command does not admit during another client's run), and
+// that it hands everything else to the handler as sent.
+
+#include "command_table.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "piezo/protocol/error.hpp"
+
+namespace piezo::daemon {
+namespace {
+
+using nlohmann::json;
+
+struct Table {
+  int handled = 0;
+  json last_args;
+  CommandTable table{{
+      {"watch",
+       Caller::anyone,
+       {},
+       [this](const std::string&, const json& a) {
+         ++handled;
+         last_args = a;
+         return json("watched");
+       }},
+      {"change",
+       Caller::controller,
+       {"V0", "lease_s"},
+       [this](const std::string&, const json& a) {
+         ++handled;
+         last_args = a;
+         return json("changed");
+       }},
+  }};
+};
+
+/// "code key" of the ProtocolError `f` throws, or "" when it throws none.
+template <class F>
+std::string refusal(F&& f) {
+  try {
+    f();
+  } catch (const protocol::ProtocolError& e) {
+    return e.code() + " " + e.key();
+  }
+  return "";
+}
+
+TEST(CommandTable, AnUnknownCommandIsRefusedListingThemAll) {
+  Table t;
+  RunState s;
+  try {
+    (void)t.table.dispatch("a", "chnage", json::object(), s);
+    FAIL() << "accepted";
+  } catch (const protocol::ProtocolError& e) {
+    EXPECT_EQ(e.code(), "unknown_command");
+    EXPECT_EQ(e.key(), "cmd");
+    EXPECT_NE(std::string(e.what()).find("allowed: watch, change"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(t.handled, 0);
+}
+
+TEST(CommandTable, AnArgumentTheCommandDoesNotTakeIsRefusedBeforeTheHandler) {
+  Table t;
+  RunState s;
+  EXPECT_EQ(refusal([&] {
+              (void)t.table.dispatch("a", "change", {{"V_0", 1}}, s);
+            }),
+            "bad_argument V_0");
+  EXPECT_EQ(t.handled, 0);
+  EXPECT_EQ(t.table.dispatch("a", "change", {{"V0", 1}}, s), "changed");
+  EXPECT_EQ(t.last_args, json({{"V0", 1}}));
+}
+
+TEST(CommandTable, DuringAnotherClientsRunOnlyAnyonesCommandsAreServed) {
+  Table t;
+  RunState s;
+  s.started("a");
+  EXPECT_EQ(refusal([&] { (void)t.table.dispatch("b", "change", json::object(), s); }),
+            "not_controller ");
+  EXPECT_EQ(t.table.dispatch("b", "watch", json::object(), s), "watched");
+  EXPECT_EQ(t.table.dispatch("a", "change", json::object(), s), "changed");
+  EXPECT_EQ(t.handled, 2);
+}
+
+}  // namespace
+}  // namespace piezo::daemon
