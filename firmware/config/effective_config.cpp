@@ -17,7 +17,7 @@ std::string effective_config_toml(const RigConfig& c) {
   drive.insert("V_min", c.drive.limits.V_min);
   drive.insert("V_max", c.drive.limits.V_max);
   drive.insert("slew_V_per_s", c.drive.limits.slew_V_per_s);
-  const toml::table sensor{{"r2_m", c.sensor.r2_m}, {"rate_hz", c.sensor.rate_hz()}};
+  const toml::table sensor{{"r2_m", c.sensor.r2_m}, {"rate_hz", c.sensor.rate_hz}};
   const toml::table run{{"duration_s", c.run.duration_s},
                         {"clock", std::string(name(c.run.clock))}};
   const toml::table observer{{"enabled", c.observer.enabled},

@@ -1,6 +1,6 @@
 #pragma once
 // The rig a run talks to, built from the config's backend choices: the one
-// place where backends are chosen (each builds itself in hal/). Everything
+// place where the chosen backends (hal/registry) open their devices. Everything
 // is built and checked before the run directory is created or the
 // amplifier enabled.
 
@@ -21,12 +21,14 @@ struct Rig {
   /// The simulated rig when the backends are "sim"; shared so that a check
   /// can keep reading the device side after the run has taken the rig.
   std::shared_ptr<hal::sim::SimRig> sim;
-  std::unique_ptr<hal::Drive> own_drive;
-  std::unique_ptr<hal::DisplacementSensor> own_sensor;
-  std::unique_ptr<hal::DigitalLines> own_lines;
-  /// The sensor (simulated or owned) held to sensor.range_min_m/range_max_m.
+  /// The devices the chosen backends opened (a simulated one shares the
+  /// rig's ownership).
+  std::shared_ptr<hal::Drive> own_drive;
+  std::shared_ptr<hal::DisplacementSensor> own_sensor;
+  std::shared_ptr<hal::DigitalLines> own_lines;
+  /// The sensor held to sensor.range_min_m/range_max_m.
   std::unique_ptr<hal::DisplacementSensor> checked_sensor;
-  /// The run's devices: the simulated rig's, or the ones owned above.
+  /// The run's devices: the ones above.
   hal::Drive* drive = nullptr;
   hal::DisplacementSensor* sensor = nullptr;
   hal::DigitalLines* lines = nullptr;
@@ -47,8 +49,7 @@ struct Rig {
 /// Just the sensor, on the real clock: for `piezo sensor read`.
 struct SensorRig {
   std::unique_ptr<hal::Clock> clock;
-  std::unique_ptr<hal::sim::SimRig> sim;
-  std::unique_ptr<hal::DisplacementSensor> own_sensor;
+  std::shared_ptr<hal::DisplacementSensor> own_sensor;
   std::unique_ptr<hal::DisplacementSensor> checked_sensor;  ///< as in Rig
   hal::DisplacementSensor* sensor = nullptr;
 };

@@ -11,7 +11,6 @@
 #include <variant>
 
 #include "config_error.hpp"
-#include "modbus_config.hpp"
 #include "model_config.hpp"
 #include "piezo/firmware/request_limits.hpp"
 #include "piezo/overload.hpp"
@@ -22,82 +21,56 @@ namespace {
 
 const std::vector<std::string> kRequiredSections{"drive", "sensor", "run"};
 
-constexpr Range kPositive{0.0, kInf, true, true};
-constexpr Range kNonNegative{0.0, kInf, false, true};
+/// A kind's `backend` key, and the keys that moved from its section into
+/// the backends' refused naming their new place.
+template <class Base>
+void choose_backend(SectionReader& r, Backends<Base>& kind) {
+  std::vector<std::string> names;
+  std::map<std::string, std::vector<std::string>> moved;
+  for (const auto& b : kind.all) {
+    names.emplace_back(b->name());
+    for (const hal::MovedKey& m : b->moved_keys())
+      moved[std::string(m.old_key)].emplace_back(m.new_key);
+  }
+  r.choice("backend", kind.backend, names);
+  for (const auto& [old_key, now] : moved) r.moved(old_key, now);
+}
+
+/// Every backend's own section ([KIND.SECTION]), read by the backend.
+template <class Base>
+void read_backend_sections(SectionReader& r, Backends<Base>& kind) {
+  for (const auto& b : kind.all) {
+    SectionReader own = r.subsection(std::string(b->section()));
+    b->read(own);
+    own.finish();
+  }
+}
 
 void read_drive(SectionReader r, DriveSettings& d, model::Parameters& waveform) {
-  r.choice("backend", d.backend, kDriveBackendNames);
+  choose_backend(r, d.backends);
   read_waveform(r, waveform);
   r.number("rate_hz", d.rate_hz, {100.0, 100'000.0}, "Hz");
   r.number("V_min", d.limits.V_min, {0.0, 1000.0}, "V");
   r.number("V_max", d.limits.V_max, {0.0, 1000.0, true}, "V");
   r.number("slew_V_per_s", d.limits.slew_V_per_s, kPositive, "V/s");
-  r.integer("dac_bits", d.dac.bits, 4, 24);
-  r.number("dac_full_scale_V", d.dac.full_scale_V, {0.0, 100.0, true}, "V");
-  r.number("stall_at_s", d.dac.stall_at_s, kNonNegative, "s");
-  r.number("stall_for_s", d.dac.stall_for_s, {0.0, 3600.0}, "s");
-  r.number("amplifier_gain", d.amplifier.gain, {0.0, 1000.0, true});
-  r.number("amplifier_V_max", d.amplifier.V_out_max, {0.0, 1000.0, true}, "V");
-  r.number("amplifier_slew_V_per_s", d.amplifier.slew_V_per_s, kPositive, "V/s");
-  read_modbus_drive(r, d.ao_link, d.ao, d.ao_guard);
-  d.ao.amplifier_gain = d.amplifier.gain;
-  auto& g = d.gpio_dac;
-  r.text("gpio_chip", g.chip);
-  r.integer_list("dac_data_offsets", g.data_offsets, 0, 1023);
-  r.integer("dac_strobe_offset", g.strobe_offset, -1, 1023);
-  r.flag("dac_data_active_low", g.dac.data_active_low);
-  r.flag("dac_strobe_active_low", g.dac.strobe_active_low);
-  g.dac.bits = static_cast<int>(g.data_offsets.size());
-  g.dac.has_strobe = g.strobe_offset >= 0;
-  g.dac.full_scale_V = d.dac.full_scale_V;
-  g.dac.amplifier_gain = d.amplifier.gain;
-  // The simulated DAC updates at the drive rate, on its own clock, and the
-  // signal chain interpolates over one update period.
-  d.dac.update_period_s = 1.0 / d.rate_hz;
-  d.amplifier.ramp_time_s = 1.0 / d.rate_hz;
+  r.number("amplifier_gain", d.amplifier_gain, {0.0, 1000.0, true});
+  read_backend_sections(r, d.backends);
   r.finish();
 }
 
 void read_sensor(SectionReader r, SensorSettings& s) {
-  r.choice("backend", s.backend, kSensorBackendNames);
-  r.number("rate_hz", s.sim.rate_hz, {1.0, 100'000.0}, "Hz");
-  s.link.transport = s.backend == SensorBackend::modbus_rtu
-                         ? hal::modbus::LinkSettings::Transport::rtu
-                         : hal::modbus::LinkSettings::Transport::tcp;
-  read_modbus_sensor(r, s.link, s.map);
+  choose_backend(r, s.backends);
+  r.number("rate_hz", s.rate_hz, {1.0, 100'000.0}, "Hz");
   r.number("r2_m", s.r2_m, {0.0, 10.0, true}, "m");
   r.number("range_min_m", s.range_min_m, {-1e3, 1e3}, "m");
   r.number("range_max_m", s.range_max_m, {-1e3, 1e3}, "m");
-  // The laser's stand-off from the reflector: a distance, so above 0.
-  r.number("target_distance_m", s.sim.offset_m, {0.0, 10.0, true}, "m");
-  r.number("noise_m", s.sim.noise_m, {0.0, 1.0}, "m");
-  r.number("quantum_m", s.sim.quantum_m, {0.0, 1.0}, "m");
-  r.number("latency_s", s.sim.latency_s, {0.0, 1.0}, "s");
-  r.number("dropout_probability", s.sim.dropout_probability, {0.0, 1.0});
-  r.number("timeout_s", s.sim.timeout_s, {0.0, 10.0, true}, "s");
-  r.number("stall_at_s", s.sim.stall_at_s, kNonNegative, "s");
-  r.number("stall_for_s", s.sim.stall_for_s, kPositive, "s");
-  r.number("freeze_at_s", s.sim.freeze_at_s, kNonNegative, "s");
-  r.number("blind_at_s", s.sim.blind_at_s, kNonNegative, "s");
-  int seed = static_cast<int>(s.sim.seed);
-  r.integer("seed", seed, 0, 1'000'000'000);
-  s.sim.seed = static_cast<unsigned>(seed);
-  s.sim.r2_m = s.r2_m;
+  read_backend_sections(r, s.backends);
   r.finish();
 }
 
 void read_lines(SectionReader r, LinesSettings& l) {
-  r.choice("backend", l.backend, kLinesBackendNames);
-  r.number("estop_at_s", l.sim.estop_at_s, kNonNegative, "s");
-  auto& g = l.gpiod;
-  r.text("chip", g.chip);
-  r.integer("enable_offset", g.enable_offset, 0, 1023);
-  r.integer("sync_offset", g.sync_offset, -1, 1023);
-  r.integer("estop_offset", g.estop_offset, -1, 1023);
-  r.flag("enable_active_low", g.gpio.enable_active_low);
-  r.flag("sync_active_low", g.gpio.sync_active_low);
-  r.flag("estop_active_low", g.gpio.estop_active_low);
-  g.gpio.has_sync = g.sync_offset >= 0;
+  choose_backend(r, l.backends);
+  read_backend_sections(r, l.backends);
   r.finish();
 }
 
@@ -202,8 +175,8 @@ void read_safety(SectionReader r, firmware::SafetySettings& s) {
 /// Everything one table (the file, or one --set) says, read over `c`.
 /// [plant] keys are collected apart: the plant is [model] overlaid with them.
 void read_tables(const toml::table& t, const std::string& source, RigConfig& c,
-                 model::MotorParameters& plant_keys) {
-  TableReader file(t, source);
+                 model::MotorParameters& plant_keys, KeyDeclarations* declarations = nullptr) {
+  TableReader file(t, source, declarations);
   read_drive(file.section("drive"), c.drive, c.model);
   SectionReader model = file.section("model");
   read_motor(model, c.model.motor);
@@ -233,7 +206,13 @@ toml::table override_table(const std::string& assignment) {
     throw ConfigError("--set", assignment, "expected SECTION.KEY=VALUE, e.g. drive.V0=70");
   }
   const std::string section = assignment.substr(0, dot);
-  const std::string key = assignment.substr(dot + 1, eq - dot - 1);
+  // SECTION.KEY, or SECTION.BACKEND.KEY for a backend's own section.
+  std::string key = assignment.substr(dot + 1, eq - dot - 1);
+  std::string backend;
+  if (const auto inner_dot = key.find('.'); inner_dot != std::string::npos) {
+    backend = key.substr(0, inner_dot);
+    key = key.substr(inner_dot + 1);
+  }
   const std::string value = assignment.substr(eq + 1);
   require_ascii_outside_comments(assignment, "--set");
   toml::table parsed;
@@ -244,6 +223,7 @@ toml::table override_table(const std::string& assignment) {
   }
   toml::table inner;
   inner.insert(key, *parsed.get("v"));
+  if (!backend.empty()) inner = toml::table{{backend, inner}};
   return toml::table{{section, inner}};
 }
 
@@ -266,83 +246,48 @@ model::MotorParameters all_nan() {
   return p.motor;
 }
 
-void check_backends(const RigConfig& c, const std::function<std::string(const std::string&)>& src) {
+/// Each backend's section as a whole (every one: rig-sim serves the
+/// devices a config names even when the run chooses others), and the
+/// chosen ones' needs.
+template <class Base, class Common>
+void check_each(const Backends<Base>& kind, const Common& common, const hal::SourceOf& src) {
+  for (const auto& b : kind.all) b->check(common, b->name() == kind.backend, src);
+}
+
+void check_backends(const RigConfig& c, const hal::SourceOf& src) {
   if (!(c.sensor.range_min_m < c.sensor.range_max_m)) {
     throw ConfigError(src("sensor.range_max_m"), "sensor.range_max_m",
                       fmt::format("{:g} m; allowed: above sensor.range_min_m ({:g} m)",
                                   c.sensor.range_max_m, c.sensor.range_min_m));
   }
   // The simulated drive and sensor share one plant: neither works alone.
-  const bool sim_drive = c.drive.backend == DriveBackend::sim,
-             sim_sensor = c.sensor.backend == SensorBackend::sim;
+  const bool sim_drive = c.drive.backends.chosen().simulated(),
+             sim_sensor = c.sensor.backends.chosen().simulated();
   if (sim_drive != sim_sensor) {
     throw ConfigError(src("sensor.backend"), "sensor.backend",
                       fmt::format("\"{}\" cannot go with drive.backend = \"{}\": the "
                                   "simulated drive and sensor share one plant; allowed: both "
-                                  "\"sim\" or neither",
-                                  name(c.sensor.backend), name(c.drive.backend)));
+                                  "simulated (\"sim\") or neither",
+                                  c.sensor.backend(), c.drive.backend()));
   }
-  if (c.lines.backend == LinesBackend::sim && !sim_drive) {
+  if (c.lines.backends.chosen().simulated() && !sim_drive) {
     throw ConfigError(src("lines.backend"), "lines.backend",
-                      "\"sim\" needs the simulated drive; allowed here: \"none\"");
+                      fmt::format("\"{}\" needs the simulated drive; allowed here: a real "
+                                  "backend (\"gpiod\", \"none\")",
+                                  c.lines.backend()));
   }
   if (c.virtual_clock() && !sim_drive) {
     throw ConfigError(src("run.clock"), "run.clock",
                       "\"virtual\" needs the simulated rig (backend = \"sim\"); real devices "
                       "run in real time");
   }
-  if (c.drive.backend == DriveBackend::gpiod_dac &&
-      (c.drive.gpio_dac.data_offsets.empty() || c.drive.gpio_dac.data_offsets.size() > 32)) {
-    throw ConfigError(src("drive.dac_data_offsets"), "drive.dac_data_offsets",
-                      "gpiod-dac needs 1 to 32 data line offsets, least significant bit first");
-  }
-  if (c.lines.backend == LinesBackend::gpiod && c.lines.gpiod.enable_offset < 0) {
-    throw ConfigError(src("lines.enable_offset"), "lines.enable_offset",
-                      "missing: the gpiod lines need the amplifier-enable line offset");
-  }
-  if (c.sensor.backend == SensorBackend::modbus_rtu && c.sensor.link.device.empty()) {
-    throw ConfigError(src("sensor.device"), "sensor.device",
-                      "missing: modbus-rtu needs the serial device, e.g. \"/dev/ttyUSB0\"");
-  }
-}
-
-/// The analog-output module's registers and the guard against a dead link.
-void check_analog_output(const RigConfig& c,
-                         const std::function<std::string(const std::string&)>& src) {
-  const auto& ao = c.drive.ao;
-  const double full_scale_counts = ao.counts_per_V * ao.full_scale_V;
-  if (full_scale_counts > hal::modbus::ModbusAnalogOutput::kMaxCounts) {
-    throw ConfigError(
-        src("drive.ao_counts_per_V"), "drive.ao_counts_per_V",
-        fmt::format("{:g} counts/V x drive.ao_full_scale_V = {:g} V is {:g} counts, beyond the "
-                    "16-bit register's 65535; allowed: ao_counts_per_V <= {:g}",
-                    ao.counts_per_V, ao.full_scale_V, full_scale_counts,
-                    hal::modbus::ModbusAnalogOutput::kMaxCounts / ao.full_scale_V));
-  }
-  if (c.drive.backend != DriveBackend::modbus_ao) return;
-  const auto& guard = c.drive.ao_guard;
-  if (!ao.watchdog_writes.empty() && guard.watchdog_s <= 0.0) {
-    throw ConfigError(src("drive.ao_watchdog_s"), "drive.ao_watchdog_s",
-                      "missing: the timeout the ao_watchdog_registers set, in seconds; allowed: "
-                      "(0, 60]");
-  }
-  // A module that keeps its output when the link dies cannot be reached by
-  // any stop: only its own watchdog or an enable line can end the drive then.
-  if (c.lines.backend == LinesBackend::none && ao.watchdog_writes.empty() &&
-      !guard.link_loss_acknowledged) {
-    throw ConfigError(
-        src("drive.ao_watchdog_registers"), "drive.ao_watchdog_registers",
-        "missing: with drive.backend = \"modbus-ao\" and lines.backend = \"none\" nothing can "
-        "turn the output off when the Modbus link dies; configure the module's communication "
-        "watchdog (ao_watchdog_registers, ao_watchdog_values, ao_watchdog_s), wire an enable "
-        "line ([lines] backend = \"gpiod\"), or accept the risk with "
-        "drive.ao_link_loss_acknowledged = true");
-  }
+  check_each(c.drive.backends, c.drive_common(), src);
+  check_each(c.lines.backends, hal::LinesCommon{}, src);
 }
 
 void check_whole(const RigConfig& c, const std::map<std::string, std::string>& source_of,
                  ConfigScope scope) {
-  auto src = [&](const std::string& key) {
+  const hal::SourceOf src = [&](const std::string& key) {
     const auto it = source_of.find(key);
     return it == source_of.end() ? c.source : it->second;
   };
@@ -356,11 +301,11 @@ void check_whole(const RigConfig& c, const std::map<std::string, std::string>& s
   if (const auto issues = model::validate(plant); !issues.empty()) {
     throw ConfigError(c.source, "plant." + issues.front().name, issues.front().message);
   }
+  check_each(c.sensor.backends, c.sensor.common(), src);
   // A sensor-only tool (`piezo sensor read`, rig-sim) uses no drive: how the
   // drive would pair with the sensor, or its limits, are not its business.
   if (scope == ConfigScope::sensor) return;
   check_backends(c, src);
-  check_analog_output(c, src);
   const auto& lim = c.drive.limits;
   if (lim.V_min >= lim.V_max) {
     throw ConfigError(
@@ -374,10 +319,10 @@ void check_whole(const RigConfig& c, const std::map<std::string, std::string>& s
     const std::string key = "drive." + breach->key;
     throw ConfigError(src(key), key, breach->message);
   }
-  if (c.sensor.sim.rate_hz > c.drive.rate_hz) {
+  if (c.sensor.rate_hz > c.drive.rate_hz) {
     throw ConfigError(src("sensor.rate_hz"), "sensor.rate_hz",
                       fmt::format("{:g} Hz exceeds drive.rate_hz = {:g} Hz; allowed: <= {:g}",
-                                  c.sensor.sim.rate_hz, c.drive.rate_hz, c.drive.rate_hz));
+                                  c.sensor.rate_hz, c.drive.rate_hz, c.drive.rate_hz));
   }
   // A ramp to 0 V that takes longer than this is no stop.
   constexpr double kLongestRamp_s = 2.0;
@@ -389,18 +334,10 @@ void check_whole(const RigConfig& c, const std::map<std::string, std::string>& s
                     c.safety.ramp_down_V_per_s, lim.V_max / c.safety.ramp_down_V_per_s, lim.V_max,
                     lim.V_max / kLongestRamp_s, kLongestRamp_s));
   }
-  const auto& map = c.sensor.map;
-  if (map.address + hal::modbus::word_count(map.type) - 1 > 65535) {
-    throw ConfigError(src("sensor.address"), "sensor.address",
-                      fmt::format("{} with a {}-register value runs past register 65535; "
-                                  "allowed: 0..{}",
-                                  map.address, hal::modbus::word_count(map.type),
-                                  65536 - hal::modbus::word_count(map.type)));
-  }
-  if (c.safety.sensor_stale_s <= 1.0 / c.sensor.sim.rate_hz) {
+  if (c.safety.sensor_stale_s <= 1.0 / c.sensor.rate_hz) {
     throw ConfigError(src("safety.sensor_stale_s"), "safety.sensor_stale_s",
                       fmt::format("{:g} s must exceed one sensor period ({:g} s)",
-                                  c.safety.sensor_stale_s, 1.0 / c.sensor.sim.rate_hz));
+                                  c.safety.sensor_stale_s, 1.0 / c.sensor.rate_hz));
   }
 }
 
@@ -414,7 +351,6 @@ RigConfig load_rig_config(const std::string& path, const std::vector<std::string
 RigConfig load_rig_config(const std::vector<std::string>& paths,
                           const std::vector<std::string>& sets, ConfigScope scope) {
   RigConfig c;
-  apply_baumer_om30(c.sensor.link, c.sensor.map);
   // No file: the defaults (a host whose rig is a board with its own config).
   c.source = paths.empty() ? std::string("defaults") : paths.front();
   model::MotorParameters plant_keys = all_nan();
@@ -452,15 +388,6 @@ RigConfig load_rig_config(const std::vector<std::string>& paths,
   return c;
 }
 
-std::string_view name(DriveBackend b) {
-  return kDriveBackendNames.name(b);
-}
-std::string_view name(SensorBackend b) {
-  return kSensorBackendNames.name(b);
-}
-std::string_view name(LinesBackend b) {
-  return kLinesBackendNames.name(b);
-}
 std::string_view name(RunClock c) {
   return kRunClockNames.name(c);
 }
@@ -473,6 +400,14 @@ model::Parameters load_model_config(const std::string& path) {
   read_tables(parse_config_file(path), path, c, plant_keys);
   require_valid(c.model, path);
   return c.model;
+}
+
+KeyDeclarations declared_keys() {
+  RigConfig c;
+  model::MotorParameters plant_keys = all_nan();
+  KeyDeclarations declarations;
+  read_tables(toml::table{}, "defaults", c, plant_keys, &declarations);
+  return declarations;
 }
 
 void check_drive_hardware(const RigConfig& c, double hardware_V_min, double hardware_V_max) {

@@ -6,85 +6,81 @@
 
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
 
-#include "modbus_config.hpp"
 #include "piezo/firmware/move_request.hpp"
 #include "piezo/firmware/safety_supervisor.hpp"
 #include "piezo/firmware/voltage_limiter.hpp"
-#include "piezo/hal/gpiod/gpiod_rig.hpp"
-#include "piezo/hal/modbus/link.hpp"
-#include "piezo/hal/modbus/modbus_analog_output.hpp"
-#include "piezo/hal/modbus/register_map.hpp"
+#include "piezo/hal/backends.hpp"
 #include "piezo/hal/sim/modbus_rig_device.hpp"
-#include "piezo/hal/sim/plant.hpp"
-#include "piezo/hal/sim/sim_drive.hpp"
-#include "piezo/hal/sim/sim_lines.hpp"
-#include "piezo/hal/sim/sim_sensor.hpp"
 #include "piezo/model/lugre_observer.hpp"
 #include "piezo/model/parameters.hpp"
+#include "section_reader.hpp"
 
 namespace piezo::config {
 
-enum class DriveBackend { sim, modbus_ao, gpiod_dac };
-enum class SensorBackend { sim, modbus_tcp, modbus_rtu };
-enum class LinesBackend { sim, gpiod, none };
 /// The run's clock: the board's, or the simulated rig's virtual one.
 enum class RunClock { realtime, virtual_time };
 
-/// The names the config and the protocol use, both ways.
-inline constexpr auto kDriveBackendNames =
-    names<DriveBackend>({{DriveBackend::sim, "sim"},
-                         {DriveBackend::modbus_ao, "modbus-ao"},
-                         {DriveBackend::gpiod_dac, "gpiod-dac"}});
-inline constexpr auto kSensorBackendNames =
-    names<SensorBackend>({{SensorBackend::sim, "sim"},
-                          {SensorBackend::modbus_tcp, "modbus-tcp"},
-                          {SensorBackend::modbus_rtu, "modbus-rtu"}});
-inline constexpr auto kLinesBackendNames = names<LinesBackend>(
-    {{LinesBackend::sim, "sim"}, {LinesBackend::gpiod, "gpiod"}, {LinesBackend::none, "none"}});
 inline constexpr auto kRunClockNames =
     names<RunClock>({{RunClock::realtime, "realtime"}, {RunClock::virtual_time, "virtual"}});
 
-[[nodiscard]] std::string_view name(DriveBackend b);
-[[nodiscard]] std::string_view name(SensorBackend b);
-[[nodiscard]] std::string_view name(LinesBackend b);
 [[nodiscard]] std::string_view name(RunClock c);
 
+/// One kind's backends: every one the build has (hal/registry), each with
+/// its own section read, and the `backend` key's choice among them.
+template <class Base>
+struct Backends {
+  std::string backend;  ///< the chosen one's name
+  std::vector<std::shared_ptr<Base>> all;
+
+  [[nodiscard]] const Base& chosen() const {
+    for (const auto& b : all)
+      if (b->name() == backend) return *b;
+    throw std::logic_error("no backend named " + backend);
+  }
+  /// The backend of type T (the first, when transports share one section).
+  template <class T>
+  [[nodiscard]] const T& get() const {
+    for (const auto& b : all)
+      if (const auto* t = dynamic_cast<const T*>(b.get())) return *t;
+    throw std::logic_error("no such backend");
+  }
+};
+
+/// [drive]: the waveform's limits and rate, and the backend that puts it out.
 struct DriveSettings {
-  DriveBackend backend = DriveBackend::sim;
   double rate_hz = 10'000.0;
   firmware::VoltageLimits limits{0.0, 80.0, 20'000.0};
-  hal::sim::DacSettings dac;
-  hal::sim::AmplifierSettings amplifier;
-  hal::modbus::LinkSettings ao_link;
-  hal::modbus::AnalogOutputSettings ao;
-  AnalogOutputGuard ao_guard;
-  hal::gpiod::GpiodDacSettings gpio_dac;
+  double amplifier_gain = 20.0;  ///< piezo volts per volt at the backend's output
+  Backends<hal::DriveBackend> backends{"sim", hal::drive_backends()};
+
+  [[nodiscard]] const std::string& backend() const { return backends.backend; }
 };
 
 struct SensorSettings {
-  SensorBackend backend = SensorBackend::sim;
+  double rate_hz = 1000.0;
   double r2_m = 0.062;  ///< reflector radius: theta = (d - d_tare) / r2 (docs/model.md section 4)
   /// The sensor's measuring range [m]: readings outside are out_of_range.
   /// The defaults only catch the absurd (a wrong word order reads 1e9 m);
   /// set them to the sensor's data sheet.
   double range_min_m = -10.0;
   double range_max_m = 10.0;
-  hal::sim::SimSensorSettings sim;
-  hal::modbus::LinkSettings link;
-  hal::modbus::RegisterMap map;  ///< default: the Baumer OM30 map
+  Backends<hal::SensorBackend> backends{"sim", hal::sensor_backends()};
 
-  [[nodiscard]] double rate_hz() const { return sim.rate_hz; }
+  [[nodiscard]] const std::string& backend() const { return backends.backend; }
+  [[nodiscard]] hal::SensorCommon common() const { return {rate_hz, r2_m}; }
 };
 
 struct LinesSettings {
-  LinesBackend backend = LinesBackend::sim;
-  hal::sim::SimLinesSettings sim;
-  hal::gpiod::GpiodLinesSettings gpiod;
+  Backends<hal::LinesBackend> backends{"sim", hal::lines_backends()};
+
+  [[nodiscard]] const std::string& backend() const { return backends.backend; }
 };
 
 struct ObserverSettings {
@@ -170,6 +166,10 @@ struct RigConfig {
   BoardAddress board;  ///< [rig]: the board (piezod) to drive
 
   [[nodiscard]] bool virtual_clock() const { return run.clock == RunClock::virtual_time; }
+  /// What the drive backends take from [drive] (and whether [lines] has an enable line).
+  [[nodiscard]] hal::DriveCommon drive_common() const {
+    return {drive.rate_hz, drive.amplifier_gain, lines.backend() != "none"};
+  }
 };
 
 /// What a command needs of a config: a whole rig, or only its sensor.
@@ -189,6 +189,10 @@ enum class ConfigScope { rig, sensor };
 /// Table 1 defaults overlaid with a config file's [drive] waveform and
 /// [model]; a rig config's other sections are read and checked too.
 [[nodiscard]] model::Parameters load_model_config(const std::string& path);
+
+/// Every key the readers accept, each declared where it is read (its unit,
+/// range or choices, and default): what docs/configuration.md documents.
+[[nodiscard]] KeyDeclarations declared_keys();
 
 /// Checks the drive limits against what the built drive hardware can do.
 void check_drive_hardware(const RigConfig& config, double hardware_V_min, double hardware_V_max);

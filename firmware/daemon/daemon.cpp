@@ -47,7 +47,7 @@ Daemon::Daemon(const config::RigConfig& board, config::Rig rig, zmq::context_t& 
       commands_(context, zmq::socket_type::router),
       stream_(context, zmq::socket_type::pub),
       command_endpoint_(listen.empty() ? board.daemon.listen : listen),
-      samples_(board.daemon.recorder_s, board.drive.rate_hz, board.sensor.rate_hz(),
+      samples_(board.daemon.recorder_s, board.drive.rate_hz, board.sensor.rate_hz,
                board.daemon.spill_file, board.daemon.fetch_samples_per_s, stream_),
       planner_(board.model.motor),
       command_table_(command_table()) {
@@ -65,8 +65,8 @@ Daemon::Daemon(const config::RigConfig& board, config::Rig rig, zmq::context_t& 
   (void)planner_.steps(d0.V0, d0.f, d0.D());
   last_health_ = Clock::now();
   log_event(fmt::format("listening: commands {}, stream {}; drive {}, sensor {}, lines {}",
-                        command_endpoint_, stream_endpoint_, config::name(board_.drive.backend),
-                        config::name(board_.sensor.backend), config::name(board_.lines.backend)));
+                        command_endpoint_, stream_endpoint_, board_.drive.backend(),
+                        board_.sensor.backend(), board_.lines.backend()));
 }
 
 Daemon::~Daemon() = default;

@@ -121,7 +121,7 @@ json Daemon::calibrate(const std::string& client, const json& args) {
   plan.r2_m = board_.sensor.r2_m;
   plan.hold_V_max = firmware::kHoldFractionOfVmax * lim.V_max;
   plan.fast_slew_V_per_s = lim.slew_V_per_s;
-  plan.flush_readings = std::max(10, static_cast<int>(std::ceil(0.1 * board_.sensor.rate_hz())));
+  plan.flush_readings = std::max(10, static_cast<int>(std::ceil(0.1 * board_.sensor.rate_hz)));
   // The board's frequency, twice and four times it: as many as the board's
   // rate and slew limit allow at V0.
   const double f_max = std::min(firmware::max_drive_frequency(board_.drive.rate_hz),
@@ -140,7 +140,7 @@ json Daemon::calibrate(const std::string& client, const json& args) {
   d.direction = model::Direction::forward;
   d.V0 = plan.V0;
   d.f = plan.f_hz[static_cast<std::size_t>(plan.frequencies - 1)];
-  (void)apply_configuration({d, 1.5 * plan.duration_s(board_.sensor.rate_hz()) + 1.0}, "calibrate");
+  (void)apply_configuration({d, 1.5 * plan.duration_s(board_.sensor.rate_hz) + 1.0}, "calibrate");
   json lease = json::object();
   if (args.contains("lease_s")) lease["lease_s"] = args["lease_s"];
   json started = start(client, lease, {std::nullopt, plan}, "calibrate");
@@ -209,7 +209,7 @@ json Daemon::set_zero(const std::string&) {
 Daemon::AtRest Daemon::read_at_rest(std::size_t n) {
   hal::Clock& clock = *rig_.clock;
   clock.add_sleeper();  // the virtual clock schedules the threads it knows of
-  const hal::TimeNs period = hal::from_seconds(1.0 / board_.sensor.rate_hz());
+  const hal::TimeNs period = hal::from_seconds(1.0 / board_.sensor.rate_hz);
   hal::TimeNs next = clock.now();
   std::vector<double> readings;
   // The first readings after an idle gap may be the sensor's last ones

@@ -46,9 +46,8 @@ protocol::Hello Daemon::hello() const {
   h.daemon = PIEZO_VERSION;
   h.stream = stream_endpoint_;
   h.clock = config::name(board_.run.clock);
-  h.backends = {std::string(config::name(board_.drive.backend)),
-                std::string(config::name(board_.sensor.backend)),
-                std::string(config::name(board_.lines.backend))};
+  h.backends = {std::string(board_.drive.backend()), std::string(board_.sensor.backend()),
+                std::string(board_.lines.backend())};
   h.limits = {lim.V_min,
               lim.V_max,
               lim.slew_V_per_s,
@@ -60,7 +59,7 @@ protocol::Hello Daemon::hello() const {
   h.sensor_r2_m = board_.sensor.r2_m;
   h.sensor_zero_m = zero_.value();
   h.drive_rate_hz = board_.drive.rate_hz;
-  h.sensor_rate_hz = board_.sensor.rate_hz();
+  h.sensor_rate_hz = board_.sensor.rate_hz;
   h.output_latency_s = rig_.drive->output_latency_s();
   h.lease_s = board_.daemon.lease_s;
   h.recorder_s = board_.daemon.recorder_s;

@@ -121,7 +121,7 @@ void Daemon::build_runner(Run& run, const Program& program) {
   firmware::LoopRunnerSettings settings{{board_.drive.rate_hz, run.request.duration_s,
                                          1.0 / run.request.drive.f, board_.drive.limits},
                                         board_.safety,
-                                        board_.sensor.rate_hz(),
+                                        board_.sensor.rate_hz,
                                         !board_.virtual_clock(),
                                         board_.run.priority,
                                         board_.run.lock_memory};

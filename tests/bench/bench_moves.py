@@ -112,7 +112,7 @@ def modbus_moves(exe, out):
     print(f"{'sensor':>8} {'target':>9} | {'on target':>9} {'error':>9} {'time':>7} {'steps':>5}")
     for rate in (1000.0, 200.0):
         port = free_port()
-        extra = [f"sensor.port={port}", f"drive.ao_port={port}", f"sensor.rate_hz={rate}"]
+        extra = [f"sensor.modbus.port={port}", f"drive.modbus-ao.port={port}", f"sensor.rate_hz={rate}"]
         sim = subprocess.Popen([exe, "rig-sim", "--config", MODBUS, *sets(extra), "--tcp",
                                 f"127.0.0.1:{port}"], stdout=subprocess.DEVNULL,
                                stderr=subprocess.DEVNULL)

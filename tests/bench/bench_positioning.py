@@ -113,7 +113,7 @@ def open_loop(exe, out, plant_sets, target, step, tag):
 def cell(exe, out, plant, plant_sets, rate, noise_x):
     tag = f"{plant.replace(' ', '_').replace('%', 'pct')}_{int(rate)}Hz_x{noise_x}"
     base = plant_sets + ["run.clock=virtual", f"sensor.rate_hz={rate}",
-                         f"sensor.noise_m={noise_x * NOISE_M}"]
+                         f"sensor.sim.noise_m={noise_x * NOISE_M}"]
     rows = []
     for t in TARGETS:
         rows.append(dict(move(exe, out, base, t, tag + "_before"), phase="before"))

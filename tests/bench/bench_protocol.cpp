@@ -116,7 +116,7 @@ Latencies in_process(double seconds) {
   const model::Sawtooth waveform(80.0, 10.0, config.model.drive.D());
   firmware::LoopRunner runner({{config.drive.rate_hz, seconds, 0.1, config.drive.limits},
                                config.safety,
-                               config.sensor.rate_hz(),
+                               config.sensor.rate_hz,
                                true,
                                config.run.priority,
                                config.run.lock_memory},

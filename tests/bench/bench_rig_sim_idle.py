@@ -26,7 +26,7 @@ def main():
     resource.setrlimit(resource.RLIMIT_NOFILE, (min(4096, hard), hard))
     rig = subprocess.Popen([piezo, "rig-sim", "--config",
                             os.path.join(source, "configs", "modbus-hil.toml"),
-                            "--set", f"sensor.port={port}"],
+                            "--set", f"sensor.modbus.port={port}"],
                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         if not wait_for_tcp(port):

@@ -96,7 +96,7 @@ try:
           f"{work}/rig-sim.log")
     if not wait_for_tcp(modbus_port):
         failures.append("rig-sim did not listen")
-    sets = ["--set", f"sensor.port={modbus_port}", "--set", f"drive.ao_port={modbus_port}"]
+    sets = ["--set", f"sensor.modbus.port={modbus_port}", "--set", f"drive.modbus-ao.port={modbus_port}"]
     board = spawn([qemu, arm64_piezod, "--config", config, *sets, "--listen", baddress],
                   f"{work}/piezod-modbus.log")
     if not wait_for_tcp(board_port):

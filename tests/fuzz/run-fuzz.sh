@@ -24,6 +24,7 @@ fi
 # The name tables (model/names) are the bottom of the tree: every layer's headers use them.
 hal_includes=(-I"$src/hal/include" -I"$src/model/names/include")
 for d in "$src"/hal/*/include; do hal_includes+=(-I"$d"); done
+linked=()  # sources only linked, built plain (below)
 case "$target" in
   protocol)
     sources=("$src"/firmware/protocol/src/{frame,message,messages}.cpp)
@@ -31,12 +32,24 @@ case "$target" in
            "${hal_includes[@]}")
     libs=(-lfmt) ;;
   config)
-    sources=("$src"/firmware/config/{section_reader,model_config,rig_config,modbus_config}.cpp
+    sources=("$src"/model/names/config/section_reader.cpp
+             "$src"/firmware/config/{model_config,rig_config}.cpp
              "$src"/firmware/src/{request_limits,move_request}.cpp
+             "$src"/hal/{sim,modbus,gpiod}/src/*_backends.cpp
+             "$src"/hal/registry/src/backends.cpp
              "$src"/hal/modbus/src/register_map.cpp "$src"/model/src/{parameters,waveform}.cpp)
-    flags=(-I"$src/firmware/config" -I"$src/firmware/config/error" -I"$src/firmware/include" "${hal_includes[@]}"
-           -I"$src/model/include" -I/usr/include/eigen3 $(pkg-config --cflags libmodbus))
-    libs=(-lfmt) ;;
+    # The backends read their own sections, so the registry links every
+    # backend's device (and the simulated rig, the model behind it): only
+    # linked, never reached from a config, so built plain (no sanitizers,
+    # no coverage) and in parallel.
+    for f in "$src"/hal/{sim,modbus,gpio,gpiod,posix}/src/*.cpp "$src"/model/src/*.cpp \
+             "$src"/model/src/hybrid/*.cpp; do
+      [[ " ${sources[*]} " == *" $f "* || $f == */global_sensitivity.cpp ]] || linked+=("$f")
+    done
+    flags=(-I"$src/firmware/config" -I"$src/model/names/error" -I"$src/model/names/config"
+           -I"$src/firmware/include" "${hal_includes[@]}"
+           -I"$src/model/include" -I/usr/include/eigen3 $(pkg-config --cflags libmodbus libgpiod))
+    libs=(-lfmt $(pkg-config --libs libmodbus libgpiod) -lpthread) ;;
   modbus)
     sources=("$src"/hal/modbus/src/{link,modbus_sensor,register_map}.cpp
              "$src"/hal/posix/src/monotonic_clock.cpp)
@@ -45,15 +58,23 @@ case "$target" in
   logs)
     sources=("$src"/host/src/io/{fit_io,h5_file,run_journal,run_recovery,catalogue,parameters_json}.cpp
              "$src"/model/src/{parameters,waveform,simulate_names}.cpp)
-    flags=(-I"$src/host/src/io" -I"$src/firmware/config" -I"$src/firmware/config/error" -I"$src/model/include"
+    flags=(-I"$src/host/src/io" -I"$src/firmware/config" -I"$src/model/names/error" -I"$src/model/include"
            -I"$src/model/names/include"
            -I/usr/include/eigen3 $(pkg-config --cflags hdf5))
     libs=($(pkg-config --libs hdf5) -lz -lfmt) ;;
   *) echo "unknown fuzz target $target"; exit 2 ;;
 esac
 # TOML_ASSERT: as in the project's builds (CMakeLists.txt says why).
+objects=()
+if ((${#linked[@]})); then
+  mkdir -p "$work/linked"
+  printf '%s\n' "${linked[@]}" | xargs -P "$(nproc)" -I{} sh -c \
+    'clang++ -std=c++20 -O0 -w "$@" -c "{}" -o "'"$work"'/linked/$(echo "{}" | md5sum | cut -c1-12).o"' \
+    sh "${flags[@]}"
+  for f in "${linked[@]}"; do objects+=("$work/linked/$(echo "$f" | md5sum | cut -c1-12).o"); done
+fi
 clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined \
-  -D'TOML_ASSERT(expr)=((void)0)' "${flags[@]}" "$src/tests/fuzz/${target}_fuzz.cpp" "${sources[@]}" "${libs[@]}" \
+  -D'TOML_ASSERT(expr)=((void)0)' "${flags[@]}" "$src/tests/fuzz/${target}_fuzz.cpp" "${sources[@]}" "${objects[@]}" "${libs[@]}" \
   -o "$work/${target}_fuzz"
 # New inputs go to the work corpus; the repository's seeds are read only.
 # A crash exits 1: libFuzzer's own default, 77, is CTest's "skipped".

@@ -69,7 +69,7 @@ TEST_F(ModbusHil, PymodbusSensorOverTcpIsDecodedRight) {
   Spawned sensor({"/usr/bin/python3", kPymodbusSensor, "tcp", std::to_string(port)},
                  (dir / "pymodbus.txt").string());
   ASSERT_TRUE(wait_for_tcp(port));
-  const auto j = sensor_read(3, tcp_sets() + " --set sensor.preset=baumer-om30");
+  const auto j = sensor_read(3, tcp_sets() + " --set sensor.modbus.preset=baumer-om30");
   for (const auto& r : j.at("readings")) {
     EXPECT_NEAR(r.at("displacement_m").get<double>(), 0.0697426, 1e-7) << j.dump();
   }
@@ -89,8 +89,8 @@ TEST_F(ModbusRtu, PymodbusSensorOverRtuIsDecodedRight) {
   // pyserial cannot set parity on a pseudo-terminal twice (EINVAL): 8N1 here.
   Spawned sensor({"/usr/bin/python3", kPymodbusSensor, "rtu", (dir / "ptyA").string(), "N"},
                  (dir / "pymodbus.txt").string());
-  const std::string sets =
-      rtu_sets("N") + " --set sensor.preset=baumer-om30" + " --set sensor.response_timeout_s=0.5";
+  const std::string sets = rtu_sets("N") + " --set sensor.modbus.preset=baumer-om30" +
+                           " --set sensor.modbus.response_timeout_s=0.5";
   ASSERT_TRUE(wait_for_peer(sets)) << read_all(dir / "pymodbus.txt");
   const auto j = sensor_read(3, sets);
   EXPECT_EQ(j.at("errors"), 0) << j.dump();
@@ -103,7 +103,7 @@ TEST_F(ModbusHil, RunCompletesAgainstRigSim) {
   auto rig = start_rig_sim();
   ASSERT_TRUE(wait_for_tcp(port));
   const auto r = run_command(kPiezo + " run --config " + kConfig + " --duration 1 --json " +
-                             tcp_sets() + " --set drive.ao_port=" + std::to_string(port) +
+                             tcp_sets() + " --set drive.modbus-ao.port=" + std::to_string(port) +
                              " --out " + (dir / "run").string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
@@ -176,7 +176,7 @@ void expect_timeouts(const nlohmann::json& j) {
 TEST_F(ModbusHil, SlowRepliesTimeOut) {
   auto rig = start_rig_sim({"--set", "rig_sim.response_delay_s=0.2"});
   ASSERT_TRUE(wait_for_tcp(port));
-  const auto j = sensor_read(3, tcp_sets() + " --set sensor.response_timeout_s=0.05", 1);
+  const auto j = sensor_read(3, tcp_sets() + " --set sensor.modbus.response_timeout_s=0.05", 1);
   expect_timeouts(j);
 }
 
@@ -194,8 +194,8 @@ void expect_run_fails_safely(ModbusHil& t, const fs::path& dir, int port,
                              const std::function<void()>& break_link) {
   const auto out = dir / "run";
   Spawned run({kPiezo, "run", "--config", kConfig, "--duration", "30", "--set",
-               "sensor.port=" + std::to_string(port), "--set",
-               "drive.ao_port=" + std::to_string(port), "--json", "--out", out.string()},
+               "sensor.modbus.port=" + std::to_string(port), "--set",
+               "drive.modbus-ao.port=" + std::to_string(port), "--json", "--out", out.string()},
               (dir / "run.txt").string());
   break_link();
   const auto broken = std::chrono::steady_clock::now();

@@ -34,9 +34,9 @@ class ModbusSafety : public ModbusHil {
                                   "--duration",
                                   duration,
                                   "--set",
-                                  "sensor.port=" + std::to_string(port),
+                                  "sensor.modbus.port=" + std::to_string(port),
                                   "--set",
-                                  "drive.ao_port=" + std::to_string(port),
+                                  "drive.modbus-ao.port=" + std::to_string(port),
                                   "--json",
                                   "--out",
                                   (dir / "run").string()};
@@ -176,18 +176,18 @@ TEST_F(ModbusSafety, AnUnguardedAnalogOutputIsRefused) {
   std::ifstream in(kConfig);
   std::string text, line;
   while (std::getline(in, line))
-    if (line.rfind("ao_watchdog", 0) != 0) text += line + "\n";
+    if (line.rfind("watchdog_", 0) != 0) text += line + "\n";
   write_file(config, text);
   const auto r = run_command(kPiezo + " run --config " + config.string() + " --out " +
                              (dir / "never").string());
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("drive.ao_watchdog_registers"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("drive.modbus-ao.watchdog_registers"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "never"));
   // Accepting the risk in the config lets it through the check (it then
   // fails only for want of a module to talk to).
   const auto accepted = run_command(kPiezo + " run --config " + config.string() +
-                                    " --set drive.ao_link_loss_acknowledged=true --set "
-                                    "drive.ao_port=1 --out " +
+                                    " --set drive.modbus-ao.link_loss_acknowledged=true --set "
+                                    "drive.modbus-ao.port=1 --out " +
                                     (dir / "never").string());
   EXPECT_EQ(accepted.exit_code, 1) << accepted.err;
   EXPECT_NE(accepted.err.find("cannot connect"), std::string::npos) << accepted.err;
@@ -196,9 +196,9 @@ TEST_F(ModbusSafety, AnUnguardedAnalogOutputIsRefused) {
 TEST_F(ModbusSafety, CountsBeyondTheRegisterAreRefused) {
   const auto r =
       run_command(kPiezo + " run --config " + kConfig +
-                  " --set drive.ao_counts_per_V=10000 --out " + (dir / "never").string());
+                  " --set drive.modbus-ao.counts_per_V=10000 --out " + (dir / "never").string());
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("drive.ao_counts_per_V"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("drive.modbus-ao.counts_per_V"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("65535"), std::string::npos) << r.err;
 }
 
@@ -258,9 +258,10 @@ TEST_F(ModbusSafety, PiezodOnModbusStopsItselfWhenTheHostDies) {
   ASSERT_TRUE(wait_for_tcp(port));
   const int board_port = free_port(2);
   const std::string address = "tcp://127.0.0.1:" + std::to_string(board_port);
-  Spawned board({PIEZOD_BINARY, "--config", kConfig, "--set", "sensor.port=" + std::to_string(port),
-                 "--set", "drive.ao_port=" + std::to_string(port), "--listen", address},
-                (dir / "piezod.txt").string());
+  Spawned board(
+      {PIEZOD_BINARY, "--config", kConfig, "--set", "sensor.modbus.port=" + std::to_string(port),
+       "--set", "drive.modbus-ao.port=" + std::to_string(port), "--listen", address},
+      (dir / "piezod.txt").string());
   ASSERT_TRUE(wait_for_tcp(board_port));
 
   const auto r = run_command(kPiezo + " run --config " + kConfig + " --rig " + address +

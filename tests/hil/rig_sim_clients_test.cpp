@@ -69,8 +69,9 @@ std::string reply_to(int fd, const std::vector<std::uint8_t>& request, int timeo
 /// A 2 s run against rig-sim on `port`: its JSON summary.
 nlohmann::json run_against(const fs::path& dir, int port) {
   const auto r = run_command(kPiezo + " run --config " + kConfig + " --duration 2 --json " +
-                             "--set sensor.port=" + std::to_string(port) + " --set drive.ao_port=" +
-                             std::to_string(port) + " --out " + (dir / "run").string());
+                             "--set sensor.modbus.port=" + std::to_string(port) +
+                             " --set drive.modbus-ao.port=" + std::to_string(port) + " --out " +
+                             (dir / "run").string());
   EXPECT_EQ(r.exit_code, 0) << r.err;
   return r.out.empty() ? nlohmann::json{} : nlohmann::json::parse(r.out);
 }

@@ -37,8 +37,8 @@ class WildSensor : public ModbusHil {
   }
   /// The drive on rig-sim, the sensor on the wild peer.
   [[nodiscard]] std::string sets() const {
-    return "--set drive.ao_port=" + std::to_string(port) +
-           " --set sensor.port=" + std::to_string(sensor_port);
+    return "--set drive.modbus-ao.port=" + std::to_string(port) +
+           " --set sensor.modbus.port=" + std::to_string(sensor_port);
   }
   /// `piezo run` bounded by `timeout` (a hang is a failure, not a stuck suite).
   nlohmann::json run(const std::string& extra, int expected_exit) {
@@ -65,11 +65,12 @@ class WildSensor : public ModbusHil {
 // run, and the observer is never thrown (it once crawled for good on them).
 TEST_F(WildSensor, AWrongWordOrderIsOutOfRangeAndEndsTheRun) {
   start("steady");
-  const auto r = run_command("timeout -s KILL 120 " + kPiezo + " run --config " + kConfig +
-                             " --duration 2 --json --set sensor.word_order=ABCD --set "
-                             "drive.ao_port=" +
-                             std::to_string(port) + " --set sensor.port=" + std::to_string(port) +
-                             " --out " + (dir / "run").string());
+  const auto r =
+      run_command("timeout -s KILL 120 " + kPiezo + " run --config " + kConfig +
+                  " --duration 2 --json --set sensor.modbus.word_order=ABCD --set "
+                  "drive.modbus-ao.port=" +
+                  std::to_string(port) + " --set sensor.modbus.port=" + std::to_string(port) +
+                  " --out " + (dir / "run").string());
   ASSERT_EQ(r.exit_code, 1) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j.value("stop_cause", ""), "sensor_fault") << j.dump();
@@ -84,8 +85,8 @@ TEST_F(WildSensor, AWrongWordOrderIsOutOfRangeAndEndsTheRun) {
   EXPECT_LT(largest, 10.0);
   // The user's first tool says what is wrong (the peer holds 69.7426 mm).
   const auto read = run_command(kPiezo + " sensor read --config " + kConfig +
-                                " --count 3 --json --set sensor.word_order=ABCD --set "
-                                "sensor.port=" +
+                                " --count 3 --json --set sensor.modbus.word_order=ABCD --set "
+                                "sensor.modbus.port=" +
                                 std::to_string(sensor_port));
   EXPECT_NE(read.err.find("word_order = ABCD"), std::string::npos) << read.err;
   EXPECT_NE(read.err.find("in CDAB they read 0.0697426 m"), std::string::npos) << read.err;
@@ -151,8 +152,8 @@ TEST_F(WildSensor, ReadingsNoRotorGivesAreOutOfRange) {
 TEST_F(WildSensor, GarbageNeverHangsTheHostAndSigintEndsTheRun) {
   start("garbage");
   Spawned host({kPiezo, "run", "--config", kConfig, "--duration", "60", "--json", "--set",
-                "drive.ao_port=" + std::to_string(port), "--set",
-                "sensor.port=" + std::to_string(sensor_port), "--set",
+                "drive.modbus-ao.port=" + std::to_string(port), "--set",
+                "sensor.modbus.port=" + std::to_string(sensor_port), "--set",
                 "safety.max_sensor_errors=1000000", "--out", (dir / "run").string()},
                (dir / "host.txt").string());
   ASSERT_TRUE(wait_for_drive());

@@ -79,7 +79,7 @@ TEST(CalibrateCli, AfterCalibrationMovesOnAStifferPlantArriveBothWays) {
 TEST(CalibrateCli, AToleranceBelowTheNoiseFloorIsRefusedUpFront) {
   const auto dir = fresh_temp_dir("tolerance-floor");
   const std::string move = kPiezo + " move --config " + kSimConfig +
-                           " --set run.clock=virtual --set sensor.noise_m=2.5e-6 --to 0.001 "
+                           " --set run.clock=virtual --set sensor.sim.noise_m=2.5e-6 --to 0.001 "
                            "--json --out " +
                            dir.string();
   const auto refused = run_command(move + "/fine --tolerance 2e-6");

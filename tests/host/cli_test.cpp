@@ -291,7 +291,7 @@ TEST(Cli, SensorReadChecksOnlyTheSensorsSections) {
   const auto dir = fresh_temp_dir("sensor-only");
   const auto path = (dir / "rig.toml").string();
   write_file(path,
-             "[drive]\nbackend = \"sim\"\n[sensor]\nbackend = \"modbus-tcp\"\n"
+             "[drive]\nbackend = \"sim\"\n[sensor]\nbackend = \"modbus-tcp\"\n[sensor.modbus]\n"
              "host = \"127.0.0.1\"\nport = 1\nresponse_timeout_s = 0.05\n[run]\n");
   const auto r = run_command(kPiezo + " sensor read --config " + path + " --count 1");
   EXPECT_EQ(r.err.find("cannot go with"), std::string::npos) << r.err;

@@ -4,6 +4,8 @@
 
 #include "../support/run_command.hpp"
 #include "config_error.hpp"
+#include "piezo/hal/gpiod/gpiod_backends.hpp"
+#include "piezo/hal/modbus/modbus_backends.hpp"
 #include "rig_config.hpp"
 
 namespace piezo::config {
@@ -131,11 +133,14 @@ TEST(RigConfigs, ShippedConfigsLoad) {
   }
   const RigConfig rig =
       load_rig_config(std::string(PIEZO_SOURCE_DIR) + "/configs/rig-example.toml");
-  EXPECT_EQ(rig.drive.gpio_dac.dac.bits, 12);
-  EXPECT_TRUE(rig.drive.gpio_dac.dac.has_strobe);
-  EXPECT_EQ(rig.sensor.map.address, 202);
-  EXPECT_EQ(rig.sensor.link.parity, 'E');
-  EXPECT_EQ(rig.lines.gpiod.estop_offset, 18);
+  const auto dac =
+      rig.drive.backends.get<hal::gpiod::ParallelDacBackend>().settings(rig.drive_common());
+  EXPECT_EQ(dac.dac.bits, 12);
+  EXPECT_TRUE(dac.dac.has_strobe);
+  const auto& sensor = rig.sensor.backends.get<hal::modbus::ModbusSensorBackend>();
+  EXPECT_EQ(sensor.map().address, 202);
+  EXPECT_EQ(sensor.link().parity, 'E');
+  EXPECT_EQ(rig.lines.backends.get<hal::gpiod::RigLinesBackend>().settings().estop_offset, 18);
 }
 
 }  // namespace

@@ -111,10 +111,11 @@ INSTANTIATE_TEST_SUITE_P(
         // Refused here, as the board would, before a run directory exists.
         BadRun{"V0Zero", "--set drive.V0=0", "",
                "--set: drive.V0: 0 V is outside the drive's limits; allowed: (0, 80] V"},
-        BadRun{"TargetDistanceZero", "--set sensor.target_distance_m=0", "",
-               "--set: sensor.target_distance_m: value 0 m is outside the allowed range (0, 10] m"},
-        BadRun{"TargetDistanceNegative", "--set sensor.target_distance_m=-0.05", "",
-               "sensor.target_distance_m: value -0.05 m is outside the allowed range"},
+        BadRun{"TargetDistanceZero", "--set sensor.sim.target_distance_m=0", "",
+               "--set: sensor.sim.target_distance_m: value 0 m is outside the allowed range (0, "
+               "10] m"},
+        BadRun{"TargetDistanceNegative", "--set sensor.sim.target_distance_m=-0.05", "",
+               "sensor.sim.target_distance_m: value -0.05 m is outside the allowed range"},
         BadRun{"NulInAString", "", kMinimal + "[piezod]\nspill_file = \"a\\u0000b\"\n",
                "rig.toml: piezod.spill_file: must not contain control characters (U+0000 at "
                "character 2)"},
@@ -123,13 +124,25 @@ INSTANTIATE_TEST_SUITE_P(
                "rig.toml: drive.V0: 95 V is outside the drive's limits"},
         BadRun{"VmaxAboveHardware", "--set drive.V_max=120", "",
                "drive.V_max: [0, 120] V exceeds what the drive hardware can produce, [0, 100] V"},
-        BadRun{"NaN", "--set sensor.noise_m=nan", "",
-               "--set: sensor.noise_m: value nan m is outside the allowed range [0, 1] m"},
+        BadRun{"NaN", "--set sensor.sim.noise_m=nan", "",
+               "--set: sensor.sim.noise_m: value nan m is outside the allowed range [0, 1] m"},
         BadRun{"Negative", "--set drive.f=-3", "", "--set: drive.f: value -3"},
         BadRun{"NegativeRate", "--set drive.rate_hz=-10", "",
                "drive.rate_hz: value -10 Hz is outside the allowed range [100, 100000] Hz"},
         BadRun{"UnknownKey", "--set sensor.nosie_m=1e-6", "",
                "--set: sensor.nosie_m: unknown key (allowed: backend, rate_hz"},
+        // A backend's keys live in its own section; an old file's are
+        // refused naming the new place (both, where one key served two).
+        BadRun{"MovedKey", "--set drive.ao_port=1502", "",
+               "--set: drive.ao_port: has moved: it is now drive.modbus-ao.port (key `port` in "
+               "[drive.modbus-ao])"},
+        BadRun{"MovedSharedKey", "", "[drive]\ndac_full_scale_V = 5.0\n[sensor]\n[run]\n",
+               "rig.toml: drive.dac_full_scale_V: has moved: it is now drive.sim.dac_full_scale_V "
+               "(key `dac_full_scale_V` in [drive.sim]) or drive.gpiod-dac.full_scale_V"},
+        BadRun{"UnknownBackendKey", "--set drive.sim.bits=16", "",
+               "--set: drive.sim.bits: unknown key (allowed: dac_bits, dac_full_scale_V"},
+        BadRun{"BackendSectionNotATable", "--set sensor.modbus=3", "",
+               "--set: sensor.modbus: must be a table ([sensor.modbus])"},
         BadRun{"UnknownKeyInFile", "", kMinimal + "[safety]\nramp = 3\n",
                "rig.toml: safety.ramp: unknown key"},
         BadRun{"UnknownSection", "", kMinimal + "[amp]\ngain = 20\n",
@@ -152,8 +165,9 @@ INSTANTIATE_TEST_SUITE_P(
                "safety.stop_confirm_s"},
         BadRun{"BadDirection", "", "[drive]\ndirection = \"sideways\"\n[sensor]\n[run]\n",
                "rig.toml: drive.direction: must be one of: \"forward\", \"reverse\""},
-        BadRun{"SensorRegisterPastTheTable", "--set sensor.type=\"f32\" --set sensor.address=65535",
-               "", "sensor.address: 65535 with a 2-register value runs past register 65535"}),
+        BadRun{"SensorRegisterPastTheTable",
+               "--set sensor.modbus.type=\"f32\" --set sensor.modbus.address=65535", "",
+               "sensor.modbus.address: 65535 with a 2-register value runs past register 65535"}),
     [](const auto& param_info) { return std::string(param_info.param.name); });
 
 // `piezo step`: N whole periods on the virtual clock, the travel in the

@@ -230,8 +230,8 @@ TEST(SimRun, AMoveIntoAStalledSensorOrAnEstopStopsAtZeroVolts) {
   config::RunSettings::Move far{
       {.target_rad = 0.05, .tolerance_rad = 15e-6, .settle_s = 0.1, .timeout_s = 10.0}};
   for (const auto& [fault, cause] :
-       {std::pair{std::string("sensor.stall_at_s=0.3"), std::string("sensor_fault")},
-        std::pair{std::string("lines.estop_at_s=0.3"), std::string("estop")}}) {
+       {std::pair{std::string("sensor.sim.stall_at_s=0.3"), std::string("sensor_fault")},
+        std::pair{std::string("lines.sim.estop_at_s=0.3"), std::string("estop")}}) {
     const Outcome o =
         run_virtual({fault, "safety.sensor_stale_s=0.05"}, -1.0, "hil-move-fault", 0, far);
     EXPECT_EQ(o.summary.move.at("stop_cause"), cause) << fault;
@@ -276,8 +276,8 @@ TEST(SimRun, AMoveThatCannotProgressStopsAtZeroVoltsWithItsCause) {
   const double full_step = 1.4e-3;  // the model's at 80 V, 10 Hz (configs/sim.toml)
   for (const auto& [fault, cause] :
        {std::pair{std::string("plant.mu=2,plant.F_N=0.05"), std::string("stalled")},
-        std::pair{std::string("sensor.freeze_at_s=0.3"), std::string("sensor_implausible")},
-        std::pair{std::string("sensor.blind_at_s=0.3"), std::string("sensor_implausible")}}) {
+        std::pair{std::string("sensor.sim.freeze_at_s=0.3"), std::string("sensor_implausible")},
+        std::pair{std::string("sensor.sim.blind_at_s=0.3"), std::string("sensor_implausible")}}) {
     SCOPED_TRACE(fault);
     std::vector<std::string> sets;
     for (std::size_t at = 0; at != std::string::npos;) {
@@ -347,8 +347,8 @@ TEST(SimRun, APlainRunWithProtectionStopsOnABlindSensorOrAStuckRotor) {
     double failed_at;
   };
   for (const Case& c :
-       {Case{{on, "run.duration_s=5", "sensor.blind_at_s=0.5"}, "sensor_implausible", 0.5},
-        Case{{on, "run.duration_s=5", "sensor.freeze_at_s=0.5"}, "sensor_implausible", 0.5},
+       {Case{{on, "run.duration_s=5", "sensor.sim.blind_at_s=0.5"}, "sensor_implausible", 0.5},
+        Case{{on, "run.duration_s=5", "sensor.sim.freeze_at_s=0.5"}, "sensor_implausible", 0.5},
         Case{{on, "run.duration_s=5", "plant.mu=2", "plant.F_N=0.05"}, "stalled", 0.0}}) {
     SCOPED_TRACE(c.sets.back());
     const Outcome o = run_virtual(c.sets, -1.0, "hil-guard");
@@ -380,7 +380,7 @@ TEST(SimRun, AMoveComesOnTargetThroughFiveTimesTheNoise) {
     SCOPED_TRACE(target);
     config::RunSettings::Move move{
         {.target_rad = target, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0}};
-    const Outcome o = run_virtual({"sensor.noise_m=2.5e-6"}, -1.0, "hil-move-noisy", 0, move);
+    const Outcome o = run_virtual({"sensor.sim.noise_m=2.5e-6"}, -1.0, "hil-move-noisy", 0, move);
     EXPECT_EQ(o.summary.move.at("stop_cause"), "on_target");
     EXPECT_NEAR(o.rotor_theta_at_end, target, 25e-6);
     std::cout << "noisy sensor: on target at " << o.summary.move.at("on_target_at_s")
@@ -499,7 +499,8 @@ TEST(SimRun, TheObserverTracksAMismatchedPlant) {
 }
 
 TEST(SimRun, EveryEndLeavesTheSimulatedAmplifierDisabled) {
-  for (const auto& end : {"lines.estop_at_s=0.3", "sensor.stall_at_s=0.3", "run.duration_s=0.3"}) {
+  for (const auto& end :
+       {"lines.sim.estop_at_s=0.3", "sensor.sim.stall_at_s=0.3", "run.duration_s=0.3"}) {
     const Outcome o = run_virtual({end, "run.duration_s=1"});
     EXPECT_FALSE(o.amplifier_enabled_at_end) << end;
     EXPECT_EQ(o.summary.output_state(), "confirmed") << end;
@@ -524,7 +525,7 @@ TEST(SimRun, SlowSetUpBeforeTheStartIsNoSensorFault) {
 }
 
 TEST(SimRun, EstopDisablesWithinOneDrivePeriod) {
-  const Outcome o = run_virtual({"lines.estop_at_s=1.0"});
+  const Outcome o = run_virtual({"lines.sim.estop_at_s=1.0"});
   EXPECT_EQ(o.summary.cause, firmware::StopCause::estop);
   EXPECT_EQ(o.summary.status(), "failed");
   EXPECT_EQ(o.drive_phase.back(), static_cast<double>(firmware::DrivePhase::stopped));
@@ -539,8 +540,8 @@ TEST(SimRun, EstopDisablesWithinOneDrivePeriod) {
 TEST(SimRun, AnEstopActsDuringASlowDriveWrite) {
   config::RigConfig config =
       config::load_rig_config(PIEZO_SOURCE_DIR "/configs/sim.toml",
-                              {"drive.stall_at_s=0.5", "drive.stall_for_s=5", "run.duration_s=10",
-                               "run.priority=0", "run.lock_memory=false"});
+                              {"drive.sim.stall_at_s=0.5", "drive.sim.stall_for_s=5",
+                               "run.duration_s=10", "run.priority=0", "run.lock_memory=false"});
   config::Rig rig = config::build_rig(config);
   const std::shared_ptr<const hal::sim::SimRig> device = rig.sim;
   const auto dir = testing::fresh_temp_dir("hil-slow-write");
@@ -573,7 +574,7 @@ TEST(SimRun, AnEstopActsDuringASlowDriveWrite) {
 
 TEST(SimRun, SensorStallRampsDownAndStops) {
   const Outcome o = run_virtual(
-      {"sensor.stall_at_s=1.0", "safety.sensor_stale_s=0.1", "safety.ramp_down_V_per_s=1000"});
+      {"sensor.sim.stall_at_s=1.0", "safety.sensor_stale_s=0.1", "safety.ramp_down_V_per_s=1000"});
   EXPECT_EQ(o.summary.cause, firmware::StopCause::sensor_fault);
   EXPECT_GT(o.summary.sensor.errors, 0u);
   // The ramp starts once no good reading came for 0.1 s and lasts at most 80 ms.
@@ -592,7 +593,7 @@ TEST(SimRun, SensorStallRampsDownAndStops) {
 }
 
 TEST(SimRun, DropoutsAreCountedAndTheRunGoesOn) {
-  const Outcome o = run_virtual({"sensor.dropout_probability=0.02", "run.duration_s=1.0"});
+  const Outcome o = run_virtual({"sensor.sim.dropout_probability=0.02", "run.duration_s=1.0"});
   EXPECT_EQ(o.summary.status(), "completed");
   EXPECT_GT(o.summary.sensor.errors, 5u);
   EXPECT_EQ(std::count_if(o.theta.begin(), o.theta.end(), [](double v) { return std::isnan(v); }),

@@ -137,7 +137,7 @@ def main():
     shutil.rmtree(a.work, ignore_errors=True)
     os.makedirs(a.work)
     config = os.path.join(a.source, "configs", "modbus-hil.toml")
-    port_set = ["--set", f"sensor.port={a.port}"]
+    port_set = ["--set", f"sensor.modbus.port={a.port}"]
     rig = peers.spawn([a.piezo, "rig-sim", "--config", config] + port_set,
                            stdout=subprocess.DEVNULL,
                            stderr=open(os.path.join(a.work, "rig-sim.txt"), "w"))
@@ -152,7 +152,7 @@ def main():
         out = os.path.join(a.work, "run")
         run = subprocess.run(
             [a.piezo, "run", "--config", config, "--duration", str(a.seconds), "--json",
-             "--out", out, "--set", f"drive.ao_port={a.port}"] + port_set,
+             "--out", out, "--set", f"drive.modbus-ao.port={a.port}"] + port_set,
             capture_output=True, text=True, timeout=a.seconds + 120)
         strangers.stop()
         if run.returncode != 0:

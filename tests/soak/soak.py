@@ -95,7 +95,7 @@ duration = 3600.0 * hours
 run_dir = f"{work}/long"
 start = time.monotonic()
 p = peers.spawn([piezo, "run", "--config", f"{source}/configs/sim.toml", "--set",
-                      "run.clock=virtual", "--set", "sensor.dropout_probability=0.02",
+                      "run.clock=virtual", "--set", "sensor.sim.dropout_probability=0.02",
                       "--set", "safety.max_sensor_errors=1000", "--duration", str(duration),
                       "--json", "--out", run_dir], stdout=subprocess.PIPE, text=True)
 memory = MemoryWatch(p.pid)
@@ -151,7 +151,7 @@ print(f"long run: {duration:.0f} s simulated in {wall:.1f} s wall; {drive_n} dri
 # 2. Modbus faults against rig-sim, real time.
 modbus_port = port + 10
 config = f"{source}/configs/modbus-hil.toml"
-sets = ["--set", f"sensor.port={modbus_port}", "--set", f"drive.ao_port={modbus_port}"]
+sets = ["--set", f"sensor.modbus.port={modbus_port}", "--set", f"drive.modbus-ao.port={modbus_port}"]
 outcomes = {}
 sensor_errors = 0
 for cycle in range(modbus_cycles):

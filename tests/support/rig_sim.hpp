@@ -101,7 +101,7 @@ class ModbusHil : public ::testing::Test {
 
   std::unique_ptr<Spawned> start_rig_sim(const std::vector<std::string>& extra = {}) {
     std::vector<std::string> args{kPiezo,  "rig-sim", "--config",
-                                  kConfig, "--set",   "sensor.port=" + std::to_string(port)};
+                                  kConfig, "--set",   "sensor.modbus.port=" + std::to_string(port)};
     args.insert(args.end(), extra.begin(), extra.end());
     auto rig = std::make_unique<Spawned>(args, (dir / "rig-sim.txt").string());
     return rig;
@@ -115,7 +115,7 @@ class ModbusHil : public ::testing::Test {
     return r.out.empty() ? nlohmann::json{} : nlohmann::json::parse(r.out);
   }
 
-  std::string tcp_sets() const { return "--set sensor.port=" + std::to_string(port); }
+  std::string tcp_sets() const { return "--set sensor.modbus.port=" + std::to_string(port); }
 
   /// rig-sim's analog-output holding register (address 0), read by mbpoll
   /// (an independent peer); -1 when it cannot be read.
@@ -145,8 +145,8 @@ class ModbusRtu : public ModbusHil {
     ASSERT_TRUE(wait_for_path(dir / "ptyA") && wait_for_path(dir / "ptyB"));
   }
   std::string rtu_sets(const std::string& parity = "E") const {
-    return "--set sensor.backend=modbus-rtu --set sensor.device=" + (dir / "ptyB").string() +
-           " --set sensor.parity=" + parity;
+    return "--set sensor.backend=modbus-rtu --set sensor.modbus.device=" + (dir / "ptyB").string() +
+           " --set sensor.modbus.parity=" + parity;
   }
   /// Waits until a peer on the pty's other end answers a read (a server
   /// that starts slowly on a loaded machine: pymodbus takes seconds).

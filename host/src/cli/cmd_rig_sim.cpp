@@ -8,7 +8,9 @@
 
 #include "commands.hpp"
 #include "config_error.hpp"
+#include "piezo/hal/modbus/modbus_backends.hpp"
 #include "piezo/hal/sim/modbus_rig_device.hpp"
+#include "piezo/hal/sim/sim_backends.hpp"
 #include "rig_config.hpp"
 
 namespace piezo::host {
@@ -36,13 +38,17 @@ std::pair<std::string, int> split_host_port(const std::string& text) {
 hal::sim::ModbusRigDeviceSettings device_settings(const config::RigConfig& c) {
   hal::sim::ModbusRigDeviceSettings s;
   s.plant = c.plant;
-  s.amplifier = c.drive.amplifier;
-  s.amplifier.ramp_time_s = 1.0 / c.drive.rate_hz;
-  s.sensor = c.sensor.sim;
-  s.sensor_map = c.sensor.map;
-  s.serial = c.sensor.link;
-  s.ao_address = c.drive.ao.address;
-  s.ao_counts_per_V = c.drive.ao.counts_per_V;
+  // The devices the config names: the simulated amplifier and laser, the
+  // sensor's registers and the analog-output module's.
+  const hal::DriveCommon drive = c.drive_common();
+  s.amplifier = c.drive.backends.get<hal::sim::SimDriveBackend>().amplifier(drive);
+  s.sensor = c.sensor.backends.get<hal::sim::SimSensorBackend>().settings(c.sensor.common());
+  const auto& sensor = c.sensor.backends.get<hal::modbus::ModbusSensorBackend>();
+  s.sensor_map = sensor.map();
+  s.serial = sensor.link();
+  const auto ao = c.drive.backends.get<hal::modbus::AnalogOutputBackend>().settings(drive);
+  s.ao_address = ao.address;
+  s.ao_counts_per_V = ao.counts_per_V;
   s.faults = c.rig_sim;
   s.tcp = c.rig_sim_tcp;
   return s;
@@ -51,17 +57,15 @@ hal::sim::ModbusRigDeviceSettings device_settings(const config::RigConfig& c) {
 int run(const RigSimOptions& o) {
   const config::RigConfig config =
       config::load_rig_config(o.config, o.sets, config::ConfigScope::sensor);
+  const auto& serial = config.sensor.backends.get<hal::modbus::ModbusSensorBackend>().link();
   std::string tcp = o.tcp;
-  if (tcp.empty() && o.rtu.empty()) {
-    tcp = config.sensor.link.host + ":" + std::to_string(config.sensor.link.port);
-  }
+  if (tcp.empty() && o.rtu.empty()) tcp = serial.host + ":" + std::to_string(serial.port);
   hal::sim::ModbusRigDevice server(device_settings(config));
   fmt::print("rig-sim: {}\n", server.describe());
   std::thread rtu_thread;
   if (!o.rtu.empty()) {
-    fmt::print("rig-sim: serving RTU on {} ({} {}{}{})\n", o.rtu, config.sensor.link.baud,
-               config.sensor.link.data_bits, config.sensor.link.parity,
-               config.sensor.link.stop_bits);
+    fmt::print("rig-sim: serving RTU on {} ({} {}{}{})\n", o.rtu, serial.baud, serial.data_bits,
+               serial.parity, serial.stop_bits);
     if (tcp.empty()) {
       std::fflush(stdout);
       server.serve_rtu(o.rtu);

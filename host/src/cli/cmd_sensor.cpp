@@ -52,8 +52,9 @@ std::string word_order_hint(const hal::modbus::ModbusSensor& sensor,
   }
   if (better.empty()) return {};
   return fmt::format(
-      "with sensor.word_order = {} the registers 0x{:04X} 0x{:04X} read {:.4g} m, not a distance "
-      "in [{:g}, {:g}] m; {}: check sensor.word_order (and the preset)",
+      "with sensor.modbus.word_order = {} the registers 0x{:04X} 0x{:04X} read {:.4g} m, not a "
+      "distance "
+      "in [{:g}, {:g}] m; {}: check sensor.modbus.word_order (and the preset)",
       configured, words[0], words[1], metres(map.order), s.range_min_m, s.range_max_m, better);
 }
 
@@ -69,7 +70,7 @@ int run(const SensorReadOptions& o) {
       config::load_rig_config(o.config, o.sets, config::ConfigScope::sensor);
   config::SensorRig rig = config::build_sensor(config);
   hal::Clock& clock = *rig.clock;
-  const auto period = hal::from_seconds(1.0 / config.sensor.rate_hz());
+  const auto period = hal::from_seconds(1.0 / config.sensor.rate_hz);
   const hal::TimeNs t0 = clock.now();
   nlohmann::json readings = nlohmann::json::array();
   int errors = 0;
@@ -106,10 +107,8 @@ int run(const SensorReadOptions& o) {
     if (!warning.empty()) j["warning"] = warning;
     std::cout << j.dump() << "\n";
   } else {
-    fmt::print("{} readings, {} errors ({} sensor, {})\n", o.count, errors,
-               name(config.sensor.backend),
-               config.sensor.backend == config::SensorBackend::sim ? "simulated"
-                                                                   : config.sensor.link.describe());
+    fmt::print("{} readings, {} errors ({} sensor, {})\n", o.count, errors, config.sensor.backend(),
+               config.sensor.backends.chosen().describe());
   }
   return errors == o.count ? 1 : 0;
 }

@@ -9,13 +9,55 @@
 
 namespace piezo::config {
 
+namespace {
+
+/// The table `name` inside `parent` (null when absent); anything else there is refused.
+const toml::table* table_in(const toml::table* parent, const std::string& key,
+                            const std::string& name, const std::string& source) {
+  const toml::node* node = parent == nullptr ? nullptr : parent->get(key);
+  if (node == nullptr) return nullptr;
+  if (node->as_table() == nullptr)
+    throw ConfigError(source, name, "must be a table ([" + name + "])");
+  return node->as_table();
+}
+
+}  // namespace
+
 SectionReader::SectionReader(const toml::table& root, std::string section, std::string source)
     : section_(std::move(section)), source_(std::move(source)) {
-  if (const toml::node* node = root.get(section_)) {
-    table_ = node->as_table();
-    if (table_ == nullptr)
-      throw ConfigError(source_, section_, "must be a table ([" + section_ + "])");
+  table_ = &root;
+  std::string::size_type begin = 0;
+  for (;;) {
+    const auto dot = section_.find('.', begin);
+    table_ =
+        table_in(table_, section_.substr(begin, dot - begin), section_.substr(0, dot), source_);
+    if (dot == std::string::npos) break;
+    begin = dot + 1;
   }
+}
+
+SectionReader SectionReader::subsection(const std::string& key) {
+  note(key);
+  return {table_in(table_, key, name(key), source_), name(key), source_, declarations_};
+}
+
+void SectionReader::declare(KeyDeclaration d) {
+  if (declarations_ == nullptr) return;
+  for (const KeyDeclaration& known : *declarations_)
+    if (known.key == d.key) return;  // two backends on one section read it twice
+  declarations_->push_back(std::move(d));
+}
+
+void SectionReader::moved(const std::string& key, const std::vector<std::string>& now) {
+  if (!has(key)) return;
+  std::vector<std::string> places;
+  for (const std::string& name : now) {
+    const auto dot = name.rfind('.');
+    places.push_back(
+        fmt::format("{} (key `{}` in [{}])", name, name.substr(dot + 1), name.substr(0, dot)));
+  }
+  throw ConfigError(source_, name(key),
+                    fmt::format("has moved: it is now {}", fmt::join(places, " or ")));
 }
 
 void SectionReader::note(const std::string& key) {
@@ -29,6 +71,13 @@ bool SectionReader::has(const std::string& key) const {
 void SectionReader::number(const std::string& key, double& value, const Range& allowed,
                            const std::string& unit) {
   note(key);
+  declare({name(key),
+           "number",
+           unit,
+           allowed,
+           {},
+           std::isfinite(value) ? fmt::format("{:g}", value) : "",
+           value});
   if (!has(key)) return;
   const toml::node& node = *table_->get(key);
   const auto v = node.value<double>();
@@ -46,6 +95,13 @@ void SectionReader::number(const std::string& key, double& value, const Range& a
 
 void SectionReader::integer(const std::string& key, int& value, int min, int max) {
   note(key);
+  declare({name(key),
+           "integer",
+           "",
+           {double(min), double(max)},
+           {},
+           std::to_string(value),
+           double(value)});
   if (!has(key)) return;
   const toml::node& node = *table_->get(key);
   const auto v = node.value<std::int64_t>();
@@ -58,6 +114,7 @@ void SectionReader::integer(const std::string& key, int& value, int min, int max
 void SectionReader::choice(const std::string& key, std::string& value,
                            const std::vector<std::string>& allowed) {
   note(key);
+  declare({name(key), "choice", "", {}, allowed, value});
   if (!has(key)) return;
   const auto v = table_->get(key)->value<std::string>();
   if (!v || std::find(allowed.begin(), allowed.end(), *v) == allowed.end()) {
@@ -70,6 +127,14 @@ void SectionReader::choice(const std::string& key, std::string& value,
 void SectionReader::integer_list(const std::string& key, std::vector<int>& value, int min,
                                  int max) {
   note(key);
+  std::vector<std::string> items;
+  for (const int v : value) items.push_back(std::to_string(v));
+  declare({name(key),
+           "list",
+           "",
+           {double(min), double(max)},
+           {},
+           fmt::format("{}", fmt::join(items, ", "))});
   if (!has(key)) return;
   const toml::array* array = table_->get(key)->as_array();
   const std::string allowed =
@@ -87,6 +152,7 @@ void SectionReader::integer_list(const std::string& key, std::vector<int>& value
 
 void SectionReader::text(const std::string& key, std::string& value) {
   note(key);
+  declare({name(key), "text", "", {}, {}, value});
   if (!has(key)) return;
   const auto v = table_->get(key)->value<std::string>();
   if (!v || v->empty()) throw ConfigError(source_, name(key), "must be a non-empty string");
@@ -105,6 +171,7 @@ void SectionReader::text(const std::string& key, std::string& value) {
 
 void SectionReader::flag(const std::string& key, bool& value) {
   note(key);
+  declare({name(key), "flag", "", {}, {}, value ? "true" : "false"});
   if (!has(key)) return;
   const toml::node& node = *table_->get(key);
   if (!node.is_boolean()) throw ConfigError(source_, name(key), "must be true or false");
@@ -124,7 +191,9 @@ void SectionReader::finish() const {
 
 SectionReader TableReader::section(const std::string& name) {
   if (std::find(read_.begin(), read_.end(), name) == read_.end()) read_.push_back(name);
-  return {root_, name, source_};
+  SectionReader reader(root_, name, source_);
+  reader.declarations_ = declarations_;
+  return reader;
 }
 
 void TableReader::finish() const {

@@ -22,11 +22,33 @@ namespace piezo::config {
 using Range = Interval;
 
 inline constexpr double kInf = std::numeric_limits<double>::infinity();
+inline constexpr Range kPositive{0.0, kInf, true, true};      ///< > 0
+inline constexpr Range kNonNegative{0.0, kInf, false, true};  ///< >= 0
+
+/// One key as its reader declares it, for the configuration reference
+/// (docs/configuration.md is checked against these).
+struct KeyDeclaration {
+  std::string key;                   ///< "drive.sim.dac_bits"
+  std::string kind;                  ///< number, integer, choice, flag, text, list
+  std::string unit;                  ///< empty: none
+  Range range;                       ///< numbers, integers and a list's items
+  std::vector<std::string> choices;  ///< a choice's names
+  std::string default_text;          ///< the value before any file: "20", "sim", "" (none)
+  double default_value = std::numeric_limits<double>::quiet_NaN();  ///< numbers and integers
+};
+using KeyDeclarations = std::vector<KeyDeclaration>;
 
 class SectionReader {
  public:
-  /// A missing section reads as empty: every key keeps its value.
+  /// A missing section reads as empty: every key keeps its value. A dotted
+  /// name ("drive.sim") is a table inside a table.
   SectionReader(const toml::table& root, std::string section, std::string source);
+
+  /// The table KEY inside this section ([SECTION.KEY]): a backend's own keys.
+  [[nodiscard]] SectionReader subsection(const std::string& key);
+  /// A key that has moved: refused, naming where it lives now
+  /// ("drive.sim.dac_bits"; more than one when it was shared).
+  void moved(const std::string& key, const std::vector<std::string>& now);
 
   [[nodiscard]] bool has(const std::string& key) const;
 
@@ -39,7 +61,7 @@ class SectionReader {
   void choice(const std::string& key, Enum& value, const NameTable<Enum, N>& names) {
     std::vector<std::string> allowed;
     for (const auto& [e, name] : names.entries()) allowed.emplace_back(name);
-    std::string text;
+    std::string text(names.name(value));
     choice(key, text, allowed);
     if (const auto e = names.parse(text)) value = *e;
   }
@@ -58,18 +80,30 @@ class SectionReader {
  private:
   void note(const std::string& key);
 
+  SectionReader(const toml::table* table, std::string section, std::string source,
+                KeyDeclarations* declarations)
+      : table_(table),
+        section_(std::move(section)),
+        source_(std::move(source)),
+        declarations_(declarations) {}
+  void declare(KeyDeclaration d);
+
   const toml::table* table_ = nullptr;
   std::string section_;
   std::string source_;
-  std::vector<std::string> read_;  ///< every key asked for, in order
+  std::vector<std::string> read_;            ///< every key asked for, in order
+  KeyDeclarations* declarations_ = nullptr;  ///< where keys are declared, when asked
+
+  friend class TableReader;
 };
 
 /// The sections of one table (a file, or one --set): section() hands out a
 /// reader per section and finish() refuses a section no one asked for.
 class TableReader {
  public:
-  TableReader(const toml::table& root, std::string source)
-      : root_(root), source_(std::move(source)) {}
+  /// With `declarations`, every key read is declared there too.
+  TableReader(const toml::table& root, std::string source, KeyDeclarations* declarations = nullptr)
+      : root_(root), source_(std::move(source)), declarations_(declarations) {}
 
   [[nodiscard]] SectionReader section(const std::string& name);
   void finish() const;
@@ -78,6 +112,7 @@ class TableReader {
   const toml::table& root_;
   std::string source_;
   std::vector<std::string> read_;
+  KeyDeclarations* declarations_ = nullptr;
 };
 
 }  // namespace piezo::config
