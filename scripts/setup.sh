@@ -30,7 +30,7 @@ packages=(
   libeigen3-dev libcli11-dev libtomlplusplus-dev libfmt-dev nlohmann-json3-dev
   libhdf5-dev zlib1g-dev libgtest-dev libgmock-dev
   gnuplot-nox python3 python3-h5py python3-numpy
-  rt-tests libgpiod-dev libmodbus-dev mbpoll socat python3-pymodbus python3-serial-asyncio
+  rt-tests libgpiod-dev libmodbus-dev libcomedi-dev mbpoll socat python3-pymodbus python3-serial-asyncio
   libzmq3-dev cppzmq-dev python3-zmq python3-msgpack clang libclang-rt-14-dev
   libsystemd-dev systemd debootstrap iproute2 libboost-dev python3-openturns libopenmpi-dev openmpi-bin
   libsundials-dev
@@ -75,6 +75,23 @@ if ! getent hosts localhost > /dev/null; then
   echo "setup: /etc/hosts has no localhost; adding the loopback entries a Debian install writes"
   printf '127.0.0.1\tlocalhost\n::1\t\tlocalhost ip6-localhost ip6-loopback\n' |
     "${sudo_cmd[@]}" tee -a /etc/hosts > /dev/null
+fi
+
+# comedilib for the board: Debian's libcomedi-dev cannot be installed for
+# two architectures at once, so its arm64 static library is taken from the
+# arm64 package and put where the cross build's pkg-config looks (static:
+# the board's piezod then needs no comedilib package of its own).
+arm64_lib=/usr/lib/aarch64-linux-gnu
+if [ -n "$arm64" ] && [ ! -f "$arm64_lib/libcomedi.a" ]; then
+  echo "setup: comedilib for arm64, from libcomedi-dev:arm64"
+  unpacked="$(mktemp -d)"
+  (cd "$unpacked" && apt-get download -q libcomedi-dev:arm64 && dpkg -x libcomedi-dev_*_arm64.deb root)
+  "${sudo_cmd[@]}" install -m 644 "$unpacked/root/usr/lib/libcomedi.a" "$arm64_lib/libcomedi.a"
+  printf '%s\n' "libdir=$arm64_lib" "includedir=/usr/include" "" "Name: Comedilib" \
+    "Description: Comedi Library (static, for the board)" "Version: 0.11.0" \
+    "Libs: -L\${libdir} -lcomedi -lm" "Cflags: -I\${includedir}" |
+    "${sudo_cmd[@]}" tee "$arm64_lib/pkgconfig/comedilib.pc" > /dev/null
+  rm -rf "$unpacked"
 fi
 
 uplot_version=1.6.32

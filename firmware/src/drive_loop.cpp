@@ -30,7 +30,7 @@ void DriveLoop::stop_output(hal::TimeNs t) {
   const hal::TimeNs give_up =
       io_.clock.now() + hal::from_seconds(supervisor_.settings().stop_confirm_s);
   for (;;) {
-    outcome_.zero_status = io_.drive.write(0.0);
+    outcome_.zero_status = io_.drive.write_now(0.0);
     ++outcome_.zero_writes;
     if (outcome_.zero_status == hal::Status::ok || io_.clock.now() >= give_up) break;
     io_.clock.sleep_until(io_.clock.now() + kRetryPause);

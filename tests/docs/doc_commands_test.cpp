@@ -98,7 +98,7 @@ std::vector<std::string> piezo_lines(const fs::path& page) {
 // Commands shown as synopses or examples (not run: they take a board, a
 // port or minutes) must still exist, with the options they show.
 TEST(DocCommands, EveryPiezoCommandShownExistsWithTheOptionsItShows) {
-  const std::regex command(R"((?:^|\s|/)piezo ([a-z][a-z-]*)(?: (read))?(?= |$))");
+  const std::regex command(R"((?:^|\s|/)piezo ([a-z][a-z-]*)(?: (read|list))?(?= |$))");
   const std::regex option(R"(--[a-z][a-z0-9-]*)");
   std::map<std::string, std::string> help;  // subcommand -> its --help
   std::size_t checked = 0;

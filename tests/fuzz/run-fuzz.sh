@@ -35,21 +35,21 @@ case "$target" in
     sources=("$src"/model/names/config/section_reader.cpp
              "$src"/firmware/config/{model_config,rig_config}.cpp
              "$src"/firmware/src/{request_limits,move_request}.cpp
-             "$src"/hal/{sim,modbus,gpiod}/src/*_backends.cpp
+             "$src"/hal/{sim,modbus,gpiod,comedi}/src/*_backends.cpp
              "$src"/hal/registry/src/backends.cpp
              "$src"/hal/modbus/src/register_map.cpp "$src"/model/src/{parameters,waveform}.cpp)
     # The backends read their own sections, so the registry links every
     # backend's device (and the simulated rig, the model behind it): only
     # linked, never reached from a config, so built plain (no sanitizers,
     # no coverage) and in parallel.
-    for f in "$src"/hal/{sim,modbus,gpio,gpiod,posix}/src/*.cpp "$src"/model/src/*.cpp \
+    for f in "$src"/hal/{sim,modbus,gpio,gpiod,posix,comedi}/src/*.cpp "$src"/model/src/*.cpp \
              "$src"/model/src/hybrid/*.cpp; do
       [[ " ${sources[*]} " == *" $f "* || $f == */global_sensitivity.cpp ]] || linked+=("$f")
     done
     flags=(-I"$src/firmware/config" -I"$src/model/names/error" -I"$src/model/names/config"
            -I"$src/firmware/include" "${hal_includes[@]}"
-           -I"$src/model/include" -I/usr/include/eigen3 $(pkg-config --cflags libmodbus libgpiod))
-    libs=(-lfmt $(pkg-config --libs libmodbus libgpiod) -lpthread) ;;
+           -I"$src/model/include" -I/usr/include/eigen3 $(pkg-config --cflags libmodbus libgpiod comedilib))
+    libs=(-lfmt $(pkg-config --libs libmodbus libgpiod comedilib) -lpthread) ;;
   modbus)
     sources=("$src"/hal/modbus/src/{link,modbus_sensor,register_map}.cpp
              "$src"/hal/posix/src/monotonic_clock.cpp)

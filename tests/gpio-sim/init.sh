@@ -22,6 +22,6 @@ echo 1 > "$bank/live"
 chip=$(cat "$bank/bank0/chip_name")
 device=$(cat "$bank/dev_name")
 echo "gpio-sim: $chip on $device"
-/gpio_sim_check "$chip" "/sys/devices/platform/$device/$chip"
+/check "$chip" "/sys/devices/platform/$device/$chip"
 echo "gpio-sim exit code: $?"
 reboot -f

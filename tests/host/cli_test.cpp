@@ -300,3 +300,21 @@ TEST(Cli, SensorReadChecksOnlyTheSensorsSections) {
 
 }  // namespace
 }  // namespace piezo::testing
+
+namespace piezo::testing {
+namespace {
+
+// `piezo sensor list` names what the configured devices are before anything
+// is driven; a DAQ card that is not there is named with its device file.
+TEST(Cli, SensorListNamesTheConfiguredDevices) {
+  const auto sim = run_command(kPiezo + " sensor list --config " + kConfigs + "/sim.toml");
+  EXPECT_EQ(sim.exit_code, 0) << sim.err;
+  EXPECT_NE(sim.out.find("drive (sim): simulated"), std::string::npos) << sim.out;
+  const auto card = run_command(kPiezo + " sensor list --config " + kConfigs +
+                                "/daq.toml --set drive.comedi.device=/dev/no-such-card");
+  EXPECT_EQ(card.exit_code, 1);
+  EXPECT_NE(card.err.find("comedi /dev/no-such-card: cannot open"), std::string::npos) << card.err;
+}
+
+}  // namespace
+}  // namespace piezo::testing

@@ -127,7 +127,7 @@ namespace {
 // The shipped rig configs are valid as they stand (the devices they name
 // are not opened here).
 TEST(RigConfigs, ShippedConfigsLoad) {
-  for (const char* name : {"sim.toml", "modbus-hil.toml", "rig-example.toml"}) {
+  for (const char* name : {"sim.toml", "modbus-hil.toml", "rig-example.toml", "daq.toml"}) {
     const std::string path = std::string(PIEZO_SOURCE_DIR) + "/configs/" + name;
     EXPECT_NO_THROW((void)load_rig_config(path)) << name;
   }

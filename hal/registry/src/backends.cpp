@@ -1,5 +1,6 @@
 #include "piezo/hal/backends.hpp"
 
+#include "piezo/hal/comedi/comedi_backends.hpp"
 #include "piezo/hal/gpiod/gpiod_backends.hpp"
 #include "piezo/hal/modbus/modbus_backends.hpp"
 #include "piezo/hal/posix/no_lines_backend.hpp"
@@ -14,6 +15,7 @@ std::vector<std::shared_ptr<DriveBackend>> drive_backends() {
       std::make_shared<sim::SimDriveBackend>(),
       std::make_shared<modbus::AnalogOutputBackend>(),
       std::make_shared<gpiod::ParallelDacBackend>(),
+      std::make_shared<comedi::ComediDriveBackend>(),
   };
 }
 
@@ -23,6 +25,7 @@ std::vector<std::shared_ptr<SensorBackend>> sensor_backends() {
       std::make_shared<sim::SimSensorBackend>(),
       std::make_shared<modbus::ModbusSensorBackend>(Transport::tcp),
       std::make_shared<modbus::ModbusSensorBackend>(Transport::rtu),
+      std::make_shared<comedi::ComediSensorBackend>(),
   };
 }
 

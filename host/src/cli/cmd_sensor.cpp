@@ -1,5 +1,6 @@
 // `piezo sensor read`: polls the configured displacement sensor — the first
-// thing to run when wiring a new sensor.
+// thing to run when wiring a new sensor; `piezo sensor list`: what the
+// configured devices offer (a DAQ card's subdevices, channels and ranges).
 
 #include <fmt/format.h>
 
@@ -115,6 +116,20 @@ int run(const SensorReadOptions& o) {
 
 }  // namespace
 
+/// `piezo sensor list`: what the configured drive and sensor devices offer.
+int list(const SensorReadOptions& o) {
+  const config::RigConfig c = config::load_rig_config(o.config, o.sets);
+  const std::string drive = c.drive.backends.chosen().inventory();
+  const std::string sensor = c.sensor.backends.chosen().inventory();
+  fmt::print("drive ({}): {}{}", c.drive.backend(), drive, drive.ends_with('\n') ? "" : "\n");
+  if (sensor == drive) {
+    fmt::print("sensor ({}): the same device\n", c.sensor.backend());
+  } else {
+    fmt::print("sensor ({}): {}{}", c.sensor.backend(), sensor, sensor.ends_with('\n') ? "" : "\n");
+  }
+  return 0;
+}
+
 CommandRunner add_sensor_command(CLI::App& app) {
   auto o = std::make_shared<SensorReadOptions>();
   CLI::App* sensor = app.add_subcommand("sensor", "Work with the displacement sensor");
@@ -126,7 +141,18 @@ CommandRunner add_sensor_command(CLI::App& app) {
   read->add_option("--set", o->sets, "Override a config key: sensor.KEY=VALUE");
   read->add_option("--count", o->count, "Readings to take")->check(CLI::Range(1, 1'000'000));
   read->add_flag("--json", o->json, "Print one JSON object on stdout");
-  return [o, read]() { return read->parsed() ? run(*o) : -1; };
+  CLI::App* list_devices = sensor->add_subcommand(
+      "list",
+      "List what the configured drive and sensor devices offer (a DAQ card's "
+      "subdevices, channels and ranges), to check the wiring before driving");
+  list_devices->add_option("--config", o->config, "Rig config (TOML)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  list_devices->add_option("--set", o->sets, "Override a config key: SECTION.KEY=VALUE");
+  return [o, read, list_devices]() {
+    if (read->parsed()) return run(*o);
+    return list_devices->parsed() ? list(*o) : -1;
+  };
 }
 
 }  // namespace piezo::host

@@ -77,6 +77,9 @@ class Backend {
   [[nodiscard]] virtual std::string describe() const {
     return simulated() ? "simulated" : std::string(name());
   }
+  /// What its device offers, for the wiring check (a card's subdevices,
+  /// channels and ranges); may open the device, and throws when it cannot.
+  [[nodiscard]] virtual std::string inventory() const { return describe(); }
   /// Keys of the kind's section that moved into this backend's.
   [[nodiscard]] virtual std::vector<MovedKey> moved_keys() const { return {}; }
 

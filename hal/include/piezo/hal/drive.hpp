@@ -22,6 +22,9 @@ class Drive {
 
   /// Commands the amplifier output voltage [V]. Called every drive cycle: must be fast.
   virtual Status write(double volts) = 0;
+  /// Puts `volts` out at once, ahead of anything the drive queued: a stop's
+  /// 0 V. A drive without a queue writes as usual.
+  virtual Status write_now(double volts) { return write(volts); }
   /// The output the device last acknowledged taking [V] (a write that
   /// returned ok); NaN before the first. What a stop reports when it cannot
   /// confirm 0 V: never the command, only what the device confirmed.

@@ -23,15 +23,44 @@ namespace piezo::hal::comedi {
   return static_cast<double>(samples) / rate_hz;
 }
 
-/// How many copies of the value due now a write queues, with `queued`
-/// samples still waiting and `preload` the depth to keep: one in the steady
-/// state (the card took one since the last write), more after late writes
-/// (the loop skipped deadlines: the value due now fills their places, as a
-/// DAC holds its last value), none when the card's clock runs behind the
-/// loop's and the queue is full.
-[[nodiscard]] inline std::size_t copies_to_queue(std::size_t queued, std::size_t preload) {
-  return queued >= preload ? 0 : preload - queued;
-}
+/// The drive loop and the card run on two clocks, so the queue's level
+/// drifts by their difference (at 100 ppm, a sample in every 10,000), and the
+/// card takes samples in bursts (a timer tick, a DMA block), so one reading
+/// of the level says little. Every `window` writes, the lowest level seen is
+/// compared with the first window's; a drift past a quarter of the preload
+/// is corrected by one sample: the value due now queued twice, or left out.
+class DriftKeeper {
+ public:
+  DriftKeeper(std::size_t preload, std::size_t window) : preload_(preload), window_(window) {}
+
+  /// How many copies of the value due now to queue (0, 1 or 2), with
+  /// `queued` samples waiting.
+  [[nodiscard]] std::size_t copies(std::size_t queued) {
+    lowest_ = std::min(lowest_, queued);
+    if (++seen_ < window_) return 1;
+    const std::size_t lowest = lowest_;
+    seen_ = 0;
+    lowest_ = static_cast<std::size_t>(-1);
+    if (!has_baseline_) {
+      baseline_ = lowest;
+      has_baseline_ = true;
+      return 1;
+    }
+    const double drift = static_cast<double>(lowest) - static_cast<double>(baseline_);
+    if (drift < -0.25 * static_cast<double>(preload_)) return 2;
+    if (drift > 0.25 * static_cast<double>(preload_)) return 0;
+    return 1;
+  }
+  /// Starts over (a new stream).
+  void reset() { *this = DriftKeeper(preload_, window_); }
+
+ private:
+  std::size_t preload_, window_;
+  std::size_t seen_ = 0;
+  std::size_t lowest_ = static_cast<std::size_t>(-1);
+  std::size_t baseline_ = 0;
+  bool has_baseline_ = false;
+};
 
 /// A sensor's analog output mapped linearly onto its measuring range: the
 /// output span's two ends [V] and the distances they stand for [m]. A 4-20

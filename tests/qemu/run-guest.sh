@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# Boots a check program in a qemu guest: builds (once, cached) the small
+# kernel with gpio-sim and comedi_test, packs CHECK_PROGRAM with busybox and
+# the guest's INIT script into an initramfs, boots it under software
+# emulation and reads the verdict off the serial console. Exits 77 (CTest:
+# skipped) with the reason when qemu, busybox-static or the kernel source
+# are missing.
+# Usage: run-guest.sh NAME INIT CHECK_PROGRAM WORK_DIR KERNEL_DIR [KERNEL_ARGS]
+set -euo pipefail
+name="$1" init="$2" check="$3" work="$4" kernel="$5" args="${6:-}"
+here="$(cd "$(dirname "$0")" && pwd)"
+
+skip() { echo "SKIP: $*"; exit 77; }
+command -v qemu-system-x86_64 >/dev/null || skip "qemu-system-x86_64 not installed (Debian: qemu-system-x86)"
+[ -x /bin/busybox ] || skip "busybox not installed (Debian: busybox-static)"
+[ -f /usr/src/linux-source-6.1.tar.xz ] || skip "kernel source missing (Debian: linux-source-6.1)"
+for tool in make gcc bc flex bison cpio gzip flock; do
+  command -v "$tool" >/dev/null || skip "$tool not installed"
+done
+
+"$here/build-kernel.sh" "$kernel"
+
+# The initramfs: busybox, /init, the check program and the libraries it loads.
+root="$work/initramfs"
+rm -rf "$root"
+mkdir -p "$root"/{bin,proc,sys,dev}
+cp /bin/busybox "$root/bin/busybox"
+for applet in sh mount mkdir cat echo reboot seq sleep ls; do ln -s busybox "$root/bin/$applet"; done
+cp "$init" "$root/init"
+chmod +x "$root/init"
+cp "$check" "$root/check"
+ldd "$check" | grep -o '/[^ ]*' | while read -r lib; do
+  mkdir -p "$root$(dirname "$lib")"
+  cp -L "$lib" "$root$lib"
+done
+(cd "$root" && find . | cpio -o -H newc --quiet | gzip -1) > "$work/initramfs.cpio.gz"
+
+accel=tcg  # software emulation: KVM may be missing or unusable in a nested machine
+console="$work/console.txt"
+timeout 600 qemu-system-x86_64 -accel "$accel" -m 256M -smp 2 -nographic -no-reboot \
+  -kernel "$kernel/bzImage" -initrd "$work/initramfs.cpio.gz" \
+  -append "console=ttyS0 panic=-1 quiet tsc=reliable $args" > "$console" 2>&1 || true
+grep -E "^(PASS|FAIL|$name)" "$console" || { cat "$console"; }
+if grep -q "^$name exit code: 0" "$console" && ! grep -q "^FAIL" "$console"; then
+  echo "$name: all checks passed"
+  exit 0
+fi
+echo "$name: checks failed (console: $console)"
+exit 1
