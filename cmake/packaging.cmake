@@ -18,6 +18,11 @@ install(FILES ${PROJECT_SOURCE_DIR}/configs/rig-example.toml
         DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/piezod/examples COMPONENT piezod)
 if(PIEZO_HOST)
   install(TARGETS piezo RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT piezo)
+  # Loaded by piezo when first needed (host/src/io/module_loader.hpp).
+  install(TARGETS piezo_h5 LIBRARY DESTINATION ${PIEZO_MODULE_DIR} COMPONENT piezo)
+  if(TARGET piezo_mpi)
+    install(TARGETS piezo_mpi LIBRARY DESTINATION ${PIEZO_MODULE_DIR} COMPONENT piezo)
+  endif()
   file(GLOB guides ${PROJECT_SOURCE_DIR}/docs/*.md)
   install(FILES ${guides} DESTINATION ${CMAKE_INSTALL_DATAROOTDIR}/doc/piezo/docs COMPONENT piezo)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/docs/images

@@ -290,20 +290,9 @@ Trajectory simulate_coulomb_closed_form(const MotorParameters& p, const Excitati
     throw std::invalid_argument("sample times must be non-negative and non-decreasing");
   }
   const std::size_t n = times.size();
-  for (auto* column :
-       {&out.t, &out.V, &out.x, &out.x_dot, &out.theta, &out.theta_dot, &out.z, &out.F_f}) {
-    column->reserve(n);
-  }
+  out.reserve(n);
   auto emit = [&](double t, const CoulombState& y, double F_f) {
-    out.t.push_back(t);
-    out.V.push_back(drive.voltage(t));
-    out.x.push_back(y[kX]);
-    out.x_dot.push_back(y[kXDot]);
-    out.theta.push_back(y[kTheta]);
-    out.theta_dot.push_back(y[kThetaDot]);
-    out.z.push_back(0.0);
-    out.F_f.push_back(F_f);
-    if (settings.progress && out.t.size() % 10000 == 0) settings.progress(t);
+    out.append(t, drive.voltage(t), y, F_f);
   };
 
   CoulombState y{};
@@ -317,6 +306,7 @@ Trajectory simulate_coulomb_closed_form(const MotorParameters& p, const Excitati
   bool at_switch = true;
   while (next < n) {
     const double segment_end = std::min(drive.next_breakpoint(t), t_end);
+    if (settings.progress) settings.progress(t);
     if (chatter >= kChatterSwitches) {
       // The limit of the chatter: stuck, without the switch test, for a
       // stretch; the next piece then decides afresh.

@@ -246,23 +246,17 @@ namespace {
 class Recorder final : public StateSamples {
  public:
   Recorder(std::span<const double> times, const MotorParameters& p, const Excitation& drive,
-           const IntegratorSettings& settings, Trajectory& out)
-      : times_(times), motor_(p), drive_(drive), settings_(settings), out_(out) {}
+           Trajectory& out)
+      : times_(times), motor_(p), drive_(drive), out_(out) {
+    out_.reserve(times.size());
+  }
 
   [[nodiscard]] double next() const override {
     return next_ < times_.size() ? times_[next_] : std::numeric_limits<double>::infinity();
   }
   void take(const LuGreState& y) override {
     const double t = times_[next_++];
-    out_.t.push_back(t);
-    out_.V.push_back(drive_.voltage(t));
-    out_.x.push_back(y[kX]);
-    out_.x_dot.push_back(y[kXDot]);
-    out_.theta.push_back(y[kTheta]);
-    out_.theta_dot.push_back(y[kThetaDot]);
-    out_.z.push_back(y[kZ]);
-    out_.F_f.push_back(motor_.friction(y).force);
-    if (settings_.progress && out_.t.size() % 10000 == 0) settings_.progress(t);
+    out_.append(t, drive_.voltage(t), y, motor_.friction(y).force);
   }
   [[nodiscard]] bool done() const { return next_ >= times_.size(); }
 
@@ -270,7 +264,6 @@ class Recorder final : public StateSamples {
   std::span<const double> times_;
   LuGreMotor motor_;
   const Excitation& drive_;
-  const IntegratorSettings& settings_;
   Trajectory& out_;
   std::size_t next_ = 0;
 };
@@ -284,12 +277,13 @@ Trajectory simulate_lugre_hybrid(const MotorParameters& p, const Excitation& dri
   if (!times.empty() && (times.front() < 0.0 || !std::is_sorted(times.begin(), times.end()))) {
     throw std::invalid_argument("sample times must be non-negative and non-decreasing");
   }
-  Recorder recorder(times, p, drive, settings, out);
+  Recorder recorder(times, p, drive, out);
   LuGreHybrid motor(p, settings.tolerance);
   motor.reset(0.0, LuGreState{});
   while (recorder.next() <= 0.0) recorder.take(motor.state());
   while (!recorder.done()) {
     const double t = motor.time();
+    if (settings.progress) settings.progress(t);
     motor.advance(drive.piece(t), std::min(drive.next_breakpoint(t), times.back()), &recorder);
   }
   out.stats = motor.stats();

@@ -20,6 +20,22 @@ std::vector<double> uniform_times(double duration, double interval) {
   return times;
 }
 
+void Trajectory::reserve(std::size_t n) {
+  for (auto* column : {&t, &V, &x, &x_dot, &theta, &theta_dot, &z, &F_f}) column->reserve(n);
+}
+
+void Trajectory::append(double t_s, double V_volts, std::span<const double> state,
+                        double F_f_value) {
+  t.push_back(t_s);
+  V.push_back(V_volts);
+  x.push_back(state[kX]);
+  x_dot.push_back(state[kXDot]);
+  theta.push_back(state[kTheta]);
+  theta_dot.push_back(state[kThetaDot]);
+  z.push_back(state.size() > kZ ? state[kZ] : 0.0);
+  F_f.push_back(F_f_value);
+}
+
 namespace {
 
 template <std::size_t N>
@@ -34,8 +50,10 @@ struct Event {
 /// event (a change of the right-hand side, e.g. stick/slip) it located inside it.
 template <std::size_t N, class Rhs, class Emit, class OnStep>
 IntegrationStats integrate(const MotorParameters& p, Rhs&& rhs, const Excitation& drive,
-                           std::span<const double> times, double tolerance, Emit&& emit,
-                           OnStep&& on_step) {
+                           std::span<const double> times, const IntegratorSettings& settings,
+                           Emit&& emit, OnStep&& on_step) {
+  const double tolerance = settings.tolerance;
+  const auto& progress = settings.progress;
   using State = std::array<double, N>;
   IntegrationStats stats;
   if (times.empty()) return stats;
@@ -59,6 +77,7 @@ IntegrationStats integrate(const MotorParameters& p, Rhs&& rhs, const Excitation
     const double seg_end = std::min(drive.next_breakpoint(t), t_end);
     const double at_end = 1e-13 * std::max(1.0, seg_end);
     voltage = drive.piece(t);
+    if (progress) progress(t);
     stepper.initialize(system, t, y, std::min(h, seg_end - t));
     while (seg_end - stepper.time() > at_end) {
       stepper.step(system, seg_end - stepper.time());
@@ -98,34 +117,14 @@ auto locate(const Stepper& stepper, Crossed&& crossed) {
   return std::make_pair(hi, stepper.dense(hi));
 }
 
-template <std::size_t N>
-void record(Trajectory& out, double t, double V, const std::array<double, N>& y, double F_f) {
-  out.t.push_back(t);
-  out.V.push_back(V);
-  out.x.push_back(y[kX]);
-  out.x_dot.push_back(y[kXDot]);
-  out.theta.push_back(y[kTheta]);
-  out.theta_dot.push_back(y[kThetaDot]);
-  if constexpr (N > 4) {
-    out.z.push_back(y[kZ]);
-  } else {
-    out.z.push_back(0.0);
-  }
-  out.F_f.push_back(F_f);
-}
-
-void report_progress(const IntegratorSettings& settings, std::size_t samples, double t) {
-  if (settings.progress && samples % 10000 == 0) settings.progress(t);
-}
-
 Trajectory simulate_lugre(const MotorParameters& p, const Excitation& drive,
                           std::span<const double> times, const IntegratorSettings& settings) {
   Trajectory out;
+  out.reserve(times.size());
   const LuGreMotor motor(p);
   auto rhs = [&](const LuGreState& y, LuGreState& dydt, double V) { motor.derivative(V, y, dydt); };
   auto emit = [&](double t, const LuGreState& y) {
-    record(out, t, drive.voltage(t), y, motor.friction(y).force);
-    report_progress(settings, out.t.size(), t);
+    out.append(t, drive.voltage(t), y, motor.friction(y).force);
   };
   // With reversal events, a step in which v changed sign ends at the zero
   // (located on the dense output), so that no step straddles the kink of |v|.
@@ -139,20 +138,20 @@ Trajectory simulate_lugre(const MotorParameters& p, const Excitation& drive,
     });
     return Event<5>{t_event, y};
   };
-  out.stats = integrate<5>(p, rhs, drive, times, settings.tolerance, emit, reversals);
+  out.stats = integrate<5>(p, rhs, drive, times, settings, emit, reversals);
   return out;
 }
 
 Trajectory simulate_coulomb(const MotorParameters& p, const Excitation& drive,
                             std::span<const double> times, const IntegratorSettings& settings) {
   Trajectory out;
+  out.reserve(times.size());
   ContactMode mode = ContactMode::stick;
   auto rhs = [&](const CoulombState& y, CoulombState& dydt, double V) {
     coulomb_derivative(p, V, mode, y, dydt);
   };
   auto emit = [&](double t, const CoulombState& y) {
-    record(out, t, drive.voltage(t), y, coulomb_friction(p, drive.voltage(t), mode, y));
-    report_progress(settings, out.t.size(), t);
+    out.append(t, drive.voltage(t), y, coulomb_friction(p, drive.voltage(t), mode, y));
   };
   auto stick_force = [&](double t, const CoulombState& y) {
     return coulomb_stick_force(p, drive.voltage(t), y);
@@ -183,7 +182,7 @@ Trajectory simulate_coulomb(const MotorParameters& p, const Excitation& drive,
     out.switch_times.push_back(t_event);
     return Event<4>{t_event, y};
   };
-  out.stats = integrate<4>(p, rhs, drive, times, settings.tolerance, emit, on_step);
+  out.stats = integrate<4>(p, rhs, drive, times, settings, emit, on_step);
   return out;
 }
 

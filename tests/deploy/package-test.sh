@@ -68,6 +68,12 @@ version=$(in_root piezod --version) || fail "piezod --version"
 echo "PASS $version"
 host_version=$(in_root piezo --version) || fail "piezo --version"
 echo "PASS $host_version"
+# HDF5 comes as a module, loaded when a command first writes a file: the
+# installed piezo finds it where the package put it.
+in_root piezo simulate --duration 0.1 --out /tmp/package-test.h5 >/dev/null ||
+  fail "the installed piezo writes HDF5 (its module libpiezo_h5.so)"
+[ "$(head -c 4 "$root/tmp/package-test.h5" | tail -c 3)" = HDF ] || fail "/tmp/package-test.h5 is not HDF5"
+echo "PASS the installed piezo loads its HDF5 module and writes a .h5"
 # The installed Python package: its model is the CLI's to the last digit.
 in_root python3 -c '
 import json, subprocess

@@ -56,12 +56,14 @@ case "$target" in
     flags=("${hal_includes[@]}" $(pkg-config --cflags libmodbus))
     libs=($(pkg-config --libs libmodbus) -lfmt) ;;
   logs)
-    sources=("$src"/host/src/io/{fit_io,h5_file,run_journal,run_recovery,catalogue,parameters_json}.cpp
+    # HDF5 linked in (hdf5_store.cpp): the module loader is never reached.
+    sources=("$src"/host/src/io/{fit_io,h5_file,hdf5_store,module_loader,run_journal,run_recovery,catalogue,parameters_json}.cpp
              "$src"/model/src/{parameters,waveform,simulate_names}.cpp)
     flags=(-I"$src/host/src/io" -I"$src/firmware/config" -I"$src/model/names/error" -I"$src/model/include"
            -I"$src/model/names/include"
-           -I/usr/include/eigen3 $(pkg-config --cflags hdf5))
-    libs=($(pkg-config --libs hdf5) -lz -lfmt) ;;
+           -I/usr/include/eigen3 $(pkg-config --cflags hdf5)
+           -DPIEZO_MODULE_DIR_FROM_BIN='"."' -DPIEZO_MODULE_BUILD_DIR='"."')
+    libs=($(pkg-config --libs hdf5) -lz -lfmt -ldl) ;;
   *) echo "unknown fuzz target $target"; exit 2 ;;
 esac
 # TOML_ASSERT: as in the project's builds (CMakeLists.txt says why).

@@ -274,6 +274,27 @@ namespace {
 
 // What a new user tries first: the version says where the build came from;
 // a short range, not a 300-digit one, for a bad duration.
+// A command that opens no file and runs under no MPI launcher does not
+// load HDF5 or Open MPI (their modules come when first needed: a third of
+// the start-up); one that writes a log does.
+TEST(Cli, HeavyLibrariesLoadOnlyWhenACommandNeedsThem) {
+  const auto loaded = [](const std::string& args) {
+    return run_command("LD_DEBUG=files " + kPiezo + args + " >/dev/null").err;
+  };
+  for (const std::string args : {" --help", " simulate --duration 0.01 --json"}) {
+    const std::string trace = loaded(args);
+    ASSERT_NE(trace.find("libfmt"), std::string::npos) << "LD_DEBUG traced nothing: " << trace;
+    EXPECT_EQ(trace.find("libhdf5"), std::string::npos) << args;
+    EXPECT_EQ(trace.find("libmpi"), std::string::npos) << args;
+  }
+  const auto h5 = std::filesystem::temp_directory_path() / "piezo-cli-modules.h5";
+  const std::string trace = loaded(" simulate --duration 0.01 --out " + h5.string());
+  EXPECT_NE(trace.find("libpiezo_h5.so"), std::string::npos);
+  EXPECT_NE(trace.find("libhdf5"), std::string::npos);
+  EXPECT_GT(std::filesystem::file_size(h5), 0u);
+  std::filesystem::remove(h5);
+}
+
 TEST(Cli, VersionNamesTheRevisionAndBuildType) {
   const auto r = run_command(kPiezo + " --version");
   EXPECT_EQ(r.exit_code, 0);

@@ -2,9 +2,9 @@
 // recover_run() turns it into a whole run.h5.
 
 #include "run_journal.hpp"
-#include "run_recovery.hpp"
 
 #include <gtest/gtest.h>
+#include <hdf5.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -14,6 +14,7 @@
 #include "config_error.hpp"
 #include "h5_file.hpp"
 #include "run_log.hpp"
+#include "run_recovery.hpp"
 
 namespace piezo::host {
 namespace {

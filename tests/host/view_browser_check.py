@@ -170,6 +170,10 @@ def main():
         check(second[1] > 0 and second[1] >= 0.9 * min(first[1], 800),
               f"the angle plot holds points: {first} -> {second}")
         check(angle_second != angle_first, f"the angle readout advances: {angle_first} -> {angle_second}")
+        # The loop-timing histograms come apart from the status, when they
+        # change and at most about once a second: the plot still gets them.
+        wait_until(lambda: driver.execute_script("return window.piezoView.timing_bins") > 0,
+                   "the loop-timing plot has bins")
         driver.save_screenshot(os.path.join(shots, "view_live.png"))
 
         # Control needs the token, from this page's own origin.

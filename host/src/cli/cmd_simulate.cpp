@@ -10,6 +10,7 @@
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <vector>
 
 #include "columns.hpp"
 #include "commands.hpp"
@@ -84,7 +85,9 @@ int run(const SimulateOptions& o) {
 
   if (!o.direction.empty()) p.drive.direction = checked_direction(o.direction, "--direction");
   const model::Sawtooth drive(p.drive.V0, p.drive.f, p.drive.rise());
-  const auto times = model::uniform_times(o.duration, o.sample_interval);
+  // Without --out only the end is reported: the run samples nothing else.
+  const auto times = o.out.empty() ? std::vector<double>{o.duration}
+                                   : model::uniform_times(o.duration, o.sample_interval);
   const auto integrator = checked_integrator(o.integrator, friction, "--integrator");
   model::IntegratorSettings settings{.tolerance = o.tolerance, .integrator = integrator};
   // Long simulations (minutes of simulated time take seconds to minutes)

@@ -2,12 +2,8 @@
 
 #include <cstdlib>
 
-#ifdef PIEZO_HAVE_MPI
-// The C API only: Open MPI's deprecated C++ bindings are not linked.
-#define OMPI_SKIP_MPICXX 1
-#define MPICH_SKIP_MPICXX 1
-#include <mpi.h>
-#endif
+#include "module_loader.hpp"
+#include "mpi_world.hpp"
 
 namespace piezo::host {
 namespace {
@@ -30,33 +26,24 @@ MpiRanks& MpiRanks::get() {
 MpiRanks::MpiRanks() {
 #ifdef PIEZO_HAVE_MPI
   if (!launched_by_mpi()) return;
-  int provided = 0;
-  // Only the calling thread talks MPI; the worker threads simulate.
-  MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
-  initialised_ = true;
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
-  MPI_Comm_size(MPI_COMM_WORLD, &size_);
+  using Entry = const MpiWorld* (*)();
+  world_ = reinterpret_cast<Entry>(
+      module_entry("libpiezo_mpi.so", "piezo_mpi_world", ModuleScope::global))();
+  world_->init(rank_, size_);
 #else
   (void)launched_by_mpi;
 #endif
 }
 
 MpiRanks::~MpiRanks() {
-#ifdef PIEZO_HAVE_MPI
-  if (initialised_) MPI_Finalize();
-#endif
+  if (world_ != nullptr) world_->finalize();
 }
 
 void MpiRanks::gather_to_root(std::vector<double>& values) const {
-#ifdef PIEZO_HAVE_MPI
-  if (size_ == 1) return;
+  if (size_ == 1 || world_ == nullptr) return;
   std::vector<double> sum(values.size(), 0.0);
-  MPI_Reduce(values.data(), sum.data(), static_cast<int>(values.size()), MPI_DOUBLE, MPI_SUM, 0,
-             MPI_COMM_WORLD);
+  world_->sum_to_root(values.data(), sum.data(), static_cast<int>(values.size()));
   if (root()) values = std::move(sum);
-#else
-  (void)values;
-#endif
 }
 
 }  // namespace piezo::host

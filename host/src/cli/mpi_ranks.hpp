@@ -3,11 +3,13 @@
 // study's runs are split among them, each rank using all its cores, and
 // rank 0 gathers the outputs, computes and writes the results. Without an
 // MPI launcher in the environment (or in a build without MPI) there is one
-// rank and MPI is never initialised.
+// rank and MPI is never loaded (mpi_world.hpp).
 
 #include <vector>
 
 namespace piezo::host {
+
+struct MpiWorld;
 
 class MpiRanks {
  public:
@@ -29,7 +31,7 @@ class MpiRanks {
   MpiRanks();
   int rank_ = 0;
   int size_ = 1;
-  bool initialised_ = false;
+  const MpiWorld* world_ = nullptr;  ///< loaded only under an MPI launcher
 };
 
 }  // namespace piezo::host

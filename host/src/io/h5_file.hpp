@@ -1,39 +1,53 @@
 #pragma once
-// A small RAII wrapper over the HDF5 C API: create a file, write 1-D float64
-// datasets and string attributes. Errors throw with the object's name;
-// HDF5's own error stack printing is silenced.
+// A small HDF5 file API: create a file, write 1-D float64 datasets and string
+// attributes, read them back. Errors throw std::runtime_error with the
+// object's name; HDF5's own error stack printing is silenced.
+//
+// The HDF5 library is loaded when a program first creates or opens a file
+// (the module libpiezo_h5.so, hdf5_store.cpp): with what it pulls in (curl,
+// Kerberos, TLS) it costs some 9 ms of every start-up, and most `piezo`
+// commands (`--help`, `simulate` without --out) never open a file. A program
+// that links hdf5_store.cpp (the Python module) uses it without loading.
 
-#include <hdf5.h>
-
+#include <cstddef>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
 
 namespace piezo::host {
 
-/// Owns one HDF5 identifier and closes it with the matching H5*close.
-class H5Id {
+/// One open file, on the HDF5 side (hdf5_store.cpp); H5File's methods say
+/// what each does.
+class H5Store {
  public:
-  H5Id() = default;
-  H5Id(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
-  H5Id(const H5Id&) = delete;
-  H5Id& operator=(const H5Id&) = delete;
-  H5Id(H5Id&& o) noexcept : id_(o.id_), close_(o.close_) { o.id_ = H5I_INVALID_HID; }
-  H5Id& operator=(H5Id&& o) noexcept;
-  ~H5Id() { reset(); }
-  /// Gives up ownership without closing.
-  [[nodiscard]] hid_t release() {
-    const hid_t id = id_;
-    id_ = H5I_INVALID_HID;
-    return id;
-  }
+  virtual ~H5Store() = default;
+  virtual void create_growing(const std::string& name, bool small_integers) = 0;
+  virtual void append(const std::string& name, std::span<const double> values) = 0;
+  virtual void flush() = 0;
+  virtual void close() = 0;
+  virtual void abandon() = 0;
+  [[nodiscard]] virtual std::vector<double> read(const std::string& name) const = 0;
+  [[nodiscard]] virtual bool exists(const std::string& name) const = 0;
+  [[nodiscard]] virtual std::size_t extent(const std::string& name) const = 0;
+  [[nodiscard]] virtual std::vector<double> read_prefix(const std::string& name) const = 0;
+  [[nodiscard]] virtual std::vector<std::string> attribute_names(
+      const std::string& object) const = 0;
+  [[nodiscard]] virtual bool has_attribute(const std::string& object,
+                                           const std::string& name) const = 0;
+  [[nodiscard]] virtual std::string attribute(const std::string& object,
+                                              const std::string& name) const = 0;
+  virtual void write(const std::string& name, std::span<const double> values) = 0;
+  virtual void set_attribute(const std::string& object, const std::string& name,
+                             const std::string& value) = 0;
+  [[nodiscard]] virtual const std::string& path() const = 0;
+};
 
-  void reset();
-  [[nodiscard]] hid_t get() const { return id_; }
-
- private:
-  hid_t id_ = H5I_INVALID_HID;
-  herr_t (*close_)(hid_t) = nullptr;
+/// What the HDF5 side offers: its entry point, `piezo_h5_library`.
+struct H5Library {
+  std::unique_ptr<H5Store> (*create)(const std::string& path);
+  std::unique_ptr<H5Store> (*create_log)(const std::string& path);
+  std::unique_ptr<H5Store> (*open)(const std::string& path);
 };
 
 class H5File {
@@ -50,48 +64,60 @@ class H5File {
   /// Creates an empty, unlimited, chunked 1-D float64 dataset.
   /// `small_integers`: stored as uint8 (codes 0..255), else float64.
   /// Shuffled and deflated: h5py and MATLAB read it without plugins.
-  void create_growing(const std::string& name, bool small_integers = false);
+  void create_growing(const std::string& name, bool small_integers = false) {
+    store_->create_growing(name, small_integers);
+  }
   /// Appends to a dataset made by create_growing.
-  void append(const std::string& name, std::span<const double> values);
+  void append(const std::string& name, std::span<const double> values) {
+    store_->append(name, values);
+  }
   /// Writes everything buffered to the file.
-  void flush();
+  void flush() { store_->flush(); }
   /// Closes the file now; throws, naming the file and the system's reason,
   /// when the last writes fail (a full disk). The file is closed either way.
-  void close();
+  void close() { store_->close(); }
   /// Lets go of a file that can no longer be written, without the flush a
   /// close would try: HDF5 writes nothing more to it, so the file keeps
   /// what its last good flush put there. For failure paths only.
-  void abandon() { (void)file_.release(); }
+  void abandon() { store_->abandon(); }
 
   /// A whole vector dataset (1-D, or N x 1 as MATLAB writes it), as double.
-  [[nodiscard]] std::vector<double> read(const std::string& name) const;
-  [[nodiscard]] bool exists(const std::string& name) const;
+  [[nodiscard]] std::vector<double> read(const std::string& name) const {
+    return store_->read(name);
+  }
+  [[nodiscard]] bool exists(const std::string& name) const { return store_->exists(name); }
   /// How many values a vector dataset claims to hold, without reading them
   /// (a damaged file's claim may be more than it can give).
-  [[nodiscard]] std::size_t extent(const std::string& name) const;
+  [[nodiscard]] std::size_t extent(const std::string& name) const { return store_->extent(name); }
   /// The values of a 1-D dataset from its start up to the first block of
   /// them that cannot be read (a damaged chunk); all of them when whole.
-  [[nodiscard]] std::vector<double> read_prefix(const std::string& name) const;
+  [[nodiscard]] std::vector<double> read_prefix(const std::string& name) const {
+    return store_->read_prefix(name);
+  }
   /// The names of the attributes of "/" or of an object.
-  [[nodiscard]] std::vector<std::string> attribute_names(const std::string& object) const;
-  [[nodiscard]] bool has_attribute(const std::string& object, const std::string& name) const;
+  [[nodiscard]] std::vector<std::string> attribute_names(const std::string& object) const {
+    return store_->attribute_names(object);
+  }
+  [[nodiscard]] bool has_attribute(const std::string& object, const std::string& name) const {
+    return store_->has_attribute(object, name);
+  }
   /// A string attribute of "/" or of an object.
-  [[nodiscard]] std::string attribute(const std::string& object, const std::string& name) const;
-
+  [[nodiscard]] std::string attribute(const std::string& object, const std::string& name) const {
+    return store_->attribute(object, name);
+  }
   /// Writes a complete 1-D float64 dataset; intermediate groups are created.
-  void write(const std::string& name, std::span<const double> values);
+  void write(const std::string& name, std::span<const double> values) {
+    store_->write(name, values);
+  }
   /// Sets a string attribute on the root group ("/") or on an existing object.
-  void set_attribute(const std::string& object, const std::string& name, const std::string& value);
-
-  [[nodiscard]] const std::string& path() const { return path_; }
+  void set_attribute(const std::string& object, const std::string& name, const std::string& value) {
+    store_->set_attribute(object, name, value);
+  }
+  [[nodiscard]] const std::string& path() const { return store_->path(); }
 
  private:
-  H5File(H5Id file, std::string path) : file_(std::move(file)), path_(std::move(path)) {}
-  H5Id file_;
-  std::string path_;
+  explicit H5File(std::unique_ptr<H5Store> store) : store_(std::move(store)) {}
+  std::unique_ptr<H5Store> store_;
 };
-
-/// Link-creation properties that create missing parent groups.
-[[nodiscard]] H5Id intermediate_groups_lcpl();
 
 }  // namespace piezo::host

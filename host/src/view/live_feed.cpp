@@ -11,9 +11,31 @@ namespace {
 constexpr std::array<const char*, 5> kNames{"drive", "measured", "observer", "open_loop",
                                             "residual"};
 enum : std::size_t { kDrive, kMeasured, kObserver, kOpenLoop, kResidual };
-/// The zoom (thousands of full-rate samples) goes with every fourth event:
-/// about once a second, which is most of what a viewer costs.
+/// The zoom (thousands of full-rate samples) and changed loop histograms go
+/// with every fourth event: about once a second, which is most of what a
+/// viewer costs.
 constexpr std::uint64_t kZoomEvery = 4;
+
+/// Removes the loop histograms (`histogram_us`) from a status's board
+/// health and its summary; returns the health's, by loop.
+nlohmann::json take_histograms(nlohmann::json& status) {
+  nlohmann::json taken = nlohmann::json::object();
+  auto board = status.find("board");
+  if (board == status.end() || !board->is_object()) return taken;
+  for (const char* loop : {"drive", "sensor"}) {
+    auto health = board->find(loop);
+    if (health != board->end() && health->is_object() && health->contains("histogram_us")) {
+      taken[loop] = std::move((*health)["histogram_us"]);
+      health->erase("histogram_us");
+    }
+    auto summary = board->find("summary");
+    if (summary != board->end() && summary->is_object() && summary->contains(loop) &&
+        (*summary)[loop].is_object()) {
+      (*summary)[loop].erase("histogram_us");
+    }
+  }
+  return taken;
+}
 
 void append(std::vector<double>& to, const std::vector<double>& from) {
   to.insert(to.end(), from.begin(), from.end());
@@ -79,8 +101,13 @@ void LiveFeed::trim(double t_end) {
 }
 
 void LiveFeed::set_status(nlohmann::json status) {
+  nlohmann::json histograms = take_histograms(status);
   const std::lock_guard lock(mutex_);
   status_ = std::move(status);
+  if (!histograms.empty() && histograms != histograms_) {
+    histograms_ = std::move(histograms);
+    ++histograms_version_;
+  }
 }
 
 nlohmann::json LiveFeed::snapshot() const {
@@ -115,8 +142,13 @@ nlohmann::json LiveFeed::event(LiveCursor& cursor, bool reset) const {
     out[kNames[s]] = to_json(min_max_columns(c.t, c.y, width, from, done));
     cursor.next[s] = std::max(from, done);
   }
-  if (reset || cursor.events % kZoomEvery == 0) out["zoom"] = zoom();
+  const bool periodic = cursor.events % kZoomEvery == 0;
+  if (reset || periodic) out["zoom"] = zoom();
   out["status"] = status_;
+  if (cursor.histograms != histograms_version_ && (reset || periodic)) {
+    out["histograms"] = histograms_;
+    cursor.histograms = histograms_version_;
+  }
   cursor.epoch = epoch_;
   cursor.width = width;
   ++cursor.events;

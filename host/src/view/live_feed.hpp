@@ -10,6 +10,8 @@
 // holds is what a fresh snapshot shows. While the run is shorter than the
 // window the columns are narrower (halved while the run fits in half of
 // them), so a short move shows in detail; each widening resends the window.
+// The board's loop histograms go as "histograms" {drive, sensor}, apart from
+// the status, when they changed and at most every fourth event.
 
 #include <array>
 #include <cstddef>
@@ -29,6 +31,7 @@ struct LiveCursor {
   double width = 0.0;       ///< the columns' width it was sent
   std::array<long long, 5> next{};
   std::uint64_t events = 0;
+  std::uint64_t histograms = 0;  ///< the version of the loop histograms it holds
 };
 
 class LiveFeed {
@@ -47,7 +50,9 @@ class LiveFeed {
   [[nodiscard]] nlohmann::json snapshot() const;
   /// What the page at `cursor` has not seen: the whole window when it has
   /// seen nothing of this run, else the columns completed since, with the
-  /// zoom about once a second; always the status. Advances the cursor.
+  /// zoom about once a second; always the status, and the board's loop
+  /// histograms when they changed, at most about once a second. Advances
+  /// the cursor.
   [[nodiscard]] nlohmann::json changes(LiveCursor& cursor) const;
 
  private:
@@ -67,7 +72,11 @@ class LiveFeed {
   std::uint64_t epoch_ = 1;
   /// drive, measured, observer, open_loop, residual (kNames' order)
   std::array<Column, kSeries> columns_;
+  /// The status without the loop histograms, which go apart (histograms_):
+  /// at some 10 KB each they would be most of every event.
   nlohmann::json status_ = nlohmann::json::object();
+  nlohmann::json histograms_ = nlohmann::json::object();
+  std::uint64_t histograms_version_ = 0;
 };
 
 }  // namespace piezo::host::view

@@ -42,7 +42,7 @@ struct IntegratorSettings {
   /// DOPRI5 with LuGre: stop at every zero of the sliding velocity (the kink
   /// of |v|) and count them, as the references of the convergence tests do.
   bool reversal_events = false;
-  /// Called now and then (every 10,000 output samples) with the simulated
+  /// Called now and then (at each corner of the drive) with the simulated
   /// time reached, for progress on long simulations; may be empty.
   std::function<void(double t)> progress = {};
 };
@@ -71,6 +71,11 @@ struct Trajectory {
   IntegrationStats stats;
 
   [[nodiscard]] std::size_t size() const { return t.size(); }
+  /// Room for n samples in every column, taken once before a run.
+  void reserve(std::size_t n);
+  /// One sample: time, voltage, a LuGre or Coulomb state (z is 0 for a
+  /// Coulomb state, which has no bristle) and the friction force.
+  void append(double t_s, double V_volts, std::span<const double> state, double F_f_value);
 };
 
 /// Simulates from rest (all states zero) and samples the state at the given
