@@ -116,6 +116,9 @@ void DriveLoop::update_sync(Output& out, double t) {
 }
 
 void DriveLoop::count_lateness(hal::TimeNs deadline, hal::TimeNs period) {
+  // `deadline` is a copy: the loop keeps its own and catches up, writing each
+  // passed deadline's value (a card's clocked output queues every tick);
+  // here they are only counted.
   const hal::TimeNs done = io_.clock.now();
   if (done > deadline) {
     health_.count(health_.overruns);

@@ -8,12 +8,15 @@
 // Prints one PASS or FAIL line per check; the exit code is the number of
 // failures.
 
+#include <fcntl.h>
 #include <fmt/format.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <string>
 #include <thread>
@@ -81,6 +84,7 @@ void check(bool ok, const std::string& what) {
 class OutputProbe {
  public:
   OutputProbe() : card_(kCard) { to_volts_ = card_.converter(0, 0, 0, COMEDI_TO_PHYSICAL); }
+  [[nodiscard]] int fileno() const { return comedi_fileno(card_.get()); }
   double volts(unsigned channel) {
     lsampl_t raw = 0;
     if (comedi_data_read(card_.get(), 0, channel, 0, AREF_GROUND, &raw) < 0) return NAN;
@@ -351,6 +355,57 @@ void check_stop(OutputProbe& probe, bool estop) {
                   estop ? "" : " (after the lease's deadline)"));
 }
 
+/// The descriptors this process holds on the card, but `except`.
+std::vector<int> card_descriptors(int except) {
+  std::vector<int> out;
+  for (const auto& entry : std::filesystem::directory_iterator("/proc/self/fd")) {
+    std::error_code ec;
+    const auto target = std::filesystem::read_symlink(entry.path(), ec);
+    const int fd = std::stoi(entry.path().filename().string());
+    if (!ec && target == kCard && fd != except) out.push_back(fd);
+  }
+  return out;
+}
+
+/// The drive's handle on the card closed under a run (the descriptor taken
+/// by something else, as when a card goes away and comes back): its writes
+/// fail, the run stops with a drive fault, and the stop's 0 V still
+/// reaches the card, through the card opened again by its path.
+void check_closed_under_run(OutputProbe& probe) {
+  hal::posix::MonotonicClock clock;
+  comedi::ComediAnalogOutput drive(output_settings());
+  hal::sim::NullSensor sensor(clock);
+  hal::posix::NoLines lines;
+  const model::Sawtooth saw(80.0, 20.0, 0.75);
+  firmware::LoopRunner runner(run_settings(30.0), saw, {clock, drive, sensor, lines});
+  (void)runner.start({});
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  const double moving_V = probe.volts(0);
+  const std::vector<int> drive_fds = card_descriptors(probe.fileno());
+  const int null_fd = ::open("/dev/null", O_RDWR);
+  const hal::TimeNs closed = clock.now();
+  for (int fd : drive_fds) ::dup2(null_fd, fd);
+  ::close(null_fd);
+  double zero_after_s = NAN;
+  while (clock.now() < closed + hal::from_seconds(5.0)) {
+    if (std::abs(probe.volts(0)) < 0.01) {
+      zero_after_s = hal::to_seconds(clock.now() - closed);
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::microseconds(500));
+  }
+  runner.join();
+  runner.drain([](const firmware::DriveSample&) {}, [](const firmware::SensorSample&) {});
+  const auto& outcome = runner.outcome();
+  check(drive_fds.size() == 1 && runner.cause() == firmware::StopCause::drive_fault &&
+            outcome.zero_confirmed && std::isfinite(zero_after_s) &&
+            std::abs(probe.volts(0)) < 0.01,
+        fmt::format("the drive's handle closed under a run (the card at {:.2f} V, {} handle(s)): "
+                    "cause {}, 0 V {}, the card's output read 0 V {:.1f} ms later",
+                    moving_V, drive_fds.size(), firmware::to_string(runner.cause()),
+                    outcome.zero_confirmed ? "confirmed" : "unconfirmed", 1e3 * zero_after_s));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -368,6 +423,7 @@ int main(int argc, char** argv) {
     check_stream(probe);
     check_stop(probe, true);
     check_stop(probe, false);
+    check_closed_under_run(probe);
   } catch (const std::exception& e) {
     check(false, std::string("exception: ") + e.what());
   }

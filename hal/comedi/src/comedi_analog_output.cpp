@@ -79,15 +79,10 @@ ComediAnalogOutput::ComediAnalogOutput(const AnalogOutputSettings& s)
         device_.path(), subdevice_, s.rate_hz,
         cmd.scan_begin_arg > 0 ? 1e9 / cmd.scan_begin_arg : 0.0, tested));
   }
-  if (comedi_get_write_subdevice(device_.get()) != static_cast<int>(subdevice_) &&
-      comedi_set_write_subdevice(device_.get(), subdevice_) < 0) {
+  if (!prepare_handle()) {
     throw std::runtime_error(fmt::format("comedi {}: {}", device_.path(),
                                          ComediDevice::last_error("comedi_set_write_subdevice")));
   }
-  // Writes never block the drive loop: a full buffer is the card's clock
-  // running behind, handled in write().
-  const int fd = comedi_fileno(device_.get());
-  fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) | O_NONBLOCK);
   if (write_now(0.0) != Status::ok) {
     throw std::runtime_error(fmt::format("comedi {}: cannot write 0 V to subdevice {} channel {}",
                                          device_.path(), subdevice_, channel));
@@ -115,7 +110,23 @@ double ComediAnalogOutput::output_latency_s() const {
   return preload_latency_s(preload_ + batch_ - 1, settings_.rate_hz);
 }
 
+bool ComediAnalogOutput::prepare_handle() {
+  if (comedi_get_write_subdevice(device_.get()) != static_cast<int>(subdevice_) &&
+      comedi_set_write_subdevice(device_.get(), subdevice_) < 0) {
+    return false;
+  }
+  // Writes never block the drive loop: a full buffer is the card's clock
+  // running behind, handled in write().
+  const int fd = comedi_fileno(device_.get());
+  return fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) | O_NONBLOCK) == 0;
+}
+
+bool ComediAnalogOutput::reopen() {
+  return device_.reopen() && prepare_handle();
+}
+
 long ComediAnalogOutput::queued_now() const {
+  if (device_.get() == nullptr) return -1;
   const int bytes = comedi_get_buffer_contents(device_.get(), subdevice_);
   return bytes < 0 ? -1 : bytes / static_cast<long>(sample_bytes_);
 }
@@ -132,6 +143,7 @@ void ComediAnalogOutput::store(std::size_t index, std::uint32_t raw) {
 }
 
 bool ComediAnalogOutput::send(std::size_t samples) {
+  if (device_.get() == nullptr) return false;
   const ssize_t n = ::write(comedi_fileno(device_.get()), scratch_.data(), samples * sample_bytes_);
   if (n < 0) return false;
   samples_queued_ += static_cast<std::uint64_t>(n) / sample_bytes_;
@@ -143,7 +155,7 @@ Status ComediAnalogOutput::start_stream(std::uint32_t raw) {
   unsigned chanlist = CR_PACK(channel, static_cast<unsigned>(settings_.output.range), AREF_GROUND);
   const auto period_ns = static_cast<unsigned>(std::lround(1e9 / settings_.rate_hz));
   comedi_cmd cmd = stream_command(subdevice_, &chanlist, period_ns);
-  if (comedi_command(device_.get(), &cmd) < 0) {
+  if ((device_.get() == nullptr && !reopen()) || comedi_command(device_.get(), &cmd) < 0) {
     return Status::io_error;
   }
   // The preload goes in before the start, so the card never waits on the loop.
@@ -159,7 +171,7 @@ Status ComediAnalogOutput::start_stream(std::uint32_t raw) {
 }
 
 void ComediAnalogOutput::stop_stream() {
-  if (streaming_) comedi_cancel(device_.get(), subdevice_);
+  if (streaming_ && device_.get() != nullptr) comedi_cancel(device_.get(), subdevice_);
   streaming_ = false;
 }
 
@@ -202,11 +214,16 @@ Status ComediAnalogOutput::write_now(double volts) {
   stop_stream();
   pending_ = 0;
   const auto channel = static_cast<unsigned>(settings_.output.channel);
-  if (comedi_data_write(device_.get(), subdevice_, channel,
-                        static_cast<unsigned>(settings_.output.range), AREF_GROUND,
-                        raw_for(volts)) < 0) {
-    return Status::io_error;
-  }
+  const auto write = [&] {
+    return device_.get() != nullptr &&
+           comedi_data_write(device_.get(), subdevice_, channel,
+                             static_cast<unsigned>(settings_.output.range), AREF_GROUND,
+                             raw_for(volts)) >= 0;
+  };
+  // A handle that no longer reaches the card (closed under the run, the card
+  // re-enumerated) fails here: the stop's 0 V goes through the card opened
+  // again by its path. Its stream ended with the handle that started it.
+  if (!write() && !(reopen() && write())) return Status::io_error;
   if (has_readback_) {
     lsampl_t raw = 0;
     if (comedi_data_read(device_.get(), readback_subdevice_,

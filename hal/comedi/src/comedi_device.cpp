@@ -42,14 +42,21 @@ std::string ComediDevice::last_error(const std::string& call) {
 
 ComediDevice::ComediDevice(const std::string& path) : path_(path), dev_(comedi_open(path.c_str())) {
   if (dev_ == nullptr) {
-    throw std::runtime_error(fmt::format("comedi {}: cannot open: {} (is the driver loaded, and "
-                                         "may this user open it? see docs/hardware.md)",
-                                         path, comedi_strerror(comedi_errno())));
+    throw std::runtime_error(
+        fmt::format("comedi {}: cannot open: {} (is the driver loaded, and "
+                    "may this user open it? see docs/hardware.md)",
+                    path, comedi_strerror(comedi_errno())));
   }
 }
 
 ComediDevice::~ComediDevice() {
   if (dev_ != nullptr) comedi_close(dev_);
+}
+
+bool ComediDevice::reopen() {
+  if (dev_ != nullptr) comedi_close(dev_);
+  dev_ = comedi_open(path_.c_str());
+  return dev_ != nullptr;
 }
 
 unsigned ComediDevice::checked_subdevice(const ChannelAddress& a, const SubdeviceKind& kind,
@@ -68,8 +75,9 @@ unsigned ComediDevice::checked_subdevice(const ChannelAddress& a, const Subdevic
   int s = a.subdevice;
   if (s < 0) {
     if (fitting.empty()) {
-      throw config::ConfigError(path_, key + ".subdevice",
-                                fmt::format("the card has no {} (allowed: {})", kind.what, allowed));
+      throw config::ConfigError(
+          path_, key + ".subdevice",
+          fmt::format("the card has no {} (allowed: {})", kind.what, allowed));
     }
     s = std::stoi(fitting.substr(0, fitting.find(',')));
   }
@@ -83,11 +91,11 @@ unsigned ComediDevice::checked_subdevice(const ChannelAddress& a, const Subdevic
   const int type = comedi_get_subdevice_type(dev_, sub);
   const int flags = comedi_get_subdevice_flags(dev_, sub);
   if (type != kind.type || flags < 0 || (flags & kind.flags) != kind.flags) {
-    throw config::ConfigError(path_, key + ".subdevice",
-                              fmt::format("subdevice {} is a{} {}, not {}; allowed: {}", s,
-                                          type == COMEDI_SUBD_AI || type == COMEDI_SUBD_AO ? "n"
-                                                                                           : "",
-                                          type_name(type), kind.what, allowed));
+    throw config::ConfigError(
+        path_, key + ".subdevice",
+        fmt::format("subdevice {} is a{} {}, not {}; allowed: {}", s,
+                    type == COMEDI_SUBD_AI || type == COMEDI_SUBD_AO ? "n" : "", type_name(type),
+                    kind.what, allowed));
   }
   const int channels = comedi_get_n_channels(dev_, sub);
   if (a.channel < 0 || a.channel >= channels) {
@@ -117,23 +125,24 @@ comedi_polynomial_t ComediDevice::converter(unsigned subdevice, unsigned channel
     // Calibrated in software: the coefficients comedi_soft_calibrate stored.
     char* file = comedi_get_default_calibration_path(dev_);
     comedi_calibration_t* calibration = file ? comedi_parse_calibration_file(file) : nullptr;
-    const bool ok = calibration != nullptr &&
-                    comedi_get_softcal_converter(subdevice, channel, range, direction,
-                                                 calibration, &p) == 0;
+    const bool ok =
+        calibration != nullptr &&
+        comedi_get_softcal_converter(subdevice, channel, range, direction, calibration, &p) == 0;
     if (calibration) comedi_cleanup_calibration(calibration);
     const std::string where = file ? file : "(no path)";
     std::free(file);
     if (!ok) {
-      throw std::runtime_error(fmt::format("comedi {}: the card is calibrated in software but "
-                                           "{} has no calibration for subdevice {} channel {} "
-                                           "range {}: run comedi_soft_calibrate first",
-                                           path_, where, subdevice, channel, range));
+      throw std::runtime_error(
+          fmt::format("comedi {}: the card is calibrated in software but "
+                      "{} has no calibration for subdevice {} channel {} "
+                      "range {}: run comedi_soft_calibrate first",
+                      path_, where, subdevice, channel, range));
     }
     return p;
   }
   if (comedi_get_hardcal_converter(dev_, subdevice, channel, range, direction, &p) != 0) {
-    throw std::runtime_error(fmt::format("comedi {}: {}", path_,
-                                         last_error("comedi_get_hardcal_converter")));
+    throw std::runtime_error(
+        fmt::format("comedi {}: {}", path_, last_error("comedi_get_hardcal_converter")));
   }
   return p;
 }
@@ -158,7 +167,9 @@ std::string ComediDevice::describe() const {
       const comedi_range* range = comedi_get_range(dev_, sub, 0, static_cast<unsigned>(r));
       if (range == nullptr) continue;
       out += fmt::format("    range {}: [{:g}, {:g}] {}\n", r, range->min, range->max,
-                         range->unit == UNIT_volt ? "V" : range->unit == UNIT_mA ? "mA" : "");
+                         range->unit == UNIT_volt ? "V"
+                         : range->unit == UNIT_mA ? "mA"
+                                                  : "");
     }
   }
   return out;

@@ -8,6 +8,7 @@
 
 #include "board_client.hpp"
 #include "commands.hpp"
+#include "piezo/protocol/messages.hpp"
 
 namespace piezo::host {
 namespace {
@@ -17,30 +18,28 @@ struct BoardOptions {
   bool json = false;
 };
 
-std::string status_text(const nlohmann::json& s) {
-  std::string out = fmt::format("state      {}", s.at("state").get<std::string>());
-  if (!s.at("fault").is_null())
-    out += fmt::format(" (fault: {})", s.at("fault").get<std::string>());
+/// `status`'s reply as a person reads it, from the protocol's own type
+/// (what the board sends is decoded once, by the codec that piezod's
+/// replies are tested against).
+std::string status_text(const protocol::Status& s) {
+  std::string out = fmt::format("state      {}", s.state);
+  if (s.fault) out += fmt::format(" (fault: {})", *s.fault);
   out += "\n";
-  if (s.contains("run")) {
-    const auto& r = s.at("run");
-    out += fmt::format("run        {} ({:g} s, lease {:g} s){}\n", r.at("id").get<int>(),
-                       r.at("duration_s").get<double>(), r.at("lease_s").get<double>(),
-                       r.at("finished").get<bool>() ? ", finished" : "");
-    if (r.contains("summary")) {
-      const auto& sum = r.at("summary");
-      out += fmt::format("stop cause {}\noutput     {}\n", sum.at("cause").get<std::string>(),
-                         sum.at("output").at("state").get<std::string>());
+  if (s.run) {
+    const protocol::RunStatus& r = *s.run;
+    out += fmt::format("run        {} ({:g} s, lease {:g} s){}\n", r.id, r.duration_s, r.lease_s,
+                       r.finished ? ", finished" : "");
+    if (r.summary) {
+      out +=
+          fmt::format("stop cause {}\noutput     {}\n", r.summary->cause, r.summary->output.state);
     }
-    out += fmt::format("samples    drive {}, sensor {}\n", r.at("drive").at("cycles").get<long>(),
-                       r.at("sensor").at("cycles").get<long>());
+    out += fmt::format("samples    drive {}, sensor {}\n", r.drive.cycles, r.sensor.cycles);
   }
-  if (s.contains("position") && !s.at("position").at("position_rad").is_null()) {
-    out += fmt::format("position   {:.4f} mrad from the zero\n",
-                       1e3 * s.at("position").at("position_rad").get<double>());
+  if (s.position_rad) {
+    out += fmt::format("position   {:.4f} mrad from the zero\n", 1e3 * *s.position_rad);
   }
-  out += fmt::format("controlled {}\n", s.at("controlled").get<bool>() ? "yes" : "no");
-  const nlohmann::json cal = s.value("calibration", nlohmann::json());
+  out += fmt::format("controlled {}\n", s.controlled ? "yes" : "no");
+  const nlohmann::json& cal = s.calibration;
   if (cal.is_object()) {
     const nlohmann::json& fastest = cal.at("fastest_f_hz");
     out += fmt::format(
@@ -63,7 +62,7 @@ int call(const BoardOptions& o, const std::string& cmd) {
   if (o.json) {
     std::cout << result.dump() << "\n";
   } else if (cmd == "status") {
-    std::cout << status_text(result);
+    std::cout << status_text(result.get<protocol::Status>());
   } else if (cmd == "zero") {
     std::cout << "zero: set at the last reading; position 0 rad\n";
   } else {

@@ -13,7 +13,7 @@ namespace piezo::firmware {
 struct LoopHealth {
   std::atomic<std::uint64_t> cycles{0};
   std::atomic<std::uint64_t> overruns{0};         ///< cycles whose work ran past the next deadline
-  std::atomic<std::uint64_t> missed_cycles{0};    ///< deadlines skipped after an overrun
+  std::atomic<std::uint64_t> missed_cycles{0};    ///< deadlines passed during an overrun
   std::atomic<std::uint64_t> dropped_samples{0};  ///< ring full
   std::atomic<std::uint64_t> errors{0};           ///< HAL calls that did not return ok
   /// Written by the loop only; read once the loop has ended.
@@ -24,8 +24,10 @@ struct LoopHealth {
   }
 };
 
-/// Advances `deadline` past `now` in whole periods; returns how many were skipped.
-/// Late loops skip ahead rather than burst to catch up.
+/// Advances `deadline` past `now` in whole periods; returns how many it passed.
+/// The acquire loop skips them (a reading belongs to when it is taken); the
+/// drive loop only counts them and writes each passed deadline's value late,
+/// catching up (a clocked output needs every tick's value: DriveLoop::count_lateness).
 inline std::uint64_t skip_missed(hal::TimeNs& deadline, hal::TimeNs now, hal::TimeNs period) {
   if (now < deadline) return 0;
   const auto missed = static_cast<std::uint64_t>((now - deadline) / period) + 1;

@@ -59,6 +59,10 @@ class ComediAnalogOutput final : public Drive {
  private:
   [[nodiscard]] std::uint32_t raw_for(double volts) const;
   [[nodiscard]] Status start_stream(std::uint32_t raw);
+  /// The handle's set-up: this subdevice for write(), writes that never block.
+  [[nodiscard]] bool prepare_handle();
+  /// The card opened again by its path (a handle that no longer reaches it).
+  [[nodiscard]] bool reopen();
   void store(std::size_t index, std::uint32_t raw);
   [[nodiscard]] bool send(std::size_t samples);
   /// Sends the pending batch, corrected for drift; restarts a stream that ran dry.

@@ -21,9 +21,9 @@ struct ChannelAddress {
 
 /// What a subdevice must be.
 struct SubdeviceKind {
-  int type;         ///< COMEDI_SUBD_AO, COMEDI_SUBD_AI, COMEDI_SUBD_DIO
-  int flags;        ///< flags it must have, e.g. SDF_CMD_WRITE for a clocked output
-  const char* what; ///< "a clocked analog output", for messages
+  int type;          ///< COMEDI_SUBD_AO, COMEDI_SUBD_AI, COMEDI_SUBD_DIO
+  int flags;         ///< flags it must have, e.g. SDF_CMD_WRITE for a clocked output
+  const char* what;  ///< "a clocked analog output", for messages
 };
 
 class ComediDevice {
@@ -36,6 +36,11 @@ class ComediDevice {
 
   [[nodiscard]] comedi_t* get() const { return dev_; }
   [[nodiscard]] const std::string& path() const { return path_; }
+  /// Lets go of the handle and opens the card again by its path: for a
+  /// handle that no longer reaches the card (closed under the process, the
+  /// card re-enumerated). False when the card cannot be opened; get() is
+  /// then null.
+  bool reopen();
 
   /// The subdevice `address` names, checked for `kind`, its channel and its
   /// range. Throws config::ConfigError naming `key` + ".subdevice",
@@ -45,8 +50,7 @@ class ComediDevice {
   /// The card's calibration for one channel and range: comedi_soft_calibrate's
   /// file where the card has one, else the driver's own (hardware-calibrated
   /// cards, and the test driver).
-  [[nodiscard]] comedi_polynomial_t converter(unsigned subdevice, unsigned channel,
-                                              unsigned range,
+  [[nodiscard]] comedi_polynomial_t converter(unsigned subdevice, unsigned channel, unsigned range,
                                               comedi_conversion_direction direction) const;
   /// The card's subdevices, channels and ranges, one per line.
   [[nodiscard]] std::string describe() const;

@@ -2,7 +2,7 @@
 
 #include <gtest/gtest.h>
 
-#include "../support/run_command.hpp"
+#include "../../support/run_command.hpp"
 #include "config_error.hpp"
 #include "piezo/hal/gpiod/gpiod_backends.hpp"
 #include "piezo/hal/modbus/modbus_backends.hpp"
