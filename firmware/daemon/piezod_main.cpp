@@ -10,6 +10,7 @@
 #include "config_error.hpp"
 #include "curve.hpp"
 #include "daemon.hpp"
+#include "device_inventory.hpp"
 #include "rig_config.hpp"
 #include "service_manager.hpp"
 
@@ -51,6 +52,9 @@ int main(int argc, char** argv) {
   keygen->add_option("--name", key_name, "file name without suffix");
   bool force = false;
   keygen->add_flag("--force", force, "replace an existing pair");
+  auto* devices = app.add_subcommand(
+      "devices", "list what the configured drive, sensor and lines offer, then exit");
+  devices->fallthrough();  // --config and --set after it too
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -61,6 +65,10 @@ int main(int argc, char** argv) {
       return 0;
     }
     auto board = piezo::config::load_rig_config(config_path, sets);
+    if (*devices) {
+      std::cout << piezo::config::device_inventory(board, true);
+      return 0;
+    }
     if (insecure) board.daemon.insecure = true;
     zmq::context_t context;
     piezo::daemon::ServiceManager service;

@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "config_error.hpp"
+#include "device_inventory.hpp"
 #include "piezo/firmware/loop_runner.hpp"
 #include "piezo/hal/comedi/comedi_analog_input.hpp"
 #include "piezo/hal/comedi/comedi_analog_output.hpp"
@@ -103,6 +104,15 @@ void check_listing() {
   check(text.find("comedi_test") != std::string::npos &&
             text.find("analog output, 8 channels, 16 bits, clocked") != std::string::npos,
         "the card lists its clocked analog output and its ranges");
+  // What `piezod devices` and `piezo sensor list` print for a rig on it.
+  std::ofstream("/daq-list.toml") << kConfig;
+  const std::string listed =
+      config::device_inventory(config::load_rig_config("/daq-list.toml", {}), true);
+  fmt::print("{}", listed);
+  check(listed.starts_with("drive (comedi): ") &&
+            listed.find("sensor (comedi): the same device") != std::string::npos &&
+            listed.find("analog input, 8 channels") != std::string::npos,
+        "the board's device listing names the card once, for the drive and the sensor");
 }
 
 /// A config naming what the card does not have is refused naming the key,

@@ -498,6 +498,23 @@ TEST_F(Piezod, ANetworkAddressNeedsCurveAndRefusesUnknownClients) {
   EXPECT_NE(plain.err.find("CURVE"), std::string::npos) << plain.err;
 }
 
+// The board's diagnostics: what its configured devices offer, listed
+// without starting the daemon (nothing listens, nothing is driven); a bad
+// config is refused as it would be at start.
+TEST(PiezodDevices, ListsTheConfiguredDevicesAndExits) {
+  const std::string config = kSource + "/configs/piezod-sim.toml";
+  const auto r = run_command(kPiezod + " devices --config " + config);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* kind : {"drive (sim): ", "sensor (sim): ", "lines (sim): "}) {
+    EXPECT_NE(r.out.find(kind), std::string::npos) << kind << " in\n" << r.out;
+  }
+  const auto before = run_command(kPiezod + " --config " + config + " devices");
+  EXPECT_EQ(before.out, r.out) << "the options before or after the subcommand";
+  const auto bad = run_command(kPiezod + " devices --config " + config + " --set drive.V_max=1e9");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("drive.V_max"), std::string::npos) << bad.err;
+}
+
 }  // namespace
 }  // namespace piezo::testing
 

@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "commands.hpp"
+#include "device_inventory.hpp"
 #include "piezo/hal/modbus/modbus_sensor.hpp"
 #include "rig.hpp"
 #include "rig_config.hpp"
@@ -118,15 +119,7 @@ int run(const SensorReadOptions& o) {
 
 /// `piezo sensor list`: what the configured drive and sensor devices offer.
 int list(const SensorReadOptions& o) {
-  const config::RigConfig c = config::load_rig_config(o.config, o.sets);
-  const std::string drive = c.drive.backends.chosen().inventory();
-  const std::string sensor = c.sensor.backends.chosen().inventory();
-  fmt::print("drive ({}): {}{}", c.drive.backend(), drive, drive.ends_with('\n') ? "" : "\n");
-  if (sensor == drive) {
-    fmt::print("sensor ({}): the same device\n", c.sensor.backend());
-  } else {
-    fmt::print("sensor ({}): {}{}", c.sensor.backend(), sensor, sensor.ends_with('\n') ? "" : "\n");
-  }
+  fmt::print("{}", config::device_inventory(config::load_rig_config(o.config, o.sets), false));
   return 0;
 }
 
