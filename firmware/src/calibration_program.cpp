@@ -9,7 +9,7 @@
 namespace piezo::firmware {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kUnmeasured = std::numeric_limits<double>::quiet_NaN();
 
 }  // namespace
 
@@ -30,9 +30,9 @@ double CalibrationPlan::duration_s(double sensor_rate_hz) const {
 
 CalibrationProgram::CalibrationProgram(const CalibrationPlan& plan, const PositionFeed& feed)
     : plan_(plan), feed_(feed), seen_(feed.count()) {
-  result_.noise_m = result_.rad_per_V = kNaN;
-  for (auto& row : result_.forward_rad) row.fill(kNaN);
-  for (auto& row : result_.reverse_rad) row.fill(kNaN);
+  result_.noise_m = result_.rad_per_V = kUnmeasured;
+  for (auto& row : result_.forward_rad) row.fill(kUnmeasured);
+  for (auto& row : result_.reverse_rad) row.fill(kUnmeasured);
   Segment s;
   s.kind = Kind::rest;
   s.role = Role::noise;
