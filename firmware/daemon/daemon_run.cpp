@@ -210,6 +210,13 @@ json Daemon::estop(const std::string& client) {
 }
 
 json Daemon::reset_fault() {
+  // A hardware e-stop's latch is the board's own (the lines hold the
+  // amplifier off): it clears only once the button is released.
+  if (!running() && !rig_.lines->reset_estop()) {
+    throw ProtocolError(code::bad_state, "",
+                        "reset_fault: the e-stop button is still pressed (or its line cannot be "
+                        "read); release it first");
+  }
   if (const auto cleared = run_state_.reset(); cleared != firmware::StopCause::none) {
     log_event(fmt::format("fault {} reset", firmware::to_string(cleared)));
     publish_state();

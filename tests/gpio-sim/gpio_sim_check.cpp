@@ -267,6 +267,24 @@ void check_loop_sync_and_estop(const std::string& chip) {
         fmt::format("enable dropped in the first drive cycle after the edge ({} cycles drove past "
                     "it; {:.3f} ms after it in wall time, drive period {:.1f} ms)",
                     driving_after_edge, 1e3 * hal::to_seconds(last_sample.t - edge), 1e3 / kRate));
+
+  // The press latches on the board (piezod's reset_fault clears it): while
+  // the button is held a reset is refused; released, the enable stays down
+  // whatever is asked until the reset; after it the next run enables.
+  const bool refused_while_held = !lines.reset_estop();
+  set_pull(12, "pull-up");
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  (void)lines.set_amplifier_enable(true);
+  const bool latched_after_release = read_line(10) == 0;
+  const bool reset = lines.reset_estop();
+  (void)lines.set_amplifier_enable(true);
+  const bool enabled_after_reset = read_line(10) == 1;
+  (void)lines.set_amplifier_enable(false);
+  check(refused_while_held && latched_after_release && reset && enabled_after_reset &&
+            read_line(10) == 0,
+        fmt::format("the press latched: reset refused while held ({}), enable low after the "
+                    "release ({}), reset once released ({}), enable high at the next run ({})",
+                    refused_while_held, latched_after_release, reset, enabled_after_reset));
 }
 
 }  // namespace

@@ -137,6 +137,42 @@ TEST(GpioDigitalLines, EstopLevelAndEdges) {
   EXPECT_TRUE(s.edge_seen);
 }
 
+// A press latches: the enable stays down after the button is released, a
+// reset is refused while it is held, and once released and reset the next
+// run enables again; a later press trips again.
+TEST(GpioDigitalLines, AnEstopPressLatchesUntilReleasedAndReset) {
+  RecordingOutputLines outputs(1);
+  SimInputLine estop(1);  // normally closed, pulled up: released = high
+  GpioDigitalLines lines({.has_sync = false, .estop_active_low = true}, outputs, &estop);
+  const auto enable_level = [&] { return outputs.writes().back()[0]; };
+  EXPECT_TRUE(lines.reset_estop()) << "nothing latched: a reset is harmless";
+  ASSERT_EQ(lines.set_amplifier_enable(true), Status::ok);
+  EXPECT_EQ(enable_level(), 1);
+
+  estop.drive(0);
+  EXPECT_TRUE(lines.poll_estop().edge_seen);
+  EXPECT_EQ(enable_level(), 0);
+  EXPECT_FALSE(lines.reset_estop()) << "held: refused";
+  (void)lines.set_amplifier_enable(true);
+  EXPECT_EQ(enable_level(), 0) << "a run cannot enable while the press is latched";
+
+  estop.drive(1);
+  EXPECT_TRUE(lines.poll_estop().edge_seen) << "released, still latched";
+  (void)lines.set_amplifier_enable(true);
+  EXPECT_EQ(enable_level(), 0);
+
+  EXPECT_TRUE(lines.reset_estop());
+  const EstopState after = lines.poll_estop();
+  EXPECT_FALSE(after.pressed);
+  EXPECT_FALSE(after.edge_seen);
+  (void)lines.set_amplifier_enable(true);
+  EXPECT_EQ(enable_level(), 1) << "the next run enables";
+
+  estop.drive(0);
+  EXPECT_TRUE(lines.poll_estop().edge_seen);
+  EXPECT_EQ(enable_level(), 0) << "a new press trips again";
+}
+
 // The e-stop pressed at 0.5 s on the virtual clock: the enable line must
 // fall within one 100 us drive period.
 TEST(GpioDigitalLines, AnEstopEdgeDropsTheEnableLineWithinOneDrivePeriod) {

@@ -73,6 +73,19 @@ bool GpioDigitalLines::trip() {
   return true;
 }
 
+bool GpioDigitalLines::reset_estop() {
+  if (estop_ == nullptr) return true;
+  // The edges of the press and of its release are drained first: an edge
+  // after this read is a new press, and trips again.
+  int edges = 0, level = 0;
+  if (estop_->take_edges(edges) != Status::ok || estop_->level(level) != Status::ok) return false;
+  if (pressed(level)) return false;
+  tripped_.store(false);
+  // A press between the read and the clear: the level says so, and trips again.
+  check_estop();
+  return !tripped_.load();
+}
+
 void GpioDigitalLines::write_off() {
   // Enable off, sync idle, written from the caller's thread: the drive loop
   // may be blocked in a drive write for a long time.

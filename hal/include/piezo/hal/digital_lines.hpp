@@ -33,6 +33,11 @@ class DigitalLines {
   /// run's start). False where there is no line to drop (the drive loop's
   /// own stop, after the write in progress, is then the only path).
   virtual bool trip() { return false; }
+  /// A hardware e-stop latches: the enable stays down after the button is
+  /// released, until the operator resets the fault. Clears that latch once
+  /// the button is released; false (and the latch kept) while it is still
+  /// pressed or its line cannot be read. Not called during a run.
+  [[nodiscard]] virtual bool reset_estop() { return true; }
 };
 
 }  // namespace piezo::hal

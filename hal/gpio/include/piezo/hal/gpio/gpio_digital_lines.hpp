@@ -6,9 +6,10 @@
 ///
 /// The e-stop has a path of its own: a watcher thread blocks on the input's
 /// edge events and drops the enable line itself, however long the drive
-/// loop is blocked in a drive write. Once tripped, the enable stays off for
-/// the lifetime of the lines, whatever the loop asks. The protocol's e-stop
-/// drops it the same way (trip()), until the next run enables it.
+/// loop is blocked in a drive write. Once tripped, the enable stays off,
+/// whatever the loop asks, until the button is released and reset_estop()
+/// clears the latch (piezod's reset_fault). The protocol's e-stop drops it
+/// the same way (trip()), until the next run enables it.
 
 #include <array>
 #include <atomic>
@@ -46,6 +47,8 @@ class GpioDigitalLines final : public DigitalLines {
   /// The level now, and whether the watcher has tripped since the start.
   [[nodiscard]] EstopState poll_estop() override;
   bool trip() override;
+  /// Reads the button: released, clears the latch and the edges seen.
+  [[nodiscard]] bool reset_estop() override;
 
  private:
   Status apply();
@@ -62,7 +65,7 @@ class GpioDigitalLines final : public DigitalLines {
   bool enabled_ = false;
   bool sync_ = false;
   std::array<int, 2> levels_{};
-  std::atomic<bool> tripped_{false};         ///< by the e-stop input: for good
+  std::atomic<bool> tripped_{false};         ///< by the e-stop input: until reset_estop()
   std::atomic<bool> remote_tripped_{false};  ///< by trip(): until the next enable
   std::atomic<bool> trip_write_failed_{false};
   std::atomic<bool> stopping_{false};
