@@ -2,12 +2,16 @@
 """An independent piezod client, written from docs/protocol.md alone
 (python3-zmq, python3-msgpack): hello and status, malformed, oversized and
 unknown input (error replies, the daemon goes on, every other request is
-answered), a request beyond the board's limits, then a short run whose
+answered), each command's arguments against the document's Commands table
+(the board names what a command takes when it refuses one it does not),
+a request beyond the board's limits, then a short run whose
 samples arrive on the stream, a fetch from the recorder, steps that end on
 their period's 0 V, a closed-loop move that a second client can neither
 re-zero nor steer, and the zero. Prints "ok" and facts; exits non-zero on
 any mismatch.
 usage: protocol_client.py tcp://127.0.0.1:PORT"""
+import os
+import re
 import struct
 import sys
 import time
@@ -97,6 +101,45 @@ check(unknown_arg["error"]["code"] == "bad_argument" and unknown_arg["error"]["k
       "an unknown argument is refused by name: " + str(unknown_arg))
 unknown = call("fly")
 check(unknown["error"]["code"] == "unknown_command", "unknown command")
+
+
+def documented_commands():
+    """The Commands table of docs/protocol.md: each cmd and the argument
+    names its args column gives (parenthesised and bracketed notes and
+    "as for `x`" left out; move_to's request from its own table)."""
+    page = open(os.path.join(os.path.dirname(__file__), "..", "..", "docs", "protocol.md")).read()
+    section = page.split("\n## Commands", 1)[1]
+    table, request = section.split("### `move_to`'s arguments", 1)
+    commands = {}
+    for line in table.splitlines():
+        cells = line.split(" | ")
+        if not line.startswith("| `") or len(cells) < 3:
+            continue
+        name = cells[0].strip("| `")
+        # Intervals first ("(0, 1]", "[0, 1)"): their brackets need not pair.
+        args = re.sub(r"[\[(][^\[\]()]*,[^\[\]()]*[\])]", "", cells[1])
+        while re.search(r"\([^()]*\)|\[[^\[\]]*\]", args):
+            args = re.sub(r"\([^()]*\)|\[[^\[\]]*\]", "", args)
+        args = re.sub(r"as for `[^`]*`", "", args)
+        commands[name] = set(re.findall(r"`([A-Za-z_0-9]+)`", args))
+    request = request.split("\n## ", 1)[0]
+    commands["move_to"] |= set(re.findall(r"^\| `([A-Za-z_0-9]+)` \|", request, re.M))
+    return commands
+
+
+# Each command takes exactly the arguments the document lists: an argument
+# it does not take is refused with the ones it does.
+documented = documented_commands()
+allowed_commands = re.search(r"\(allowed: (.*)\)", unknown["error"]["message"]).group(1)
+check(set(allowed_commands.split(", ")) == set(documented),
+      f"the board's commands {allowed_commands} are the document's {sorted(documented)}")
+for name, args in documented.items():
+    refused = call(name, not_documented=1)
+    check(not refused["ok"] and refused["error"]["key"] == "not_documented",
+          f"{name} refuses an argument it does not take: {refused}")
+    taken = re.search(r"\(allowed: (.*)\)", refused["error"]["message"]).group(1)
+    taken = set() if taken == "none" else set(taken.split(", "))
+    check(taken == args, f"{name} takes {sorted(taken)}; the document lists {sorted(args)}")
 beyond = call("configure", V0=limits["V_max"] + 10, f=10.0, duration_s=0.5)
 check(beyond["error"]["code"] == "out_of_limits" and beyond["error"]["key"] == "V0",
       "beyond the limits: " + str(beyond))
