@@ -144,7 +144,7 @@ TEST(GpioDigitalLines, AnEstopPressLatchesUntilReleasedAndReset) {
   RecordingOutputLines outputs(1);
   SimInputLine estop(1);  // normally closed, pulled up: released = high
   GpioDigitalLines lines({.has_sync = false, .estop_active_low = true}, outputs, &estop);
-  const auto enable_level = [&] { return outputs.writes().back()[0]; };
+  const auto enable_level = [&] { return outputs.level(0); };  // locked: the watcher writes too
   EXPECT_TRUE(lines.reset_estop()) << "nothing latched: a reset is harmless";
   ASSERT_EQ(lines.set_amplifier_enable(true), Status::ok);
   EXPECT_EQ(enable_level(), 1);

@@ -32,9 +32,16 @@ class RecordingOutputLines final : public OutputLineGroup {
   }
   [[nodiscard]] std::size_t size() const override { return lines_; }
 
-  /// Every bulk write so far, in order. Read once the writers are done.
-  [[nodiscard]] const std::vector<std::vector<int>>& writes() const { return writes_; }
-  [[nodiscard]] const std::vector<TimeNs>& times() const { return times_; }
+  /// Every bulk write so far, in order, and when each came: copies taken
+  /// under the lock, as a line's watcher may still be writing.
+  [[nodiscard]] std::vector<std::vector<int>> writes() const {
+    const std::lock_guard lock(mutex_);
+    return writes_;
+  }
+  [[nodiscard]] std::vector<TimeNs> times() const {
+    const std::lock_guard lock(mutex_);
+    return times_;
+  }
   /// The physical level of `line` now (the last write), or -1 before any.
   [[nodiscard]] int level(std::size_t line) const {
     const std::lock_guard lock(mutex_);
