@@ -23,12 +23,17 @@ constexpr auto kPollPeriod = std::chrono::milliseconds(2);
 constexpr auto kHealthPeriod = std::chrono::milliseconds(250);
 
 /// `move_to`'s arguments: the declared request's fields and the waveform's.
+/// The argument names a request declares (its kArgs).
+template <class Request>
+std::vector<std::string_view> args_of() {
+  return {Request::kArgs.begin(), Request::kArgs.end()};
+}
+
 std::vector<std::string_view> move_to_args() {
   std::vector<std::string_view> args;
   for (const auto& field : firmware::kMoveFields) args.push_back(field.name);
-  for (const std::string_view waveform : {"V0", "f", "C_dr", "e_dr", "lease_s"}) {
-    args.push_back(waveform);
-  }
+  const auto& waveform = protocol::MoveToRequest::kWaveformArgs;
+  args.insert(args.end(), waveform.begin(), waveform.end());
   return args;
 }
 
@@ -240,22 +245,17 @@ CommandTable Daemon::command_table() {
       {"clock",
        C::anyone,
        {},
-       [this](Who, Args) {
-         return json{{"board_ns", rig_.clock->now()}};
-       }},
-      {"configure",
-       C::controller,
-       {"V0", "f", "C_dr", "e_dr", "direction", "duration_s"},
+       [this](Who, Args) { return json(protocol::ClockReply{rig_.clock->now()}); }},
+      {"configure", C::controller, args_of<protocol::ConfigureRequest>(),
        [this](Who c, Args a) { return configure(c, a); }},
-      {"start", C::controller, {"lease_s"}, [this](Who c, Args a) { return start(c, a); }},
-      {"step",
-       C::controller,
-       {"count", "V0", "f", "C_dr", "e_dr", "direction", "lease_s"},
+      {"start", C::controller, args_of<protocol::StartRequest>(),
+       [this](Who c, Args a) {
+         return start(c, protocol::decode<protocol::StartRequest>(a).lease_s);
+       }},
+      {"step", C::controller, args_of<protocol::StepRequest>(),
        [this](Who c, Args a) { return step(c, a); }},
       {"move_to", C::controller, move_to_args(), [this](Who c, Args a) { return move_to(c, a); }},
-      {"calibrate",
-       C::controller,
-       {"V0", "lease_s"},
+      {"calibrate", C::controller, args_of<protocol::CalibrateRequest>(),
        [this](Who c, Args a) { return calibrate(c, a); }},
       {"set_calibration",
        C::controller,
@@ -267,13 +267,9 @@ CommandTable Daemon::command_table() {
       {"estop", C::anyone, {}, [this](Who c, Args) { return estop(c); }},
       // Refused to everyone during a run; between runs nobody controls the rig.
       {"reset_fault", C::anyone, {}, [this](Who, Args) { return reset_fault(); }},
-      {"lease",
-       C::controller,
-       {"drive_received"},
+      {"lease", C::controller, args_of<protocol::LeaseRequest>(),
        [this](Who c, Args a) { return renew_lease(c, a); }},
-      {"fetch",
-       C::anyone,
-       {"stream", "first", "count"},
+      {"fetch", C::anyone, args_of<protocol::FetchRequest>(),
        [this](Who c, Args a) {
          return samples_.fetch(c, a, running() && !run_state_.is_controller(c));
        }},

@@ -91,8 +91,8 @@ class Daemon {
   /// Checks and keeps a waveform; `cmd` names the command in refusals.
   protocol::ConfigureRequest apply_configuration(const protocol::ConfigureRequest& request,
                                                  const char* cmd);
-  /// `lease` holds the request's `lease_s`, if it named one.
-  nlohmann::json start(const std::string& client, const nlohmann::json& lease,
+  /// `lease_s`: the request's, if it named one (else the board's default).
+  nlohmann::json start(const std::string& client, std::optional<double> lease_s,
                        const Program& program = {}, const char* cmd = "start");
   /// The loop runner for the program, over the run's own parts.
   void build_runner(Run& run, const Program& program);

@@ -20,10 +20,6 @@ using nlohmann::json;
 using protocol::ProtocolError;
 namespace code = protocol::code;
 
-json lease_of(const std::optional<double>& lease_s) {
-  return lease_s ? json{{"lease_s", *lease_s}} : json::object();
-}
-
 }  // namespace
 
 json Daemon::move_to(const std::string& client, const json& args) {
@@ -38,7 +34,7 @@ json Daemon::move_to(const std::string& client, const json& args) {
   // Known now unless the readings at rest failed: then the move takes its
   // own, and the board keeps it afterwards.
   const bool zero_before = zero_.known();
-  json started = start(client, lease_of(request.lease_s), {m, std::nullopt}, "move_to");
+  json started = start(client, request.lease_s, {m, std::nullopt}, "move_to");
   json asked = request;
   asked.erase("lease_s");
   started.update(asked);
@@ -113,10 +109,11 @@ firmware::MoveSettings Daemon::plan_move(const protocol::MoveToRequest& request,
 json Daemon::calibrate(const std::string& client, const json& args) {
   run_state_.require_can_start(client,
                                "calibrate");  // before configure: a refused one changes nothing
+  const auto request = protocol::decode<protocol::CalibrateRequest>(args);
   const auto& lim = board_.drive.limits;
   const auto& d0 = board_.model.drive;
   firmware::CalibrationPlan plan;
-  plan.V0 = protocol::number_arg(args, "V0", std::min(d0.V0, lim.V_max));
+  plan.V0 = request.V0.value_or(std::min(d0.V0, lim.V_max));
   plan.D = d0.D();
   plan.r2_m = board_.sensor.r2_m;
   plan.hold_V_max = firmware::kHoldFractionOfVmax * lim.V_max;
@@ -141,9 +138,7 @@ json Daemon::calibrate(const std::string& client, const json& args) {
   d.V0 = plan.V0;
   d.f = plan.f_hz[static_cast<std::size_t>(plan.frequencies - 1)];
   (void)apply_configuration({d, 1.5 * plan.duration_s(board_.sensor.rate_hz) + 1.0}, "calibrate");
-  json lease = json::object();
-  if (args.contains("lease_s")) lease["lease_s"] = args["lease_s"];
-  json started = start(client, lease, {std::nullopt, plan}, "calibrate");
+  json started = start(client, request.lease_s, {std::nullopt, plan}, "calibrate");
   started["V0"] = plan.V0;
   started["f_hz"] = std::vector<double>(plan.f_hz.begin(), plan.f_hz.begin() + plan.frequencies);
   started["steps_per_point"] = plan.steps;

@@ -61,13 +61,13 @@ protocol::ConfigureRequest Daemon::apply_configuration(const protocol::Configure
   return r;
 }
 
-json Daemon::start(const std::string& client, const json& lease, const Program& program,
-                   const char* cmd) {
+json Daemon::start(const std::string& client, std::optional<double> requested_lease_s,
+                   const Program& program, const char* cmd) {
   run_state_.require_can_start(client, cmd);
   if (!configured_) {
     throw ProtocolError(code::bad_state, "", fmt::format("{}: send configure first", cmd));
   }
-  const double lease_s = protocol::number_arg(lease, "lease_s", board_.daemon.lease_s);
+  const double lease_s = requested_lease_s.value_or(board_.daemon.lease_s);
   if (!(lease_s > 0.0 && lease_s <= board_.daemon.lease_max_s)) {
     throw out_of_limits(
         "lease_s", fmt::format("{:g} s; allowed: (0, {:g}] s", lease_s, board_.daemon.lease_max_s));
@@ -176,9 +176,7 @@ json Daemon::step(const std::string& client, const json& args) {
   }
   const auto configured =
       apply_configuration({request.drive, static_cast<double>(request.count) / f}, "step");
-  json started =
-      start(client, request.lease_s ? json{{"lease_s", *request.lease_s}} : json::object(),
-            Program{}, "step");
+  json started = start(client, request.lease_s, Program{}, "step");
   started["count"] = request.count;
   started["direction"] = model::name(configured.drive.direction);
   return started;
@@ -229,9 +227,8 @@ json Daemon::renew_lease(const std::string& client, const json& args) {
   if (!run_state_.is_controller(client)) {
     throw ProtocolError(code::not_controller, "", "lease: only the controlling client renews it");
   }
-  if (args.contains("drive_received")) {
-    run_->drive_acked = protocol::uint_arg(args, "drive_received");
-  }
+  const auto request = protocol::decode<protocol::LeaseRequest>(args);
+  if (request.drive_received) run_->drive_acked = *request.drive_received;
   if (board_.virtual_clock()) {
     run_->lease_renewed_ns = wall_ns();
   } else {

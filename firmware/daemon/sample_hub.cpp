@@ -10,6 +10,7 @@
 #include "piezo/protocol/error.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "piezo/protocol/message.hpp"
+#include "piezo/protocol/messages.hpp"
 
 namespace piezo::daemon {
 namespace {
@@ -78,9 +79,7 @@ void SampleHub::publish(const char* topic, const Recorder<Sample>& recorder,
 }
 
 json SampleHub::fetch(const std::string& client, const json& args, bool budgeted) {
-  const auto stream = protocol::stream_from_string(protocol::string_arg(args, "stream"), "stream");
-  const std::uint64_t first = protocol::uint_arg(args, "first");
-  const std::uint64_t count = protocol::uint_arg(args, "count");
+  const auto [stream, first, count] = protocol::decode<protocol::FetchRequest>(args);
   if (count > kMaxFetch) {
     throw ProtocolError(code::out_of_limits, "count",
                         fmt::format("count: {}; allowed: at most {} per fetch", count, kMaxFetch));

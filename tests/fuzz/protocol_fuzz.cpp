@@ -35,11 +35,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         } catch (const ProtocolError&) {
         }
         // The typed requests read the same arguments.
-        for (int kind = 0; kind < 3; ++kind) {
+        for (int kind = 0; kind < 7; ++kind) {
           try {
             if (kind == 0) (void)decode<ConfigureRequest>(r.args);
             if (kind == 1) (void)decode<StepRequest>(r.args);
             if (kind == 2) (void)decode<MoveToRequest>(r.args);
+            if (kind == 3) (void)decode<StartRequest>(r.args);
+            if (kind == 4) (void)decode<CalibrateRequest>(r.args);
+            if (kind == 5) (void)decode<LeaseRequest>(r.args);
+            if (kind == 6) (void)decode<FetchRequest>(r.args);
           } catch (const ProtocolError&) {
           }
         }

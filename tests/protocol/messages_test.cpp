@@ -5,7 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
+#include <set>
 #include <string>
+#include <string_view>
 
 #include "piezo/protocol/error.hpp"
 #include "piezo/protocol/message.hpp"
@@ -123,6 +126,50 @@ TEST(Messages, RequestsRoundTrip) {
   EXPECT_FALSE(over_the_wire(m).V0.has_value());
 }
 
+TEST(Messages, TheOtherRequestsAndTheClockRoundTrip) {
+  EXPECT_EQ(over_the_wire(StartRequest{2.5}).lease_s, 2.5);
+  EXPECT_FALSE(over_the_wire(StartRequest{}).lease_s.has_value());
+  const auto c = over_the_wire(CalibrateRequest{40.0, std::nullopt});
+  EXPECT_EQ(c.V0, 40.0);
+  EXPECT_FALSE(c.lease_s.has_value());
+  EXPECT_EQ(over_the_wire(LeaseRequest{123456}).drive_received, 123456u);
+  EXPECT_FALSE(over_the_wire(LeaseRequest{}).drive_received.has_value());
+  const auto f = over_the_wire(FetchRequest{Stream::sensor, 1000, 4096});
+  EXPECT_EQ(f.stream, Stream::sensor);
+  EXPECT_EQ(f.first, 1000u);
+  EXPECT_EQ(f.count, 4096u);
+  EXPECT_EQ(over_the_wire(ClockReply{-42}).board_ns, -42);
+  EXPECT_EQ(refusal_key<ClockReply>(json::object()), "malformed board_ns");
+}
+
+/// The keys a request encodes with every argument given.
+template <class T>
+std::set<std::string> encoded_keys(const T& m) {
+  const json j = m;
+  std::set<std::string> keys;
+  for (const auto& [key, value] : j.items()) keys.insert(key);
+  return keys;
+}
+
+template <std::size_t N>
+std::set<std::string> declared(const std::array<std::string_view, N>& args) {
+  return {args.begin(), args.end()};
+}
+
+// The names the board's command table admits are the ones the codec writes
+// and reads: a request declares them once.
+TEST(Messages, EachRequestEncodesExactlyTheArgumentsItDeclares) {
+  EXPECT_EQ(encoded_keys(ConfigureRequest{}), declared(ConfigureRequest::kArgs));
+  EXPECT_EQ(encoded_keys(StartRequest{1.0}), declared(StartRequest::kArgs));
+  EXPECT_EQ(encoded_keys(StepRequest{1, {}, 1.0}), declared(StepRequest::kArgs));
+  EXPECT_EQ(encoded_keys(CalibrateRequest{30.0, 1.0}), declared(CalibrateRequest::kArgs));
+  EXPECT_EQ(encoded_keys(LeaseRequest{1}), declared(LeaseRequest::kArgs));
+  EXPECT_EQ(encoded_keys(FetchRequest{}), declared(FetchRequest::kArgs));
+  std::set<std::string> move = declared(MoveToRequest::kWaveformArgs);
+  for (const auto& field : firmware::kMoveFields) move.emplace(field.name);
+  EXPECT_EQ(encoded_keys(MoveToRequest{{}, 1.0, 1.0, 1.0, 1.0, 1.0}), move);
+}
+
 TEST(Messages, RequestsTakeTheDocumentedDefaults) {
   const auto c = decode<ConfigureRequest>({{"V0", 60.0}, {"f", 10.0}, {"duration_s", 1.0}});
   EXPECT_EQ(c.drive.C_dr, 0.95);
@@ -148,6 +195,12 @@ TEST(Messages, ABadRequestArgumentIsABadArgumentNamingIt) {
             "bad_argument count");
   EXPECT_EQ(refusal_key<MoveToRequest>({{"target_rad", 0.0}, {"protect", 1}}),
             "bad_argument protect");
+  EXPECT_EQ(refusal_key<StartRequest>({{"lease_s", "long"}}), "bad_argument lease_s");
+  EXPECT_EQ(refusal_key<CalibrateRequest>({{"V0", true}}), "bad_argument V0");
+  EXPECT_EQ(refusal_key<LeaseRequest>({{"drive_received", -3}}), "bad_argument drive_received");
+  EXPECT_EQ(refusal_key<FetchRequest>({{"stream", "video"}, {"first", 0u}, {"count", 1u}}),
+            "bad_argument stream");
+  EXPECT_EQ(refusal_key<FetchRequest>({{"stream", "drive"}, {"first", 0u}}), "bad_argument count");
 }
 
 TEST(Messages, EventsAndSummariesRoundTrip) {

@@ -48,6 +48,24 @@ json nil_or(const std::optional<T>& v) {
   return v ? json(*v) : json(nullptr);
 }
 
+/// An optional argument: absent or nil is none.
+std::optional<double> optional_number_arg(const json& args, const char* key) {
+  const auto it = args.find(key);
+  if (it == args.end() || it->is_null()) return std::nullopt;
+  return number_arg(args, key);
+}
+std::optional<std::uint64_t> optional_uint_arg(const json& args, const char* key) {
+  const auto it = args.find(key);
+  if (it == args.end() || it->is_null()) return std::nullopt;
+  return uint_arg(args, key);
+}
+
+/// Writes an optional argument only when it is given.
+template <class T>
+void put_if(json& j, const char* key, const std::optional<T>& v) {
+  if (v) j[key] = *v;
+}
+
 /// A request's waveform: V0 and f required, the rest defaulted as the
 /// protocol documents.
 model::DriveParameters drive_args(const json& args) {
@@ -158,6 +176,14 @@ void from_json(const json& j, LoopHealth& m) {
   }
 }
 
+void to_json(json& j, const ClockReply& m) {
+  j = {{"board_ns", m.board_ns}};
+}
+
+void from_json(const json& j, ClockReply& m) {
+  m.board_ns = field<std::int64_t>(j, "board_ns");
+}
+
 void to_json(json& j, const ConfigureRequest& m) {
   j = drive_json(m.drive);
   j["duration_s"] = m.duration_s;
@@ -168,16 +194,55 @@ void from_json(const json& j, ConfigureRequest& m) {
   m.duration_s = number_arg(j, "duration_s");
 }
 
+void to_json(json& j, const StartRequest& m) {
+  j = json::object();
+  put_if(j, "lease_s", m.lease_s);
+}
+
+void from_json(const json& j, StartRequest& m) {
+  m.lease_s = optional_number_arg(j, "lease_s");
+}
+
 void to_json(json& j, const StepRequest& m) {
   j = drive_json(m.drive);
   j["count"] = m.count;
-  if (m.lease_s) j["lease_s"] = *m.lease_s;
+  put_if(j, "lease_s", m.lease_s);
 }
 
 void from_json(const json& j, StepRequest& m) {
   m.count = uint_arg(j, "count");
   m.drive = drive_args(j);
-  m.lease_s = j.contains("lease_s") ? std::optional(number_arg(j, "lease_s")) : std::nullopt;
+  m.lease_s = optional_number_arg(j, "lease_s");
+}
+
+void to_json(json& j, const CalibrateRequest& m) {
+  j = json::object();
+  put_if(j, "V0", m.V0);
+  put_if(j, "lease_s", m.lease_s);
+}
+
+void from_json(const json& j, CalibrateRequest& m) {
+  m.V0 = optional_number_arg(j, "V0");
+  m.lease_s = optional_number_arg(j, "lease_s");
+}
+
+void to_json(json& j, const LeaseRequest& m) {
+  j = json::object();
+  put_if(j, "drive_received", m.drive_received);
+}
+
+void from_json(const json& j, LeaseRequest& m) {
+  m.drive_received = optional_uint_arg(j, "drive_received");
+}
+
+void to_json(json& j, const FetchRequest& m) {
+  j = {{"stream", to_string(m.stream)}, {"first", m.first}, {"count", m.count}};
+}
+
+void from_json(const json& j, FetchRequest& m) {
+  m.stream = stream_from_string(string_arg(j, "stream"), "stream");
+  m.first = uint_arg(j, "first");
+  m.count = uint_arg(j, "count");
 }
 
 void to_json(json& j, const MoveToRequest& m) {
@@ -195,11 +260,11 @@ void to_json(json& j, const MoveToRequest& m) {
         },
         field.member);
   }
-  if (m.V0) j["V0"] = *m.V0;
-  if (m.f) j["f"] = *m.f;
-  if (m.C_dr) j["C_dr"] = *m.C_dr;
-  if (m.e_dr) j["e_dr"] = *m.e_dr;
-  if (m.lease_s) j["lease_s"] = *m.lease_s;
+  put_if(j, "V0", m.V0);
+  put_if(j, "f", m.f);
+  put_if(j, "C_dr", m.C_dr);
+  put_if(j, "e_dr", m.e_dr);
+  put_if(j, "lease_s", m.lease_s);
 }
 
 void from_json(const json& j, MoveToRequest& m) {
@@ -231,15 +296,11 @@ void from_json(const json& j, MoveToRequest& m) {
         },
         field.member);
   }
-  const auto optional_number = [&](const char* key) {
-    return j.contains(key) && !j.at(key).is_null() ? std::optional(number_arg(j, key))
-                                                   : std::nullopt;
-  };
-  m.V0 = optional_number("V0");
-  m.f = optional_number("f");
-  m.C_dr = optional_number("C_dr");
-  m.e_dr = optional_number("e_dr");
-  m.lease_s = optional_number("lease_s");
+  m.V0 = optional_number_arg(j, "V0");
+  m.f = optional_number_arg(j, "f");
+  m.C_dr = optional_number_arg(j, "C_dr");
+  m.e_dr = optional_number_arg(j, "e_dr");
+  m.lease_s = optional_number_arg(j, "lease_s");
 }
 
 void to_json(json& j, const OutputEnd& m) {
@@ -394,9 +455,14 @@ T decode(const json& j) {
 
 template Hello decode<Hello>(const json&);
 template LoopHealth decode<LoopHealth>(const json&);
+template ClockReply decode<ClockReply>(const json&);
 template ConfigureRequest decode<ConfigureRequest>(const json&);
+template StartRequest decode<StartRequest>(const json&);
 template StepRequest decode<StepRequest>(const json&);
 template MoveToRequest decode<MoveToRequest>(const json&);
+template CalibrateRequest decode<CalibrateRequest>(const json&);
+template LeaseRequest decode<LeaseRequest>(const json&);
+template FetchRequest decode<FetchRequest>(const json&);
 template RunSummary decode<RunSummary>(const json&);
 template StateEvent decode<StateEvent>(const json&);
 template HealthEvent decode<HealthEvent>(const json&);

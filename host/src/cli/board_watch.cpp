@@ -82,7 +82,7 @@ void BoardWatch::poll(std::chrono::milliseconds wait) {
     const std::lock_guard lock(commands_);
     if (controlled_run_ && std::chrono::steady_clock::now() - last_lease_ >=
                                std::chrono::duration<double>(lease_s_ / 4.0)) {
-      client_.send("lease", {{"drive_received", follower_.drive_next()}});
+      client_.send("lease", protocol::LeaseRequest{follower_.drive_next()});
       last_lease_ = std::chrono::steady_clock::now();
     }
   }

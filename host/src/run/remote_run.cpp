@@ -102,14 +102,9 @@ json start_remote(const config::RigConfig& c, BoardClient& client, std::optional
     return client.call("move_to", request);
   }
   if (c.run.calibrate) {
-    json args = json::object();
-    if (c.run.calibrate->V0) args["V0"] = *c.run.calibrate->V0;
-    if (lease) args["lease_s"] = *lease;
-    return client.call("calibrate", args);
+    return client.call("calibrate", protocol::CalibrateRequest{c.run.calibrate->V0, lease});
   }
-  if (c.run.step_periods == 0) {
-    return client.call("start", lease ? json{{"lease_s", *lease}} : json::object());
-  }
+  if (c.run.step_periods == 0) return client.call("start", protocol::StartRequest{lease});
   return client.call("step", protocol::StepRequest{c.run.step_periods, c.model.drive, lease});
 }
 
@@ -129,7 +124,7 @@ ClockMapping estimate_clock_offset(BoardClient& client, int round_trips) {
   ClockMapping best{0, std::numeric_limits<std::int64_t>::max()};
   for (int i = 0; i < round_trips; ++i) {
     const std::int64_t sent = host_ns();
-    const auto board = client.call("clock").at("board_ns").get<std::int64_t>();
+    const auto board = protocol::decode<protocol::ClockReply>(client.call("clock")).board_ns;
     const std::int64_t received = host_ns();
     // The fastest round trip bounds the offset most tightly.
     if (received - sent < best.round_trip_ns) {
@@ -293,7 +288,7 @@ void FollowedRun::renew_lease_if_due() {
   const std::uint64_t received = follower_.drive_next();
   const std::uint64_t unlogged =
       log_ok_ ? writer_.pending_drive_rows() + collector_.rows().drive.t.size() : 0;
-  client_.send("lease", {{"drive_received", received - std::min(received, unlogged)}});
+  client_.send("lease", protocol::LeaseRequest{received - std::min(received, unlogged)});
   last_lease_ = now;
 }
 

@@ -90,9 +90,7 @@ void StreamFollower::fetch(protocol::Stream stream, std::uint64_t end) {
   while (next < end) {
     nlohmann::json r;
     try {
-      r = call_("fetch", {{"stream", protocol::to_string(stream)},
-                          {"first", next},
-                          {"count", std::min(kFetchChunk, end - next)}});
+      r = call_("fetch", protocol::FetchRequest{stream, next, std::min(kFetchChunk, end - next)});
     } catch (const RemoteError& e) {
       if (from_sample_zero_) throw;  // the controller's log must not miss a sample
       gaps_.back() += fmt::format(" (not fetched: {})", e.what());

@@ -8,14 +8,17 @@
 /// throws ProtocolError (malformed, naming the field). Optional fields are
 /// nil on the wire when absent.
 
+#include <array>
 #include <cstdint>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "piezo/firmware/request_limits.hpp"
 #include "piezo/model/parameters.hpp"
+#include "piezo/protocol/frame.hpp"
 
 namespace piezo::protocol {
 
@@ -57,24 +60,67 @@ struct LoopHealth {
   std::optional<Timing> timing;
 };
 
-/// `configure`'s arguments. Requests decode through the argument readers
-/// (message.hpp), so a missing or mistyped argument is `bad_argument`.
+/// `clock`'s reply: the board's clock when it answered.
+struct ClockReply {
+  std::int64_t board_ns = 0;
+};
+
+// Requests decode through the argument readers (message.hpp), so a missing
+// or mistyped argument is `bad_argument`. Each request's `kArgs` lists the
+// argument names it takes: the board's command table refuses any other
+// (naming these), and docs/protocol.md's table is checked against it.
+
+/// `configure`'s arguments.
 struct ConfigureRequest {
+  static constexpr std::array<std::string_view, 6> kArgs{"V0",   "f",         "C_dr",
+                                                         "e_dr", "direction", "duration_s"};
   model::DriveParameters drive;
   double duration_s = 0.0;
 };
 
+/// `start`'s arguments (the run `configure` set).
+struct StartRequest {
+  static constexpr std::array<std::string_view, 1> kArgs{"lease_s"};
+  std::optional<double> lease_s;  ///< absent: the board's `daemon.lease_s`
+};
+
 /// `step`'s arguments.
 struct StepRequest {
+  static constexpr std::array<std::string_view, 7> kArgs{"count", "V0",        "f",      "C_dr",
+                                                         "e_dr",  "direction", "lease_s"};
   std::uint64_t count = 0;
   model::DriveParameters drive;
   std::optional<double> lease_s;
 };
 
-/// `move_to`'s arguments (absent ones take the board's defaults).
+/// `move_to`'s arguments (absent ones take the board's defaults): every
+/// field of firmware::kMoveFields, then these.
 struct MoveToRequest {
-  firmware::MoveRequest move;  ///< every field of firmware::kMoveFields
+  static constexpr std::array<std::string_view, 5> kWaveformArgs{"V0", "f", "C_dr", "e_dr",
+                                                                 "lease_s"};
+  firmware::MoveRequest move;
   std::optional<double> V0, f, C_dr, e_dr, lease_s;
+};
+
+/// `calibrate`'s arguments.
+struct CalibrateRequest {
+  static constexpr std::array<std::string_view, 2> kArgs{"V0", "lease_s"};
+  std::optional<double> V0;  ///< absent: the board's drive.V0 within its V_max
+  std::optional<double> lease_s;
+};
+
+/// `lease`'s arguments: the drive samples the controller has logged (its
+/// acknowledgement; a virtual-clock board waits on it).
+struct LeaseRequest {
+  static constexpr std::array<std::string_view, 1> kArgs{"drive_received"};
+  std::optional<std::uint64_t> drive_received;
+};
+
+/// `fetch`'s arguments: `count` recorded samples of `stream` from `first`.
+struct FetchRequest {
+  static constexpr std::array<std::string_view, 3> kArgs{"stream", "first", "count"};
+  Stream stream = Stream::drive;
+  std::uint64_t first = 0, count = 0;
 };
 
 /// How the drive's output ended (a run summary's `output`).
@@ -152,12 +198,22 @@ void to_json(nlohmann::json& j, const Hello& m);
 void from_json(const nlohmann::json& j, Hello& m);
 void to_json(nlohmann::json& j, const LoopHealth& m);
 void from_json(const nlohmann::json& j, LoopHealth& m);
+void to_json(nlohmann::json& j, const ClockReply& m);
+void from_json(const nlohmann::json& j, ClockReply& m);
 void to_json(nlohmann::json& j, const ConfigureRequest& m);
 void from_json(const nlohmann::json& j, ConfigureRequest& m);
+void to_json(nlohmann::json& j, const StartRequest& m);
+void from_json(const nlohmann::json& j, StartRequest& m);
 void to_json(nlohmann::json& j, const StepRequest& m);
 void from_json(const nlohmann::json& j, StepRequest& m);
 void to_json(nlohmann::json& j, const MoveToRequest& m);
 void from_json(const nlohmann::json& j, MoveToRequest& m);
+void to_json(nlohmann::json& j, const CalibrateRequest& m);
+void from_json(const nlohmann::json& j, CalibrateRequest& m);
+void to_json(nlohmann::json& j, const LeaseRequest& m);
+void from_json(const nlohmann::json& j, LeaseRequest& m);
+void to_json(nlohmann::json& j, const FetchRequest& m);
+void from_json(const nlohmann::json& j, FetchRequest& m);
 void to_json(nlohmann::json& j, const OutputEnd& m);
 void from_json(const nlohmann::json& j, OutputEnd& m);
 void to_json(nlohmann::json& j, const RunSummary& m);
