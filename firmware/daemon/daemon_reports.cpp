@@ -69,11 +69,11 @@ protocol::Hello Daemon::hello() const {
 
 protocol::Status Daemon::status(const std::string& client) const {
   protocol::Status s;
-  s.state = to_string(run_state_.state());
+  s.state = run_state_.state();
   s.board_ns = rig_.clock->now();
   s.controller = run_state_.is_controller(client);
   s.controlled = run_state_.controlled();
-  if (run_state_.state() == State::fault) s.fault = firmware::to_string(run_state_.fault());
+  if (run_state_.state() == State::fault) s.fault = run_state_.fault();
   s.drive_recorded = {samples_.drive_first(), samples_.drive_recorded()};
   s.sensor_recorded = {samples_.sensor_first(), samples_.sensor_recorded()};
   const auto last = recent_displacement_m();
@@ -140,7 +140,7 @@ json Daemon::move_json(const Run& run) const {
 protocol::RunSummary Daemon::summary(const Run& run) const {
   const auto& out = run.runner->outcome();
   protocol::RunSummary s;
-  s.cause = firmware::to_string(run.runner->cause());
+  s.cause = run.runner->cause();
   s.output = {firmware::output_state(out),
               out.zero_confirmed,
               std::isnan(out.acknowledged_V) ? std::nullopt : std::optional(out.acknowledged_V),
@@ -158,10 +158,10 @@ protocol::RunSummary Daemon::summary(const Run& run) const {
 
 void Daemon::publish_state() {
   protocol::StateEvent e;
-  e.state = to_string(run_state_.state());
+  e.state = run_state_.state();
   e.board_ns = rig_.clock->now();
   if (run_) e.run = run_->id;
-  if (run_state_.state() == State::fault) e.fault = firmware::to_string(run_state_.fault());
+  if (run_state_.state() == State::fault) e.fault = run_state_.fault();
   if (run_ && run_->finished) e.summary = run_->summary;
   const std::string body = protocol::encode_map(e);
   std::array<zmq::const_buffer, 2> parts{zmq::str_buffer("state"), zmq::buffer(body)};
@@ -170,7 +170,7 @@ void Daemon::publish_state() {
 
 void Daemon::publish_health() {
   protocol::HealthEvent e;
-  e.state = to_string(run_state_.state());
+  e.state = run_state_.state();
   e.board_ns = rig_.clock->now();
   if (running()) {
     e.drive = health_of(run_->runner->drive_health(), true);

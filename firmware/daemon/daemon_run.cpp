@@ -279,9 +279,10 @@ void Daemon::finish_run() {
     }
   }
   if (run.calibration) take_calibration(run);
-  run_state_.ended(cause, run.summary.output.state == "confirmed");
+  run_state_.ended(cause, run.summary.output.state == firmware::OutputState::confirmed);
   log_event(fmt::format(
-      "run {} ended: {}, output {}{}", run.id, firmware::to_string(cause), run.summary.output.state,
+      "run {} ended: {}, output {}{}", run.id, firmware::to_string(cause),
+      firmware::to_string(run.summary.output.state),
       run_state_.state() == State::fault ? " (fault latched: reset_fault to go on)" : ""));
   publish_state();
 }

@@ -9,10 +9,6 @@ namespace piezo::daemon {
 using protocol::ProtocolError;
 namespace code = protocol::code;
 
-const char* to_string(State s) {
-  return kStateNames.name(s).data();  // the table's names are literals
-}
-
 void RunState::require_controller(const std::string& client, const char* cmd) const {
   if (controlled() && controller_ != client) {
     throw ProtocolError(code::not_controller, "",

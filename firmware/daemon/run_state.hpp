@@ -7,16 +7,12 @@
 #include <string>
 
 #include "piezo/firmware/safety_supervisor.hpp"
-#include "piezo/name_table.hpp"
+#include "piezo/protocol/board_state.hpp"
 
 namespace piezo::daemon {
 
-enum class State { idle, running, ramping_down, fault };
-inline constexpr auto kStateNames = names<State>({{State::idle, "idle"},
-                                                  {State::running, "running"},
-                                                  {State::ramping_down, "ramping_down"},
-                                                  {State::fault, "fault"}});
-[[nodiscard]] const char* to_string(State s);
+/// The states are the protocol's: the wire names them as RunState keeps them.
+using State = protocol::BoardState;
 
 class RunState {
  public:

@@ -113,10 +113,10 @@ TEST(RunState, AnEstopAtRestLatchesAndAResetWithNothingLatchedChangesNothing) {
 }
 
 TEST(RunState, StatesHaveTheirProtocolNames) {
-  EXPECT_STREQ(to_string(State::idle), "idle");
-  EXPECT_STREQ(to_string(State::running), "running");
-  EXPECT_STREQ(to_string(State::ramping_down), "ramping_down");
-  EXPECT_STREQ(to_string(State::fault), "fault");
+  EXPECT_EQ(to_string(State::idle), "idle");
+  EXPECT_EQ(to_string(State::running), "running");
+  EXPECT_EQ(to_string(State::ramping_down), "ramping_down");
+  EXPECT_EQ(to_string(State::fault), "fault");
 }
 
 }  // namespace

@@ -63,8 +63,8 @@ LoopHealth a_health(bool timing) {
 
 RunSummary a_summary() {
   RunSummary s;
-  s.cause = "link_lost";
-  s.output = {"confirmed", true, 0.0, 3, "ok", true, "ok"};
+  s.cause = firmware::StopCause::link_lost;
+  s.output = {firmware::OutputState::confirmed, true, 0.0, 3, "ok", true, "ok"};
   s.drive = a_health(true);
   s.sensor = a_health(true);
   s.realtime = {"SCHED_FIFO refused"};
@@ -214,21 +214,22 @@ TEST(Messages, EventsAndSummariesRoundTrip) {
   EXPECT_EQ(json(over_the_wire(plain)), json(plain));
   EXPECT_FALSE(json(plain).contains("calibration")) << "only a calibration run has one";
 
-  StateEvent e{"fault", 123456789, 3, std::string("link_lost"), s};
+  StateEvent e{BoardState::fault, 123456789, 3, firmware::StopCause::link_lost, s};
   EXPECT_EQ(json(over_the_wire(e)), json(e));
-  StateEvent idle{"idle", 5, std::nullopt, std::nullopt, std::nullopt};
+  StateEvent idle{BoardState::idle, 5, std::nullopt, std::nullopt, std::nullopt};
   EXPECT_EQ(json(over_the_wire(idle)), json(idle));
   EXPECT_TRUE(json(idle).at("run").is_null()) << "nil, as documented";
 
-  HealthEvent h{"running", 99, a_health(true), a_health(true), json{{"state", "coarse"}}, 0.25};
+  HealthEvent h{BoardState::running,       99,  a_health(true), a_health(true),
+                json{{"state", "coarse"}}, 0.25};
   EXPECT_EQ(json(over_the_wire(h)), json(h));
-  HealthEvent quiet{"idle", 1, std::nullopt, std::nullopt, nullptr, std::nullopt};
+  HealthEvent quiet{BoardState::idle, 1, std::nullopt, std::nullopt, nullptr, std::nullopt};
   EXPECT_EQ(json(over_the_wire(quiet)), json(quiet));
 }
 
 TEST(Messages, StatusRoundTripsIdleAndDuringARun) {
   Status idle;
-  idle.state = "idle";
+  idle.state = BoardState::idle;
   idle.board_ns = 42;
   idle.drive_recorded = {0, 0};
   idle.calibration = nullptr;
@@ -237,10 +238,10 @@ TEST(Messages, StatusRoundTripsIdleAndDuringARun) {
   EXPECT_FALSE(json(idle).contains("run"));
 
   Status busy = idle;
-  busy.state = "fault";
+  busy.state = BoardState::fault;
   busy.controller = true;
   busy.controlled = true;
-  busy.fault = "link_lost";
+  busy.fault = firmware::StopCause::link_lost;
   busy.drive_recorded = {100, 48000};
   busy.sensor_recorded = {10, 4800};
   busy.position_rad = 0.0123;
@@ -260,7 +261,17 @@ TEST(Messages, StatusRoundTripsIdleAndDuringARun) {
   r.calibration_progress = 1.0;
   busy.run = r;
   EXPECT_EQ(json(over_the_wire(busy)), json(busy));
-  EXPECT_EQ(over_the_wire(busy).run->summary->cause, "link_lost");
+  EXPECT_EQ(over_the_wire(busy).run->summary->cause, firmware::StopCause::link_lost);
+}
+
+// A state, cause or output state put into any JSON value is its name, as
+// the wire and docs/protocol.md say it (never the enum's number).
+TEST(Messages, TheWiresEnumsBecomeTheirNamesInJson) {
+  EXPECT_EQ(json(BoardState::ramping_down), "ramping_down");
+  EXPECT_EQ(json(firmware::StopCause::link_lost), "link_lost");
+  EXPECT_EQ(json(firmware::OutputState::enable_unconfirmed), "enable_unconfirmed");
+  const json health = HealthEvent{BoardState::running, 1, {}, {}, nullptr, {}};
+  EXPECT_EQ(health.at("state"), "running");
 }
 
 TEST(Messages, AReplyOrEventMissingAFieldIsMalformedNamingIt) {
@@ -271,6 +282,13 @@ TEST(Messages, AReplyOrEventMissingAFieldIsMalformedNamingIt) {
   summary.at("output").erase("zero_confirmed");
   EXPECT_EQ(refusal_key<RunSummary>(summary), "malformed zero_confirmed");
   EXPECT_EQ(refusal_key<StateEvent>({{"state", 3}, {"board_ns", 1}}), "malformed state");
+  EXPECT_EQ(refusal_key<StateEvent>({{"state", "asleep"}, {"board_ns", 1}}), "malformed state");
+  summary = a_summary();
+  summary["cause"] = "gremlins";
+  EXPECT_EQ(refusal_key<RunSummary>(summary), "malformed cause");
+  summary = a_summary();
+  summary.at("output")["state"] = "maybe";
+  EXPECT_EQ(refusal_key<RunSummary>(summary), "malformed state");
   EXPECT_EQ(refusal_key<HealthEvent>(json::array()), "malformed ");
 }
 

@@ -48,6 +48,29 @@ json nil_or(const std::optional<T>& v) {
   return v ? json(*v) : json(nullptr);
 }
 
+/// A field holding one of an enum's names (its name table's); a name the
+/// table lacks is malformed, naming the field and the names allowed.
+template <class E, std::size_t N>
+E named_field(const json& j, const char* key, const NameTable<E, N>& table) {
+  const auto text = field<std::string>(j, key);
+  if (const auto value = table.parse(text)) return *value;
+  throw ProtocolError(code::malformed, key,
+                      fmt::format("{}: \"{}\"; allowed: {}", key, text, table.list()));
+}
+
+template <class E, std::size_t N>
+std::optional<E> optional_named_field(const json& j, const char* key,
+                                      const NameTable<E, N>& table) {
+  const auto it = j.find(key);
+  if (it == j.end() || it->is_null()) return std::nullopt;
+  return named_field(j, key, table);
+}
+
+/// An optional cause by its name, nil when absent.
+json nil_or(const std::optional<firmware::StopCause>& cause) {
+  return cause ? json(firmware::to_string(*cause)) : json(nullptr);
+}
+
 /// An optional argument: absent or nil is none.
 std::optional<double> optional_number_arg(const json& args, const char* key) {
   const auto it = args.find(key);
@@ -304,7 +327,7 @@ void from_json(const json& j, MoveToRequest& m) {
 }
 
 void to_json(json& j, const OutputEnd& m) {
-  j = {{"state", m.state},
+  j = {{"state", firmware::to_string(m.state)},
        {"zero_confirmed", m.zero_confirmed},
        {"acknowledged_V", nil_or(m.acknowledged_V)},
        {"zero_writes", m.zero_writes},
@@ -314,7 +337,7 @@ void to_json(json& j, const OutputEnd& m) {
 }
 
 void from_json(const json& j, OutputEnd& m) {
-  m.state = field<std::string>(j, "state");
+  m.state = named_field(j, "state", firmware::kOutputStateNames);
   m.zero_confirmed = field<bool>(j, "zero_confirmed");
   m.acknowledged_V = optional_field<double>(j, "acknowledged_V");
   m.zero_writes = field<std::uint32_t>(j, "zero_writes");
@@ -324,7 +347,7 @@ void from_json(const json& j, OutputEnd& m) {
 }
 
 void to_json(json& j, const RunSummary& m) {
-  j = {{"cause", m.cause},
+  j = {{"cause", firmware::to_string(m.cause)},
        {"output", m.output},
        {"drive", m.drive},
        {"sensor", m.sensor},
@@ -336,7 +359,7 @@ void to_json(json& j, const RunSummary& m) {
 }
 
 void from_json(const json& j, RunSummary& m) {
-  m.cause = field<std::string>(j, "cause");
+  m.cause = named_field(j, "cause", firmware::kStopCauseNames);
   m.output = field<OutputEnd>(j, "output");
   m.drive = field<LoopHealth>(j, "drive");
   m.sensor = field<LoopHealth>(j, "sensor");
@@ -352,7 +375,7 @@ void from_json(const json& j, RunSummary& m) {
 }
 
 void to_json(json& j, const StateEvent& m) {
-  j = {{"state", m.state},
+  j = {{"state", to_string(m.state)},
        {"board_ns", m.board_ns},
        {"run", nil_or(m.run)},
        {"fault", nil_or(m.fault)}};
@@ -360,15 +383,15 @@ void to_json(json& j, const StateEvent& m) {
 }
 
 void from_json(const json& j, StateEvent& m) {
-  m.state = field<std::string>(j, "state");
+  m.state = named_field(j, "state", kBoardStateNames);
   m.board_ns = field<std::int64_t>(j, "board_ns");
   m.run = optional_field<std::uint64_t>(j, "run");
-  m.fault = optional_field<std::string>(j, "fault");
+  m.fault = optional_named_field(j, "fault", firmware::kStopCauseNames);
   m.summary = optional_field<RunSummary>(j, "summary");
 }
 
 void to_json(json& j, const HealthEvent& m) {
-  j = {{"state", m.state}, {"board_ns", m.board_ns}};
+  j = {{"state", to_string(m.state)}, {"board_ns", m.board_ns}};
   if (m.drive) j["drive"] = *m.drive;
   if (m.sensor) j["sensor"] = *m.sensor;
   if (!m.move.is_null()) j["move"] = m.move;
@@ -376,7 +399,7 @@ void to_json(json& j, const HealthEvent& m) {
 }
 
 void from_json(const json& j, HealthEvent& m) {
-  m.state = field<std::string>(j, "state");
+  m.state = named_field(j, "state", kBoardStateNames);
   m.board_ns = field<std::int64_t>(j, "board_ns");
   m.drive = optional_field<LoopHealth>(j, "drive");
   m.sensor = optional_field<LoopHealth>(j, "sensor");
@@ -410,7 +433,7 @@ void to_json(json& j, const Status& m) {
   const auto span = [](const Status::Span& s) {
     return json{{"first", s.first}, {"next", s.next}};
   };
-  j = {{"state", m.state},
+  j = {{"state", to_string(m.state)},
        {"board_ns", m.board_ns},
        {"controller", m.controller},
        {"controlled", m.controlled},
@@ -428,11 +451,11 @@ void from_json(const json& j, Status& m) {
   const auto span = [](const json& s) {
     return Status::Span{field<std::uint64_t>(s, "first"), field<std::uint64_t>(s, "next")};
   };
-  m.state = field<std::string>(j, "state");
+  m.state = named_field(j, "state", kBoardStateNames);
   m.board_ns = field<std::int64_t>(j, "board_ns");
   m.controller = field<bool>(j, "controller");
   m.controlled = field<bool>(j, "controlled");
-  m.fault = optional_field<std::string>(j, "fault");
+  m.fault = optional_named_field(j, "fault", firmware::kStopCauseNames);
   const json recorder = object_field(j, "recorder");
   m.drive_recorded = span(object_field(recorder, "drive"));
   m.sensor_recorded = span(object_field(recorder, "sensor"));
@@ -453,6 +476,10 @@ T decode(const json& j) {
   return j.get<T>();
 }
 
+void to_json(json& j, BoardState s) {
+  j = to_string(s);
+}
+
 template Hello decode<Hello>(const json&);
 template LoopHealth decode<LoopHealth>(const json&);
 template ClockReply decode<ClockReply>(const json&);
@@ -470,3 +497,12 @@ template RunStatus decode<RunStatus>(const json&);
 template Status decode<Status>(const json&);
 
 }  // namespace piezo::protocol
+
+namespace piezo::firmware {
+void to_json(nlohmann::json& j, StopCause c) {
+  j = to_string(c);
+}
+void to_json(nlohmann::json& j, OutputState s) {
+  j = to_string(s);
+}
+}  // namespace piezo::firmware

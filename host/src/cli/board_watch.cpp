@@ -48,7 +48,7 @@ void BoardWatch::follow_run(std::uint64_t run) {
 }
 
 void BoardWatch::on_state(const protocol::StateEvent& state) {
-  if (state.state == "running" && state.run && *state.run != run_.value_or(0)) {
+  if (state.state == protocol::BoardState::running && state.run && *state.run != run_.value_or(0)) {
     follow_run(*state.run);
   }
   if (state.summary && state.run) {
@@ -57,7 +57,7 @@ void BoardWatch::on_state(const protocol::StateEvent& state) {
       controlled_run_.reset();  // the move this watch started has ended
     }
   }
-  health_["state"] = state.state;
+  health_["state"] = protocol::to_string(state.state);
   if (state.summary) {
     health_["summary"] = last_summary_ = *state.summary;
   }

@@ -22,16 +22,16 @@ struct BoardOptions {
 /// (what the board sends is decoded once, by the codec that piezod's
 /// replies are tested against).
 std::string status_text(const protocol::Status& s) {
-  std::string out = fmt::format("state      {}", s.state);
-  if (s.fault) out += fmt::format(" (fault: {})", *s.fault);
+  std::string out = fmt::format("state      {}", protocol::to_string(s.state));
+  if (s.fault) out += fmt::format(" (fault: {})", firmware::to_string(*s.fault));
   out += "\n";
   if (s.run) {
     const protocol::RunStatus& r = *s.run;
     out += fmt::format("run        {} ({:g} s, lease {:g} s){}\n", r.id, r.duration_s, r.lease_s,
                        r.finished ? ", finished" : "");
     if (r.summary) {
-      out +=
-          fmt::format("stop cause {}\noutput     {}\n", r.summary->cause, r.summary->output.state);
+      out += fmt::format("stop cause {}\noutput     {}\n", firmware::to_string(r.summary->cause),
+                         firmware::to_string(r.summary->output.state));
     }
     out += fmt::format("samples    drive {}, sensor {}\n", r.drive.cycles, r.sensor.cycles);
   }

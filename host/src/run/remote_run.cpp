@@ -57,10 +57,6 @@ LoopSummary loop_summary(const protocol::LoopHealth& h) {
 
 }  // namespace
 
-firmware::StopCause stop_cause_from(const std::string& name) {
-  return firmware::kStopCauseNames.parse(name).value_or(firmware::StopCause::drive_fault);
-}
-
 namespace {
 
 json configure_args(const config::RigConfig& c) {
@@ -297,7 +293,8 @@ void FollowedRun::ask_when_quiet(std::optional<protocol::RunSummary>& end) {
   // (published while the link was down): ask for it.
   const auto now = SteadyClock::now();
   const auto& state = follower_.health().state;
-  const bool board_done = state == "idle" || state == "fault";
+  const bool board_done =
+      state == protocol::BoardState::idle || state == protocol::BoardState::fault;
   const bool quiet = now - follower_.last_heard() >= kQuietBeforeAsking;
   if (!board_done && !quiet) return;
   // Quiet stream: the link may be down, or the run's end went unheard. Only
@@ -381,7 +378,7 @@ RunSummary FollowedRun::finish(const std::optional<protocol::RunSummary>& end) {
   log_.set_attribute(log_schema::kStreamGapsFetched,
                      gaps.empty() ? "none" : fmt::format("{}", fmt::join(gaps, "; ")));
   const protocol::RunSummary& board = *end;
-  summary.cause = stop_cause_from(board.cause);
+  summary.cause = board.cause;
   const auto& out = board.output;
   summary.output.enabled_ever = out.enabled_ever;
   summary.output.zero_confirmed = out.zero_confirmed;

@@ -36,7 +36,4 @@ void configure_remote(const config::RigConfig& config, BoardClient& client);
                                             std::optional<double> lease_s = std::nullopt,
                                             const std::atomic<bool>* estop = nullptr);
 
-/// The StopCause named by the protocol's text ("completed", "link_lost", ...).
-[[nodiscard]] firmware::StopCause stop_cause_from(const std::string& name);
-
 }  // namespace piezo::host

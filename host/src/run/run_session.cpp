@@ -33,7 +33,7 @@ std::string RunSummary::stop_cause() const {
 std::string RunSummary::output_state() const {
   // A board that fell silent never said how it left the output.
   if (board_gone) return "unknown";
-  return firmware::output_state(output);
+  return std::string(firmware::to_string(firmware::output_state(output)));
 }
 
 std::string RunSummary::status() const {

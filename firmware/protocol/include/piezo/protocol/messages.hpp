@@ -16,8 +16,11 @@
 #include <string_view>
 #include <vector>
 
+#include "piezo/firmware/drive_loop.hpp"
 #include "piezo/firmware/request_limits.hpp"
+#include "piezo/firmware/safety_supervisor.hpp"
 #include "piezo/model/parameters.hpp"
+#include "piezo/protocol/board_state.hpp"
 #include "piezo/protocol/frame.hpp"
 
 namespace piezo::protocol {
@@ -125,7 +128,7 @@ struct FetchRequest {
 
 /// How the drive's output ended (a run summary's `output`).
 struct OutputEnd {
-  std::string state;  ///< confirmed, output_unconfirmed, enable_unconfirmed
+  firmware::OutputState state = firmware::OutputState::confirmed;
   bool zero_confirmed = false;
   std::optional<double> acknowledged_V;
   std::uint32_t zero_writes = 0;
@@ -136,7 +139,7 @@ struct OutputEnd {
 
 /// A finished run's account (in the `state` event, and in `status`).
 struct RunSummary {
-  std::string cause;  ///< a StopCause name
+  firmware::StopCause cause = firmware::StopCause::none;
   OutputEnd output;
   LoopHealth drive, sensor;
   std::vector<std::string> realtime;
@@ -149,11 +152,11 @@ struct RunSummary {
 
 /// The `state` event: published at every change of state.
 struct StateEvent {
-  std::string state;  ///< idle, running, ramping_down, fault
+  BoardState state = BoardState::idle;
   std::int64_t board_ns = 0;
   std::optional<std::uint64_t> run;
-  std::optional<std::string> fault;
-  std::optional<RunSummary> summary;  ///< once the run `run` ended
+  std::optional<firmware::StopCause> fault;  ///< the latched cause, in state fault
+  std::optional<RunSummary> summary;         ///< once the run `run` ended
 };
 
 /// The run in `status`: the one under way, or the last.
@@ -170,11 +173,11 @@ struct RunStatus {
 
 /// `status`'s reply: the board's full snapshot.
 struct Status {
-  std::string state;
+  BoardState state = BoardState::idle;
   std::int64_t board_ns = 0;
   bool controller = false;  ///< the caller controls the rig
   bool controlled = false;  ///< some client does
-  std::optional<std::string> fault;
+  std::optional<firmware::StopCause> fault;
   struct Span {
     std::uint64_t first = 0, next = 0;
   } drive_recorded, sensor_recorded;  ///< `recorder` {drive, sensor}
@@ -187,7 +190,7 @@ struct Status {
 
 /// The `health` event: about four a second.
 struct HealthEvent {
-  std::string state;
+  BoardState state = BoardState::idle;
   std::int64_t board_ns = 0;
   std::optional<LoopHealth> drive, sensor;  ///< while a run is under way
   nlohmann::json move;                      ///< a move's progress, or nil
@@ -231,4 +234,13 @@ void from_json(const nlohmann::json& j, Status& m);
 template <class T>
 [[nodiscard]] T decode(const nlohmann::json& j);
 
+// The enums the wire carries become their names wherever one is put into a
+// JSON value (nlohmann would write the number otherwise).
+void to_json(nlohmann::json& j, BoardState s);
+
 }  // namespace piezo::protocol
+
+namespace piezo::firmware {
+void to_json(nlohmann::json& j, StopCause c);
+void to_json(nlohmann::json& j, OutputState s);
+}  // namespace piezo::firmware
