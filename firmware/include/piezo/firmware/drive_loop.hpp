@@ -12,6 +12,7 @@
 
 #include "piezo/firmware/drive_program.hpp"
 #include "piezo/firmware/loop_health.hpp"
+#include "piezo/firmware/output_state.hpp"
 #include "piezo/firmware/safety_supervisor.hpp"
 #include "piezo/firmware/samples.hpp"
 #include "piezo/firmware/spsc_ring.hpp"
@@ -20,7 +21,6 @@
 #include "piezo/hal/digital_lines.hpp"
 #include "piezo/hal/drive.hpp"
 #include "piezo/model/waveform.hpp"
-#include "piezo/name_table.hpp"
 
 namespace piezo::firmware {
 
@@ -52,24 +52,10 @@ struct OutputOutcome {
   std::uint32_t zero_writes = 0;                ///< 0 V writes the stop took
 };
 
-/// How a run left the output, in a word (a run summary's `output.state`).
-enum class OutputState : std::uint8_t {
-  confirmed,           ///< 0 V acknowledged, enable dropped
-  output_unconfirmed,  ///< 0 V never acknowledged
-  enable_unconfirmed,  ///< 0 V acknowledged, but the enable line's write failed
-};
-inline constexpr auto kOutputStateNames =
-    names<OutputState>({{OutputState::confirmed, "confirmed"},
-                        {OutputState::output_unconfirmed, "output_unconfirmed"},
-                        {OutputState::enable_unconfirmed, "enable_unconfirmed"}});
-
 [[nodiscard]] inline OutputState output_state(const OutputOutcome& o) {
   if (!o.zero_confirmed) return OutputState::output_unconfirmed;
   if (o.enable_status != hal::Status::ok) return OutputState::enable_unconfirmed;
   return OutputState::confirmed;
-}
-[[nodiscard]] constexpr std::string_view to_string(OutputState s) {
-  return kOutputStateNames.name(s);
 }
 
 class DriveLoop {

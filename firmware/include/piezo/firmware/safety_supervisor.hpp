@@ -15,8 +15,8 @@
 #include "piezo/firmware/angle_zero.hpp"
 #include "piezo/firmware/position_feed.hpp"
 #include "piezo/firmware/sensor_health.hpp"
+#include "piezo/firmware/stop_cause.hpp"
 #include "piezo/hal/digital_lines.hpp"
-#include "piezo/name_table.hpp"
 
 namespace piezo::firmware {
 
@@ -39,22 +39,6 @@ struct SafetySettings {
   int stall_periods = 2;
 };
 
-/// Why the drive stopped; `none` while it runs.
-enum class StopCause : std::uint8_t {
-  none = 0,
-  completed,    ///< the configured duration elapsed
-  interrupted,  ///< SIGINT/SIGTERM or an operator stop
-  estop,
-  sensor_fault,
-  drive_fault,
-  link_lost,           ///< the controlling client's lease expired (host gone, network down)
-  stalled,             ///< a move made no progress over its stall steps
-  sensor_implausible,  ///< a move's readings are no driven rotor's (frozen, against the drive)
-  travel_limit,        ///< the measured angle left safety.travel_min_rad..travel_max_rad
-};
-/// The last StopCause, for code that goes through them all.
-inline constexpr StopCause kLastStopCause = StopCause::travel_limit;
-
 /// What a remote client may do to a running drive, set from the daemon's
 /// network thread and read by the drive loop every cycle (lock-free).
 struct RemoteControl {
@@ -63,22 +47,6 @@ struct RemoteControl {
   std::atomic<hal::TimeNs> lease_deadline{std::numeric_limits<hal::TimeNs>::max()};
   std::atomic<bool> estop{false};  ///< operator e-stop: disable at once
 };
-
-inline constexpr auto kStopCauseNames =
-    names<StopCause>({{StopCause::none, "none"},
-                      {StopCause::completed, "completed"},
-                      {StopCause::interrupted, "interrupted"},
-                      {StopCause::estop, "estop"},
-                      {StopCause::sensor_fault, "sensor_fault"},
-                      {StopCause::drive_fault, "drive_fault"},
-                      {StopCause::link_lost, "link_lost"},
-                      {StopCause::stalled, "stalled"},
-                      {StopCause::sensor_implausible, "sensor_implausible"},
-                      {StopCause::travel_limit, "travel_limit"}});
-
-[[nodiscard]] constexpr std::string_view to_string(StopCause c) {
-  return kStopCauseNames.name(c);
-}
 
 enum class SafetyAction : std::uint8_t { run, ramp_down, disable_now };
 

@@ -16,9 +16,9 @@
 #include <string_view>
 #include <vector>
 
-#include "piezo/firmware/drive_loop.hpp"
+#include "piezo/firmware/output_state.hpp"
 #include "piezo/firmware/request_limits.hpp"
-#include "piezo/firmware/safety_supervisor.hpp"
+#include "piezo/firmware/stop_cause.hpp"
 #include "piezo/model/parameters.hpp"
 #include "piezo/protocol/board_state.hpp"
 #include "piezo/protocol/frame.hpp"
