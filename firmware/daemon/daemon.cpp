@@ -247,7 +247,7 @@ CommandTable Daemon::command_table() {
        {},
        [this](Who, Args) { return json(protocol::ClockReply{rig_.clock->now()}); }},
       {"configure", C::controller, args_of<protocol::ConfigureRequest>(),
-       [this](Who c, Args a) { return configure(c, a); }},
+       [this](Who, Args a) { return configure(a); }},
       {"start", C::controller, args_of<protocol::StartRequest>(),
        [this](Who c, Args a) {
          return start(c, protocol::decode<protocol::StartRequest>(a).lease_s);
@@ -262,13 +262,13 @@ CommandTable Daemon::command_table() {
        {"calibration"},
        [this](Who c, Args a) { return set_calibration(c, a); }},
       {"zero", C::controller, {}, [this](Who c, Args) { return set_zero(c); }},
-      {"stop", C::controller, {}, [this](Who c, Args) { return stop_run(c); }},
+      {"stop", C::controller, {}, [this](Who, Args) { return stop_run(); }},
       // Anyone may press it: it only ever makes the rig safer.
       {"estop", C::anyone, {}, [this](Who c, Args) { return estop(c); }},
       // Refused to everyone during a run; between runs nobody controls the rig.
       {"reset_fault", C::anyone, {}, [this](Who, Args) { return reset_fault(); }},
       {"lease", C::controller, args_of<protocol::LeaseRequest>(),
-       [this](Who c, Args a) { return renew_lease(c, a); }},
+       [this](Who, Args a) { return renew_lease(a); }},
       {"fetch", C::anyone, args_of<protocol::FetchRequest>(),
        [this](Who c, Args a) {
          return samples_.fetch(c, a, running() && !run_state_.is_controller(c));

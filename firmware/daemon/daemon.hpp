@@ -87,7 +87,7 @@ class Daemon {
   [[nodiscard]] bool drive_loop_progressing();
 
   // daemon_run.cpp
-  nlohmann::json configure(const std::string& client, const nlohmann::json& args);
+  nlohmann::json configure(const nlohmann::json& args);
   /// Checks and keeps a waveform; `cmd` names the command in refusals.
   protocol::ConfigureRequest apply_configuration(const protocol::ConfigureRequest& request,
                                                  const char* cmd);
@@ -97,10 +97,10 @@ class Daemon {
   /// The loop runner for the program, over the run's own parts.
   void build_runner(Run& run, const Program& program);
   nlohmann::json step(const std::string& client, const nlohmann::json& args);
-  nlohmann::json stop_run(const std::string& client);
+  nlohmann::json stop_run();
   nlohmann::json estop(const std::string& client);
   nlohmann::json reset_fault();
-  nlohmann::json renew_lease(const std::string& client, const nlohmann::json& args);
+  nlohmann::json renew_lease(const nlohmann::json& args);
   void check_lease_on_wall_clock();
   void pump_samples();
   void finish_run();

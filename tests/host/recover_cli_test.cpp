@@ -46,16 +46,19 @@ except Exception as e:
   return {drive, sensor};
 }
 
-/// A real-time run of the simulated rig killed -9 1.6 s in, as in a crash:
-/// run.h5 up to its last flush and run.journal beside it.
-fs::path killed_run(const fs::path& dir) {
+/// A real-time run of the simulated rig killed -9 mid-way, as in a crash:
+/// run.h5 up to its last flush and run.journal beside it. The kill comes
+/// 1.6 s in, and 0.35 s later at each further `attempt`: a kill that lands
+/// inside HDF5's flush leaves a log h5py cannot read, and on a loaded
+/// machine the flushes take longer, so the next kill lands elsewhere.
+fs::path killed_run(const fs::path& dir, int attempt) {
   const auto out = dir / "killed";
-  Spawned run({kPiezo, "run", "--config", kSimConfig, "--duration", "3", "--out", out.string()},
+  Spawned run({kPiezo, "run", "--config", kSimConfig, "--duration", "5", "--out", out.string()},
               (dir / "output.txt").string());
   for (int i = 0; i < 200 && !fs::exists(out / "run.h5"); ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(1600));
+  std::this_thread::sleep_for(std::chrono::milliseconds(1600 + 350 * attempt));
   run.signal(SIGKILL);
   run.wait_exit();
   return out;
@@ -98,7 +101,7 @@ TEST(RecoverCli, ATornJournalNeverReplacesALongerLogWithLess) {
   fs::path run;
   long log_drive = 0, log_sensor = 0;
   for (int attempt = 0; attempt < 5 && log_drive <= 1000; ++attempt) {
-    run = killed_run(dir / ("kill" + std::to_string(attempt)));
+    run = killed_run(dir / ("kill" + std::to_string(attempt)), attempt);
     ASSERT_TRUE(fs::exists(run / "run.journal"));
     std::tie(log_drive, log_sensor) = h5py_rows(run / "run.h5");
   }
@@ -175,7 +178,7 @@ with h5py.File(src, 'r') as f, h5py.File(dst, 'w') as g:
   fs::path run;
   CommandResult torn{};
   for (int attempt = 0; attempt < 5; ++attempt) {
-    run = killed_run(dir / ("kill" + std::to_string(attempt)));
+    run = killed_run(dir / ("kill" + std::to_string(attempt)), attempt);
     ASSERT_TRUE(fs::exists(run / "run.journal"));
     torn = run_command("/usr/bin/python3 " + script.string() + " " + (run / "run.h5").string() +
                        " " + (run / "torn.h5").string());
