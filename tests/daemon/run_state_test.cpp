@@ -5,6 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <regex>
+#include <set>
+#include <sstream>
 #include <string>
 
 #include "piezo/protocol/error.hpp"
@@ -117,6 +121,33 @@ TEST(RunState, StatesHaveTheirProtocolNames) {
   EXPECT_EQ(to_string(State::running), "running");
   EXPECT_EQ(to_string(State::ramping_down), "ramping_down");
   EXPECT_EQ(to_string(State::fault), "fault");
+}
+
+// docs/protocol.md's state machine names the causes that latch a fault;
+// they are the ones RunState latches, every one of them.
+TEST(RunState, TheCausesThatLatchAreTheOnesProtocolMdNames) {
+  std::ifstream in(std::string(PIEZO_SOURCE_DIR) + "/docs/protocol.md");
+  ASSERT_TRUE(in);
+  std::stringstream page;
+  page << in.rdbuf();
+  const std::string text = page.str();
+  const auto from = text.find("in `fault` (latched) for ");
+  ASSERT_NE(from, std::string::npos) << "the state machine's latching sentence";
+  const auto to = text.find(", or when", from);
+  ASSERT_NE(to, std::string::npos);
+  const std::string list = text.substr(from, to - from);
+  std::set<std::string> documented;
+  const std::regex name("`([a-z_]+)`");
+  for (auto it = std::sregex_iterator(list.begin(), list.end(), name); it != std::sregex_iterator();
+       ++it) {
+    documented.insert((*it)[1]);
+  }
+  documented.erase("fault");
+  std::set<std::string> latching;
+  for (const auto& [cause, cause_name] : firmware::kStopCauseNames.entries()) {
+    if (RunState::latches(cause)) latching.emplace(cause_name);
+  }
+  EXPECT_EQ(documented, latching);
 }
 
 }  // namespace

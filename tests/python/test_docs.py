@@ -135,3 +135,14 @@ def test_move_to_takes_every_argument_protocol_md_lists(source):
     assert "approach" in declared
     keywords = set(inspect.signature(Board.move_to).parameters) - {"self"}
     assert keywords == declared | {"V0", "f", "C_dr", "e_dr", "lease_s"}
+
+
+def test_every_error_code_protocol_md_lists_has_its_exception(source):
+    """The board's refusals (docs/protocol.md, "Errors") each raise their own
+    exception class, and the package knows no code the document lacks."""
+    from piezo_rig.errors import ERRORS
+    page = open(os.path.join(source, "docs", "protocol.md"), encoding="utf-8").read()
+    documented = {re.match(r"\| `([a-z_]+)`", row).group(1)
+                  for row in _table_after(page, "### Errors")}
+    assert "not_controller" in documented
+    assert set(ERRORS) == documented
