@@ -65,39 +65,6 @@ board_build() {
   ctest --preset arm64 -j "$(nproc)"
 }
 
-# The sanitizer builds need no test run first, and the optimised suite and
-# the board build's tests leave about half the CPU idle (guests, daemons and
-# simulated rigs wait on clocks and sockets): so the builds start once the
-# optimised build is done and compile in the idle scheduling class, on what
-# the tests leave over, without the tests' mark. Each sanitizer leg waits for
-# them, shows their log, and builds again in the foreground: nothing when
-# they are done; the compiler's errors, printed again, when they failed.
-tsan_targets=(firmware_tests hal_tests sim_run_tests view_tests)
-sanitizer_builds() {
-  cmake --preset asan >/dev/null
-  cmake --build --preset asan -j "$(nproc)"
-  cmake --preset tsan >/dev/null
-  cmake --build --preset tsan -j "$(nproc)" --target "${tsan_targets[@]}"
-}
-start_sanitizer_builds() {
-  mkdir -p build
-  (
-    chrt --idle -p 0 "$BASHPID" >/dev/null 2>&1 || renice -n 19 -p "$BASHPID" >/dev/null
-    unset PIEZO_TEST_MARK
-    set -e
-    sanitizer_builds
-  ) >build/sanitizer-builds.log 2>&1 &
-  sanitizer_builds_pid=$!
-}
-wait_for_sanitizer_builds() {
-  [ -n "${sanitizer_builds_pid:-}" ] || return 0
-  local rc=0
-  wait "$sanitizer_builds_pid" || rc=$?
-  sanitizer_builds_pid=""
-  echo "-- the sanitizer builds in the background ended (exit $rc); their log:"
-  cat build/sanitizer-builds.log
-}
-
 address_sanitizer() {
   cmake --preset asan >/dev/null
   cmake --build --preset asan -j "$(nproc)"
@@ -111,17 +78,14 @@ address_sanitizer() {
 # rest too, but costs CI minutes.
 thread_sanitizer() {
   cmake --preset tsan >/dev/null
-  cmake --build --preset tsan -j "$(nproc)" --target "${tsan_targets[@]}"
+  cmake --build --preset tsan -j "$(nproc)" --target firmware_tests hal_tests sim_run_tests view_tests
   ctest --preset tsan -j "$(nproc)" -L "firmware_tests|hal_tests|sim_run_tests|view" \
     -E "^view_(browser|rig|load|wide_bind)$"
 }
 
 leg "set-up and the optimised build" set_up
-start_sanitizer_builds
 leg "the whole suite" whole_suite tests
 leg "the board build under qemu-aarch64" board_build tests
-phase "waiting for the sanitizer builds"
-wait_for_sanitizer_builds
 leg "AddressSanitizer + UndefinedBehaviorSanitizer" address_sanitizer tests
 leg "ThreadSanitizer" thread_sanitizer tests
 phase "done"
