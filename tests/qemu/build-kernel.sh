@@ -8,12 +8,13 @@ set -euo pipefail
 out="$1"
 tarball=/usr/src/linux-source-6.1.tar.xz
 # What the guests need: a 64-bit kernel with a serial console, an initramfs,
-# devtmpfs, proc, sysfs and configfs, the GPIO character device with the
+# devtmpfs, proc, sysfs, configfs and tmpfs (with its free space, which a
+# run log checks before it grows), the GPIO character device with the
 # gpio-sim driver, Comedi with its test driver, ELF and script binaries, and
 # what a threaded C++ test program calls (futex, epoll, eventfd, timers,
 # shared memory).
 options=(64BIT PRINTK TTY SERIAL_8250 SERIAL_8250_CONSOLE
-  BLK_DEV_INITRD RD_GZIP DEVTMPFS DEVTMPFS_MOUNT PROC_FS SYSFS CONFIGFS_FS
+  BLK_DEV_INITRD RD_GZIP DEVTMPFS DEVTMPFS_MOUNT PROC_FS SYSFS CONFIGFS_FS TMPFS
   GPIOLIB GPIO_CDEV GPIO_CDEV_V1 GPIO_SIM
   COMEDI COMEDI_MISC_DRIVERS COMEDI_TEST
   BINFMT_ELF BINFMT_SCRIPT

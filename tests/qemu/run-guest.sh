@@ -6,6 +6,12 @@
 # skipped) with the reason when qemu, busybox-static or the kernel source
 # are missing.
 # Usage: run-guest.sh NAME INIT CHECK_PROGRAM WORK_DIR KERNEL_DIR [KERNEL_ARGS]
+# Environment, both optional:
+#   GUEST_FILES  more files for the guest, each HOST_PATH=GUEST_PATH (space
+#                separated), programs and modules with the libraries they load
+#   GUEST_MEMORY the guest's memory (default 256M)
+# What the guest writes to its second serial port (/dev/ttyS1) lands in
+# WORK_DIR/ttyS1.out, for the host to check after the guest has gone.
 set -euo pipefail
 name="$1" init="$2" check="$3" work="$4" kernel="$5" args="${6:-}"
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -25,20 +31,29 @@ root="$work/initramfs"
 rm -rf "$root"
 mkdir -p "$root"/{bin,proc,sys,dev}
 cp /bin/busybox "$root/bin/busybox"
-for applet in sh mount mkdir cat echo reboot seq sleep ls; do ln -s busybox "$root/bin/$applet"; done
+for applet in sh mount mkdir cat echo reboot seq sleep ls base64 stty; do ln -s busybox "$root/bin/$applet"; done
 cp "$init" "$root/init"
 chmod +x "$root/init"
-cp "$check" "$root/check"
-ldd "$check" | grep -o '/[^ ]*' | while read -r lib; do
-  mkdir -p "$root$(dirname "$lib")"
-  cp -L "$lib" "$root$lib"
-done
+# A file and, for a program or a module, the libraries it loads.
+add() {
+  mkdir -p "$root$(dirname "$2")"
+  cp -L "$1" "$root$2"
+  if ldd "$1" >/dev/null 2>&1; then
+    ldd "$1" | grep -o '/[^ ]*' | while read -r lib; do
+      mkdir -p "$root$(dirname "$lib")"
+      cp -L "$lib" "$root$lib"
+    done
+  fi
+}
+add "$check" /check
+for pair in ${GUEST_FILES:-}; do add "${pair%%=*}" "${pair#*=}"; done
 (cd "$root" && find . | cpio -o -H newc --quiet | gzip -1) > "$work/initramfs.cpio.gz"
 
 accel=tcg  # software emulation: KVM may be missing or unusable in a nested machine
 console="$work/console.txt"
-timeout 600 qemu-system-x86_64 -accel "$accel" -m 256M -smp 2 -nographic -no-reboot \
-  -kernel "$kernel/bzImage" -initrd "$work/initramfs.cpio.gz" \
+rm -f "$work/ttyS1.out"
+timeout 600 qemu-system-x86_64 -accel "$accel" -m "${GUEST_MEMORY:-256M}" -smp 2 -nographic \
+  -no-reboot -serial mon:stdio -serial "file:$work/ttyS1.out" -kernel "$kernel/bzImage" -initrd "$work/initramfs.cpio.gz" \
   -append "console=ttyS0 panic=-1 quiet tsc=reliable $args" > "$console" 2>&1 || true
 grep -E "^(PASS|FAIL|$name)" "$console" || { cat "$console"; }
 if grep -q "^$name exit code: 0" "$console" && ! grep -q "^FAIL" "$console"; then
