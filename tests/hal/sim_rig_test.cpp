@@ -180,6 +180,36 @@ TEST(SimLines, EstopPressesAtItsTimeAndReportsOneEdge) {
   EXPECT_EQ(lines.sync_pulses(), 2);
 }
 
+// The button held: its reset is refused until the release; a press with
+// no hold is still seen once, and each run is pressed at its own time.
+TEST(SimLines, AHeldButtonRefusesItsResetUntilReleased) {
+  VirtualClock clock;
+  SleeperScope scope(clock);
+  Plant plant(model::MotorParameters{}, AmplifierSettings{}, 0);
+  SimLines held({.estop_at_s = 0.5, .estop_hold_s = 1.0}, plant, clock, 0);
+  SimLines tapped({.estop_at_s = 0.5}, plant, clock, 0);
+  EXPECT_TRUE(held.reset_estop());
+  clock.sleep_until(600 * kMs);
+  EXPECT_TRUE(held.poll_estop().edge_seen);
+  const EstopState seen = tapped.poll_estop();
+  EXPECT_TRUE(seen.pressed && seen.edge_seen);
+  EXPECT_FALSE(tapped.poll_estop().pressed);
+  EXPECT_TRUE(tapped.reset_estop());
+  clock.sleep_until(1400 * kMs);
+  EXPECT_TRUE(held.poll_estop().pressed);
+  EXPECT_FALSE(held.reset_estop());
+  clock.sleep_until(1500 * kMs);
+  EXPECT_FALSE(held.poll_estop().pressed);
+  EXPECT_TRUE(held.reset_estop());
+  // The next run, from its own origin.
+  held.set_time_origin(2000 * kMs);
+  clock.sleep_until(2400 * kMs);
+  EXPECT_FALSE(held.poll_estop().pressed);
+  clock.sleep_until(2500 * kMs);
+  EXPECT_TRUE(held.poll_estop().edge_seen);
+  EXPECT_FALSE(held.reset_estop());
+}
+
 // The rig's parts share one plant: what the drive writes reaches the
 // amplifier only once the lines enable it, and the sensor sees the rotor move.
 TEST(SimRig, DriveLinesAndSensorShareOnePlant) {

@@ -385,3 +385,49 @@ def test_addresses_follow_the_transport_rule():
     assert stream_address("ipc:///run/piezod") == "ipc:///run/piezod-stream"
     with pytest.raises(ValueError, match="allowed tcp://HOST:PORT"):
         Board("udp://127.0.0.1:5555")
+
+
+def test_a_held_estop_button_is_reset_only_once_released(tmp_path):
+    """The board's own e-stop input (the simulated rig's button, pressed
+    0.3 s into each run and held 3 s): the run ends `estop` at 0 V on the
+    simulated amplifier; reset_fault is refused while the button is down,
+    and so is a new run; released, the reset clears the fault."""
+    process, address = start_board(tmp_path, "\n[lines.sim]\nestop_at_s = 0.3\n"
+                                             "estop_hold_s = 3.0\n")
+    try:
+        with Board(address) as board:
+            started = time.monotonic()
+            with pytest.raises(errors.RunEnded) as ended:
+                with board.run(V0=60, f=10, duration=5) as run:
+                    run.wait()
+            assert ended.value.cause == "estop"
+            summary = ended.value.summary
+            assert summary["output"]["state"] == "confirmed"
+            assert run.drive["V"][-1] == 0.0 and run.drive["phase"][-1] == 2
+            status = board.status()
+            assert status["state"] == "fault" and status["fault"] == "estop"
+            # Still held (the run started after `started`): refused, naming
+            # the button, and the fault stays.
+            assert time.monotonic() - started < 3.0, "the machine was too slow to see the hold"
+            with pytest.raises(errors.BadState, match="still pressed"):
+                board.reset_fault()
+            with pytest.raises(errors.FaultLatched, match="reset_fault"):
+                board.run(V0=60, f=10, duration=0.2)
+            assert board.status()["fault"] == "estop"
+            # Refused until the release (0.3 + 3 s after the run's start,
+            # which came after `started`), then the reset clears it.
+            while True:
+                try:
+                    board.reset_fault()
+                    break
+                except errors.BadState:
+                    assert time.monotonic() - started < 10
+                    time.sleep(0.05)
+            assert time.monotonic() - started >= 3.3
+            assert board.status()["state"] == "idle"
+            with board.run(V0=60, f=10, duration=0.2) as again:
+                again.wait()
+            assert again.summary["cause"] == "completed"
+    finally:
+        process.terminate()
+        process.wait(10)

@@ -105,6 +105,7 @@ std::vector<MovedKey> SimLinesBackend::moved_keys() const {
 
 void SimLinesBackend::read(config::SectionReader& r) {
   r.number("estop_at_s", settings_.estop_at_s, kNonNegative, "s");
+  r.number("estop_hold_s", settings_.estop_hold_s, kNonNegative, "s");
 }
 
 std::shared_ptr<DigitalLines> SimLinesBackend::open(const LinesCommon&,

@@ -21,12 +21,26 @@ Status SimLines::set_sync(bool high) {
   return Status::ok;
 }
 
+bool SimLines::button_down() const {
+  const double t = since_origin_s();
+  const bool held = t >= settings_.estop_at_s && t < settings_.estop_at_s + settings_.estop_hold_s;
+  return held || estop_pressed_.load(std::memory_order_acquire);
+}
+
 EstopState SimLines::poll_estop() {
-  if (to_seconds(clock_.now() - t0_) >= settings_.estop_at_s) press_estop();
-  const bool pressed = estop_pressed_.load(std::memory_order_acquire);
+  bool pressed = button_down();
+  // A timed press is seen by the first poll after it, however short its hold.
+  if (!timed_press_seen_ && since_origin_s() >= settings_.estop_at_s) {
+    pressed = true;
+    timed_press_seen_ = true;
+  }
   const bool edge = pressed && !estop_reported_;
   estop_reported_ = pressed;
   return {pressed, edge, Status::ok};
+}
+
+bool SimLines::reset_estop() {
+  return !button_down();
 }
 
 }  // namespace piezo::hal::sim

@@ -1,7 +1,9 @@
 #pragma once
 /// @file
 /// Simulated digital lines: amplifier enable goes to the plant's amplifier,
-/// sync pulses are counted, and the e-stop can be pressed at a set time.
+/// sync pulses are counted, and the e-stop can be pressed at a set time and
+/// held, as an operator holds the button: the board latches the press, and
+/// its reset is refused until the button is released.
 
 #include <atomic>
 #include <limits>
@@ -13,8 +15,11 @@
 namespace piezo::hal::sim {
 
 struct SimLinesSettings {
-  /// The e-stop is pressed this long after t0 (never by default).
+  /// The e-stop is pressed this long after t0 (never by default)...
   double estop_at_s = std::numeric_limits<double>::infinity();
+  /// ...and released this long after that (at once by default: the board
+  /// still sees the press, at its next poll).
+  double estop_hold_s = 0.0;
 };
 
 class SimLines final : public DigitalLines {
@@ -25,12 +30,19 @@ class SimLines final : public DigitalLines {
   Status set_sync(bool high) override;
   [[nodiscard]] EstopState poll_estop() override;
   bool trip() override;
+  /// Refused while the button is down (timed and still held, or pressed).
+  bool reset_estop() override;
 
-  /// Presses the e-stop now (any thread): the next poll sees an edge.
+  /// Presses the e-stop now and for good (any thread): the next poll sees an
+  /// edge.
   void press_estop() { estop_pressed_.store(true, std::memory_order_release); }
   [[nodiscard]] long sync_pulses() const { return sync_pulses_.load(); }
-  /// Moves the time origin of estop_at_s, before the run starts.
-  void set_time_origin(TimeNs t0) { t0_ = t0; }
+  /// Moves the time origin of estop_at_s, before the run starts: each run
+  /// is pressed at its own estop_at_s.
+  void set_time_origin(TimeNs t0) {
+    t0_ = t0;
+    timed_press_seen_ = false;
+  }
 
  private:
   SimLinesSettings settings_;
@@ -38,7 +50,11 @@ class SimLines final : public DigitalLines {
   const Clock& clock_;
   TimeNs t0_;
   bool sync_ = false;
+  [[nodiscard]] double since_origin_s() const { return to_seconds(clock_.now() - t0_); }
+  [[nodiscard]] bool button_down() const;
+
   bool estop_reported_ = false;
+  bool timed_press_seen_ = false;
   std::atomic<bool> estop_pressed_{false};
   std::atomic<long> sync_pulses_{0};
 };
