@@ -163,13 +163,32 @@ void check_rig_devices(const std::string& chip) {
 
   hal::gpiod::GpiodLinesSettings line_settings{
       .chip = chip, .enable_offset = 10, .sync_offset = 11, .estop_offset = 12, .gpio = {}};
-  hal::gpiod::GpiodRigLines lines(line_settings, "gpio-sim-check");
+  const auto lines = hal::gpiod::open_rig_lines(line_settings, "gpio-sim-check");
   const bool idle = read_line(10) == 0;
-  (void)lines.set_amplifier_enable(true);
+  (void)lines->set_amplifier_enable(true);
   const bool enabled = read_line(10) == 1;
-  (void)lines.set_amplifier_enable(false);
+  (void)lines->set_amplifier_enable(false);
   check(idle && enabled && read_line(10) == 0,
-        "GpiodRigLines (as built from a config): enable requested off, asserted, released");
+        "the rig's lines (as built from a config): enable requested off, asserted, released");
+
+  // What piezod's reset_fault reaches: refused while the button is held,
+  // and after the release the latch clears (the enable stays off until then).
+  set_pull(12, "pull-down");
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  const bool refused = !lines->reset_estop();
+  set_pull(12, "pull-up");
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  (void)lines->set_amplifier_enable(true);
+  const bool latched = read_line(10) == 0;
+  const bool reset = lines->reset_estop();
+  (void)lines->set_amplifier_enable(true);
+  const bool enabled_again = read_line(10) == 1;
+  (void)lines->set_amplifier_enable(false);
+  check(refused && latched && reset && enabled_again,
+        fmt::format("the rig's lines (as built from a config): a press latches, its reset is "
+                    "refused while held ({}), the enable stays off once released ({}), the reset "
+                    "clears it ({}, enable {})",
+                    refused, latched, reset, enabled_again));
 }
 
 // A start refused because the e-stop is pressed: the amplifier (enable

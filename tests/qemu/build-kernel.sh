@@ -10,13 +10,14 @@ tarball=/usr/src/linux-source-6.1.tar.xz
 # What the guests need: a 64-bit kernel with a serial console, an initramfs,
 # devtmpfs, proc, sysfs, configfs and tmpfs (with its free space, which a
 # run log checks before it grows), the GPIO character device with the
-# gpio-sim driver, Comedi with its test driver, ELF and script binaries, and
+# gpio-sim driver, Comedi with its test driver and its parallel-port driver
+# (digital I/O on qemu's emulated port), ELF and script binaries, and
 # what a threaded C++ test program calls (futex, epoll, eventfd, timers,
 # shared memory).
 options=(64BIT PRINTK TTY SERIAL_8250 SERIAL_8250_CONSOLE
   BLK_DEV_INITRD RD_GZIP DEVTMPFS DEVTMPFS_MOUNT PROC_FS SYSFS CONFIGFS_FS TMPFS
   GPIOLIB GPIO_CDEV GPIO_CDEV_V1 GPIO_SIM
-  COMEDI COMEDI_MISC_DRIVERS COMEDI_TEST
+  COMEDI COMEDI_MISC_DRIVERS COMEDI_TEST COMEDI_PARPORT
   BINFMT_ELF BINFMT_SCRIPT
   FUTEX EPOLL EVENTFD SIGNALFD TIMERFD SHMEM POSIX_TIMERS HIGH_RES_TIMERS
   MULTIUSER FILE_LOCKING SMP)
@@ -39,7 +40,8 @@ config=()
 for option in "${options[@]}"; do config+=(-e "$option"); done
 scripts/config "${config[@]}"
 make -s olddefconfig
-for option in GPIO_SIM GPIO_CDEV_V1 CONFIGFS_FS SERIAL_8250_CONSOLE BLK_DEV_INITRD COMEDI_TEST; do
+for option in GPIO_SIM GPIO_CDEV_V1 CONFIGFS_FS SERIAL_8250_CONSOLE BLK_DEV_INITRD COMEDI_TEST \
+  COMEDI_PARPORT TMPFS; do
   grep -q "^CONFIG_$option=y" .config || { echo "qemu kernel: CONFIG_$option did not stick" >&2; exit 1; }
 done
 echo "qemu kernel: building" >&2

@@ -38,7 +38,7 @@ comedi_cmd stream_command(unsigned subdevice, unsigned* chanlist, unsigned perio
 
 ComediAnalogInput::ComediAnalogInput(const AnalogInputSettings& s, const Clock& clock)
     : settings_(s), clock_(clock), device_(s.input.device) {
-  subdevice_ = device_.checked_subdevice(s.input, kClockedInput, "sensor.comedi");
+  subdevice_ = device_.checked_subdevice(s.input, kClockedInput, {"sensor.comedi"});
   const auto channel = static_cast<unsigned>(s.input.channel);
   const auto range = static_cast<unsigned>(s.input.range);
   to_volts_ = device_.converter(subdevice_, channel, range, COMEDI_TO_PHYSICAL);

@@ -39,7 +39,7 @@ comedi_cmd stream_command(unsigned subdevice, unsigned* chanlist, unsigned perio
 
 ComediAnalogOutput::ComediAnalogOutput(const AnalogOutputSettings& s)
     : settings_(s), device_(s.output.device) {
-  subdevice_ = device_.checked_subdevice(s.output, kClockedOutput, "drive.comedi");
+  subdevice_ = device_.checked_subdevice(s.output, kClockedOutput, {"drive.comedi"});
   const auto channel = static_cast<unsigned>(s.output.channel);
   const auto range = static_cast<unsigned>(s.output.range);
   to_raw_ = device_.converter(subdevice_, channel, range, COMEDI_FROM_PHYSICAL);
@@ -59,7 +59,9 @@ ComediAnalogOutput::ComediAnalogOutput(const AnalogOutputSettings& s)
   scratch_.resize((preload_ + batch_ + 1) * sample_bytes_);
   if (s.readback.channel >= 0) {
     ChannelAddress readback = s.readback;
-    readback_subdevice_ = device_.checked_subdevice(readback, kInput, "drive.comedi.readback");
+    readback_subdevice_ = device_.checked_subdevice(
+        readback, kInput,
+        {"drive.comedi", "readback_subdevice", "readback_channel", "readback_range"});
     readback_to_volts_ =
         device_.converter(readback_subdevice_, static_cast<unsigned>(readback.channel),
                           static_cast<unsigned>(readback.range), COMEDI_TO_PHYSICAL);

@@ -89,4 +89,30 @@ std::shared_ptr<DisplacementSensor> ComediSensorBackend::open(const SensorCommon
   return std::make_shared<ComediAnalogInput>(settings(common), context.clock);
 }
 
+std::string ComediLinesBackend::describe() const {
+  return fmt::format("comedi {} enable channel {}", settings_.device, settings_.enable_channel);
+}
+
+std::string ComediLinesBackend::inventory() const {
+  return ComediDevice(settings_.device).describe();
+}
+
+void ComediLinesBackend::read(config::SectionReader& r) {
+  auto& s = settings_;
+  r.text("device", s.device);
+  r.integer("subdevice", s.subdevice, -1, 255);
+  // Below 32: the outputs are set together by one bit-field call.
+  r.integer("enable_channel", s.enable_channel, 0, 31);
+  r.integer("sync_channel", s.sync_channel, -1, 31);
+  r.integer("estop_subdevice", s.estop_subdevice, -1, 255);
+  r.integer("estop_channel", s.estop_channel, -1, 1023);
+  r.flag("enable_active_low", s.lines.enable_active_low);
+  r.flag("sync_active_low", s.lines.sync_active_low);
+  r.flag("estop_active_low", s.lines.estop_active_low);
+}
+
+std::shared_ptr<DigitalLines> ComediLinesBackend::open(const LinesCommon&, OpenContext&) const {
+  return open_digital_lines(settings_);
+}
+
 }  // namespace piezo::hal::comedi

@@ -60,13 +60,15 @@ bool ComediDevice::reopen() {
 }
 
 unsigned ComediDevice::checked_subdevice(const ChannelAddress& a, const SubdeviceKind& kind,
-                                         const std::string& key) const {
+                                         const AddressKeys& keys) const {
+  const std::string subdevice_key = keys.section + "." + keys.subdevice;
+  const std::string channel_key = keys.section + "." + keys.channel;
   const int n = comedi_get_n_subdevices(dev_);
   // The ones that would do, for the message.
   std::string fitting;
   for (int s = 0; s < n; ++s) {
     const int flags = comedi_get_subdevice_flags(dev_, static_cast<unsigned>(s));
-    if (comedi_get_subdevice_type(dev_, static_cast<unsigned>(s)) == kind.type && flags >= 0 &&
+    if (kind.has_type(comedi_get_subdevice_type(dev_, static_cast<unsigned>(s))) && flags >= 0 &&
         (flags & kind.flags) == kind.flags) {
       fitting += (fitting.empty() ? "" : ", ") + std::to_string(s);
     }
@@ -76,38 +78,38 @@ unsigned ComediDevice::checked_subdevice(const ChannelAddress& a, const Subdevic
   if (s < 0) {
     if (fitting.empty()) {
       throw config::ConfigError(
-          path_, key + ".subdevice",
+          path_, subdevice_key,
           fmt::format("the card has no {} (allowed: {})", kind.what, allowed));
     }
     s = std::stoi(fitting.substr(0, fitting.find(',')));
   }
   if (s >= n) {
     throw config::ConfigError(
-        path_, key + ".subdevice",
+        path_, subdevice_key,
         fmt::format("{} is not a subdevice of this card ({} subdevices); allowed: {}", s, n,
                     allowed));
   }
   const auto sub = static_cast<unsigned>(s);
   const int type = comedi_get_subdevice_type(dev_, sub);
   const int flags = comedi_get_subdevice_flags(dev_, sub);
-  if (type != kind.type || flags < 0 || (flags & kind.flags) != kind.flags) {
+  if (!kind.has_type(type) || flags < 0 || (flags & kind.flags) != kind.flags) {
     throw config::ConfigError(
-        path_, key + ".subdevice",
+        path_, subdevice_key,
         fmt::format("subdevice {} is a{} {}, not {}; allowed: {}", s,
                     type == COMEDI_SUBD_AI || type == COMEDI_SUBD_AO ? "n" : "", type_name(type),
                     kind.what, allowed));
   }
   const int channels = comedi_get_n_channels(dev_, sub);
   if (a.channel < 0 || a.channel >= channels) {
-    throw config::ConfigError(path_, key + ".channel",
+    throw config::ConfigError(path_, channel_key,
                               fmt::format("{} is not a channel of subdevice {} ({} channels); "
                                           "allowed: 0..{}",
                                           a.channel, s, channels, channels - 1));
   }
-  if (kind.type != COMEDI_SUBD_DIO) {
+  if (kind.analog()) {
     const int ranges = comedi_get_n_ranges(dev_, sub, static_cast<unsigned>(a.channel));
     if (a.range < 0 || a.range >= ranges) {
-      throw config::ConfigError(path_, key + ".range",
+      throw config::ConfigError(path_, keys.section + "." + keys.range,
                                 fmt::format("{} is not a range of subdevice {} channel {} ({} "
                                             "ranges, `piezo sensor list` shows them); allowed: "
                                             "0..{}",

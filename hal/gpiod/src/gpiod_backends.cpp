@@ -80,7 +80,7 @@ void RigLinesBackend::check(const LinesCommon&, bool chosen, const SourceOf& sou
 }
 
 std::shared_ptr<DigitalLines> RigLinesBackend::open(const LinesCommon&, OpenContext&) const {
-  return std::make_shared<GpiodRigLines>(settings_, kConsumer);
+  return open_rig_lines(settings_, kConsumer);
 }
 
 }  // namespace piezo::hal::gpiod

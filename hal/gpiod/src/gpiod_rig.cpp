@@ -1,5 +1,7 @@
 #include "piezo/hal/gpiod/gpiod_rig.hpp"
 
+#include "piezo/hal/gpio/owned_digital_lines.hpp"
+
 namespace piezo::hal::gpiod {
 namespace {
 
@@ -28,10 +30,13 @@ GpiodParallelDac::GpiodParallelDac(const GpiodDacSettings& settings, const std::
              consumer),
       dac_(settings.dac, lines_) {}
 
-GpiodRigLines::GpiodRigLines(const GpiodLinesSettings& settings, const std::string& consumer)
-    : outputs_(settings.chip, output_offsets(settings),
-               gpio::GpioDigitalLines::idle_levels(settings.gpio), consumer),
-      estop_(estop_input(settings, consumer)),
-      lines_(settings.gpio, outputs_, estop_.get()) {}
+std::unique_ptr<DigitalLines> open_rig_lines(const GpiodLinesSettings& settings,
+                                             const std::string& consumer) {
+  return std::make_unique<gpio::OwnedDigitalLines>(
+      settings.gpio,
+      std::make_unique<GpiodOutputs>(settings.chip, output_offsets(settings),
+                                     gpio::GpioDigitalLines::idle_levels(settings.gpio), consumer),
+      estop_input(settings, consumer));
+}
 
 }  // namespace piezo::hal::gpiod

@@ -33,6 +33,7 @@ std::vector<std::shared_ptr<LinesBackend>> lines_backends() {
   return {
       std::make_shared<sim::SimLinesBackend>(),
       std::make_shared<gpiod::RigLinesBackend>(),
+      std::make_shared<comedi::ComediLinesBackend>(),
       std::make_shared<posix::NoLinesBackend>(),
   };
 }

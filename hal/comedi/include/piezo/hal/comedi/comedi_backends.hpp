@@ -1,12 +1,14 @@
 #pragma once
 /// @file
 /// The DAQ card's backends, each `comedi`: the drive on a clocked analog
-/// output ([drive.comedi]) and the sensor on a clocked analog input
-/// ([sensor.comedi]), through comedilib.
+/// output ([drive.comedi]), the sensor on a clocked analog input
+/// ([sensor.comedi]) and the enable, sync and e-stop lines on its digital
+/// I/O ([lines.comedi]), through comedilib.
 
 #include "piezo/hal/backend.hpp"
 #include "piezo/hal/comedi/comedi_analog_input.hpp"
 #include "piezo/hal/comedi/comedi_analog_output.hpp"
+#include "piezo/hal/comedi/comedi_digital_lines.hpp"
 
 namespace piezo::hal::comedi {
 
@@ -41,6 +43,19 @@ class ComediSensorBackend final : public SensorBackend {
 
  private:
   AnalogInputSettings settings_;
+};
+
+class ComediLinesBackend final : public LinesBackend {
+ public:
+  [[nodiscard]] std::string_view name() const override { return "comedi"; }
+  [[nodiscard]] std::string describe() const override;
+  [[nodiscard]] std::string inventory() const override;
+  void read(config::SectionReader& section) override;
+  [[nodiscard]] std::shared_ptr<DigitalLines> open(const LinesCommon& common,
+                                                   OpenContext& context) const override;
+
+ private:
+  DigitalLinesSettings settings_;
 };
 
 }  // namespace piezo::hal::comedi

@@ -21,9 +21,21 @@ struct ChannelAddress {
 
 /// What a subdevice must be.
 struct SubdeviceKind {
-  int type;          ///< COMEDI_SUBD_AO, COMEDI_SUBD_AI, COMEDI_SUBD_DIO
-  int flags;         ///< flags it must have, e.g. SDF_CMD_WRITE for a clocked output
-  const char* what;  ///< "a clocked analog output", for messages
+  int type;            ///< COMEDI_SUBD_AO, COMEDI_SUBD_AI, COMEDI_SUBD_DO, ...
+  int flags;           ///< flags it must have, e.g. SDF_CMD_WRITE for a clocked output
+  const char* what;    ///< "a clocked analog output", for messages
+  int also_type = -1;  ///< a second type that does as well (COMEDI_SUBD_DIO for a DO)
+  [[nodiscard]] bool has_type(int t) const { return t == type || t == also_type; }
+  [[nodiscard]] bool analog() const { return type == COMEDI_SUBD_AI || type == COMEDI_SUBD_AO; }
+};
+
+/// The config's names for a signal's keys, under a section such as
+/// "drive.comedi": what a refusal names.
+struct AddressKeys {
+  std::string section;
+  std::string subdevice = "subdevice";
+  std::string channel = "channel";
+  std::string range = "range";
 };
 
 class ComediDevice {
@@ -42,11 +54,11 @@ class ComediDevice {
   /// then null.
   bool reopen();
 
-  /// The subdevice `address` names, checked for `kind`, its channel and its
-  /// range. Throws config::ConfigError naming `key` + ".subdevice",
-  /// ".channel" or ".range" with what the card has.
+  /// The subdevice `address` names, checked for `kind`, its channel and (an
+  /// analog one's) range. Throws config::ConfigError naming the subdevice,
+  /// channel or range key with what the card has.
   [[nodiscard]] unsigned checked_subdevice(const ChannelAddress& address, const SubdeviceKind& kind,
-                                           const std::string& key) const;
+                                           const AddressKeys& keys) const;
   /// The card's calibration for one channel and range: comedi_soft_calibrate's
   /// file where the card has one, else the driver's own (hardware-calibrated
   /// cards, and the test driver).

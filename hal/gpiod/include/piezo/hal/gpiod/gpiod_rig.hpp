@@ -46,21 +46,9 @@ class GpiodParallelDac final : public Drive {
   gpio::ParallelDac dac_;
 };
 
-class GpiodRigLines final : public DigitalLines {
- public:
-  GpiodRigLines(const GpiodLinesSettings& settings, const std::string& consumer);
-
-  Status set_amplifier_enable(bool enabled) override {
-    return lines_.set_amplifier_enable(enabled);
-  }
-  Status set_sync(bool high) override { return lines_.set_sync(high); }
-  [[nodiscard]] EstopState poll_estop() override { return lines_.poll_estop(); }
-  bool trip() override { return lines_.trip(); }
-
- private:
-  GpiodOutputs outputs_;
-  std::unique_ptr<GpiodEdgeInput> estop_;  ///< null: no e-stop wired
-  gpio::GpioDigitalLines lines_;
-};
+/// The digital lines on the chip, requested at their idle levels (the
+/// amplifier disabled); the e-stop latches until released and reset.
+[[nodiscard]] std::unique_ptr<DigitalLines> open_rig_lines(const GpiodLinesSettings& settings,
+                                                           const std::string& consumer);
 
 }  // namespace piezo::hal::gpiod
