@@ -143,6 +143,7 @@ protocol::RunSummary Daemon::summary(const Run& run) const {
   s.cause = run.runner->cause();
   s.output = {firmware::output_state(out),
               out.zero_confirmed,
+              out.zero_read_back,
               std::isnan(out.acknowledged_V) ? std::nullopt : std::optional(out.acknowledged_V),
               out.zero_writes,
               std::string(hal::to_string(out.zero_status)),

@@ -38,6 +38,7 @@ void DriveLoop::stop_output(hal::TimeNs t) {
   count_failure(outcome_.zero_status);
   count_failure(io_.lines.set_sync(false));
   outcome_.zero_confirmed = outcome_.zero_status == hal::Status::ok;
+  outcome_.zero_read_back = outcome_.zero_confirmed && io_.drive.reads_back();
   outcome_.acknowledged_V = io_.drive.acknowledged_V();
   // The log holds what the device acknowledged, never a 0 V it did not reach.
   if (outcome_.zero_confirmed) {

@@ -408,12 +408,13 @@ void check_closed_under_run(OutputProbe& probe) {
   runner.drain([](const firmware::DriveSample&) {}, [](const firmware::SensorSample&) {});
   const auto& outcome = runner.outcome();
   check(drive_fds.size() == 1 && runner.cause() == firmware::StopCause::drive_fault &&
-            outcome.zero_confirmed && std::isfinite(zero_after_s) &&
+            outcome.zero_confirmed && outcome.zero_read_back && std::isfinite(zero_after_s) &&
             std::abs(probe.volts(0)) < 0.01,
         fmt::format("the drive's handle closed under a run (the card at {:.2f} V, {} handle(s)): "
-                    "cause {}, 0 V {}, the card's output read 0 V {:.1f} ms later",
+                    "cause {}, 0 V {}{}, the card's output read 0 V {:.1f} ms later",
                     moving_V, drive_fds.size(), firmware::to_string(runner.cause()),
-                    outcome.zero_confirmed ? "confirmed" : "unconfirmed", 1e3 * zero_after_s));
+                    outcome.zero_confirmed ? "confirmed" : "unconfirmed",
+                    outcome.zero_read_back ? " on the read-back input" : "", 1e3 * zero_after_s));
 }
 
 }  // namespace

@@ -197,23 +197,41 @@ void check_run(Bench& bench) {
   s.safety.ramp_down_V_per_s = 1000.0;
   const model::Sawtooth saw(80.0, 20.0, 0.75);
   firmware::LoopRunner runner(s, saw, {clock, drive, sensor, *lines});
+  comedi::ComediDevice card(kCard);
+  comedi_polynomial_t to_volts = card.converter(0, 0, 0, COMEDI_TO_PHYSICAL);
+  const auto card_V = [&] {
+    lsampl_t raw = 0;
+    (void)comedi_data_read(card.get(), 0, 0, 0, AREF_GROUND, &raw);
+    return comedi_to_physical(raw, &to_volts);
+  };
   (void)runner.start({});
   std::this_thread::sleep_for(milliseconds(600));
   const int enabled = bench.data_line(kEnable);
+  const double moving_V = card_V();
+  // The device side: from the press to the enable line low and to the
+  // card's output at 0 V (the preload queued ahead is cancelled, not played).
+  const auto pressed_at = std::chrono::steady_clock::now();
   bench.button(true);
+  const auto since_ms = [&] {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - pressed_at)
+        .count();
+  };
+  double enable_low_ms = NAN, zero_ms = NAN;
+  while (since_ms() < 5000.0 && !(std::isfinite(enable_low_ms) && std::isfinite(zero_ms))) {
+    if (!std::isfinite(enable_low_ms) && bench.data_line(kEnable) == 0) enable_low_ms = since_ms();
+    if (!std::isfinite(zero_ms) && std::abs(card_V()) < 0.01) zero_ms = since_ms();
+  }
   runner.join();
   runner.drain([](const firmware::DriveSample&) {}, [](const firmware::SensorSample&) {});
-  comedi::ComediDevice card(kCard);
-  comedi_polynomial_t to_volts = card.converter(0, 0, 0, COMEDI_TO_PHYSICAL);
-  lsampl_t raw = 0;
-  (void)comedi_data_read(card.get(), 0, 0, 0, AREF_GROUND, &raw);
-  const double end_V = comedi_to_physical(raw, &to_volts);
+  const double end_V = card_V();
   check(enabled == 1 && runner.cause() == firmware::StopCause::estop &&
             bench.data_line(kEnable) == 0 && std::abs(end_V) < 0.01 &&
-            runner.outcome().zero_confirmed,
-        fmt::format("the button pressed mid-run (enable was {}): cause {}, the enable line reads "
-                    "{}, the card's output {:.4f} V",
-                    enabled, firmware::to_string(runner.cause()), bench.data_line(kEnable), end_V));
+            runner.outcome().zero_confirmed && runner.outcome().zero_read_back,
+        fmt::format("the button pressed mid-run (enable was {}, the card at {:.2f} V, {:g} ms "
+                    "queued ahead): cause {}, the enable line low {:.1f} ms and the card's "
+                    "output at 0 V {:.1f} ms after the press, ending at {:.4f} V (read back)",
+                    enabled, moving_V, 1e3 * out.preload_s, firmware::to_string(runner.cause()),
+                    enable_low_ms, zero_ms, end_V));
   bench.button(false);
 }
 

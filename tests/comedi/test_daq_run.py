@@ -86,7 +86,9 @@ def test_the_run_completes_and_its_log_says_so(run):
     assert attrs["status"] == "completed"
     config = attrs["config"]
     assert config["drive"]["backend"] == "comedi" and config["sensor"]["backend"] == "comedi"
+    # 0 V acknowledged by the card, not measured: daq.toml wires no read-back.
     assert summary["output"]["state"] == "confirmed"
+    assert summary["output"]["zero_confirmed"] and not summary["output"]["zero_read_back"]
 
 
 def test_every_drive_sample_is_eq1_on_its_own_deadline(run):

@@ -64,7 +64,7 @@ LoopHealth a_health(bool timing) {
 RunSummary a_summary() {
   RunSummary s;
   s.cause = firmware::StopCause::link_lost;
-  s.output = {firmware::OutputState::confirmed, true, 0.0, 3, "ok", true, "ok"};
+  s.output = {firmware::OutputState::confirmed, true, true, 0.0, 3, "ok", true, "ok"};
   s.drive = a_health(true);
   s.sensor = a_health(true);
   s.realtime = {"SCHED_FIFO refused"};

@@ -327,18 +327,16 @@ void from_json(const json& j, MoveToRequest& m) {
 }
 
 void to_json(json& j, const OutputEnd& m) {
-  j = {{"state", firmware::to_string(m.state)},
-       {"zero_confirmed", m.zero_confirmed},
-       {"acknowledged_V", nil_or(m.acknowledged_V)},
-       {"zero_writes", m.zero_writes},
-       {"zero_status", m.zero_status},
-       {"enabled_ever", m.enabled_ever},
-       {"enable_status", m.enable_status}};
+  j = {{"state", firmware::to_string(m.state)}, {"zero_confirmed", m.zero_confirmed},
+       {"zero_read_back", m.zero_read_back},    {"acknowledged_V", nil_or(m.acknowledged_V)},
+       {"zero_writes", m.zero_writes},          {"zero_status", m.zero_status},
+       {"enabled_ever", m.enabled_ever},        {"enable_status", m.enable_status}};
 }
 
 void from_json(const json& j, OutputEnd& m) {
   m.state = named_field(j, "state", firmware::kOutputStateNames);
   m.zero_confirmed = field<bool>(j, "zero_confirmed");
+  m.zero_read_back = optional_field<bool>(j, "zero_read_back").value_or(false);
   m.acknowledged_V = optional_field<double>(j, "acknowledged_V");
   m.zero_writes = field<std::uint32_t>(j, "zero_writes");
   m.zero_status = optional_field<std::string>(j, "zero_status").value_or("ok");

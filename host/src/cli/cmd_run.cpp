@@ -148,6 +148,7 @@ nlohmann::json output_json(const RunSummary& s) {
   const auto& o = s.output;
   return {{"state", s.output_state()},
           {"zero_confirmed", o.zero_confirmed},
+          {"zero_read_back", o.zero_read_back},
           {"last_acknowledged_V", std::isnan(o.acknowledged_V) ? nlohmann::json(nullptr)
                                                                : nlohmann::json(o.acknowledged_V)},
           {"enable_status", std::string(hal::to_string(o.enable_status))},

@@ -382,6 +382,7 @@ RunSummary FollowedRun::finish(const std::optional<protocol::RunSummary>& end) {
   const auto& out = board.output;
   summary.output.enabled_ever = out.enabled_ever;
   summary.output.zero_confirmed = out.zero_confirmed;
+  summary.output.zero_read_back = out.zero_read_back;
   summary.output.zero_status = status_from(out.zero_status);
   summary.output.acknowledged_V = out.acknowledged_V.value_or(std::nan(""));
   summary.output.zero_writes = out.zero_writes;

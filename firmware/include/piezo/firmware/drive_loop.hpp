@@ -45,6 +45,9 @@ struct DriveLoopIo {
 struct OutputOutcome {
   bool enabled_ever = false;    ///< the amplifier was enabled at some point
   bool zero_confirmed = false;  ///< the drive acknowledged 0 V at the stop
+  /// ...measured on an input wired to the output (hal::Drive::reads_back);
+  /// false: 0 V is the device's acknowledgement of the write alone.
+  bool zero_read_back = false;
   /// The last output the drive acknowledged [V] (NaN: none ever).
   double acknowledged_V = std::numeric_limits<double>::quiet_NaN();
   hal::Status enable_status = hal::Status::ok;  ///< of dropping the enable line

@@ -29,6 +29,9 @@ class Drive {
   /// returned ok); NaN before the first. What a stop reports when it cannot
   /// confirm 0 V: never the command, only what the device confirmed.
   [[nodiscard]] virtual double acknowledged_V() const = 0;
+  /// Whether an ok write_now() means an input wired to the output measured
+  /// the value (true), or only that the device took the write (false).
+  [[nodiscard]] virtual bool reads_back() const { return false; }
   /// The range the hardware can produce; the firmware clamps to it.
   [[nodiscard]] virtual DriveLimits limits() const = 0;
   /// Time from a write to the output starting to change [s]: a DAC latched

@@ -130,6 +130,7 @@ struct FetchRequest {
 struct OutputEnd {
   firmware::OutputState state = firmware::OutputState::confirmed;
   bool zero_confirmed = false;
+  bool zero_read_back = false;  ///< 0 V measured on an input, not only acknowledged
   std::optional<double> acknowledged_V;
   std::uint32_t zero_writes = 0;
   std::string zero_status = "ok";

@@ -46,6 +46,8 @@ class ComediAnalogOutput final : public Drive {
   /// ok only once that input reads it.
   Status write_now(double volts) override;
   [[nodiscard]] double acknowledged_V() const override { return acknowledged_V_; }
+  /// With a read-back input configured: a stop's 0 V is measured there.
+  [[nodiscard]] bool reads_back() const override { return has_readback_; }
   [[nodiscard]] DriveLimits limits() const override;
   [[nodiscard]] double output_latency_s() const override;
 
