@@ -34,14 +34,14 @@ MoveController::MoveController(const MoveSettings& settings, const PositionFeed&
       feed_(feed),
       seen_(feed.count()),
       flush_(kNoiseReadings),  // the first decision waits for the noise at rest
+      servo_({settings.rad_per_V, settings.fine_V_max, settings.fine_slew_V_per_s,
+              settings.fast_slew_V_per_s}),
       zero_(settings.zero_displacement_m),
       zero_m_(settings.zero_displacement_m),
       noise_m_(kNaN),
       position_(kNaN),
       on_target_at_(kNaN),
-      f_(settings.f),
-      hold_rms_(kNaN),
-      hold_max_(kNaN) {
+      f_(settings.f) {
   steps_model_.use(settings.step_forward_rad, settings.step_reverse_rad);
 }
 
@@ -80,7 +80,7 @@ double MoveController::next_voltage(double t, double dt) {
       return V_ = model::Sawtooth(amplitude_, s_.f, rise_).voltage(tau);
     }
     case MoveState::holding:
-      if (t >= hold_until_) {
+      if (hold_.over(t)) {
         // The hold is over: release, and settle at 0 V as after any hold.
         held_ = true;
         released_from_fine_ = false;
@@ -88,13 +88,12 @@ double MoveController::next_voltage(double t, double dt) {
         return V_;
       }
       [[fallthrough]];
-    case MoveState::fine:
-      V_ = step_towards(V_, V_set_, lifting_ ? s_.fast_slew_V_per_s : s_.fine_slew_V_per_s, dt);
-      if (lifting_ && V_ == V_set_) {
-        lifting_ = false;
-        flush_ = kFlush;  // the lift may have moved the rotor a little
-      }
+    case MoveState::fine: {
+      bool lift_done = false;
+      V_ = servo_.output(V_, dt, lift_done);
+      if (lift_done) flush_ = kFlush;  // the lift may have moved the rotor a little
       return V_;
+    }
     case MoveState::release:
       V_ = step_towards(V_, 0.0, s_.fast_slew_V_per_s, dt);
       if (V_ == 0.0) {
@@ -167,19 +166,13 @@ void MoveController::on_reading(double t, double displacement_m) {
       decide(t, error);
       return;
     case MoveState::fine: {
-      // Integrate only once the output has caught up with the set point:
-      // the slew-limited stator must not wind the integrator up.
-      if (lifting_ || V_ != V_set_) return;
+      if (!servo_.integrating(V_)) return;
       const double aim_error = error + aim_offset_;
-      const double V_next =
-          std::clamp(V_set_ + kFineGain * aim_error / s_.rad_per_V, 0.0, s_.fine_V_max);
       // With an approach side the servo only ever moves the rotor that way
       // (in stick the rotor follows the stator): an overshoot is released
       // and passed, never backed out of.
       const double side = approach_side();
-      V_set_ = side > 0.0   ? std::max(V_set_, V_next)
-               : side < 0.0 ? std::min(V_set_, V_next)
-                            : V_next;
+      servo_.correct(aim_error, side);
       if (error * side < -s_.tolerance_rad) {
         released_from_fine_ = true;  // what the release adds is learnt all the same
         set_state(MoveState::release);
@@ -193,11 +186,9 @@ void MoveController::on_reading(double t, double displacement_m) {
           noise > 0.0 ? 2.0 * noise / (std::sqrt(double{kFilter}) * s_.r2_m) : 0.0;
       const double window =
           0.5 * s_.tolerance_rad + std::max(0.0, filter_noise - 0.25 * s_.tolerance_rad);
-      hold_ = std::abs(aim_error) <= window ? hold_ + 1 : 0;
-      const bool out_of_range = (V_set_ == 0.0 && aim_error < -s_.tolerance_rad) ||
-                                (V_set_ == s_.fine_V_max && aim_error > s_.tolerance_rad);
-      if (hold_ >= kHold || out_of_range) {
-        released_from_fine_ = hold_ >= kHold;
+      steady_ = std::abs(aim_error) <= window ? steady_ + 1 : 0;
+      if (steady_ >= kSteady || servo_.at_range_end(aim_error, s_.tolerance_rad)) {
+        released_from_fine_ = steady_ >= kSteady;
         set_state(MoveState::release);
       }
       return;
@@ -206,7 +197,11 @@ void MoveController::on_reading(double t, double displacement_m) {
       settle(t, displacement_m);
       return;
     case MoveState::holding:
-      on_hold_reading(error);
+      // The servo on the error itself (no aim offset: nothing is released
+      // until the hold is over), either way.
+      if (!servo_.integrating(V_)) return;
+      servo_.correct(error, 0.0);
+      hold_.record(error);
       return;
     case MoveState::release:
     case MoveState::none:
@@ -245,7 +240,13 @@ void MoveController::settle(double t, double displacement_m) {
     if (within_since_ < 0.0) within_since_ = t;
     if (t - within_since_ >= s_.settle_s) {
       if (s_.hold_s > 0.0 && !held_) {
-        start_hold(t);
+        // From 0 V the stator is lifted fast to the middle of the fine
+        // range (it slips under the rotor), so the servo can correct
+        // either way.
+        hold_.start(t, s_.hold_s);
+        aim_offset_ = 0.0;
+        servo_.lift_to(0.5 * s_.fine_V_max);
+        set_state(MoveState::holding);
         return;
       }
       position_.store(theta, std::memory_order_relaxed);
@@ -324,29 +325,6 @@ bool MoveController::try_alternative() {
   return true;
 }
 
-void MoveController::start_hold(double t) {
-  // From 0 V the stator is lifted fast to the middle of the fine range
-  // (it slips under the rotor), so the servo can correct either way.
-  held_ = false;
-  hold_until_ = t + s_.hold_s;
-  hold_sum2_ = hold_abs_max_ = 0.0;
-  hold_n_ = 0;
-  aim_offset_ = 0.0;
-  lifting_ = true;
-  V_set_ = 0.5 * s_.fine_V_max;
-  set_state(MoveState::holding);
-}
-
-void MoveController::on_hold_reading(double error) {
-  if (lifting_ || V_ != V_set_) return;
-  V_set_ = std::clamp(V_set_ + kFineGain * error / s_.rad_per_V, 0.0, s_.fine_V_max);
-  hold_sum2_ += error * error;
-  hold_abs_max_ = std::max(hold_abs_max_, std::abs(error));
-  ++hold_n_;
-  hold_rms_.store(std::sqrt(hold_sum2_ / static_cast<double>(hold_n_)));
-  hold_max_.store(hold_abs_max_);
-}
-
 double MoveController::approach_side() const {
   switch (s_.approach) {
     case Approach::forward:
@@ -421,17 +399,15 @@ void MoveController::enter_fine(double error) {
   // only corrects how far it goes.
   const double aim_error =
       side != 0.0 && (error + aim_offset_) * side < 0.0 ? 0.0 : error + aim_offset_;
-  hold_ = 0;
+  steady_ = 0;
   if (side > 0.0 || (side == 0.0 && aim_error >= 0.0)) {
     // Forward: raise the stator slowly; the rotor sticks and follows. With
     // an approach side the servo cannot back out of an overshoot, so it
     // starts at half the way and closes in.
-    lifting_ = false;
-    V_set_ = std::min(s_.fine_V_max, (side > 0.0 ? 0.5 : 1.0) * aim_error / s_.rad_per_V);
+    servo_.raise_to((side > 0.0 ? 0.5 : 1.0) * aim_error / s_.rad_per_V);
   } else {
     // Backward: lift fast (the stator slips under the rotor), then lower slowly.
-    lifting_ = true;
-    V_set_ = std::min(s_.fine_V_max, kLiftMargin * -aim_error / s_.rad_per_V + kLiftExtra_V);
+    servo_.lift_to(kLiftMargin * -aim_error / s_.rad_per_V + kLiftExtra_V);
   }
   set_state(MoveState::fine);
 }

@@ -35,6 +35,10 @@
 ///   `sensor_implausible`. No progress, or far less than predicted: the
 ///   next alternative frequency; none left and no progress: `stalled`.
 ///   Either ends the run at 0 V with that cause.
+/// The parts, each with its own tests: the step model (StepModel), the
+/// progress judge (ProgressJudge), the fine servo (FineServo), the settle's
+/// mean (SettleMean) and the active hold's record (ActiveHold); this class
+/// is the state machine over them.
 /// Everything happens inside next_voltage(): no allocation, lock or throw.
 
 #include <array>
@@ -42,8 +46,10 @@
 #include <cstdint>
 #include <limits>
 
+#include "piezo/firmware/active_hold.hpp"
 #include "piezo/firmware/angle_zero.hpp"
 #include "piezo/firmware/drive_program.hpp"
+#include "piezo/firmware/fine_servo.hpp"
 #include "piezo/firmware/move_request.hpp"
 #include "piezo/firmware/position_feed.hpp"
 #include "piezo/firmware/progress_judge.hpp"
@@ -149,15 +155,14 @@ class MoveController final : public DriveProgram {
   /// The active hold's error: root mean square and largest magnitude of the
   /// averaged angle's distance from the target while holding [rad] (NaN:
   /// no hold).
-  [[nodiscard]] double hold_rms_error_rad() const { return hold_rms_.load(); }
-  [[nodiscard]] double hold_max_error_rad() const { return hold_max_.load(); }
+  [[nodiscard]] double hold_rms_error_rad() const { return hold_.rms_error_rad(); }
+  [[nodiscard]] double hold_max_error_rad() const { return hold_.max_error_rad(); }
 
  private:
   static constexpr int kFilter = ReadingWindow::kSize;  ///< readings averaged
-  static constexpr int kFlush = 10;          ///< readings skipped after the rotor was moved
-  static constexpr int kHold = 20;           ///< readings within tolerance/2 before the release
+  static constexpr int kFlush = 10;   ///< readings skipped after the rotor was moved
+  static constexpr int kSteady = 20;  ///< fine: readings within tolerance/2 before the release
   static constexpr int kNoiseReadings = 16;  ///< at rest, before the first step
-  static constexpr double kFineGain = 0.1;   ///< integral gain per reading
 
   void on_reading(double t, double displacement_m);
   void decide(double t, double error);
@@ -178,10 +183,8 @@ class MoveController final : public DriveProgram {
   [[nodiscard]] double noise() const;
   /// Steps far smaller than predicted: the next alternative frequency.
   [[nodiscard]] bool try_alternative();
-  void start_hold(double t);
   /// +1 forward, -1 reverse: the side every arrival must come from (0: either).
   [[nodiscard]] double approach_side() const;
-  void on_hold_reading(double error);
 
   MoveSettings s_;
   const PositionFeed& feed_;
@@ -195,10 +198,11 @@ class MoveController final : public DriveProgram {
   double step_start_ = 0.0, amplitude_ = 0.0, rise_ = 0.0, direction_ = 1.0;
   double predicted_ = 0.0, theta_before_ = 0.0;
   StepModel steps_model_;  ///< the step tables in use, scaled by the measured steps
-  // fine
-  double V_set_ = 0.0, aim_offset_ = 0.0;
-  bool lifting_ = false;
-  int hold_ = 0;
+  // fine: the servo, the aim's offset (what the last release moved the
+  // rotor by), and how many readings in a row it has been steady
+  FineServo servo_;
+  double aim_offset_ = 0.0;
+  int steady_ = 0;
   bool released_from_fine_ = false;
   bool wrong_way_ = false;  ///< the last motion went against the approach side
   // settle
@@ -211,10 +215,9 @@ class MoveController final : public DriveProgram {
   ProgressJudge judge_;
   double step_low_ = 0.0, step_high_ = 0.0;
   int next_alternative_ = 0;
-  // active hold
+  // active hold (once a move)
   bool held_ = false;
-  double hold_until_ = 0.0, hold_sum2_ = 0.0, hold_abs_max_ = 0.0;
-  std::uint64_t hold_n_ = 0;
+  ActiveHold hold_;
 
   std::atomic<MoveState> state_{MoveState::coarse};
   AngleZero zero_;              ///< the move's frame (the drive loop's own)
@@ -224,8 +227,6 @@ class MoveController final : public DriveProgram {
   std::atomic<std::uint32_t> steps_{0};
   std::atomic<double> on_target_at_;
   std::atomic<double> f_;
-  std::atomic<double> hold_rms_;
-  std::atomic<double> hold_max_;
 };
 
 }  // namespace piezo::firmware
