@@ -82,14 +82,14 @@ TEST(SimRun, AFullRunMatchesTheModel) {
   const Outcome o = run_virtual({});
   EXPECT_EQ(o.summary.status(), "completed");
   // 4.8 s at 10 kHz and 1 kHz, nothing lost, nothing late on the virtual clock.
-  EXPECT_GE(o.summary.drive.samples, 48'000u);
-  EXPECT_GE(o.summary.sensor.samples, 4'800u);
-  EXPECT_EQ(o.summary.drive.dropped + o.summary.sensor.dropped, 0u);
-  EXPECT_EQ(o.summary.drive.overruns, 0u);
-  EXPECT_EQ(o.drive_t.size(), o.summary.drive.samples + 1);  // + the final "stopped" record
+  EXPECT_GE(o.summary.board.drive.cycles, 48'000u);
+  EXPECT_GE(o.summary.board.sensor.cycles, 4'800u);
+  EXPECT_EQ(o.summary.board.drive.dropped + o.summary.board.sensor.dropped, 0u);
+  EXPECT_EQ(o.summary.board.drive.overruns, 0u);
+  EXPECT_EQ(o.drive_t.size(), o.summary.board.drive.cycles + 1);  // + the final "stopped" record
   // 4.8 s is 48 whole periods: the stop is the period's 0 V at 4.8 s, no ramp.
   EXPECT_NEAR(o.drive_t.back(), 4.8, 1e-9);
-  EXPECT_EQ(o.sensor_t.size(), o.summary.sensor.samples);
+  EXPECT_EQ(o.sensor_t.size(), o.summary.board.sensor.cycles);
   EXPECT_DOUBLE_EQ(o.drive_t.front(), 0.0);
   EXPECT_DOUBLE_EQ(o.drive_V.back(), 0.0);
   for (std::size_t i = 1; i < o.drive_V.size(); ++i) {
@@ -188,7 +188,7 @@ TEST(SimRun, MovesEndOnTargetOnAMismatchedPlantBothWays) {
     config::RunSettings::Move move{
         {.target_rad = target, .tolerance_rad = 15e-6, .settle_s = 0.1, .timeout_s = 30.0}};
     const Outcome o = run_virtual(mismatch, -1.0, "hil-move", 0, move);
-    const auto& m = o.summary.move;
+    const auto& m = o.summary.board.move;
     ASSERT_TRUE(m.is_object()) << target;
     EXPECT_EQ(m.at("stop_cause"), "on_target") << target;
     EXPECT_TRUE(m.at("on_target").get<bool>()) << target;
@@ -234,8 +234,8 @@ TEST(SimRun, AMoveIntoAStalledSensorOrAnEstopStopsAtZeroVolts) {
         std::pair{std::string("lines.sim.estop_at_s=0.3"), std::string("estop")}}) {
     const Outcome o =
         run_virtual({fault, "safety.sensor_stale_s=0.05"}, -1.0, "hil-move-fault", 0, far);
-    EXPECT_EQ(o.summary.move.at("stop_cause"), cause) << fault;
-    EXPECT_FALSE(o.summary.move.at("on_target").get<bool>()) << fault;
+    EXPECT_EQ(o.summary.board.move.at("stop_cause"), cause) << fault;
+    EXPECT_FALSE(o.summary.board.move.at("on_target").get<bool>()) << fault;
     EXPECT_FALSE(o.amplifier_enabled_at_end) << fault;
     // The e-stop disables at once, mid-step (the simulated amplifier's last
     // sample still shows the voltage it was cut at); the stalled sensor
@@ -250,14 +250,15 @@ TEST(SimRun, AMoveIntoAStalledSensorOrAnEstopStopsAtZeroVolts) {
   config::RunSettings::Move unreachable{
       {.target_rad = 1.0, .tolerance_rad = 15e-6, .settle_s = 0.1, .timeout_s = 0.5}};
   const Outcome o = run_virtual({}, -1.0, "hil-move-timeout", 0, unreachable);
-  EXPECT_EQ(o.summary.move.at("stop_cause"), "timeout");
+  EXPECT_EQ(o.summary.board.move.at("stop_cause"), "timeout");
   EXPECT_FALSE(o.amplifier_enabled_at_end);
   EXPECT_DOUBLE_EQ(o.drive_V.back(), 0.0);
   // Its position is the rotor's at 0 V, read after the stop (before, the
   // controller's last reading, from before the ramp: up to a step off).
-  EXPECT_NEAR(o.summary.move.at("position_rad").get<double>(), o.rotor_theta_at_end, 20e-6);
-  std::cout << "timed-out move: reported " << o.summary.move.at("position_rad").get<double>() * 1e3
-            << " mrad, the rotor at " << o.rotor_theta_at_end * 1e3 << " mrad\n";
+  EXPECT_NEAR(o.summary.board.move.at("position_rad").get<double>(), o.rotor_theta_at_end, 20e-6);
+  std::cout << "timed-out move: reported "
+            << o.summary.board.move.at("position_rad").get<double>() * 1e3 << " mrad, the rotor at "
+            << o.rotor_theta_at_end * 1e3 << " mrad\n";
 }
 
 // A move's protection, seen on the simulated device: a rotor that cannot
@@ -286,9 +287,9 @@ TEST(SimRun, AMoveThatCannotProgressStopsAtZeroVoltsWithItsCause) {
       at = comma == std::string::npos ? comma : comma + 1;
     }
     const Outcome o = run_virtual(sets, -1.0, "hil-move-protect", 0, far);
-    EXPECT_EQ(o.summary.move.at("stop_cause"), cause);
+    EXPECT_EQ(o.summary.board.move.at("stop_cause"), cause);
     EXPECT_EQ(o.summary.stop_cause(), cause);
-    EXPECT_FALSE(o.summary.move.at("on_target").get<bool>());
+    EXPECT_FALSE(o.summary.board.move.at("on_target").get<bool>());
     EXPECT_FALSE(o.amplifier_enabled_at_end);
     EXPECT_NEAR(o.amplifier_V_at_end, 0.0, 1.0);
     EXPECT_DOUBLE_EQ(o.drive_V.back(), 0.0);
@@ -315,7 +316,7 @@ TEST(SimRun, AMoveIntoAnEndStopEndsStalled) {
   config::RunSettings::Move far{
       {.target_rad = 0.05, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0}};
   const Outcome o = run_virtual({"plant.end_stop_rad=0.003"}, -1.0, "hil-move-end-stop", 0, far);
-  EXPECT_EQ(o.summary.move.at("stop_cause"), "stalled");
+  EXPECT_EQ(o.summary.board.move.at("stop_cause"), "stalled");
   EXPECT_FALSE(o.amplifier_enabled_at_end);
   EXPECT_DOUBLE_EQ(o.drive_V.back(), 0.0);
   EXPECT_LE(o.rotor_theta_at_end, 0.003 + 1e-9);
@@ -381,9 +382,9 @@ TEST(SimRun, AMoveComesOnTargetThroughFiveTimesTheNoise) {
     config::RunSettings::Move move{
         {.target_rad = target, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0}};
     const Outcome o = run_virtual({"sensor.sim.noise_m=2.5e-6"}, -1.0, "hil-move-noisy", 0, move);
-    EXPECT_EQ(o.summary.move.at("stop_cause"), "on_target");
+    EXPECT_EQ(o.summary.board.move.at("stop_cause"), "on_target");
     EXPECT_NEAR(o.rotor_theta_at_end, target, 25e-6);
-    std::cout << "noisy sensor: on target at " << o.summary.move.at("on_target_at_s")
+    std::cout << "noisy sensor: on target at " << o.summary.board.move.at("on_target_at_s")
               << " s, the rotor " << (o.rotor_theta_at_end - target) * 1e6
               << " urad from the target\n";
   }
@@ -422,7 +423,7 @@ TEST(SimRun, TwentyMovesWithAForwardApproachAllArriveFromBelow) {
                                     .timeout_s = 10.0,
                                     .approach = firmware::Approach::forward}};
     const Outcome o = run_virtual({}, -1.0, "hil-move-approach", 0, move);
-    ASSERT_EQ(o.summary.move.at("stop_cause"), "on_target");
+    ASSERT_EQ(o.summary.board.move.at("stop_cause"), "on_target");
     EXPECT_NEAR(o.rotor_theta_at_end, target, 25e-6 + 3 * 0.5e-6 / 0.062);
     const auto& state = o.move_state;
     const auto on = std::find(state.begin(), state.end(), kOnTarget) - state.begin();
@@ -476,7 +477,7 @@ TEST(SimRun, ARunOrAMoveThatWouldLeaveTheTravelWindowStopsAtItsEdge) {
       {.target_rad = 0.05, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0}};
   const Outcome move = run_virtual({"safety.travel_min_rad=-0.01", "safety.travel_max_rad=0.01"},
                                    -1.0, "hil-move-travel", 0, far);
-  EXPECT_EQ(move.summary.move.at("stop_cause"), "travel_limit");
+  EXPECT_EQ(move.summary.board.move.at("stop_cause"), "travel_limit");
   EXPECT_FALSE(move.amplifier_enabled_at_end);
   EXPECT_DOUBLE_EQ(move.drive_V.back(), 0.0);
   EXPECT_LT(move.rotor_theta_at_end, 0.01 + full_step);
@@ -521,12 +522,12 @@ TEST(SimRun, SlowSetUpBeforeTheStartIsNoSensorFault) {
   RunLog log = RunLog::create((dir / "run.h5").string(), {{"config", config.text}});
   const std::atomic<bool> never{false};
   const RunSummary s = execute_run(config, std::move(rig), log, never, {});
-  EXPECT_EQ(s.cause, firmware::StopCause::completed);
+  EXPECT_EQ(s.board.cause, firmware::StopCause::completed);
 }
 
 TEST(SimRun, EstopDisablesWithinOneDrivePeriod) {
   const Outcome o = run_virtual({"lines.sim.estop_at_s=1.0"});
-  EXPECT_EQ(o.summary.cause, firmware::StopCause::estop);
+  EXPECT_EQ(o.summary.board.cause, firmware::StopCause::estop);
   EXPECT_EQ(o.summary.status(), "failed");
   EXPECT_EQ(o.drive_phase.back(), static_cast<double>(firmware::DrivePhase::stopped));
   EXPECT_NEAR(o.drive_t.back(), 1.0, 1e-4 + 1e-9);
@@ -568,15 +569,15 @@ TEST(SimRun, AnEstopActsDuringASlowDriveWrite) {
   log.close(summary.status());
   EXPECT_TRUE(started && disabled) << "the amplifier stayed enabled for " << took_s
                                    << " s after the e-stop, behind the blocked write";
-  EXPECT_EQ(summary.cause, firmware::StopCause::estop);
+  EXPECT_EQ(summary.board.cause, firmware::StopCause::estop);
   EXPECT_FALSE(device->plant().enabled());
 }
 
 TEST(SimRun, SensorStallRampsDownAndStops) {
   const Outcome o = run_virtual(
       {"sensor.sim.stall_at_s=1.0", "safety.sensor_stale_s=0.1", "safety.ramp_down_V_per_s=1000"});
-  EXPECT_EQ(o.summary.cause, firmware::StopCause::sensor_fault);
-  EXPECT_GT(o.summary.sensor.errors, 0u);
+  EXPECT_EQ(o.summary.board.cause, firmware::StopCause::sensor_fault);
+  EXPECT_GT(o.summary.board.sensor.errors, 0u);
   // The ramp starts once no good reading came for 0.1 s and lasts at most 80 ms.
   const auto ramp_start = std::find(o.drive_phase.begin(), o.drive_phase.end(),
                                     static_cast<double>(firmware::DrivePhase::ramping_down));
@@ -595,14 +596,14 @@ TEST(SimRun, SensorStallRampsDownAndStops) {
 TEST(SimRun, DropoutsAreCountedAndTheRunGoesOn) {
   const Outcome o = run_virtual({"sensor.sim.dropout_probability=0.02", "run.duration_s=1.0"});
   EXPECT_EQ(o.summary.status(), "completed");
-  EXPECT_GT(o.summary.sensor.errors, 5u);
+  EXPECT_GT(o.summary.board.sensor.errors, 5u);
   EXPECT_EQ(std::count_if(o.theta.begin(), o.theta.end(), [](double v) { return std::isnan(v); }),
-            static_cast<long>(o.summary.sensor.errors));
+            static_cast<long>(o.summary.board.sensor.errors));
 }
 
 TEST(SimRun, AStopRequestRampsDownAndEndsInterrupted) {
   const Outcome o = run_virtual({"run.duration_s=10000"}, 0.2, "hil-stop");
-  EXPECT_EQ(o.summary.cause, firmware::StopCause::interrupted);
+  EXPECT_EQ(o.summary.board.cause, firmware::StopCause::interrupted);
   EXPECT_EQ(o.summary.status(), "interrupted");
   ASSERT_FALSE(o.drive_V.empty());
   EXPECT_GE(o.drive_t.back(), 0.2);

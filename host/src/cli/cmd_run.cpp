@@ -126,15 +126,30 @@ fs::path choose_run_dir(const std::string& out) {
   return dir;
 }
 
-nlohmann::json loop_json(const LoopSummary& s) {
-  return {{"samples", s.samples},
-          {"overruns", s.overruns},
-          {"missed_cycles", s.missed_cycles},
-          {"dropped", s.dropped},
-          {"errors", s.errors},
-          {"errors_by_class", s.errors_by_class},
+/// A loop's health as the board reported it (its timing zero when none
+/// came), and its failed samples by class as the host counted them.
+nlohmann::json loop_json(const protocol::LoopHealth& h,
+                         const std::map<std::string, std::uint64_t>& errors_by_class) {
+  const auto timing = h.timing.value_or(protocol::LoopHealth::Timing{});
+  return {{"samples", h.cycles},
+          {"overruns", h.overruns},
+          {"missed_cycles", h.missed_cycles},
+          {"dropped", h.dropped},
+          {"errors", h.errors},
+          {"errors_by_class", errors_by_class},
           {"period_error_us",
-           {{"p50", s.p50_us}, {"p99", s.p99_us}, {"max", s.max_us}, {"mean", s.mean_us}}}};
+           {{"p50", timing.p50_us},
+            {"p99", timing.p99_us},
+            {"max", timing.max_us},
+            {"mean", timing.mean_us}}}};
+}
+
+/// A calibration run's result as the run's JSON keeps it: the calibration
+/// installed (nil when none was) and why not.
+nlohmann::json calibration_result(const protocol::RunSummary& b) {
+  return {{"calibration", b.calibration},
+          {"error",
+           b.calibration_error ? nlohmann::json(*b.calibration_error) : nlohmann::json(nullptr)}};
 }
 
 /// Writes to a stream whose reader may be gone (a closed pipe, a closed
@@ -145,14 +160,14 @@ void write_out(std::FILE* stream, const std::string& text) {
 }
 
 nlohmann::json output_json(const RunSummary& s) {
-  const auto& o = s.output;
+  const auto& o = s.board.output;
   return {{"state", s.output_state()},
           {"zero_confirmed", o.zero_confirmed},
           {"zero_read_back", o.zero_read_back},
-          {"last_acknowledged_V", std::isnan(o.acknowledged_V) ? nlohmann::json(nullptr)
-                                                               : nlohmann::json(o.acknowledged_V)},
-          {"enable_status", std::string(hal::to_string(o.enable_status))},
-          {"zero_status", std::string(hal::to_string(o.zero_status))},
+          {"last_acknowledged_V",
+           o.acknowledged_V ? nlohmann::json(*o.acknowledged_V) : nlohmann::json(nullptr)},
+          {"enable_status", o.enable_status},
+          {"zero_status", o.zero_status},
           {"zero_writes", o.zero_writes}};
 }
 
@@ -174,37 +189,37 @@ nlohmann::json summary_json(const RunSummary& s, const fs::path& dir, const fs::
           {"output", output_json(s)},
           {"run_dir", dir.string()},
           {"log", log.string()},
-          {"drive", loop_json(s.drive)},
-          {"sensor", loop_json(s.sensor)},
+          {"drive", loop_json(s.board.drive, s.drive_errors)},
+          {"sensor", loop_json(s.board.sensor, s.sensor_errors)},
           {"theta_end_rad", s.theta_end_rad},
           {"t_end_s", s.t_end_s},
           {"mean_velocity_rad_s", s.mean_velocity_rad_s},
-          {"realtime", s.realtime_notes}};
+          {"realtime", s.board.realtime}};
 }
 
 /// The one line that says how the output was left, in plain words.
 std::string output_line(const RunSummary& s) {
-  const auto& o = s.output;
+  const auto& o = s.board.output;
   if (s.output_state() == "unknown") {
     return "OUTPUT STATE UNKNOWN: the board fell silent before it reported how it left the "
            "output. Its lease stops the drive by itself; check the amplifier before touching "
            "the rig.";
   }
   if (s.output_state() == "output_unconfirmed") {
-    const std::string last = std::isnan(o.acknowledged_V)
-                                 ? "no value was ever acknowledged"
-                                 : fmt::format("it last acknowledged {:.3f} V", o.acknowledged_V);
+    const std::string last = o.acknowledged_V
+                                 ? fmt::format("it last acknowledged {:.3f} V", *o.acknowledged_V)
+                                 : "no value was ever acknowledged";
     return fmt::format(
         "OUTPUT UNCONFIRMED: the drive did not acknowledge 0 V after {} writes ({}); {}. The "
         "output may still be live: check the amplifier, its enable line and the module's "
         "watchdog before touching the rig.",
-        o.zero_writes, hal::to_string(o.zero_status), last);
+        o.zero_writes, o.zero_status, last);
   }
   if (s.output_state() == "enable_unconfirmed") {
     return fmt::format(
         "ENABLE UNCONFIRMED: 0 V acknowledged, but dropping the amplifier enable "
         "failed ({})",
-        hal::to_string(o.enable_status));
+        o.enable_status);
   }
   return "0 V acknowledged by the drive, amplifier disabled";
 }
@@ -223,12 +238,14 @@ std::string summary_text(const RunSummary& s, const fs::path& log, const std::st
   out += fmt::format("  output     {}\n", output_line(s));
   out += fmt::format("  angle      {:.4f} mrad at t = {:.3f} s, mean velocity {:.4f} mrad/s\n",
                      1e3 * s.theta_end_rad, s.t_end_s, 1e3 * s.mean_velocity_rad_s);
-  for (const auto& [name, l] : {std::pair{"drive", &s.drive}, std::pair{"sensor", &s.sensor}}) {
+  for (const auto& [name, l] :
+       {std::pair{"drive", &s.board.drive}, std::pair{"sensor", &s.board.sensor}}) {
+    const auto timing = l->timing.value_or(protocol::LoopHealth::Timing{});
     out += fmt::format(
         "  {:<7}    {} samples, {} errors, {} dropped, {} overruns ({} missed); "
         "period error p50 {:.0f} us, p99 {:.0f} us, max {:.1f} us\n",
-        name, l->samples, l->errors, l->dropped, l->overruns, l->missed_cycles, l->p50_us,
-        l->p99_us, l->max_us);
+        name, l->cycles, l->errors, l->dropped, l->overruns, l->missed_cycles, timing.p50_us,
+        timing.p99_us, timing.max_us);
   }
   if (s.observer) {
     out += fmt::format(
@@ -236,7 +253,7 @@ std::string summary_text(const RunSummary& s, const fs::path& log, const std::st
         1e6 * s.observer->residual_rms_rad, 1e6 * s.observer->open_loop_rms_rad,
         s.observer->samples);
   }
-  for (const auto& note : s.realtime_notes) out += fmt::format("  real time  {}\n", note);
+  for (const auto& note : s.board.realtime) out += fmt::format("  real time  {}\n", note);
   out += fmt::format("  log        {}\n", log.string());
   return out;
 }
@@ -277,11 +294,14 @@ void finish_log(RunLog& log, RunSummary& summary, const nlohmann::json& result) 
     return;
   }
   try {
-    log.write(log_schema::kDrivePeriodErrorUs, summary.drive.histogram);
-    log.write(log_schema::kAcquirePeriodErrorUs, summary.sensor.histogram);
+    const auto histogram = [](const protocol::LoopHealth& h) {
+      return h.timing ? h.timing->histogram_us : std::vector<double>{};
+    };
+    log.write(log_schema::kDrivePeriodErrorUs, histogram(summary.board.drive));
+    log.write(log_schema::kAcquirePeriodErrorUs, histogram(summary.board.sensor));
     log.set_attribute(log_schema::kSummary, result.dump());
     log.set_attribute(log_schema::kRealtime,
-                      fmt::format("{}", fmt::join(summary.realtime_notes, "; ")));
+                      fmt::format("{}", fmt::join(summary.board.realtime, "; ")));
     log.set_attribute(log_schema::kStopCause, summary.stop_cause());
     log.set_attribute(log_schema::kOutput, summary.output_state());
     log.close(summary.status());
@@ -294,7 +314,7 @@ void finish_log(RunLog& log, RunSummary& summary, const nlohmann::json& result) 
 /// `piezo move`'s result: the board's account of the move, the time it took
 /// and the run it was, in one object.
 nlohmann::json move_result(const RunSummary& s, const nlohmann::json& run) {
-  nlohmann::json m = s.move.is_object() ? s.move : nlohmann::json::object();
+  nlohmann::json m = s.board.move.is_object() ? s.board.move : nlohmann::json::object();
   if (!m.contains("stop_cause")) m["stop_cause"] = s.stop_cause();
   if (!m.contains("on_target")) m["on_target"] = false;
   for (const char* key : {"position_rad", "error_rad", "steps"}) {
@@ -334,14 +354,11 @@ int exit_code(const RunSummary& summary) {
 int report_calibration(const RunOptions& o, const RunSummary& summary, nlohmann::json result,
                        const fs::path& dir, const fs::path& log_path,
                        const config::RigConfig& config, BoardClient* client) {
-  const nlohmann::json measured = summary.calibration.is_object()
-                                      ? summary.calibration.value("calibration", nlohmann::json())
-                                      : nlohmann::json();
-  if (measured.is_null() || summary.status() != "completed") {
-    const std::string why =
-        summary.calibration.is_object() && summary.calibration.at("error").is_string()
-            ? summary.calibration.at("error").get<std::string>()
-            : fmt::format("the run ended {}", summary.stop_cause());
+  const nlohmann::json& measured = summary.board.calibration;
+  if (!summary.board.has_calibration || measured.is_null() || summary.status() != "completed") {
+    const std::string why = summary.board.calibration_error
+                                ? *summary.board.calibration_error
+                                : fmt::format("the run ended {}", summary.stop_cause());
     result["calibration"] = nullptr;
     result["calibration_error"] = why;
     write_out(stdout, o.json ? result.dump() + "\n"
@@ -560,7 +577,7 @@ int report(const RunOptions& o, const RunSummary& summary, const config::RigConf
            const fs::path& dir, const fs::path& log_path, Board& board, const std::string& signal) {
   // The result, rebuilt: finishing the log may have failed the run.
   nlohmann::json result = summary_json(summary, dir, log_path, signal);
-  if (!summary.move.is_null()) result["move"] = summary.move;
+  if (!summary.board.move.is_null()) result["move"] = summary.board.move;
   nlohmann::json steps = nullptr;
   if (o.step_periods > 0) {
     steps = {{"count", o.step_periods},
@@ -617,8 +634,8 @@ int run(const RunOptions& o) {
   if (!o.json && isatty(STDERR_FILENO)) write_out(stderr, "\n");
   // The log keeps the move's account (target, controller's result) too.
   nlohmann::json logged = summary_json(summary, dir, log_path, signals.received());
-  if (!summary.move.is_null()) logged["move"] = summary.move;
-  if (!summary.calibration.is_null()) logged["calibration"] = summary.calibration;
+  if (!summary.board.move.is_null()) logged["move"] = summary.board.move;
+  if (summary.board.has_calibration) logged["calibration"] = calibration_result(summary.board);
   finish_log(log, summary, logged);
   try {
     append_catalogue(dir, utc_start, config, summary);

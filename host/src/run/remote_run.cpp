@@ -34,31 +34,6 @@ std::int64_t host_ns() {
       .count();
 }
 
-hal::Status status_from(const std::string& name) {
-  return hal::kStatusNames.parse(name).value_or(hal::Status::io_error);
-}
-
-LoopSummary loop_summary(const protocol::LoopHealth& h) {
-  LoopSummary s;
-  s.samples = h.cycles;
-  s.overruns = h.overruns;
-  s.missed_cycles = h.missed_cycles;
-  s.dropped = h.dropped;
-  s.errors = h.errors;
-  if (h.timing) {
-    s.p50_us = h.timing->p50_us;
-    s.p99_us = h.timing->p99_us;
-    s.max_us = h.timing->max_us;
-    s.mean_us = h.timing->mean_us;
-    s.histogram = h.timing->histogram_us;
-  }
-  return s;
-}
-
-}  // namespace
-
-namespace {
-
 json configure_args(const config::RigConfig& c) {
   return protocol::ConfigureRequest{c.model.drive, c.run.duration_s};
 }
@@ -366,7 +341,7 @@ RunSummary FollowedRun::finish(const std::optional<protocol::RunSummary>& end) {
   summary.theta_end_rad = collector_.last_theta();
   summary.t_end_s = collector_.last_good_t();
   if (!end) {
-    summary.cause = firmware::StopCause::link_lost;
+    summary.board.cause = firmware::StopCause::link_lost;
     summary.board_gone = true;
     summary.host_error = fmt::format(
         "board {} silent about this run for {} s (gone, or restarted): the run's end is unknown "
@@ -377,32 +352,14 @@ RunSummary FollowedRun::finish(const std::optional<protocol::RunSummary>& end) {
   const auto& gaps = follower_.gaps();
   log_.set_attribute(log_schema::kStreamGapsFetched,
                      gaps.empty() ? "none" : fmt::format("{}", fmt::join(gaps, "; ")));
-  const protocol::RunSummary& board = *end;
-  summary.cause = board.cause;
-  const auto& out = board.output;
-  summary.output.enabled_ever = out.enabled_ever;
-  summary.output.zero_confirmed = out.zero_confirmed;
-  summary.output.zero_read_back = out.zero_read_back;
-  summary.output.zero_status = status_from(out.zero_status);
-  summary.output.acknowledged_V = out.acknowledged_V.value_or(std::nan(""));
-  summary.output.zero_writes = out.zero_writes;
-  summary.output.enable_status = status_from(out.enable_status);
-  summary.drive = loop_summary(board.drive);
-  summary.sensor = loop_summary(board.sensor);
-  summary.drive.errors_by_class = collector_.drive_errors();
-  summary.sensor.errors_by_class = collector_.sensor_errors();
+  summary.board = *end;
+  summary.drive_errors = collector_.drive_errors();
+  summary.sensor_errors = collector_.sensor_errors();
   if (observer_) summary.observer = observer_->summary();
   summary.mean_velocity_rad_s =
       summary.t_end_s > 0.0 ? summary.theta_end_rad / summary.t_end_s : 0.0;
-  summary.realtime_notes = board.realtime;
-  if (!board.move.is_null()) summary.move = board.move;
-  if (board.has_calibration) {
-    summary.calibration = {
-        {"calibration", board.calibration},
-        {"error", board.calibration_error ? json(*board.calibration_error) : json(nullptr)}};
-  }
   if (!client_.address().starts_with("inproc://")) {
-    summary.realtime_notes.push_back("board " + client_.address());
+    summary.board.realtime.push_back("board " + client_.address());
   }
   return summary;
 }
@@ -417,9 +374,9 @@ RunSummary execute_remote_run(const config::RigConfig& c, BoardClient& client,
   if (stop.load()) {
     // Stopped during set-up: the drive is never started.
     RunSummary summary;
-    summary.cause = firmware::StopCause::interrupted;
-    summary.output.zero_confirmed = true;
-    summary.realtime_notes.push_back("stopped before the start");
+    summary.board.cause = firmware::StopCause::interrupted;
+    summary.board.output.zero_confirmed = true;  // never driven
+    summary.board.realtime.push_back("stopped before the start");
     return summary;
   }
   const ClockMapping clock = estimate_clock_offset(client);

@@ -19,26 +19,28 @@ std::string RunSummary::stop_cause() const {
   if (!host_error.empty()) return "log_failed";
   // A move that ended by itself says how: on_target, or timeout (the board's
   // cause is `completed` for both).
-  if (cause == firmware::StopCause::completed && move.is_object() && move.contains("stop_cause")) {
+  const auto& move = board.move;
+  if (board.cause == firmware::StopCause::completed && move.is_object() &&
+      move.contains("stop_cause")) {
     return move.at("stop_cause").get<std::string>();
   }
   // A calibration that ran to its end but gave none the board could keep.
-  if (cause == firmware::StopCause::completed && calibration.is_object() &&
-      calibration.at("calibration").is_null()) {
+  if (board.cause == firmware::StopCause::completed && board.has_calibration &&
+      board.calibration.is_null()) {
     return "calibration_unusable";
   }
-  return std::string(firmware::to_string(cause));
+  return std::string(firmware::to_string(board.cause));
 }
 
 std::string RunSummary::output_state() const {
   // A board that fell silent never said how it left the output.
   if (board_gone) return "unknown";
-  return std::string(firmware::to_string(firmware::output_state(output)));
+  return std::string(firmware::to_string(board.output.state));
 }
 
 std::string RunSummary::status() const {
   if (!host_error.empty()) return "failed";
-  switch (cause) {
+  switch (board.cause) {
     case firmware::StopCause::completed:
       return stop_cause() == "timeout" || stop_cause() == "calibration_unusable" ? "failed"
                                                                                  : "completed";

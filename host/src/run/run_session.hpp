@@ -14,47 +14,33 @@
 #include <vector>
 
 #include "observer_stage.hpp"
-#include "piezo/firmware/drive_loop.hpp"
-#include "piezo/firmware/period_histogram.hpp"
-#include "piezo/firmware/safety_supervisor.hpp"
+#include "piezo/protocol/messages.hpp"
 #include "rig.hpp"
 #include "rig_config.hpp"
 #include "run_log.hpp"
 
 namespace piezo::host {
 
-struct LoopSummary {
-  std::uint64_t samples = 0;
-  std::uint64_t overruns = 0;
-  std::uint64_t missed_cycles = 0;
-  std::uint64_t dropped = 0;
-  std::uint64_t errors = 0;
-  double p50_us = 0, p99_us = 0, max_us = 0, mean_us = 0;
-  std::vector<double> histogram;                         ///< counts per 1 us bin of period error
-  std::map<std::string, std::uint64_t> errors_by_class;  ///< failed samples by HAL status
-};
-
+/// A run's account: the board's own, as it sent it (cause, how the output
+/// was left, both loops' health, the real-time notes, a move's or a
+/// calibration's result), and what only the host knows.
 struct RunSummary {
-  firmware::StopCause cause = firmware::StopCause::none;
-  LoopSummary drive, sensor;
+  protocol::RunSummary board;
+  /// Failed samples by HAL status, as the host counted them in the stream.
+  std::map<std::string, std::uint64_t> drive_errors, sensor_errors;
   double theta_end_rad = 0.0;  ///< last good measured angle
   double t_end_s = 0.0;        ///< when it was measured
   double mean_velocity_rad_s = 0.0;
   std::optional<ObserverSummary> observer;  ///< when [observer] is enabled
-  std::vector<std::string> realtime_notes;
-  firmware::OutputOutcome output;  ///< how the drive was left, as the device acknowledged
-  std::string host_error;          ///< why the host side failed (the log), if it did
-  bool board_gone = false;         ///< the board fell silent for good; its end is unknown
-  nlohmann::json move;             ///< a closed-loop move's result, as the board reported it
-  /// A calibration's result: {calibration (null when none was installed), error}.
-  nlohmann::json calibration;
+  std::string host_error;                   ///< why the host side failed (the log), if it did
+  bool board_gone = false;                  ///< the board fell silent for good; its end is unknown
 
   /// "completed", "interrupted" or "failed" (a host failure fails the run).
   [[nodiscard]] std::string status() const;
   /// The firmware's stop cause, or "log_failed" when the host failed.
   [[nodiscard]] std::string stop_cause() const;
-  /// "confirmed" (0 V acknowledged, enable dropped), "output_unconfirmed"
-  /// or "enable_unconfirmed" (the enable line's write failed).
+  /// The board's output state ("confirmed", "output_unconfirmed",
+  /// "enable_unconfirmed"), or "unknown" when it fell silent.
   [[nodiscard]] std::string output_state() const;
 };
 
