@@ -113,7 +113,9 @@ class Daemon {
   nlohmann::json calibrate(const std::string& client, const nlohmann::json& args);
   nlohmann::json set_calibration(const std::string& client, const nlohmann::json& args);
   /// Installs a checked calibration and keeps it in the board's file.
-  void install_calibration(nlohmann::json c);
+  /// Installs `c` and keeps it in [piezod] calibration_file, if any:
+  /// why it could not be saved there, or nothing.
+  std::optional<std::string> install_calibration(nlohmann::json c);
   nlohmann::json set_zero(const std::string& client);
   /// Reads the sensor `n` times at its rate with the loops stopped and the
   /// drive at 0 V: the mean of the good readings and their spread (they

@@ -162,19 +162,26 @@ json Daemon::set_calibration(const std::string&, const json& args) {
     log_event("calibration cleared");
     return {{"calibration", nullptr}};
   }
-  install_calibration(checked_calibration(
+  const std::optional<std::string> save_error = install_calibration(checked_calibration(
       given, {board_.drive.limits.V_max, firmware::max_drive_frequency(board_.drive.rate_hz)}));
-  return {{"calibration", *calibration_}};
+  json reply = {{"calibration", *calibration_}};
+  reply["saved_to"] = board_.daemon.calibration_file.empty() || save_error
+                          ? json()
+                          : json(board_.daemon.calibration_file);
+  if (save_error) reply["save_error"] = *save_error;
+  return reply;
 }
 
-void Daemon::install_calibration(json c) {
+std::optional<std::string> Daemon::install_calibration(json c) {
   calibration_ = std::move(c);
   std::string kept = "in memory only (no piezod.calibration_file)";
+  std::optional<std::string> save_error;
   if (!board_.daemon.calibration_file.empty()) {
     try {
       save_calibration(board_.daemon.calibration_file, *calibration_);
       kept = "kept in " + board_.daemon.calibration_file;
     } catch (const std::exception& e) {
+      save_error = e.what();
       kept = fmt::format("NOT kept: {}", e.what());
     }
   }
@@ -183,6 +190,7 @@ void Daemon::install_calibration(json c) {
       "calibration installed: fastest reliable {}, noise {:.3g} m; {}",
       fastest.is_number() ? fmt::format("{:g} Hz", fastest.get<double>()) : std::string("none"),
       calibration_->at("noise_m").get<double>(), kept));
+  return save_error;
 }
 
 json Daemon::set_zero(const std::string&) {

@@ -100,6 +100,10 @@ cal["model"] = {"friction": "lugre", "parameters": {"F_N": 5e-3}}
 installed = call("set_calibration", calibration=cal)
 check(installed["ok"] and installed["result"]["calibration"]["model"]["parameters"]["F_N"] == 5e-3,
       "set_calibration: " + str(installed)[:300])
+# This board has a calibration_file: the reply names it, and no error.
+check(isinstance(installed["result"].get("saved_to"), str) and
+      "save_error" not in installed["result"], "where the board keeps it: " +
+      str({k: v for k, v in installed["result"].items() if k != "calibration"}))
 
 too_fine = call("move_to", target_rad=1e-3, tolerance_rad=cal["smallest_tolerance_rad"] / 2)
 check(too_fine["error"]["code"] == "out_of_limits" and

@@ -5,11 +5,10 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <stdexcept>
 
-#include "calibration.hpp"
 #include "fit_io.hpp"
 #include "gnuplot.hpp"
-#include "piezo/firmware/calibration_program.hpp"
 #include "piezo/model/identify.hpp"
 
 namespace piezo::host {
@@ -198,7 +197,7 @@ std::string summary_text(const json& cal, const std::string& kept) {
 
 CalibrationReport finish_calibration(const fs::path& dir, const fs::path& log,
                                      const json& board_calibration, const config::RigConfig& config,
-                                     BoardClient* client) {
+                                     BoardClient& client, bool local) {
   CalibrationReport report;
   json cal = board_calibration;
   const double sensor_rate_hz = config.sensor.rate_hz;
@@ -209,17 +208,27 @@ CalibrationReport finish_calibration(const fs::path& dir, const fs::path& log,
     fmt::print(stderr, "calibrate: warning: no model fitted: {}\n", e.what());
     cal["model"] = nullptr;
   }
-  if (client != nullptr) {
-    cal = client->call("set_calibration", {{"calibration", cal}}).at("calibration");
-    report.kept = fmt::format("by the board at {}", client->address());
-  } else if (!config.daemon.calibration_file.empty()) {
-    cal = daemon::checked_calibration(
-        cal, {config.drive.limits.V_max, firmware::max_drive_frequency(config.drive.rate_hz)});
-    daemon::save_calibration(config.daemon.calibration_file, cal);
+  // The board (in this process or at an address) checks it, installs it
+  // and says where it keeps it.
+  const json reply = client.call("set_calibration", {{"calibration", cal}});
+  cal = reply.at("calibration");
+  if (reply.contains("save_error")) {
+    throw std::runtime_error(fmt::format("the board could not keep the calibration: {}",
+                                         reply.at("save_error").get<std::string>()));
+  }
+  const json& saved_to = reply.value("saved_to", json());
+  if (!local) {
+    // (A board before `saved_to` says nothing of where.)
+    const std::string where = !reply.contains("saved_to") ? ""
+                              : saved_to.is_string()
+                                  ? fmt::format(" (in its {})", saved_to.get<std::string>())
+                                  : " (in its memory only)";
+    report.kept = fmt::format("by the board at {}{}", client.address(), where);
+  } else if (saved_to.is_string()) {
     report.kept = fmt::format(
         "in {} ([piezod] calibration_file): in-process moves with this "
         "config use it",
-        config.daemon.calibration_file);
+        saved_to.get<std::string>());
   } else {
     report.kept =
         "only in this run directory (set [piezod] calibration_file to keep it for "

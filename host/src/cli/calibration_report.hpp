@@ -3,9 +3,9 @@
 // model fitted to the experiment's full-amplitude steps (the existing
 // identification), the calibration file with that fit beside the board's
 // measurements, a plot and a one-page summary in the run directory, and the
-// fitted calibration given back to the board (or, in-process, written to
-// the config's [piezod] calibration_file) so that later moves and
-// observers use it.
+// fitted calibration given back to the board (the one in this process
+// keeps it in the config's [piezod] calibration_file) so that later moves
+// and observers use it.
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -22,12 +22,12 @@ struct CalibrationReport {
 };
 
 /// `board_calibration`: what the board measured (its run summary's
-/// "calibration"); `log`: the experiment's run.h5; `client`: the board, or
-/// nullptr for the in-process one (gone by now). Progress on stderr.
+/// "calibration"); `log`: the experiment's run.h5; `client`: the board that
+/// ran it, `local` when it is the one in this process. Progress on stderr.
 [[nodiscard]] CalibrationReport finish_calibration(const std::filesystem::path& dir,
                                                    const std::filesystem::path& log,
                                                    const nlohmann::json& board_calibration,
                                                    const config::RigConfig& config,
-                                                   BoardClient* client);
+                                                   BoardClient& client, bool local);
 
 }  // namespace piezo::host

@@ -21,6 +21,7 @@
 #include "config_error.hpp"
 #include "effective_config.hpp"
 #include "live_feed.hpp"
+#include "local_board.hpp"
 #include "log_schema.hpp"
 #include "parameters_json.hpp"
 #include "piezo/firmware/move_request.hpp"
@@ -353,7 +354,7 @@ int exit_code(const RunSummary& summary) {
 /// `piezo calibrate`'s end: the fit, the files and the board told, or why not.
 int report_calibration(const RunOptions& o, const RunSummary& summary, nlohmann::json result,
                        const fs::path& dir, const fs::path& log_path,
-                       const config::RigConfig& config, BoardClient* client) {
+                       const config::RigConfig& config, BoardClient& client, bool local) {
   const nlohmann::json& measured = summary.board.calibration;
   if (!summary.board.has_calibration || measured.is_null() || summary.status() != "completed") {
     const std::string why = summary.board.calibration_error
@@ -366,7 +367,8 @@ int report_calibration(const RunOptions& o, const RunSummary& summary, nlohmann:
     write_out(stderr, fmt::format("piezo: calibration failed: {}\n", why));
     return kExitFailed;
   }
-  const CalibrationReport report = finish_calibration(dir, log_path, measured, config, client);
+  const CalibrationReport report =
+      finish_calibration(dir, log_path, measured, config, client, local);
   result["calibration"] = report.calibration;
   result["kept"] = report.kept;
   result["files"] = {
@@ -444,29 +446,29 @@ config::RigConfig rig_config(const RunOptions& o) {
   return config;
 }
 
-/// What drives: piezod at an address, or the firmware in this process.
+/// What drives: piezod at an address, or the firmware in this process
+/// (reached through the protocol all the same, until the report is done).
 struct Board {
-  std::optional<config::Rig> rig;
+  std::unique_ptr<LocalBoard> local;  ///< declared first: its context outlives the client
   std::optional<BoardClient> client;
   protocol::Hello hello;
   std::string geometry_note;  ///< the board's sensor radius differed from the config's
-  double drive_latency_s = 0.0;
 };
 
 void connect(Board& board, config::RigConfig& config) {
   if (config.board.address.empty()) {
-    board.rig.emplace(config::build_rig(config));
-    board.drive_latency_s = board.rig->drive->output_latency_s();
-    return;
+    board.local = std::make_unique<LocalBoard>(config, config::build_rig(config));
+    board.client.emplace(config::BoardAddress{board.local->address(), "", ""},
+                         board.local->context());
+  } else {
+    board.client.emplace(config.board);
   }
-  board.client.emplace(config.board);
   board.hello = board.client->hello();
   if (const std::string note = adopt_board_sensor(config, board.hello); !note.empty()) {
     write_out(stderr, "piezo: " + note + "\n");
     board.geometry_note = note;
   }
   configure_remote(config, *board.client);
-  board.drive_latency_s = board.hello.output_latency_s;
 }
 
 /// The live view, bound before anything is created: a busy port is bad input.
@@ -500,7 +502,7 @@ RunLog create_log(const fs::path& dir, const config::RigConfig& config, const Bo
     throw config::ConfigError("--out", dir.string(), "was taken by another run meanwhile");
   }
   std::ofstream(dir / "config.toml") << config::run_config_file(config);
-  const bool remote = board.client.has_value();
+  const bool remote = !board.local;
   RunLog log = RunLog::create(
       (dir / "run.h5").string(),
       {{log_schema::kConfig, config.text},
@@ -512,7 +514,7 @@ RunLog create_log(const fs::path& dir, const config::RigConfig& config, const Bo
        {log_schema::kUtcStart, utc_start},
        {log_schema::kHost, host_name()},
        {log_schema::kClock, remote ? board.hello.clock : std::string(name(config.run.clock))},
-       {log_schema::kDriveLatency, fmt::format("{:.9g}", board.drive_latency_s)},
+       {log_schema::kDriveLatency, fmt::format("{:.9g}", board.hello.output_latency_s)},
        {log_schema::kTimeOrigin, "seconds from the run's start (first drive deadline)"},
        {log_schema::kTheta,
         fmt::format("(displacement - first good displacement) / sensor.r2_m, "
@@ -550,14 +552,16 @@ RunSummary drive(Board& board, const config::RigConfig& config, RunLog& log,
                  const std::function<void(const LiveStatus&)>& status_line,
                  const std::atomic<bool>& estop_requested) {
   try {
-    if (board.client) {
-      return execute_remote_run(
-          config, *board.client, board.hello, log, signals.flag(), status_line,
-          config.board.lease_s > 0.0 ? std::optional(config.board.lease_s) : std::nullopt,
-          &estop_requested);
+    const std::optional<double> lease = board.local ? std::optional(LocalBoard::kLease_s)
+                                        : config.board.lease_s > 0.0
+                                            ? std::optional(config.board.lease_s)
+                                            : std::nullopt;
+    RunSummary summary = execute_remote_run(config, *board.client, board.hello, log, signals.flag(),
+                                            status_line, lease, &estop_requested);
+    if (board.local && !log.broken()) {
+      log.set_attribute(log_schema::kBoardEvents, board.local->events());
     }
-    return execute_run(config, std::move(*board.rig), log, signals.flag(), status_line,
-                       &estop_requested);
+    return summary;
   } catch (const std::exception& e) {
     if (!log.broken()) {
       try {
@@ -587,8 +591,8 @@ int report(const RunOptions& o, const RunSummary& summary, const config::RigConf
     result["steps"] = steps;
   }
   if (o.calibrate) {
-    return report_calibration(o, summary, result, dir, log_path, config,
-                              board.client ? &*board.client : nullptr);
+    return report_calibration(o, summary, result, dir, log_path, config, *board.client,
+                              board.local != nullptr);
   }
   if (o.move) {
     const nlohmann::json move = move_result(summary, result);

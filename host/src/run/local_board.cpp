@@ -36,8 +36,22 @@ void LocalBoard::stop() {
   if (thread_.joinable()) thread_.join();
 }
 
-std::string LocalBoard::events() const {
-  return events_.str();
+std::string LocalBoard::LockedText::text() const {
+  const std::lock_guard lock(mutex_);
+  return text_;
+}
+
+LocalBoard::LockedText::int_type LocalBoard::LockedText::overflow(int_type c) {
+  if (traits_type::eq_int_type(c, traits_type::eof())) return traits_type::not_eof(c);
+  const std::lock_guard lock(mutex_);
+  text_.push_back(traits_type::to_char_type(c));
+  return c;
+}
+
+std::streamsize LocalBoard::LockedText::xsputn(const char* s, std::streamsize n) {
+  const std::lock_guard lock(mutex_);
+  text_.append(s, static_cast<std::size_t>(n));
+  return n;
 }
 
 }  // namespace piezo::host

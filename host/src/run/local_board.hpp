@@ -5,7 +5,9 @@
 
 #include <atomic>
 #include <memory>
-#include <sstream>
+#include <mutex>
+#include <ostream>
+#include <streambuf>
 #include <string>
 #include <thread>
 #include <zmq.hpp>
@@ -18,6 +20,10 @@ namespace piezo::host {
 
 class LocalBoard {
  public:
+  /// The lease a client of this board runs under: the host's own loop
+  /// renews it, and a log flush on a slow disk must not pass for a dead host.
+  static constexpr double kLease_s = 2.0;
+
   /// Serves `rig` with the config's own limits as the board's.
   LocalBoard(const config::RigConfig& config, config::Rig rig);
   /// Stops the daemon (a run under way ramps down first) and joins it.
@@ -27,14 +33,30 @@ class LocalBoard {
 
   [[nodiscard]] zmq::context_t& context() { return context_; }
   [[nodiscard]] const std::string& address() const { return address_; }
-  /// The daemon's event lines so far (complete once destroyed or stopped).
-  [[nodiscard]] std::string events() const;
+  /// The daemon's event lines so far; safe while it serves.
+  [[nodiscard]] std::string events() const { return events_buffer_.text(); }
   void stop();
 
  private:
+  /// The daemon's event stream: it writes from its own thread while the
+  /// host reads what it has.
+  class LockedText : public std::streambuf {
+   public:
+    [[nodiscard]] std::string text() const;
+
+   protected:
+    int_type overflow(int_type c) override;
+    std::streamsize xsputn(const char* s, std::streamsize n) override;
+
+   private:
+    mutable std::mutex mutex_;
+    std::string text_;
+  };
+
   zmq::context_t context_;
   std::string address_;
-  std::ostringstream events_;
+  LockedText events_buffer_;
+  std::ostream events_{&events_buffer_};
   std::unique_ptr<daemon::Daemon> daemon_;
   std::atomic<bool> stop_{false};
   std::thread thread_;

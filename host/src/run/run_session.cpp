@@ -6,13 +6,6 @@
 #include "remote_run.hpp"
 
 namespace piezo::host {
-namespace {
-
-// The in-process board's lease: the host's own loop renews it, and a log
-// flush on a slow disk must not pass for a dead host.
-constexpr double kLocalLease_s = 2.0;
-
-}  // namespace
 
 std::string RunSummary::stop_cause() const {
   if (board_gone) return "board_gone";
@@ -63,7 +56,8 @@ RunSummary execute_run(const config::RigConfig& c, config::Rig rig, RunLog& log,
     BoardClient client(config::BoardAddress{board.address(), "", ""}, board.context());
     const protocol::Hello hello = client.hello();
     configure_remote(c, client);
-    summary = execute_remote_run(c, client, hello, log, stop, on_status, kLocalLease_s, estop);
+    summary =
+        execute_remote_run(c, client, hello, log, stop, on_status, LocalBoard::kLease_s, estop);
   }
   board.stop();
   try {
