@@ -26,14 +26,15 @@ constexpr auto kHealthPeriod = std::chrono::milliseconds(250);
 /// The argument names a request declares (its kArgs).
 template <class Request>
 std::vector<std::string_view> args_of() {
-  return {Request::kArgs.begin(), Request::kArgs.end()};
+  std::vector<std::string_view> names;
+  for (const firmware::Argument& a : Request::kArgs) names.push_back(a.name);
+  return names;
 }
 
 std::vector<std::string_view> move_to_args() {
   std::vector<std::string_view> args;
   for (const auto& field : firmware::kMoveFields) args.push_back(field.name);
-  const auto& waveform = protocol::MoveToRequest::kWaveformArgs;
-  args.insert(args.end(), waveform.begin(), waveform.end());
+  for (const auto& a : protocol::MoveToRequest::kWaveformArgs) args.push_back(a.name);
   return args;
 }
 

@@ -10,6 +10,7 @@
 #include <limits>
 
 #include "calibration.hpp"
+#include "piezo/firmware/request_arguments.hpp"
 #include "piezo/firmware/request_limits.hpp"
 #include "piezo/protocol/message.hpp"
 
@@ -70,9 +71,9 @@ json Daemon::start(const std::string& client, std::optional<double> requested_le
     throw ProtocolError(code::bad_state, "", fmt::format("{}: send configure first", cmd));
   }
   const double lease_s = requested_lease_s.value_or(board_.daemon.lease_s);
-  if (!(lease_s > 0.0 && lease_s <= board_.daemon.lease_max_s)) {
-    throw out_of_limits(
-        "lease_s", fmt::format("{:g} s; allowed: (0, {:g}] s", lease_s, board_.daemon.lease_max_s));
+  if (const Interval allowed = firmware::arguments::lease_s.within(board_.daemon.lease_max_s);
+      !allowed.admits(lease_s)) {
+    throw out_of_limits("lease_s", fmt::format("{:g} s; allowed: {} s", lease_s, allowed.text()));
   }
   run_.reset();  // the last run's runner (joined) goes; its samples are overwritten below
   auto run = std::make_unique<Run>(*configured_);
@@ -169,12 +170,15 @@ json Daemon::step(const std::string& client, const json& args) {
   run_state_.require_can_start(client, "step");  // before configure: a refused step changes nothing
   const auto request = protocol::decode<protocol::StepRequest>(args);
   const double f = request.drive.f;
-  const double max_count = std::floor(board_.daemon.duration_max_s * f);
-  if (request.count < 1 || !(static_cast<double>(request.count) <= max_count)) {
-    throw out_of_limits("count", fmt::format("{} periods at {:g} Hz; allowed: [1, {:g}] (the "
-                                             "board's longest run, {:g} s)",
-                                             request.count, f, std::max(max_count, 0.0),
-                                             board_.daemon.duration_max_s));
+  // At most the board's longest run of whole periods.
+  const Interval allowed =
+      firmware::arguments::count.within(std::floor(board_.daemon.duration_max_s * f));
+  if (!allowed.admits(static_cast<double>(request.count))) {
+    throw out_of_limits("count",
+                        fmt::format("{} periods at {:g} Hz; allowed: [{:g}, {:g}] (the "
+                                    "board's longest run, {:g} s)",
+                                    request.count, f, allowed.min, std::max(allowed.max, 0.0),
+                                    board_.daemon.duration_max_s));
   }
   const auto configured =
       apply_configuration({request.drive, static_cast<double>(request.count) / f}, "step");

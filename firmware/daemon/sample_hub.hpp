@@ -12,6 +12,7 @@
 
 #include "fetch_budget.hpp"
 #include "piezo/firmware/loop_runner.hpp"
+#include "piezo/firmware/request_arguments.hpp"
 #include "piezo/firmware/samples.hpp"
 #include "recorder.hpp"
 #include "spill_file.hpp"
@@ -20,8 +21,8 @@ namespace piezo::daemon {
 
 class SampleHub {
  public:
-  /// Samples per fetch reply, at most.
-  static constexpr std::uint64_t kMaxFetch = 100'000;
+  /// Samples per fetch reply, at most (as `fetch`'s `count` declares).
+  static constexpr std::uint64_t kMaxFetch = firmware::arguments::kMaxFetch;
 
   /// Recorders for `recorder_s` at the two rates; a spill file when
   /// `spill_file` is set; publishing on `stream`.

@@ -7,28 +7,31 @@
 #include <type_traits>
 #include <variant>
 
+#include "piezo/firmware/request_arguments.hpp"
+
 namespace piezo::firmware {
 
 std::optional<LimitBreach> check_drive(const model::DriveParameters& d, double duration_s,
                                        const DriveBounds& b) {
+  namespace arg = arguments;
   const auto& lim = b.limits;
-  if (!(d.V0 > 0.0 && d.V0 <= lim.V_max && lim.V_min <= 0.0)) {
-    return LimitBreach{"V0", fmt::format("{:g} V is outside the drive's limits; allowed: (0, "
-                                         "{:g}] V (V_max; and V_min = {:g} V must be <= 0: the "
+  if (!(arg::V0.within(lim.V_max).admits(d.V0) && lim.V_min <= 0.0)) {
+    return LimitBreach{"V0", fmt::format("{:g} V is outside the drive's limits; allowed: {} V "
+                                         "(V_max; and V_min = {:g} V must be <= 0: the "
                                          "sawtooth spans 0..V0)",
-                                         d.V0, lim.V_max, lim.V_min)};
+                                         d.V0, arg::V0.within(lim.V_max).text(), lim.V_min)};
   }
-  const double f_max = max_drive_frequency(b.rate_hz);
-  if (!(d.f > 0.0 && d.f <= f_max)) {
+  const Interval f_allowed = arg::f.within(max_drive_frequency(b.rate_hz));
+  if (!f_allowed.admits(d.f)) {
     return LimitBreach{"f", fmt::format("{:g} Hz gives under 20 drive samples per period at the "
-                                        "drive's {:g} Hz; allowed: (0, {:g}] Hz",
-                                        d.f, b.rate_hz, f_max)};
+                                        "drive's {:g} Hz; allowed: {} Hz",
+                                        d.f, b.rate_hz, f_allowed.text())};
   }
-  if (!(d.C_dr > 0.0 && d.C_dr <= 1.0)) {
-    return LimitBreach{"C_dr", fmt::format("{:g}; allowed: (0, 1]", d.C_dr)};
+  if (!arg::C_dr.allowed.admits(d.C_dr)) {
+    return LimitBreach{"C_dr", fmt::format("{:g}; allowed: {}", d.C_dr, allowed_text(arg::C_dr))};
   }
-  if (!(d.e_dr >= 0.0 && d.e_dr < 1.0)) {
-    return LimitBreach{"e_dr", fmt::format("{:g}; allowed: [0, 1)", d.e_dr)};
+  if (!arg::e_dr.allowed.admits(d.e_dr)) {
+    return LimitBreach{"e_dr", fmt::format("{:g}; allowed: {}", d.e_dr, allowed_text(arg::e_dr))};
   }
   const double D = d.D();
   if (!(D > 0.0 && D < 1.0)) {
@@ -44,9 +47,10 @@ std::optional<LimitBreach> check_drive(const model::DriveParameters& d, double d
                           "the slew limit slew_V_per_s = {:g} V/s; allowed: V0*f <= {:.4g} V/s",
                           fastest, lim.slew_V_per_s, lim.slew_V_per_s * edge)};
   }
-  if (!(duration_s > 0.0 && duration_s <= b.duration_max_s)) {
+  if (const Interval allowed = arg::duration_s.within(b.duration_max_s);
+      !allowed.admits(duration_s)) {
     return LimitBreach{"duration_s",
-                       fmt::format("{:g} s; allowed: (0, {:g}] s", duration_s, b.duration_max_s)};
+                       fmt::format("{:g} s; allowed: {} s", duration_s, allowed.text())};
   }
   return std::nullopt;
 }

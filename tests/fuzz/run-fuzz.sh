@@ -34,7 +34,7 @@ case "$target" in
   config)
     sources=("$src"/model/names/config/section_reader.cpp
              "$src"/firmware/config/{model_config,rig_config}.cpp
-             "$src"/firmware/src/{request_limits,move_request}.cpp
+             "$src"/firmware/src/{request_limits,request_arguments,move_request}.cpp
              "$src"/hal/{sim,modbus,gpiod,comedi}/src/*_backends.cpp
              "$src"/hal/registry/src/backends.cpp
              "$src"/hal/modbus/src/register_map.cpp "$src"/model/src/{parameters,waveform}.cpp)

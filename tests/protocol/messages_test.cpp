@@ -152,8 +152,10 @@ std::set<std::string> encoded_keys(const T& m) {
 }
 
 template <std::size_t N>
-std::set<std::string> declared(const std::array<std::string_view, N>& args) {
-  return {args.begin(), args.end()};
+std::set<std::string> declared(const std::array<firmware::Argument, N>& args) {
+  std::set<std::string> names;
+  for (const firmware::Argument& a : args) names.emplace(a.name);
+  return names;
 }
 
 // The names the board's command table admits are the ones the codec writes

@@ -122,7 +122,7 @@ def documented_commands():
             args = re.sub(r"\([^()]*\)|\[[^\[\]]*\]", "", args)
         args = re.sub(r"as for `[^`]*`", "", args)
         commands[name] = set(re.findall(r"`([A-Za-z_0-9]+)`", args))
-    request = request.split("\n## ", 1)[0]
+    request = re.split(r"\n#{2,4} ", request, maxsplit=1)[0]
     commands["move_to"] |= set(re.findall(r"^\| `([A-Za-z_0-9]+)` \|", request, re.M))
     return commands
 

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "piezo/firmware/output_state.hpp"
+#include "piezo/firmware/request_arguments.hpp"
 #include "piezo/firmware/request_limits.hpp"
 #include "piezo/firmware/stop_cause.hpp"
 #include "piezo/model/parameters.hpp"
@@ -70,27 +71,31 @@ struct ClockReply {
 
 // Requests decode through the argument readers (message.hpp), so a missing
 // or mistyped argument is `bad_argument`. Each request's `kArgs` lists the
-// argument names it takes: the board's command table refuses any other
-// (naming these), and docs/protocol.md's table is checked against it.
+// arguments it takes, as declared in request_arguments.hpp: the board's
+// command table refuses any other (naming these), and docs/protocol.md's
+// argument tables are checked against them.
 
 /// `configure`'s arguments.
 struct ConfigureRequest {
-  static constexpr std::array<std::string_view, 6> kArgs{"V0",   "f",         "C_dr",
-                                                         "e_dr", "direction", "duration_s"};
+  static constexpr std::array<firmware::Argument, 6> kArgs{
+      firmware::arguments::V0,   firmware::arguments::f,         firmware::arguments::C_dr,
+      firmware::arguments::e_dr, firmware::arguments::direction, firmware::arguments::duration_s};
   model::DriveParameters drive;
   double duration_s = 0.0;
 };
 
 /// `start`'s arguments (the run `configure` set).
 struct StartRequest {
-  static constexpr std::array<std::string_view, 1> kArgs{"lease_s"};
+  static constexpr std::array<firmware::Argument, 1> kArgs{firmware::arguments::lease_s};
   std::optional<double> lease_s;  ///< absent: the board's `daemon.lease_s`
 };
 
 /// `step`'s arguments.
 struct StepRequest {
-  static constexpr std::array<std::string_view, 7> kArgs{"count", "V0",        "f",      "C_dr",
-                                                         "e_dr",  "direction", "lease_s"};
+  static constexpr std::array<firmware::Argument, 7> kArgs{
+      firmware::arguments::count,  firmware::arguments::V0,   firmware::arguments::f,
+      firmware::arguments::C_dr,   firmware::arguments::e_dr, firmware::arguments::direction,
+      firmware::arguments::lease_s};
   std::uint64_t count = 0;
   model::DriveParameters drive;
   std::optional<double> lease_s;
@@ -99,15 +104,23 @@ struct StepRequest {
 /// `move_to`'s arguments (absent ones take the board's defaults): every
 /// field of firmware::kMoveFields, then these.
 struct MoveToRequest {
-  static constexpr std::array<std::string_view, 5> kWaveformArgs{"V0", "f", "C_dr", "e_dr",
-                                                                 "lease_s"};
+  static constexpr std::array<firmware::Argument, 5> kWaveformArgs{
+      firmware::arguments::V0.defaulting("the board's `[drive]` V0"),
+      firmware::arguments::f.defaulting(
+          "the calibration's `fastest_f_hz` when the board is calibrated at this `V0`, else the "
+          "board's `[drive]` f"),
+      firmware::arguments::C_dr.defaulting("the board's `[drive]` C_dr"),
+      firmware::arguments::e_dr.defaulting("the board's `[drive]` e_dr"),
+      firmware::arguments::lease_s};
   firmware::MoveRequest move;
   std::optional<double> V0, f, C_dr, e_dr, lease_s;
 };
 
 /// `calibrate`'s arguments.
 struct CalibrateRequest {
-  static constexpr std::array<std::string_view, 2> kArgs{"V0", "lease_s"};
+  static constexpr std::array<firmware::Argument, 2> kArgs{
+      firmware::arguments::V0.defaulting("the board's `[drive]` V0, at most `V_max`"),
+      firmware::arguments::lease_s};
   std::optional<double> V0;  ///< absent: the board's drive.V0 within its V_max
   std::optional<double> lease_s;
 };
@@ -115,13 +128,14 @@ struct CalibrateRequest {
 /// `lease`'s arguments: the drive samples the controller has logged (its
 /// acknowledgement; a virtual-clock board waits on it).
 struct LeaseRequest {
-  static constexpr std::array<std::string_view, 1> kArgs{"drive_received"};
+  static constexpr std::array<firmware::Argument, 1> kArgs{firmware::arguments::drive_received};
   std::optional<std::uint64_t> drive_received;
 };
 
 /// `fetch`'s arguments: `count` recorded samples of `stream` from `first`.
 struct FetchRequest {
-  static constexpr std::array<std::string_view, 3> kArgs{"stream", "first", "count"};
+  static constexpr std::array<firmware::Argument, 3> kArgs{
+      firmware::arguments::stream, firmware::arguments::first, firmware::arguments::fetch_count};
   Stream stream = Stream::drive;
   std::uint64_t first = 0, count = 0;
 };

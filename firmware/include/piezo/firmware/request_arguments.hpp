@@ -1,0 +1,110 @@
+#pragma once
+/// @file
+/// The board's commands' arguments, declared once (a move's own request is
+/// `kMoveFields`, move_request.hpp). Each argument says its wire name, unit,
+/// what it allows (an interval whose upper end may be one of the board's
+/// limits, named as `hello.limits` names it), its default and one line of
+/// doc. The protocol's requests list theirs (`kArgs`: the codecs' and the
+/// command table's names), the limit checks take their intervals from here,
+/// and docs/protocol.md's argument tables are checked against them
+/// (tests/docs/request_arguments_docs_test.cpp).
+
+#include <limits>
+#include <string>
+#include <string_view>
+
+#include "piezo/interval.hpp"
+
+namespace piezo::firmware {
+
+struct Argument {
+  std::string_view name;
+  std::string_view unit;          ///< "" for none
+  Interval allowed;               ///< a number's or a count's (a choice: unused)
+  std::string_view limit;         ///< the board's limit that is `allowed`'s upper end ("": none)
+  std::string_view choices;       ///< a choice's names, comma-separated ("": a number)
+  std::string_view default_text;  ///< "required", a value, or where the value comes from
+  std::string_view doc;
+
+  /// `allowed` with the board's limit (the value of `limit`) as its upper end.
+  [[nodiscard]] constexpr Interval within(double limit_value) const {
+    Interval i = allowed;
+    i.max = limit_value;
+    return i;
+  }
+  /// The same argument with another default (a command that fills it in).
+  [[nodiscard]] constexpr Argument defaulting(std::string_view text) const {
+    Argument a = *this;
+    a.default_text = text;
+    return a;
+  }
+};
+
+/// What the docs print as allowed: "(0, V_max]", "[1, inf)", "`forward`, `reverse`".
+[[nodiscard]] std::string allowed_text(const Argument& a);
+
+namespace arguments {
+
+inline constexpr double kOpen = std::numeric_limits<double>::infinity();
+
+inline constexpr Argument V0{"V0", "V",        {0.0, kOpen, true},           "V_max",
+                             "",   "required", "the sawtooth's peak voltage"};
+inline constexpr Argument f{"f", "Hz",       {0.0, kOpen, true},        "f_max_hz",
+                            "",  "required", "the sawtooth's frequency"};
+inline constexpr Argument C_dr{"C_dr", "",     {0.0, 1.0, true, false}, "",
+                               "",     "0.95", "commanded duty ratio"};
+inline constexpr Argument e_dr{"e_dr",
+                               "",
+                               {0.0, 1.0, false, true},
+                               "",
+                               "",
+                               "0.789",
+                               "signal-chain factor; the rise fraction D = C_dr·e_dr is in (0, 1)"};
+inline constexpr Argument direction{
+    "direction",
+    "",
+    {},
+    "",
+    "forward, reverse",
+    "forward",
+    "`reverse`: the mirrored sawtooth (rise fraction 1 − D), the rotor turns backwards"};
+inline constexpr Argument duration_s{"duration_s", "s",        {0.0, kOpen, true}, "duration_max_s",
+                                     "",           "required", "the run's length"};
+inline constexpr Argument lease_s{
+    "lease_s",
+    "s",
+    {0.0, kOpen, true},
+    "lease_max_s",
+    "",
+    "`hello.lease_s`",
+    "the run stops by itself when no `lease` renews it for this long"};
+inline constexpr Argument count{
+    "count",
+    "",
+    {1.0, kOpen},
+    "",
+    "",
+    "required",
+    "whole periods, each ending at 0 V; count/f at most `duration_max_s`"};
+inline constexpr Argument drive_received{
+    "drive_received",
+    "",
+    {0.0, kOpen},
+    "",
+    "",
+    "none",
+    "drive samples the client has taken care of; on the virtual clock the board waits while "
+    "more than half its recorder, or 20 s of drive samples, are not"};
+inline constexpr Argument stream{"stream",        "", {}, "", "drive, sensor", "required",
+                                 "which recorder"};
+inline constexpr Argument first{
+    "first", "", {0.0, kOpen}, "", "", "required", "the first sample's sequence number"};
+/// A fetch's size: at most this many samples (the board's recorder serves
+/// no more in one frame).
+inline constexpr std::uint64_t kMaxFetch = 100'000;
+inline constexpr Argument fetch_count{
+    "count", "",         {0.0, static_cast<double>(kMaxFetch)}, "",
+    "",      "required", "samples, fewer at the recorder's end"};
+
+}  // namespace arguments
+}  // namespace piezo::firmware
