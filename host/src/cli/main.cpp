@@ -9,9 +9,11 @@
 #include "board_client.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
+#include "exit_codes.hpp"
 
 namespace {
-constexpr int kExitBadInput = 2;
+using piezo::host::kExitBadInput;
+using piezo::host::kExitFailed;
 
 /// Whether the command that was parsed (the innermost subcommand) was
 /// given --json: a script then reads one JSON object on stdout, whatever
@@ -79,11 +81,11 @@ int main(int argc, char** argv) {
   } catch (const piezo::config::ConfigError& e) {
     return report_error(json, kExitBadInput, "bad_input", e.key(), e.what());
   } catch (const piezo::protocol::ProtocolError& e) {
-    return report_error(json, 1, e.code(), e.key(), e.what());
+    return report_error(json, kExitFailed, e.code(), e.key(), e.what());
   } catch (const piezo::host::LinkTimeout& e) {
-    return report_error(json, 1, "no_reply", "", e.what());
+    return report_error(json, kExitFailed, "no_reply", "", e.what());
   } catch (const std::exception& e) {
-    return report_error(json, 1, "error", "", e.what());
+    return report_error(json, kExitFailed, "error", "", e.what());
   }
-  return 1;
+  return kExitFailed;
 }

@@ -1,0 +1,83 @@
+// `piezo calibrate`: the board's designed experiment, then the fit, the
+// files and the calibration given back to the board
+// (calibration_report.cpp).
+
+#include <fmt/format.h>
+
+#include "calibration_report.hpp"
+#include "exit_codes.hpp"
+#include "run_command.hpp"
+
+namespace piezo::host {
+namespace {
+
+/// `piezo calibrate`'s end: the fit, the files and the board told, or why not.
+int report_calibration(const FinishedRun& run) {
+  const RunSummary& summary = run.summary;
+  const RunOptions& o = run.options;
+  nlohmann::json result = run.result;
+  const nlohmann::json& measured = summary.board.calibration;
+  if (!summary.board.has_calibration || measured.is_null() || summary.status() != "completed") {
+    const std::string why = summary.board.calibration_error
+                                ? *summary.board.calibration_error
+                                : fmt::format("the run ended {}", summary.stop_cause());
+    result["calibration"] = nullptr;
+    result["calibration_error"] = why;
+    write_out(stdout, o.json ? result.dump() + "\n"
+                             : summary_text(summary, run.log, std::string(), nullptr));
+    write_out(stderr, fmt::format("piezo: calibration failed: {}\n", why));
+    return kExitFailed;
+  }
+  const CalibrationReport report =
+      finish_calibration(run.dir, run.log, measured, run.config, run.board, run.local);
+  result["calibration"] = report.calibration;
+  result["kept"] = report.kept;
+  result["files"] = {
+      {"calibration", report.file.string()},
+      {"plot", report.plot.empty() ? nlohmann::json() : nlohmann::json(report.plot.string())},
+      {"summary", report.summary.string()}};
+  if (o.json) {
+    write_out(stdout, result.dump() + "\n");
+  } else {
+    const auto& c = report.calibration;
+    write_out(
+        stdout,
+        fmt::format("calibrated: fastest reliable step frequency {}, noise {:.3g} m, "
+                    "smallest tolerance {:.3g} rad, {:.4g} urad/V in stick{}\n"
+                    "kept {}\nsummary {}\n",
+                    c.at("fastest_f_hz").is_number()
+                        ? fmt::format("{:g} Hz", c.at("fastest_f_hz").get<double>())
+                        : std::string("none"),
+                    c.at("noise_m").get<double>(), c.at("smallest_tolerance_rad").get<double>(),
+                    1e6 * c.at("rad_per_V").get<double>(),
+                    c.at("model").is_object()
+                        ? fmt::format(", model fitted (RMSE {:.2f} urad)",
+                                      1e6 * c.at("model").at("rmse_rad").get<double>())
+                        : std::string(),
+                    report.kept, report.summary.string()));
+  }
+  return 0;
+}
+
+}  // namespace
+
+CommandRunner add_calibrate_command(CLI::App& app) {
+  auto o = std::make_shared<RunOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "calibrate",
+      "Measure the rig (steps both ways at several amplitudes and frequencies, DC holds, the "
+      "sensor's noise), fit the model, and give the board the calibration its moves use");
+  add_run_options(*cmd, *o, "Rig config (TOML), as for `piezo run` (with --rig: default Table 1)",
+                  "piezod's address (default: [rig] address, or in-process)",
+                  "Print one JSON object: the calibration, where it is kept, files");
+  cmd->add_option("--V0", o->V0, "Peak voltage of the steps [V] (default: the board's [drive] V0)");
+  RunProgram program{[o](config::RigConfig& config) {
+                         config.run.calibrate = config::RunSettings::Calibrate{o->V0};
+                         config.run.duration_s =
+                             60.0;  // the board's plan says how long; its start reply tells
+                       },
+                       report_calibration};
+  return run_command(cmd, o, std::move(program));
+}
+
+}  // namespace piezo::host

@@ -1,0 +1,505 @@
+// What the run commands share (run_command.hpp): the run directory, the
+// connection to the board (in this process or at an address), the log, the
+// drive with its live status, the log's end and the plain report.
+
+#include "run_command.hpp"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <fstream>
+
+#include "catalogue.hpp"
+#include "config_error.hpp"
+#include "effective_config.hpp"
+#include "exit_codes.hpp"
+#include "live_feed.hpp"
+#include "local_board.hpp"
+#include "log_schema.hpp"
+#include "parameters_json.hpp"
+#include "remote_run.hpp"
+#include "rig.hpp"
+#include "run_log.hpp"
+#include "signals.hpp"
+#include "view_server.hpp"
+
+namespace piezo::host {
+
+namespace fs = std::filesystem;
+
+void write_out(std::FILE* stream, const std::string& text) {
+  (void)std::fputs(text.c_str(), stream);
+  (void)std::fflush(stream);
+}
+
+std::string output_line(const RunSummary& s) {
+  const auto& o = s.board.output;
+  if (s.output_state() == "unknown") {
+    return "OUTPUT STATE UNKNOWN: the board fell silent before it reported how it left the "
+           "output. Its lease stops the drive by itself; check the amplifier before touching "
+           "the rig.";
+  }
+  if (s.output_state() == "output_unconfirmed") {
+    const std::string last = o.acknowledged_V
+                                 ? fmt::format("it last acknowledged {:.3f} V", *o.acknowledged_V)
+                                 : "no value was ever acknowledged";
+    return fmt::format(
+        "OUTPUT UNCONFIRMED: the drive did not acknowledge 0 V after {} writes ({}); {}. The "
+        "output may still be live: check the amplifier, its enable line and the module's "
+        "watchdog before touching the rig.",
+        o.zero_writes, o.zero_status, last);
+  }
+  if (s.output_state() == "enable_unconfirmed") {
+    return fmt::format(
+        "ENABLE UNCONFIRMED: 0 V acknowledged, but dropping the amplifier enable "
+        "failed ({})",
+        o.enable_status);
+  }
+  return "0 V acknowledged by the drive, amplifier disabled";
+}
+
+std::string summary_text(const RunSummary& s, const fs::path& log, const std::string& signal,
+                         const nlohmann::json& steps) {
+  std::string out = fmt::format("run {} ({}{})\n", s.status(), s.stop_cause(),
+                                signal.empty() ? "" : ", " + signal);
+  if (steps.is_object()) {
+    out += fmt::format(
+        "  steps      {} {}: travel {:.4f} mrad, mean step {:.2f} urad\n",
+        steps.at("count").get<std::uint64_t>(), steps.at("direction").get<std::string>(),
+        1e3 * steps.at("travel_rad").get<double>(), 1e6 * steps.at("mean_step_rad").get<double>());
+  }
+  if (!s.host_error.empty()) out += fmt::format("  error      {}\n", s.host_error);
+  out += fmt::format("  output     {}\n", output_line(s));
+  out += fmt::format("  angle      {:.4f} mrad at t = {:.3f} s, mean velocity {:.4f} mrad/s\n",
+                     1e3 * s.theta_end_rad, s.t_end_s, 1e3 * s.mean_velocity_rad_s);
+  for (const auto& [name, l] :
+       {std::pair{"drive", &s.board.drive}, std::pair{"sensor", &s.board.sensor}}) {
+    const auto timing = l->timing.value_or(protocol::LoopHealth::Timing{});
+    out += fmt::format(
+        "  {:<7}    {} samples, {} errors, {} dropped, {} overruns ({} missed); "
+        "period error p50 {:.0f} us, p99 {:.0f} us, max {:.1f} us\n",
+        name, l->cycles, l->errors, l->dropped, l->overruns, l->missed_cycles, timing.p50_us,
+        timing.p99_us, timing.max_us);
+  }
+  if (s.observer) {
+    out += fmt::format(
+        "  observer   residual {:.2f} urad rms (open-loop model {:.2f} urad rms) over {} samples\n",
+        1e6 * s.observer->residual_rms_rad, 1e6 * s.observer->open_loop_rms_rad,
+        s.observer->samples);
+  }
+  for (const auto& note : s.board.realtime) out += fmt::format("  real time  {}\n", note);
+  out += fmt::format("  log        {}\n", log.string());
+  return out;
+}
+
+int exit_code(const RunSummary& summary) {
+  if (summary.status() == "completed") return 0;
+  if (summary.status() == "interrupted") return kExitInterrupted;
+  return kExitFailed;
+}
+
+int print_run(const FinishedRun& run, const nlohmann::json& result, const nlohmann::json& steps) {
+  const RunSummary& summary = run.summary;
+  write_out(stdout, run.options.json ? result.dump() + "\n"
+                                     : summary_text(summary, run.log, run.signal, steps));
+  if (summary.output_state() != "confirmed") {
+    write_out(stderr, "piezo: " + output_line(summary) + "\n");
+  }
+  if (!summary.host_error.empty()) {
+    write_out(stderr, fmt::format("piezo: error: {}\n", summary.host_error));
+  }
+  return exit_code(summary);
+}
+
+namespace {
+
+std::string utc_stamp(const char* format) {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char buf[64];
+  std::strftime(buf, sizeof buf, format, &tm);
+  return buf;
+}
+
+std::string host_name() {
+  char buf[256] = {};
+  gethostname(buf, sizeof buf - 1);
+  return buf;
+}
+
+/// Whether a run may be written into `dir`: it does not exist or is empty.
+bool free_for_a_run(const fs::path& dir) {
+  return !fs::exists(dir) || (fs::is_directory(dir) && fs::is_empty(dir));
+}
+
+/// The run directory: --out, or runs/<UTC time>, with -2, -3, ... when runs
+/// of that second exist already (a script's moves follow each other within
+/// one). --out must not hold a run already.
+fs::path choose_run_dir(const std::string& out) {
+  fs::path dir = out;
+  if (out.empty()) {
+    const std::string stamp = utc_stamp("%Y%m%dT%H%M%SZ");
+    dir = fs::path("runs") / stamp;
+    for (int n = 2; !free_for_a_run(dir); ++n)
+      dir = fs::path("runs") / fmt::format("{}-{}", stamp, n);
+  }
+  if (!free_for_a_run(dir)) {
+    throw config::ConfigError("--out", dir.string(), "exists and is not an empty directory");
+  }
+  // Where it will be created must be writable: refused now (exit 2), not
+  // after the rig is set up.
+  fs::path existing = fs::absolute(dir);
+  while (!fs::exists(existing) && existing.has_parent_path() &&
+         existing != existing.parent_path()) {
+    existing = existing.parent_path();
+  }
+  // A probe, not access(): root passes access() where nothing can be made.
+  const fs::path probe = existing / fmt::format(".piezo-write-probe-{}", getpid());
+  std::error_code error;
+  if (!fs::create_directory(probe, error)) {
+    throw config::ConfigError("--out", dir.string(),
+                              fmt::format("cannot be created in {}: {}", existing.string(),
+                                          error ? error.message() : std::string("it exists")));
+  }
+  fs::remove(probe, error);
+  return dir;
+}
+
+/// A loop's health as the board reported it (its timing zero when none
+/// came), and its failed samples by class as the host counted them.
+nlohmann::json loop_json(const protocol::LoopHealth& h,
+                         const std::map<std::string, std::uint64_t>& errors_by_class) {
+  const auto timing = h.timing.value_or(protocol::LoopHealth::Timing{});
+  return {{"samples", h.cycles},
+          {"overruns", h.overruns},
+          {"missed_cycles", h.missed_cycles},
+          {"dropped", h.dropped},
+          {"errors", h.errors},
+          {"errors_by_class", errors_by_class},
+          {"period_error_us",
+           {{"p50", timing.p50_us},
+            {"p99", timing.p99_us},
+            {"max", timing.max_us},
+            {"mean", timing.mean_us}}}};
+}
+
+/// A calibration run's result as the run's JSON keeps it: the calibration
+/// installed (nil when none was) and why not.
+nlohmann::json calibration_result(const protocol::RunSummary& b) {
+  return {{"calibration", b.calibration},
+          {"error",
+           b.calibration_error ? nlohmann::json(*b.calibration_error) : nlohmann::json(nullptr)}};
+}
+
+nlohmann::json output_json(const RunSummary& s) {
+  const auto& o = s.board.output;
+  return {{"state", s.output_state()},
+          {"zero_confirmed", o.zero_confirmed},
+          {"zero_read_back", o.zero_read_back},
+          {"last_acknowledged_V",
+           o.acknowledged_V ? nlohmann::json(*o.acknowledged_V) : nlohmann::json(nullptr)},
+          {"enable_status", o.enable_status},
+          {"zero_status", o.zero_status},
+          {"zero_writes", o.zero_writes}};
+}
+
+nlohmann::json summary_json(const RunSummary& s, const fs::path& dir, const fs::path& log,
+                            const std::string& signal) {
+  nlohmann::json observer = nullptr;
+  if (s.observer) {
+    observer = {{"samples", s.observer->samples},
+                {"residual_rms_rad", s.observer->residual_rms_rad},
+                {"open_loop_rms_rad", s.observer->open_loop_rms_rad},
+                {"outliers", s.observer->outliers},
+                {"restarts", s.observer->restarts}};
+  }
+  return {{"status", s.status()},
+          {"observer", observer},
+          {"stop_cause", s.stop_cause()},
+          {"stop_signal", signal.empty() ? nlohmann::json(nullptr) : nlohmann::json(signal)},
+          {"error", s.host_error.empty() ? nlohmann::json(nullptr) : nlohmann::json(s.host_error)},
+          {"output", output_json(s)},
+          {"run_dir", dir.string()},
+          {"log", log.string()},
+          {"drive", loop_json(s.board.drive, s.drive_errors)},
+          {"sensor", loop_json(s.board.sensor, s.sensor_errors)},
+          {"theta_end_rad", s.theta_end_rad},
+          {"t_end_s", s.t_end_s},
+          {"mean_velocity_rad_s", s.mean_velocity_rad_s},
+          {"realtime", s.board.realtime}};
+}
+
+void append_catalogue(const fs::path& run_dir, const std::string& utc_start,
+                      const config::RigConfig& config, const RunSummary& s) {
+  append_to_catalogue(run_dir, {.utc_start = utc_start,
+                                .status = s.status(),
+                                .stop_cause = s.stop_cause(),
+                                .config = config.source,
+                                .t_end_s = s.t_end_s,
+                                .theta_end_rad = s.theta_end_rad});
+}
+
+void show_status(const LiveStatus& st) {
+  static const bool tty = isatty(STDERR_FILENO) != 0;
+  static auto last_line = std::chrono::steady_clock::time_point{};
+  const double progress = st.board.value("calibration_progress", -1.0);
+  const std::string line = fmt::format(
+      "{}t {:6.2f}/{:.2f} s  V {:5.1f} V  theta {:8.4f} mrad  residual {:6.1f} urad  sensor {} "
+      "({} errors)  overruns {}",
+      progress >= 0.0 ? fmt::format("calibrating {:3.0f} %  ", 100.0 * progress) : std::string(),
+      st.t_s, st.duration_s, st.V, 1e3 * st.theta_rad, 1e6 * st.residual_rad, st.sensor_samples,
+      st.sensor_errors, st.overruns);
+  if (tty) {
+    write_out(stderr, "\r" + line + "\x1b[K");
+  } else if (std::chrono::steady_clock::now() - last_line > std::chrono::seconds(1)) {
+    write_out(stderr, line + "\n");
+    last_line = std::chrono::steady_clock::now();
+  }
+}
+
+/// Writes the end of the log: results, then the final status. A log that
+/// cannot be finished fails the run; what was flushed stays readable.
+void finish_log(RunLog& log, RunSummary& summary, const nlohmann::json& result) {
+  if (log.broken()) {
+    log.abandon();  // a log that failed half-way is not written again
+    return;
+  }
+  try {
+    const auto histogram = [](const protocol::LoopHealth& h) {
+      return h.timing ? h.timing->histogram_us : std::vector<double>{};
+    };
+    log.write(log_schema::kDrivePeriodErrorUs, histogram(summary.board.drive));
+    log.write(log_schema::kAcquirePeriodErrorUs, histogram(summary.board.sensor));
+    log.set_attribute(log_schema::kSummary, result.dump());
+    log.set_attribute(log_schema::kRealtime,
+                      fmt::format("{}", fmt::join(summary.board.realtime, "; ")));
+    log.set_attribute(log_schema::kStopCause, summary.stop_cause());
+    log.set_attribute(log_schema::kOutput, summary.output_state());
+    log.close(summary.status());
+  } catch (const std::exception& e) {
+    if (summary.host_error.empty()) summary.host_error = e.what();
+    log.abandon();
+  }
+}
+
+/// The run's config: the files and --set (with the drive keys given as
+/// options), the command's own request, and the board's address.
+config::RigConfig rig_config(const RunOptions& o, const RunProgram& program) {
+  std::vector<std::string> sets = o.sets;
+  if (o.duration > 0.0) sets.push_back(fmt::format("run.duration_s={}", o.duration));
+  if (o.V0) sets.push_back(fmt::format("drive.V0={}", *o.V0));
+  if (o.f) sets.push_back(fmt::format("drive.f={}", *o.f));
+  if (o.reverse) sets.emplace_back("drive.direction=reverse");
+  if (o.config.empty() && o.rig.empty()) {
+    throw config::ConfigError("command line", "--config",
+                              "required, or --rig ADDRESS (a board with its own config)");
+  }
+  config::RigConfig config = config::load_rig_config(o.config, sets);
+  if (program.request) program.request(config);
+  if (!o.rig.empty()) config.board.address = o.rig;
+  return config;
+}
+
+/// What drives: piezod at an address, or the firmware in this process
+/// (reached through the protocol all the same, until the report is done).
+struct Board {
+  std::unique_ptr<LocalBoard> local;  ///< declared first: its context outlives the client
+  std::optional<BoardClient> client;
+  protocol::Hello hello;
+  std::string geometry_note;  ///< the board's sensor radius differed from the config's
+};
+
+void connect(Board& board, config::RigConfig& config) {
+  if (config.board.address.empty()) {
+    board.local = std::make_unique<LocalBoard>(config, config::build_rig(config));
+    board.client.emplace(config::BoardAddress{board.local->address(), "", ""},
+                         board.local->context());
+  } else {
+    board.client.emplace(config.board);
+  }
+  board.hello = board.client->hello();
+  if (const std::string note = adopt_board_sensor(config, board.hello); !note.empty()) {
+    write_out(stderr, "piezo: " + note + "\n");
+    board.geometry_note = note;
+  }
+  configure_remote(config, *board.client);
+}
+
+/// The live view, bound before anything is created: a busy port is bad input.
+std::unique_ptr<view::ViewServer> open_view(const RunOptions& o, const fs::path& dir,
+                                            view::LiveFeed& live, const StopOnSignals& signals,
+                                            std::atomic<bool>& estop_requested) {
+  auto server = std::make_unique<view::ViewServer>(
+      view::ViewOptions{o.view_listen.empty() ? "127.0.0.1:8080" : o.view_listen,
+                        fs::absolute(dir).parent_path().string(), o.control, o.allow_hosts},
+      &live,
+      view::ViewControls{[&signals](const nlohmann::json&) {
+                           signals.request_stop();
+                           return nlohmann::json::object();
+                         },
+                         [&estop_requested](const nlohmann::json&) {
+                           estop_requested.store(true);
+                           return nlohmann::json::object();
+                         },
+                         {}});
+  write_out(stderr, server->banner() + "\n");
+  return server;
+}
+
+/// The run's directory and log, once everything is checked: only now does
+/// the run leave traces.
+RunLog create_log(const fs::path& dir, const config::RigConfig& config, const Board& board,
+                  const std::string& utc_start) {
+  fs::create_directories(dir);
+  if (!fs::is_empty(dir)) {
+    // Another run took the name between the check and now: never mix two.
+    throw config::ConfigError("--out", dir.string(), "was taken by another run meanwhile");
+  }
+  std::ofstream(dir / "config.toml") << config::run_config_file(config);
+  const bool remote = !board.local;
+  RunLog log = RunLog::create(
+      (dir / "run.h5").string(),
+      {{log_schema::kConfig, config.text},
+       {log_schema::kConfigSource, config.source},
+       {log_schema::kModelParameters, to_json(config.model).dump()},
+       {log_schema::kPlantParameters,
+        to_json(model::Parameters{config.model.drive, config.plant}).dump()},
+       {log_schema::kVersion, PIEZO_VERSION},
+       {log_schema::kUtcStart, utc_start},
+       {log_schema::kHost, host_name()},
+       {log_schema::kClock, remote ? board.hello.clock : std::string(name(config.run.clock))},
+       {log_schema::kDriveLatency, fmt::format("{:.9g}", board.hello.output_latency_s)},
+       {log_schema::kTimeOrigin, "seconds from the run's start (first drive deadline)"},
+       {log_schema::kTheta,
+        fmt::format("(displacement - first good displacement) / sensor.r2_m, "
+                    "r2_m = {:.9g} m{}",
+                    config.sensor.r2_m, remote ? " (the board's, from its hello)" : "")}});
+  if (!board.geometry_note.empty())
+    log.set_attribute(log_schema::kSensorGeometryNote, board.geometry_note);
+  return log;
+}
+
+/// The terminal's status line and the live page's status, as a run reports.
+std::function<void(const LiveStatus&)> status_reporter(const RunOptions& o, view::LiveFeed* live) {
+  if (o.json && live == nullptr) return {};
+  return [&o, live](const LiveStatus& st) {
+    if (!o.json) show_status(st);
+    if (live == nullptr) return;
+    live->set_status({{"t_s", st.t_s},
+                      {"duration_s", st.duration_s},
+                      {"V", st.V},
+                      {"theta_rad", st.theta_rad},
+                      {"residual_rad", st.residual_rad},
+                      {"sensor_samples", st.sensor_samples},
+                      {"sensor_errors", st.sensor_errors},
+                      {"overruns", st.overruns},
+                      {"board", st.board},
+                      {"errors_by_class", st.errors_by_class},
+                      {"lease_s", st.lease_s}});
+  };
+}
+
+/// Runs it; a failure before the run's end leaves the log marked failed
+/// with the reason (the log keeps what it has) and is thrown on.
+RunSummary drive(Board& board, const config::RigConfig& config, RunLog& log,
+                 const StopOnSignals& signals,
+                 const std::function<void(const LiveStatus&)>& status_line,
+                 const std::atomic<bool>& estop_requested) {
+  try {
+    const std::optional<double> lease = board.local ? std::optional(LocalBoard::kLease_s)
+                                        : config.board.lease_s > 0.0
+                                            ? std::optional(config.board.lease_s)
+                                            : std::nullopt;
+    RunSummary summary = execute_remote_run(config, *board.client, board.hello, log, signals.flag(),
+                                            status_line, lease, &estop_requested);
+    if (board.local && !log.broken()) {
+      log.set_attribute(log_schema::kBoardEvents, board.local->events());
+    }
+    return summary;
+  } catch (const std::exception& e) {
+    if (!log.broken()) {
+      try {
+        log.set_attribute(log_schema::kStopCause, "host_error");
+        log.set_attribute(log_schema::kError, e.what());
+        log.close("failed");
+      } catch (const std::exception&) {
+        log.abandon();
+      }
+    }
+    throw;
+  }
+}
+
+int run(const RunOptions& o, const RunProgram& program) {
+  // From here on every stopping signal ends the run through the ramp; one
+  // that comes during set-up stops it before the amplifier is enabled.
+  const StopOnSignals signals;
+  config::RigConfig config = rig_config(o, program);
+  const fs::path dir = choose_run_dir(o.out);
+  Board board;
+  connect(board, config);
+  std::optional<view::LiveFeed> live;
+  std::unique_ptr<view::ViewServer> server;
+  std::atomic<bool> estop_requested{false};
+  if (o.view) {
+    live.emplace(20.0, 3.0 / config.model.drive.f);
+    server = open_view(o, dir, *live, signals, estop_requested);
+  }
+  const std::string utc_start = utc_stamp("%Y-%m-%dT%H:%M:%SZ");
+  const fs::path log_path = dir / "run.h5";
+  RunLog log = create_log(dir, config, board, utc_start);
+  if (live) log.set_tap([&live](const log_schema::LogRows& rows) { live->add(rows); });
+  RunSummary summary = drive(board, config, log, signals,
+                             status_reporter(o, live ? &*live : nullptr), estop_requested);
+  if (!o.json && isatty(STDERR_FILENO)) write_out(stderr, "\n");
+  // The run's JSON, with the move's account (target, controller's result).
+  const auto result_json = [&] {
+    nlohmann::json j = summary_json(summary, dir, log_path, signals.received());
+    if (!summary.board.move.is_null()) j["move"] = summary.board.move;
+    return j;
+  };
+  nlohmann::json logged = result_json();
+  if (summary.board.has_calibration) logged["calibration"] = calibration_result(summary.board);
+  finish_log(log, summary, logged);
+  try {
+    append_catalogue(dir, utc_start, config, summary);
+  } catch (const std::exception& e) {
+    write_out(stderr, fmt::format("piezo: warning: catalogue not updated: {}\n", e.what()));
+  }
+  // Again: finishing the log may have failed the run.
+  return program.report(FinishedRun{o, summary, config, dir, log_path, signals.received(),
+                                    result_json(), *board.client, board.local != nullptr});
+}
+
+}  // namespace
+
+void add_run_options(CLI::App& cmd, RunOptions& o, const std::string& config_doc,
+                     const std::string& rig_doc, const std::string& json_doc) {
+  cmd.add_option("--config", o.config, config_doc)->check(CLI::ExistingFile);
+  cmd.add_option("--set", o.sets, "Override a config key: SECTION.KEY=VALUE");
+  cmd.add_option("--out", o.out, "Run directory (default: runs/<UTC time>)");
+  cmd.add_option("--rig", o.rig, rig_doc);
+  cmd.add_flag("--json", o.json, json_doc);
+  cmd.add_option("--view", o.view_listen,
+                 "Serve the live page to a browser on HOST:PORT (default 127.0.0.1:8080)")
+      ->expected(0, 1);
+  cmd.add_flag("--control", o.control,
+               "Let the live page stop and e-stop the run (with the token it prints)");
+  cmd.add_option("--allow-host", o.allow_hosts,
+                 "A host name the live page may be reached by besides its address and the "
+                 "loopback names (repeatable)");
+}
+
+CommandRunner run_command(CLI::App* cmd, std::shared_ptr<RunOptions> o, RunProgram program) {
+  return [cmd, o = std::move(o), program = std::move(program)]() {
+    if (!cmd->parsed()) return -1;
+    o->view = cmd->count("--view") > 0;
+    return run(*o, program);
+  };
+}
+
+}  // namespace piezo::host
