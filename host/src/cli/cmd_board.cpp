@@ -73,13 +73,7 @@ int call(const BoardOptions& o, const std::string& cmd) {
 
 }  // namespace
 
-CommandRunner add_board_commands(CLI::App& app) {
-  struct Entry {
-    std::string name;
-    CLI::App* cmd;
-    std::shared_ptr<BoardOptions> options;
-  };
-  auto entries = std::make_shared<std::vector<Entry>>();
+void add_board_commands(CLI::App& app, Commands& commands) {
   for (const auto& [name, help] : std::vector<std::pair<std::string, std::string>>{
            {"status", "Print piezod's state, fault, run and position"},
            {"zero", "Set the position's zero at the last sensor reading (moves are absolute)"},
@@ -93,14 +87,8 @@ CommandRunner add_board_commands(CLI::App& app) {
     cmd->add_option("--server-key", o->rig.server_public_key_file, "CURVE: the board's .pub file");
     cmd->add_option("--client-key", o->rig.client_secret_key_file, "CURVE: this host's .key file");
     cmd->add_flag("--json", o->json, "Print the reply as JSON");
-    entries->push_back({name, cmd, o});
+    commands.add(cmd, [o, name = name] { return call(*o, name); });
   }
-  return [entries]() {
-    for (const auto& e : *entries) {
-      if (e.cmd->parsed()) return call(*e.options, e.name);
-    }
-    return -1;
-  };
 }
 
 }  // namespace piezo::host

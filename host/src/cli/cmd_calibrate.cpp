@@ -61,7 +61,7 @@ int report_calibration(const FinishedRun& run) {
 
 }  // namespace
 
-CommandRunner add_calibrate_command(CLI::App& app) {
+void add_calibrate_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<RunOptions>();
   CLI::App* cmd = app.add_subcommand(
       "calibrate",
@@ -72,12 +72,12 @@ CommandRunner add_calibrate_command(CLI::App& app) {
                   "Print one JSON object: the calibration, where it is kept, files");
   cmd->add_option("--V0", o->V0, "Peak voltage of the steps [V] (default: the board's [drive] V0)");
   RunProgram program{[o](config::RigConfig& config) {
-                         config.run.calibrate = config::RunSettings::Calibrate{o->V0};
-                         config.run.duration_s =
-                             60.0;  // the board's plan says how long; its start reply tells
-                       },
-                       report_calibration};
-  return run_command(cmd, o, std::move(program));
+                       config.run.calibrate = config::RunSettings::Calibrate{o->V0};
+                       config.run.duration_s =
+                           60.0;  // the board's plan says how long; its start reply tells
+                     },
+                     report_calibration};
+  commands.add(cmd, run_command(cmd, o, std::move(program)));
 }
 
 }  // namespace piezo::host

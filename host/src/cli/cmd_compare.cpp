@@ -90,7 +90,7 @@ int run(const CompareOptions& o) {
 
 }  // namespace
 
-CommandRunner add_compare_command(CLI::App& app) {
+void add_compare_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<CompareOptions>();
   CLI::App* cmd =
       app.add_subcommand("compare", "Coulomb against LuGre on a logged run (Table III)");
@@ -102,7 +102,7 @@ CommandRunner add_compare_command(CLI::App& app) {
   add_log_layout_options(*cmd, o->layout);
   cmd->add_option("--out", o->out, "Directory for the overlay plot (paper Fig. 13)");
   cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
-  return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
+  commands.add(cmd, [o] { return run(*o); });
 }
 
 }  // namespace piezo::host

@@ -76,7 +76,7 @@ int run(const IdentifyOptions& o) {
 
 }  // namespace
 
-CommandRunner add_identify_command(CLI::App& app) {
+void add_identify_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<IdentifyOptions>();
   CLI::App* cmd = app.add_subcommand("identify", "Fit model parameters to a logged run");
   cmd->add_option("--log", o->log,
@@ -93,7 +93,7 @@ CommandRunner add_identify_command(CLI::App& app) {
       ->check(CLI::ExistingFile);
   cmd->add_option("--out", o->out, "Write the fitted parameters as TOML");
   cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
-  return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
+  commands.add(cmd, [o] { return run(*o); });
 }
 
 }  // namespace piezo::host

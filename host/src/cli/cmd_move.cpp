@@ -131,7 +131,7 @@ std::string move_text(const nlohmann::json& m) {
 
 }  // namespace
 
-CommandRunner add_move_command(CLI::App& app) {
+void add_move_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<RunOptions>();
   auto m = std::make_shared<MoveOptions>();
   CLI::App* cmd = app.add_subcommand(
@@ -146,22 +146,22 @@ CommandRunner add_move_command(CLI::App& app) {
                   "Coarse steps' frequency [Hz] (default: the board's calibrated fastest, else "
                   "its [drive] f)");
   RunProgram program{[m, o](config::RigConfig& config) {
-                    config.run.move = move_request(*m, *o, config.run.move_defaults);
-                    config.run.duration_s = config.run.move->timeout_s;
-                  },
-                  [](const FinishedRun& run) {
-                    const nlohmann::json move = move_result(run.summary, run.result);
-                    write_out(stdout, run.options.json
-                                          ? move.dump() + "\n"
-                                          : move_text(move) + summary_text(run.summary, run.log,
-                                                                           run.signal, nullptr));
-                    if (run.summary.output_state() != "confirmed") {
-                      write_out(stderr, "piezo: " + output_line(run.summary) + "\n");
-                    }
-                    if (exit_code(run.summary) != 0) return exit_code(run.summary);
-                    return move.at("on_target").get<bool>() ? 0 : kExitFailed;
-                  }};
-  return run_command(cmd, o, std::move(program));
+                       config.run.move = move_request(*m, *o, config.run.move_defaults);
+                       config.run.duration_s = config.run.move->timeout_s;
+                     },
+                     [](const FinishedRun& run) {
+                       const nlohmann::json move = move_result(run.summary, run.result);
+                       write_out(stdout, run.options.json
+                                             ? move.dump() + "\n"
+                                             : move_text(move) + summary_text(run.summary, run.log,
+                                                                              run.signal, nullptr));
+                       if (run.summary.output_state() != "confirmed") {
+                         write_out(stderr, "piezo: " + output_line(run.summary) + "\n");
+                       }
+                       if (exit_code(run.summary) != 0) return exit_code(run.summary);
+                       return move.at("on_target").get<bool>() ? 0 : kExitFailed;
+                     }};
+  commands.add(cmd, run_command(cmd, o, std::move(program)));
 }
 
 }  // namespace piezo::host

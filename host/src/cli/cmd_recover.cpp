@@ -137,7 +137,7 @@ int run(const RecoverOptions& o) {
 
 }  // namespace
 
-CommandRunner add_recover_command(CLI::App& app) {
+void add_recover_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<RecoverOptions>();
   CLI::App* cmd = app.add_subcommand(
       "recover", "Rebuild a crashed run's run.h5 from its journal, marked recovered");
@@ -151,7 +151,7 @@ CommandRunner add_recover_command(CLI::App& app) {
   cmd->add_option("--config", o->config, "With --spill: the rig's config, for the sensor's r2")
       ->check(CLI::ExistingFile);
   cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
-  return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
+  commands.add(cmd, [o] { return run(*o); });
 }
 
 }  // namespace piezo::host

@@ -165,7 +165,7 @@ int run(const ReportOptions& o) {
 
 }  // namespace
 
-CommandRunner add_report_command(CLI::App& app) {
+void add_report_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<ReportOptions>();
   CLI::App* cmd = app.add_subcommand("report", "Plot a logged run");
   cmd->add_option("RUN_DIR", o->input,
@@ -178,7 +178,7 @@ CommandRunner add_report_command(CLI::App& app) {
       ->check(CLI::ExistingFile);
   cmd->add_option("--out", o->out, "Folder for the plots (default RUN_DIR/report)");
   cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
-  return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
+  commands.add(cmd, [o] { return run(*o); });
 }
 
 }  // namespace piezo::host

@@ -88,7 +88,7 @@ int run(const RigSimOptions& o) {
 
 }  // namespace
 
-CommandRunner add_rig_sim_command(CLI::App& app) {
+void add_rig_sim_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<RigSimOptions>();
   CLI::App* cmd = app.add_subcommand("rig-sim", "Serve the simulated rig as a Modbus device");
   cmd->add_option("--config", o->config,
@@ -98,7 +98,7 @@ CommandRunner add_rig_sim_command(CLI::App& app) {
   cmd->add_option("--set", o->sets, "Override a config key: SECTION.KEY=VALUE");
   cmd->add_option("--tcp", o->tcp, "Listen on HOST:PORT (default: [sensor] host and port)");
   cmd->add_option("--rtu", o->rtu, "Serve RTU on this serial device or pseudo-terminal");
-  return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
+  commands.add(cmd, [o] { return run(*o); });
 }
 
 }  // namespace piezo::host

@@ -4,7 +4,7 @@
 
 namespace piezo::host {
 
-CommandRunner add_run_command(CLI::App& app) {
+void add_run_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<RunOptions>();
   CLI::App* cmd = app.add_subcommand("run", "Drive the rig and log the run");
   add_run_options(*cmd, *o,
@@ -16,8 +16,9 @@ CommandRunner add_run_command(CLI::App& app) {
   cmd->add_option("--duration", o->duration, "Run time [s] (default: [run] duration_s)")
       ->check(CLI::PositiveNumber);
   cmd->add_flag("--reverse", o->reverse, "Drive the mirrored sawtooth: the rotor turns backwards");
-  return run_command(
-      cmd, o, {{}, [](const FinishedRun& run) { return print_run(run, run.result, nullptr); }});
+  commands.add(cmd, run_command(cmd, o, {{}, [](const FinishedRun& run) {
+                                           return print_run(run, run.result, nullptr);
+                                         }}));
 }
 
 }  // namespace piezo::host

@@ -134,7 +134,7 @@ int run(const SensitivityOptions& o) {
 
 }  // namespace
 
-CommandRunner add_sensitivity_command(CLI::App& app) {
+void add_sensitivity_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<SensitivityOptions>();
   CLI::App* cmd = app.add_subcommand("sensitivity", "The paper's section 5 sensitivity study");
   cmd->add_option("--config", o->config, "TOML config with [drive] and [model] (the baseline)")
@@ -162,7 +162,7 @@ CommandRunner add_sensitivity_command(CLI::App& app) {
   cmd->add_option("--bootstrap", o->global.bootstrap,
                   "sobol: bootstrap resamples for the intervals")
       ->capture_default_str();
-  return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
+  commands.add(cmd, [o] { return run(*o); });
 }
 
 }  // namespace piezo::host

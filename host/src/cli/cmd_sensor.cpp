@@ -123,7 +123,7 @@ int list(const SensorReadOptions& o) {
   return 0;
 }
 
-CommandRunner add_sensor_command(CLI::App& app) {
+void add_sensor_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<SensorReadOptions>();
   CLI::App* sensor = app.add_subcommand("sensor", "Work with the displacement sensor");
   sensor->require_subcommand(1);
@@ -142,10 +142,8 @@ CommandRunner add_sensor_command(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingFile);
   list_devices->add_option("--set", o->sets, "Override a config key: SECTION.KEY=VALUE");
-  return [o, read, list_devices]() {
-    if (read->parsed()) return run(*o);
-    return list_devices->parsed() ? list(*o) : -1;
-  };
+  commands.add(read, [o] { return run(*o); });
+  commands.add(list_devices, [o] { return list(*o); });
 }
 
 }  // namespace piezo::host

@@ -128,7 +128,7 @@ int run(const SimulateOptions& o) {
 
 }  // namespace
 
-CommandRunner add_simulate_command(CLI::App& app) {
+void add_simulate_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<SimulateOptions>();
   CLI::App* cmd = app.add_subcommand("simulate", "Simulate the motor from rest");
   cmd->add_option("--config", o->config, "TOML config with [drive] and [model]")
@@ -161,7 +161,7 @@ CommandRunner add_simulate_command(CLI::App& app) {
   cmd->add_option("--direction", o->direction,
                   "forward (slow rise, fast fall) or reverse (the mirrored sawtooth)")
       ->capture_default_str();
-  return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
+  commands.add(cmd, [o] { return run(*o); });
 }
 
 }  // namespace piezo::host

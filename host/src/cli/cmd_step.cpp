@@ -4,7 +4,7 @@
 
 namespace piezo::host {
 
-CommandRunner add_step_command(CLI::App& app) {
+void add_step_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<RunOptions>();
   auto count = std::make_shared<std::uint64_t>(0);
   CLI::App* cmd = app.add_subcommand(
@@ -19,21 +19,21 @@ CommandRunner add_step_command(CLI::App& app) {
   cmd->add_option("--V0", o->V0, "Peak voltage [V] (default: [drive] V0)");
   cmd->add_option("--f", o->f, "Drive frequency [Hz] (default: [drive] f)");
   RunProgram program{[count](config::RigConfig& config) {
-                    config.run.step_periods = *count;
-                    config.run.duration_s = static_cast<double>(*count) / config.model.drive.f;
-                  },
-                  [count](const FinishedRun& run) {
-                    const double travel = run.summary.theta_end_rad;
-                    const nlohmann::json steps = {
-                        {"count", *count},
-                        {"direction", model::name(run.config.model.drive.direction)},
-                        {"travel_rad", travel},
-                        {"mean_step_rad", travel / static_cast<double>(*count)}};
-                    nlohmann::json result = run.result;
-                    result["steps"] = steps;
-                    return print_run(run, result, steps);
-                  }};
-  return run_command(cmd, o, std::move(program));
+                       config.run.step_periods = *count;
+                       config.run.duration_s = static_cast<double>(*count) / config.model.drive.f;
+                     },
+                     [count](const FinishedRun& run) {
+                       const double travel = run.summary.theta_end_rad;
+                       const nlohmann::json steps = {
+                           {"count", *count},
+                           {"direction", model::name(run.config.model.drive.direction)},
+                           {"travel_rad", travel},
+                           {"mean_step_rad", travel / static_cast<double>(*count)}};
+                       nlohmann::json result = run.result;
+                       result["steps"] = steps;
+                       return print_run(run, result, steps);
+                     }};
+  commands.add(cmd, run_command(cmd, o, std::move(program)));
 }
 
 }  // namespace piezo::host

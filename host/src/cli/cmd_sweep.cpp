@@ -273,7 +273,7 @@ int run(const SweepOptions& o) {
 
 }  // namespace
 
-CommandRunner add_sweep_command(CLI::App& app) {
+void add_sweep_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<SweepOptions>();
   CLI::App* cmd = app.add_subcommand(
       "sweep", "One parameter over a wide range: velocity, step and backward slip per period");
@@ -296,7 +296,7 @@ CommandRunner add_sweep_command(CLI::App& app) {
   cmd->add_flag("--log2", o->log2, "Space --param2's values geometrically");
   cmd->add_option("--out", o->out, "Directory for sweep.csv and sweep.png (map_*.csv, map.png)");
   cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
-  return [o, cmd]() { return cmd->parsed() ? run(*o) : -1; };
+  commands.add(cmd, [o] { return run(*o); });
 }
 
 }  // namespace piezo::host

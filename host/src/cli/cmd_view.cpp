@@ -63,7 +63,7 @@ int serve(const ViewCliOptions& o) {
 
 }  // namespace
 
-CommandRunner add_view_command(CLI::App& app) {
+void add_view_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<ViewCliOptions>();
   o->server.runs_dir = "runs";
   CLI::App* cmd = app.add_subcommand(
@@ -80,7 +80,7 @@ CommandRunner add_view_command(CLI::App& app) {
   cmd->add_option("--allow-host", o->server.allowed_hosts,
                   "A host name the pages may be reached by besides the address and the "
                   "loopback names (repeatable)");
-  return [o, cmd]() { return cmd->parsed() ? serve(*o) : -1; };
+  commands.add(cmd, [o] { return serve(*o); });
 }
 
 }  // namespace piezo::host

@@ -1,33 +1,58 @@
 #pragma once
-// The `piezo` subcommands. Each registers its options on the CLI and returns
-// a callable that runs it and yields the process exit code.
+// The `piezo` subcommands. Each registers its options on the CLI and what
+// it runs (yielding the process's exit code) with `Commands`; main runs the
+// one the command line chose.
 
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <utility>
+#include <vector>
 
 namespace piezo::host {
 
 using CommandRunner = std::function<int()>;
+
+/// What each subcommand runs, by the subcommand it belongs to.
+class Commands {
+ public:
+  void add(const CLI::App* command, CommandRunner run) {
+    runners_.emplace_back(command, std::move(run));
+  }
+  /// What the command line chose: the deepest parsed subcommand's runner
+  /// (`piezo sensor read`'s, not `sensor`'s), or nullptr.
+  [[nodiscard]] const CommandRunner* chosen(const CLI::App& app) const {
+    for (const CLI::App* sub : app.get_subcommands()) {
+      if (const CommandRunner* deeper = chosen(*sub)) return deeper;
+      for (const auto& [command, run] : runners_) {
+        if (command == sub) return &run;
+      }
+    }
+    return nullptr;
+  }
+
+ private:
+  std::vector<std::pair<const CLI::App*, CommandRunner>> runners_;
+};
 
 struct LogLayout;
 /// --t, --V, --theta, --theta-t: where another tool's log keeps its data
 /// (identify, compare and report read the same files).
 void add_log_layout_options(CLI::App& cmd, LogLayout& layout);
 
-CommandRunner add_simulate_command(CLI::App& app);
-CommandRunner add_sensitivity_command(CLI::App& app);
-CommandRunner add_sweep_command(CLI::App& app);
-CommandRunner add_run_command(CLI::App& app);
-CommandRunner add_step_command(CLI::App& app);
-CommandRunner add_move_command(CLI::App& app);
-CommandRunner add_calibrate_command(CLI::App& app);
-CommandRunner add_view_command(CLI::App& app);
-CommandRunner add_report_command(CLI::App& app);
-CommandRunner add_recover_command(CLI::App& app);
-CommandRunner add_sensor_command(CLI::App& app);
-CommandRunner add_rig_sim_command(CLI::App& app);
-CommandRunner add_identify_command(CLI::App& app);
-CommandRunner add_compare_command(CLI::App& app);
-CommandRunner add_board_commands(CLI::App& app);
+void add_simulate_command(CLI::App& app, Commands& commands);
+void add_sensitivity_command(CLI::App& app, Commands& commands);
+void add_sweep_command(CLI::App& app, Commands& commands);
+void add_run_command(CLI::App& app, Commands& commands);
+void add_step_command(CLI::App& app, Commands& commands);
+void add_move_command(CLI::App& app, Commands& commands);
+void add_calibrate_command(CLI::App& app, Commands& commands);
+void add_view_command(CLI::App& app, Commands& commands);
+void add_report_command(CLI::App& app, Commands& commands);
+void add_recover_command(CLI::App& app, Commands& commands);
+void add_sensor_command(CLI::App& app, Commands& commands);
+void add_rig_sim_command(CLI::App& app, Commands& commands);
+void add_identify_command(CLI::App& app, Commands& commands);
+void add_compare_command(CLI::App& app, Commands& commands);
+void add_board_commands(CLI::App& app, Commands& commands);
 
 }  // namespace piezo::host

@@ -51,16 +51,17 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version",
                        std::string("piezo ") + PIEZO_VERSION + " (" + PIEZO_BUILD_INFO + ")");
   app.require_subcommand(1);
-  const std::vector<piezo::host::CommandRunner> commands{
-      piezo::host::add_simulate_command(app),  piezo::host::add_sensitivity_command(app),
-      piezo::host::add_sweep_command(app),     piezo::host::add_run_command(app),
-      piezo::host::add_step_command(app),      piezo::host::add_move_command(app),
-      piezo::host::add_calibrate_command(app), piezo::host::add_view_command(app),
-      piezo::host::add_report_command(app),    piezo::host::add_recover_command(app),
-      piezo::host::add_sensor_command(app),    piezo::host::add_rig_sim_command(app),
-      piezo::host::add_identify_command(app),  piezo::host::add_compare_command(app),
-      piezo::host::add_board_commands(app),
-  };
+  piezo::host::Commands commands;
+  for (const auto add :
+       {piezo::host::add_simulate_command, piezo::host::add_sensitivity_command,
+        piezo::host::add_sweep_command, piezo::host::add_run_command, piezo::host::add_step_command,
+        piezo::host::add_move_command, piezo::host::add_calibrate_command,
+        piezo::host::add_view_command, piezo::host::add_report_command,
+        piezo::host::add_recover_command, piezo::host::add_sensor_command,
+        piezo::host::add_rig_sim_command, piezo::host::add_identify_command,
+        piezo::host::add_compare_command, piezo::host::add_board_commands}) {
+    add(app, commands);
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -75,9 +76,7 @@ int main(int argc, char** argv) {
   }
   const bool json = json_asked(app);
   try {
-    for (const auto& command : commands) {
-      if (const int code = command(); code >= 0) return code;
-    }
+    if (const piezo::host::CommandRunner* run = commands.chosen(app)) return (*run)();
   } catch (const piezo::config::ConfigError& e) {
     return report_error(json, kExitBadInput, "bad_input", e.key(), e.what());
   } catch (const piezo::protocol::ProtocolError& e) {

@@ -496,7 +496,6 @@ void add_run_options(CLI::App& cmd, RunOptions& o, const std::string& config_doc
 
 CommandRunner run_command(CLI::App* cmd, std::shared_ptr<RunOptions> o, RunProgram program) {
   return [cmd, o = std::move(o), program = std::move(program)]() {
-    if (!cmd->parsed()) return -1;
     o->view = cmd->count("--view") > 0;
     return run(*o, program);
   };

@@ -64,7 +64,7 @@ struct RunProgram {
 /// (`json_doc`), and the live view's --view, --control, --allow-host.
 void add_run_options(CLI::App& cmd, RunOptions& o, const std::string& config_doc,
                      const std::string& rig_doc, const std::string& json_doc);
-/// Runs `program` once `cmd` is parsed.
+/// What `cmd` runs: `program`, with the options it was given.
 [[nodiscard]] CommandRunner run_command(CLI::App* cmd, std::shared_ptr<RunOptions> o,
                                         RunProgram program);
 
