@@ -1,5 +1,5 @@
 #pragma once
-// What `piezo` exits with, for every command (docs/commands.md, "Exit codes").
+// What `piezo` exits with, for every command (docs/commands.md says when).
 
 namespace piezo::host {
 
