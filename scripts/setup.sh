@@ -6,8 +6,8 @@
 # qemu, busybox-static, the kernel source and its build tools; --arm64, or
 # the preset arm64, adds Debian's arm64 cross toolchain, the :arm64 -dev
 # packages (dpkg --add-architecture arm64) and qemu-user, and builds the
-# board build in build/arm64 as well; --peers adds SciPy and GNU Octave,
-# which only tests/bench/bench_peers.py uses)
+# board build in build/arm64 as well; --peers adds SciPy, GNU Octave and
+# numba, which only tests/bench/bench_peers.py uses)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 preset="default"
@@ -38,7 +38,7 @@ packages=(
   pybind11-dev python3-dev python3-pandas python3-pytest python3-matplotlib mypy
   python3-nbclient python3-nbformat python3-ipykernel
 )
-if [ -n "$peers" ]; then packages+=(python3-scipy octave); fi
+if [ -n "$peers" ]; then packages+=(python3-scipy octave python3-numba); fi
 # The web view's plots (uPlot) come from the npm registry; npm from Debian
 # unless a Node.js install already brings its own.
 command -v npm > /dev/null || packages+=(npm)

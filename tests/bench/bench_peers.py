@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """The LuGre model at the Table 1 baseline for 4.8 s, solved the way a
 researcher would otherwise solve it -- SciPy's solve_ivp (LSODA, Radau,
-DOP853) and GNU Octave's ode45 and ode15s (MATLAB's solvers' twins), each
-on the equations of docs/model.md written in its own language -- beside
+DOP853), GNU Octave's ode45 and ode15s (MATLAB's solvers' twins) and a
+fixed-step RK4 at 1 us compiled by numba, each on the equations of
+docs/model.md written in its own language -- beside
 piezo_rig.model.simulate and `piezo simulate`, one run on one machine.
 
 For each peer the tolerance is tightened (1e-5, 1e-7, 1e-9, 1e-11 relative,
@@ -13,8 +14,13 @@ project's hybrid integrator at 1e-10, itself checked against DOPRI5 at
 steps, right-hand-side evaluations, error. A peer that needs more than
 --budget seconds for one solve is reported as such.
 
+The numba row is one fixed step, not a tolerance: its wall time is the
+solve after a first call has compiled it (the compile time is printed
+beside).
+
 usage: bench_peers.py PIEZO_BINARY [--budget S] [--skip-octave]
-(PYTHONPATH=<build>/python; needs python3-scipy and octave)"""
+(PYTHONPATH=<build>/python; needs python3-scipy, and octave and
+python3-numba for their rows)"""
 
 import argparse
 import json
@@ -102,6 +108,64 @@ def octave_solve(solver, tol, budget):
                                                                          "rhs_evaluations": None}
 
 
+def numba_rk4(step_s):
+    """Classic RK4 at a fixed step, the model's right-hand side and the loop
+    compiled by numba; theta every 1 ms. Returns (wall, compile, theta)."""
+    import numba
+    V0, f, C_dr, e_dr = p.V0, p.f, p.C_dr, p.e_dr
+    M, C, K, d_e, J, r = p.M, p.C, p.K, p.d_e, p.J, p.r
+    s0, s1, s2 = p.sigma0, p.sigma1, p.sigma2
+    period, rise = 1.0 / f, C_dr * e_dr
+
+    @numba.njit(cache=False, fastmath=False)
+    def derivative(t, y, out):
+        tau = t % period
+        if tau < rise * period:
+            V = V0 * tau / (rise * period)
+        else:
+            V = V0 * (period - tau) / ((1 - rise) * period)
+        v = y[1] - r * y[3]
+        zd = v - s0 * abs(v) * y[4] / Fc
+        F = s0 * y[4] + s1 * zd + s2 * v
+        out[0] = y[1]
+        out[1] = (K * d_e * V - C * y[1] - K * y[0] - F) / M
+        out[2] = y[3]
+        out[3] = r * F / J
+        out[4] = zd
+
+    @numba.njit(cache=False)
+    def solve(h, steps, every):
+        y = np.zeros(5)
+        k1, k2, k3, k4, tmp = np.zeros(5), np.zeros(5), np.zeros(5), np.zeros(5), np.zeros(5)
+        theta = np.zeros(steps // every + 1)
+        for n in range(steps):
+            t = n * h
+            derivative(t, y, k1)
+            for i in range(5):
+                tmp[i] = y[i] + 0.5 * h * k1[i]
+            derivative(t + 0.5 * h, tmp, k2)
+            for i in range(5):
+                tmp[i] = y[i] + 0.5 * h * k2[i]
+            derivative(t + 0.5 * h, tmp, k3)
+            for i in range(5):
+                tmp[i] = y[i] + h * k3[i]
+            derivative(t + h, tmp, k4)
+            for i in range(5):
+                y[i] += h / 6.0 * (k1[i] + 2 * k2[i] + 2 * k3[i] + k4[i])
+            if (n + 1) % every == 0:
+                theta[(n + 1) // every] = y[2]
+        return theta
+
+    every = round(1e-3 / step_s)
+    steps = round(DURATION / step_s)
+    start = time.perf_counter()
+    solve(step_s, every, every)  # compiles both functions
+    compile_s = time.perf_counter() - start
+    start = time.perf_counter()
+    theta = solve(step_s, steps, every)
+    return time.perf_counter() - start, compile_s, theta
+
+
 def own_simulate(tol):
     start = time.perf_counter()
     sim = model.simulate(p, DURATION, dt=1e-3, tolerance=tol)
@@ -163,6 +227,19 @@ def main():
             rows.append(tighten(f"Octave {solver}",
                                 lambda t, s=solver: octave_solve(s, t, args.budget), reference,
                                 args.budget))
+    try:
+        import numba  # noqa: F401  (python3-numba)
+        have_numba = True
+    except ImportError:
+        have_numba = False
+    if have_numba:
+        wall, compile_s, theta = numba_rk4(1e-6)
+        e = error(theta, reference)
+        print(f"  numba RK4 at 1 us: {wall:.3f} s (compiled in {compile_s:.2f} s), error {e:.2e}",
+              file=sys.stderr, flush=True)
+        rows.append({"name": "numba RK4, fixed 1 us", "tol": 1e-6, "wall": wall, "error": e,
+                     "steps": round(DURATION / 1e-6), "rhs_evaluations": 4 * round(DURATION / 1e-6),
+                     "tol_text": "h = 1 us"})
     base = rows[0]["wall"]
     print("| solver | tolerance | wall [s] | / piezo_rig | steps | RHS evaluations | error |")
     print("|---|---|---|---|---|---|---|")
@@ -174,7 +251,8 @@ def main():
         if "wall" not in r:
             print(f"| {r['name']} | {r['tol']:g} | – | – | – | – | {r['note']} |")
             continue
-        print(f"| {r['name']} | {r['tol']:g} | {r['wall']:.3f} | {r['wall'] / base:.1f} | "
+        tol_text = r.get("tol_text", format(r["tol"], "g"))
+        print(f"| {r['name']} | {tol_text} | {r['wall']:.3f} | {r['wall'] / base:.1f} | "
               f"{cell(r.get('steps'), 'd')} | {cell(r.get('rhs_evaluations'), 'd')} | "
               f"{cell(r.get('error'), '.1e')} |")
 
