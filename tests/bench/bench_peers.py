@@ -191,7 +191,8 @@ def tighten(name, solve, reference, budget):
         except subprocess.TimeoutExpired:
             return {"name": name, "tol": tol, "note": f"over the {budget:g} s budget"}
         except Exception as e:  # a solver that fails is reported, the others go on
-            return {"name": name, "tol": tol, "note": f"failed: {e}"}
+            # One table cell: the message's lines run together, its start kept.
+            return {"name": name, "tol": tol, "note": "failed: " + " ".join(str(e).split())[:160]}
         e = error(theta, reference)
         print(f"  {name} at {tol:g}: {wall:.3f} s, error {e:.2e}", file=sys.stderr, flush=True)
         if e <= GOAL:
