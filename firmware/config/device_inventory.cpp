@@ -11,7 +11,7 @@ std::string block(const std::string& kind, const std::string& backend, const std
 
 }  // namespace
 
-std::string device_inventory(const RigConfig& config, bool with_lines) {
+std::string device_inventory(const BoardConfig& config, bool with_lines) {
   const std::string drive = config.drive.backends.chosen().inventory();
   const std::string sensor = config.sensor.backends.chosen().inventory();
   std::string out = block("drive", config.drive.backend(), drive);

@@ -13,6 +13,6 @@ namespace piezo::config {
 
 /// One block per kind (drive, sensor, lines), each "KIND (BACKEND): ..."; a
 /// device that serves two kinds is listed once.
-[[nodiscard]] std::string device_inventory(const RigConfig& config, bool with_lines);
+[[nodiscard]] std::string device_inventory(const BoardConfig& config, bool with_lines);
 
 }  // namespace piezo::config

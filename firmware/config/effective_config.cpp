@@ -6,28 +6,30 @@
 
 namespace piezo::config {
 
-std::string effective_config_toml(const RigConfig& c) {
+std::string effective_config_toml(const RigConfig& file) {
+  const BoardConfig& c = file.board;
+  const HostConfig& h = file.host;
   toml::table drive, motor;
   for (const auto& spec : model::parameter_specs()) {
-    const double v = *model::get_parameter(c.model, spec.name);
+    const double v = *model::get_parameter(h.model, spec.name);
     (spec.section == "drive" ? drive : motor).insert(std::string(spec.name), v);
   }
-  drive.insert("direction", std::string(model::name(c.model.drive.direction)));
+  drive.insert("direction", std::string(model::name(h.model.drive.direction)));
   drive.insert("rate_hz", c.drive.rate_hz);
   drive.insert("V_min", c.drive.limits.V_min);
   drive.insert("V_max", c.drive.limits.V_max);
   drive.insert("slew_V_per_s", c.drive.limits.slew_V_per_s);
   const toml::table sensor{{"r2_m", c.sensor.r2_m}, {"rate_hz", c.sensor.rate_hz}};
-  const toml::table run{{"duration_s", c.run.duration_s},
+  const toml::table run{{"duration_s", h.run.duration_s},
                         {"clock", std::string(name(c.run.clock))}};
-  const toml::table observer{{"enabled", c.observer.enabled},
-                             {"alpha", c.observer.gains.alpha},
-                             {"beta", c.observer.gains.beta},
-                             {"gate_rad", c.observer.gains.gate_rad}};
+  const toml::table observer{{"enabled", h.observer.enabled},
+                             {"alpha", h.observer.gains.alpha},
+                             {"beta", h.observer.gains.beta},
+                             {"gate_rad", h.observer.gains.gate_rad}};
   toml::table out{
       {"drive", drive}, {"model", motor}, {"sensor", sensor}, {"run", run}, {"observer", observer}};
-  if (!c.board.address.empty()) {
-    out.insert("rig", toml::table{{"address", c.board.address}, {"lease_s", c.board.lease_s}});
+  if (!h.rig.address.empty()) {
+    out.insert("rig", toml::table{{"address", h.rig.address}, {"lease_s", h.rig.lease_s}});
   }
   std::ostringstream text;
   text << out << "\n";

@@ -20,7 +20,7 @@ std::unique_ptr<hal::Clock> make_clock(RunClock clock) {
 
 /// The simulated rig: its drive, sensor and lines share one plant, so it is
 /// made once from the three backends' sections.
-std::shared_ptr<hal::sim::SimRig> make_sim_rig(const RigConfig& c, hal::Clock& clock,
+std::shared_ptr<hal::sim::SimRig> make_sim_rig(const BoardConfig& c, hal::Clock& clock,
                                                hal::TimeNs t0) {
   const auto& drive = c.drive.backends.get<hal::sim::SimDriveBackend>();
   const hal::DriveCommon common = c.drive_common();
@@ -34,7 +34,7 @@ std::shared_ptr<hal::sim::SimRig> make_sim_rig(const RigConfig& c, hal::Clock& c
   return std::make_shared<hal::sim::SimRig>(settings, clock, t0);
 }
 
-std::unique_ptr<hal::DisplacementSensor> held_to_range(const RigConfig& c,
+std::unique_ptr<hal::DisplacementSensor> held_to_range(const BoardConfig& c,
                                                        hal::DisplacementSensor& sensor) {
   return std::make_unique<hal::RangeCheckedSensor>(sensor, c.sensor.range_min_m,
                                                    c.sensor.range_max_m);
@@ -42,7 +42,7 @@ std::unique_ptr<hal::DisplacementSensor> held_to_range(const RigConfig& c,
 
 }  // namespace
 
-Rig build_rig(const RigConfig& c) {
+Rig build_rig(const BoardConfig& c) {
   Rig rig;
   rig.clock = make_clock(c.run.clock);
   rig.t0 = rig.clock->now();
@@ -62,7 +62,7 @@ Rig build_rig(const RigConfig& c) {
   return rig;
 }
 
-SensorRig build_sensor(const RigConfig& c) {
+SensorRig build_sensor(const BoardConfig& c) {
   SensorRig s;
   s.clock = std::make_unique<hal::posix::MonotonicClock>();
   const auto& backend = c.sensor.backends.chosen();

@@ -44,7 +44,7 @@ struct Rig {
 /// Builds the clock and the backends; throws ConfigError when the drive
 /// hardware cannot honour the configured limits, std::runtime_error when a
 /// device cannot be reached.
-[[nodiscard]] Rig build_rig(const RigConfig& config);
+[[nodiscard]] Rig build_rig(const BoardConfig& config);
 
 /// Just the sensor, on the real clock: for `piezo sensor read`.
 struct SensorRig {
@@ -53,6 +53,6 @@ struct SensorRig {
   std::unique_ptr<hal::DisplacementSensor> checked_sensor;  ///< as in Rig
   hal::DisplacementSensor* sensor = nullptr;
 };
-[[nodiscard]] SensorRig build_sensor(const RigConfig& config);
+[[nodiscard]] SensorRig build_sensor(const BoardConfig& config);
 
 }  // namespace piezo::config

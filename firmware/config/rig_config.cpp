@@ -74,11 +74,12 @@ void read_lines(SectionReader r, LinesSettings& l) {
   r.finish();
 }
 
-void read_run(SectionReader r, RunSettings& run) {
+/// [run]: the host's keys and the board's share the section.
+void read_run(SectionReader r, RunSettings& run, BoardRunSettings& board) {
   r.number("duration_s", run.duration_s, {0.0, 1e6, true}, "s");
-  r.choice("clock", run.clock, kRunClockNames);
-  r.integer("priority", run.priority, 0, 99);
-  r.flag("lock_memory", run.lock_memory);
+  r.choice("clock", board.clock, kRunClockNames);
+  r.integer("priority", board.priority, 0, 99);
+  r.flag("lock_memory", board.lock_memory);
   r.number("flush_interval_s", run.flush_interval_s, {0.01, 1.0}, "s");
   r.finish();
 }
@@ -172,28 +173,34 @@ void read_safety(SectionReader r, firmware::SafetySettings& s) {
   r.finish();
 }
 
-/// Everything one table (the file, or one --set) says, read over `c`.
-/// [plant] keys are collected apart: the plant is [model] overlaid with them.
+/// Everything one table (the file, or one --set) says, read over `c`: each
+/// section into the part of the process that reads it. [plant] keys are
+/// collected apart: the plant is [model] overlaid with them.
 void read_tables(const toml::table& t, const std::string& source, RigConfig& c,
                  model::MotorParameters& plant_keys, KeyDeclarations* declarations = nullptr) {
   TableReader file(t, source, declarations);
-  read_drive(file.section("drive"), c.drive, c.model);
+  BoardConfig& board = c.board;
+  HostConfig& host = c.host;
+  read_drive(file.section("drive"), board.drive, board.model);
   SectionReader model = file.section("model");
-  read_motor(model, c.model.motor);
+  read_motor(model, board.model.motor);
   model.finish();
+  // The waveform and the model are the board's defaults and what the host's
+  // run asks for: one file says both.
+  host.model = board.model;
   SectionReader plant = file.section("plant");
   read_motor(plant, plant_keys);
-  plant.number("end_stop_rad", c.plant_end_stop_rad, {-10.0, 10.0}, "rad");
+  plant.number("end_stop_rad", board.plant_end_stop_rad, {-10.0, 10.0}, "rad");
   plant.finish();
-  read_sensor(file.section("sensor"), c.sensor);
-  read_lines(file.section("lines"), c.lines);
-  read_run(file.section("run"), c.run);
-  read_move(file.section("move"), c.run.move_defaults);
-  read_safety(file.section("safety"), c.safety);
-  read_rig_sim(file.section("rig_sim"), c.rig_sim, c.rig_sim_tcp);
-  read_observer(file.section("observer"), c.observer);
-  read_daemon(file.section("piezod"), c.daemon);
-  read_board_address(file.section("rig"), c.board);
+  read_sensor(file.section("sensor"), board.sensor);
+  read_lines(file.section("lines"), board.lines);
+  read_run(file.section("run"), host.run, board.run);
+  read_move(file.section("move"), host.run.move_defaults);
+  read_safety(file.section("safety"), board.safety);
+  read_rig_sim(file.section("rig_sim"), c.rig_sim.faults, c.rig_sim.tcp);
+  read_observer(file.section("observer"), host.observer);
+  read_daemon(file.section("piezod"), board.daemon);
+  read_board_address(file.section("rig"), host.rig);
   file.finish();
 }
 
@@ -254,7 +261,7 @@ void check_each(const Backends<Base>& kind, const Common& common, const hal::Sou
   for (const auto& b : kind.all) b->check(common, b->name() == kind.backend, src);
 }
 
-void check_backends(const RigConfig& c, const hal::SourceOf& src) {
+void check_backends(const BoardConfig& c, const hal::SourceOf& src) {
   if (!(c.sensor.range_min_m < c.sensor.range_max_m)) {
     throw ConfigError(src("sensor.range_max_m"), "sensor.range_max_m",
                       fmt::format("{:g} m; allowed: above sensor.range_min_m ({:g} m)",
@@ -291,22 +298,24 @@ void check_whole(const RigConfig& c, const std::map<std::string, std::string>& s
     const auto it = source_of.find(key);
     return it == source_of.end() ? c.source : it->second;
   };
-  require_valid(c.model, c.source);
+  const BoardConfig& b = c.board;
+  const HostConfig& h = c.host;
+  require_valid(b.model, c.source);
   // [move]'s defaults by the board's own rule (hold below the timeout).
-  if (const auto breach = firmware::check_move(c.run.move_defaults)) {
+  if (const auto breach = firmware::check_move(h.run.move_defaults)) {
     const std::string key = "move." + breach->key;
     throw ConfigError(src(key), key, breach->message);
   }
-  model::Parameters plant{c.model.drive, c.plant};
+  model::Parameters plant{b.model.drive, b.plant};
   if (const auto issues = model::validate(plant); !issues.empty()) {
     throw ConfigError(c.source, "plant." + issues.front().name, issues.front().message);
   }
-  check_each(c.sensor.backends, c.sensor.common(), src);
+  check_each(b.sensor.backends, b.sensor.common(), src);
   // A sensor-only tool (`piezo sensor read`, rig-sim) uses no drive: how the
   // drive would pair with the sensor, or its limits, are not its business.
   if (scope == ConfigScope::sensor) return;
-  check_backends(c, src);
-  const auto& lim = c.drive.limits;
+  check_backends(b, src);
+  const auto& lim = b.drive.limits;
   if (lim.V_min >= lim.V_max) {
     throw ConfigError(
         src("drive.V_min"), "drive.V_min",
@@ -315,29 +324,29 @@ void check_whole(const RigConfig& c, const std::map<std::string, std::string>& s
   // The board checks its requests by the same rule (a run with nothing to
   // drive is a mistake).
   if (const auto breach =
-          firmware::check_drive(c.model.drive, c.run.duration_s, {lim, c.drive.rate_hz})) {
+          firmware::check_drive(h.model.drive, h.run.duration_s, {lim, b.drive.rate_hz})) {
     const std::string key = "drive." + breach->key;
     throw ConfigError(src(key), key, breach->message);
   }
-  if (c.sensor.rate_hz > c.drive.rate_hz) {
+  if (b.sensor.rate_hz > b.drive.rate_hz) {
     throw ConfigError(src("sensor.rate_hz"), "sensor.rate_hz",
                       fmt::format("{:g} Hz exceeds drive.rate_hz = {:g} Hz; allowed: <= {:g}",
-                                  c.sensor.rate_hz, c.drive.rate_hz, c.drive.rate_hz));
+                                  b.sensor.rate_hz, b.drive.rate_hz, b.drive.rate_hz));
   }
   // A ramp to 0 V that takes longer than this is no stop.
   constexpr double kLongestRamp_s = 2.0;
-  if (c.safety.ramp_down_V_per_s < lim.V_max / kLongestRamp_s) {
+  if (b.safety.ramp_down_V_per_s < lim.V_max / kLongestRamp_s) {
     throw ConfigError(
         src("safety.ramp_down_V_per_s"), "safety.ramp_down_V_per_s",
         fmt::format("{:g} V/s takes {:.3g} s to ramp from drive.V_max = {:g} V; "
                     "allowed: >= {:g} V/s (at most {:g} s)",
-                    c.safety.ramp_down_V_per_s, lim.V_max / c.safety.ramp_down_V_per_s, lim.V_max,
+                    b.safety.ramp_down_V_per_s, lim.V_max / b.safety.ramp_down_V_per_s, lim.V_max,
                     lim.V_max / kLongestRamp_s, kLongestRamp_s));
   }
-  if (c.safety.sensor_stale_s <= 1.0 / c.sensor.rate_hz) {
+  if (b.safety.sensor_stale_s <= 1.0 / b.sensor.rate_hz) {
     throw ConfigError(src("safety.sensor_stale_s"), "safety.sensor_stale_s",
                       fmt::format("{:g} s must exceed one sensor period ({:g} s)",
-                                  c.safety.sensor_stale_s, 1.0 / c.sensor.rate_hz));
+                                  b.safety.sensor_stale_s, 1.0 / b.sensor.rate_hz));
   }
 }
 
@@ -353,6 +362,7 @@ RigConfig load_rig_config(const std::vector<std::string>& paths,
   RigConfig c;
   // No file: the defaults (a host whose rig is a board with its own config).
   c.source = paths.empty() ? std::string("defaults") : paths.front();
+  c.board.source = c.source;
   model::MotorParameters plant_keys = all_nan();
   std::vector<std::string> present;
   // Each file overlays the ones before it (e.g. a rig config, then fitted parameters).
@@ -383,7 +393,7 @@ RigConfig load_rig_config(const std::vector<std::string>& paths,
     source_of[s.substr(0, s.find('='))] = "--set";
     c.text += "# --set " + s + "\n";
   }
-  c.plant = overlay(c.model.motor, plant_keys);
+  c.board.plant = overlay(c.board.model.motor, plant_keys);
   check_whole(c, source_of, scope);
   return c;
 }
@@ -398,8 +408,8 @@ model::Parameters load_model_config(const std::string& path) {
   RigConfig c;
   model::MotorParameters plant_keys = all_nan();
   read_tables(parse_config_file(path), path, c, plant_keys);
-  require_valid(c.model, path);
-  return c.model;
+  require_valid(c.host.model, path);
+  return c.host.model;
 }
 
 KeyDeclarations declared_keys() {
@@ -410,7 +420,7 @@ KeyDeclarations declared_keys() {
   return declarations;
 }
 
-void check_drive_hardware(const RigConfig& c, double hardware_V_min, double hardware_V_max) {
+void check_drive_hardware(const BoardConfig& c, double hardware_V_min, double hardware_V_max) {
   const auto& lim = c.drive.limits;
   if (lim.V_max > hardware_V_max || lim.V_min < hardware_V_min) {
     throw ConfigError(

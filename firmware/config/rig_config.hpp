@@ -1,8 +1,9 @@
 #pragma once
-// The configuration of `piezo run`: the drive, sensor, lines, plant, model,
-// run and safety sections of a rig config, read from a TOML file plus
-// --set SECTION.KEY=VALUE overrides and checked as a whole before anything
-// touches the hardware.
+// A rig config: read from a TOML file plus --set SECTION.KEY=VALUE
+// overrides and checked as a whole before anything touches the hardware.
+// Each process takes its own part: the board (piezod, or the board `piezo`
+// starts in-process) its BoardConfig, the host's `piezo` its HostConfig,
+// `piezo rig-sim` the board's devices and its RigSimConfig.
 
 #include <cstdint>
 #include <limits>
@@ -88,11 +89,16 @@ struct ObserverSettings {
   model::ObserverGains gains;
 };
 
-struct RunSettings {
-  double duration_s = 4.8;
+/// [run] as the board reads it: the clock and the drive loop's scheduling.
+struct BoardRunSettings {
   RunClock clock = RunClock::realtime;
   int priority = 80;  ///< SCHED_FIFO priority of the drive loop (0: do not ask)
   bool lock_memory = true;
+};
+
+/// [run] and [move] as the host reads them, and what its commands ask for.
+struct RunSettings {
+  double duration_s = 4.8;
   double flush_interval_s = 0.25;  ///< log flush period: the most a crash can lose
   /// Not a file key: `piezo step` sets it to run this many whole drive
   /// periods through the protocol's `step` (0: a timed run, `start`).
@@ -147,29 +153,52 @@ struct BoardAddress {
   double lease_s = 0.0;                ///< the lease a run asks for; 0: the board's default
 };
 
-struct RigConfig {
-  std::string source;            ///< the config file
-  std::string text;              ///< the file's text plus the --set lines: stored with the log
-  model::Parameters model;       ///< [drive] waveform + [model]
-  model::MotorParameters plant;  ///< [model] overlaid with [plant]
+/// What the board reads (piezod, or the board the host starts in-process):
+/// its devices, their limits, its defaults and its daemon.
+struct BoardConfig {
+  std::string source;            ///< the config file, for messages
+  model::Parameters model;       ///< [drive] waveform + [model]: the board's defaults
+  model::MotorParameters plant;  ///< [model] overlaid with [plant]: the simulated rig's
   /// [plant] end_stop_rad: the simulated rotor's end stop (NaN: none).
   double plant_end_stop_rad = std::numeric_limits<double>::quiet_NaN();
   DriveSettings drive;
   SensorSettings sensor;
   LinesSettings lines;
-  RunSettings run;
+  BoardRunSettings run;
   firmware::SafetySettings safety;
-  hal::sim::ModbusDeviceFaults rig_sim;  ///< the faults `piezo rig-sim` shows
-  hal::sim::TcpLimits rig_sim_tcp;       ///< what `piezo rig-sim`'s TCP clients may hold
-  ObserverSettings observer;
   DaemonSettings daemon;
-  BoardAddress board;  ///< [rig]: the board (piezod) to drive
 
   [[nodiscard]] bool virtual_clock() const { return run.clock == RunClock::virtual_time; }
   /// What the drive backends take from [drive] (and whether [lines] has an enable line).
   [[nodiscard]] hal::DriveCommon drive_common() const {
     return {drive.rate_hz, drive.amplifier_gain, lines.backend() != "none"};
   }
+};
+
+/// What the host's `piezo` reads: the run it asks for, how it watches it
+/// and which board drives it.
+struct HostConfig {
+  model::Parameters
+      model;  ///< [drive] waveform + [model]: what a run asks, what the observer models
+  RunSettings run;
+  ObserverSettings observer;
+  BoardAddress rig;  ///< [rig]: the board (piezod) to drive
+};
+
+/// What `piezo rig-sim` reads beyond the devices it serves (the board's).
+struct RigSimConfig {
+  hal::sim::ModbusDeviceFaults faults;  ///< the faults it shows
+  hal::sim::TcpLimits tcp;              ///< what its TCP clients may hold
+};
+
+/// A config file: each process's part of it. One file may serve all three
+/// (the one-machine default); each process takes only its own part.
+struct RigConfig {
+  std::string source;  ///< the config file
+  std::string text;    ///< the file's text plus the --set lines: stored with the log
+  BoardConfig board;
+  HostConfig host;
+  RigSimConfig rig_sim;
 };
 
 /// What a command needs of a config: a whole rig, or only its sensor.
@@ -195,6 +224,6 @@ enum class ConfigScope { rig, sensor };
 [[nodiscard]] KeyDeclarations declared_keys();
 
 /// Checks the drive limits against what the built drive hardware can do.
-void check_drive_hardware(const RigConfig& config, double hardware_V_min, double hardware_V_max);
+void check_drive_hardware(const BoardConfig& config, double hardware_V_min, double hardware_V_max);
 
 }  // namespace piezo::config

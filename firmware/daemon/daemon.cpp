@@ -40,11 +40,11 @@ std::vector<std::string_view> move_to_args() {
 
 }  // namespace
 
-Daemon::Daemon(const config::RigConfig& board, zmq::context_t& context, const std::string& listen,
+Daemon::Daemon(const config::BoardConfig& board, zmq::context_t& context, const std::string& listen,
                std::ostream& log)
     : Daemon(board, config::build_rig(board), context, listen, log) {}
 
-Daemon::Daemon(const config::RigConfig& board, config::Rig rig, zmq::context_t& context,
+Daemon::Daemon(const config::BoardConfig& board, config::Rig rig, zmq::context_t& context,
                const std::string& listen, std::ostream& log)
     : board_(board),
       log_(log),

@@ -42,11 +42,11 @@ class Daemon {
   /// Builds the rig (opens the hardware) and binds both sockets; throws
   /// with a clear message when either fails. `listen` overrides the
   /// config's address; `log` receives one line per event.
-  Daemon(const config::RigConfig& board, zmq::context_t& context, const std::string& listen,
+  Daemon(const config::BoardConfig& board, zmq::context_t& context, const std::string& listen,
          std::ostream& log);
   /// The same on a rig built by the caller (the host's one-machine default,
   /// tests that look at the simulated devices afterwards).
-  Daemon(const config::RigConfig& board, config::Rig rig, zmq::context_t& context,
+  Daemon(const config::BoardConfig& board, config::Rig rig, zmq::context_t& context,
          const std::string& listen, std::ostream& log);
   ~Daemon();
   Daemon(const Daemon&) = delete;
@@ -133,7 +133,7 @@ class Daemon {
   void publish_state();
   void publish_health();
 
-  config::RigConfig board_;
+  config::BoardConfig board_;
   std::ostream& log_;
   config::Rig rig_;
   zmq::context_t& context_;

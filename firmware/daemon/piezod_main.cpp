@@ -64,7 +64,7 @@ int main(int argc, char** argv) {
                 << key_name << ".pub\n";
       return 0;
     }
-    auto board = piezo::config::load_rig_config(config_path, sets);
+    auto board = piezo::config::load_rig_config(config_path, sets).board;
     if (*devices) {
       std::cout << piezo::config::device_inventory(board, true);
       return 0;

@@ -112,15 +112,16 @@ Latencies over_the_protocol(double seconds, double& cpu_percent) {
 
 Latencies in_process(double seconds) {
   auto config = config::load_rig_config(PIEZO_SOURCE_DIR "/configs/sim.toml");
-  config::Rig rig = config::build_rig(config);
-  const model::Sawtooth waveform(80.0, 10.0, config.model.drive.D());
-  firmware::LoopRunner runner({{config.drive.rate_hz, seconds, 0.1, config.drive.limits},
-                               config.safety,
-                               config.sensor.rate_hz,
-                               true,
-                               config.run.priority,
-                               config.run.lock_memory},
-                              waveform, {*rig.clock, *rig.drive, *rig.sensor, *rig.lines});
+  config::Rig rig = config::build_rig(config.board);
+  const model::Sawtooth waveform(80.0, 10.0, config.host.model.drive.D());
+  firmware::LoopRunner runner(
+      {{config.board.drive.rate_hz, seconds, 0.1, config.board.drive.limits},
+       config.board.safety,
+       config.board.sensor.rate_hz,
+       true,
+       config.board.run.priority,
+       config.board.run.lock_memory},
+      waveform, {*rig.clock, *rig.drive, *rig.sensor, *rig.lines});
   runner.start([&](hal::TimeNs t0) { rig.start_at(t0); });
   Latencies l;
   // Drained as often as piezod's network thread does (every 2 ms).

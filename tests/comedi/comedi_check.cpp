@@ -107,7 +107,7 @@ void check_listing() {
   // What `piezod devices` and `piezo sensor list` print for a rig on it.
   std::ofstream("/daq-list.toml") << kConfig;
   const std::string listed =
-      config::device_inventory(config::load_rig_config("/daq-list.toml", {}), true);
+      config::device_inventory(config::load_rig_config("/daq-list.toml", {}).board, true);
   fmt::print("{}", listed);
   check(listed.starts_with("drive (comedi): ") &&
             listed.find("sensor (comedi): the same device") != std::string::npos &&
@@ -130,7 +130,7 @@ void check_refused(OutputProbe& probe) {
                         Case{"sensor.comedi.channel=12", "sensor.comedi.channel"}}) {
     std::string message;
     try {
-      const config::RigConfig rig = config::load_rig_config("/daq-check.toml", {c.set});
+      const config::BoardConfig rig = config::load_rig_config("/daq-check.toml", {c.set}).board;
       (void)config::build_rig(rig);
     } catch (const config::ConfigError& e) {
       message = e.what();

@@ -44,14 +44,14 @@ Outcome run_virtual(std::vector<std::string> sets, double stop_at_s = -1.0,
   sets.push_back("run.clock=virtual");
   config::RigConfig config = config::load_rig_config(PIEZO_SOURCE_DIR "/configs/sim.toml", sets);
   if (step_periods > 0) {
-    config.run.step_periods = step_periods;
-    config.run.duration_s = static_cast<double>(step_periods) / config.model.drive.f;
+    config.host.run.step_periods = step_periods;
+    config.host.run.duration_s = static_cast<double>(step_periods) / config.host.model.drive.f;
   }
   if (move) {
-    config.run.move = move;
-    config.run.duration_s = move->timeout_s;
+    config.host.run.move = move;
+    config.host.run.duration_s = move->timeout_s;
   }
-  config::Rig rig = config::build_rig(config);
+  config::Rig rig = config::build_rig(config.board);
   const auto dir = testing::fresh_temp_dir(tag);
   const std::string path = (dir / "run.h5").string();
   RunLog log = RunLog::create(path, {{"config", config.text}});
@@ -516,7 +516,7 @@ TEST(SimRun, SlowSetUpBeforeTheStartIsNoSensorFault) {
   const config::RigConfig config =
       config::load_rig_config(PIEZO_SOURCE_DIR "/configs/sim.toml",
                               {"run.duration_s=0.3", "run.lock_memory=false", "run.priority=0"});
-  config::Rig rig = config::build_rig(config);
+  config::Rig rig = config::build_rig(config.board);
   std::this_thread::sleep_for(std::chrono::milliseconds(400));
   const auto dir = testing::fresh_temp_dir("hil-slow-setup");
   RunLog log = RunLog::create((dir / "run.h5").string(), {{"config", config.text}});
@@ -543,7 +543,7 @@ TEST(SimRun, AnEstopActsDuringASlowDriveWrite) {
       config::load_rig_config(PIEZO_SOURCE_DIR "/configs/sim.toml",
                               {"drive.sim.stall_at_s=0.5", "drive.sim.stall_for_s=5",
                                "run.duration_s=10", "run.priority=0", "run.lock_memory=false"});
-  config::Rig rig = config::build_rig(config);
+  config::Rig rig = config::build_rig(config.board);
   const std::shared_ptr<const hal::sim::SimRig> device = rig.sim;
   const auto dir = testing::fresh_temp_dir("hil-slow-write");
   RunLog log = RunLog::create((dir / "run.h5").string(), {{"config", config.text}});

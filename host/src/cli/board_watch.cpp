@@ -37,12 +37,12 @@ void BoardWatch::follow_run(std::uint64_t run) {
   health_.erase("summary");
   const hal::TimeNs t0 = status.run->t0_ns;
   observer_.reset();
-  if (config_.observer.enabled) {
+  if (config_.host.observer.enabled) {
     observer_ =
-        std::make_unique<ObserverStage>(config_.model.motor, config_.observer.gains,
+        std::make_unique<ObserverStage>(config_.host.model.motor, config_.host.observer.gains,
                                         1.0 / hello_.drive_rate_hz, hello_.output_latency_s);
   }
-  collector_ = std::make_unique<SampleCollector>(t0, config_.sensor.r2_m, observer_.get());
+  collector_ = std::make_unique<SampleCollector>(t0, config_.board.sensor.r2_m, observer_.get());
   follower_.follow(
       *collector_, [] { return std::numeric_limits<double>::quiet_NaN(); }, false);
 }
@@ -132,7 +132,7 @@ json BoardWatch::move_to(const json& args) {
   for (const char* key : {"target_rad", "tolerance_rad", "settle_s", "timeout_s"}) {
     if (args.contains(key)) request[key] = args[key];
   }
-  request["lease_s"] = config_.board.lease_s > 0.0 ? config_.board.lease_s : 1.0;
+  request["lease_s"] = config_.host.rig.lease_s > 0.0 ? config_.host.rig.lease_s : 1.0;
   const std::lock_guard lock(commands_);
   const json started = client_.call("move_to", request);
   lease_s_ = started.at("lease_s").get<double>();

@@ -200,7 +200,7 @@ CalibrationReport finish_calibration(const fs::path& dir, const fs::path& log,
                                      BoardClient& client, bool local) {
   CalibrationReport report;
   json cal = board_calibration;
-  const double sensor_rate_hz = config.sensor.rate_hz;
+  const double sensor_rate_hz = config.board.sensor.rate_hz;
   try {
     cal["model"] = fit_model(log, cal, sensor_rate_hz);
   } catch (const std::exception& e) {

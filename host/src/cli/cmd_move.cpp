@@ -146,8 +146,8 @@ void add_move_command(CLI::App& app, Commands& commands) {
                   "Coarse steps' frequency [Hz] (default: the board's calibrated fastest, else "
                   "its [drive] f)");
   RunProgram program{[m, o](config::RigConfig& config) {
-                       config.run.move = move_request(*m, *o, config.run.move_defaults);
-                       config.run.duration_s = config.run.move->timeout_s;
+                       config.host.run.move = move_request(*m, *o, config.host.run.move_defaults);
+                       config.host.run.duration_s = config.host.run.move->timeout_s;
                      },
                      [](const FinishedRun& run) {
                        const nlohmann::json move = move_result(run.summary, run.result);

@@ -44,7 +44,7 @@ int recover_spill(const RecoverOptions& o) {
   const double r2 =
       o.config.empty()
           ? config::SensorSettings{}.r2_m
-          : config::load_rig_config(o.config, {}, config::ConfigScope::sensor).sensor.r2_m;
+          : config::load_rig_config(o.config, {}, config::ConfigScope::sensor).board.sensor.r2_m;
   std::ifstream in(o.spill, std::ios::binary);
   if (!in) throw config::ConfigError(o.spill, "file", "cannot be read");
   std::vector<firmware::DriveSample> drive;

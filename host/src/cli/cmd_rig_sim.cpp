@@ -35,32 +35,35 @@ std::pair<std::string, int> split_host_port(const std::string& text) {
   }
 }
 
-hal::sim::ModbusRigDeviceSettings device_settings(const config::RigConfig& c) {
+/// The devices the board's config names (the simulated amplifier and laser,
+/// the sensor's registers and the analog-output module's), with rig-sim's
+/// own faults and limits.
+hal::sim::ModbusRigDeviceSettings device_settings(const config::BoardConfig& board,
+                                                  const config::RigSimConfig& own) {
   hal::sim::ModbusRigDeviceSettings s;
-  s.plant = c.plant;
-  // The devices the config names: the simulated amplifier and laser, the
-  // sensor's registers and the analog-output module's.
-  const hal::DriveCommon drive = c.drive_common();
-  s.amplifier = c.drive.backends.get<hal::sim::SimDriveBackend>().amplifier(drive);
-  s.sensor = c.sensor.backends.get<hal::sim::SimSensorBackend>().settings(c.sensor.common());
-  const auto& sensor = c.sensor.backends.get<hal::modbus::ModbusSensorBackend>();
+  s.plant = board.plant;
+  const hal::DriveCommon drive = board.drive_common();
+  s.amplifier = board.drive.backends.get<hal::sim::SimDriveBackend>().amplifier(drive);
+  s.sensor =
+      board.sensor.backends.get<hal::sim::SimSensorBackend>().settings(board.sensor.common());
+  const auto& sensor = board.sensor.backends.get<hal::modbus::ModbusSensorBackend>();
   s.sensor_map = sensor.map();
   s.serial = sensor.link();
-  const auto ao = c.drive.backends.get<hal::modbus::AnalogOutputBackend>().settings(drive);
+  const auto ao = board.drive.backends.get<hal::modbus::AnalogOutputBackend>().settings(drive);
   s.ao_address = ao.address;
   s.ao_counts_per_V = ao.counts_per_V;
-  s.faults = c.rig_sim;
-  s.tcp = c.rig_sim_tcp;
+  s.faults = own.faults;
+  s.tcp = own.tcp;
   return s;
 }
 
 int run(const RigSimOptions& o) {
   const config::RigConfig config =
       config::load_rig_config(o.config, o.sets, config::ConfigScope::sensor);
-  const auto& serial = config.sensor.backends.get<hal::modbus::ModbusSensorBackend>().link();
+  const auto& serial = config.board.sensor.backends.get<hal::modbus::ModbusSensorBackend>().link();
   std::string tcp = o.tcp;
   if (tcp.empty() && o.rtu.empty()) tcp = serial.host + ":" + std::to_string(serial.port);
-  hal::sim::ModbusRigDevice server(device_settings(config));
+  hal::sim::ModbusRigDevice server(device_settings(config.board, config.rig_sim));
   fmt::print("rig-sim: {}\n", server.describe());
   std::thread rtu_thread;
   if (!o.rtu.empty()) {

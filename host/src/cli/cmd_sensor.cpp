@@ -70,9 +70,9 @@ struct SensorReadOptions {
 int run(const SensorReadOptions& o) {
   const config::RigConfig config =
       config::load_rig_config(o.config, o.sets, config::ConfigScope::sensor);
-  config::SensorRig rig = config::build_sensor(config);
+  config::SensorRig rig = config::build_sensor(config.board);
   hal::Clock& clock = *rig.clock;
-  const auto period = hal::from_seconds(1.0 / config.sensor.rate_hz);
+  const auto period = hal::from_seconds(1.0 / config.board.sensor.rate_hz);
   const hal::TimeNs t0 = clock.now();
   nlohmann::json readings = nlohmann::json::array();
   int errors = 0;
@@ -87,7 +87,7 @@ int run(const SensorReadOptions& o) {
     if (modbus != nullptr && warning.empty() &&
         (r.status == hal::Status::ok || r.status == hal::Status::out_of_range ||
          r.status == hal::Status::invalid_reading)) {
-      warning = word_order_hint(*modbus, config.sensor);
+      warning = word_order_hint(*modbus, config.board.sensor);
       if (!warning.empty()) std::cerr << "piezo sensor read: warning: " << warning << "\n";
     }
     const double t = hal::to_seconds(r.t_request - t0);
@@ -109,8 +109,8 @@ int run(const SensorReadOptions& o) {
     if (!warning.empty()) j["warning"] = warning;
     std::cout << j.dump() << "\n";
   } else {
-    fmt::print("{} readings, {} errors ({} sensor, {})\n", o.count, errors, config.sensor.backend(),
-               config.sensor.backends.chosen().describe());
+    fmt::print("{} readings, {} errors ({} sensor, {})\n", o.count, errors,
+               config.board.sensor.backend(), config.board.sensor.backends.chosen().describe());
   }
   return errors == o.count ? 1 : 0;
 }
@@ -119,7 +119,8 @@ int run(const SensorReadOptions& o) {
 
 /// `piezo sensor list`: what the configured drive and sensor devices offer.
 int list(const SensorReadOptions& o) {
-  fmt::print("{}", config::device_inventory(config::load_rig_config(o.config, o.sets), false));
+  fmt::print("{}",
+             config::device_inventory(config::load_rig_config(o.config, o.sets).board, false));
   return 0;
 }
 

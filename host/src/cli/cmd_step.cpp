@@ -19,14 +19,15 @@ void add_step_command(CLI::App& app, Commands& commands) {
   cmd->add_option("--V0", o->V0, "Peak voltage [V] (default: [drive] V0)");
   cmd->add_option("--f", o->f, "Drive frequency [Hz] (default: [drive] f)");
   RunProgram program{[count](config::RigConfig& config) {
-                       config.run.step_periods = *count;
-                       config.run.duration_s = static_cast<double>(*count) / config.model.drive.f;
+                       config.host.run.step_periods = *count;
+                       config.host.run.duration_s =
+                           static_cast<double>(*count) / config.host.model.drive.f;
                      },
                      [count](const FinishedRun& run) {
                        const double travel = run.summary.theta_end_rad;
                        const nlohmann::json steps = {
                            {"count", *count},
-                           {"direction", model::name(run.config.model.drive.direction)},
+                           {"direction", model::name(run.config.host.model.drive.direction)},
                            {"travel_rad", travel},
                            {"mean_step_rad", travel / static_cast<double>(*count)}};
                        nlohmann::json result = run.result;

@@ -43,8 +43,8 @@ int serve(const ViewCliOptions& o) {
   // The host's view of the model and the sensor's radius: a config, or the defaults.
   config::RigConfig config =
       o.config.empty() ? config::RigConfig{} : config::load_rig_config(o.config, {});
-  config.board.address = o.rig;
-  BoardClient client(config.board);
+  config.host.rig.address = o.rig;
+  BoardClient client(config.host.rig);
   const protocol::Hello hello = client.hello();
   if (const std::string note = adopt_board_sensor(config, hello); !note.empty()) {
     std::cerr << "piezo view: " << note << "\n";

@@ -300,7 +300,7 @@ config::RigConfig rig_config(const RunOptions& o, const RunProgram& program) {
   }
   config::RigConfig config = config::load_rig_config(o.config, sets);
   if (program.request) program.request(config);
-  if (!o.rig.empty()) config.board.address = o.rig;
+  if (!o.rig.empty()) config.host.rig.address = o.rig;
   return config;
 }
 
@@ -314,12 +314,12 @@ struct Board {
 };
 
 void connect(Board& board, config::RigConfig& config) {
-  if (config.board.address.empty()) {
-    board.local = std::make_unique<LocalBoard>(config, config::build_rig(config));
+  if (config.host.rig.address.empty()) {
+    board.local = std::make_unique<LocalBoard>(config, config::build_rig(config.board));
     board.client.emplace(config::BoardAddress{board.local->address(), "", ""},
                          board.local->context());
   } else {
-    board.client.emplace(config.board);
+    board.client.emplace(config.host.rig);
   }
   board.hello = board.client->hello();
   if (const std::string note = adopt_board_sensor(config, board.hello); !note.empty()) {
@@ -365,19 +365,19 @@ RunLog create_log(const fs::path& dir, const config::RigConfig& config, const Bo
       (dir / "run.h5").string(),
       {{log_schema::kConfig, config.text},
        {log_schema::kConfigSource, config.source},
-       {log_schema::kModelParameters, to_json(config.model).dump()},
+       {log_schema::kModelParameters, to_json(config.host.model).dump()},
        {log_schema::kPlantParameters,
-        to_json(model::Parameters{config.model.drive, config.plant}).dump()},
+        to_json(model::Parameters{config.host.model.drive, config.board.plant}).dump()},
        {log_schema::kVersion, PIEZO_VERSION},
        {log_schema::kUtcStart, utc_start},
        {log_schema::kHost, host_name()},
-       {log_schema::kClock, remote ? board.hello.clock : std::string(name(config.run.clock))},
+       {log_schema::kClock, remote ? board.hello.clock : std::string(name(config.board.run.clock))},
        {log_schema::kDriveLatency, fmt::format("{:.9g}", board.hello.output_latency_s)},
        {log_schema::kTimeOrigin, "seconds from the run's start (first drive deadline)"},
        {log_schema::kTheta,
         fmt::format("(displacement - first good displacement) / sensor.r2_m, "
                     "r2_m = {:.9g} m{}",
-                    config.sensor.r2_m, remote ? " (the board's, from its hello)" : "")}});
+                    config.board.sensor.r2_m, remote ? " (the board's, from its hello)" : "")}});
   if (!board.geometry_note.empty())
     log.set_attribute(log_schema::kSensorGeometryNote, board.geometry_note);
   return log;
@@ -411,8 +411,8 @@ RunSummary drive(Board& board, const config::RigConfig& config, RunLog& log,
                  const std::atomic<bool>& estop_requested) {
   try {
     const std::optional<double> lease = board.local ? std::optional(LocalBoard::kLease_s)
-                                        : config.board.lease_s > 0.0
-                                            ? std::optional(config.board.lease_s)
+                                        : config.host.rig.lease_s > 0.0
+                                            ? std::optional(config.host.rig.lease_s)
                                             : std::nullopt;
     RunSummary summary = execute_remote_run(config, *board.client, board.hello, log, signals.flag(),
                                             status_line, lease, &estop_requested);
@@ -446,7 +446,7 @@ int run(const RunOptions& o, const RunProgram& program) {
   std::unique_ptr<view::ViewServer> server;
   std::atomic<bool> estop_requested{false};
   if (o.view) {
-    live.emplace(20.0, 3.0 / config.model.drive.f);
+    live.emplace(20.0, 3.0 / config.host.model.drive.f);
     server = open_view(o, dir, *live, signals, estop_requested);
   }
   const std::string utc_start = utc_stamp("%Y-%m-%dT%H:%M:%SZ");

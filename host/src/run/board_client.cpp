@@ -114,13 +114,13 @@ std::string adopt_board_sensor(config::RigConfig& c, const protocol::Hello& hell
   const double board_r2 = hello.sensor_r2_m;
   if (!(board_r2 > 0.0)) return {};
   std::string note;
-  if (board_r2 != c.sensor.r2_m) {
+  if (board_r2 != c.board.sensor.r2_m) {
     note = fmt::format(
         "the board's sensor.r2_m is {:g} m, the host's config says {:g} m: angles use the "
         "board's (its sensor measured them)",
-        board_r2, c.sensor.r2_m);
+        board_r2, c.board.sensor.r2_m);
   }
-  c.sensor.r2_m = board_r2;
+  c.board.sensor.r2_m = board_r2;
   return note;
 }
 

@@ -7,10 +7,10 @@
 namespace piezo::host {
 namespace {
 
-config::RigConfig board_config(const config::RigConfig& c) {
-  config::RigConfig board = c;
+config::BoardConfig board_config(const config::RigConfig& c) {
+  config::BoardConfig board = c.board;
   // The config's own limits are the board's; only the run's length is the host's to choose.
-  board.daemon.duration_max_s = std::max(board.daemon.duration_max_s, c.run.duration_s);
+  board.daemon.duration_max_s = std::max(board.daemon.duration_max_s, c.host.run.duration_s);
   return board;
 }
 

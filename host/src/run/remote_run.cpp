@@ -35,14 +35,14 @@ std::int64_t host_ns() {
 }
 
 json configure_args(const config::RigConfig& c) {
-  return protocol::ConfigureRequest{c.model.drive, c.run.duration_s};
+  return protocol::ConfigureRequest{c.host.model.drive, c.host.run.duration_s};
 }
 
 /// The observer's model: the config's, with the parameters the board's
 /// calibration fitted (its `model`) in their place; the log says which.
 model::MotorParameters observer_model(const config::RigConfig& c, const protocol::Hello& hello,
                                       RunLog& log) {
-  model::Parameters p{c.model.drive, c.model.motor};
+  model::Parameters p{c.host.model.drive, c.host.model.motor};
   const json& cal = hello.calibration;
   if (!cal.is_object() || !cal.value("model", json()).is_object()) return p.motor;
   std::vector<std::string> used;
@@ -66,17 +66,18 @@ model::MotorParameters observer_model(const config::RigConfig& c, const protocol
 
 /// `start`, or for `piezo step` the protocol's `step`: the board runs whole periods.
 json start_remote(const config::RigConfig& c, BoardClient& client, std::optional<double> lease) {
-  if (c.run.move) {
-    const auto& d = c.model.drive;
-    const auto& m = *c.run.move;
+  if (c.host.run.move) {
+    const auto& d = c.host.model.drive;
+    const auto& m = *c.host.run.move;
     const protocol::MoveToRequest request{m, m.V0, m.f, d.C_dr, d.e_dr, lease};
     return client.call("move_to", request);
   }
-  if (c.run.calibrate) {
-    return client.call("calibrate", protocol::CalibrateRequest{c.run.calibrate->V0, lease});
+  if (c.host.run.calibrate) {
+    return client.call("calibrate", protocol::CalibrateRequest{c.host.run.calibrate->V0, lease});
   }
-  if (c.run.step_periods == 0) return client.call("start", protocol::StartRequest{lease});
-  return client.call("step", protocol::StepRequest{c.run.step_periods, c.model.drive, lease});
+  if (c.host.run.step_periods == 0) return client.call("start", protocol::StartRequest{lease});
+  return client.call("step",
+                     protocol::StepRequest{c.host.run.step_periods, c.host.model.drive, lease});
 }
 
 }  // namespace
@@ -124,7 +125,7 @@ class FollowedRun {
         clock_(clock),
         virtual_clock_(hello.clock == "virtual"),
         observer_(observer),
-        collector_(t0_, c.sensor.r2_m, observer, zero_of(started)),
+        collector_(t0_, c.board.sensor.r2_m, observer, zero_of(started)),
         follower_(client,
                   [board = &client](const std::string& cmd, const json& args) {
                     return board->call(cmd, args, 5s);
@@ -199,7 +200,7 @@ std::optional<protocol::RunSummary> FollowedRun::follow(
     renew_lease_if_due();
     ask_when_quiet(end);
     if (SteadyClock::now() - last_flush_ >=
-        std::chrono::duration<double>(c_.run.flush_interval_s)) {
+        std::chrono::duration<double>(c_.host.run.flush_interval_s)) {
       append_log();
       last_flush_ = SteadyClock::now();
     }
@@ -315,7 +316,7 @@ void FollowedRun::report(const std::function<void(const LiveStatus&)>& on_status
   const auto now = SteadyClock::now();
   if (!on_status || now - last_status_ < kStatusPeriod) return;
   const auto& health = follower_.health();
-  on_status({collector_.last_t(), started_.value("duration_s", c_.run.duration_s),
+  on_status({collector_.last_t(), started_.value("duration_s", c_.host.run.duration_s),
              collector_.last_V(), collector_.last_theta(),
              observer_ ? observer_->summary().last_residual_rad : 0.0, follower_.sensor_next(),
              health.sensor ? health.sensor->errors : 0, health.drive ? health.drive->overruns : 0,
@@ -383,9 +384,9 @@ RunSummary execute_remote_run(const config::RigConfig& c, BoardClient& client,
   log.set_attribute(log_schema::kBoardClockOffset, std::to_string(clock.offset_ns));
   log.set_attribute(log_schema::kBoardClockRoundTrip, std::to_string(clock.round_trip_ns));
   std::optional<ObserverStage> observer;
-  if (c.observer.enabled) {
-    observer.emplace(observer_model(c, hello, log), c.observer.gains, 1.0 / hello.drive_rate_hz,
-                     hello.output_latency_s);
+  if (c.host.observer.enabled) {
+    observer.emplace(observer_model(c, hello, log), c.host.observer.gains,
+                     1.0 / hello.drive_rate_hz, hello.output_latency_s);
   }
   // Subscribed before the start, so that the run's first samples come.
   StreamFollower::subscribe(client);

@@ -131,8 +131,8 @@ TEST(RigConfigs, ShippedConfigsLoad) {
     const std::string path = std::string(PIEZO_SOURCE_DIR) + "/configs/" + name;
     EXPECT_NO_THROW((void)load_rig_config(path)) << name;
   }
-  const RigConfig rig =
-      load_rig_config(std::string(PIEZO_SOURCE_DIR) + "/configs/rig-example.toml");
+  const BoardConfig rig =
+      load_rig_config(std::string(PIEZO_SOURCE_DIR) + "/configs/rig-example.toml").board;
   const auto dac =
       rig.drive.backends.get<hal::gpiod::ParallelDacBackend>().settings(rig.drive_common());
   EXPECT_EQ(dac.dac.bits, 12);
