@@ -5,64 +5,81 @@
 
 namespace piezo::model::hybrid {
 
-double at(const Coefficients& c, double tau) {
-  double sum = c[kOrder];
-  for (int k = kOrder - 1; k >= 0; --k) sum = sum * tau + c[static_cast<std::size_t>(k)];
-  return sum;
-}
-
-double slope_at(const Coefficients& c, double tau) {
-  double sum = kOrder * c[kOrder];
-  for (int k = kOrder - 1; k >= 1; --k) sum = sum * tau + k * c[static_cast<std::size_t>(k)];
-  return sum;
-}
-
 LuGreState Expansion::state(double tau) const {
   LuGreState out{};
   for (std::size_t i = 0; i < 5; ++i) out[i] = at(y[i], tau);
   return out;
 }
 
+namespace {
+
+/// The terms of order k's Cauchy product sum_j v[j] z[k-j] but its two
+/// ends (the coefficients just computed): summed from the middle out, the
+/// oldest coefficients first, so that the newest (v[k-1], z[k-1]) come last
+/// and the sum is ready soon after them.
+double cauchy_middle(const Coefficients& v, const Coefficients& z, std::size_t k) {
+  if (k < 2) return 0.0;
+  double lo = 0.0, hi = 0.0;
+  std::size_t j = k / 2, l = k - j;  // j + l = k
+  if (j == l) {
+    lo = v[j] * z[j];  // k even: the centre term, once
+    --j;
+    ++l;
+  }
+  for (; j >= 1; --j, ++l) {
+    lo += v[j] * z[l];
+    hi += v[l] * z[j];
+  }
+  return lo + hi;
+}
+
+}  // namespace
+
 SeriesMotor::SeriesMotor(const MotorParameters& p)
-    : p_(p),
-      kappa_(p.sigma0 / p.F_c()),
-      r_over_J_(p.r / p.J),
-      inv_M_(1.0 / p.M),
-      K_d_e_(p.K * p.d_e) {}
+    : p_(p), kappa_(p.sigma0 / p.F_c()), K_d_e_(p.K * p.d_e) {
+  const double r_over_J = p.r / p.J;
+  for (std::size_t k = 0; k <= kOrder; ++k) {
+    const double inv = 1.0 / static_cast<double>(k + 1);
+    per_order_[k] = {inv, inv / p.M, r_over_J * inv, inv * (1.0 / p.M + p.r * r_over_J)};
+  }
+}
 
 void SeriesMotor::expand(const LuGreState& y0, double V0, double slope, double s, bool saturated,
                          Expansion& e) const {
   auto& [x, X, th, W, z] = e.y;
+  auto& v = e.v;
   x[0] = y0[kX];
   X[0] = y0[kXDot];
   th[0] = y0[kTheta];
   W[0] = y0[kThetaDot];
   z[0] = y0[kZ];
-  const double sk = s * kappa_;
-  // z's coefficients also in reverse, so that the Cauchy product of v and z
-  // runs over both in the same direction (a dot product the compiler can
-  // vectorise).
-  Coefficients z_reversed{};
-  z_reversed[kOrder] = z[0];
-  for (int k = 0; k < kOrder; ++k) {
-    const auto K = static_cast<std::size_t>(k);
-    e.v[K] = X[K] - p_.r * W[K];
-    double vz = 0.0;
-    const double* zr = z_reversed.data() + (kOrder - K);
-    for (std::size_t j = 0; j <= K; ++j) vz += e.v[j] * zr[j];
-    const double zd = saturated ? 0.0 : e.v[K] - sk * vz;
-    const double F = p_.sigma0 * z[K] + p_.sigma1 * zd + p_.sigma2 * e.v[K];
+  v[0] = X[0] - p_.r * W[0];
+  // z' = zv v - sk (v z): a saturated bristle is held (z' = 0).
+  const double zv = saturated ? 0.0 : 1.0;
+  const double sk = saturated ? 0.0 : s * kappa_;
+  // F_f = sigma0 z + sigma1 z' + sigma2 v = P - q (v z), with P the part
+  // known before the order's Cauchy term.
+  const double a = p_.sigma1 * zv + p_.sigma2;
+  const double q = p_.sigma1 * sk;
+  // Each order's new coefficients hang on the Cauchy term of the one before
+  // by one multiply-add each (v and z directly, not v through x' and
+  // theta'): the recurrence's chain of dependent operations, which sets
+  // its cost, is three per order. The rest is computed beside it.
+  for (std::size_t k = 0; k < kOrder; ++k) {
+    const double vz = k == 0 ? v[0] * z[0] : v[k] * z[0] + (v[0] * z[k] + cauchy_middle(v, z, k));
+    const PerOrder& o = per_order_[k];
     const double Vk = k == 0 ? V0 : (k == 1 ? slope : 0.0);
-    const double Xd = (K_d_e_ * Vk - p_.C * X[K] - p_.K * x[K] - F) * inv_M_;
-    const double inv = 1.0 / (k + 1);
-    x[K + 1] = X[K] * inv;
-    X[K + 1] = Xd * inv;
-    th[K + 1] = W[K] * inv;
-    W[K + 1] = r_over_J_ * F * inv;
-    z[K + 1] = zd * inv;
-    z_reversed[kOrder - K - 1] = z[K + 1];
+    const double A = K_d_e_ * Vk - p_.C * X[k] - p_.K * x[k];  // M x'' + F_f
+    const double P = p_.sigma0 * z[k] + a * v[k];
+    const double F = P - q * vz;
+    x[k + 1] = X[k] * o.inv;
+    X[k + 1] = (A - F) * o.inv_M;
+    th[k + 1] = W[k] * o.inv;
+    W[k + 1] = F * o.r_over_J;
+    z[k + 1] = zv * o.inv * v[k] - sk * o.inv * vz;
+    // x'[k+1] - r theta'[k+1] = (A - F) inv_M - r F r_over_J.
+    v[k + 1] = (A * o.inv_M - P * o.to_v) + q * o.to_v * vz;
   }
-  e.v[kOrder] = X[kOrder] - p_.r * W[kOrder];
 }
 
 double allowed_step(const Expansion& e, const LuGreState& scale, double tolerance, double h_max) {
@@ -72,23 +89,32 @@ double allowed_step(const Expansion& e, const LuGreState& scale, double toleranc
     last = std::max(last, std::abs(e.y[i][kOrder]) / scale[i]);
     before = std::max(before, std::abs(e.y[i][kOrder - 1]) / scale[i]);
   }
-  if (last > 0.0) h = std::min(h, std::pow(tolerance / last, 1.0 / kOrder));
-  if (before > 0.0) h = std::min(h, std::pow(tolerance / before, 1.0 / (kOrder - 1)));
+  // A bound is below the step so far only if its coefficient times that
+  // step's power exceeds the tolerance: the roots (a costly pow each) only then.
+  double cap_before = 1.0;
+  for (int k = 1; k < kOrder; ++k) cap_before *= h_max;
+  const double cap_last = cap_before * h_max;
+  if (last * cap_last > tolerance) h = std::min(h, std::pow(tolerance / last, 1.0 / kOrder));
+  // The second bound, only where it is below the first.
+  if (h < h_max) {
+    cap_before = 1.0;
+    for (int k = 1; k < kOrder; ++k) cap_before *= h;
+  }
+  if (before * cap_before > tolerance) {
+    h = std::min(h, std::pow(tolerance / before, 1.0 / (kOrder - 1)));
+  }
   return h;
 }
 
 namespace {
 
-/// The first root of s*v in (a, b], given s*v(a) >= 0 > s*v(b): Newton
-/// from the bracket, kept inside it by bisection.
-/// The first root of s*v in (a, b], given s*v(a) >= 0 > s*v(b): Newton
-/// from the chord (the midpoint when v(a) = 0, a reversal just passed),
+/// The first root of s*v in (a, b], given va = s*v(a) >= 0 > vb = s*v(b):
+/// Newton from the chord (the midpoint when v(a) = 0, a reversal just passed),
 /// kept inside the bracket by bisection. Returns a point where s*v < 0, the
 /// first past the root to 1e-12 of the step, so that the step ends with the
 /// contact's new sign.
-double first_root(const Coefficients& v, double s, double a, double b) {
+double first_root(const Coefficients& v, double s, double a, double b, double va, double vb) {
   const double resolution = 1e-12 * b;
-  const double va = s * at(v, a), vb = s * at(v, b);
   double lo = a, hi = b;
   double tau = va > 0.0 ? a + (b - a) * va / (va - vb) : 0.5 * (a + b);
   for (int i = 0; i < 60 && hi - lo > resolution; ++i) {
@@ -134,14 +160,20 @@ double dip(const Coefficients& v, double s, double a, double b) {
 }  // namespace
 
 double first_zero(const Coefficients& v, double s, double h) {
-  double a = 0.0;
+  // s*v and its slope at each end, each evaluated once and carried on.
+  double a = 0.0, value_a = s * v[0], slope_a = s * v[1];
   for (const double b : {0.5 * h, h}) {
-    if (s * slope_at(v, a) < 0.0 && s * slope_at(v, b) > 0.0) {
+    const double value_b = s * at(v, b), slope_b = s * slope_at(v, b);
+    if (slope_a < 0.0 && slope_b > 0.0) {
       const double m = dip(v, s, a, b);
-      if (s * at(v, m) < 0.0) return first_root(v, s, a, m);
+      if (const double value_m = s * at(v, m); value_m < 0.0) {
+        return first_root(v, s, a, m, value_a, value_m);
+      }
     }
-    if (s * at(v, b) < 0.0) return first_root(v, s, a, b);
+    if (value_b < 0.0) return first_root(v, s, a, b, value_a, value_b);
     a = b;
+    value_a = value_b;
+    slope_a = slope_b;
   }
   return h;
 }

@@ -23,10 +23,33 @@ namespace piezo::model::hybrid {
 inline constexpr int kOrder = 14;
 using Coefficients = std::array<double, kOrder + 1>;
 
-/// The series at tau (Horner).
-[[nodiscard]] double at(const Coefficients& c, double tau);
-/// Its derivative at tau.
-[[nodiscard]] double slope_at(const Coefficients& c, double tau);
+static_assert(kOrder % 2 == 0, "at() and slope_at() split the coefficients into even and odd");
+
+/// The series at tau: Horner in tau^2 over the even and over the odd
+/// coefficients, two chains of half the length that the processor runs side
+/// by side (a plain Horner is one chain of kOrder dependent multiply-adds,
+/// and the root search evaluates it several times a step).
+[[nodiscard]] inline double at(const Coefficients& c, double tau) {
+  const double t2 = tau * tau;
+  double even = c[kOrder], odd = c[kOrder - 1];
+  for (int k = kOrder - 2; k >= 0; k -= 2) {
+    even = even * t2 + c[static_cast<std::size_t>(k)];
+    if (k >= 1) odd = odd * t2 + c[static_cast<std::size_t>(k - 1)];
+  }
+  return even + tau * odd;
+}
+
+/// Its derivative at tau, the same way: the derivative's coefficient k is
+/// (k + 1) c[k + 1].
+[[nodiscard]] inline double slope_at(const Coefficients& c, double tau) {
+  const double t2 = tau * tau;
+  double odd = kOrder * c[kOrder], even = (kOrder - 1) * c[kOrder - 1];
+  for (int k = kOrder - 4; k >= 0; k -= 2) {
+    even = even * t2 + (k + 1) * c[static_cast<std::size_t>(k + 1)];
+    odd = odd * t2 + (k + 2) * c[static_cast<std::size_t>(k + 2)];
+  }
+  return even + tau * odd;
+}
 
 /// The series of the five states and of v about one point.
 struct Expansion {
@@ -49,8 +72,14 @@ class SeriesMotor {
               Expansion& e) const;
 
  private:
+  /// What order k multiplies by: 1/(k+1), and that over M, times r/J, and
+  /// times (1/M + r^2/J) (from F_f to v's coefficient).
+  struct PerOrder {
+    double inv, inv_M, r_over_J, to_v;
+  };
   MotorParameters p_;
-  double kappa_, r_over_J_, inv_M_, K_d_e_;
+  double kappa_, K_d_e_;
+  std::array<PerOrder, kOrder + 1> per_order_{};
 };
 
 /// The step the series allows: the last two orders' coefficients, against
