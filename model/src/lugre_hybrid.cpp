@@ -58,7 +58,7 @@ LuGreHybrid::LuGreHybrid(const MotorParameters& p, double tolerance)
       series_(p),
       stick_(p, scaled(state_scale<5>(p), tolerance), tolerance),
       slide_(p, 16.0 / std::sqrt(p.K / p.M)),
-      scale_(state_scale<5>(p)),
+      inverse_scale_(hybrid::inverse(state_scale<5>(p))),
       tolerance_(tolerance),
       omega_n_(std::sqrt(p.K / p.M)),
       kappa_(p.sigma0 / p.F_c()) {}
@@ -112,7 +112,8 @@ void LuGreHybrid::series_step(const LinearPiece& piece, double t_end, StateSampl
   expand(piece);
   // The series' last term is its truncation error, held to the tolerance
   // per step; the cap keeps one extremum of v per half step.
-  double h = hybrid::allowed_step(e_, scale_, tolerance_, std::min(4.0 / omega_n_, t_end - t_));
+  double h =
+      hybrid::allowed_step(e_, inverse_scale_, tolerance_, std::min(4.0 / omega_n_, t_end - t_));
   h = std::max(h, 1e-14 * std::max(1.0, t_));
   const double tau = first_zero(e_.v, s_, h);
   const bool reversal = tau < h;

@@ -61,6 +61,7 @@ ModeCosts mode_costs(const model::Parameters& p, int repeats) {
   };
   constexpr int kCalls = 20000;
   const model::LuGreState scale = model::state_scale<5>(p.motor);
+  const model::LuGreState inverse_scale = model::hybrid::inverse(scale);
   const double omega_n = std::sqrt(p.motor.K / p.motor.M);
   double sink = 0.0;
 
@@ -72,7 +73,7 @@ ModeCosts mode_costs(const model::Parameters& p, int repeats) {
   const double t_series = median_seconds(repeats, [&] {
     for (int i = 0; i < kCalls; ++i) {
       series.expand(ringing, tr.V[0], drive.piece(times[0]).slope, s, false, e);
-      const double h = model::hybrid::allowed_step(e, scale, 1e-6, 4.0 / omega_n);
+      const double h = model::hybrid::allowed_step(e, inverse_scale, 1e-6, 4.0 / omega_n);
       const double tau = model::hybrid::first_zero(e.v, s, h);
       sink += e.state(tau)[model::kTheta];
     }

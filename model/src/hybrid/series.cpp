@@ -82,25 +82,38 @@ void SeriesMotor::expand(const LuGreState& y0, double V0, double slope, double s
   }
 }
 
-double allowed_step(const Expansion& e, const LuGreState& scale, double tolerance, double h_max) {
+namespace {
+
+/// x^n by squaring: a short chain of multiplications.
+double power(double x, int n) {
+  double out = 1.0;
+  for (; n > 0; n >>= 1, x *= x)
+    if (n & 1) out *= x;
+  return out;
+}
+
+}  // namespace
+
+LuGreState inverse(const LuGreState& scale) {
+  LuGreState out{};
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = 1.0 / scale[i];
+  return out;
+}
+
+double allowed_step(const Expansion& e, const LuGreState& inverse_scale, double tolerance,
+                    double h_max) {
   double h = h_max;
   double last = 0.0, before = 0.0;  // the largest scaled coefficient of each order
   for (std::size_t i = 0; i < 5; ++i) {
-    last = std::max(last, std::abs(e.y[i][kOrder]) / scale[i]);
-    before = std::max(before, std::abs(e.y[i][kOrder - 1]) / scale[i]);
+    last = std::max(last, std::abs(e.y[i][kOrder]) * inverse_scale[i]);
+    before = std::max(before, std::abs(e.y[i][kOrder - 1]) * inverse_scale[i]);
   }
   // A bound is below the step so far only if its coefficient times that
   // step's power exceeds the tolerance: the roots (a costly pow each) only then.
-  double cap_before = 1.0;
-  for (int k = 1; k < kOrder; ++k) cap_before *= h_max;
-  const double cap_last = cap_before * h_max;
-  if (last * cap_last > tolerance) h = std::min(h, std::pow(tolerance / last, 1.0 / kOrder));
-  // The second bound, only where it is below the first.
-  if (h < h_max) {
-    cap_before = 1.0;
-    for (int k = 1; k < kOrder; ++k) cap_before *= h;
+  if (last * power(h, kOrder) > tolerance) {
+    h = std::min(h, std::pow(tolerance / last, 1.0 / kOrder));
   }
-  if (before * cap_before > tolerance) {
+  if (before * power(h, kOrder - 1) > tolerance) {
     h = std::min(h, std::pow(tolerance / before, 1.0 / (kOrder - 1)));
   }
   return h;

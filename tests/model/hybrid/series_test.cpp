@@ -82,7 +82,7 @@ TEST(SeriesMotor, TheSeriesSatisfiesTheMotorsEquations) {
       for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(e.y[i][0], y0[i]);
       // y'(tau) from the series' own derivative against f(y(tau)), inside
       // the step the series would allow.
-      const double h = allowed_step(e, state_scale<5>(p.motor), 1e-6, 4.0 / omega_n);
+      const double h = allowed_step(e, inverse(state_scale<5>(p.motor)), 1e-6, 4.0 / omega_n);
       for (const double tau : {0.0, 0.3 * h, h}) {
         const LuGreState y = e.state(tau);
         const LuGreState f = derivative(p.motor, y, V0 + slope * tau, s, saturated);

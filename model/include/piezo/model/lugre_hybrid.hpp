@@ -77,7 +77,7 @@ class LuGreHybrid {
   hybrid::SeriesMotor series_;
   hybrid::StickRosenbrock stick_;
   hybrid::LinearSlide slide_;
-  LuGreState scale_;
+  LuGreState inverse_scale_;  ///< 1 / each state's scale, for the series step bound
   double tolerance_, omega_n_, kappa_;
 
   double t_ = 0.0;

@@ -82,10 +82,15 @@ class SeriesMotor {
   std::array<PerOrder, kOrder + 1> per_order_{};
 };
 
+/// Each state's 1 / scale: what the step bound multiplies by (a division
+/// per state and step otherwise).
+[[nodiscard]] LuGreState inverse(const LuGreState& scale);
+
 /// The step the series allows: the last two orders' coefficients, against
-/// each state's scale, held to `tolerance`, and at most h_max.
-[[nodiscard]] double allowed_step(const Expansion& e, const LuGreState& scale, double tolerance,
-                                  double h_max);
+/// each state's scale (given as its inverse), held to `tolerance`, and at
+/// most h_max.
+[[nodiscard]] double allowed_step(const Expansion& e, const LuGreState& inverse_scale,
+                                  double tolerance, double h_max);
 
 /// Where s*v first turns negative in (0, h] (h when it does not): a sign
 /// change at h/2 or h, or a dip of s*v below zero inside a half step (the
