@@ -121,25 +121,40 @@ double allowed_step(const Expansion& e, const LuGreState& inverse_scale, double 
 
 namespace {
 
-/// The first root of s*v in (a, b], given va = s*v(a) >= 0 > vb = s*v(b):
-/// Newton from the chord (the midpoint when v(a) = 0, a reversal just passed),
-/// kept inside the bracket by bisection. Returns a point where s*v < 0, the
-/// first past the root to 1e-12 of the step, so that the step ends with the
-/// contact's new sign.
-double first_root(const Coefficients& v, double s, double a, double b, double va, double vb) {
+/// s*v and its slope at one end of a bracket: each evaluated once.
+struct End {
+  double value, slope;
+};
+
+/// The first root of s*v in (a, b], given its value at each end (s*v(a) >=
+/// 0 > s*v(b)): Newton from the chord (the midpoint when v(a) = 0, a
+/// reversal just passed), kept inside the bracket by bisection. (A start
+/// from the cubic through both ends' slopes too saved an iteration a root
+/// but cost more than it saved.) Returns a point where s*v < 0,
+/// past the root by at most 1e-12 of the step, so that the step ends with
+/// the contact's new sign.
+double first_root(const Coefficients& v, double s, double a, double b, const End& start,
+                  const End& end) {
   const double resolution = 1e-12 * b;
+  // A Newton step this short leaves the next iterate within about its
+  // square of the root (quadratic convergence): close enough to try the
+  // point just past it. Near a double root, where Newton is slow, the try
+  // fails and the bracket moves on.
+  const double near = 1e-7 * b;
   double lo = a, hi = b;
-  double tau = va > 0.0 ? a + (b - a) * va / (va - vb) : 0.5 * (a + b);
+  double tau =
+      start.value > 0.0 ? a + (b - a) * start.value / (start.value - end.value) : 0.5 * (a + b);
   for (int i = 0; i < 60 && hi - lo > resolution; ++i) {
     const double value = s * at(v, tau);
     (value >= 0.0 ? lo : hi) = tau;
     const double d = s * slope_at(v, tau);
     const double next = d != 0.0 ? tau - value / d : 0.5 * (lo + hi);
-    if (std::abs(next - tau) <= resolution) {
-      if (value < 0.0) return tau;
-      // Converged from before the root: one resolution further has turned.
-      tau = std::min(tau + resolution, 0.5 * (lo + hi));
-      continue;
+    if (std::abs(next - tau) <= near) {
+      const double past = next + 0.5 * resolution;
+      if (past > lo && past < hi) {
+        if (s * at(v, past) < 0.0) return past;
+        lo = past;
+      }
     }
     tau = next > lo && next < hi ? next : 0.5 * (lo + hi);
   }
@@ -174,19 +189,19 @@ double dip(const Coefficients& v, double s, double a, double b) {
 
 double first_zero(const Coefficients& v, double s, double h) {
   // s*v and its slope at each end, each evaluated once and carried on.
-  double a = 0.0, value_a = s * v[0], slope_a = s * v[1];
+  double a = 0.0;
+  End start{s * v[0], s * v[1]};
   for (const double b : {0.5 * h, h}) {
-    const double value_b = s * at(v, b), slope_b = s * slope_at(v, b);
-    if (slope_a < 0.0 && slope_b > 0.0) {
+    const End end{s * at(v, b), s * slope_at(v, b)};
+    if (start.slope < 0.0 && end.slope > 0.0) {
       const double m = dip(v, s, a, b);
       if (const double value_m = s * at(v, m); value_m < 0.0) {
-        return first_root(v, s, a, m, value_a, value_m);
+        return first_root(v, s, a, m, start, {value_m, 0.0});  // v' = 0 at the dip
       }
     }
-    if (value_b < 0.0) return first_root(v, s, a, b, value_a, value_b);
+    if (end.value < 0.0) return first_root(v, s, a, b, start, end);
     a = b;
-    value_a = value_b;
-    slope_a = slope_b;
+    start = end;
   }
   return h;
 }
