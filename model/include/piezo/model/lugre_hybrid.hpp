@@ -79,6 +79,9 @@ class LuGreHybrid {
   hybrid::LinearSlide slide_;
   LuGreState inverse_scale_;  ///< 1 / each state's scale, for the series step bound
   double tolerance_, omega_n_, kappa_;
+  /// The stator settled at stick entry and the flip in closed form: off at
+  /// tolerances tighter than their error.
+  bool approximate_;
 
   double t_ = 0.0;
   LuGreState y_{};
