@@ -291,7 +291,8 @@ Trajectory simulate_lugre_hybrid(const MotorParameters& p, const Excitation& dri
   while (!recorder.done()) {
     const double t = motor.time();
     if (settings.progress) settings.progress(t);
-    motor.advance(drive.piece(t), std::min(drive.next_breakpoint(t), times.back()), &recorder);
+    const PieceSpan span = drive.span(t);
+    motor.advance(span.piece, std::min(span.end, times.back()), &recorder);
   }
   out.stats = motor.stats();
   out.stats.integrator = Integrator::hybrid;

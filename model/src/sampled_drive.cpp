@@ -52,6 +52,12 @@ double SampledDrive::next_breakpoint(double t) const {
   return it == start_.end() ? std::numeric_limits<double>::infinity() : *it;
 }
 
+PieceSpan SampledDrive::span(double t) const {
+  const auto it = std::upper_bound(start_.begin(), start_.end(), t);
+  return {pieces_[static_cast<std::size_t>(it - start_.begin()) - 1],
+          it == start_.end() ? std::numeric_limits<double>::infinity() : *it};
+}
+
 LinearPiece SampledDrive::piece(double t) const {
   const auto it = std::upper_bound(start_.begin(), start_.end(), t);
   return pieces_[static_cast<std::size_t>(it - start_.begin()) - 1];

@@ -25,6 +25,7 @@ class SampledDrive final : public Excitation {
   [[nodiscard]] double voltage(double t) const override { return piece(t).at(t); }
   [[nodiscard]] double next_breakpoint(double t) const override;
   [[nodiscard]] LinearPiece piece(double t) const override;
+  [[nodiscard]] PieceSpan span(double t) const override;
 
  private:
   /// The pieces, merged where collinear: piece k holds from start_[k] on.

@@ -15,6 +15,12 @@ struct LinearPiece {
   [[nodiscard]] double at(double t) const { return V_at_t0 + slope * (t - t0); }
 };
 
+/// The piece in force at a time, and the breakpoint where it ends.
+struct PieceSpan {
+  LinearPiece piece;
+  double end;
+};
+
 /// A piecewise-linear voltage at the amplifier output as a function of time.
 class Excitation {
  public:
@@ -25,6 +31,9 @@ class Excitation {
   [[nodiscard]] virtual double next_breakpoint(double t) const = 0;
   /// The linear piece in force from t up to next_breakpoint(t).
   [[nodiscard]] virtual LinearPiece piece(double t) const = 0;
+  /// Both at once: a drive that searches its pieces (a replayed log)
+  /// searches once.
+  [[nodiscard]] virtual PieceSpan span(double t) const { return {piece(t), next_breakpoint(t)}; }
 };
 
 /// The paper's sawtooth (docs/model.md section 1): a slow rise over D*T, a fast
