@@ -115,7 +115,8 @@ def test_long_work_shows_its_progress_on_pythons_stderr(capsys):
 
 def test_the_interpreter_goes_on_while_the_model_runs():
     done = []
-    worker = threading.Thread(target=lambda: done.append(model.simulate(duration=30.0, dt=1e-2)))
+    # 300 s of motor: a quarter of a second or more of work.
+    worker = threading.Thread(target=lambda: done.append(model.simulate(duration=300.0, dt=1e-1)))
     worker.start()
     ticks = 0
     while worker.is_alive():
