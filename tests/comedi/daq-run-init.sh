@@ -17,6 +17,14 @@ for i in $(seq 1 100); do
   [ "$(cat $source)" = tsc ] && break
   sleep 0.1
 done
+# The drive loop's deadlines need the TSC: on jiffies the run's clock jumps
+# by seconds. The host boots the guest again (run-guest.sh), and the guest
+# says why (the kernel's words on the TSC).
+if [ "$(cat $source)" != tsc ]; then
+  echo "daq-run: no tsc clock ($(cat $source); available: $(cat ${source%current_clocksource}available_clocksource))"
+  dmesg | grep -i -E "tsc|clocksource" | tail -5
+  reboot -f
+fi
 parameters=/sys/module/comedi_test/parameters
 echo "daq-run: clock $(cat $source), amplitude $(cat $parameters/amplitude) uV period $(cat $parameters/period) us"
 mkdir -p /tmp /runs
