@@ -94,7 +94,9 @@ void LuGreHybrid::advance(const LinearPiece& piece, double t_end, StateSamples* 
         break;
     }
   }
-  while (samples != nullptr && samples->next() <= t_end) samples->take(y_);
+  while (samples != nullptr && samples->next() <= t_end) {
+    samples->take(y_, piece.at(samples->next()));
+  }
 }
 
 void LuGreHybrid::expand(const LinearPiece& piece) {
@@ -123,7 +125,10 @@ void LuGreHybrid::series_step(const LinearPiece& piece, double t_end, StateSampl
   const double tau = first_zero(e_.v, s_, h);
   const bool reversal = tau < h;
   const double t1 = tau == t_end - t_ ? t_end : t_ + tau;
-  while (samples != nullptr && samples->next() <= t1) samples->take(e_.state(samples->next() - t_));
+  while (samples != nullptr && samples->next() <= t1) {
+    const double t = samples->next();
+    samples->take(e_.state(t - t_), piece.at(t));
+  }
   y_ = e_.state(tau);
   ++stats_.steps;
   ++stats_.series_steps;
@@ -243,7 +248,8 @@ void LuGreHybrid::interpolate(StateSamples* samples, const LinearPiece& piece, d
   stick_.derivative(y_, piece.at(t_), s_, f0);
   stick_.derivative(y1, piece.at(t1), s_, f1);
   while (samples->next() <= t1) {
-    samples->take(hermite(t_, y_, f0, t1, y1, f1, samples->next()));
+    const double t = samples->next();
+    samples->take(hermite(t_, y_, f0, t1, y1, f1, t), piece.at(t));
   }
 }
 
@@ -252,25 +258,22 @@ namespace {
 /// simulate()'s samples: every requested time, recorded into a Trajectory.
 class Recorder final : public StateSamples {
  public:
-  Recorder(std::span<const double> times, const MotorParameters& p, const Excitation& drive,
-           Trajectory& out)
-      : times_(times), motor_(p), drive_(drive), out_(out) {
+  Recorder(std::span<const double> times, const MotorParameters& p, Trajectory& out)
+      : times_(times), motor_(p), out_(out) {
     out_.reserve(times.size());
   }
 
   [[nodiscard]] double next() const override {
     return next_ < times_.size() ? times_[next_] : std::numeric_limits<double>::infinity();
   }
-  void take(const LuGreState& y) override {
-    const double t = times_[next_++];
-    out_.append(t, drive_.voltage(t), y, motor_.friction(y).force);
+  void take(const LuGreState& y, double V) override {
+    out_.append(times_[next_++], V, y, motor_.friction(y).force);
   }
   [[nodiscard]] bool done() const { return next_ >= times_.size(); }
 
  private:
   std::span<const double> times_;
   LuGreMotor motor_;
-  const Excitation& drive_;
   Trajectory& out_;
   std::size_t next_ = 0;
 };
@@ -284,10 +287,10 @@ Trajectory simulate_lugre_hybrid(const MotorParameters& p, const Excitation& dri
   if (!times.empty() && (times.front() < 0.0 || !std::is_sorted(times.begin(), times.end()))) {
     throw std::invalid_argument("sample times must be non-negative and non-decreasing");
   }
-  Recorder recorder(times, p, drive, out);
+  Recorder recorder(times, p, out);
   LuGreHybrid motor(p, settings.tolerance);
   motor.reset(0.0, LuGreState{});
-  while (recorder.next() <= 0.0) recorder.take(motor.state());
+  while (recorder.next() <= 0.0) recorder.take(motor.state(), drive.voltage(recorder.next()));
   while (!recorder.done()) {
     const double t = motor.time();
     if (settings.progress) settings.progress(t);

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <cstddef>
 #include <cstdlib>
 #include <exception>
@@ -17,25 +19,37 @@
 namespace piezo::host {
 
 /// Calls job(i) for i in [0, count) on up to hardware_concurrency threads and
-/// progress(done, count) after each job finishes. The first exception thrown
+/// progress(done, count) every 20 ms while jobs finish, and once more as soon
+/// as the last has. The first exception thrown
 /// by a job is rethrown once all threads have stopped. An interruption
 /// (interruption.hpp), or a progress call that throws, stops the jobs not
 /// yet begun; it is rethrown once the ones under way have finished.
 inline void parallel_for(std::size_t count, const std::function<void(std::size_t)>& job,
                          const std::function<void(std::size_t, std::size_t)>& progress) {
   std::atomic<std::size_t> next{0};
-  std::atomic<std::size_t> done{0};
   std::exception_ptr failure;
-  std::mutex failure_mutex;
+  // The caller's thread reports progress every 20 ms (and checks for an
+  // interruption) and wakes as soon as the last job is done: it used to
+  // poll, which added up to 20 ms to every call (identify makes several an
+  // iteration).
+  std::mutex mutex;  // guards done and failure
+  std::condition_variable finished;
+  std::size_t done = 0;
   auto worker = [&] {
     for (std::size_t i = next++; i < count; i = next++) {
+      std::exception_ptr thrown;
       try {
         job(i);
       } catch (...) {
-        std::lock_guard lock(failure_mutex);
-        if (!failure) failure = std::current_exception();
+        thrown = std::current_exception();
       }
-      ++done;
+      bool last = false;
+      {
+        std::lock_guard lock(mutex);
+        if (thrown && !failure) failure = thrown;
+        last = ++done == count;
+      }
+      if (last) finished.notify_one();
     }
   };
   // PIEZO_THREADS caps the threads (e.g. one per MPI rank on a shared node).
@@ -51,12 +65,15 @@ inline void parallel_for(std::size_t count, const std::function<void(std::size_t
   while (reported < count) {
     try {
       interruption_point();
-      const std::size_t now = done.load();
+      std::size_t now = 0;
+      {
+        std::unique_lock lock(mutex);
+        finished.wait_for(lock, std::chrono::milliseconds(20), [&] { return done == count; });
+        now = done;
+      }
       if (now != reported) {
         reported = now;
         progress(reported, count);
-      } else {
-        std::this_thread::sleep_for(std::chrono::milliseconds(20));
       }
     } catch (...) {
       interrupted = std::current_exception();

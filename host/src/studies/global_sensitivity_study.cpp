@@ -80,10 +80,13 @@ std::vector<double> evaluate(const model::Parameters& base, const std::vector<mo
     mine.push_back(i);
   }
   std::vector<double> y(rows.size(), 0.0);
+  std::size_t shown = 0;
   parallel_for(
       mine.size(), [&](std::size_t j) { y[mine[j]] = output(at(base, f, rows[mine[j]]), o); },
       [&](std::size_t done, std::size_t total) {
-        if (mpi.root() && (done % 64 == 0 || done == total)) {
+        // A line each 64 runs at most (the reports come with any count).
+        if (mpi.root() && (done / 64 != shown / 64 || done == total)) {
+          shown = done;
           show_progress(
               fmt::format("\rsensitivity ({}): {}/{} runs done{}{}", o.method, done, total,
                           mpi.size() > 1 ? fmt::format(" on rank 0 of {}", mpi.size()) : "",

@@ -35,8 +35,10 @@ class StateSamples {
  public:
   /// The next time wanted (infinity: none).
   [[nodiscard]] virtual double next() const = 0;
-  /// The state at next(); the sink moves on to its following time.
-  virtual void take(const LuGreState& y) = 0;
+  /// The state at next() and the drive's voltage there (from the piece the
+  /// integrator is on: no lookup in the drive per sample); the sink moves
+  /// on to its following time.
+  virtual void take(const LuGreState& y, double V) = 0;
 
  protected:
   ~StateSamples() = default;
