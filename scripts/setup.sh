@@ -26,7 +26,7 @@ done
 [ "$preset" = arm64 ] && arm64=yes
 
 packages=(
-  build-essential cmake ninja-build pkg-config git file
+  build-essential cmake ninja-build ccache pkg-config git file
   libeigen3-dev libcli11-dev libtomlplusplus-dev libfmt-dev nlohmann-json3-dev
   libhdf5-dev zlib1g-dev libgtest-dev libgmock-dev
   gnuplot-nox python3 python3-h5py python3-numpy

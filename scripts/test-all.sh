@@ -38,21 +38,50 @@ leftovers() {
   return 1
 }
 
+# The compiler cache's hits and misses so far ("hits misses"; "- -"
+# without ccache): a leg's share is the difference across it.
+cache_counts() {
+  command -v ccache > /dev/null || { echo "- -"; return; }
+  ccache --print-stats | awk -F'\t' '
+    $1 == "direct_cache_hit" || $1 == "preprocessed_cache_hit" { hits += $2 }
+    $1 == "cache_miss" { misses = $2 }
+    END { print hits + 0, misses + 0 }'
+}
+
 failed=()
-# leg NAME FUNCTION [tests]: runs the function with errexit in force (a
-# background job is outside the `if` that would suspend it); after a leg of
-# tests, looks for leftovers (the set-up's package scripts may start
-# services of their own).
+table=()
+# leg NAME MINUTES FUNCTION [tests]: runs the function with errexit in
+# force, in a shell of its own that is stopped after MINUTES (a hung test
+# or build costs its leg, not the run); after a leg of tests, looks for
+# leftovers (the set-up's package scripts may start services of their
+# own). Each leg's time, result and compiler-cache figures go to the table
+# printed at the end.
 leg() {
-  local name=$1 rc=0
+  local name=$1 minutes=$2 function=$3 rc=0 start=$SECONDS before after result cache
   phase "$name"
-  "$2" &
+  read -r -a before <<< "$(cache_counts)"
+  timeout --kill-after=30 $((minutes * 60)) bash -c "set -euo pipefail; $function" &
   wait $! || rc=$?
-  if [ "${3:-}" = tests ]; then leftovers || rc=$?; fi
+  if [ "${4:-}" = tests ]; then leftovers || rc=$?; fi
+  read -r -a after <<< "$(cache_counts)"
+  result=passed
+  if ((rc == 124)); then
+    result="FAILED (over its $minutes min)"
+  elif ((rc)); then
+    result="FAILED (exit $rc)"
+  fi
   if ((rc)); then
     failed+=("$name")
-    echo "== $name: FAILED (exit $rc)"
+    echo "== $name: $result"
   fi
+  cache="-"
+  if [ "${before[0]}" != - ]; then
+    local hits=$((after[0] - before[0])) misses=$((after[1] - before[1]))
+    cache="$hits / $misses"
+    ((hits + misses)) && cache+=" ($((100 * hits / (hits + misses))) % hits)"
+  fi
+  table+=("$(printf '%-46s %3dm%02ds  %-26s %s' "$name" $(((SECONDS - start) / 60)) \
+    $(((SECONDS - start) % 60)) "$result" "$cache")")
 }
 
 set_up() { scripts/setup.sh ci --gpio-sim --arm64; }
@@ -83,12 +112,18 @@ thread_sanitizer() {
     -E "^view_(browser|rig|load|wide_bind)$"
 }
 
-leg "set-up and the optimised build" set_up
-leg "the whole suite" whole_suite tests
-leg "the board build under qemu-aarch64" board_build tests
-leg "AddressSanitizer + UndefinedBehaviorSanitizer" address_sanitizer tests
-leg "ThreadSanitizer" thread_sanitizer tests
+export -f set_up whole_suite board_build address_sanitizer thread_sanitizer
+# Each leg's bound is about twice its time on a machine that has built the
+# tree once, and above its time from nothing (docs/testing.md has both).
+leg "set-up and the optimised build" 30 set_up
+leg "the whole suite" 25 whole_suite tests
+leg "the board build under qemu-aarch64" 8 board_build tests
+leg "AddressSanitizer + UndefinedBehaviorSanitizer" 25 address_sanitizer tests
+leg "ThreadSanitizer" 10 thread_sanitizer tests
 phase "done"
+printf '\n%-46s %8s  %-26s %s\n' "leg" "time" "result" "compiler cache: hits / misses"
+printf '%s\n' "${table[@]}"
+printf '%-46s %3dm%02ds\n' "all legs" $((SECONDS / 60)) $((SECONDS % 60))
 if ((${#failed[@]})); then
   echo "failed legs:"
   printf '  %s\n' "${failed[@]}"

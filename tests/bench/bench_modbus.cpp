@@ -13,6 +13,7 @@
 #include <thread>
 #include <vector>
 
+#include "build_paths.hpp"
 #include "piezo/hal/modbus/modbus_sensor.hpp"
 #include "piezo/hal/posix/monotonic_clock.hpp"
 
@@ -79,7 +80,8 @@ double rtu_wire_limit(int baud, int words, int bits_per_char) {
 
 int main(int argc, char** argv) {
   const double seconds = argc > 1 ? std::stod(argv[1]) : 3.0;
-  const std::string piezo = PIEZO_BINARY, config = PIEZO_SOURCE_DIR "/configs/modbus-hil.toml";
+  const std::string piezo = build_paths::piezo,
+                    config = std::string(build_paths::source_dir) + "/configs/modbus-hil.toml";
   const auto dir =
       std::filesystem::temp_directory_path() / ("piezo-bench-" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);

@@ -21,6 +21,7 @@
 
 #include "../support/rig_sim.hpp"
 #include "board_client.hpp"
+#include "build_paths.hpp"
 #include "piezo/firmware/loop_runner.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "rig.hpp"
@@ -68,7 +69,8 @@ Latencies over_the_protocol(double seconds, double& cpu_percent) {
   const int port = piezo::testing::free_port(2);
   const std::string address = "tcp://127.0.0.1:" + std::to_string(port);
   piezo::testing::Spawned board(
-      {PIEZOD_BINARY, "--config", PIEZO_SOURCE_DIR "/configs/piezod-sim.toml", "--listen", address},
+      {build_paths::piezod, "--config",
+       std::string(build_paths::source_dir) + "/configs/piezod-sim.toml", "--listen", address},
       "/dev/null");
   piezo::testing::wait_for_tcp(port);
   host::BoardClient client({address, "", ""});
@@ -111,7 +113,7 @@ Latencies over_the_protocol(double seconds, double& cpu_percent) {
 }
 
 Latencies in_process(double seconds) {
-  auto config = config::load_rig_config(PIEZO_SOURCE_DIR "/configs/sim.toml");
+  auto config = config::load_rig_config(std::string(build_paths::source_dir) + "/configs/sim.toml");
   config::Rig rig = config::build_rig(config.board);
   const model::Sawtooth waveform(80.0, 10.0, config.host.model.drive.D());
   firmware::LoopRunner runner(

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <string>
 
+#include "build_paths.hpp"
 #include "piezo/protocol/error.hpp"
 
 namespace piezo::daemon {
@@ -126,7 +127,7 @@ TEST(RunState, StatesHaveTheirProtocolNames) {
 // docs/protocol.md's state machine names the causes that latch a fault;
 // they are the ones RunState latches, every one of them.
 TEST(RunState, TheCausesThatLatchAreTheOnesProtocolMdNames) {
-  std::ifstream in(std::string(PIEZO_SOURCE_DIR) + "/docs/protocol.md");
+  std::ifstream in(std::string(build_paths::source_dir) + "/docs/protocol.md");
   ASSERT_TRUE(in);
   std::stringstream page;
   page << in.rdbuf();

@@ -4,26 +4,32 @@
 # file verified, piezod running from the package answering `piezo status`,
 # the conffile kept over a reinstall, and clean removal and purge.
 # Needs root (chroot) and debootstrap; exits 77 (CTest: skipped) saying why
-# otherwise. The base root is built once and cached in WORK_DIR.
-# Usage: package-test.sh WORK_DIR DEB_DIR PORT
+# otherwise. The base root is built once and kept in CACHE_DIR (default:
+# WORK_DIR); apt-get updates it inside each test.
+# Usage: package-test.sh WORK_DIR DEB_DIR PORT [CACHE_DIR]
 set -euo pipefail
-work="$1" debs="$2" port="$3"
+work="$1" debs="$2" port="$3" cache="${4:-$1}"
 
 skip() { echo "SKIP: $*"; exit 77; }
 [ "$(id -u)" -eq 0 ] || skip "needs root for chroot"
 command -v debootstrap >/dev/null || skip "debootstrap not installed (Debian: debootstrap)"
 ls "$debs"/piezod_*.deb >/dev/null 2>&1 || skip "no piezod package in $debs (run cpack -G DEB)"
 
-mkdir -p "$work"
-base="$work/bookworm-minbase.tar"
-if [ ! -f "$base" ]; then
-  echo "package-test: debootstrap --variant=minbase bookworm (once, cached in $base)"
-  rm -rf "$work/base"
-  debootstrap --variant=minbase bookworm "$work/base" http://deb.debian.org/debian > "$work/debootstrap.log" 2>&1 \
-    || { tail -20 "$work/debootstrap.log"; exit 1; }
-  tar -C "$work/base" -cf "$base" .
-  rm -rf "$work/base"
-fi
+mkdir -p "$work" "$cache"
+base="$cache/bookworm-minbase.tar"
+(
+  # One builder at a time; the tar appears whole or not at all.
+  flock 9
+  if [ ! -f "$base" ]; then
+    echo "package-test: debootstrap --variant=minbase bookworm (once, cached in $base)"
+    rm -rf "$work/base"
+    debootstrap --variant=minbase bookworm "$work/base" http://deb.debian.org/debian > "$work/debootstrap.log" 2>&1 \
+      || { tail -20 "$work/debootstrap.log"; exit 1; }
+    tar -C "$work/base" -cf "$base.part" .
+    mv "$base.part" "$base"
+    rm -rf "$work/base"
+  fi
+) 9> "$cache/.lock"
 
 root="$work/root"
 cleanup() {

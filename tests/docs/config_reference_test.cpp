@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "build_paths.hpp"
 #include "rig_config.hpp"
 
 namespace {
@@ -55,7 +56,7 @@ std::set<std::string> names_in(const std::string& cell) {
 
 /// "section.key" -> its row's cells, from every "## `[section]`" table.
 std::map<std::string, Row> documented_rows() {
-  std::ifstream page(std::string(PIEZO_SOURCE_DIR) + "/docs/configuration.md");
+  std::ifstream page(std::string(build_paths::source_dir) + "/docs/configuration.md");
   EXPECT_TRUE(page) << "docs/configuration.md is missing";
   const std::regex heading(R"(^## `\[([a-z_.\-]+)\]`)");
   std::map<std::string, Row> rows;

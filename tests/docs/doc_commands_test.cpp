@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "../support/run_command.hpp"
+#include "build_paths.hpp"
 
 namespace {
 
@@ -22,8 +23,8 @@ namespace fs = std::filesystem;
 using piezo::testing::fresh_temp_dir;
 using piezo::testing::run_command;
 
-const std::string kPiezo = PIEZO_BINARY;
-const fs::path kSource = PIEZO_SOURCE_DIR;
+const std::string kPiezo = build_paths::piezo;
+const fs::path kSource = build_paths::source_dir;
 
 /// The command lines of the page's ```sh blocks (comments and blank lines
 /// left out).

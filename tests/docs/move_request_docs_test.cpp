@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "build_paths.hpp"
 #include "piezo/firmware/move_request.hpp"
 
 namespace {
@@ -19,7 +20,7 @@ using piezo::firmware::MoveField;
 
 /// The table rows ("| `...") that follow the line `heading` on the page.
 std::vector<std::string> table_after(const std::string& page, const std::string& heading) {
-  std::ifstream in(std::string(PIEZO_SOURCE_DIR) + "/" + page);
+  std::ifstream in(std::string(build_paths::source_dir) + "/" + page);
   EXPECT_TRUE(in) << page;
   std::vector<std::string> rows;
   bool found = false;

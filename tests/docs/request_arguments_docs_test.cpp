@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "build_paths.hpp"
 #include "piezo/protocol/messages.hpp"
 
 namespace {
@@ -20,7 +21,7 @@ namespace protocol = piezo::protocol;
 
 /// The table rows ("| `...") under the line `heading`, up to the next heading.
 std::vector<std::string> rows_under(const std::string& heading) {
-  std::ifstream in(std::string(PIEZO_SOURCE_DIR) + "/docs/protocol.md");
+  std::ifstream in(std::string(build_paths::source_dir) + "/docs/protocol.md");
   EXPECT_TRUE(in) << "docs/protocol.md is missing";
   std::vector<std::string> rows;
   bool found = false;

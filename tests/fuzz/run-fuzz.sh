@@ -66,18 +66,42 @@ case "$target" in
     libs=($(pkg-config --libs hdf5) -lz -lfmt -ldl) ;;
   *) echo "unknown fuzz target $target"; exit 2 ;;
 esac
-# TOML_ASSERT: as in the project's builds (CMakeLists.txt says why).
-objects=()
-if ((${#linked[@]})); then
-  mkdir -p "$work/linked"
-  printf '%s\n' "${linked[@]}" | xargs -P "$(nproc)" -I{} sh -c \
-    'clang++ -std=c++20 -O0 -w "$@" -c "{}" -o "'"$work"'/linked/$(echo "{}" | md5sum | cut -c1-12).o"' \
-    sh "${flags[@]}"
-  for f in "${linked[@]}"; do objects+=("$work/linked/$(echo "$f" | md5sum | cut -c1-12).o"); done
+# Each file compiles on its own, both cores at once, through the compiler
+# cache where there is one (cmake/ccache.cmake says why base_dir and
+# hash_dir): a clone that changed nothing of a target links what an earlier
+# clone compiled. compile DIR FLAGS... -- FILES...: one object a file in
+# DIR, named by the file's path under the source tree.
+compiler=(clang++)
+if command -v ccache >/dev/null; then
+  export CCACHE_BASEDIR="$src" CCACHE_NOHASHDIR=1 CCACHE_MAXSIZE=6G
+  compiler=(ccache clang++)
 fi
-clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined \
-  -D'TOML_ASSERT(expr)=((void)0)' "${flags[@]}" "$src/tests/fuzz/${target}_fuzz.cpp" "${sources[@]}" "${objects[@]}" "${libs[@]}" \
-  -o "$work/${target}_fuzz"
+export SRC="$src"
+object_of() {  # DIR FILE: FILE's object in DIR, named by its path under the source tree
+  local rel="${2#"$SRC"/}"
+  echo "$1/${rel//\//_}.o"
+}
+export -f object_of
+objects=()
+compile() {
+  local dir="$1" f flags=()
+  shift
+  while [ "$1" != -- ]; do flags+=("$1"); shift; done
+  shift
+  mkdir -p "$dir"
+  for f in "$@"; do objects+=("$(object_of "$dir" "$f")"); done
+  printf '%s\0' "$@" | DIR="$dir" xargs -0 -P "$(nproc)" -I{} bash -c \
+    'exec "$@" -c "$0" -o "$(object_of "$DIR" "$0")"' {} "${compiler[@]}" "${flags[@]}"
+}
+# TOML_ASSERT: as in the project's builds (CMakeLists.txt says why).
+if ((${#linked[@]})); then compile "$work/linked" -std=c++20 -O0 -w "${flags[@]}" -- "${linked[@]}"; fi
+fuzzed=(-fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined)
+# The fuzzer's own file takes libFuzzer's entry point; the files it tests
+# only its instrumentation (-fsanitize=fuzzer-no-link).
+compile "$work/fuzzed" -std=c++20 -O1 -g "${fuzzed[@]/fuzzer,/fuzzer-no-link,}" \
+  -ffile-prefix-map="$src/"= -D'TOML_ASSERT(expr)=((void)0)' "${flags[@]}" \
+  -- "$src/tests/fuzz/${target}_fuzz.cpp" "${sources[@]}"
+clang++ "${fuzzed[@]}" "${objects[@]}" "${libs[@]}" -o "$work/${target}_fuzz"
 # New inputs go to the work corpus; the repository's seeds are read only.
 # A crash exits 1: libFuzzer's own default, 77, is CTest's "skipped".
 "$work/${target}_fuzz" -max_total_time="$seconds" -max_len=70000 -timeout=10 \

@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "../support/rig_sim.hpp"
+#include "build_paths.hpp"
 
 namespace piezo::testing {
 namespace {
@@ -22,7 +23,8 @@ namespace {
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 
-const std::string kPymodbusSensor = std::string(PIEZO_SOURCE_DIR) + "/tests/hil/pymodbus_sensor.py";
+const std::string kPymodbusSensor =
+    std::string(build_paths::source_dir) + "/tests/hil/pymodbus_sensor.py";
 
 TEST_F(ModbusHil, OurClientReadsRigSimOverTcp) {
   auto rig = start_rig_sim();

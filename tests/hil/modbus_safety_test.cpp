@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "../support/rig_sim.hpp"
+#include "build_paths.hpp"
 #include "piezo/hal/modbus/link.hpp"
 #include "piezo/hal/modbus/register_map.hpp"
 
@@ -277,10 +278,10 @@ TEST_F(ModbusSafety, PiezodOnModbusStopsItselfWhenTheHostDies) {
   ASSERT_TRUE(wait_for_tcp(port));
   const int board_port = free_port(2);
   const std::string address = "tcp://127.0.0.1:" + std::to_string(board_port);
-  Spawned board(
-      {PIEZOD_BINARY, "--config", kConfig, "--set", "sensor.modbus.port=" + std::to_string(port),
-       "--set", "drive.modbus-ao.port=" + std::to_string(port), "--listen", address},
-      (dir / "piezod.txt").string());
+  Spawned board({build_paths::piezod, "--config", kConfig, "--set",
+                 "sensor.modbus.port=" + std::to_string(port), "--set",
+                 "drive.modbus-ao.port=" + std::to_string(port), "--listen", address},
+                (dir / "piezod.txt").string());
   ASSERT_TRUE(wait_for_tcp(board_port));
 
   const auto r = run_command(kPiezo + " run --config " + kConfig + " --rig " + address +

@@ -14,13 +14,14 @@
 #include <thread>
 
 #include "../support/rig_sim.hpp"
+#include "build_paths.hpp"
 
 namespace piezo::testing {
 namespace {
 
 using namespace std::chrono_literals;
 
-const std::string kWildSensor = std::string(PIEZO_SOURCE_DIR) + "/tests/hil/wild_sensor.py";
+const std::string kWildSensor = std::string(build_paths::source_dir) + "/tests/hil/wild_sensor.py";
 
 class WildSensor : public ModbusHil {
  protected:

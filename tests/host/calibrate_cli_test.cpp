@@ -10,13 +10,14 @@
 #include <nlohmann/json.hpp>
 
 #include "../support/run_command.hpp"
+#include "build_paths.hpp"
 
 namespace piezo::testing {
 namespace {
 
 namespace fs = std::filesystem;
-const std::string kPiezo = PIEZO_BINARY;
-const std::string kSimConfig = std::string(PIEZO_SOURCE_DIR) + "/configs/sim.toml";
+const std::string kPiezo = build_paths::piezo;
+const std::string kSimConfig = std::string(build_paths::source_dir) + "/configs/sim.toml";
 // The plant: mu 0.14, F_N 6.4e-3, sigma1 80 (the model: 0.1, 4.93e-3, 40).
 const std::string kStiffPlant =
     " --set plant.mu=0.14 --set plant.F_N=6.4e-3 --set plant.sigma1=80 --set run.clock=virtual";

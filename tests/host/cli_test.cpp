@@ -6,12 +6,13 @@
 #include <nlohmann/json.hpp>
 
 #include "../support/run_command.hpp"
+#include "build_paths.hpp"
 
 namespace piezo::testing {
 namespace {
 
-const std::string kPiezo = PIEZO_BINARY;
-const std::string kConfigs = std::string(PIEZO_SOURCE_DIR) + "/configs";
+const std::string kPiezo = build_paths::piezo;
+const std::string kConfigs = std::string(build_paths::source_dir) + "/configs";
 
 TEST(SimulateCli, JsonHasAngleAndVelocity) {
   const auto r = run_command(kPiezo + " simulate --duration 0.5 --json");
@@ -185,7 +186,7 @@ TEST(SensitivityCli, SobolAgreesWithOpenTurnsAndMorrisRanksTheSame) {
   for (const char* file : {"sobol.csv", "design.csv", "sobol.png", "convergence.png"}) {
     EXPECT_TRUE(std::filesystem::exists(dir / "sobol" / file)) << file;
   }
-  const auto ot = run_command("/usr/bin/python3 " + std::string(PIEZO_SOURCE_DIR) +
+  const auto ot = run_command("/usr/bin/python3 " + std::string(build_paths::source_dir) +
                               "/tests/host/openturns_check.py " + (dir / "sobol").string());
   EXPECT_EQ(ot.exit_code, 0) << ot.out << ot.err;
 

@@ -10,13 +10,14 @@
 #include <random>
 
 #include "../support/run_command.hpp"
+#include "build_paths.hpp"
 #include "piezo/model/identify.hpp"
 
 namespace piezo::testing {
 namespace {
 
 namespace fs = std::filesystem;
-const std::string kPiezo = PIEZO_BINARY;
+const std::string kPiezo = build_paths::piezo;
 
 /// t, V, theta at 500 Hz from a LuGre motor with known parameters, 8 urad noise.
 fs::path write_synthetic_csv(const fs::path& dir, const model::Parameters& truth) {
@@ -206,7 +207,8 @@ TEST(CompareCli, RanksLuGreAheadOnLuGreData) {
 // the closed-form integrator stopped there ("switches endlessly"). It takes
 // the chatter's limit, sticking, and Table III's comparison completes.
 TEST(CompareCli, ChatteringContactIsStickingNotAnError) {
-  const std::string log = std::string(PIEZO_SOURCE_DIR) + "/tests/data/chattering_contact.h5";
+  const std::string log =
+      std::string(build_paths::source_dir) + "/tests/data/chattering_contact.h5";
   const auto r = run_command(kPiezo + " compare --log " + log + " --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);

@@ -16,13 +16,14 @@
 
 #include "../support/run_command.hpp"
 #include "../support/spawn.hpp"
+#include "build_paths.hpp"
 
 namespace piezo::testing {
 namespace {
 
 namespace fs = std::filesystem;
-const std::string kPiezo = PIEZO_BINARY;
-const std::string kSimConfig = std::string(PIEZO_SOURCE_DIR) + "/configs/sim.toml";
+const std::string kPiezo = build_paths::piezo;
+const std::string kSimConfig = std::string(build_paths::source_dir) + "/configs/sim.toml";
 
 /// Rows of drive/t and sensor/t as h5py reads them, or -1 when it cannot
 /// read every dataset of the log whole.

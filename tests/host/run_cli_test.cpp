@@ -13,13 +13,14 @@
 
 #include "../support/run_command.hpp"
 #include "../support/spawn.hpp"
+#include "build_paths.hpp"
 
 namespace piezo::testing {
 namespace {
 
 namespace fs = std::filesystem;
-const std::string kPiezo = PIEZO_BINARY;
-const std::string kSimConfig = std::string(PIEZO_SOURCE_DIR) + "/configs/sim.toml";
+const std::string kPiezo = build_paths::piezo;
+const std::string kSimConfig = std::string(build_paths::source_dir) + "/configs/sim.toml";
 
 /// Checks a log with h5py (Debian's python3-h5py); prints "ok" and facts.
 CommandResult h5py_check(const fs::path& log, const std::string& body) {

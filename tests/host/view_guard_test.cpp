@@ -15,6 +15,7 @@
 #include <sstream>
 #include <vector>
 
+#include "build_paths.hpp"
 #include "live_feed.hpp"
 #include "view_server.hpp"
 
@@ -143,7 +144,8 @@ TEST(ViewStreams, OpenLivePagesLeaveTheEstopAnswered) {
 
 TEST(ViewPages, EveryShippedPageHasUniqueIds) {
   int pages = 0;
-  for (const auto& entry : std::filesystem::directory_iterator(PIEZO_SOURCE_DIR "/host/web")) {
+  for (const auto& entry : std::filesystem::directory_iterator(
+           std::filesystem::path(build_paths::source_dir) / "host/web")) {
     if (entry.path().extension() != ".html") continue;
     ++pages;
     std::ifstream in(entry.path());

@@ -9,13 +9,14 @@
 #include <regex>
 #include <sstream>
 
+#include "build_paths.hpp"
 #include "rig_sim.hpp"
 
 namespace piezo::testing {
 namespace {
 
-const std::string kPiezod = PIEZOD_BINARY;
-const std::string kSource = PIEZO_SOURCE_DIR;
+const std::string kPiezod = build_paths::piezod;
+const std::string kSource = build_paths::source_dir;
 const std::string kSimConfig = kSource + "/configs/sim.toml";
 
 /// piezod on the simulated rig, on a free loopback port, with extra

@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "../support/run_command.hpp"
+#include "build_paths.hpp"
 #include "h5_file.hpp"
 #include "piezo/firmware/samples.hpp"
 #include "piezo/hal/sim/plant.hpp"
@@ -42,7 +43,8 @@ Outcome run_virtual(std::vector<std::string> sets, double stop_at_s = -1.0,
                     const std::string& tag = "hil", std::uint64_t step_periods = 0,
                     std::optional<config::RunSettings::Move> move = std::nullopt) {
   sets.push_back("run.clock=virtual");
-  config::RigConfig config = config::load_rig_config(PIEZO_SOURCE_DIR "/configs/sim.toml", sets);
+  config::RigConfig config =
+      config::load_rig_config(std::string(build_paths::source_dir) + "/configs/sim.toml", sets);
   if (step_periods > 0) {
     config.host.run.step_periods = step_periods;
     config.host.run.duration_s = static_cast<double>(step_periods) / config.host.model.drive.f;
@@ -514,7 +516,7 @@ TEST(SimRun, EveryEndLeavesTheSimulatedAmplifierDisabled) {
 // first cycles are not late and the sensor is not taken for stale.
 TEST(SimRun, SlowSetUpBeforeTheStartIsNoSensorFault) {
   const config::RigConfig config =
-      config::load_rig_config(PIEZO_SOURCE_DIR "/configs/sim.toml",
+      config::load_rig_config(std::string(build_paths::source_dir) + "/configs/sim.toml",
                               {"run.duration_s=0.3", "run.lock_memory=false", "run.priority=0"});
   config::Rig rig = config::build_rig(config.board);
   std::this_thread::sleep_for(std::chrono::milliseconds(400));
@@ -540,7 +542,7 @@ TEST(SimRun, EstopDisablesWithinOneDrivePeriod) {
 // when the write returns. In real time, the run on a thread of its own.
 TEST(SimRun, AnEstopActsDuringASlowDriveWrite) {
   config::RigConfig config =
-      config::load_rig_config(PIEZO_SOURCE_DIR "/configs/sim.toml",
+      config::load_rig_config(std::string(build_paths::source_dir) + "/configs/sim.toml",
                               {"drive.sim.stall_at_s=0.5", "drive.sim.stall_for_s=5",
                                "run.duration_s=10", "run.priority=0", "run.lock_memory=false"});
   config::Rig rig = config::build_rig(config.board);

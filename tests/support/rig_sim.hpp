@@ -19,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "build_paths.hpp"
 #include "run_command.hpp"
 #include "spawn.hpp"
 
@@ -27,8 +28,9 @@ namespace piezo::testing {
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 
-inline const std::string kPiezo = PIEZO_BINARY;
-inline const std::string kConfig = std::string(PIEZO_SOURCE_DIR) + "/configs/modbus-hil.toml";
+inline const std::string kPiezo = build_paths::piezo;
+inline const std::string kConfig =
+    std::string(build_paths::source_dir) + "/configs/modbus-hil.toml";
 
 /// True when nothing on this machine holds `port` on loopback.
 inline bool port_is_free(int port) {

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "../../support/run_command.hpp"
+#include "build_paths.hpp"
 #include "config_error.hpp"
 #include "piezo/hal/gpiod/gpiod_backends.hpp"
 #include "piezo/hal/modbus/modbus_backends.hpp"
@@ -34,7 +35,7 @@ TEST_F(ModelConfig, ReadsDriveAndModelSections) {
 }
 
 TEST_F(ModelConfig, PaperConfigHoldsTable1) {
-  const auto p = load_model_config(std::string(PIEZO_SOURCE_DIR) + "/configs/paper.toml");
+  const auto p = load_model_config(std::string(build_paths::source_dir) + "/configs/paper.toml");
   const model::Parameters table1;
   for (const auto& spec : model::parameter_specs()) {
     EXPECT_EQ(*model::get_parameter(p, spec.name), *model::get_parameter(table1, spec.name))
@@ -128,11 +129,11 @@ namespace {
 // are not opened here).
 TEST(RigConfigs, ShippedConfigsLoad) {
   for (const char* name : {"sim.toml", "modbus-hil.toml", "rig-example.toml", "daq.toml"}) {
-    const std::string path = std::string(PIEZO_SOURCE_DIR) + "/configs/" + name;
+    const std::string path = std::string(build_paths::source_dir) + "/configs/" + name;
     EXPECT_NO_THROW((void)load_rig_config(path)) << name;
   }
   const BoardConfig rig =
-      load_rig_config(std::string(PIEZO_SOURCE_DIR) + "/configs/rig-example.toml").board;
+      load_rig_config(std::string(build_paths::source_dir) + "/configs/rig-example.toml").board;
   const auto dac =
       rig.drive.backends.get<hal::gpiod::ParallelDacBackend>().settings(rig.drive_common());
   EXPECT_EQ(dac.dac.bits, 12);
