@@ -73,7 +73,8 @@ std::vector<double> to_vector(
     const py::array_t<double, py::array::c_style | py::array::forcecast>& a,
     const std::string& source, const std::string& key) {
   if (a.ndim() != 1) {
-    throw ConfigError(source, key, fmt::format("{} dimensions (allowed: 1, a flat array)", a.ndim()));
+    throw ConfigError(source, key,
+                      fmt::format("{} dimensions (allowed: 1, a flat array)", a.ndim()));
   }
   return {a.data(), a.data() + a.size()};
 }
@@ -82,9 +83,10 @@ std::vector<double> to_vector(
 /// is a TypeError naming the parameter, not pybind11's cast error.
 double number(const py::handle& value, const std::string& where, const std::string& name) {
   if (PyBool_Check(value.ptr()) || !PyNumber_Check(value.ptr()) || PyUnicode_Check(value.ptr())) {
-    throw py::type_error(fmt::format("{}: {}: expected a number (float or int), got {} {}", where,
-                                     name, py::str(py::type::of(value).attr("__name__")).cast<std::string>(),
-                                     py::repr(value).cast<std::string>()));
+    throw py::type_error(
+        fmt::format("{}: {}: expected a number (float or int), got {} {}", where, name,
+                    py::str(py::type::of(value).attr("__name__")).cast<std::string>(),
+                    py::repr(value).cast<std::string>()));
   }
   return py::float_(py::reinterpret_borrow<py::object>(value)).cast<double>();
 }
@@ -178,7 +180,8 @@ py::dict simulate(model::Parameters p, double duration, const std::string& frict
     throw ConfigError("simulate", "dt", fmt::format("{:g} s (allowed: (0, duration])", dt));
   }
   if (!(tolerance >= 1e-14 && tolerance <= 1e-2)) {
-    throw ConfigError("simulate", "tolerance", fmt::format("{:g} (allowed: [1e-14, 1e-2])", tolerance));
+    throw ConfigError("simulate", "tolerance",
+                      fmt::format("{:g} (allowed: [1e-14, 1e-2])", tolerance));
   }
   const auto integrator = host::checked_integrator(integrator_name, friction, "integrator");
   model::Trajectory tr;
@@ -186,7 +189,7 @@ py::dict simulate(model::Parameters p, double duration, const std::string& frict
     py::gil_scoped_release free_python;
     const model::Sawtooth drive(p.drive.V0, p.drive.f, p.drive.rise());
     const auto times = model::uniform_times(duration, dt);
-    host::SimulationProgress progress(duration, true);
+    host::SimulationProgress progress(duration, true, model::differences_from_paper(p));
     tr = model::simulate(
         p.motor, drive, friction, times,
         {.tolerance = tolerance, .integrator = integrator, .progress = [&](double t) {
@@ -235,8 +238,9 @@ std::string global_study(const model::Parameters& p, const std::string& method,
   o.model = host::checked_friction_model(friction_name, "model");
   // Errors name the Python call's keyword arguments, not the CLI's flags.
   const std::string at = method + ": ";
-  o.names = {at + "names",  at + "range_pct", at + (method == "morris" ? "trajectories" : "samples"),
-             at + "output", at + "runtime",   at + "bootstrap"};
+  o.names = {
+      at + "names",  at + "range_pct", at + (method == "morris" ? "trajectories" : "samples"),
+      at + "output", at + "runtime",   at + "bootstrap"};
   py::gil_scoped_release free_python;
   return host::global_study(p, o).dump();
 }
@@ -245,7 +249,8 @@ py::dict sweep(const model::Parameters& base, const std::string& name,
                const std::vector<double>& values, int periods, const std::string& friction_name) {
   const auto friction = host::checked_friction_model(friction_name, "model");
   if (name != "D" && model::find_parameter(name) == nullptr) {
-    throw ConfigError("sweep", "name", name + ": unknown (allowed: a Table 1 symbol (V0, f, mu, ...) or D)");
+    throw ConfigError("sweep", "name",
+                      name + ": unknown (allowed: a Table 1 symbol (V0, f, mu, ...) or D)");
   }
   if (periods < 3 || periods > 100000) {
     throw ConfigError("sweep", "periods", std::to_string(periods) + " (allowed: [3, 100000])");
@@ -294,6 +299,8 @@ py::dict fit_result(model::FitResult&& r, std::size_t samples) {
   out["rmse_rad"] = r.rmse_rad;
   out["initial_rmse_rad"] = r.initial_rmse_rad;
   out["iterations"] = r.iterations;
+  out["converged"] = r.converged;
+  out["stop_reason"] = r.stop_reason;
   out["samples"] = samples;
   out["notes"] = r.notes;
   out["fitted"] = r.parameters;
@@ -413,7 +420,8 @@ Parameters.from_config(path) reads a TOML config's [drive] and [model].)");
       },
       "A copy with the values given by symbol, checked together (C_dr and e_dr at once, say).");
   cls.def("__eq__", [](const model::Parameters& a, const py::object& b) -> py::object {
-    if (!py::isinstance<model::Parameters>(b)) return py::reinterpret_borrow<py::object>(Py_NotImplemented);
+    if (!py::isinstance<model::Parameters>(b))
+      return py::reinterpret_borrow<py::object>(Py_NotImplemented);
     return py::bool_(same_parameters(a, b.cast<const model::Parameters&>()));
   });
   cls.attr("__hash__") = py::none();  // mutable: equal by value, not hashable
@@ -475,10 +483,9 @@ Parameters.from_config(path) reads a TOML config's [drive] and [model].)");
   cls.def_static("from_config",
                  [](const std::string& path) { return piezo::config::load_model_config(path); });
   // Pickled as the parameters' JSON, the direction included (processes of a pool).
-  cls.def(py::pickle([](const model::Parameters& p) { return py::make_tuple(parameters_to_json(p)); },
-                     [](const py::tuple& state) {
-                       return parameters_from_json(state[0].cast<std::string>());
-                     }));
+  cls.def(py::pickle(
+      [](const model::Parameters& p) { return py::make_tuple(parameters_to_json(p)); },
+      [](const py::tuple& state) { return parameters_from_json(state[0].cast<std::string>()); }));
 }
 
 }  // namespace
@@ -495,17 +502,18 @@ PYBIND11_MODULE(_model, m) {
   bind_parameters(m);
 
   py::class_<model::FitData>(m, "FitData")
-      .def(py::init([](const py::array_t<double, py::array::c_style | py::array::forcecast>& drive_t,
-                       const py::array_t<double, py::array::c_style | py::array::forcecast>& drive_V,
-                       const py::array_t<double, py::array::c_style | py::array::forcecast>& t,
-                       const py::array_t<double, py::array::c_style | py::array::forcecast>& theta,
-                       std::optional<double> ramp_time, const std::string& source) {
-             return host::checked_fit_data(
-                 to_vector(drive_t, source, "drive_t"), to_vector(drive_V, source, "drive_V"),
-                 to_vector(t, source, "t"), to_vector(theta, source, "theta"), ramp_time, source);
-           }),
-           py::arg("drive_t"), py::arg("drive_V"), py::arg("t"), py::arg("theta"),
-           py::arg("ramp_time") = py::none(), py::arg("source") = "FitData")
+      .def(
+          py::init([](const py::array_t<double, py::array::c_style | py::array::forcecast>& drive_t,
+                      const py::array_t<double, py::array::c_style | py::array::forcecast>& drive_V,
+                      const py::array_t<double, py::array::c_style | py::array::forcecast>& t,
+                      const py::array_t<double, py::array::c_style | py::array::forcecast>& theta,
+                      std::optional<double> ramp_time, const std::string& source) {
+            return host::checked_fit_data(
+                to_vector(drive_t, source, "drive_t"), to_vector(drive_V, source, "drive_V"),
+                to_vector(t, source, "t"), to_vector(theta, source, "theta"), ramp_time, source);
+          }),
+          py::arg("drive_t"), py::arg("drive_V"), py::arg("t"), py::arg("theta"),
+          py::arg("ramp_time") = py::none(), py::arg("source") = "FitData")
       .def_property_readonly(
           "drive_t", [](const model::FitData& d) { return to_numpy(std::vector(d.drive_t)); })
       .def_property_readonly(

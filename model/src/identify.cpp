@@ -37,7 +37,8 @@ struct AngleResiduals : Eigen::DenseFunctor<double> {
   }
 
   void residuals(const Eigen::VectorXd& u, Eigen::VectorXd& r) const {
-    const auto theta = predict(at(u), data_, settings_.model, settings_.tolerance);
+    const auto theta =
+        predict(at(u), data_, settings_.model, settings_.tolerance, settings_.within_simulation);
     for (std::size_t i = 0; i < theta.size(); ++i) {
       r[static_cast<Eigen::Index>(i)] = theta[i] - data_.theta[i];
     }
@@ -101,11 +102,12 @@ std::vector<std::string> identifiability_notes(const std::vector<const Parameter
 }  // namespace
 
 std::vector<double> predict(const Parameters& p, const FitData& data, FrictionModel model,
-                            double tolerance) {
+                            double tolerance, const std::function<void(double)>& progress) {
   const SampledDrive drive(data.drive_t, data.drive_V, data.ramp_time);
   std::vector<double> times(data.t);
   for (double& t : times) t = std::max(t, 0.0);
-  return simulate(p.motor, drive, model, times, {tolerance}).theta;
+  return simulate(p.motor, drive, model, times, {.tolerance = tolerance, .progress = progress})
+      .theta;
 }
 
 FitResult identify(const Parameters& start, const FitData& data, const FitSettings& settings) {
@@ -151,6 +153,34 @@ FitResult identify(const Parameters& start, const FitData& data, const FitSettin
   } while (status == Eigen::LevenbergMarquardtSpace::Running &&
            result.iterations < settings.max_iterations);
 
+  using Status = Eigen::LevenbergMarquardtSpace::Status;
+  switch (status) {
+    case Status::RelativeReductionTooSmall:
+    case Status::RelativeErrorTooSmall:
+    case Status::RelativeErrorAndReductionTooSmall:
+    case Status::CosinusTooSmall:
+      result.converged = true;
+      result.stop_reason = "converged";
+      break;
+    case Status::FtolTooSmall:
+    case Status::XtolTooSmall:
+    case Status::GtolTooSmall:
+      // No step can improve the fit at the tolerances asked: an optimum as
+      // far as the residual can tell.
+      result.converged = true;
+      result.stop_reason = "converged (no further improvement at these tolerances)";
+      break;
+    case Status::Running:
+      result.stop_reason = "stopped at max_iterations = " + std::to_string(settings.max_iterations);
+      break;
+    case Status::TooManyFunctionEvaluation:
+      result.stop_reason = "stopped after too many evaluations of the model";
+      break;
+    default:
+      result.stop_reason =
+          "stopped: Levenberg-Marquardt status " + std::to_string(static_cast<int>(status));
+      break;
+  }
   result.parameters = f.at(u);
   f(u, r);
   result.rmse_rad = rms(r);
@@ -178,6 +208,12 @@ FitResult identify(const Parameters& start, const FitData& data, const FitSettin
                              value * std::exp(kZ95 * sigma_log)});
   }
   result.notes = identifiability_notes(specs, correlation);
+  if (!result.converged) {
+    result.notes.insert(result.notes.begin(),
+                        "not converged (" + result.stop_reason +
+                            "): the values are where the fit stopped, and their standard errors "
+                            "and 95 % intervals, which assume an optimum, mean nothing");
+  }
   return result;
 }
 

@@ -80,6 +80,10 @@ void LuGreHybrid::reset(double t, const LuGreState& y) {
 void LuGreHybrid::advance(const LinearPiece& piece, double t_end, StateSamples* samples) {
   mode_ = Mode::series;  // a corner of the drive: the stator rings
   while (t_ < t_end) {
+    if (stats_.steps >= progress_at_step_) {
+      progress_at_step_ = stats_.steps + kStepsBetweenProgress;
+      if (progress_ != nullptr && *progress_) (*progress_)(t_);
+    }
     switch (mode_) {
       case Mode::linear:
         if (linear_step(piece, t_end, samples)) continue;
@@ -289,6 +293,7 @@ Trajectory simulate_lugre_hybrid(const MotorParameters& p, const Excitation& dri
   }
   Recorder recorder(times, p, out);
   LuGreHybrid motor(p, settings.tolerance);
+  motor.report_progress(settings.progress);
   motor.reset(0.0, LuGreState{});
   while (recorder.next() <= 0.0) recorder.take(motor.state(), drive.voltage(recorder.next()));
   while (!recorder.done()) {

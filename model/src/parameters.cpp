@@ -55,6 +55,19 @@ std::string ParameterSpec::range_text() const {
          (max_inclusive ? "]" : ")");
 }
 
+std::string differences_from_paper(const Parameters& p) {
+  Parameters given = p, paper{};  // copies: ParameterSpec::ref takes them mutable
+  std::string text;
+  for (const ParameterSpec& spec : parameter_specs()) {
+    const double value = spec.ref(given);
+    if (value == spec.ref(paper)) continue;
+    std::ostringstream item;
+    item << spec.name << '=' << value << (spec.unit.empty() ? "" : " ") << spec.unit;
+    text += (text.empty() ? "" : ", ") + item.str();
+  }
+  return text;
+}
+
 bool ParameterSpec::admits(double value) const {
   if (!std::isfinite(value)) return false;
   const bool above_min = min_inclusive ? value >= min : value > min;

@@ -38,6 +38,9 @@ void Trajectory::append(double t_s, double V_volts, std::span<const double> stat
 
 namespace {
 
+/// As LuGreHybrid's: progress within a piece of drive this often.
+constexpr std::size_t kStepsBetweenProgress = LuGreHybrid::kStepsBetweenProgress;
+
 template <std::size_t N>
 struct Event {
   double t;
@@ -73,6 +76,7 @@ IntegrationStats integrate(const MotorParameters& p, Rhs&& rhs, const Excitation
   const double t_end = times.back();
   double t = 0.0;
   double h = 1e-7;
+  std::size_t steps_since_progress = 0;
   while (next < times.size()) {
     const double seg_end = std::min(drive.next_breakpoint(t), t_end);
     const double at_end = 1e-13 * std::max(1.0, seg_end);
@@ -80,6 +84,11 @@ IntegrationStats integrate(const MotorParameters& p, Rhs&& rhs, const Excitation
     if (progress) progress(t);
     stepper.initialize(system, t, y, std::min(h, seg_end - t));
     while (seg_end - stepper.time() > at_end) {
+      // Within a piece too: stiff parameters take millions of steps in one.
+      if (progress && ++steps_since_progress == kStepsBetweenProgress) {
+        steps_since_progress = 0;
+        progress(stepper.time());
+      }
       stepper.step(system, seg_end - stepper.time());
       const std::optional<Event<N>> event = on_step(stepper);
       const double emitted_until = event ? event->t : stepper.time();

@@ -72,5 +72,33 @@ TEST(ParallelFor, AnInterruptionIsRethrownOnceTheJobsUnderWayHaveEnded) {
   EXPECT_EQ(begun.load(), ended.load());
 }
 
+TEST(ParallelFor, AnInterruptionStopsTheJobsUnderWayAtTheirNextInterruptionPoint) {
+  // Jobs that would never end by themselves (a stiff simulation's minutes)
+  // stop at their next interruption_point once the caller's thread has
+  // seen the interruption: parallel_for returns instead of waiting on them.
+  stop_asked = false;
+  stop_seen = false;
+  set_interruption_check(&stop_when_asked);
+  std::atomic<std::size_t> stopped{0};
+  EXPECT_THROW(parallel_for(
+                   4,
+                   [&](std::size_t i) {
+                     if (i == 0) stop_asked = true;
+                     try {
+                       for (;;) {
+                         interruption_point();
+                         std::this_thread::yield();
+                       }
+                     } catch (const JobsStopped&) {
+                       ++stopped;
+                       throw;
+                     }
+                   },
+                   [](std::size_t, std::size_t) {}),
+               std::runtime_error);  // the caller's interruption, not the workers' stop
+  set_interruption_check(nullptr);
+  EXPECT_GE(stopped.load(), 1U);
+}
+
 }  // namespace
 }  // namespace piezo::host

@@ -286,3 +286,106 @@ def test_a_csv_with_empty_cells_is_read(tmp_path):
     path.write_text("\n".join(rows) + "\n")
     data, _ = model.load_fit_data(path)
     assert len(data.t) == len(sim.t) - len(range(3, len(sim.t), 10))
+
+
+# -- hangs and silent results a stranger found (each failed before its fix) --
+
+def _child(code):
+    """A child interpreter running `code`, its stderr read line by line."""
+    import sys
+    # Ctrl-C as at a terminal, whatever this process was started with.
+    code = "import signal\nsignal.signal(signal.SIGINT, signal.default_int_handler)\n" + code
+    return subprocess.Popen([sys.executable, "-c", code], stderr=subprocess.PIPE, text=True,
+                            env=dict(os.environ, PYTHONUNBUFFERED="1"))
+
+
+def _interrupted_after(child, wanted, limit=120):
+    """Waits for a stderr line containing `wanted`, sends SIGINT, and returns
+    (seconds from the signal to the child's exit, everything it wrote)."""
+    import signal
+    seen, started = [], time.monotonic()
+    for line in child.stderr:
+        seen.append(line)
+        if wanted in line or time.monotonic() - started > limit:
+            break
+    signalled = time.monotonic()
+    child.send_signal(signal.SIGINT)
+    _, rest = child.communicate(timeout=60)
+    return time.monotonic() - signalled, "".join(seen) + (rest or "")
+
+
+def test_a_stiff_simulation_warns_shows_progress_and_answers_ctrl_c():
+    # J inside its range, the rotor's equation stiff: about 40 s before the
+    # integration checked for Ctrl-C (and showed progress) only per drive
+    # piece. Now within a piece too; a slow one names its parameters.
+    child = _child("from piezo_rig import model\n"
+                   "model.simulate(model.Parameters(J=1e-12), 0.1)")
+    waited, stderr = _interrupted_after(child, "slow:")
+    assert "simulate: t " in stderr, stderr
+    assert "stiff with J=1e-12 kg m^2" in stderr, stderr
+    assert "KeyboardInterrupt" in stderr, stderr
+    # Measured at 0.1-0.2 s (the interpreter's own exit included); the
+    # bound is for a loaded machine, far below the minute it took before.
+    assert waited < 5, stderr
+
+
+def test_a_fit_on_angles_in_degrees_answers_ctrl_c(tmp_path, piezo, source):
+    log_dir = tmp_path / "run"
+    piezo("run", "--config", os.path.join(source, "configs", "sim.toml"), "--set",
+          "run.clock=virtual", "--duration", "0.5", "--out", str(log_dir), "--json")
+    child = _child("import numpy as np\n"
+                   "from piezo_rig import log, model\n"
+                   f"drive_t, drive_V, t, theta = log.open_run({str(log_dir)!r}).fit_arrays()\n"
+                   "model.identify((drive_t, drive_V, t, np.degrees(theta)))")
+    waited, stderr = _interrupted_after(child, "iteration 1")
+    assert "KeyboardInterrupt" in stderr, stderr
+    assert waited < 5, stderr
+
+
+def _two_time_bases(path):
+    import h5py
+    with h5py.File(path, "w") as f:
+        t = np.linspace(0.0, 1.0, 10_001)
+        f["t"], f["V"] = t, 80.0 * (t * 10 % 1)
+        f["theta_t"] = np.linspace(0.0, 1.0, 1_001)
+        f["theta"] = np.linspace(0.0, 1e-3, 1_001)
+
+
+def test_an_angle_on_its_own_time_base_is_refused_without_its_times(tmp_path):
+    from piezo_rig import log
+    path = tmp_path / "two-bases.h5"
+    _two_time_bases(path)
+    with pytest.raises(ValueError, match=r"theta: 1001 values against 10001 times in t .*"
+                                         r"its own times: --theta-t DATASET, theta_t="):
+        model.load_fit_data(path, t="t", V="V", theta="theta")
+    with pytest.raises(ValueError, match="theta: 1001 values against 10001 times in t"):
+        model.identify(path, layout={"t": "t", "V": "V", "theta": "theta"})
+    with pytest.raises(ValueError, match=r"theta has 1001 values against 10001 times in t "
+                                         r"\(an angle sampled at other times needs its own"):
+        log.open_run(path, t="t", V="V", theta="theta")
+    # Said with its own times, the angle spans the whole second.
+    data, _ = model.load_fit_data(path, t="t", V="V", theta="theta", theta_t="theta_t")
+    assert len(data.t) == 1_001 and data.t[-1] == pytest.approx(1.0)
+    assert log.open_run(path, t="t", V="V", theta="theta", theta_t="theta_t").sensor.t.iloc[-1] == 1.0
+
+
+def test_a_fit_stopped_by_max_iterations_says_it_did_not_converge(tmp_path, piezo, source):
+    log_dir = tmp_path / "run"
+    piezo("run", "--config", os.path.join(source, "configs", "sim.toml"), "--set",
+          "run.clock=virtual", "--duration", "0.5", "--out", str(log_dir), "--json")
+    stopped = model.identify(log_dir, free=["F_N", "d_e"], max_iterations=1,
+                             params=model.Parameters(F_N=0.02))
+    assert not stopped.converged
+    assert stopped.stop_reason == "stopped at max_iterations = 1"
+    assert stopped.notes[0].startswith("not converged (stopped at max_iterations = 1)")
+    whole = model.identify(log_dir, free=["F_N"], max_iterations=200)
+    assert whole.converged and whole.stop_reason.startswith("converged"), whole.stop_reason
+    start = tmp_path / "start.toml"
+    start.write_text("[model]\nF_N = 0.02\n")
+    args = ["identify", "--log", str(log_dir / "run.h5"), "--params", "F_N,d_e", "--config",
+            str(start), "--max-iterations", "1"]
+    cli = piezo(*args, "--json")
+    assert cli["converged"] is False and cli["stop_reason"] == "stopped at max_iterations = 1"
+    text = piezo(*args)
+    assert "after 1 iterations, stopped at max_iterations = 1" in text
+    assert "note: not converged" in text

@@ -156,6 +156,18 @@ def _csv(path: str, t: Optional[str], V: Optional[str], theta: Optional[str]) ->
     return RunLog(path, drive, sensor, pd.DataFrame(), layout=layout)
 
 
+def _paired(path: str, role: str, times: tuple, values: tuple, hint: str = "") -> dict:
+    """``{"t": times, role: values}`` for a DataFrame; a ValueError naming
+    both datasets and their lengths when they differ (columns of two time
+    bases paired by index would squeeze one into the other's span).
+    ``times`` and ``values`` are (dataset name, array) pairs."""
+    (times_name, times_data), (values_name, values_data) = times, values
+    if len(times_data) != len(values_data):
+        raise ValueError(f"{path}: {values_name} has {len(values_data)} values against "
+                         f"{len(times_data)} times in {times_name}{hint}")
+    return {"t": times_data, role: values_data}
+
+
 def open_run(path: Union[str, os.PathLike], *, t: Optional[str] = None,
              V: Optional[str] = None, theta: Optional[str] = None,
              theta_t: Optional[str] = None) -> RunLog:
@@ -179,9 +191,11 @@ def open_run(path: Union[str, os.PathLike], *, t: Optional[str] = None,
             if t is None or V is None or theta is None:
                 raise KeyError(f"{path}: another tool's file needs t, V and theta datasets named")
             drive_t = _dataset(f, t, path)
-            drive = pd.DataFrame({"t": drive_t, "V": _dataset(f, V, path)})
+            drive = pd.DataFrame(_paired(path, "V", (t, drive_t), (V, _dataset(f, V, path))))
             sensor_t = _dataset(f, theta_t, path) if theta_t else drive_t
-            sensor = pd.DataFrame({"t": sensor_t, "theta": _dataset(f, theta, path)})
+            own_times = "" if theta_t else " (an angle sampled at other times needs its own: theta_t=)"
+            sensor = pd.DataFrame(_paired(path, "theta", (theta_t or t, sensor_t),
+                                          (theta, _dataset(f, theta, path)), own_times))
             layout = {"t": t, "V": V, "theta": theta, "theta_t": theta_t or ""}
             return RunLog(path, drive, sensor, pd.DataFrame(), attrs=attrs, layout=layout)
         drive, sensor, observer = (_group(f, g) for g in GROUPS)

@@ -256,7 +256,11 @@ class Fit:
     """A fit: ``parameters`` the fitted values by name, with
     ``standard_errors`` and 95 % ``confidence_95`` intervals; ``rmse_rad``
     (paper Eq. 7) and where it started; ``fitted`` the whole parameter set
-    (a start for ``simulate``); ``theta_fit`` the model at ``data.t``."""
+    (a start for ``simulate``); ``theta_fit`` the model at ``data.t``.
+    ``converged`` says whether Levenberg-Marquardt met its tolerances and
+    ``stop_reason`` why it stopped: a fit stopped by ``max_iterations`` is
+    where it stopped, not an optimum, and its intervals mean nothing (the
+    first note says so)."""
 
     parameters: dict
     standard_errors: dict
@@ -264,6 +268,8 @@ class Fit:
     rmse_rad: float
     initial_rmse_rad: float
     iterations: int
+    converged: bool
+    stop_reason: str
     samples: int
     notes: list
     fitted: Parameters

@@ -99,6 +99,7 @@ json fit_model(const fs::path& log, const json& cal, double sensor_rate_hz) {
           {"confidence_95", intervals},
           {"rmse_rad", r.rmse_rad},
           {"initial_rmse_rad", r.initial_rmse_rad},
+          {"converged", r.converged},
           {"window_s", {window.first, window.second}},
           {"notes", r.notes}};
 }

@@ -9,6 +9,7 @@
 #include "config_error.hpp"
 #include "fit_io.hpp"
 #include "model_config.hpp"
+#include "piezo/model/identify.hpp"
 #include "rig_config.hpp"
 
 namespace piezo::host {
@@ -21,6 +22,7 @@ struct IdentifyOptions {
   std::string model = "lugre";
   std::string config;  // start values instead of the log's
   std::string out;
+  int max_iterations = model::FitSettings{}.max_iterations;
   bool json = false;
 };
 
@@ -29,13 +31,13 @@ int run(const IdentifyOptions& o) {
   if (!friction) throw config::ConfigError("--model", o.model, "allowed: lugre, coulomb");
   LoadedRun run = load_run_for_fit(o.log, o.layout);
   if (!o.config.empty()) run.parameters = config::load_model_config(o.config);
-  const model::FitResult r = model::identify(
-      run.parameters, run.data,
-      cli_fit_settings(
-          checked_free_parameters(
-              o.params.empty() ? std::nullopt : std::optional(parse_parameter_list(o.params)),
-              *friction, "identify", "--params"),
-          *friction, "identify"));
+  model::FitSettings settings = cli_fit_settings(
+      checked_free_parameters(
+          o.params.empty() ? std::nullopt : std::optional(parse_parameter_list(o.params)),
+          *friction, "identify", "--params"),
+      *friction, "identify");
+  settings.max_iterations = o.max_iterations;
+  const model::FitResult r = model::identify(run.parameters, run.data, settings);
 
   if (!o.out.empty()) {
     write_parameters_toml(o.out, r.parameters,
@@ -56,14 +58,17 @@ int run(const IdentifyOptions& o) {
                                 {"rmse_rad", r.rmse_rad},
                                 {"initial_rmse_rad", r.initial_rmse_rad},
                                 {"iterations", r.iterations},
+                                {"converged", r.converged},
+                                {"stop_reason", r.stop_reason},
                                 {"samples", run.data.t.size()},
                                 {"notes", r.notes}}
                      .dump()
               << "\n";
   } else {
-    fmt::print("{} model on {} ({} samples): RMSE {:.3f} urad (from {:.3f}) after {} iterations\n",
-               o.model, o.log, run.data.t.size(), 1e6 * r.rmse_rad, 1e6 * r.initial_rmse_rad,
-               r.iterations);
+    fmt::print(
+        "{} model on {} ({} samples): RMSE {:.3f} urad (from {:.3f}) after {} iterations, {}\n",
+        o.model, o.log, run.data.t.size(), 1e6 * r.rmse_rad, 1e6 * r.initial_rmse_rad, r.iterations,
+        r.stop_reason);
     for (const auto& f : r.fitted) {
       fmt::print("  {:<7} = {:.6g} +- {:.2g}   (95 %: {:.6g} .. {:.6g})\n", f.name, f.value,
                  f.standard_error, f.low95, f.high95);
@@ -91,6 +96,11 @@ void add_identify_command(CLI::App& app, Commands& commands) {
   cmd->add_option("--model", o->model, "Friction model: lugre or coulomb")->capture_default_str();
   cmd->add_option("--config", o->config, "Start values (TOML [drive]/[model]); default: the log's")
       ->check(CLI::ExistingFile);
+  cmd->add_option("--max-iterations", o->max_iterations,
+                  "Levenberg-Marquardt iterations at most (a fit stopped here says it did not "
+                  "converge)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 10000));
   cmd->add_option("--out", o->out, "Write the fitted parameters as TOML");
   cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
   commands.add(cmd, [o] { return run(*o); });

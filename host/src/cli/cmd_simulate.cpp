@@ -92,7 +92,8 @@ int run(const SimulateOptions& o) {
   model::IntegratorSettings settings{.tolerance = o.tolerance, .integrator = integrator};
   // Long simulations (minutes of simulated time take seconds to minutes)
   // show how far they are.
-  SimulationProgress progress(o.duration, isatty(STDERR_FILENO) != 0);
+  SimulationProgress progress(o.duration, isatty(STDERR_FILENO) != 0,
+                              model::differences_from_paper(p));
   settings.progress = [&](double t) { progress(t); };
   const model::Trajectory tr = model::simulate(p.motor, drive, friction, times, settings);
   progress.finish();

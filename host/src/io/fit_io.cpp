@@ -57,11 +57,32 @@ LoadedRun load_foreign_h5(const std::string& path, const LogLayout& layout) {
       throw config::ConfigError(path, name, "no such dataset (" + option + ")");
     return file.read(name);
   };
+  // Columns are paired by index: a pair of different lengths has two time
+  // bases, and pairing it would squeeze one into the other's span.
+  const auto pair = [&](const std::vector<double>& times, const std::string& times_name,
+                        const std::vector<double>& values, const std::string& values_name,
+                        const std::string& fix) {
+    if (times.size() == values.size()) return;
+    throw config::ConfigError(
+        path, values_name,
+        fmt::format("{} values against {} times in {} (allowed: as many as the times; {})",
+                    values.size(), times.size(), times_name, fix));
+  };
   LoadedRun run;
-  const std::vector<double> t = need("--t", layout.t);
-  add_drive(run.data, t, need("--V", layout.V));
-  add_measurements(run.data, layout.theta_t.empty() ? t : need("--theta-t", layout.theta_t),
-                   need("--theta", layout.theta));
+  const std::vector<double> t = need("--t", layout.t), V = need("--V", layout.V);
+  pair(t, layout.t, V, layout.V, "the drive's times and volts are sampled together");
+  const std::vector<double> theta = need("--theta", layout.theta);
+  if (layout.theta_t.empty()) {
+    pair(t, layout.t, theta, layout.theta,
+         "an angle sampled at other times needs its own times: --theta-t DATASET, theta_t= in "
+         "Python");
+    add_measurements(run.data, t, theta);
+  } else {
+    const std::vector<double> theta_t = need("--theta-t", layout.theta_t);
+    pair(theta_t, layout.theta_t, theta, layout.theta, "the angle and its times pair one to one");
+    add_measurements(run.data, theta_t, theta);
+  }
+  add_drive(run.data, t, V);
   return run;
 }
 
@@ -338,6 +359,9 @@ model::FitSettings cli_fit_settings(const std::vector<std::string>& free,
   s.for_each = [](std::size_t n, const std::function<void(std::size_t)>& job) {
     parallel_for(n, job, [](std::size_t, std::size_t) {});
   };
+  // Inside each simulation too: on the caller's thread the installed check
+  // (Python's signals), in parallel_for's workers the caller's stop.
+  s.within_simulation = [](double) { interruption_point(); };
   s.progress = [label](int iteration, double rmse) {
     show_progress(
         fmt::format("{}: iteration {}, RMSE {:.3f} urad\n", label, iteration, 1e6 * rmse));

@@ -7,6 +7,7 @@
 // KeyboardInterrupt (a notebook's interrupt) stops a study within a job.
 
 #include <atomic>
+#include <exception>
 
 namespace piezo::host {
 
@@ -19,7 +20,21 @@ inline void set_interruption_check(InterruptionCheck check) {
   interruption_check = check;
 }
 
+/// Thrown in a parallel_for worker whose caller has stopped the jobs.
+struct JobsStopped : std::exception {
+  [[nodiscard]] const char* what() const noexcept override { return "stopped by the caller"; }
+};
+
+/// Set in parallel_for's worker threads: the flag their caller raises to
+/// stop the jobs under way. A worker never runs the installed check itself
+/// (Python's signals are for its main thread to read).
+inline thread_local const std::atomic<bool>* jobs_stopped = nullptr;
+
 inline void interruption_point() {
+  if (jobs_stopped != nullptr) {
+    if (jobs_stopped->load(std::memory_order_relaxed)) throw JobsStopped();
+    return;
+  }
   if (const InterruptionCheck check = interruption_check.load()) check();
 }
 

@@ -23,7 +23,9 @@ namespace piezo::host {
 /// as the last has. The first exception thrown
 /// by a job is rethrown once all threads have stopped. An interruption
 /// (interruption.hpp), or a progress call that throws, stops the jobs not
-/// yet begun; it is rethrown once the ones under way have finished.
+/// yet begun and those under way at their next interruption_point() (a
+/// simulation reaches one every few milliseconds); it is rethrown once
+/// the threads have stopped.
 inline void parallel_for(std::size_t count, const std::function<void(std::size_t)>& job,
                          const std::function<void(std::size_t, std::size_t)>& progress) {
   std::atomic<std::size_t> next{0};
@@ -35,7 +37,9 @@ inline void parallel_for(std::size_t count, const std::function<void(std::size_t
   std::mutex mutex;  // guards done and failure
   std::condition_variable finished;
   std::size_t done = 0;
+  std::atomic<bool> stopped{false};
   auto worker = [&] {
+    jobs_stopped = &stopped;
     for (std::size_t i = next++; i < count; i = next++) {
       std::exception_ptr thrown;
       try {
@@ -51,6 +55,7 @@ inline void parallel_for(std::size_t count, const std::function<void(std::size_t
       }
       if (last) finished.notify_one();
     }
+    jobs_stopped = nullptr;
   };
   // PIEZO_THREADS caps the threads (e.g. one per MPI rank on a shared node).
   std::size_t cores = std::thread::hardware_concurrency();
@@ -77,7 +82,8 @@ inline void parallel_for(std::size_t count, const std::function<void(std::size_t
       }
     } catch (...) {
       interrupted = std::current_exception();
-      next = count;  // the workers take no further job
+      next = count;    // the workers take no further job
+      stopped = true;  // and leave the ones under way
       break;
     }
   }

@@ -51,6 +51,10 @@ struct FitSettings {
       };
   /// Called after each iteration with its number and the RMSE [rad].
   std::function<void(int, double)> progress = [](int, double) {};
+  /// Handed to every simulation of the fit (IntegratorSettings::progress):
+  /// one iteration's simulations can take minutes on a stiff parameter
+  /// set, and the caller stops them by throwing from it; may be empty.
+  std::function<void(double t)> within_simulation = {};
 };
 
 struct FittedParameter {
@@ -66,13 +70,19 @@ struct FitResult {
   double rmse_rad = 0.0;  ///< paper Eq. 7 at the optimum
   double initial_rmse_rad = 0.0;
   int iterations = 0;
+  /// Whether Levenberg-Marquardt met its tolerances; when not, the values
+  /// are where it stopped and the intervals, which assume an optimum, mean
+  /// nothing (the notes say so).
+  bool converged = false;
+  std::string stop_reason;         ///< why it stopped, in words
   std::vector<std::string> notes;  ///< identifiability warnings
   std::vector<double> theta_fit;   ///< the fitted model at the measurement times
 };
 
 /// The model's angle at data.t, driven by data's drive samples.
 [[nodiscard]] std::vector<double> predict(const Parameters& p, const FitData& data,
-                                          FrictionModel model, double tolerance = 1e-6);
+                                          FrictionModel model, double tolerance = 1e-6,
+                                          const std::function<void(double)>& progress = {});
 
 /// Fits settings.free, starting from `start`. Throws std::invalid_argument
 /// for unknown or unfittable names and for empty data.

@@ -17,6 +17,7 @@
 /// from the series, or from cubic Hermite interpolation between the other
 /// modes' steps. Allocation-free.
 
+#include <functional>
 #include <limits>
 #include <span>
 
@@ -57,6 +58,14 @@ class LuGreHybrid {
   /// `samples` (if any) the state at each time it asks for up to t_end.
   void advance(const LinearPiece& piece, double t_end, StateSamples* samples = nullptr);
 
+  /// Calls `progress` with the time reached every kStepsBetweenProgress
+  /// steps inside advance(): a stiff parameter set can take millions of
+  /// steps within one piece of drive, and the caller must still be able to
+  /// show how far it is and to stop the work (by throwing from `progress`).
+  /// The function must outlive the motor's use; an empty one is not called.
+  void report_progress(const std::function<void(double t)>& progress) { progress_ = &progress; }
+  static constexpr std::size_t kStepsBetweenProgress = 1 << 15;
+
   [[nodiscard]] const LuGreState& state() const { return y_; }
   [[nodiscard]] double time() const { return t_; }
   [[nodiscard]] const IntegrationStats& stats() const { return stats_; }
@@ -96,6 +105,8 @@ class LuGreHybrid {
   double no_stick_before_ = 0.0;  ///< after a stick step that met a reversal
   hybrid::Expansion e_{};
   IntegrationStats stats_{};
+  const std::function<void(double)>* progress_ = nullptr;
+  std::size_t progress_at_step_ = kStepsBetweenProgress;
 };
 
 /// Simulates the LuGre motor from rest (see simulate()).

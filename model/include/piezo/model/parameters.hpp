@@ -94,6 +94,10 @@ struct ParameterSpec {
 /// The spec for a symbol, or nullptr when the name is not a parameter.
 [[nodiscard]] const ParameterSpec* find_parameter(std::string_view name);
 
+/// The parameters whose values differ from the paper's (Parameters{}), as
+/// "J=1e-12 kg m^2, F_N=0.01 N"; empty when none does.
+[[nodiscard]] std::string differences_from_paper(const Parameters& p);
+
 /// One violated constraint: which parameter, and what is allowed.
 struct ParameterIssue {
   std::string name;

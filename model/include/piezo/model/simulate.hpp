@@ -42,8 +42,9 @@ struct IntegratorSettings {
   /// DOPRI5 with LuGre: stop at every zero of the sliding velocity (the kink
   /// of |v|) and count them, as the references of the convergence tests do.
   bool reversal_events = false;
-  /// Called now and then (at each corner of the drive) with the simulated
-  /// time reached, for progress on long simulations; may be empty.
+  /// Called now and then (at each corner of the drive, and every 32,768
+  /// steps within a piece) with the simulated time reached: for progress on
+  /// long simulations, and to stop one by throwing; may be empty.
   std::function<void(double t)> progress = {};
 };
 
