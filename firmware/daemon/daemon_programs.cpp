@@ -112,6 +112,10 @@ json Daemon::calibrate(const std::string& client, const json& args) {
   const auto request = protocol::decode<protocol::CalibrateRequest>(args);
   const auto& lim = board_.drive.limits;
   const auto& d0 = board_.model.drive;
+  if (request.V0 && !(*request.V0 > 0.0 && *request.V0 <= lim.V_max)) {
+    throw out_of_limits("V0", fmt::format("{:g} V (allowed: (0, {:g}] V, the board's V_max)",
+                                          *request.V0, lim.V_max));
+  }
   firmware::CalibrationPlan plan;
   plan.V0 = request.V0.value_or(std::min(d0.V0, lim.V_max));
   plan.D = d0.D();

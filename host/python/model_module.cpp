@@ -522,7 +522,25 @@ PYBIND11_MODULE(_model, m) {
                              [](const model::FitData& d) { return to_numpy(std::vector(d.t)); })
       .def_property_readonly("theta",
                              [](const model::FitData& d) { return to_numpy(std::vector(d.theta)); })
-      .def_readonly("ramp_time", &model::FitData::ramp_time);
+      .def_readonly("ramp_time", &model::FitData::ramp_time)
+      // Pickled whole, as the arrays it holds (a fit sent back from a worker
+      // process carries its data).
+      .def(py::pickle(
+          [](const model::FitData& d) {
+            return py::make_tuple(to_numpy(std::vector(d.drive_t)),
+                                  to_numpy(std::vector(d.drive_V)), to_numpy(std::vector(d.t)),
+                                  to_numpy(std::vector(d.theta)), d.ramp_time);
+          },
+          [](const py::tuple& state) {
+            const auto column = [&](int i) {
+              const auto a =
+                  state[static_cast<std::size_t>(i)]
+                      .cast<py::array_t<double, py::array::c_style | py::array::forcecast>>();
+              return std::vector<double>(a.data(), a.data() + a.size());
+            };
+            return model::FitData{column(0), column(1), state[4].cast<double>(), column(2),
+                                  column(3)};
+          }));
 
   py::class_<host::LogLayout>(m, "LogLayout")
       .def(py::init([](std::string t, std::string V, std::string theta, std::string theta_t) {

@@ -348,7 +348,11 @@ def test_calibrate_shows_its_progress(board, capfd):
     board.calibrate()
     err = capfd.readouterr().err
     lines = [line for line in err.splitlines() if line.startswith("calibrate: ")]
-    assert len(lines) >= 5 and "of about" in lines[0], err
+    assert len(lines) >= 5, err
+    # The board's own fraction, rising to near the end (it read "14 s of
+    # about 1 s" from a planned length that was not the experiment's).
+    done = [int(line.split()[1]) for line in lines if "% done after" in line]
+    assert len(done) >= 5 and done == sorted(done) and done[-1] >= 70, err
     board.set_calibration(None)
 
 
@@ -385,6 +389,48 @@ def test_addresses_follow_the_transport_rule():
     assert stream_address("ipc:///run/piezod") == "ipc:///run/piezod-stream"
     with pytest.raises(ValueError, match="allowed tcp://HOST:PORT"):
         Board("udp://127.0.0.1:5555")
+    # No port: that, not the CURVE keys a network address needs.
+    with pytest.raises(ValueError, match="tcp://127.0.0.1'.*with a port"):
+        Board("tcp://127.0.0.1")
+
+
+@pytest.mark.parametrize("timeout,error,words", [
+    (-1, ValueError, "Board: timeout: -1 s"), (float("nan"), ValueError, "Board: timeout: nan s"),
+    ("3", TypeError, "Board: timeout: expected a number of seconds; got str")])
+def test_a_timeout_that_would_fail_every_call_is_refused(timeout, error, words):
+    with pytest.raises(error, match=words):
+        Board("tcp://127.0.0.1:5555", timeout=timeout)
+
+
+def test_numbers_numpy_hands_out_just_work(board):
+    with board.run(V0=np.float32(60), f=np.int64(10), duration=np.float64(0.2)) as run:
+        run.wait()
+    assert run.summary["cause"] == "completed"
+    stepped = board.step(np.int64(3), np.float32(60), np.float64(10))
+    assert stepped.summary["cause"] == "completed"
+    with pytest.raises(TypeError, match="configure: V0: expected a number, text or flag; got "
+                                        "complex"):
+        board.run(V0=60j, f=10, duration=0.2)
+
+
+def test_a_calibration_below_0_v_is_refused_naming_the_range(board):
+    with pytest.raises(errors.OutOfLimits, match=r"V0.*-1 V \(allowed: \(0, 80\] V"):
+        board.calibrate(V0=-1)
+
+
+def test_closing_the_board_from_another_thread_mid_run_is_client_closed(board_address):
+    import threading
+    board = Board(board_address)
+    with pytest.raises(errors.ClientClosed, match="closed while the run was being received"):
+        with board.run(V0=60, f=10, duration=30) as run:
+            threading.Timer(0.5, board.close).start()
+            for _ in run:
+                pass
+    with Board(board_address) as other:  # the board stopped the run itself
+        deadline = time.monotonic() + 10
+        while other.status()["state"] != "idle" and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert other.status()["state"] == "idle"
 
 
 def test_a_held_estop_button_is_reset_only_once_released(tmp_path):
@@ -431,3 +477,15 @@ def test_a_held_estop_button_is_reset_only_once_released(tmp_path):
     finally:
         process.terminate()
         process.wait(10)
+
+
+def test_a_board_runs_arrays_go_into_identify(board):
+    from piezo_rig import model
+    with board.run(V0=60, f=10, duration=0.5) as run:
+        run.wait()
+    drive_t, drive_V, t, theta = run.fit_arrays()
+    # The drive's times carry the board's output latency, as a logged run's do.
+    assert drive_t[0] == pytest.approx(run.t(run.drive)[0] + board.hello()["output_latency_s"])
+    assert len(t) == len(theta) and not np.isnan(theta).any()
+    fit = model.identify(run.fit_arrays(), free=["F_N"], max_iterations=5)
+    assert fit.rmse_rad < fit.initial_rmse_rad or fit.rmse_rad < 1e-6

@@ -389,3 +389,27 @@ def test_a_fit_stopped_by_max_iterations_says_it_did_not_converge(tmp_path, piez
     text = piezo(*args)
     assert "after 1 iterations, stopped at max_iterations = 1" in text
     assert "note: not converged" in text
+
+
+def test_a_fit_and_its_data_come_back_from_a_worker_process(tmp_path, piezo, source):
+    import pickle
+    from concurrent.futures import ProcessPoolExecutor
+    sim = model.simulate(duration=0.2)
+    data = model.fit_data(sim.t, sim.V, sim.t[::10], sim.theta[::10])
+    again = pickle.loads(pickle.dumps(data))
+    assert np.array_equal(again.theta, data.theta) and again.ramp_time == data.ramp_time
+    # FitData is what identify fits, as its docstring says.
+    fit = model.identify(data, free=["F_N"], max_iterations=3)
+    with ProcessPoolExecutor(1) as pool:
+        back = pool.submit(model.identify, data, free=["F_N"], max_iterations=3).result()
+    assert back == fit and back.parameters == fit.parameters
+    assert np.array_equal(back.data.t, data.t)
+
+
+def test_results_compare_by_value():
+    a, b = model.simulate(duration=0.05), model.simulate(duration=0.05)
+    assert a == b and not (a != b)
+    c = model.simulate(model.Parameters(V0=60), 0.05)
+    assert a != c
+    with pytest.raises(TypeError):
+        hash(a)

@@ -50,11 +50,41 @@ def stream_address(address: str) -> str:
     ``-stream`` appended; anything else is refused (ValueError), as
     piezo refuses it."""
     if address.startswith("tcp://"):
-        host, port = address.rsplit(":", 1)
-        return f"{host}:{int(port) + 1}"
+        host, _, port = address[len("tcp://"):].rpartition(":")
+        if not host or not port.isdigit() or not 0 < int(port) < 65535:
+            raise ValueError(f"address {address!r}: allowed tcp://HOST:PORT with a port in "
+                             "[1, 65534] (the stream is on port + 1)")
+        return f"tcp://{host}:{int(port) + 1}"
     if address.startswith(("ipc://", "inproc://")):
         return address + "-stream"
     raise ValueError(f"address {address!r}: allowed tcp://HOST:PORT, ipc://PATH, inproc://NAME")
+
+
+def _seconds(name: str, value: Any) -> float:
+    """A positive, finite number of seconds, or a TypeError / ValueError
+    naming the argument (a timeout of -1 or NaN would make every call fail)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"Board: {name}: expected a number of seconds; got {type(value).__name__}")
+    seconds = float(value)
+    if not (0.0 < seconds < float("inf")):
+        raise ValueError(f"Board: {name}: {seconds:g} s (allowed: (0, inf))")
+    return seconds
+
+
+def _wire(command: str, key: str, value: Any) -> Any:
+    """An argument as msgpack carries it: numpy's scalars as the Python
+    numbers they hold; a type the protocol has no value for is a TypeError
+    naming the argument."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    if isinstance(value, (list, tuple)):
+        return [_wire(command, key, item) for item in value]
+    if isinstance(value, dict):
+        return {k: _wire(command, f"{key}.{k}", v) for k, v in value.items()}
+    raise TypeError(f"{command}: {key}: expected a number, text or flag; "
+                    f"got {type(value).__name__}")
 
 
 def _read_key(path: str, entry: str) -> bytes:
@@ -101,12 +131,16 @@ class Board:
     def __init__(self, address: str = "tcp://127.0.0.1:5555",
                  keys: Optional[tuple[str, str]] = None, timeout: float = 3.0,
                  stream_queue: int = 1000, silence_s: float = 10.0):
+        if not isinstance(address, str):
+            raise TypeError(f"Board: address: expected a str such as 'tcp://127.0.0.1:5555'; "
+                            f"got {type(address).__name__}")
+        stream_address(address)  # an address piezo would refuse is refused here, at once
         if keys is None and not address.startswith(LOOPBACK) and address.startswith("tcp://"):
             raise ValueError(f"{address}: a network address needs CURVE keys "
                              "(keys=(server_public_key_file, client_secret_key_file))")
-        stream_address(address)  # an address piezo would refuse is refused here, at once
-        self.address, self.timeout, self.stream_queue = address, timeout, stream_queue
-        self.silence_s = silence_s
+        self.address, self.stream_queue = address, stream_queue
+        self.timeout = _seconds("timeout", timeout)
+        self.silence_s = _seconds("silence_s", silence_s)
         self._context = zmq.Context()
         self._curve = None
         if keys is not None:
@@ -158,7 +192,7 @@ class Board:
             request_id = next(self._ids)
             request = {"id": request_id, "cmd": command}
             if args:
-                request["args"] = args
+                request["args"] = {key: _wire(command, key, value) for key, value in args.items()}
             self._socket.send(msgpack.packb(request))
             deadline = time.monotonic() + self.timeout
             while True:
@@ -328,17 +362,17 @@ class Board:
         if lease_s is not None:
             args["lease_s"] = lease_s
         with Run(self, "calibrate", args, True) as run:
-            # The experiment's length: its steps at each frequency it names.
-            planned = sum(run.started.get("steps_per_point", 0) / f
-                          for f in run.started.get("f_hz", []) if f > 0)
             shown = time.monotonic()
             began = shown
             for _ in run:
                 now = time.monotonic()
                 if progress and now - shown >= 1.0:
                     shown = now
-                    of = f" of about {planned:.0f} s" if planned > 0 else ""
-                    print(f"calibrate: {now - began:.0f} s{of}", file=sys.stderr, flush=True)
+                    # The board knows how far its experiment is (0..1).
+                    fraction = (self.status().get("run") or {}).get("calibration_progress")
+                    done = (f"{100 * fraction:.0f} % done after "
+                            if isinstance(fraction, (int, float)) and fraction >= 0 else "")
+                    print(f"calibrate: {done}{now - began:.0f} s", file=sys.stderr, flush=True)
         summary = run.summary
         calibration = summary.get("calibration")
         if calibration is None:
@@ -468,6 +502,17 @@ class Run:
             self._raise_on_fault = keep
 
     def _receive(self, seconds: float) -> None:
+        try:
+            self._receive_once(seconds)
+        except zmq.ZMQError:
+            # Board.close() from another thread (a notebook's stop button)
+            # closed the stream under this loop: the run was stopped there.
+            if self._closed or self.board._closed:
+                raise ClientClosed("this run's Board was closed while the run was being "
+                                   "received; the run was stopped") from None
+            raise
+
+    def _receive_once(self, seconds: float) -> None:
         if not self._sub.poll(int(seconds * 1000)):
             self._check_alive()
             return
@@ -572,6 +617,18 @@ class Run:
         zero = self.zero_displacement_m
         theta = (records["displacement_m"] - (zero or 0.0)) / self.hello["sensor"]["r2_m"]
         return np.where(records["status"] == 0, theta, np.nan)
+
+
+    def fit_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(drive_t, drive_V, t, theta) of this run for
+        ``piezo_rig.model.identify``, as ``piezo run`` logs them: the drive's
+        times shifted by the board's output latency (``hello``'s
+        ``output_latency_s``: the amplifier follows a command that much
+        later), the failed readings (NaN angle) left out."""
+        drive_t = self.t(self.drive) + float(self.hello.get("output_latency_s", 0.0))
+        t, theta = self.t(), self.theta()
+        good = ~np.isnan(theta)
+        return drive_t, self.drive["V"].astype(float), t[good], theta[good]
 
 
 def _joined(blocks: list, dtype: np.dtype) -> np.ndarray:

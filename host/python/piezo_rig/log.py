@@ -1,6 +1,5 @@
 """Run logs as numpy arrays and pandas DataFrames (docs/run-logs.md).
 
-    from piezo_rig.log import open_run
 >>> from piezo_rig.log import open_run
 >>> run = open_run("runs/first")              # the directory or its run.h5
 >>> run.status, run.summary["stop_cause"]
@@ -26,12 +25,14 @@ import h5py
 import numpy as np
 import pandas as pd
 
+from . import _values
+
 __all__ = ["RunLog", "open_run"]
 
 GROUPS = ("drive", "sensor", "observer")
 
 
-@dataclass
+@dataclass(eq=False)
 class RunLog:
     """One run: ``drive``, ``sensor`` and ``observer`` DataFrames (one column
     per dataset of the group; empty when the log has none), ``config`` (the
@@ -42,6 +43,9 @@ class RunLog:
     its type (numbers as int or float, JSON maps and lists parsed, other
     text as str), ``path`` the file, ``layout`` the dataset or column
     names another tool's file was read with ({} for a ``piezo`` log)."""
+
+    __eq__ = _values.dataclass_eq  # arrays and frames compared by value
+    __hash__ = None  # type: ignore[assignment]  # mutable: equal by value, not hashable
 
     path: str
     drive: pd.DataFrame

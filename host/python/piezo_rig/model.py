@@ -33,7 +33,7 @@ from typing import Any, Iterable, Optional, Sequence, Union
 
 import numpy as np
 
-from . import _model
+from . import _model, _values
 from ._model import FitData, LogLayout, ParameterError, Parameters
 
 __all__ = ["Parameters", "ParameterError", "FitData", "Simulation", "Fit", "Observation",
@@ -123,11 +123,14 @@ def parameter_specs() -> list[dict]:
     return _model.parameter_specs()
 
 
-@dataclass
+@dataclass(eq=False)
 class Simulation:
     """A simulated run from rest, sampled every ``dt``: time t [s], drive V
     [V], stator x [m] and x_dot, rotor theta [rad] and theta_dot, bristle z
     [m] (zero for Coulomb), friction F_f [N]; ``integrator`` its cost."""
+
+    __eq__ = _values.dataclass_eq  # arrays and frames compared by value
+    __hash__ = None  # type: ignore[assignment]  # mutable: equal by value, not hashable
 
     t: np.ndarray
     V: np.ndarray
@@ -251,7 +254,7 @@ def sweep(name: str = "f", values: Iterable[float] = (), params: Optional[Parame
                         _integer("sweep", "periods", periods), _text("sweep", "model", model, MODELS))
 
 
-@dataclass
+@dataclass(eq=False)
 class Fit:
     """A fit: ``parameters`` the fitted values by name, with
     ``standard_errors`` and 95 % ``confidence_95`` intervals; ``rmse_rad``
@@ -261,6 +264,9 @@ class Fit:
     ``stop_reason`` why it stopped: a fit stopped by ``max_iterations`` is
     where it stopped, not an optimum, and its intervals mean nothing (the
     first note says so)."""
+
+    __eq__ = _values.dataclass_eq  # arrays and frames compared by value
+    __hash__ = None  # type: ignore[assignment]  # mutable: equal by value, not hashable
 
     parameters: dict
     standard_errors: dict
@@ -275,7 +281,7 @@ class Fit:
     fitted: Parameters
     theta_fit: np.ndarray
     model: str
-    data: Any = field(repr=False, default=None)
+    data: Any = field(repr=False, compare=False, default=None)
 
 
 def load_fit_data(log: Union[str, os.PathLike], *, t: str = "", V: str = "", theta: str = "",
@@ -313,8 +319,10 @@ def identify(log_or_arrays: Any, params: Optional[Parameters] = None, *,
     log_or_arrays: a log path (see ``load_fit_data``; ``layout`` names another
         tool's datasets: ``{"t": ..., "V": ..., "theta": ...}``), a
         ``piezo_rig.log.RunLog`` (``RunLog.fit_arrays()`` gives the same
-        fit), or arrays ``(drive_t, drive_V, t, theta)`` (a dict with those
-        keys too), checked as ``fit_data`` checks them.
+        fit), a ``FitData`` (``fit_data``'s), or arrays ``(drive_t,
+        drive_V, t, theta)`` (a dict with those keys too), checked as
+        ``fit_data`` checks them; a board's run gives them as
+        ``Run.fit_arrays()``.
     params: the start (default: the log's own parameters, Table 1 for arrays).
     free: the parameters to fit; default the model's: LuGre sigma0, sigma1,
         F_N and d_e, Coulomb F_N and d_e. A parameter the model does not use
@@ -327,12 +335,15 @@ def identify(log_or_arrays: Any, params: Optional[Parameters] = None, *,
         log_or_arrays = log_or_arrays.path
     if isinstance(log_or_arrays, (str, os.PathLike)):
         data, start = load_fit_data(log_or_arrays, **(layout or {}))
+    elif isinstance(log_or_arrays, FitData):
+        data = log_or_arrays
     elif isinstance(log_or_arrays, dict):
         data = fit_data(**log_or_arrays, function="identify")
     elif isinstance(log_or_arrays, (tuple, list)) and len(log_or_arrays) == 4:
         data = fit_data(*log_or_arrays, function="identify")
     else:
-        raise TypeError("identify: log_or_arrays: expected a log's path, a RunLog, or arrays "
+        raise TypeError("identify: log_or_arrays: expected a log's path, a RunLog, a FitData, "
+                        "or arrays "
                         f"(drive_t, drive_V, t, theta); got {type(log_or_arrays).__name__}")
     if params is not None:
         start = _parameters("identify", params, {})
@@ -342,13 +353,16 @@ def identify(log_or_arrays: Any, params: Optional[Parameters] = None, *,
     return Fit(model=model, data=data, **out)
 
 
-@dataclass
+@dataclass(eq=False)
 class Observation:
     """The LuGre observer along a recorded run, one row per angle used:
     ``t`` [s], the corrected estimates ``theta_hat``, ``theta_dot_hat``,
     ``x_hat``, ``z_hat``, ``F_hat``, the ``residual`` (measured minus
     predicted, before the correction) and ``theta_open`` (the model alone);
     ``summary`` the residual's and the open loop's RMS, outliers, restarts."""
+
+    __eq__ = _values.dataclass_eq  # arrays and frames compared by value
+    __hash__ = None  # type: ignore[assignment]  # mutable: equal by value, not hashable
 
     t: np.ndarray
     theta_hat: np.ndarray
