@@ -64,8 +64,8 @@ def test_every_python_block_of_the_guide_runs(workdir, board_address, source):
 def test_every_docstring_example_runs(workdir, board_address, name):
     module = importlib.import_module(name)
     finder = doctest.DocTestFinder(exclude_empty=True)
-    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE |
-                                   doctest.IGNORE_EXCEPTION_DETAIL)
+    # The exceptions' words are compared too: a docstring promises them.
+    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
     tests = finder.find(module, name)
     for test in tests:
         for example in test.examples:
@@ -102,12 +102,18 @@ def test_mypy_passes_over_the_package_and_the_guide(tmp_path, source):
 def test_mypy_catches_a_wrong_argument_before_it_runs(tmp_path):
     script = tmp_path / "wrong.py"
     script.write_text("from piezo_rig import model\nmodel.simulate(model.Parameters(), '1')\n"
-                      "model.Parameters(V0=60).sigma0 = 'x'\n")
+                      "model.Parameters(V0=60).sigma0 = 'x'\n"
+                      "model.Parameters(V0='60')\nmodel.Parameters(direction=1)\n")
     result = mypy(str(script), cwd=tmp_path)
     assert result.returncode == 1
     assert 'Argument 2 to "simulate" has incompatible type "str"; expected "float"' in result.stdout
     assert 'Incompatible types in assignment (expression has type "str", variable has type ' \
            '"float")' in result.stdout
+    # Each keyword of Parameters has its own type (not "float | str" for all).
+    assert 'Argument "V0" to "Parameters" has incompatible type "str"; expected "float"' \
+        in result.stdout
+    assert 'Argument "direction" to "Parameters" has incompatible type "int"; expected "str"' \
+        in result.stdout
 
 
 def _table_after(page: str, heading: str) -> list[str]:

@@ -241,7 +241,9 @@ class Board:
 
     def estop(self) -> str:
         """Disables the amplifier at once; any client may. Latches the fault
-        ``estop`` when no run is on (``reset_fault`` clears it)."""
+        ``estop`` when no run is on (``reset_fault`` clears it). Returns the
+        board's state as the e-stop left it (``estop``'s ``state`` in
+        docs/protocol.md)."""
         return self.call("estop")["state"]
 
     def reset_fault(self) -> str:

@@ -16,7 +16,7 @@ the wrong type raises ``TypeError`` naming it:
 >>> model.Parameters(V0=-5)
 Traceback (most recent call last):
 ...
-piezo_rig._model.ParameterError: Parameters: V0: value -5.000000 V is outside the allowed range (0, 1000]
+piezo_rig._model.ParameterError: Parameters: V0: value -5.000000 V is outside the allowed range [0, 1000]
 >>> model.simulate(p, "1")
 Traceback (most recent call last):
 ...
