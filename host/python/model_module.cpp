@@ -9,6 +9,8 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <unistd.h>
+
 #include <atomic>
 #include <cmath>
 #include <memory>
@@ -182,6 +184,19 @@ py::dict simulate(model::Parameters p, double duration, const std::string& frict
   if (!(tolerance >= 1e-14 && tolerance <= 1e-2)) {
     throw ConfigError("simulate", "tolerance",
                       fmt::format("{:g} (allowed: [1e-14, 1e-2])", tolerance));
+  }
+  // The trajectory's eight columns for every sample, before any is made:
+  // more than the machine's memory is refused naming dt and the size.
+  const double samples = std::floor(duration / dt) + 2.0;
+  const double bytes = samples * 8.0 * sizeof(double);
+  const double memory = static_cast<double>(sysconf(_SC_PHYS_PAGES)) *
+                        static_cast<double>(sysconf(_SC_PAGESIZE));
+  if (bytes > memory) {
+    throw ConfigError("simulate", "dt",
+                      fmt::format("{:g} s: {:.3g} samples of 8 columns need {:.3g} GiB, more than "
+                                  "this machine's {:.3g} GiB (allowed: a dt of at least {:.3g} s)",
+                                  dt, samples, bytes / 1073741824.0, memory / 1073741824.0,
+                                  duration / (memory / (8.0 * sizeof(double)))));
   }
   const auto integrator = host::checked_integrator(integrator_name, friction, "integrator");
   model::Trajectory tr;

@@ -413,3 +413,18 @@ def test_results_compare_by_value():
     assert a != c
     with pytest.raises(TypeError):
         hash(a)
+
+
+def test_a_study_without_resamples_gives_no_interval_and_no_names_is_refused():
+    s = model.sobol(names=["V0", "f"], samples=8, runtime=0.2, bootstrap=0)
+    assert all(p["S1_interval"] is None and p["ST_interval"] is None for p in s["parameters"])
+    with pytest.raises(ValueError, match="sobol: names: empty"):
+        model.sobol(names=[], samples=8, runtime=0.2)
+    with pytest.raises(ValueError, match="morris: names: empty"):
+        model.morris(names=[], trajectories=2, runtime=0.2)
+
+
+def test_a_simulation_larger_than_memory_is_refused_naming_dt():
+    with pytest.raises(ValueError, match=r"simulate: dt: 1e-09 s: 3\.6e\+12 samples of 8 columns "
+                                         r"need .* GiB, more than this machine's"):
+        model.simulate(duration=3600, dt=1e-9)

@@ -112,6 +112,16 @@ def _names(function: str, value: Any) -> list[str]:
     return names
 
 
+def _study_names(function: str, value: Any) -> list[str]:
+    """A study's parameter names: None for all of Table 1; an empty list is
+    refused (it read as "all", the opposite of what it says)."""
+    names = _names(function, value)
+    if value is not None and not names:
+        raise ValueError(f"{function}: names: empty (allowed: one or more parameter names, or "
+                         "None for all of Table 1)")
+    return names
+
+
 MODELS = ("lugre", "coulomb")
 DIRECTIONS = ("forward", "reverse")
 INTEGRATORS = ("model_default", "hybrid", "dopri5", "closed_form")
@@ -202,7 +212,8 @@ def sobol(params: Optional[Parameters] = None, names: Optional[Sequence[str]] = 
           output: str = "velocity", runtime: float = 4.8, bootstrap: int = 200,
           model: str = "lugre") -> dict:
     """Sobol' indices (first order S1 and total ST, with 95 % bootstrap
-    intervals) of the output ("velocity", "step" or "backslip") over the
+    intervals; ``None`` for ``bootstrap`` below 2, which gives no interval)
+    of the output ("velocity", "step" or "backslip") over the
     parameters ``names`` (default: all of Table 1), each uniform within
     ±``range_pct`` % of its value; ``samples`` (N >= 8) points of a Saltelli
     design, N (k + 2) simulations on all cores. One name may be given as a
@@ -213,7 +224,7 @@ def sobol(params: Optional[Parameters] = None, names: Optional[Sequence[str]] = 
     (['V0', 'f'], 32)
     """
     return json.loads(_model.global_study(
-        _parameters("sobol", params, {}), "sobol", _names("sobol", names),
+        _parameters("sobol", params, {}), "sobol", _study_names("sobol", names),
         _number("sobol", "range_pct", range_pct), _integer("sobol", "samples", samples),
         _integer("sobol", "seed", seed), _text("sobol", "output", output, OUTPUTS),
         _number("sobol", "runtime", runtime), _integer("sobol", "bootstrap", bootstrap),
@@ -226,7 +237,7 @@ def morris(params: Optional[Parameters] = None, names: Optional[Sequence[str]] =
     """Morris elementary effects (mu, mu*, sigma) over ``trajectories``
     trajectories (at least 2); otherwise as ``sobol``."""
     return json.loads(_model.global_study(
-        _parameters("morris", params, {}), "morris", _names("morris", names),
+        _parameters("morris", params, {}), "morris", _study_names("morris", names),
         _number("morris", "range_pct", range_pct),
         _integer("morris", "trajectories", trajectories), _integer("morris", "seed", seed),
         _text("morris", "output", output, OUTPUTS), _number("morris", "runtime", runtime), 0,

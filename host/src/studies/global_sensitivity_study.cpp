@@ -149,10 +149,11 @@ json sobol(const model::Parameters& base, const GlobalStudyOptions& o) {
         "set style data histogram\nset style histogram errorbars gap 1 lw 1\nset style fill solid "
         "0.6\n"
         "set key top right\nset grid ytics\nset xtics rotate by -45\nset yrange [-0.05:*]\n"
-        "set title 'Sobol indices of the {} ({} %, N = {}, 95 % bootstrap intervals)'\n"
+        "set title 'Sobol indices of the {} ({} %, N = {}, {})'\n"
         "plot {} skip 1 using 2:3:4:xtic(1) title 'first order S1', '' skip 1 using 5:6:7 title "
         "'total ST'\n",
-        gnuplot_quote(o.out + "/sobol.png"), o.output, o.range_pct, n, csv));
+        gnuplot_quote(o.out + "/sobol.png"), o.output, o.range_pct, n,
+        o.bootstrap > 1 ? "95 % bootstrap intervals" : "no intervals: bootstrap 0", csv));
     std::string lines;
     for (std::size_t i = 0; i < k; ++i) {
       lines += fmt::format("{}{} skip 1 using 1:{} with linespoints lw 2 title 'ST {}'",
@@ -167,15 +168,20 @@ json sobol(const model::Parameters& base, const GlobalStudyOptions& o) {
         "set ylabel 'total index ST'\nset title 'Convergence of the total indices'\n{}\n",
         gnuplot_quote(o.out + "/convergence.png"), lines));
   }
+  // Fewer than two resamples give no interval: null, not a zero-width one.
+  const bool intervals = o.bootstrap > 1;
+  const auto interval = [&](double low, double high) {
+    return intervals ? json::array({low, high}) : json();
+  };
   json params = json::array();
   for (std::size_t i : order) {
     params.push_back({{"name", f[i].name},
                       {"low", f[i].low},
                       {"high", f[i].high},
                       {"S1", s.first[i]},
-                      {"S1_interval", {s.first_low[i], s.first_high[i]}},
+                      {"S1_interval", interval(s.first_low[i], s.first_high[i])},
                       {"ST", s.total[i]},
-                      {"ST_interval", {s.total_low[i], s.total_high[i]}}});
+                      {"ST_interval", interval(s.total_low[i], s.total_high[i])}});
   }
   return json{{"method", "sobol"},   {"output", o.output},     {"samples", n},
               {"runs", rows.size()}, {"variance", s.variance}, {"parameters", params}};
