@@ -8,7 +8,6 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
-
 #include <unistd.h>
 
 #include <atomic>
@@ -189,8 +188,8 @@ py::dict simulate(model::Parameters p, double duration, const std::string& frict
   // more than the machine's memory is refused naming dt and the size.
   const double samples = std::floor(duration / dt) + 2.0;
   const double bytes = samples * 8.0 * sizeof(double);
-  const double memory = static_cast<double>(sysconf(_SC_PHYS_PAGES)) *
-                        static_cast<double>(sysconf(_SC_PAGESIZE));
+  const double memory =
+      static_cast<double>(sysconf(_SC_PHYS_PAGES)) * static_cast<double>(sysconf(_SC_PAGESIZE));
   if (bytes > memory) {
     throw ConfigError("simulate", "dt",
                       fmt::format("{:g} s: {:.3g} samples of 8 columns need {:.3g} GiB, more than "
@@ -281,8 +280,8 @@ py::dict sweep(const model::Parameters& base, const std::string& name,
     host::parallel_for(
         values.size(),
         [&](std::size_t i) {
-          points[i] =
-              model::period_metrics(model::with_level(base, name, values[i]), friction, settings);
+          points[i] = model::period_metrics(model::with_level(base, name, values[i]), friction,
+                                            settings, host::interruptible());
         },
         host::counted_progress("sweep", "points"));
   }

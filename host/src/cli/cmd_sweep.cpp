@@ -12,6 +12,7 @@
 #include "commands.hpp"
 #include "config_error.hpp"
 #include "gnuplot.hpp"
+#include "interruption.hpp"
 #include "model_config.hpp"
 #include "parallel.hpp"
 #include "piezo/model/frequency_sweep.hpp"
@@ -139,7 +140,7 @@ int run_map(const SweepOptions& o, const model::Parameters& base,
       [&](std::size_t job) {
         const std::size_t m = job % models.size(), cell = job / models.size();
         maps[m][cell] = model::period_metrics(at(cell / values2.size(), cell % values2.size()),
-                                              models[m], settings);
+                                              models[m], settings, interruptible());
       },
       counted_progress("sweep map", "points"));
   nlohmann::json result{{"param", o.param},
@@ -233,8 +234,8 @@ int run(const SweepOptions& o) {
       [&](std::size_t job) {
         Curve& c = curves[job % curves.size()];
         const std::size_t i = job / curves.size();
-        c.points[i] =
-            model::period_metrics(model::with_level(base, o.param, values[i]), c.model, settings);
+        c.points[i] = model::period_metrics(model::with_level(base, o.param, values[i]), c.model,
+                                            settings, interruptible());
       },
       counted_progress("sweep", "points"));
   if (!o.out.empty()) write_outputs(o, values, curves);

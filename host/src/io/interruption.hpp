@@ -9,6 +9,8 @@
 #include <atomic>
 #include <exception>
 
+#include "piezo/model/simulate.hpp"
+
 namespace piezo::host {
 
 /// Throws to stop the work in progress; returns to let it go on.
@@ -36,6 +38,14 @@ inline void interruption_point() {
     return;
   }
   if (const InterruptionCheck check = interruption_check.load()) check();
+}
+
+/// Integrator settings whose progress calls are interruption points: a
+/// study's or sweep's job then stops within milliseconds when asked, even
+/// on a stiff parameter set that would take minutes.
+inline model::IntegratorSettings interruptible(model::IntegratorSettings settings = {}) {
+  settings.progress = [](double) { interruption_point(); };
+  return settings;
 }
 
 }  // namespace piezo::host

@@ -10,6 +10,7 @@
 #include "columns.hpp"
 #include "config_error.hpp"
 #include "gnuplot.hpp"
+#include "interruption.hpp"
 #include "model_config.hpp"
 #include "mpi_ranks.hpp"
 #include "parallel.hpp"
@@ -61,9 +62,9 @@ model::Parameters at(const model::Parameters& base, const std::vector<model::Fac
 }
 
 double output(const model::Parameters& p, const GlobalStudyOptions& o) {
-  if (o.output == "velocity") return model::mean_velocity(p, o.model, o.runtime_s);
+  if (o.output == "velocity") return model::mean_velocity(p, o.model, o.runtime_s, interruptible());
   const int periods = std::max(3, static_cast<int>(std::lround(o.runtime_s * p.drive.f)));
-  const auto m = model::period_metrics(p, o.model, {periods, 1, 100});
+  const auto m = model::period_metrics(p, o.model, {periods, 1, 100}, interruptible());
   return o.output == "step" ? m.step_rad : m.backslip_rad;
 }
 

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include "interruption.hpp"
 #include "model_config.hpp"
 #include "parallel.hpp"
 #include "progress.hpp"
@@ -32,7 +33,7 @@ OatStudy oat_study(const model::Parameters& base, model::FrictionModel friction)
         const auto& sw = sweeps[runs[i].sweep];
         const model::Parameters p = model::with_level(base, sw.name, sw.levels[runs[i].level]);
         const model::Sawtooth drive(p.drive.V0, p.drive.f, p.drive.D());
-        runs[i].trace = model::simulate(p.motor, drive, friction, times);
+        runs[i].trace = model::simulate(p.motor, drive, friction, times, interruptible());
       },
       counted_progress("sensitivity", "runs"));
 
