@@ -73,7 +73,7 @@ esac
 # DIR, named by the file's path under the source tree.
 compiler=(clang++)
 if command -v ccache >/dev/null; then
-  export CCACHE_BASEDIR="$src" CCACHE_NOHASHDIR=1 CCACHE_MAXSIZE=6G
+  export CCACHE_BASEDIR="$src" CCACHE_NOHASHDIR=1 CCACHE_MAXSIZE=2G
   compiler=(ccache clang++)
 fi
 export SRC="$src"

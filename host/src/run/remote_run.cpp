@@ -159,6 +159,7 @@ class FollowedRun {
   void request_stops(const std::atomic<bool>& stop, const std::atomic<bool>* estop);
   void drain(std::optional<protocol::RunSummary>& end);
   void renew_lease_if_due();
+  void renew_lease();
   void ask_when_quiet(std::optional<protocol::RunSummary>& end);
   void append_log();
   void finish_writing();
@@ -244,6 +245,10 @@ void FollowedRun::drain(std::optional<protocol::RunSummary>& end) {
   handlers.on_state = [&](const protocol::StateEvent& state) {
     if (state.summary && state.run == run_id_) end = state.summary;
   };
+  // The lease first, the gap after: a board that has heard no lease since
+  // before an outage must not wait out the fetch of everything the outage
+  // held back (seconds of samples, longer on a loaded machine).
+  handlers.before_fetch = [&] { renew_lease(); };
   follower_.drain(5ms, 256, handlers);
   // Samples: the board is running this run.
   if (follower_.drive_next() + follower_.sensor_next() != samples_before) {
@@ -252,8 +257,12 @@ void FollowedRun::drain(std::optional<protocol::RunSummary>& end) {
 }
 
 void FollowedRun::renew_lease_if_due() {
+  if (SteadyClock::now() - last_lease_ < std::chrono::duration<double>(lease_s_ / 4.0)) return;
+  renew_lease();
+}
+
+void FollowedRun::renew_lease() {
   const auto now = SteadyClock::now();
-  if (now - last_lease_ < std::chrono::duration<double>(lease_s_ / 4.0)) return;
   // Acknowledged: what is logged, not only received (see LogWriter). A
   // failed log logs nothing more: everything received is acknowledged, so
   // a virtual-clock board does not wait on it.

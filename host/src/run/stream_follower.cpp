@@ -62,12 +62,12 @@ void StreamFollower::drain(std::chrono::milliseconds wait, int max_messages,
       const auto state = protocol::decode<protocol::StateEvent>(protocol::decode_map(body));
       if (handlers.on_state) handlers.on_state(state);
     } else if (collector_ != nullptr) {
-      on_frame(body);
+      on_frame(body, handlers);
     }
   }
 }
 
-void StreamFollower::on_frame(std::string_view frame) {
+void StreamFollower::on_frame(std::string_view frame, const Handlers& handlers) {
   const auto header = protocol::decode_header(frame);
   const bool drive = header.stream == protocol::Stream::drive;
   bool& started = drive ? drive_started_ : sensor_started_;
@@ -77,7 +77,10 @@ void StreamFollower::on_frame(std::string_view frame) {
   }
   started = true;
   const std::uint64_t next = header.stream == protocol::Stream::drive ? drive_next_ : sensor_next_;
-  if (header.first_seq > next) fetch(header.stream, header.first_seq);
+  if (header.first_seq > next) {
+    if (handlers.before_fetch) handlers.before_fetch();
+    fetch(header.stream, header.first_seq);
+  }
   add(frame, header);
 }
 

@@ -47,6 +47,10 @@ class StreamFollower {
     std::function<void()> on_heard;    ///< a message arrived (before it is handled)
     std::function<void(const protocol::StateEvent&)> on_state;
     std::function<void(const protocol::HealthEvent&)> on_health;
+    /// Before a gap is fetched: a fetch after an outage takes as long as
+    /// the outage's samples take to send and decode, and the caller's lease
+    /// must not wait behind it.
+    std::function<void()> before_fetch;
   };
   /// Handles what arrives within `wait`, at most `max_messages` messages.
   void drain(std::chrono::milliseconds wait, int max_messages, const Handlers& handlers);
@@ -66,7 +70,7 @@ class StreamFollower {
   [[nodiscard]] const std::vector<std::string>& gaps() const { return gaps_; }
 
  private:
-  void on_frame(std::string_view frame);
+  void on_frame(std::string_view frame, const Handlers& handlers);
   void add(std::string_view frame, const protocol::FrameHeader& header);
 
   BoardClient& client_;
