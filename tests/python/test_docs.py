@@ -99,6 +99,12 @@ def test_mypy_passes_over_the_package_and_the_guide(tmp_path, source):
     assert os.path.exists(os.path.join(package, "_model.pyi")), "the compiled module has stubs"
 
 
+def test_the_package_passes_mypy_strict(tmp_path):
+    """Every annotation complete: what a user's --strict project sees of it."""
+    result = mypy("--strict", "-p", "piezo_rig", cwd=tmp_path)
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
 def test_mypy_catches_a_wrong_argument_before_it_runs(tmp_path):
     script = tmp_path / "wrong.py"
     script.write_text("from piezo_rig import model\nmodel.simulate(model.Parameters(), '1')\n"

@@ -96,7 +96,7 @@ def _read_key(path: str, entry: str) -> bytes:
         keys = tomllib.load(f)
     if entry not in keys:
         raise ValueError(f"{path}: {entry}: missing")
-    return keys[entry].encode()
+    return str(keys[entry]).encode()
 
 
 @dataclass
@@ -108,7 +108,7 @@ class Block:
 
     stream: str
     first: int
-    records: np.ndarray
+    records: np.ndarray[Any, Any]
 
 
 class Board:
@@ -152,11 +152,11 @@ class Board:
         self._socket.connect(address)
         self._lock = threading.Lock()
         self._ids = itertools.count(1)
-        self._hello: Optional[dict] = None
+        self._hello: Optional[dict[str, Any]] = None
         self._runs: "weakref.WeakSet[Run]" = weakref.WeakSet()
         self._closed = False
 
-    def _socket_for(self, kind: int) -> zmq.Socket:
+    def _socket_for(self, kind: int) -> zmq.Socket[bytes]:
         s = self._context.socket(kind)
         s.setsockopt(zmq.LINGER, 0)
         if self._curve is not None:
@@ -178,11 +178,11 @@ class Board:
     def __enter__(self) -> "Board":
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: Any) -> None:
         self.close()
 
     # -- requests -----------------------------------------------------------
-    def call(self, command: str, **args: Any) -> dict:
+    def call(self, command: str, **args: Any) -> dict[str, Any]:
         """Sends one request and returns its ``result`` map; raises the
         error code's exception (``piezo_rig.errors``) when refused, and
         ``NoReply`` after ``timeout`` seconds. Thread-safe."""
@@ -207,9 +207,10 @@ class Board:
                     break
         if not reply["ok"]:
             raise board_error(command, reply["error"])
-        return reply["result"]
+        result: dict[str, Any] = reply["result"]
+        return result
 
-    def hello(self) -> dict:
+    def hello(self) -> dict[str, Any]:
         """The board: protocol, limits, sensor radius (``sensor.r2_m``) and
         zero, rates, calibration. Raises ``BoardError`` for a protocol other
         than 2."""
@@ -221,41 +222,44 @@ class Board:
         self._hello = hello
         return hello
 
-    def status(self) -> dict:
+    def status(self) -> dict[str, Any]:
         """The board's state now: ``state``, ``fault``, ``position``, ``run``
         (with its ``summary`` once finished), ``calibration``."""
         return self.call("status")
 
     def clock(self) -> int:
         """The board's CLOCK_MONOTONIC [ns]."""
-        return self.call("clock")["board_ns"]
+        return int(self.call("clock")["board_ns"])
 
-    def zero(self) -> dict:
+    def zero(self) -> dict[str, Any]:
         """Makes the rotor's position now (the mean of the last 8 good
         readings) the zero; returns ``position``. Between runs only."""
-        return self.call("zero")["position"]
+        position: dict[str, Any] = self.call("zero")["position"]
+        return position
 
     def stop(self) -> str:
         """Ramps the drive to 0 V and ends the run (the controller only)."""
-        return self.call("stop")["state"]
+        return str(self.call("stop")["state"])
 
     def estop(self) -> str:
         """Disables the amplifier at once; any client may. Latches the fault
         ``estop`` when no run is on (``reset_fault`` clears it). Returns the
         board's state as the e-stop left it (``estop``'s ``state`` in
         docs/protocol.md)."""
-        return self.call("estop")["state"]
+        return str(self.call("estop")["state"])
 
     def reset_fault(self) -> str:
         """Clears a latched fault (not during a run)."""
-        return self.call("reset_fault")["state"]
+        return str(self.call("reset_fault")["state"])
 
-    def set_calibration(self, calibration: Optional[dict]) -> Optional[dict]:
+    def set_calibration(self, calibration: Optional[dict[str, Any]]) -> Optional[dict[str, Any]]:
         """Installs a calibration (a map as ``calibrate`` measures it, perhaps
         with a fitted ``model``), or clears it with None."""
-        return self.call("set_calibration", calibration=calibration)["calibration"]
+        installed: Optional[dict[str, Any]] = self.call(
+            "set_calibration", calibration=calibration)["calibration"]
+        return installed
 
-    def fetch(self, stream: str, first: int, count: int) -> np.ndarray:
+    def fetch(self, stream: str, first: int, count: int) -> np.ndarray[Any, Any]:
         """Recorded samples of the current or last run from sequence number
         ``first``, up to ``count`` (fewer at the end), as a structured array.
         Raises ``NotAvailable`` for samples the recorder no longer holds."""
@@ -320,7 +324,7 @@ class Board:
                 f: Optional[float] = None, protect: Optional[bool] = None,
                 stall_steps: Optional[int] = None, approach: Optional[str] = None,
                 C_dr: Optional[float] = None, e_dr: Optional[float] = None,
-                lease_s: Optional[float] = None) -> dict:
+                lease_s: Optional[float] = None) -> dict[str, Any]:
         """Moves the rotor to ``target_rad`` from the board's zero in closed
         loop (the board's move controller) and waits until the move ends.
 
@@ -353,7 +357,7 @@ class Board:
         return move
 
     def calibrate(self, V0: Optional[float] = None, lease_s: Optional[float] = None, *,
-                  progress: bool = True) -> dict:
+                  progress: bool = True) -> dict[str, Any]:
         """Runs the board's calibration experiment (about 14 s at 10 Hz) and
         returns the calibration the board installed; raises ``RunEnded``
         when it measured none (``summary.calibration_error`` says why).
@@ -376,7 +380,7 @@ class Board:
                             if isinstance(fraction, (int, float)) and fraction >= 0 else "")
                     print(f"calibrate: {done}{now - began:.0f} s", file=sys.stderr, flush=True)
         summary = run.summary
-        calibration = summary.get("calibration")
+        calibration: Optional[dict[str, Any]] = summary.get("calibration")
         if calibration is None:
             raise RunEnded("calibrate", summary.get("calibration_error", "no calibration"),
                            summary)
@@ -391,7 +395,7 @@ class Run:
     ``summary`` the summary once the run ended; ``drive`` and ``sensor``
     every record so far."""
 
-    def __init__(self, board: Board, command: str, args: dict, renew: bool,
+    def __init__(self, board: Board, command: str, args: dict[str, Any], renew: bool,
                  raise_on_fault: bool = True):
         self.board = board
         self.hello = board._hello or board.hello()
@@ -408,10 +412,10 @@ class Run:
             self._sub.close()
             raise
         self._heard = time.monotonic()
-        self._summary: Optional[dict] = None  # the board's, once the run ended
+        self._summary: Optional[dict[str, Any]] = None  # the board's, once the run ended
         self.gaps_fetched = 0
         self._next = {frames.DRIVE: 0, frames.SENSOR: 0}
-        self._blocks: dict[int, list[np.ndarray]] = {frames.DRIVE: [], frames.SENSOR: []}
+        self._blocks: dict[int, list[np.ndarray[Any, Any]]] = {frames.DRIVE: [], frames.SENSOR: []}
         self._pending: list[Block] = []
         self._stopping = threading.Event()
         self._closed = False
@@ -489,7 +493,7 @@ class Run:
         if self._raise_on_fault and self._summary["cause"] not in EXPECTED_ENDS:
             raise RunEnded("run", self._summary["cause"], self._summary)
 
-    def wait(self) -> dict:
+    def wait(self) -> dict[str, Any]:
         """Receives the run to its end and returns its summary."""
         for _ in self:
             pass
@@ -562,7 +566,7 @@ class Run:
         self._accept(stream, self.board.fetch(name, self._next[stream], missing))
         self.gaps_fetched += missing
 
-    def _accept(self, stream: int, records: np.ndarray) -> None:
+    def _accept(self, stream: int, records: np.ndarray[Any, Any]) -> None:
         if len(records) == 0:
             return
         block = Block(frames.STREAM_NAMES[stream], self._next[stream], records)
@@ -570,7 +574,7 @@ class Run:
         self._blocks[stream].append(records)
         self._pending.append(block)
 
-    def _finish(self, summary: dict) -> None:
+    def _finish(self, summary: dict[str, Any]) -> None:
         # The tail the stream had not delivered yet is in the recorder.
         for stream, name in frames.STREAM_NAMES.items():
             total = summary.get("samples", {}).get(name, self._next[stream])
@@ -579,18 +583,18 @@ class Run:
         self._summary = summary
 
     @property
-    def summary(self) -> dict:
+    def summary(self) -> dict[str, Any]:
         """The board's summary of the run once it ended (``cause``,
         ``samples``, each loop's health, a move's ``move``); empty before."""
         return self._summary or {}
 
     @property
-    def drive(self) -> np.ndarray:
+    def drive(self) -> np.ndarray[Any, Any]:
         """Every drive record so far (t_ns, V, phase, status, move_state)."""
         return _joined(self._blocks[frames.DRIVE], frames.DRIVE_RECORD)
 
     @property
-    def sensor(self) -> np.ndarray:
+    def sensor(self) -> np.ndarray[Any, Any]:
         """Every sensor record so far (t_request_ns, t_response_ns,
         displacement_m, status)."""
         return _joined(self._blocks[frames.SENSOR], frames.SENSOR_RECORD)
@@ -600,18 +604,19 @@ class Run:
         """The angles' zero: the move's (its reply carries it), else the
         run's first good reading (docs/protocol.md, "Angles")."""
         if self.started.get("zero_displacement_m") is not None:
-            return self.started["zero_displacement_m"]
+            return float(self.started["zero_displacement_m"])
         good = self.sensor[self.sensor["status"] == 0]
         return float(good["displacement_m"][0]) if len(good) else None
 
-    def t(self, records: Optional[np.ndarray] = None) -> np.ndarray:
+    def t(self, records: Optional[np.ndarray[Any, Any]] = None) -> np.ndarray[Any, Any]:
         """Times [s] from the run's origin ``t0_ns`` of drive or sensor
         records (sensor: the request's time)."""
         records = self.sensor if records is None else records
         field = "t_ns" if "t_ns" in records.dtype.names else "t_request_ns"
-        return (records[field] - self.started["t0_ns"]) * 1e-9
+        seconds: np.ndarray[Any, Any] = (records[field] - self.started["t0_ns"]) * 1e-9
+        return seconds
 
-    def theta(self, records: Optional[np.ndarray] = None) -> np.ndarray:
+    def theta(self, records: Optional[np.ndarray[Any, Any]] = None) -> np.ndarray[Any, Any]:
         """Angles [rad] of sensor records (all of the run's by default): the
         displacement from the zero over the board's sensor radius; NaN where
         the reading failed."""
@@ -621,7 +626,7 @@ class Run:
         return np.where(records["status"] == 0, theta, np.nan)
 
 
-    def fit_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def fit_arrays(self) -> tuple[np.ndarray[Any, Any], np.ndarray[Any, Any], np.ndarray[Any, Any], np.ndarray[Any, Any]]:
         """(drive_t, drive_V, t, theta) of this run for
         ``piezo_rig.model.identify``, as ``piezo run`` logs them: the drive's
         times shifted by the board's output latency (``hello``'s
@@ -633,5 +638,5 @@ class Run:
         return drive_t, self.drive["V"].astype(float), t[good], theta[good]
 
 
-def _joined(blocks: list, dtype: np.dtype) -> np.ndarray:
+def _joined(blocks: list[Any], dtype: np.dtype[Any]) -> np.ndarray[Any, Any]:
     return np.concatenate(blocks) if blocks else np.empty(0, dtype)

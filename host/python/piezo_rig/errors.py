@@ -12,6 +12,8 @@ its fields through pickling, so a worker process can send it back:
 
 from __future__ import annotations
 
+from typing import Any
+
 
 class BoardError(Exception):
     """A request the board refused. ``code`` is the protocol's error code,
@@ -28,7 +30,7 @@ class BoardError(Exception):
         text = message[len(command) + 2:] if message.startswith(command + ": ") else message
         super().__init__(f"{command}: {self.code}{where}: {text}")
 
-    def __reduce__(self) -> tuple:
+    def __reduce__(self) -> tuple[Any, ...]:
         # Pickled by its fields (a worker process sends it back whole).
         return (type(self), (self.command, self.key, self.message, self.code))
 
@@ -82,7 +84,7 @@ ERRORS = {cls.code: cls for cls in (Malformed, TooLarge, UnknownCommand, BadArgu
                                     RateLimited, Internal)}
 
 
-def board_error(command: str, error: dict) -> BoardError:
+def board_error(command: str, error: dict[str, Any]) -> BoardError:
     """The exception for an error reply's ``error`` map (an unknown code, from
     a newer board, is a plain BoardError carrying it)."""
     code = error.get("code", "")
@@ -102,9 +104,9 @@ class RunEnded(RuntimeError):
     """A run or move ended by a stop cause other than the one asked for.
     ``cause`` is the run's stop cause, ``summary`` its summary map."""
 
-    def __init__(self, what: str, cause: str, summary: dict):
+    def __init__(self, what: str, cause: str, summary: dict[str, Any]):
         self.what, self.cause, self.summary = what, cause, summary
         super().__init__(f"{what} ended: {cause}")
 
-    def __reduce__(self) -> tuple:
+    def __reduce__(self) -> tuple[Any, ...]:
         return (type(self), (self.what, self.cause, self.summary))

@@ -3,6 +3,8 @@ arrays: little-endian, field by field."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import struct
 
 import numpy as np
@@ -23,7 +25,7 @@ class FrameError(ValueError):
     """A frame whose magic, version, stream, record size or length is wrong."""
 
 
-def decode(body: bytes) -> tuple[int, int, np.ndarray]:
+def decode(body: bytes) -> tuple[int, int, np.ndarray[Any, Any]]:
     """(stream, first sequence number, records) of one frame; refuses any
     frame that does not match the documented layout."""
     if len(body) < HEADER.size:

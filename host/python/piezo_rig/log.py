@@ -51,15 +51,15 @@ class RunLog:
     drive: pd.DataFrame
     sensor: pd.DataFrame
     observer: pd.DataFrame
-    config: dict = field(default_factory=dict)
-    summary: dict = field(default_factory=dict)
+    config: dict[str, Any] = field(default_factory=dict[str, Any])
+    summary: dict[str, Any] = field(default_factory=dict[str, Any])
     status: str = ""
     stop_cause: str = ""
-    attrs: dict = field(default_factory=dict)
-    layout: dict = field(default_factory=dict)
+    attrs: dict[str, Any] = field(default_factory=dict[str, Any])
+    layout: dict[str, Any] = field(default_factory=dict[str, Any])
 
     @property
-    def model_parameters(self) -> dict:
+    def model_parameters(self) -> dict[str, Any]:
         """The model's parameters the run used (the log's ``model_parameters``), or {}."""
         value = self.attrs.get("model_parameters", {})
         return value if isinstance(value, dict) else {}
@@ -72,7 +72,7 @@ class RunLog:
         return Parameters.from_json(json.dumps(self.model_parameters)) \
             if self.model_parameters else Parameters()
 
-    def fit_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def fit_arrays(self) -> tuple[np.ndarray[Any, Any], np.ndarray[Any, Any], np.ndarray[Any, Any], np.ndarray[Any, Any]]:
         """(drive_t, drive_V, t, theta) as ``piezo_rig.model.identify`` reads
         this log (the same reader): the drive shifted by the run's recorded
         latency, a repeated drive time and the failed readings (NaN angle)
@@ -132,14 +132,14 @@ def _group(f: h5py.File, name: str) -> pd.DataFrame:
     return pd.DataFrame({k: v[:length] for k, v in columns.items()})
 
 
-def _dataset(f: h5py.File, path: str, file: str) -> np.ndarray:
+def _dataset(f: h5py.File, path: str, file: str) -> np.ndarray[Any, Any]:
     if path not in f:
         raise KeyError(f"{file}: {path}: no such dataset (datasets: {', '.join(_datasets(f))})")
     # MATLAB stores vectors as 1 x n (or n x 1) matrices.
     return np.asarray(f[path][()], dtype=float).ravel()
 
 
-def _datasets(f: h5py.File) -> list:
+def _datasets(f: h5py.File) -> list[Any]:
     names = []
     f.visititems(lambda name, obj: names.append("/" + name) if isinstance(obj, h5py.Dataset) else None)
     return names
@@ -160,7 +160,7 @@ def _csv(path: str, t: Optional[str], V: Optional[str], theta: Optional[str]) ->
     return RunLog(path, drive, sensor, pd.DataFrame(), layout=layout)
 
 
-def _paired(path: str, role: str, times: tuple, values: tuple, hint: str = "") -> dict:
+def _paired(path: str, role: str, times: tuple[Any, ...], values: tuple[Any, ...], hint: str = "") -> dict[str, Any]:
     """``{"t": times, role: values}`` for a DataFrame; a ValueError naming
     both datasets and their lengths when they differ (columns of two time
     bases paired by index would squeeze one into the other's span).
@@ -172,7 +172,7 @@ def _paired(path: str, role: str, times: tuple, values: tuple, hint: str = "") -
     return {"t": times_data, role: values_data}
 
 
-def open_run(path: Union[str, os.PathLike], *, t: Optional[str] = None,
+def open_run(path: Union[str, os.PathLike[str]], *, t: Optional[str] = None,
              V: Optional[str] = None, theta: Optional[str] = None,
              theta_t: Optional[str] = None) -> RunLog:
     """Reads a ``piezo`` run (its directory or ``run.h5``) whole. With

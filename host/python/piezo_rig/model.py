@@ -48,7 +48,7 @@ def show_progress(shown: bool = True) -> None:
     default; ``show_progress(False)`` silences it."""
     _model.show_progress(shown)
 
-def _parameters(function: str, params: Optional[Parameters], overrides: dict) -> Parameters:
+def _parameters(function: str, params: Optional[Parameters], overrides: dict[str, Any]) -> Parameters:
     """``params`` (Table 1 when None) with ``overrides`` applied together."""
     if params is None:
         params = Parameters()
@@ -84,7 +84,7 @@ def _text(function: str, name: str, value: Any, allowed: Sequence[str]) -> str:
     return value
 
 
-def _array(function: str, name: str, value: Any) -> np.ndarray:
+def _array(function: str, name: str, value: Any) -> np.ndarray[Any, Any]:
     """``value`` as a flat float array; a TypeError naming the argument when
     it holds no numbers, a ValueError when it is not one-dimensional."""
     try:
@@ -112,6 +112,13 @@ def _names(function: str, value: Any) -> list[str]:
     return names
 
 
+def _json_object(text: str) -> dict[str, Any]:
+    """A study's JSON (the CLI's --json, from the same C++) as a dict."""
+    value = json.loads(text)
+    assert isinstance(value, dict)
+    return value
+
+
 def _study_names(function: str, value: Any) -> list[str]:
     """A study's parameter names: None for all of Table 1; an empty list is
     refused (it read as "all", the opposite of what it says)."""
@@ -128,7 +135,7 @@ INTEGRATORS = ("model_default", "hybrid", "dopri5", "closed_form")
 OUTPUTS = ("velocity", "step", "backslip")
 
 
-def parameter_specs() -> list[dict]:
+def parameter_specs() -> list[dict[str, Any]]:
     """Each parameter's name, config section, unit and allowed range."""
     return _model.parameter_specs()
 
@@ -142,22 +149,22 @@ class Simulation:
     __eq__ = _values.dataclass_eq  # arrays and frames compared by value
     __hash__ = None  # type: ignore[assignment]  # mutable: equal by value, not hashable
 
-    t: np.ndarray
-    V: np.ndarray
-    x: np.ndarray
-    x_dot: np.ndarray
-    theta: np.ndarray
-    theta_dot: np.ndarray
-    z: np.ndarray
-    F_f: np.ndarray
+    t: np.ndarray[Any, Any]
+    V: np.ndarray[Any, Any]
+    x: np.ndarray[Any, Any]
+    x_dot: np.ndarray[Any, Any]
+    theta: np.ndarray[Any, Any]
+    theta_dot: np.ndarray[Any, Any]
+    z: np.ndarray[Any, Any]
+    F_f: np.ndarray[Any, Any]
     theta_end_rad: float
     mean_velocity_rad_s: float
-    integrator: dict
-    switch_times: np.ndarray
+    integrator: dict[str, Any]
+    switch_times: np.ndarray[Any, Any]
     model: str
     parameters: Parameters
 
-    def to_dataframe(self):
+    def to_dataframe(self) -> Any:
         """The samples as a pandas DataFrame indexed by t."""
         import pandas as pd
         return pd.DataFrame({k: getattr(self, k) for k in
@@ -191,7 +198,7 @@ def simulate(params: Optional[Parameters] = None, duration: float = 4.8, *,
     return Simulation(model=model, parameters=p, **out)
 
 
-def sensitivity(params: Optional[Parameters] = None, *, model: str = "lugre") -> dict:
+def sensitivity(params: Optional[Parameters] = None, *, model: str = "lugre") -> dict[str, Any]:
     """The paper's section 5 study around ``params`` (Table 1 by default):
     V0, f, mu and D at the paper's five levels each, scaled by the ratio of
     their value in ``params`` to Table 1's (at Table 1 the paper's levels),
@@ -203,14 +210,14 @@ def sensitivity(params: Optional[Parameters] = None, *, model: str = "lugre") ->
     >>> study["parameters"][0]["levels"]
     [54.0, 57.0, 60.0, 63.0, 66.0]
     """
-    return json.loads(_model.sensitivity(_parameters("sensitivity", params, {}),
+    return _json_object(_model.sensitivity(_parameters("sensitivity", params, {}),
                                          _text("sensitivity", "model", model, MODELS)))
 
 
 def sobol(params: Optional[Parameters] = None, names: Optional[Sequence[str]] = None, *,
           range_pct: float = 10.0, samples: int = 1024, seed: int = 1,
           output: str = "velocity", runtime: float = 4.8, bootstrap: int = 200,
-          model: str = "lugre") -> dict:
+          model: str = "lugre") -> dict[str, Any]:
     """Sobol' indices (first order S1 and total ST, with 95 % bootstrap
     intervals; ``None`` for ``bootstrap`` below 2, which gives no interval)
     of the output ("velocity", "step" or "backslip") over the
@@ -223,7 +230,7 @@ def sobol(params: Optional[Parameters] = None, names: Optional[Sequence[str]] = 
     >>> [p["name"] for p in s["parameters"]], s["runs"]
     (['V0', 'f'], 32)
     """
-    return json.loads(_model.global_study(
+    return _json_object(_model.global_study(
         _parameters("sobol", params, {}), "sobol", _study_names("sobol", names),
         _number("sobol", "range_pct", range_pct), _integer("sobol", "samples", samples),
         _integer("sobol", "seed", seed), _text("sobol", "output", output, OUTPUTS),
@@ -233,10 +240,10 @@ def sobol(params: Optional[Parameters] = None, names: Optional[Sequence[str]] = 
 
 def morris(params: Optional[Parameters] = None, names: Optional[Sequence[str]] = None, *,
            range_pct: float = 10.0, trajectories: int = 20, seed: int = 1,
-           output: str = "velocity", runtime: float = 4.8, model: str = "lugre") -> dict:
+           output: str = "velocity", runtime: float = 4.8, model: str = "lugre") -> dict[str, Any]:
     """Morris elementary effects (mu, mu*, sigma) over ``trajectories``
     trajectories (at least 2); otherwise as ``sobol``."""
-    return json.loads(_model.global_study(
+    return _json_object(_model.global_study(
         _parameters("morris", params, {}), "morris", _study_names("morris", names),
         _number("morris", "range_pct", range_pct),
         _integer("morris", "trajectories", trajectories), _integer("morris", "seed", seed),
@@ -245,7 +252,7 @@ def morris(params: Optional[Parameters] = None, names: Optional[Sequence[str]] =
 
 
 def sweep(name: str = "f", values: Iterable[float] = (), params: Optional[Parameters] = None, *,
-          periods: int = 20, model: str = "lugre") -> dict:
+          periods: int = 20, model: str = "lugre") -> dict[str, Any]:
     """One parameter over ``values`` (e.g. ``np.geomspace(1, 2000, 60)`` for
     f), each point simulated for ``periods`` drive periods: returns numpy
     arrays ``values``, ``mean_velocity_rad_s``, ``step_rad`` (net angle per
@@ -279,24 +286,24 @@ class Fit:
     __eq__ = _values.dataclass_eq  # arrays and frames compared by value
     __hash__ = None  # type: ignore[assignment]  # mutable: equal by value, not hashable
 
-    parameters: dict
-    standard_errors: dict
-    confidence_95: dict
+    parameters: dict[str, Any]
+    standard_errors: dict[str, Any]
+    confidence_95: dict[str, Any]
     rmse_rad: float
     initial_rmse_rad: float
     iterations: int
     converged: bool
     stop_reason: str
     samples: int
-    notes: list
+    notes: list[Any]
     fitted: Parameters
-    theta_fit: np.ndarray
+    theta_fit: np.ndarray[Any, Any]
     model: str
     data: Any = field(repr=False, compare=False, default=None)
 
 
-def load_fit_data(log: Union[str, os.PathLike], *, t: str = "", V: str = "", theta: str = "",
-                  theta_t: str = "") -> tuple:
+def load_fit_data(log: Union[str, os.PathLike[str]], *, t: str = "", V: str = "", theta: str = "",
+                  theta_t: str = "") -> tuple[Any, ...]:
     """(FitData, Parameters) of a log as ``identify`` reads it: a ``piezo``
     run.h5 (or its directory), a CSV with t, V, theta columns, or another
     tool's HDF5 / MATLAB v7.3 file with the datasets named by ``t``, ``V``,
@@ -323,7 +330,7 @@ def fit_data(drive_t: Any, drive_V: Any, t: Any, theta: Any, *,
 
 def identify(log_or_arrays: Any, params: Optional[Parameters] = None, *,
              free: Optional[Sequence[str]] = None, model: str = "lugre",
-             max_iterations: int = 40, layout: Optional[dict] = None) -> Fit:
+             max_iterations: int = 40, layout: Optional[dict[str, Any]] = None) -> Fit:
     """Fits ``free`` parameters to a measured run (Levenberg-Marquardt, on
     all cores), as ``piezo identify``.
 
@@ -375,15 +382,15 @@ class Observation:
     __eq__ = _values.dataclass_eq  # arrays and frames compared by value
     __hash__ = None  # type: ignore[assignment]  # mutable: equal by value, not hashable
 
-    t: np.ndarray
-    theta_hat: np.ndarray
-    theta_dot_hat: np.ndarray
-    x_hat: np.ndarray
-    z_hat: np.ndarray
-    F_hat: np.ndarray
-    residual: np.ndarray
-    theta_open: np.ndarray
-    summary: dict
+    t: np.ndarray[Any, Any]
+    theta_hat: np.ndarray[Any, Any]
+    theta_dot_hat: np.ndarray[Any, Any]
+    x_hat: np.ndarray[Any, Any]
+    z_hat: np.ndarray[Any, Any]
+    F_hat: np.ndarray[Any, Any]
+    residual: np.ndarray[Any, Any]
+    theta_open: np.ndarray[Any, Any]
+    summary: dict[str, Any]
 
 
 def observe(drive_t: Any, drive_V: Any, t: Any, theta: Any,
