@@ -5,7 +5,7 @@ tuples and raises "the truth value of an array ... is ambiguous"."""
 from __future__ import annotations
 
 from dataclasses import fields
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import pandas as pd
@@ -36,3 +36,15 @@ def dataclass_eq(self: Any, other: Any) -> Any:
         return NotImplemented
     return all(same(getattr(self, f.name), getattr(other, f.name)) for f in fields(self)
                if f.compare)
+
+
+Result = TypeVar("Result")
+
+
+def by_value(cls: type[Result]) -> type[Result]:
+    """Class decorator for a dataclass declared ``eq=False``: ``==``
+    compares by value (``dataclass_eq``), and the class is unhashable, as
+    a mutable value should be."""
+    setattr(cls, "__eq__", dataclass_eq)
+    setattr(cls, "__hash__", None)
+    return cls

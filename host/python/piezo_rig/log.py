@@ -32,6 +32,7 @@ __all__ = ["RunLog", "open_run"]
 GROUPS = ("drive", "sensor", "observer")
 
 
+@_values.by_value
 @dataclass(eq=False)
 class RunLog:
     """One run: ``drive``, ``sensor`` and ``observer`` DataFrames (one column
@@ -43,9 +44,6 @@ class RunLog:
     its type (numbers as int or float, JSON maps and lists parsed, other
     text as str), ``path`` the file, ``layout`` the dataset or column
     names another tool's file was read with ({} for a ``piezo`` log)."""
-
-    __eq__ = _values.dataclass_eq  # arrays and frames compared by value
-    __hash__ = None  # type: ignore[assignment]  # mutable: equal by value, not hashable
 
     path: str
     drive: pd.DataFrame

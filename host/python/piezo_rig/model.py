@@ -140,14 +140,12 @@ def parameter_specs() -> list[dict[str, Any]]:
     return _model.parameter_specs()
 
 
+@_values.by_value
 @dataclass(eq=False)
 class Simulation:
     """A simulated run from rest, sampled every ``dt``: time t [s], drive V
     [V], stator x [m] and x_dot, rotor theta [rad] and theta_dot, bristle z
     [m] (zero for Coulomb), friction F_f [N]; ``integrator`` its cost."""
-
-    __eq__ = _values.dataclass_eq  # arrays and frames compared by value
-    __hash__ = None  # type: ignore[assignment]  # mutable: equal by value, not hashable
 
     t: np.ndarray[Any, Any]
     V: np.ndarray[Any, Any]
@@ -272,6 +270,7 @@ def sweep(name: str = "f", values: Iterable[float] = (), params: Optional[Parame
                         _integer("sweep", "periods", periods), _text("sweep", "model", model, MODELS))
 
 
+@_values.by_value
 @dataclass(eq=False)
 class Fit:
     """A fit: ``parameters`` the fitted values by name, with
@@ -282,9 +281,6 @@ class Fit:
     ``stop_reason`` why it stopped: a fit stopped by ``max_iterations`` is
     where it stopped, not an optimum, and its intervals mean nothing (the
     first note says so)."""
-
-    __eq__ = _values.dataclass_eq  # arrays and frames compared by value
-    __hash__ = None  # type: ignore[assignment]  # mutable: equal by value, not hashable
 
     parameters: dict[str, Any]
     standard_errors: dict[str, Any]
@@ -371,6 +367,7 @@ def identify(log_or_arrays: Any, params: Optional[Parameters] = None, *,
     return Fit(model=model, data=data, **out)
 
 
+@_values.by_value
 @dataclass(eq=False)
 class Observation:
     """The LuGre observer along a recorded run, one row per angle used:
@@ -378,9 +375,6 @@ class Observation:
     ``x_hat``, ``z_hat``, ``F_hat``, the ``residual`` (measured minus
     predicted, before the correction) and ``theta_open`` (the model alone);
     ``summary`` the residual's and the open loop's RMS, outliers, restarts."""
-
-    __eq__ = _values.dataclass_eq  # arrays and frames compared by value
-    __hash__ = None  # type: ignore[assignment]  # mutable: equal by value, not hashable
 
     t: np.ndarray[Any, Any]
     theta_hat: np.ndarray[Any, Any]
