@@ -109,7 +109,8 @@ def test_mypy_catches_a_wrong_argument_before_it_runs(tmp_path):
     script = tmp_path / "wrong.py"
     script.write_text("from piezo_rig import model\nmodel.simulate(model.Parameters(), '1')\n"
                       "model.Parameters(V0=60).sigma0 = 'x'\n"
-                      "model.Parameters(V0='60')\nmodel.Parameters(direction=1)\n")
+                      "model.Parameters(V0='60')\nmodel.Parameters(direction=1)\n"
+                      "model.sensitivity()['paramters']\n")
     result = mypy(str(script), cwd=tmp_path)
     assert result.returncode == 1
     assert 'Argument 2 to "simulate" has incompatible type "str"; expected "float"' in result.stdout
@@ -120,6 +121,8 @@ def test_mypy_catches_a_wrong_argument_before_it_runs(tmp_path):
         in result.stdout
     assert 'Argument "direction" to "Parameters" has incompatible type "int"; expected "str"' \
         in result.stdout
+    # A study's result is a typed dict: a misspelt key is caught.
+    assert 'TypedDict "SensitivityStudy" has no key "paramters"' in result.stdout
 
 
 def _table_after(page: str, heading: str) -> list[str]:

@@ -29,7 +29,7 @@ import json
 import numbers
 import os
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Optional, Sequence, Union
+from typing import Any, Iterable, Optional, Sequence, TypedDict, Union, cast
 
 import numpy as np
 
@@ -38,7 +38,8 @@ from ._model import FitData, LogLayout, ParameterError, Parameters
 
 __all__ = ["Parameters", "ParameterError", "FitData", "Simulation", "Fit", "Observation",
            "simulate", "sensitivity", "sobol", "morris", "sweep", "identify", "fit_data",
-           "load_fit_data", "observe", "parameter_specs", "show_progress"]
+           "load_fit_data", "observe", "parameter_specs", "show_progress", "SensitivityStudy",
+           "LevelRuns", "SobolStudy", "SobolIndex", "MorrisStudy", "MorrisEffect", "Sweep"]
 
 
 def show_progress(shown: bool = True) -> None:
@@ -110,6 +111,68 @@ def _names(function: str, value: Any) -> list[str]:
             raise TypeError(f"{function}: names: expected parameter names (str), got "
                             f"{type(name).__name__} {name!r}")
     return names
+
+
+class LevelRuns(TypedDict):
+    """One parameter of ``sensitivity``: its five levels and what each gave."""
+    name: str
+    levels: list[float]
+    mean_velocity_rad_s: list[float]
+    elasticity: float
+
+
+class SensitivityStudy(TypedDict):
+    """``sensitivity``'s result; ``ranking`` the names, most influential first."""
+    model: str
+    runtime_s: float
+    parameters: list[LevelRuns]
+    ranking: list[str]
+
+
+class SobolIndex(TypedDict):
+    """One parameter of ``sobol``: its range and indices; the intervals are
+    None without bootstrap resamples."""
+    name: str
+    low: float
+    high: float
+    S1: float
+    S1_interval: Optional[list[float]]
+    ST: float
+    ST_interval: Optional[list[float]]
+
+
+class SobolStudy(TypedDict):
+    method: str
+    output: str
+    samples: int
+    runs: int
+    variance: float
+    parameters: list[SobolIndex]
+
+
+class MorrisEffect(TypedDict):
+    """One parameter of ``morris``: its elementary effects' mean, mean of
+    the absolute values, and spread."""
+    name: str
+    mu: float
+    mu_star: float
+    sigma: float
+
+
+class MorrisStudy(TypedDict):
+    method: str
+    output: str
+    trajectories: int
+    runs: int
+    parameters: list[MorrisEffect]
+
+
+class Sweep(TypedDict):
+    """``sweep``'s result: numpy arrays, one value a point."""
+    values: np.ndarray[Any, Any]
+    mean_velocity_rad_s: np.ndarray[Any, Any]
+    step_rad: np.ndarray[Any, Any]
+    backslip_rad: np.ndarray[Any, Any]
 
 
 def _json_object(text: str) -> dict[str, Any]:
@@ -196,7 +259,7 @@ def simulate(params: Optional[Parameters] = None, duration: float = 4.8, *,
     return Simulation(model=model, parameters=p, **out)
 
 
-def sensitivity(params: Optional[Parameters] = None, *, model: str = "lugre") -> dict[str, Any]:
+def sensitivity(params: Optional[Parameters] = None, *, model: str = "lugre") -> SensitivityStudy:
     """The paper's section 5 study around ``params`` (Table 1 by default):
     V0, f, mu and D at the paper's five levels each, scaled by the ratio of
     their value in ``params`` to Table 1's (at Table 1 the paper's levels),
@@ -208,14 +271,15 @@ def sensitivity(params: Optional[Parameters] = None, *, model: str = "lugre") ->
     >>> study["parameters"][0]["levels"]
     [54.0, 57.0, 60.0, 63.0, 66.0]
     """
-    return _json_object(_model.sensitivity(_parameters("sensitivity", params, {}),
-                                         _text("sensitivity", "model", model, MODELS)))
+    text = _model.sensitivity(_parameters("sensitivity", params, {}),
+                              _text("sensitivity", "model", model, MODELS))
+    return cast(SensitivityStudy, _json_object(text))
 
 
 def sobol(params: Optional[Parameters] = None, names: Optional[Sequence[str]] = None, *,
           range_pct: float = 10.0, samples: int = 1024, seed: int = 1,
           output: str = "velocity", runtime: float = 4.8, bootstrap: int = 200,
-          model: str = "lugre") -> dict[str, Any]:
+          model: str = "lugre") -> SobolStudy:
     """Sobol' indices (first order S1 and total ST, with 95 % bootstrap
     intervals; ``None`` for ``bootstrap`` below 2, which gives no interval)
     of the output ("velocity", "step" or "backslip") over the
@@ -228,29 +292,29 @@ def sobol(params: Optional[Parameters] = None, names: Optional[Sequence[str]] = 
     >>> [p["name"] for p in s["parameters"]], s["runs"]
     (['V0', 'f'], 32)
     """
-    return _json_object(_model.global_study(
+    return cast(SobolStudy, _json_object(_model.global_study(
         _parameters("sobol", params, {}), "sobol", _study_names("sobol", names),
         _number("sobol", "range_pct", range_pct), _integer("sobol", "samples", samples),
         _integer("sobol", "seed", seed), _text("sobol", "output", output, OUTPUTS),
         _number("sobol", "runtime", runtime), _integer("sobol", "bootstrap", bootstrap),
-        _text("sobol", "model", model, MODELS)))
+        _text("sobol", "model", model, MODELS))))
 
 
 def morris(params: Optional[Parameters] = None, names: Optional[Sequence[str]] = None, *,
            range_pct: float = 10.0, trajectories: int = 20, seed: int = 1,
-           output: str = "velocity", runtime: float = 4.8, model: str = "lugre") -> dict[str, Any]:
+           output: str = "velocity", runtime: float = 4.8, model: str = "lugre") -> MorrisStudy:
     """Morris elementary effects (mu, mu*, sigma) over ``trajectories``
     trajectories (at least 2); otherwise as ``sobol``."""
-    return _json_object(_model.global_study(
+    return cast(MorrisStudy, _json_object(_model.global_study(
         _parameters("morris", params, {}), "morris", _study_names("morris", names),
         _number("morris", "range_pct", range_pct),
         _integer("morris", "trajectories", trajectories), _integer("morris", "seed", seed),
         _text("morris", "output", output, OUTPUTS), _number("morris", "runtime", runtime), 0,
-        _text("morris", "model", model, MODELS)))
+        _text("morris", "model", model, MODELS))))
 
 
 def sweep(name: str = "f", values: Iterable[float] = (), params: Optional[Parameters] = None, *,
-          periods: int = 20, model: str = "lugre") -> dict[str, Any]:
+          periods: int = 20, model: str = "lugre") -> Sweep:
     """One parameter over ``values`` (e.g. ``np.geomspace(1, 2000, 60)`` for
     f), each point simulated for ``periods`` drive periods: returns numpy
     arrays ``values``, ``mean_velocity_rad_s``, ``step_rad`` (net angle per
@@ -266,8 +330,9 @@ def sweep(name: str = "f", values: Iterable[float] = (), params: Optional[Parame
     points = _array("sweep", "values", values)
     if len(points) == 0:
         raise ValueError("sweep: values: empty (allowed: one or more values)")
-    return _model.sweep(_parameters("sweep", params, {}), name, points.tolist(),
-                        _integer("sweep", "periods", periods), _text("sweep", "model", model, MODELS))
+    return cast(Sweep, _model.sweep(_parameters("sweep", params, {}), name, points.tolist(),
+                                    _integer("sweep", "periods", periods),
+                                    _text("sweep", "model", model, MODELS)))
 
 
 @_values.by_value
