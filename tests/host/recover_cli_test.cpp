@@ -77,30 +77,30 @@ bool all_threads_stopped(pid_t pid) {
 /// through its allocator): 2 to 4 kills in 20 landed there, against 1 in
 /// 20 in the optimised build, and a test that needed a whole log after a
 /// kill at a fixed instant failed when its attempts all landed there. So
-/// the run is stopped first (SIGSTOP), and killed only once its log reads
-/// whole: a stopped process writes nothing, so the kill leaves the log as
-/// it was read. Else it goes on for a few milliseconds and is stopped again.
+/// the run is stopped first (SIGSTOP) and its log read: a stopped process
+/// writes nothing, so a kill then leaves the log as it was read. A log
+/// that does not read whole is killed all the same and a new run tried,
+/// a little later into it: a run continued after a stop has missed its
+/// deadlines, and its supervisor may end it (and remove its journal).
 fs::path killed_run(const fs::path& dir, long min_rows) {
-  const auto out = dir / "killed";
-  Spawned run({kPiezo, "run", "--config", kSimConfig, "--duration", "5", "--out", out.string()},
-              (dir / "output.txt").string());
-  for (int i = 0; i < 200 && !fs::exists(out / "run.h5"); ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-  std::this_thread::sleep_for(std::chrono::milliseconds(1600));
-  for (int attempt = 0; attempt < 100; ++attempt) {
+  for (int attempt = 0;; ++attempt) {
+    const auto out = dir / ("kill" + std::to_string(attempt)) / "killed";
+    Spawned run({kPiezo, "run", "--config", kSimConfig, "--duration", "5", "--out", out.string()},
+                (out.parent_path() / "output.txt").string());
+    for (int i = 0; i < 200 && !fs::exists(out / "run.h5"); ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1600 + 97 * (attempt % 7)));
     run.signal(SIGSTOP);
     while (!all_threads_stopped(run.pid()) && !run.exited()) {
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
-    if (run.exited()) break;  // the run ended first: the caller's checks say so
-    if (h5py_rows(out / "run.h5").first >= min_rows) break;
-    run.signal(SIGCONT);
-    std::this_thread::sleep_for(std::chrono::milliseconds(20 + 37 * (attempt % 5)));
+    const bool whole = !run.exited() && fs::exists(out / "run.journal") &&
+                       h5py_rows(out / "run.h5").first >= min_rows;
+    run.signal(SIGKILL);
+    run.wait_exit();
+    if (whole || attempt == 9) return out;
   }
-  run.signal(SIGKILL);
-  run.wait_exit();
-  return out;
 }
 
 fs::path copy_of(const fs::path& run, const fs::path& where) {
