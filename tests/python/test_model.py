@@ -315,11 +315,13 @@ def _interrupted_after(child, wanted, limit=120):
 
 
 def test_a_stiff_simulation_warns_shows_progress_and_answers_ctrl_c():
-    # J inside its range, the rotor's equation stiff: about 40 s before the
-    # integration checked for Ctrl-C (and showed progress) only per drive
-    # piece. Now within a piece too; a slow one names its parameters.
+    # J inside its range, the rotor's equation stiff: 0.1 s of motor took
+    # about 40 s, and the integration checked for Ctrl-C (and showed
+    # progress) only per drive piece. Now within a piece too; a slow one
+    # names its parameters. A second of motor, so that the warning's
+    # projection (ten minutes or so here) is over its minute on any machine.
     child = _child("from piezo_rig import model\n"
-                   "model.simulate(model.Parameters(J=1e-12), 0.1)")
+                   "model.simulate(model.Parameters(J=1e-12), 1.0)")
     waited, stderr = _interrupted_after(child, "slow:")
     assert "simulate: t " in stderr, stderr
     assert "stiff with J=1e-12 kg m^2" in stderr, stderr
