@@ -340,7 +340,9 @@ def test_a_fit_on_angles_in_degrees_answers_ctrl_c(tmp_path, piezo, source):
                    f"drive_t, drive_V, t, theta = log.open_run({str(log_dir)!r}).fit_arrays()\n"
                    "model.identify((drive_t, drive_V, t, np.degrees(theta)))")
     waited, stderr = _interrupted_after(child, "iteration 1")
-    assert "KeyboardInterrupt" in stderr, stderr
+    # Stopped by the interrupt (it ran on for minutes, deaf to it), or done
+    # before it came on a fast machine: either way within seconds.
+    assert "KeyboardInterrupt" in stderr or child.returncode == 0, stderr
     assert waited < 5, stderr
 
 
