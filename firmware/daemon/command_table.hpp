@@ -6,11 +6,13 @@
 // admit, before the handler runs.
 
 #include <functional>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "piezo/protocol/dictionary.hpp"
 #include "run_state.hpp"
 
 namespace piezo::daemon {
@@ -25,7 +27,7 @@ struct Command {
   using Handler = std::function<nlohmann::json(const std::string& client, const nlohmann::json&)>;
   std::string_view name;
   Caller caller;
-  std::vector<std::string_view> args;
+  std::vector<protocol::ArgumentSpec> args;  ///< as declared (request_arguments.hpp)
   Handler handler;
 };
 
@@ -37,9 +39,15 @@ class CommandTable {
                                         const nlohmann::json& args, const RunState& state) const;
   /// The commands' names, comma-separated, in the table's order.
   [[nodiscard]] std::string names() const;
+  /// The commands as the board's dictionary lists them.
+  [[nodiscard]] std::vector<protocol::CommandSpec> specs() const;
+  /// How many requests each command has had (taken or refused), and the
+  /// unknown ones under `protocol::kUnknownCommands`.
+  [[nodiscard]] std::map<std::string, std::uint64_t> counts() const;
 
  private:
   std::vector<Command> commands_;
+  mutable std::vector<std::uint64_t> counts_ = std::vector<std::uint64_t>(commands_.size() + 1);
 };
 
 }  // namespace piezo::daemon

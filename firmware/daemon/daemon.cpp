@@ -22,22 +22,6 @@ using Clock = std::chrono::steady_clock;
 constexpr auto kPollPeriod = std::chrono::milliseconds(2);
 constexpr auto kHealthPeriod = std::chrono::milliseconds(250);
 
-/// `move_to`'s arguments: the declared request's fields and the waveform's.
-/// The argument names a request declares (its kArgs).
-template <class Request>
-std::vector<std::string_view> args_of() {
-  std::vector<std::string_view> names;
-  for (const firmware::Argument& a : Request::kArgs) names.push_back(a.name);
-  return names;
-}
-
-std::vector<std::string_view> move_to_args() {
-  std::vector<std::string_view> args;
-  for (const auto& field : firmware::kMoveFields) args.push_back(field.name);
-  for (const auto& a : protocol::MoveToRequest::kWaveformArgs) args.push_back(a.name);
-  return args;
-}
-
 }  // namespace
 
 Daemon::Daemon(const config::BoardConfig& board, zmq::context_t& context, const std::string& listen,
@@ -242,25 +226,29 @@ CommandTable Daemon::command_table() {
   using Who = const std::string&;
   return CommandTable({
       {"hello", C::anyone, {}, [this](Who, Args) { return json(hello()); }},
+      {"describe", C::anyone, {},
+       [this](Who, Args) { return protocol::describe(command_table_.specs(), hello().limits); }},
       {"status", C::anyone, {}, [this](Who c, Args) { return json(status(c)); }},
       {"clock",
        C::anyone,
        {},
        [this](Who, Args) { return json(protocol::ClockReply{rig_.clock->now()}); }},
-      {"configure", C::controller, args_of<protocol::ConfigureRequest>(),
+      {"configure", C::controller, protocol::specs_of<protocol::ConfigureRequest>(),
        [this](Who, Args a) { return configure(a); }},
-      {"start", C::controller, args_of<protocol::StartRequest>(),
+      {"start", C::controller, protocol::specs_of<protocol::StartRequest>(),
        [this](Who c, Args a) {
          return start(c, protocol::decode<protocol::StartRequest>(a).lease_s);
        }},
-      {"step", C::controller, args_of<protocol::StepRequest>(),
+      {"step", C::controller, protocol::specs_of<protocol::StepRequest>(),
        [this](Who c, Args a) { return step(c, a); }},
-      {"move_to", C::controller, move_to_args(), [this](Who c, Args a) { return move_to(c, a); }},
-      {"calibrate", C::controller, args_of<protocol::CalibrateRequest>(),
+      {"move_to", C::controller, protocol::move_to_specs(), [this](Who c, Args a) { return move_to(c, a); }},
+      {"calibrate", C::controller, protocol::specs_of<protocol::CalibrateRequest>(),
        [this](Who c, Args a) { return calibrate(c, a); }},
       {"set_calibration",
        C::controller,
-       {"calibration"},
+       {protocol::ArgumentSpec{"calibration", firmware::ArgumentType::map, "", {}, "", {},
+                               true, nullptr, "required",
+                               "a calibration (docs/protocol.md, \"Calibration\"), or nil"}},
        [this](Who c, Args a) { return set_calibration(c, a); }},
       {"zero", C::controller, {}, [this](Who c, Args) { return set_zero(c); }},
       {"stop", C::controller, {}, [this](Who, Args) { return stop_run(); }},
@@ -268,9 +256,9 @@ CommandTable Daemon::command_table() {
       {"estop", C::anyone, {}, [this](Who c, Args) { return estop(c); }},
       // Refused to everyone during a run; between runs nobody controls the rig.
       {"reset_fault", C::anyone, {}, [this](Who, Args) { return reset_fault(); }},
-      {"lease", C::controller, args_of<protocol::LeaseRequest>(),
+      {"lease", C::controller, protocol::specs_of<protocol::LeaseRequest>(),
        [this](Who, Args a) { return renew_lease(a); }},
-      {"fetch", C::anyone, args_of<protocol::FetchRequest>(),
+      {"fetch", C::anyone, protocol::specs_of<protocol::FetchRequest>(),
        [this](Who c, Args a) {
          return samples_.fetch(c, a, running() && !run_state_.is_controller(c));
        }},

@@ -73,6 +73,7 @@ protocol::Status Daemon::status(const std::string& client) const {
   s.board_ns = rig_.clock->now();
   s.controller = run_state_.is_controller(client);
   s.controlled = run_state_.controlled();
+  s.requests = command_table_.counts();
   if (run_state_.state() == State::fault) s.fault = run_state_.fault();
   s.drive_recorded = {samples_.drive_first(), samples_.drive_recorded()};
   s.sensor_recorded = {samples_.sensor_first(), samples_.sensor_recorded()};
@@ -129,10 +130,7 @@ json Daemon::move_json(const Run& run) const {
   }
   if (run.finished) {
     const auto cause = run.runner->cause();
-    j["stop_cause"] = on_target ? std::string("on_target")
-                      : cause == firmware::StopCause::completed
-                          ? std::string("timeout")
-                          : std::string(firmware::to_string(cause));
+    j["stop_cause"] = firmware::move_end(on_target, cause);
   }
   return j;
 }

@@ -443,6 +443,7 @@ void to_json(json& j, const Status& m) {
        {"calibration", m.calibration}};
   if (m.configured) j["configured"] = *m.configured;
   if (m.run) j["run"] = *m.run;
+  j["requests"] = m.requests;
 }
 
 void from_json(const json& j, Status& m) {
@@ -466,6 +467,8 @@ void from_json(const json& j, Status& m) {
     m.configured = field<ConfigureRequest>(j, "configured");
   }
   m.run = optional_field<RunStatus>(j, "run");
+  m.requests = optional_field<std::map<std::string, std::uint64_t>>(j, "requests").value_or(
+      std::map<std::string, std::uint64_t>{});
 }
 
 template <class T>

@@ -51,6 +51,7 @@
 #include "piezo/firmware/drive_program.hpp"
 #include "piezo/firmware/fine_servo.hpp"
 #include "piezo/firmware/move_request.hpp"
+#include "piezo/firmware/move_state.hpp"
 #include "piezo/firmware/position_feed.hpp"
 #include "piezo/firmware/progress_judge.hpp"
 #include "piezo/firmware/settle_mean.hpp"
@@ -58,29 +59,6 @@
 #include "piezo/name_table.hpp"
 
 namespace piezo::firmware {
-
-enum class MoveState : std::uint8_t {
-  none = 0,
-  coarse = 1,
-  fine = 2,
-  release = 3,
-  settle = 4,
-  on_target = 5,
-  stalled = 6,             ///< no progress over stall_steps steps: the run stops
-  sensor_implausible = 7,  ///< readings no driven rotor gives: the run stops
-  holding = 8,             ///< on target, the fine servo kept on for hold_s
-};
-
-inline constexpr auto kMoveStateNames =
-    names<MoveState>({{MoveState::none, "none"},
-                      {MoveState::coarse, "coarse"},
-                      {MoveState::fine, "fine"},
-                      {MoveState::release, "release"},
-                      {MoveState::settle, "settle"},
-                      {MoveState::on_target, "on_target"},
-                      {MoveState::stalled, "stalled"},
-                      {MoveState::sensor_implausible, "sensor_implausible"},
-                      {MoveState::holding, "holding"}});
 
 [[nodiscard]] const char* to_string(MoveState s);
 

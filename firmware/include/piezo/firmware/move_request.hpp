@@ -59,6 +59,7 @@ struct MoveField {
   std::string_view doc;
   Member member;
   bool required = false;  ///< no default: not a config key, always on the wire
+  std::string_view limit = {};  ///< the board's limit that is `allowed`'s upper end ("": none)
 };
 
 inline constexpr double kNoBound = std::numeric_limits<double>::infinity();
@@ -88,7 +89,9 @@ inline constexpr std::array<MoveField, 8> kMoveFields{{
      "s",
      {0.0, kNoBound, true},
      "give up after this long (at most the board's duration_max_s)",
-     &MoveRequest::timeout_s},
+     &MoveRequest::timeout_s,
+     false,
+     "duration_max_s"},
     {"hold_s",
      "--hold",
      "s",

@@ -9,6 +9,7 @@
 /// and docs/protocol.md's argument tables are checked against them
 /// (tests/docs/request_arguments_docs_test.cpp).
 
+#include <cstdint>
 #include <limits>
 #include <string>
 #include <string_view>
@@ -16,6 +17,15 @@
 #include "piezo/interval.hpp"
 
 namespace piezo::firmware {
+
+/// What an argument's value is: the wire type a client sends.
+enum class ArgumentType : std::uint8_t {
+  number,   ///< a float (an integer is taken too)
+  integer,  ///< an unsigned integer (an integral float is taken too)
+  choice,   ///< one of `choices`' names
+  flag,     ///< true or false
+  map,      ///< a map (a calibration record), or nil
+};
 
 struct Argument {
   std::string_view name;
@@ -25,6 +35,7 @@ struct Argument {
   std::string_view choices;       ///< a choice's names, comma-separated ("": a number)
   std::string_view default_text;  ///< "required", a value, or where the value comes from
   std::string_view doc;
+  ArgumentType type = choices.empty() ? ArgumentType::number : ArgumentType::choice;
 
   /// `allowed` with the board's limit (the value of `limit`) as its upper end.
   [[nodiscard]] constexpr Interval within(double limit_value) const {
@@ -85,7 +96,8 @@ inline constexpr Argument count{
     "",
     "",
     "required",
-    "whole periods, each ending at 0 V; count/f at most `duration_max_s`"};
+    "whole periods, each ending at 0 V; count/f at most `duration_max_s`",
+    ArgumentType::integer};
 inline constexpr Argument drive_received{
     "drive_received",
     "",
@@ -94,17 +106,24 @@ inline constexpr Argument drive_received{
     "",
     "none",
     "drive samples the client has taken care of; on the virtual clock the board waits while "
-    "more than half its recorder, or 20 s of drive samples, are not"};
+    "more than half its recorder, or 20 s of drive samples, are not",
+    ArgumentType::integer};
 inline constexpr Argument stream{"stream",        "", {}, "", "drive, sensor", "required",
                                  "which recorder"};
-inline constexpr Argument first{
-    "first", "", {0.0, kOpen}, "", "", "required", "the first sample's sequence number"};
+inline constexpr Argument first{"first",
+                                "",
+                                {0.0, kOpen},
+                                "",
+                                "",
+                                "required",
+                                "the first sample's sequence number",
+                                ArgumentType::integer};
 /// A fetch's size: at most this many samples (the board's recorder serves
 /// no more in one frame).
 inline constexpr std::uint64_t kMaxFetch = 100'000;
 inline constexpr Argument fetch_count{
     "count", "",         {0.0, static_cast<double>(kMaxFetch)}, "",
-    "",      "required", "samples, fewer at the recorder's end"};
+    "",      "required", "samples, fewer at the recorder's end", ArgumentType::integer};
 
 }  // namespace arguments
 }  // namespace piezo::firmware

@@ -2,6 +2,7 @@
 /// @file
 /// A refused request: the error reply's {code, key, message}.
 
+#include <array>
 #include <stdexcept>
 #include <string>
 
@@ -22,6 +23,10 @@ inline constexpr const char* rate_limited = "rate_limited";    ///< over a clien
 inline constexpr const char* not_available = "not_available";  ///< samples no longer recorded
 inline constexpr const char* bad_frame = "bad_frame";  ///< a sample frame that does not decode
 inline constexpr const char* internal = "internal";    ///< the daemon failed; it goes on
+/// Every code, in the docs' order (the board's dictionary lists them).
+inline constexpr std::array<const char*, 12> kAll{
+    malformed,      too_large,    unknown_command, bad_argument,  out_of_limits, bad_state,
+    fault_latched,  not_controller, rate_limited,  not_available, bad_frame,     internal};
 }  // namespace code
 
 class ProtocolError : public std::runtime_error {

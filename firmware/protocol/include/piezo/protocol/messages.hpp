@@ -10,6 +10,7 @@
 
 #include <array>
 #include <cstdint>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -186,6 +187,9 @@ struct RunStatus {
   std::optional<double> calibration_progress;
 };
 
+/// `status.requests`' key for commands the board does not know.
+inline constexpr const char* kUnknownCommands = "(unknown)";
+
 /// `status`'s reply: the board's full snapshot.
 struct Status {
   BoardState state = BoardState::idle;
@@ -201,6 +205,9 @@ struct Status {
   nlohmann::json calibration;  ///< as in hello
   std::optional<ConfigureRequest> configured;
   std::optional<RunStatus> run;
+  /// `requests`: how many of each command the board has had since it
+  /// started (taken or refused; unknown ones under kUnknownCommands).
+  std::map<std::string, std::uint64_t> requests;
 };
 
 /// The `health` event: about four a second.
