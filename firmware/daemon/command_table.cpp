@@ -48,7 +48,8 @@ std::vector<protocol::CommandSpec> CommandTable::specs() const {
 
 std::map<std::string, std::uint64_t> CommandTable::counts() const {
   std::map<std::string, std::uint64_t> out;
-  for (std::size_t i = 0; i < commands_.size(); ++i) out[std::string(commands_[i].name)] = counts_[i];
+  for (std::size_t i = 0; i < commands_.size(); ++i)
+    out[std::string(commands_[i].name)] = counts_[i];
   out[protocol::kUnknownCommands] = counts_.back();
   return out;
 }

@@ -30,7 +30,8 @@ struct Table {
        }},
       {"change",
        Caller::controller,
-       {"V0", "lease_s"},
+       {protocol::spec_of(firmware::arguments::V0),
+        protocol::spec_of(firmware::arguments::lease_s)},
        [this](const std::string&, const json& a) {
          ++handled;
          last_args = a;

@@ -300,11 +300,14 @@ def ten_tabs(driver, piezo, work):
 
 
 def move_from_the_page(driver, piezo, piezod, work):
-    """`piezo view --rig --control` against the simulated board: Move from
-    the page runs a move on the board, whose state shows in the move panel
-    while the button keeps its label."""
+    """`piezo view --rig --control` against the simulated board whose config
+    limits V0 to 60 V: the page's move form is the board's dictionary; 70 V
+    is refused on the page naming the board's limit, and nothing reaches the
+    board; a move within it runs on the board, whose state shows in the move
+    panel while the button keeps its label."""
     board, address = start_piezod(piezod, os.path.join(SOURCE, "configs", "piezod-sim.toml"),
-                                  os.path.join(work, "piezod.err"))
+                                  os.path.join(work, "piezod.err"),
+                                  sets=("drive.V_max=60", "drive.V0=50"))
     err = os.path.join(work, "rig-view.err")
     view, url, token = None, None, None
     # The view's hello to a board that is still starting (a loaded machine)
@@ -328,12 +331,34 @@ def move_from_the_page(driver, piezo, piezod, work):
         time.sleep(1)
     with open(err) as f:
         check(url is not None, "the rig view's banner: " + f.read())
+
+    def requests():
+        return json.loads(subprocess.run([piezo, "status", "--rig", address, "--json"],
+                                         capture_output=True, text=True).stdout)["requests"]
+
+    def fill(name, value):
+        field = driver.find_element("id", "move-" + name)
+        field.clear()
+        field.send_keys(value)
+
     try:
         driver.get(f"{url}?token={token}")
-        target = driver.find_element("id", "target")
-        target.clear()
-        target.send_keys("0.5")
+        deadline = time.time() + 30
+        while time.time() < deadline and not driver.find_elements("id", "move-target_rad"):
+            time.sleep(0.1)
+        fields = [e.get_attribute("id") for e in driver.find_elements("css selector", "#move-form [id^=move-]")]
+        check(fields[:2] == ["move-target_rad", "move-tolerance_rad"] and "move-approach" in fields
+              and "move-V0" in fields and "move-lease_s" in fields,
+              "the move form has a field for every argument the board declares: " + repr(fields))
+        fill("target_rad", "0.0005")
+        fill("V0", "70")
         button = driver.find_element("id", "move-button")
+        button.click()
+        result = driver.find_element("id", "control-result").text
+        check("not sent" in result and "the board's V_max is 60 V" in result,
+              "70 V refused on the page, naming the board's limit: " + repr(result))
+        check(requests()["move_to"] == 0, "nothing reached the board: " + repr(requests()))
+        fill("V0", "50")
         button.click()
         panel = ""
         deadline = time.time() + 60
@@ -343,6 +368,7 @@ def move_from_the_page(driver, piezo, piezod, work):
         check("move " in panel and "on_target" in panel,
               "the move panel shows the board's move state: " + repr(panel))
         check(button.text == "Move", "the button keeps its label: " + repr(button.text))
+        check(requests()["move_to"] == 1, "one move_to for the page's move: " + repr(requests()))
         say("move from the page:", panel)
     finally:
         view.terminate()

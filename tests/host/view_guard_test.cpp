@@ -31,7 +31,7 @@ class ViewGuard : public ::testing::Test {
  protected:
   ViewServer server{{"127.0.0.1:0", "", true, {"lab-pc"}},
                     nullptr,
-                    {[](const nlohmann::json&) { return nlohmann::json::object(); }, {}, {}}};
+                    {[](const nlohmann::json&) { return nlohmann::json::object(); }, {}, {}, {}}};
   httplib::Client client{"127.0.0.1", port_of(server.url())};
 };
 
@@ -121,6 +121,7 @@ TEST(ViewStreams, OpenLivePagesLeaveTheEstopAnswered) {
                        ++estops;
                        return nlohmann::json::object();
                      },
+                     {},
                      {}});
   const int port = port_of(server.url());
   std::vector<int> sockets;

@@ -140,6 +140,18 @@ for name, args in documented.items():
     taken = re.search(r"\(allowed: (.*)\)", refused["error"]["message"]).group(1)
     taken = set() if taken == "none" else set(taken.split(", "))
     check(taken == args, f"{name} takes {sorted(taken)}; the document lists {sorted(args)}")
+# The board's dictionary says the same, and its V0 ends at the board's V_max.
+dictionary = call("describe")["result"]
+check(set(dictionary["commands"]) == set(documented),
+      f"describe's commands {sorted(dictionary['commands'])}")
+for name, args in documented.items():
+    described = {a["name"] for a in dictionary["commands"][name]["args"]}
+    check(described == args, f"describe: {name} takes {sorted(described)}")
+V0 = next(a for a in dictionary["commands"]["configure"]["args"] if a["name"] == "V0")
+check(V0["max"] == limits["V_max"] and V0["limit"] == "V_max" and V0["unit"] == "V",
+      "describe: configure's V0 up to the board's V_max: " + str(V0))
+check(dictionary["names"]["move_ends"][:2] == ["on_target", "timeout"],
+      "describe: a move's ends: " + str(dictionary["names"]["move_ends"]))
 beyond = call("configure", V0=limits["V_max"] + 10, f=10.0, duration_s=0.5)
 check(beyond["error"]["code"] == "out_of_limits" and beyond["error"]["key"] == "V0",
       "beyond the limits: " + str(beyond))

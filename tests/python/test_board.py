@@ -414,7 +414,7 @@ def test_numbers_numpy_hands_out_just_work(board):
 
 
 def test_a_calibration_below_0_v_is_refused_naming_the_range(board):
-    with pytest.raises(errors.OutOfLimits, match=r"V0.*-1 V \(allowed: \(0, 80\] V"):
+    with pytest.raises(errors.OutOfLimits, match=r"V0.*-1 V is beyond the board's limits; allowed: \(0, 80\] V"):
         board.calibrate(V0=-1)
 
 
@@ -489,3 +489,63 @@ def test_a_board_runs_arrays_go_into_identify(board):
     assert len(t) == len(theta) and not np.isnan(theta).any()
     fit = model.identify(run.fit_arrays(), free=["F_N"], max_iterations=5)
     assert fit.rmse_rad < fit.initial_rmse_rad or fit.rmse_rad < 1e-6
+
+
+def test_a_board_limited_to_60_v_is_refused_70_v_by_every_client_before_sending(tmp_path, piezo,
+                                                                                   source):
+    """A board whose config limits V0 to 60 V describes V0 so, and both the
+    Python client and `piezo move` refuse 70 V from that description, naming
+    the board's limit, before anything is sent (the board counts every
+    request it gets); a move within it is one `move_to`, nothing before it."""
+    process, address = peers.start_piezod(
+        os.environ["PIEZOD_BINARY"], os.path.join(source, "configs", "piezod-sim.toml"),
+        str(tmp_path / "piezod.err"), sets=("drive.V_max=60", "drive.V0=50"))
+    try:
+        with Board(address) as board:
+            V0 = next(a for a in board.arguments("move_to") if a["name"] == "V0")
+            assert (V0["max"], V0["limit"], V0["unit"]) == (60, "V_max", "V")
+            before = board.status()["requests"]
+            refusals = (lambda: board.move_to(0.001, V0=70),
+                        lambda: board.run(V0=70, f=10, duration=1),
+                        lambda: board.step(1, V0=70, f=10),
+                        lambda: board.calibrate(V0=70, progress=False))
+            for refused_call in refusals:
+                with pytest.raises(errors.OutOfLimits) as refused:
+                    refused_call()
+                assert refused.value.key == "V0"
+                assert "allowed: (0, 60] V (the board's V_max is 60 V)" in str(refused.value)
+            with pytest.raises(errors.BadArgument) as unknown:
+                board.move_to(0.001, tolerance=1e-4)
+            assert unknown.value.key == "tolerance" and "tolerance_rad" in str(unknown.value)
+            with pytest.raises(errors.BadArgument) as choice:
+                board.move_to(0.001, approach="sideways")
+            assert "either, forward, reverse" in str(choice.value)
+
+            cli = subprocess.run([piezo.binary, "move", "--rig", address, "--to", "0.001",
+                                  "--V0", "70", "--out", str(tmp_path / "refused")],
+                                 capture_output=True, text=True)
+            assert cli.returncode == 2, cli.stderr
+            assert "V0" in cli.stderr and "the board's V_max is 60 V" in cli.stderr
+            assert not (tmp_path / "refused").exists()
+            after = board.status()["requests"]
+            sent = {cmd: after[cmd] - before[cmd] for cmd in after
+                    if after[cmd] != before[cmd] and cmd not in ("status", "describe", "hello")}
+            assert sent == {}, "a refused request reached the board"
+
+            # Each literal default of the dictionary, passed back, is taken.
+            defaults = {a["name"]: a["default"] for a in board.arguments("move_to")
+                        if a["default"] is not None}
+            move = board.move_to(0.001, **defaults)
+            assert move["stop_cause"] == "on_target"
+            assert move["stop_cause"] in board.describe()["names"]["move_ends"]
+            before = board.status()["requests"]
+            moved = piezo("move", "--rig", address, "--to", "0.002", "--json",
+                          "--out", str(tmp_path / "moved"))
+            assert moved["on_target"]
+            after = board.status()["requests"]
+            assert after["move_to"] - before["move_to"] == 1
+            assert after["configure"] == before["configure"], "piezo move sent a configure"
+            assert after["start"] == before["start"]
+    finally:
+        process.terminate()
+        process.wait(10)

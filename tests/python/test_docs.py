@@ -138,46 +138,6 @@ def _table_after(page: str, heading: str) -> list[str]:
     return rows
 
 
-def test_move_to_takes_every_argument_protocol_md_lists(source):
-    """Board.move_to's keywords are move_to's arguments: the request's
-    fields (docs/protocol.md's table, which a C++ test holds to the one
-    declaration) and the coarse steps' waveform and lease."""
-    import inspect
-    from piezo_rig.board import Board
-    page = open(os.path.join(source, "docs", "protocol.md"), encoding="utf-8").read()
-    declared = {re.match(r"\| `([a-z_0-9A-Z]+)`", row).group(1)
-                for row in _table_after(page, "### `move_to`'s arguments")}
-    assert "approach" in declared
-    keywords = set(inspect.signature(Board.move_to).parameters) - {"self"}
-    assert keywords == declared | _arguments(page, "`move_to`, besides the move's request")
-
-
-def _arguments(page: str, heading: str) -> set[str]:
-    """The argument names protocol.md's table under "#### heading" lists."""
-    return {re.match(r"\| `([a-z_0-9A-Z]+)`", row).group(1)
-            for row in _table_after(page, "#### " + heading)}
-
-
-def test_the_board_methods_take_the_arguments_protocol_md_lists(source):
-    """Board's run, step, calibrate and fetch take the arguments of their
-    commands' tables in docs/protocol.md (a C++ test holds those to the
-    declarations): run's duration is configure's duration_s, and the
-    keywords that are the client's own (renew, progress) are no argument."""
-    import inspect
-    from piezo_rig.board import Board
-    page = open(os.path.join(source, "docs", "protocol.md"), encoding="utf-8").read()
-
-    def keywords(method, own=()):
-        return set(inspect.signature(method).parameters) - {"self", *own}
-
-    assert keywords(Board.run, {"renew"}) == \
-        (_arguments(page, "`configure`") - {"duration_s"}) | {"duration"} | \
-        _arguments(page, "`start`")
-    assert keywords(Board.step) == _arguments(page, "`step`")
-    assert keywords(Board.calibrate, {"progress"}) == _arguments(page, "`calibrate`")
-    assert keywords(Board.fetch) == _arguments(page, "`fetch`")
-
-
 def test_every_error_code_protocol_md_lists_has_its_exception(source):
     """The board's refusals (docs/protocol.md, "Errors") each raise their own
     exception class, and the package knows no code the document lacks."""

@@ -69,16 +69,17 @@ def free_port(count=1):
             return port
 
 
-def start_piezod(piezod, config, err_path, tries=5):
+def start_piezod(piezod, config, err_path, tries=5, sets=()):
     """Starts piezod on a free port (its stream on the next one) and waits
     until it listens; a port taken by another process meanwhile (a busy
     machine runs many tests) makes it exit, and it is started again on
-    another. Returns (process, address); raises with its stderr if it never
-    listens."""
+    another. `sets`: SECTION.KEY=VALUE overrides of the config. Returns
+    (process, address); raises with its stderr if it never listens."""
     for _ in range(tries):
         port = free_port(2)
-        board = spawn([piezod, "--config", config, "--listen", f"tcp://127.0.0.1:{port}"],
-                                 stderr=open(err_path, "w"))
+        overrides = [arg for key in sets for arg in ("--set", key)]
+        board = spawn([piezod, "--config", config, "--listen", f"tcp://127.0.0.1:{port}",
+                       *overrides], stderr=open(err_path, "w"))
         deadline = time.monotonic() + 30
         while time.monotonic() < deadline and board.poll() is None:
             with socket.socket() as probe:

@@ -17,8 +17,8 @@
 namespace piezo::protocol {
 namespace {
 
-using nlohmann::json;
 using firmware::ArgumentType;
+using nlohmann::json;
 
 constexpr std::string_view type_name(ArgumentType t) {
   switch (t) {
@@ -200,7 +200,7 @@ std::optional<ArgumentBreach> check_arguments(const json& dictionary, std::strin
   const json& commands = dictionary.at("commands");
   if (!commands.contains(cmd)) {
     return ArgumentBreach{code::unknown_command, "cmd",
-                          fmt::format("cmd: \"{}\" is not a command of this board", cmd)};
+                          fmt::format("\"{}\" is not a command of this board", cmd)};
   }
   const json& declared = commands.at(cmd).at("args");
   std::string takes;
@@ -211,47 +211,45 @@ std::optional<ArgumentBreach> check_arguments(const json& dictionary, std::strin
     const auto it = std::find_if(declared.begin(), declared.end(),
                                  [&](const json& a) { return a.at("name") == key; });
     if (it == declared.end()) {
-      return ArgumentBreach{
-          code::bad_argument, key,
-          fmt::format("{}: not an argument of {} (it takes: {})", key, cmd,
-                      takes.empty() ? std::string("none") : takes)};
+      return ArgumentBreach{code::bad_argument, key,
+                            fmt::format("not an argument of {} (it takes: {})", cmd,
+                                        takes.empty() ? std::string("none") : takes)};
     }
     const json& a = *it;
     const std::string type = a.at("type").get<std::string>();
     if (value.is_null()) continue;  // absent: the default
     if (type == "flag") {
       if (!value.is_boolean()) {
-        return ArgumentBreach{code::bad_argument, key, fmt::format("{}: expected true or false", key)};
+        return ArgumentBreach{code::bad_argument, key, "expected true or false"};
       }
       continue;
     }
     if (type == "map") {
       if (!value.is_object()) {
-        return ArgumentBreach{code::bad_argument, key, fmt::format("{}: expected a map or nil", key)};
+        return ArgumentBreach{code::bad_argument, key, "expected a map or nil"};
       }
       continue;
     }
     if (type == "choice") {
       const json& choices = a.at("choices");
-      if (!value.is_string() ||
-          std::find(choices.begin(), choices.end(), value) == choices.end()) {
+      if (!value.is_string() || std::find(choices.begin(), choices.end(), value) == choices.end()) {
         std::string allowed;
         for (const json& c : choices) {
           allowed += (allowed.empty() ? "" : ", ") + c.get<std::string>();
         }
         return ArgumentBreach{code::bad_argument, key,
-                              fmt::format("{}: {}; allowed: {}", key, value.dump(), allowed)};
+                              fmt::format("{}; allowed: {}", value.dump(), allowed)};
       }
       continue;
     }
     if (!value.is_number() || value.is_boolean()) {
       return ArgumentBreach{code::bad_argument, key,
-                            fmt::format("{}: expected a number; got {}", key, value.dump())};
+                            fmt::format("expected a number; got {}", value.dump())};
     }
     const double v = value.get<double>();
     if (type == "integer" && (v < 0.0 || v != std::floor(v))) {
       return ArgumentBreach{code::bad_argument, key,
-                            fmt::format("{}: expected an unsigned integer; got {:g}", key, v)};
+                            fmt::format("expected an unsigned integer; got {:g}", v)};
     }
     const double inf = std::numeric_limits<double>::infinity();
     const Interval allowed{bound_of(a.at("min"), -inf), bound_of(a.at("max"), inf),
@@ -261,18 +259,18 @@ std::optional<ArgumentBreach> check_arguments(const json& dictionary, std::strin
       const std::string unit = a.at("unit").get<std::string>();
       return ArgumentBreach{
           code::out_of_limits, key,
-          fmt::format("{}: {:g}{} is outside {}{}{}", key, v, unit.empty() ? "" : " " + unit,
+          fmt::format("{:g}{} is beyond the board's limits; allowed: {}{}{}", v, unit.empty() ? "" : " " + unit,
                       allowed_text(a), unit.empty() ? "" : " " + unit,
-                      limit.is_string() ? fmt::format(" (the board's {} is {:g}{})",
-                                                      limit.get<std::string>(), allowed.max,
-                                                      unit.empty() ? "" : " " + unit)
-                                        : std::string())};
+                      limit.is_string()
+                          ? fmt::format(" (the board's {} is {:g}{})", limit.get<std::string>(),
+                                        allowed.max, unit.empty() ? "" : " " + unit)
+                          : std::string())};
     }
   }
   for (const json& a : declared) {
     if (a.at("required").get<bool>() && !args.contains(a.at("name").get<std::string>())) {
       const std::string key = a.at("name").get<std::string>();
-      return ArgumentBreach{code::bad_argument, key, fmt::format("{}: missing", key)};
+      return ArgumentBreach{code::bad_argument, key, "missing"};
     }
   }
   return std::nullopt;

@@ -19,6 +19,7 @@ Every refusal raises the exception of its protocol error code
 from __future__ import annotations
 
 import itertools
+import math
 import os
 import stat
 import sys
@@ -34,10 +35,10 @@ import numpy as np
 import zmq
 
 from . import frames
-from .errors import BoardError, ClientClosed, NoReply, RunEnded, board_error
+from .errors import (BadArgument, BoardError, ClientClosed, NoReply, OutOfLimits, RunEnded,
+                     UnknownCommand, board_error)
 
 PROTOCOL = 2
-FETCH_MAX = 100_000
 LOOPBACK = ("tcp://127.0.0.1:", "tcp://localhost:", "tcp://[::1]:")
 # Causes that are the end a caller asked for: the run ran its course, or
 # this client stopped it.
@@ -85,6 +86,40 @@ def _wire(command: str, key: str, value: Any) -> Any:
         return {k: _wire(command, f"{key}.{k}", v) for k, v in value.items()}
     raise TypeError(f"{command}: {key}: expected a number, text or flag; "
                     f"got {type(value).__name__}")
+
+
+def _check_argument(command: str, a: dict[str, Any], value: Any) -> None:
+    """One argument against its description in the board's dictionary."""
+    key, kind = a["name"], a["type"]
+    if kind == "flag":
+        if not isinstance(value, bool):
+            raise BadArgument(command, key, "expected True or False", "bad_argument")
+        return
+    if kind == "map":
+        if not isinstance(value, dict):
+            raise BadArgument(command, key, "expected a map or None", "bad_argument")
+        return
+    if kind == "choice":
+        if value not in a["choices"]:
+            raise BadArgument(command, key, f"{value!r}; allowed: {', '.join(a['choices'])}",
+                              "bad_argument")
+        return
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise BadArgument(command, key, f"expected a number; got {value!r}", "bad_argument")
+    if kind == "integer" and (value < 0 or value != int(value)):
+        raise BadArgument(command, key, f"expected an unsigned integer; got {value!r}",
+                          "bad_argument")
+    low = -math.inf if a["min"] is None else a["min"]
+    high = math.inf if a["max"] is None else a["max"]
+    above = value > low if a["min_open"] else value >= low
+    below = value < high if a["max_open"] else value <= high
+    if not (above and below):
+        unit = f" {a['unit']}" if a["unit"] else ""
+        interval = (f"{'(' if a['min_open'] else '['}{low:g}, {high:g}"
+                    f"{')' if a['max_open'] else ']'}")
+        limit = f" (the board's {a['limit']} is {high:g}{unit})" if a["limit"] else ""
+        raise OutOfLimits(command, key, f"{value:g}{unit} is beyond the board's limits; allowed: {interval}{unit}{limit}",
+                          "out_of_limits")
 
 
 def _read_key(path: str, entry: str) -> bytes:
@@ -153,6 +188,7 @@ class Board:
         self._lock = threading.Lock()
         self._ids = itertools.count(1)
         self._hello: Optional[dict[str, Any]] = None
+        self._dictionary: Optional[dict[str, Any]] = None
         self._runs: "weakref.WeakSet[Run]" = weakref.WeakSet()
         self._closed = False
 
@@ -222,6 +258,41 @@ class Board:
         self._hello = hello
         return hello
 
+    def describe(self) -> dict[str, Any]:
+        """The board's dictionary (docs/protocol.md, ``describe``): every
+        command with its arguments (name, type, unit, range within this
+        board's limits, default, doc) and the names the wire carries
+        (states, stop causes, move ends, ...). Asked once per ``Board``."""
+        if self._dictionary is None:
+            self._dictionary = self.call("describe")
+        return self._dictionary
+
+    def arguments(self, command: str) -> list[dict[str, Any]]:
+        """The arguments ``command`` takes on this board, as it describes them."""
+        commands: dict[str, Any] = self.describe()["commands"]
+        if command not in commands:
+            raise UnknownCommand(command, "cmd", f"not a command of this board (its commands: "
+                                 f"{', '.join(commands)})", "unknown_command")
+        described: list[dict[str, Any]] = commands[command]["args"]
+        return described
+
+    def checked(self, command: str, args: dict[str, Any]) -> dict[str, Any]:
+        """``args`` without the ones left out (None), after the board's own
+        checks, done here from its dictionary: an argument it does not take,
+        or of the wrong type, raises ``BadArgument``; a value beyond its
+        range ``OutOfLimits``, naming the board's limit. Nothing is sent."""
+        described = {a["name"]: a for a in self.arguments(command)}
+        given = {k: _wire(command, k, v) for k, v in args.items() if v is not None}
+        for key, value in given.items():
+            if key not in described:
+                raise BadArgument(command, key, f"not an argument of {command} (it takes: "
+                                  f"{', '.join(described) or 'none'})", "bad_argument")
+            _check_argument(command, described[key], value)
+        for name, a in described.items():
+            if a["required"] and name not in given:
+                raise BadArgument(command, name, "missing", "bad_argument")
+        return given
+
     def status(self) -> dict[str, Any]:
         """The board's state now: ``state``, ``fault``, ``position``, ``run``
         (with its ``summary`` once finished), ``calibration``."""
@@ -264,9 +335,11 @@ class Board:
         ``first``, up to ``count`` (fewer at the end), as a structured array.
         Raises ``NotAvailable`` for samples the recorder no longer holds."""
         out = []
+        # The most one fetch returns, as the board describes `fetch`'s count.
+        largest = int(next(a["max"] for a in self.arguments("fetch") if a["name"] == "count"))
         while count > 0:
             frame = self.call("fetch", stream=stream, first=first,
-                              count=min(count, FETCH_MAX))["frame"]
+                              count=min(count, largest))["frame"]
             _, _, records = frames.decode(frame)
             out.append(records)
             if len(records) == 0:
@@ -277,9 +350,8 @@ class Board:
         return np.concatenate(out) if out else np.empty(0, dtype)
 
     # -- runs -----------------------------------------------------------------
-    def run(self, V0: float, f: float, duration: float, *, C_dr: Optional[float] = None,
-            e_dr: Optional[float] = None, direction: str = "forward",
-            lease_s: Optional[float] = None, renew: bool = True) -> "Run":
+    def run(self, V0: float, f: float, duration: float, *, renew: bool = True,
+            **options: Any) -> "Run":
         """A sawtooth run (paper Eq. 1) of ``duration`` seconds, as a context
         manager that keeps the lease on a thread and yields ``Block`` s:
 
@@ -289,42 +361,36 @@ class Board:
         >>> sorted(streams), run.summary["cause"]
         (['drive', 'sensor'], 'completed')
 
+        ``options`` are ``configure``'s and ``start``'s other arguments as
+        the board describes them (``board.arguments("configure")``:
+        ``C_dr``, ``e_dr``, ``direction``; ``lease_s``), checked here
+        against the board's limits before anything is sent.
+
         Leaving the block early stops the run (ramp to 0 V). After the loop,
         ``run.summary``, ``run.drive``, ``run.sensor`` and ``run.theta()``
         hold the whole run. A run that ends other than completed or stopped
         by this client (a fault, a lease lost) raises ``RunEnded`` at the end
         of the loop. ``renew=False`` never renews the lease: the board then
         stops by itself (``link_lost``), as it would for a dead host."""
-        args = {"V0": V0, "f": f, "duration_s": duration, "direction": direction}
-        if C_dr is not None:
-            args["C_dr"] = C_dr
-        if e_dr is not None:
-            args["e_dr"] = e_dr
-        self.call("configure", **args)
-        start = {} if lease_s is None else {"lease_s": lease_s}
-        return Run(self, "start", start, renew)
+        start_keys = {a["name"] for a in self.arguments("start")}
+        configure = {"V0": V0, "f": f, "duration_s": duration}
+        configure.update({k: v for k, v in options.items() if k not in start_keys})
+        start = {k: v for k, v in options.items() if k in start_keys}
+        self.call("configure", **self.checked("configure", configure))
+        return Run(self, "start", self.checked("start", start), renew)
 
-    def step(self, count: int, V0: float, f: float, *, direction: str = "forward",
-             C_dr: Optional[float] = None, e_dr: Optional[float] = None,
-             lease_s: Optional[float] = None) -> "Run":
+    def step(self, count: int, V0: float, f: float, **options: Any) -> "Run":
         """Exactly ``count`` whole sawtooth periods, ending at 0 V; waits for
         the end and returns the finished ``Run`` (its ``summary``,
-        samples and ``theta()``)."""
-        args = {"count": count, "V0": V0, "f": f, "direction": direction}
-        for key, value in (("C_dr", C_dr), ("e_dr", e_dr), ("lease_s", lease_s)):
-            if value is not None:
-                args[key] = value
+        samples and ``theta()``). ``options``: ``step``'s other arguments
+        (``board.arguments("step")``: ``direction``, ``C_dr``, ``e_dr``,
+        ``lease_s``)."""
+        args = self.checked("step", {"count": count, "V0": V0, "f": f, **options})
         with Run(self, "step", args, True) as run:
             run.wait()
         return run
 
-    def move_to(self, target_rad: float, *, tolerance_rad: Optional[float] = None,
-                settle_s: Optional[float] = None, timeout_s: Optional[float] = None,
-                hold_s: Optional[float] = None, V0: Optional[float] = None,
-                f: Optional[float] = None, protect: Optional[bool] = None,
-                stall_steps: Optional[int] = None, approach: Optional[str] = None,
-                C_dr: Optional[float] = None, e_dr: Optional[float] = None,
-                lease_s: Optional[float] = None) -> dict[str, Any]:
+    def move_to(self, target_rad: float, **options: Any) -> dict[str, Any]:
         """Moves the rotor to ``target_rad`` from the board's zero in closed
         loop (the board's move controller) and waits until the move ends.
 
@@ -332,22 +398,24 @@ class Board:
         ``error_rad``, ``on_target_at_s``, ``steps``, ``f_hz``, ... (see
         docs/protocol.md, "Closed-loop moves").
 
-        Raises ``RunEnded`` (``cause``: ``stalled``, ``sensor_implausible``,
-        ``timeout``, ``estop``, ``link_lost``, ...) when the move ends other
-        than on target, and ``OutOfLimits`` for a target, tolerance or
-        waveform beyond the board's limits (the tolerance at least the
-        sensor's ``smallest_tolerance_rad``). ``approach`` is ``"either"``,
-        ``"forward"`` (arrive from below the target every time) or
-        ``"reverse"``. The keywords are ``move_to``'s arguments in
-        docs/protocol.md; one left out (None) takes the board's default:
-        tolerance 25 urad, settle 0.1 s, timeout 30 s, approach either, the
-        board's drive."""
-        args: dict[str, Any] = {"target_rad": target_rad}
-        given = {"tolerance_rad": tolerance_rad, "settle_s": settle_s, "timeout_s": timeout_s,
-                 "hold_s": hold_s, "protect": protect, "stall_steps": stall_steps,
-                 "approach": approach, "V0": V0, "f": f, "C_dr": C_dr, "e_dr": e_dr,
-                 "lease_s": lease_s}
-        args.update({key: value for key, value in given.items() if value is not None})
+        ``options`` are ``move_to``'s other arguments as the board describes
+        them, with their defaults, units and ranges
+        (``board.arguments("move_to")``): ``tolerance_rad``, ``settle_s``,
+        ``timeout_s``, ``hold_s``, ``protect``, ``stall_steps``,
+        ``approach`` (``"either"``, ``"forward"``: arrive from below the
+        target every time, ``"reverse"``), the coarse steps' ``V0``, ``f``,
+        ``C_dr``, ``e_dr``, and ``lease_s``; one left out takes the board's
+        default. An unknown one raises ``BadArgument``, a value beyond the
+        board's range ``OutOfLimits`` naming the board's limit, before
+        anything is sent.
+
+        Raises ``RunEnded`` (``cause``: one of the board's
+        ``describe()["names"]["move_ends"]`` other than ``on_target``:
+        ``stalled``, ``sensor_implausible``, ``timeout``, ``estop``,
+        ``link_lost``, ...) when the move ends other than on target, and
+        ``OutOfLimits`` for a tolerance below what the sensor resolves (the
+        calibration's ``smallest_tolerance_rad``)."""
+        args = self.checked("move_to", {"target_rad": target_rad, **options})
         with Run(self, "move_to", args, True, raise_on_fault=False) as run:
             summary = run.wait()
         move = summary.get("move") or {}
@@ -356,17 +424,16 @@ class Board:
                            summary)
         return move
 
-    def calibrate(self, V0: Optional[float] = None, lease_s: Optional[float] = None, *,
-                  progress: bool = True) -> dict[str, Any]:
+    def calibrate(self, V0: Optional[float] = None, *, progress: bool = True,
+                  **options: Any) -> dict[str, Any]:
         """Runs the board's calibration experiment (about 14 s at 10 Hz) and
         returns the calibration the board installed; raises ``RunEnded``
         when it measured none (``summary.calibration_error`` says why).
-        While it runs, how far it is shows on ``sys.stderr`` (under the
-        running cell in a notebook) about once a second; ``progress=False``
-        keeps it quiet."""
-        args: dict[str, Any] = {} if V0 is None else {"V0": V0}
-        if lease_s is not None:
-            args["lease_s"] = lease_s
+        ``V0`` left out is the board's; ``options``: ``calibrate``'s other
+        arguments (``lease_s``). While it runs, how far it is shows on
+        ``sys.stderr`` (under the running cell in a notebook) about once a
+        second; ``progress=False`` keeps it quiet."""
+        args = self.checked("calibrate", {"V0": V0, **options})
         with Run(self, "calibrate", args, True) as run:
             shown = time.monotonic()
             began = shown

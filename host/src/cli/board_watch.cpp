@@ -7,6 +7,7 @@
 #include <vector>
 #include <zmq_addon.hpp>
 
+#include "piezo/protocol/dictionary.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "piezo/protocol/message.hpp"
 
@@ -19,6 +20,7 @@ BoardWatch::BoardWatch(const config::RigConfig& config, BoardClient& client,
       client_(client),
       hello_(hello),
       feed_(feed),
+      dictionary_(client.call("describe")),
       follower_(client,
                 [this](const std::string& cmd, const json& args) { return call(cmd, args); }) {
   StreamFollower::subscribe(client_);
@@ -128,11 +130,16 @@ json BoardWatch::stop() {
 }
 
 json BoardWatch::move_to(const json& args) {
-  json request = json::object();
-  for (const char* key : {"target_rad", "tolerance_rad", "settle_s", "timeout_s"}) {
-    if (args.contains(key)) request[key] = args[key];
+  // Every argument the board declares, as the page sent it (the page builds
+  // its form from the same dictionary); the lease is the config's when it
+  // names one, else the board's.
+  json request = args.is_object() ? args : json::object();
+  if (!request.contains("lease_s") && config_.host.rig.lease_s > 0.0) {
+    request["lease_s"] = config_.host.rig.lease_s;
   }
-  request["lease_s"] = config_.host.rig.lease_s > 0.0 ? config_.host.rig.lease_s : 1.0;
+  if (const auto breach = protocol::check_arguments(dictionary_, "move_to", request)) {
+    throw std::invalid_argument(fmt::format("{}: {}", breach->key, breach->message));
+  }
   const std::lock_guard lock(commands_);
   const json started = client_.call("move_to", request);
   lease_s_ = started.at("lease_s").get<double>();

@@ -34,6 +34,8 @@ class BoardWatch {
   nlohmann::json estop();
   nlohmann::json stop();
   nlohmann::json move_to(const nlohmann::json& args);
+  /// The board's dictionary (`describe`), asked once when the watch began.
+  [[nodiscard]] const nlohmann::json& dictionary() const { return dictionary_; }
 
  private:
   void follow_run(std::uint64_t run);
@@ -48,6 +50,7 @@ class BoardWatch {
   protocol::Hello hello_;
   view::LiveFeed& feed_;
   std::mutex commands_;  ///< the command socket, shared by the watch and the page
+  nlohmann::json dictionary_;
 
   std::optional<std::uint64_t> run_;
   std::unique_ptr<ObserverStage> observer_;

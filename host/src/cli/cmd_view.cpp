@@ -55,7 +55,8 @@ int serve(const ViewCliOptions& o) {
       o.server, &feed,
       {[&watch](const nlohmann::json&) { return watch.stop(); },
        [&watch](const nlohmann::json&) { return watch.estop(); },
-       [&watch](const nlohmann::json& body) { return watch.move_to(body); }});
+       [&watch](const nlohmann::json& body) { return watch.move_to(body); },
+       [&watch](const nlohmann::json&) { return watch.dictionary(); }});
   std::cerr << server.banner() << "\n" << std::flush;
   while (!signals.flag().load()) watch.poll(std::chrono::milliseconds(50));
   return 0;

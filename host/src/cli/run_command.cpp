@@ -310,7 +310,9 @@ struct Board {
   std::unique_ptr<LocalBoard> local;  ///< declared first: its context outlives the client
   std::optional<BoardClient> client;
   protocol::Hello hello;
-  std::string geometry_note;  ///< the board's sensor radius differed from the config's
+  nlohmann::json dictionary;            ///< the board's `describe`: its commands and limits
+  std::optional<BoardRequest> request;  ///< what this run asks of it, checked and prepared
+  std::string geometry_note;            ///< the board's sensor radius differed from the config's
 };
 
 void connect(Board& board, config::RigConfig& config) {
@@ -326,7 +328,15 @@ void connect(Board& board, config::RigConfig& config) {
     write_out(stderr, "piezo: " + note + "\n");
     board.geometry_note = note;
   }
-  configure_remote(config, *board.client);
+  board.dictionary = board.client->call("describe");
+  // The local board's lease is its own; a remote one's the config's, else the board's.
+  const std::optional<double> lease = board.local ? std::optional(LocalBoard::kLease_s)
+                                      : config.host.rig.lease_s > 0.0
+                                          ? std::optional(config.host.rig.lease_s)
+                                          : std::nullopt;
+  board.request = board_request(config, lease);
+  check_request(*board.request, board.dictionary, board.client->address());
+  prepare_request(*board.request, *board.client);
 }
 
 /// The live view, bound before anything is created: a busy port is bad input.
@@ -345,6 +355,7 @@ std::unique_ptr<view::ViewServer> open_view(const RunOptions& o, const fs::path&
                            estop_requested.store(true);
                            return nlohmann::json::object();
                          },
+                         {},
                          {}});
   write_out(stderr, server->banner() + "\n");
   return server;
@@ -410,12 +421,8 @@ RunSummary drive(Board& board, const config::RigConfig& config, RunLog& log,
                  const std::function<void(const LiveStatus&)>& status_line,
                  const std::atomic<bool>& estop_requested) {
   try {
-    const std::optional<double> lease = board.local ? std::optional(LocalBoard::kLease_s)
-                                        : config.host.rig.lease_s > 0.0
-                                            ? std::optional(config.host.rig.lease_s)
-                                            : std::nullopt;
     RunSummary summary = execute_remote_run(config, *board.client, board.hello, log, signals.flag(),
-                                            status_line, lease, &estop_requested);
+                                            status_line, *board.request, &estop_requested);
     if (board.local && !log.broken()) {
       log.set_attribute(log_schema::kBoardEvents, board.local->events());
     }

@@ -7,7 +7,6 @@
 #include <optional>
 #include <zmq_addon.hpp>
 
-#include "config_error.hpp"
 #include "log_schema.hpp"
 #include "log_writer.hpp"
 #include "piezo/protocol/frame.hpp"
@@ -32,10 +31,6 @@ constexpr auto kBoardGone = 10s;
 std::int64_t host_ns() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(SteadyClock::now().time_since_epoch())
       .count();
-}
-
-json configure_args(const config::RigConfig& c) {
-  return protocol::ConfigureRequest{c.host.model.drive, c.host.run.duration_s};
 }
 
 /// The observer's model: the config's, with the parameters the board's
@@ -64,33 +59,7 @@ model::MotorParameters observer_model(const config::RigConfig& c, const protocol
   return p.motor;
 }
 
-/// `start`, or for `piezo step` the protocol's `step`: the board runs whole periods.
-json start_remote(const config::RigConfig& c, BoardClient& client, std::optional<double> lease) {
-  if (c.host.run.move) {
-    const auto& d = c.host.model.drive;
-    const auto& m = *c.host.run.move;
-    const protocol::MoveToRequest request{m, m.V0, m.f, d.C_dr, d.e_dr, lease};
-    return client.call("move_to", request);
-  }
-  if (c.host.run.calibrate) {
-    return client.call("calibrate", protocol::CalibrateRequest{c.host.run.calibrate->V0, lease});
-  }
-  if (c.host.run.step_periods == 0) return client.call("start", protocol::StartRequest{lease});
-  return client.call("step",
-                     protocol::StepRequest{c.host.run.step_periods, c.host.model.drive, lease});
-}
-
 }  // namespace
-
-void configure_remote(const config::RigConfig& c, BoardClient& client) {
-  try {
-    (void)client.call("configure", configure_args(c));
-  } catch (const RemoteError& e) {
-    const std::string key = e.key() == "duration_s" ? "run.duration_s" : "drive." + e.key();
-    throw config::ConfigError("piezod at " + client.address(), key,
-                              fmt::format("refused by the board ({}): {}", e.code(), e.what()));
-  }
-}
 
 ClockMapping estimate_clock_offset(BoardClient& client, int round_trips) {
   ClockMapping best{0, std::numeric_limits<std::int64_t>::max()};
@@ -380,7 +349,7 @@ RunSummary execute_remote_run(const config::RigConfig& c, BoardClient& client,
                               const protocol::Hello& hello, RunLog& log,
                               const std::atomic<bool>& stop,
                               const std::function<void(const LiveStatus&)>& on_status,
-                              std::optional<double> lease, const std::atomic<bool>* estop) {
+                              const BoardRequest& request, const std::atomic<bool>* estop) {
   if (stop.load()) {
     // Stopped during set-up: the drive is never started.
     RunSummary summary;
@@ -399,7 +368,7 @@ RunSummary execute_remote_run(const config::RigConfig& c, BoardClient& client,
   }
   // Subscribed before the start, so that the run's first samples come.
   StreamFollower::subscribe(client);
-  const json started = start_remote(c, client, lease);
+  const json started = start_request(request, client);
   log.set_attribute(log_schema::kBoardT0, std::to_string(started.at("t0_ns").get<hal::TimeNs>()));
   log.set_attribute(log_schema::kRig, client.address());
   if (const json zero = started.value("zero_displacement_m", json()); zero.is_number()) {

@@ -55,9 +55,9 @@ RunSummary execute_run(const config::RigConfig& c, config::Rig rig, RunLog& log,
   {
     BoardClient client(config::BoardAddress{board.address(), "", ""}, board.context());
     const protocol::Hello hello = client.hello();
-    configure_remote(c, client);
-    summary =
-        execute_remote_run(c, client, hello, log, stop, on_status, LocalBoard::kLease_s, estop);
+    const BoardRequest request = board_request(c, LocalBoard::kLease_s);
+    prepare_request(request, client);
+    summary = execute_remote_run(c, client, hello, log, stop, on_status, request, estop);
   }
   board.stop();
   try {

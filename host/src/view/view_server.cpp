@@ -193,10 +193,15 @@ HttpReply ViewServer::serve(const HttpRequest& req) {
     HttpReply r{302, "text/plain", "", {{"Location", "/runs"}}, {}};
     return r;
   }
+  if (path == "/api/describe") {
+    if (!controls_.describe) return refused(404, "describe: no board here");
+    return json_reply(controls_.describe({}));
+  }
   if (path == "/runs") return page(kRunsHtml);
   if (!name_after(path, "/run/").empty()) return page(kRunHtml);
   if (path == "/live-window.js") return page(kLiveWindowJs, "text/javascript");
   if (path == "/live-worker.js") return page(kLiveWorkerJs, "text/javascript");
+  if (path == "/move-form.js") return page(kMoveFormJs, "text/javascript");
   if (path == "/vendor/uPlot.iife.min.js" || path == "/vendor/uPlot.min.css") {
     const std::string name = path.substr(path.rfind('/') + 1);
     auto body = read_file(vendor_dir() + "/" + name);

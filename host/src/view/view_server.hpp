@@ -40,6 +40,7 @@ struct ViewOptions {
 struct ViewControls {
   using Action = std::function<nlohmann::json(const nlohmann::json& body)>;
   Action stop, estop, move;
+  Action describe;  ///< the board's dictionary (GET /api/describe), for the page's move form
 };
 
 class ViewServer {

@@ -58,7 +58,7 @@ struct MoveField {
   Interval allowed;         ///< numbers and counts (a flag or a choice: unused)
   std::string_view doc;
   Member member;
-  bool required = false;  ///< no default: not a config key, always on the wire
+  bool required = false;        ///< no default: not a config key, always on the wire
   std::string_view limit = {};  ///< the board's limit that is `allowed`'s upper end ("": none)
 };
 

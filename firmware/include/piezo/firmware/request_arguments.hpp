@@ -122,7 +122,7 @@ inline constexpr Argument first{"first",
 /// no more in one frame).
 inline constexpr std::uint64_t kMaxFetch = 100'000;
 inline constexpr Argument fetch_count{
-    "count", "",         {0.0, static_cast<double>(kMaxFetch)}, "",
+    "count", "",         {0.0, static_cast<double>(kMaxFetch)},  "",
     "",      "required", "samples, fewer at the recorder's end", ArgumentType::integer};
 
 }  // namespace arguments

@@ -48,8 +48,7 @@ template <class Request>
 [[nodiscard]] std::vector<ArgumentSpec> move_to_specs();
 
 /// The value of the board's limit `name` (`hello.limits`); nullopt: no such limit.
-[[nodiscard]] std::optional<double> limit_value(const Hello::Limits& limits,
-                                                std::string_view name);
+[[nodiscard]] std::optional<double> limit_value(const Hello::Limits& limits, std::string_view name);
 
 /// A command of the dictionary: who may send it and what it takes.
 struct CommandSpec {

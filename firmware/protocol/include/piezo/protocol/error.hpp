@@ -25,8 +25,8 @@ inline constexpr const char* bad_frame = "bad_frame";  ///< a sample frame that 
 inline constexpr const char* internal = "internal";    ///< the daemon failed; it goes on
 /// Every code, in the docs' order (the board's dictionary lists them).
 inline constexpr std::array<const char*, 12> kAll{
-    malformed,      too_large,    unknown_command, bad_argument,  out_of_limits, bad_state,
-    fault_latched,  not_controller, rate_limited,  not_available, bad_frame,     internal};
+    malformed,     too_large,      unknown_command, bad_argument,  out_of_limits, bad_state,
+    fault_latched, not_controller, rate_limited,    not_available, bad_frame,     internal};
 }  // namespace code
 
 class ProtocolError : public std::runtime_error {

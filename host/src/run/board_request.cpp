@@ -1,0 +1,82 @@
+#include "board_request.hpp"
+
+#include <fmt/format.h>
+
+#include "config_error.hpp"
+#include "piezo/overload.hpp"
+#include "piezo/protocol/dictionary.hpp"
+
+namespace piezo::host {
+namespace {
+
+using nlohmann::json;
+
+/// Each command a request sends, with its arguments.
+std::vector<std::pair<std::string, json>> wire_requests(const BoardRequest& request) {
+  return std::visit(
+      Overload{
+          [](const TimedRun& r) -> std::vector<std::pair<std::string, json>> {
+            return {{"configure", r.configure}, {"start", r.start}};
+          },
+          [](const protocol::StepRequest& r) -> std::vector<std::pair<std::string, json>> {
+            return {{"step", r}};
+          },
+          [](const protocol::MoveToRequest& r) -> std::vector<std::pair<std::string, json>> {
+            return {{"move_to", r}};
+          },
+          [](const protocol::CalibrateRequest& r) -> std::vector<std::pair<std::string, json>> {
+            return {{"calibrate", r}};
+          },
+      },
+      request);
+}
+
+/// The config key a timed run's `configure` argument comes from.
+std::string configure_key(const std::string& argument) {
+  return argument == "duration_s" ? "run.duration_s" : "drive." + argument;
+}
+
+}  // namespace
+
+BoardRequest board_request(const config::RigConfig& c, std::optional<double> lease_s) {
+  const auto& run = c.host.run;
+  const auto& drive = c.host.model.drive;
+  if (run.move) {
+    return protocol::MoveToRequest{*run.move,  run.move->V0, run.move->f,
+                                   drive.C_dr, drive.e_dr,   lease_s};
+  }
+  if (run.calibrate) return protocol::CalibrateRequest{run.calibrate->V0, lease_s};
+  if (run.step_periods > 0) return protocol::StepRequest{run.step_periods, drive, lease_s};
+  return TimedRun{{drive, run.duration_s}, {lease_s}};
+}
+
+void check_request(const BoardRequest& request, const json& dictionary,
+                   const std::string& board_address) {
+  for (const auto& [cmd, args] : wire_requests(request)) {
+    if (const auto breach = protocol::check_arguments(dictionary, cmd, args)) {
+      throw config::ConfigError(
+          "piezod at " + board_address,
+          cmd == "configure" ? configure_key(breach->key) : breach->key,
+          fmt::format("{} (the board's dictionary; nothing was sent)", breach->message));
+    }
+  }
+}
+
+void prepare_request(const BoardRequest& request, BoardClient& client) {
+  const auto* timed = std::get_if<TimedRun>(&request);
+  if (timed == nullptr) return;
+  try {
+    (void)client.call("configure", timed->configure);
+  } catch (const RemoteError& e) {
+    throw config::ConfigError("piezod at " + client.address(), configure_key(e.key()),
+                              fmt::format("refused by the board ({}): {}", e.code(), e.what()));
+  }
+}
+
+json start_request(const BoardRequest& request, BoardClient& client) {
+  const auto sent = wire_requests(request);
+  const auto& [cmd, args] = sent.back();  // a timed run's configure went before
+  return client.call(cmd, args);
+}
+
+}  // namespace piezo::host
