@@ -15,8 +15,10 @@
 #include <vector>
 
 #include "piezo/firmware/move_request.hpp"
+#include "piezo/firmware/request_arguments.hpp"
 #include "piezo/firmware/safety_supervisor.hpp"
 #include "piezo/firmware/voltage_limiter.hpp"
+#include "piezo/hal/backend.hpp"
 #include "piezo/hal/backends.hpp"
 #include "piezo/hal/sim/modbus_rig_device.hpp"
 #include "piezo/model/lugre_observer.hpp"
@@ -66,7 +68,8 @@ struct DriveSettings {
 
 struct SensorSettings {
   double rate_hz = 1000.0;
-  double r2_m = 0.062;  ///< reflector radius: theta = (d - d_tare) / r2 (docs/model.md section 4)
+  double r2_m = hal::kDefaultSensorRadius_m;  ///< reflector radius: theta = (d - d_tare) / r2
+                                              ///< (docs/model.md section 4)
   /// The sensor's measuring range [m]: readings outside are out_of_range.
   /// The defaults only catch the absurd (a wrong word order reads 1e9 m);
   /// set them to the sensor's data sheet.
@@ -124,7 +127,7 @@ struct RunSettings {
 /// The board's daemon ([piezod]): where it listens, what a client may ask.
 struct DaemonSettings {
   std::string listen = "tcp://127.0.0.1:5555";  ///< command socket; the stream is on port + 1
-  double lease_s = 0.5;                         ///< a start's lease when the client names none
+  double lease_s = firmware::arguments::kDefaultLease_s;                         ///< a start's lease when the client names none
   double lease_max_s = 10.0;                    ///< the longest lease a client may ask for
   double recorder_s = 120.0;  ///< samples kept on the board, at the configured rates
   /// Every sample of the current run also goes to this file (empty: none),

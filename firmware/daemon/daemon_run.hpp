@@ -22,7 +22,7 @@ struct Daemon::Run {
   firmware::RemoteControl remote;
   std::unique_ptr<firmware::LoopRunner> runner;
   hal::TimeNs t0 = 0;
-  double lease_s = 0.5;
+  double lease_s = 0.0;  // set at the start
   bool finished = false;
   protocol::RunSummary summary;                    ///< once finished
   firmware::PositionFeed feed;                     ///< the acquire loop's readings, for a move

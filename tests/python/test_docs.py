@@ -147,3 +147,28 @@ def test_every_error_code_protocol_md_lists_has_its_exception(source):
                   for row in _table_after(page, "### Errors")}
     assert "not_controller" in documented
     assert set(ERRORS) == documented
+
+
+def test_the_package_has_no_import_circle():
+    """Each module's imports of its siblings, at the top or inside a
+    function, form no circle: `log` reads files and may use `model`; `model`
+    never needs `log`."""
+    import ast
+    package = os.path.dirname(piezo_rig.__file__)
+    imports: dict[str, set[str]] = {}
+    for name in os.listdir(package):
+        if not name.endswith(".py"):
+            continue
+        tree = ast.parse(open(os.path.join(package, name), encoding="utf-8").read())
+        found = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.level == 1:
+                found |= {node.module} if node.module else {a.name for a in node.names}
+        imports[name[:-3]] = {m.split(".")[0] for m in found}
+
+    def reaches(start: str, goal: str, seen: set[str]) -> bool:
+        return any(m == goal or (m not in seen and reaches(m, goal, seen | {m}))
+                   for m in imports.get(start, ()))
+
+    circles = [m for m in imports if reaches(m, m, {m})]
+    assert circles == [], f"modules on an import circle: {circles} ({imports})"

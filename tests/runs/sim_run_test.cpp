@@ -2,11 +2,13 @@
 // whole runs, far faster than real time, each outcome checked in the log.
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <iostream>
 #include <thread>
 
@@ -611,6 +613,46 @@ TEST(SimRun, AStopRequestRampsDownAndEndsInterrupted) {
   EXPECT_GE(o.drive_t.back(), 0.2);
   EXPECT_DOUBLE_EQ(o.drive_V.back(), 0.0);
   EXPECT_LT(o.drive_t.back(), 10000.0);
+}
+
+// A log that fails mid-run (a file-size limit: a full disk as the writer
+// sees it) ends the run; whoever follows the collector (the live view)
+// still gets the rows to the run's end, the drive's stopped record
+// included, and hears why the log failed.
+TEST(SimRun, AFailedLogKeepsTheLiveRowsComingToTheRunsEnd) {
+  const config::RigConfig config = config::load_rig_config(
+      std::string(build_paths::source_dir) + "/configs/sim.toml",
+      {"run.clock=virtual", "run.duration_s=60", "run.flush_interval_s=0.25"});
+  config::Rig rig = config::build_rig(config.board);
+  const auto dir = testing::fresh_temp_dir("hil-log-fails");
+  RunLog log = RunLog::create((dir / "run.h5").string(), {{"config", config.text}});
+  rlimit old{};
+  ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
+  const auto previous_handler = std::signal(SIGXFSZ, SIG_IGN);  // a write past it fails instead
+  rlimit small = old;
+  small.rlim_cur = static_cast<rlim_t>(std::filesystem::file_size(dir / "run.h5")) + (2u << 20);
+  ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
+  double last_drive_phase = -1.0, last_drive_t = 0.0;
+  std::string log_error;
+  const std::atomic<bool> never{false};
+  const RunSummary s = execute_run(
+      config, std::move(rig), log, never,
+      [&](const LiveStatus& status) {
+        if (!status.log_error.empty()) log_error = status.log_error;
+      },
+      nullptr,
+      [&](const log_schema::LogRows& rows) {
+        if (rows.drive.t.empty()) return;
+        last_drive_t = rows.drive.t.back();
+        last_drive_phase = rows.drive.phase.back();
+      });
+  ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &old), 0);
+  std::signal(SIGXFSZ, previous_handler);
+  EXPECT_EQ(s.stop_cause(), "log_failed") << s.host_error;
+  EXPECT_LT(last_drive_t, 60.0) << "the run went on after its log failed";
+  EXPECT_EQ(last_drive_phase, static_cast<double>(firmware::DrivePhase::stopped))
+      << "the rows stopped coming before the run's end, at " << last_drive_t << " s";
+  EXPECT_NE(log_error.find("log"), std::string::npos) << "the live status said why: " << log_error;
 }
 
 }  // namespace

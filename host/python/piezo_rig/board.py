@@ -499,7 +499,7 @@ class Run:
                 break
 
     def _renew(self, renew: bool) -> None:
-        period = float(self.started.get("lease_s", 0.5)) / 4
+        period = float(self.started["lease_s"]) / 4
         while renew and not self._stopping.wait(period):
             try:
                 self.board.call("lease", drive_received=self._next[frames.DRIVE])

@@ -407,9 +407,10 @@ def identify(log_or_arrays: Any, params: Optional[Parameters] = None, *,
         F_N and d_e, Coulomb F_N and d_e. A parameter the model does not use
         (a bristle's sigma0 under Coulomb) is refused.
     """
-    from .log import RunLog
     start = Parameters()
-    if isinstance(log_or_arrays, RunLog):
+    # An opened log (piezo_rig.log.RunLog, which depends on this module and
+    # not the other way round) is read from its file, with its layout.
+    if hasattr(log_or_arrays, "path") and hasattr(log_or_arrays, "layout"):
         layout = log_or_arrays.layout or layout
         log_or_arrays = log_or_arrays.path
     if isinstance(log_or_arrays, (str, os.PathLike)):

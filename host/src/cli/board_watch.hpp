@@ -61,7 +61,7 @@ class BoardWatch {
 
   // Under commands_: the page's threads start a move, the watch renews it.
   std::optional<std::uint64_t> controlled_run_;  ///< a move this watch started
-  double lease_s_ = 0.5;
+  double lease_s_ = 0.0;                         ///< the started move's
   std::chrono::steady_clock::time_point last_lease_;
 };
 

@@ -329,12 +329,7 @@ void connect(Board& board, config::RigConfig& config) {
     board.geometry_note = note;
   }
   board.dictionary = board.client->call("describe");
-  // The local board's lease is its own; a remote one's the config's, else the board's.
-  const std::optional<double> lease = board.local ? std::optional(LocalBoard::kLease_s)
-                                      : config.host.rig.lease_s > 0.0
-                                          ? std::optional(config.host.rig.lease_s)
-                                          : std::nullopt;
-  board.request = board_request(config, lease);
+  board.request = board_request(config);
   check_request(*board.request, board.dictionary, board.client->address());
   prepare_request(*board.request, *board.client);
 }
@@ -410,7 +405,8 @@ std::function<void(const LiveStatus&)> status_reporter(const RunOptions& o, view
                       {"overruns", st.overruns},
                       {"board", st.board},
                       {"errors_by_class", st.errors_by_class},
-                      {"lease_s", st.lease_s}});
+                      {"lease_s", st.lease_s},
+                      {"log_error", st.log_error}});
   };
 }
 
@@ -419,10 +415,14 @@ std::function<void(const LiveStatus&)> status_reporter(const RunOptions& o, view
 RunSummary drive(Board& board, const config::RigConfig& config, RunLog& log,
                  const StopOnSignals& signals,
                  const std::function<void(const LiveStatus&)>& status_line,
-                 const std::atomic<bool>& estop_requested) {
+                 const std::atomic<bool>& estop_requested, view::LiveFeed* live) {
   try {
+    // The live view takes the collector's rows, not the log's: a log that
+    // fails leaves the view going to the run's end.
+    std::function<void(const log_schema::LogRows&)> to_view;
+    if (live != nullptr) to_view = [live](const log_schema::LogRows& rows) { live->add(rows); };
     RunSummary summary = execute_remote_run(config, *board.client, board.hello, log, signals.flag(),
-                                            status_line, *board.request, &estop_requested);
+                                            status_line, *board.request, &estop_requested, to_view);
     if (board.local && !log.broken()) {
       log.set_attribute(log_schema::kBoardEvents, board.local->events());
     }
@@ -459,9 +459,9 @@ int run(const RunOptions& o, const RunProgram& program) {
   const std::string utc_start = utc_stamp("%Y-%m-%dT%H:%M:%SZ");
   const fs::path log_path = dir / "run.h5";
   RunLog log = create_log(dir, config, board, utc_start);
-  if (live) log.set_tap([&live](const log_schema::LogRows& rows) { live->add(rows); });
-  RunSummary summary = drive(board, config, log, signals,
-                             status_reporter(o, live ? &*live : nullptr), estop_requested);
+  RunSummary summary =
+      drive(board, config, log, signals, status_reporter(o, live ? &*live : nullptr),
+            estop_requested, live ? &*live : nullptr);
   if (!o.json && isatty(STDERR_FILENO)) write_out(stderr, "\n");
   // The run's JSON, with the move's account (target, controller's result).
   const auto result_json = [&] {

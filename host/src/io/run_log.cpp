@@ -63,7 +63,6 @@ void RunLog::check_room(const std::string& path, std::uintmax_t bytes) const {
 }
 
 void RunLog::append(LogRows& rows) {
-  if (tap_) tap_(rows);
   // Written in slices, each checked for room first, so a log that meets a
   // full disk or a file-size limit keeps every slice that fitted instead of
   // losing the whole flush interval.

@@ -45,8 +45,6 @@ class RunLog {
   /// through a flush is left inconsistent by HDF5. Any other failure marks
   /// the log broken.
   void append(LogRows& rows);
-  /// Shows every batch of rows to `tap` before it is written (the live view).
-  void set_tap(std::function<void(const LogRows&)> tap) { tap_ = std::move(tap); }
   /// True once a write failed half-way: the file must not be written again.
   [[nodiscard]] bool broken() const { return broken_; }
   /// Writes a dataset whole (e.g. a timing histogram).
@@ -66,7 +64,6 @@ class RunLog {
   RunJournal journal_;
   bool broken_ = false;
   bool refused_ = false;  ///< rows the file refused are only in the journal
-  std::function<void(const LogRows&)> tap_;
 };
 
 }  // namespace piezo::host

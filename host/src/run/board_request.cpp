@@ -38,7 +38,9 @@ std::string configure_key(const std::string& argument) {
 
 }  // namespace
 
-BoardRequest board_request(const config::RigConfig& c, std::optional<double> lease_s) {
+BoardRequest board_request(const config::RigConfig& c) {
+  const std::optional<double> lease_s =
+      c.host.rig.lease_s > 0.0 ? std::optional(c.host.rig.lease_s) : std::nullopt;
   const auto& run = c.host.run;
   const auto& drive = c.host.model.drive;
   if (run.move) {

@@ -25,8 +25,9 @@ struct TimedRun {
 using BoardRequest = std::variant<TimedRun, protocol::StepRequest, protocol::MoveToRequest,
                                   protocol::CalibrateRequest>;
 
-/// The request the config's [run] asks for, with `lease_s` (nullopt: the board's).
-[[nodiscard]] BoardRequest board_request(const config::RigConfig& c, std::optional<double> lease_s);
+/// The request the config's [run] asks for, under the config's `rig.lease_s`
+/// (none: the board's default lease).
+[[nodiscard]] BoardRequest board_request(const config::RigConfig& c);
 
 /// Refuses (ConfigError naming the argument, the board and its limit) what
 /// the board's dictionary (`describe`) says it would refuse: nothing is sent.

@@ -11,6 +11,8 @@ config::BoardConfig board_config(const config::RigConfig& c) {
   config::BoardConfig board = c.board;
   // The config's own limits are the board's; only the run's length is the host's to choose.
   board.daemon.duration_max_s = std::max(board.daemon.duration_max_s, c.host.run.duration_s);
+  board.daemon.lease_s = LocalBoard::kLease_s;
+  board.daemon.lease_max_s = std::max(board.daemon.lease_max_s, LocalBoard::kLease_s);
   return board;
 }
 

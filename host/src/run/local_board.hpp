@@ -20,8 +20,9 @@ namespace piezo::host {
 
 class LocalBoard {
  public:
-  /// The lease a client of this board runs under: the host's own loop
-  /// renews it, and a log flush on a slow disk must not pass for a dead host.
+  /// This board's default lease (a client that names none runs under it):
+  /// the host's own loop renews it, and a log flush on a slow disk must not
+  /// pass for a dead host.
   static constexpr double kLease_s = 2.0;
 
   /// Serves `rig` with the config's own limits as the board's.

@@ -83,7 +83,8 @@ namespace {
 class FollowedRun {
  public:
   FollowedRun(const config::RigConfig& c, BoardClient& client, const protocol::Hello& hello,
-              RunLog& log, const json& started, const ClockMapping& clock, ObserverStage* observer)
+              RunLog& log, const json& started, const ClockMapping& clock, ObserverStage* observer,
+              std::function<void(const log_schema::LogRows&)> on_rows)
       : c_(c),
         client_(client),
         log_(log),
@@ -99,7 +100,8 @@ class FollowedRun {
                   [board = &client](const std::string& cmd, const json& args) {
                     return board->call(cmd, args, 5s);
                   }),
-        writer_(log) {
+        writer_(log),
+        on_rows_(std::move(on_rows)) {
     follower_.follow(collector_, [this] {
       return virtual_clock_ ? 1e-9 * static_cast<double>(host_ns() - host_start_)
                             : hal::to_seconds(host_ns() + clock_.offset_ns - t0_);
@@ -113,6 +115,8 @@ class FollowedRun {
       const std::function<void(const LiveStatus&)>& on_status);
   /// The run's account from the board's summary; with none, a board gone.
   RunSummary finish(const std::optional<protocol::RunSummary>& board);
+  /// The live status, every kStatusPeriod (`at_once`: now, the run's last).
+  void report(const std::function<void(const LiveStatus&)>& on_status, bool at_once = false);
 
  private:
   static double zero_of(const json& started) {
@@ -132,7 +136,6 @@ class FollowedRun {
   void ask_when_quiet(std::optional<protocol::RunSummary>& end);
   void append_log();
   void finish_writing();
-  void report(const std::function<void(const LiveStatus&)>& on_status);
   void note_outages();
 
   const config::RigConfig& c_;
@@ -150,6 +153,7 @@ class FollowedRun {
   StreamFollower follower_;
   // From here until writer_.finish() only the writer's thread touches the log.
   LogWriter writer_;
+  std::function<void(const log_schema::LogRows&)> on_rows_;
   RunSummary summary_;
   bool log_ok_ = true, stop_sent_ = false, estop_sent_ = false;
   SteadyClock::time_point last_lease_ = SteadyClock::now(), last_flush_ = last_lease_,
@@ -273,8 +277,13 @@ void FollowedRun::ask_when_quiet(std::optional<protocol::RunSummary>& end) {
 }
 
 void FollowedRun::append_log() {
-  if (!log_ok_) return;
-  writer_.submit(collector_.rows());
+  log_schema::LogRows& rows = collector_.rows();
+  if (on_rows_) on_rows_(rows);
+  if (!log_ok_) {
+    rows = log_schema::LogRows{};  // a failed log takes nothing more; the view had them
+    return;
+  }
+  writer_.submit(rows);
   if (std::string e = writer_.error(); !e.empty()) {
     log_ok_ = false;
     summary_.host_error = std::move(e);
@@ -290,9 +299,9 @@ void FollowedRun::finish_writing() {
   }
 }
 
-void FollowedRun::report(const std::function<void(const LiveStatus&)>& on_status) {
+void FollowedRun::report(const std::function<void(const LiveStatus&)>& on_status, bool at_once) {
   const auto now = SteadyClock::now();
-  if (!on_status || now - last_status_ < kStatusPeriod) return;
+  if (!on_status || (!at_once && now - last_status_ < kStatusPeriod)) return;
   const auto& health = follower_.health();
   on_status({collector_.last_t(), started_.value("duration_s", c_.host.run.duration_s),
              collector_.last_V(), collector_.last_theta(),
@@ -300,7 +309,7 @@ void FollowedRun::report(const std::function<void(const LiveStatus&)>& on_status
              health.sensor ? health.sensor->errors : 0, health.drive ? health.drive->overruns : 0,
              health,
              json{{"drive", collector_.drive_errors()}, {"sensor", collector_.sensor_errors()}},
-             lease_s_});
+             lease_s_, log_ok_ ? std::string() : summary_.host_error});
   last_status_ = now;
 }
 
@@ -349,7 +358,8 @@ RunSummary execute_remote_run(const config::RigConfig& c, BoardClient& client,
                               const protocol::Hello& hello, RunLog& log,
                               const std::atomic<bool>& stop,
                               const std::function<void(const LiveStatus&)>& on_status,
-                              const BoardRequest& request, const std::atomic<bool>* estop) {
+                              const BoardRequest& request, const std::atomic<bool>* estop,
+                              const std::function<void(const log_schema::LogRows&)>& on_rows) {
   if (stop.load()) {
     // Stopped during set-up: the drive is never started.
     RunSummary summary;
@@ -375,9 +385,11 @@ RunSummary execute_remote_run(const config::RigConfig& c, BoardClient& client,
     log.set_attribute(log_schema::kThetaZero,
                       fmt::format("{:.12g} (the board's zero)", zero.get<double>()));
   }
-  FollowedRun run(c, client, hello, log, started, clock, observer ? &*observer : nullptr);
+  FollowedRun run(c, client, hello, log, started, clock, observer ? &*observer : nullptr, on_rows);
   const auto end = run.follow(stop, estop, on_status);
-  return run.finish(end);
+  RunSummary summary = run.finish(end);
+  run.report(on_status, true);  // the end, and a log failed in its last flush, shown
+  return summary;
 }
 
 }  // namespace piezo::host

@@ -26,12 +26,13 @@ struct ClockMapping {
 [[nodiscard]] ClockMapping estimate_clock_offset(BoardClient& client, int round_trips = 16);
 
 /// Starts `request` (prepared: prepare_request) and follows it to its end;
-/// `hello` is the daemon's hello.
-[[nodiscard]] RunSummary execute_remote_run(const config::RigConfig& config, BoardClient& client,
-                                            const protocol::Hello& hello, RunLog& log,
-                                            const std::atomic<bool>& stop,
-                                            const std::function<void(const LiveStatus&)>& on_status,
-                                            const BoardRequest& request,
-                                            const std::atomic<bool>* estop = nullptr);
+/// `hello` is the daemon's hello. `on_rows` sees every flush interval's
+/// rows as the collector made them, whether or not the log takes them (the
+/// live view goes on when the log fails).
+[[nodiscard]] RunSummary execute_remote_run(
+    const config::RigConfig& config, BoardClient& client, const protocol::Hello& hello, RunLog& log,
+    const std::atomic<bool>& stop, const std::function<void(const LiveStatus&)>& on_status,
+    const BoardRequest& request, const std::atomic<bool>* estop = nullptr,
+    const std::function<void(const log_schema::LogRows&)>& on_rows = {});
 
 }  // namespace piezo::host

@@ -47,7 +47,8 @@ std::string RunSummary::status() const {
 RunSummary execute_run(const config::RigConfig& c, config::Rig rig, RunLog& log,
                        const std::atomic<bool>& stop,
                        const std::function<void(const LiveStatus&)>& on_status,
-                       const std::atomic<bool>* estop) {
+                       const std::atomic<bool>* estop,
+                       const std::function<void(const log_schema::LogRows&)>& on_rows) {
   // Declared first, destroyed last: the client's sockets close before the
   // daemon's context ends.
   LocalBoard board(c, std::move(rig));
@@ -55,9 +56,9 @@ RunSummary execute_run(const config::RigConfig& c, config::Rig rig, RunLog& log,
   {
     BoardClient client(config::BoardAddress{board.address(), "", ""}, board.context());
     const protocol::Hello hello = client.hello();
-    const BoardRequest request = board_request(c, LocalBoard::kLease_s);
+    const BoardRequest request = board_request(c);
     prepare_request(request, client);
-    summary = execute_remote_run(c, client, hello, log, stop, on_status, request, estop);
+    summary = execute_remote_run(c, client, hello, log, stop, on_status, request, estop, on_rows);
   }
   board.stop();
   try {

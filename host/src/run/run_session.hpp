@@ -50,17 +50,20 @@ struct LiveStatus {
   std::uint64_t sensor_samples, sensor_errors, overruns;
   nlohmann::json board;  ///< the board's last health message (loops, state, a move)
   nlohmann::json
-      errors_by_class;   ///< {"drive": {...}, "sensor": {...}}: failed samples by HAL status
-  double lease_s = 0.0;  ///< the run's lease on the board
+      errors_by_class;    ///< {"drive": {...}, "sensor": {...}}: failed samples by HAL status
+  double lease_s = 0.0;   ///< the run's lease on the board
+  std::string log_error;  ///< why the log failed (the run then stops), empty while it is well
 };
 
 /// The one-machine default: serves `rig` by an in-process piezod and runs
 /// through the protocol as a remote run does (execute_remote_run), until
 /// the duration elapses, `stop` is set, the supervisor trips or the log
 /// fails (then host_error says why; the drive stops as on `stop`).
-[[nodiscard]] RunSummary execute_run(const config::RigConfig& config, config::Rig rig, RunLog& log,
-                                     const std::atomic<bool>& stop,
-                                     const std::function<void(const LiveStatus&)>& on_status,
-                                     const std::atomic<bool>* estop = nullptr);
+/// `on_rows` sees the rows as execute_remote_run gives them.
+[[nodiscard]] RunSummary execute_run(
+    const config::RigConfig& config, config::Rig rig, RunLog& log, const std::atomic<bool>& stop,
+    const std::function<void(const LiveStatus&)>& on_status,
+    const std::atomic<bool>* estop = nullptr,
+    const std::function<void(const log_schema::LogRows&)>& on_rows = {});
 
 }  // namespace piezo::host

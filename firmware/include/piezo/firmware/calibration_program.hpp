@@ -27,6 +27,7 @@
 #include "piezo/firmware/drive_program.hpp"
 #include "piezo/firmware/move_controller.hpp"
 #include "piezo/firmware/position_feed.hpp"
+#include "piezo/hal/backend.hpp"
 
 namespace piezo::firmware {
 
@@ -35,7 +36,7 @@ struct CalibrationPlan {
   static constexpr int kFractions = static_cast<int>(MoveSettings::kStepFractions.size());
   double V0 = 80.0;
   double D = 0.74955;  ///< forward rise fraction (reverse: 1 - D)
-  double r2_m = 0.062;
+  double r2_m = hal::kDefaultSensorRadius_m;
   std::array<double, kMaxFrequencies> f_hz{10.0, 20.0, 40.0, 0.0};  ///< ascending
   int frequencies = 3;
   int steps = 4;             ///< periods per amplitude and direction

@@ -20,6 +20,7 @@
 #include "piezo/firmware/safety_supervisor.hpp"
 #include "piezo/firmware/sensor_health.hpp"
 #include "piezo/firmware/spsc_ring.hpp"
+#include "piezo/hal/backend.hpp"
 #include "piezo/hal/clock.hpp"
 #include "piezo/hal/digital_lines.hpp"
 #include "piezo/hal/displacement_sensor.hpp"
@@ -39,7 +40,7 @@ struct LoopRunnerSettings {
   double ring_s = 2.0;      ///< each ring holds this much of its loop's output
   /// The sensor's radius and the zero [m] (NaN: the run's first reading),
   /// for the travel window (safety.travel_min_rad/travel_max_rad).
-  double r2_m = 0.062;
+  double r2_m = hal::kDefaultSensorRadius_m;
   double zero_m = std::numeric_limits<double>::quiet_NaN();
 };
 

@@ -56,6 +56,7 @@
 #include "piezo/firmware/progress_judge.hpp"
 #include "piezo/firmware/settle_mean.hpp"
 #include "piezo/firmware/step_model.hpp"
+#include "piezo/hal/backend.hpp"
 #include "piezo/name_table.hpp"
 
 namespace piezo::firmware {
@@ -68,7 +69,7 @@ struct MoveSettings : MoveRequest {
   /// The board's zero: theta = (d - zero) / r2; NaN: the mean of the
   /// readings at rest before the first step.
   double zero_displacement_m = 0.0;
-  double r2_m = 0.062;
+  double r2_m = hal::kDefaultSensorRadius_m;
   double V0 = 80.0;            ///< coarse step amplitude at most [V]
   double f = 10.0;             ///< coarse step frequency [Hz]
   double D = 0.74955;          ///< forward rise fraction (reverse: 1 - D)

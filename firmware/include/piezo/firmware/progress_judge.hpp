@@ -23,6 +23,8 @@
 #include <array>
 #include <cstdint>
 
+#include "piezo/hal/backend.hpp"
+
 namespace piezo::firmware {
 
 /// The readings' 8-sample mean and how many readings changed value.
@@ -44,7 +46,7 @@ class ReadingWindow {
 
 struct ProgressFloors {
   double noise_m = 0.0;  ///< a reading's standard deviation (0 or NaN: unknown)
-  double r2_m = 0.062;
+  double r2_m = hal::kDefaultSensorRadius_m;
   double stroke_rad = 2.5e-3;   ///< the stator's swing as an angle, at the unit's amplitude
   double resolution_rad = 0.0;  ///< progress below this is none, whatever the noise allows
 };

@@ -6,8 +6,8 @@
 /// limits, named as `hello.limits` names it), its default and one line of
 /// doc. The protocol's requests list theirs (`kArgs`: the codecs' and the
 /// command table's names), the limit checks take their intervals from here,
-/// and docs/protocol.md's argument tables are checked against them
-/// (tests/docs/request_arguments_docs_test.cpp).
+/// the board's dictionary (`describe`) lists them, and docs/protocol.md's
+/// argument tables are written from them (firmware/protocol/tools/doc_tables.cpp).
 
 #include <cstdint>
 #include <limits>
@@ -81,6 +81,8 @@ inline constexpr Argument direction{
     "`reverse`: the mirrored sawtooth (rise fraction 1 − D), the rotor turns backwards"};
 inline constexpr Argument duration_s{"duration_s", "s",        {0.0, kOpen, true}, "duration_max_s",
                                      "",           "required", "the run's length"};
+/// A run's lease when neither the client nor the board's config names one.
+inline constexpr double kDefaultLease_s = 0.5;
 inline constexpr Argument lease_s{
     "lease_s",
     "s",

@@ -13,6 +13,7 @@
 #include "piezo/firmware/drive_program.hpp"
 #include "piezo/firmware/position_feed.hpp"
 #include "piezo/firmware/progress_judge.hpp"
+#include "piezo/hal/backend.hpp"
 #include "piezo/model/waveform.hpp"
 
 namespace piezo::firmware {
@@ -22,7 +23,7 @@ struct RunGuardSettings {
   int periods = 2;         ///< periods over which progress is judged (1..kMaxPeriods)
   double f = 10.0;         ///< the waveform's frequency [Hz]
   double direction = 1.0;  ///< +1 forward, -1 reverse
-  double r2_m = 0.062;
+  double r2_m = hal::kDefaultSensorRadius_m;
   double stroke_rad = 2.5e-3;  ///< the stator's swing as an angle (angle per volt times V0)
   double noise_m = 0.0;        ///< a reading's noise (measured at rest, or a calibration's)
 };

@@ -38,10 +38,15 @@ struct DriveCommon {
   bool enable_line = true;
 };
 
+/// The prototype's reflector radius [m] (paper section 4): `sensor.r2_m`'s
+/// default, and every default of a radius that comes from it.
+inline constexpr double kDefaultSensorRadius_m = 0.062;
+
 /// What every sensor backend takes from [sensor].
 struct SensorCommon {
   double rate_hz = 1000.0;
-  double r2_m = 0.062;  ///< the reflector's radius (the simulated sensor's geometry)
+  double r2_m =
+      kDefaultSensorRadius_m;  ///< the reflector's radius (the simulated sensor's geometry)
 };
 
 /// What every lines backend takes from [lines]: nothing yet.

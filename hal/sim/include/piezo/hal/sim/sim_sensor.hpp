@@ -7,6 +7,7 @@
 #include <limits>
 #include <random>
 
+#include "piezo/hal/backend.hpp"
 #include "piezo/hal/displacement_sensor.hpp"
 #include "piezo/hal/sim/plant.hpp"
 
@@ -14,13 +15,13 @@ namespace piezo::hal::sim {
 
 struct SimSensorSettings {
   double rate_hz = 1000.0;
-  double r2_m = 0.062;               ///< reflector radius: d = offset + r2 * theta
-  double offset_m = 0.07;            ///< reading at theta = 0 (mid-range)
-  double noise_m = 0.5e-6;           ///< standard deviation of white noise
-  double quantum_m = 0.1e-6;         ///< resolution of the reported value (0: none)
-  double latency_s = 200e-6;         ///< from request to answer
-  double dropout_probability = 0.0;  ///< answers flagged invalid
-  double timeout_s = 0.05;           ///< a stalled read gives up after this
+  double r2_m = kDefaultSensorRadius_m;  ///< reflector radius: d = offset + r2 * theta
+  double offset_m = 0.07;                ///< reading at theta = 0 (mid-range)
+  double noise_m = 0.5e-6;               ///< standard deviation of white noise
+  double quantum_m = 0.1e-6;             ///< resolution of the reported value (0: none)
+  double latency_s = 200e-6;             ///< from request to answer
+  double dropout_probability = 0.0;      ///< answers flagged invalid
+  double timeout_s = 0.05;               ///< a stalled read gives up after this
   double stall_at_s = std::numeric_limits<double>::infinity();  ///< stops answering from here
   double stall_for_s = std::numeric_limits<double>::infinity();
   /// From here every reading repeats the one before (a sensor whose value
