@@ -92,7 +92,7 @@ class Daemon {
   protocol::ConfigureRequest apply_configuration(const protocol::ConfigureRequest& request,
                                                  const char* cmd);
   /// `lease_s`: the request's, if it named one (else the board's default).
-  nlohmann::json start(const std::string& client, std::optional<double> lease_s,
+  protocol::StartReply start(const std::string& client, std::optional<double> lease_s,
                        const Program& program = {}, const char* cmd = "start");
   /// The loop runner for the program, over the run's own parts.
   void build_runner(Run& run, const Program& program);
@@ -128,7 +128,7 @@ class Daemon {
   [[nodiscard]] protocol::Hello hello() const;
   [[nodiscard]] protocol::Status status(const std::string& client) const;
   [[nodiscard]] nlohmann::json position_json() const;
-  [[nodiscard]] nlohmann::json move_json(const Run& run) const;
+  [[nodiscard]] protocol::MoveAccount move_account(const Run& run) const;
   [[nodiscard]] protocol::RunSummary summary(const Run& run) const;
   void publish_state();
   void publish_health();

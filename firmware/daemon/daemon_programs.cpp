@@ -34,14 +34,17 @@ json Daemon::move_to(const std::string& client, const json& args) {
   // Known now unless the readings at rest failed: then the move takes its
   // own, and the board keeps it afterwards.
   const bool zero_before = zero_.known();
-  json started = start(client, request.lease_s, {m, std::nullopt}, "move_to");
-  json asked = request;
-  asked.erase("lease_s");
-  started.update(asked);
+  protocol::StartReply started = start(client, request.lease_s, {m, std::nullopt}, "move_to");
+  // The request as taken: every field, and the coarse steps' waveform as used.
+  protocol::MoveToRequest taken = request;
   const auto& d = configured_->drive;
-  started.update(json{{"V0", d.V0}, {"f", d.f}, {"C_dr", d.C_dr}, {"e_dr", d.e_dr}});
-  started["zero_displacement_m"] = zero_before ? json(m.zero_displacement_m) : json(nullptr);
-  started["calibrated"] = calibrated;
+  taken.V0 = d.V0;
+  taken.f = d.f;
+  taken.C_dr = d.C_dr;
+  taken.e_dr = d.e_dr;
+  taken.lease_s.reset();  // the reply's own
+  started.move = protocol::StartReply::Move{
+      calibrated, zero_before ? std::optional(m.zero_displacement_m) : std::nullopt, taken};
   run_->move_takes_its_zero = !zero_before;
   return started;
 }
@@ -142,10 +145,10 @@ json Daemon::calibrate(const std::string& client, const json& args) {
   d.V0 = plan.V0;
   d.f = plan.f_hz[static_cast<std::size_t>(plan.frequencies - 1)];
   (void)apply_configuration({d, 1.5 * plan.duration_s(board_.sensor.rate_hz) + 1.0}, "calibrate");
-  json started = start(client, request.lease_s, {std::nullopt, plan}, "calibrate");
-  started["V0"] = plan.V0;
-  started["f_hz"] = std::vector<double>(plan.f_hz.begin(), plan.f_hz.begin() + plan.frequencies);
-  started["steps_per_point"] = plan.steps;
+  protocol::StartReply started = start(client, request.lease_s, {std::nullopt, plan}, "calibrate");
+  started.calibration = protocol::StartReply::Calibration{
+      static_cast<std::uint32_t>(plan.steps), plan.V0,
+      std::vector<double>(plan.f_hz.begin(), plan.f_hz.begin() + plan.frequencies)};
   return started;
 }
 

@@ -32,10 +32,6 @@ protocol::LoopHealth health_of(const firmware::LoopHealth& h, bool with_timing) 
   return m;
 }
 
-json nil_if_nan(double v) {
-  return std::isnan(v) ? json(nullptr) : json(v);
-}
-
 }  // namespace
 
 protocol::Hello Daemon::hello() const {
@@ -56,8 +52,8 @@ protocol::Hello Daemon::hello() const {
               firmware::max_drive_frequency(board_.drive.rate_hz),
               board_.daemon.duration_max_s,
               board_.daemon.lease_max_s};
-  h.sensor_r2_m = board_.sensor.r2_m;
-  h.sensor_zero_m = zero_.value();
+  h.sensor.r2_m = board_.sensor.r2_m;
+  h.sensor.zero_displacement_m = zero_.value();
   h.drive_rate_hz = board_.drive.rate_hz;
   h.sensor_rate_hz = board_.sensor.rate_hz;
   h.output_latency_s = rig_.drive->output_latency_s();
@@ -75,11 +71,11 @@ protocol::Status Daemon::status(const std::string& client) const {
   s.controlled = run_state_.controlled();
   s.requests = command_table_.counts();
   if (run_state_.state() == State::fault) s.fault = run_state_.fault();
-  s.drive_recorded = {samples_.drive_first(), samples_.drive_recorded()};
-  s.sensor_recorded = {samples_.sensor_first(), samples_.sensor_recorded()};
+  s.recorder = {{samples_.drive_first(), samples_.drive_recorded()},
+                {samples_.sensor_first(), samples_.sensor_recorded()}};
   const auto last = recent_displacement_m();
-  if (zero_.known() && last) s.position_rad = zero_.angle_rad(*last, board_.sensor.r2_m);
-  s.zero_displacement_m = zero_.value();
+  if (zero_.known() && last) s.position.position_rad = zero_.angle_rad(*last, board_.sensor.r2_m);
+  s.position.zero_displacement_m = zero_.value();
   s.calibration = calibration_ ? *calibration_ : json(nullptr);
   s.configured = configured_;
   if (run_) {
@@ -92,7 +88,7 @@ protocol::Status Daemon::status(const std::string& client) const {
     r.drive = health_of(run_->runner->drive_health(), false);
     r.sensor = health_of(run_->runner->sensor_health(), false);
     if (run_->finished) r.summary = run_->summary;
-    if (run_->move) r.move = move_json(*run_);
+    if (run_->move) r.move = move_account(*run_);
     if (run_->calibration) r.calibration_progress = run_->calibration->progress();
     s.run = r;
   }
@@ -100,11 +96,10 @@ protocol::Status Daemon::status(const std::string& client) const {
 }
 
 json Daemon::position_json() const {
-  const protocol::Status s = status("");
-  return json(s).at("position");
+  return json(status("")).at("position");
 }
 
-json Daemon::move_json(const Run& run) const {
+protocol::MoveAccount Daemon::move_account(const Run& run) const {
   const firmware::MoveController& m = *run.move;
   const double zero = m.zero_displacement_m();
   // On target, the settle's mean (read at 0 V, of as many readings as the
@@ -113,26 +108,24 @@ json Daemon::move_json(const Run& run) const {
   const double position = !on_target && run.final_displacement_m && !std::isnan(zero)
                               ? (*run.final_displacement_m - zero) / m.settings().r2_m
                               : m.position_rad();
-  json j{{"state", firmware::to_string(m.state())},
-         {"target_rad", m.settings().target_rad},
-         {"tolerance_rad", m.settings().tolerance_rad},
-         {"position_rad", nil_if_nan(position)},
-         {"error_rad", nil_if_nan(m.settings().target_rad - position)},
-         {"on_target", on_target},
-         {"on_target_at_s", on_target ? json(m.on_target_at_s()) : json(nullptr)},
-         {"steps", m.steps()},
-         {"f_hz", m.f_hz()},
-         {"noise_m", nil_if_nan(m.noise_m())}};
+  const auto finite = [](double v) { return std::isnan(v) ? std::nullopt : std::optional(v); };
+  protocol::MoveAccount a;
+  a.state = m.state();
+  a.target_rad = m.settings().target_rad;
+  a.tolerance_rad = m.settings().tolerance_rad;
+  a.position_rad = finite(position);
+  a.error_rad = finite(m.settings().target_rad - position);
+  a.on_target = on_target;
+  if (on_target) a.on_target_at_s = m.on_target_at_s();
+  a.steps = m.steps();
+  a.f_hz = m.f_hz();
+  a.noise_m = finite(m.noise_m());
   if (m.settings().hold_s > 0.0) {
-    j["hold_s"] = m.settings().hold_s;
-    j["hold_rms_error_rad"] = nil_if_nan(m.hold_rms_error_rad());
-    j["hold_max_error_rad"] = nil_if_nan(m.hold_max_error_rad());
+    a.hold = protocol::MoveAccount::Hold{m.settings().hold_s, finite(m.hold_rms_error_rad()),
+                                         finite(m.hold_max_error_rad())};
   }
-  if (run.finished) {
-    const auto cause = run.runner->cause();
-    j["stop_cause"] = firmware::move_end(on_target, cause);
-  }
-  return j;
+  if (run.finished) a.stop_cause = firmware::move_end(on_target, run.runner->cause());
+  return a;
 }
 
 protocol::RunSummary Daemon::summary(const Run& run) const {
@@ -150,8 +143,7 @@ protocol::RunSummary Daemon::summary(const Run& run) const {
   s.drive = health_of(run.runner->drive_health(), true);
   s.sensor = health_of(run.runner->sensor_health(), true);
   s.realtime = run.runner->realtime_notes();
-  s.drive_samples = samples_.drive_recorded();
-  s.sensor_samples = samples_.sensor_recorded();
+  s.samples = {samples_.drive_recorded(), samples_.sensor_recorded()};
   return s;
 }
 
@@ -174,7 +166,7 @@ void Daemon::publish_health() {
   if (running()) {
     e.drive = health_of(run_->runner->drive_health(), true);
     e.sensor = health_of(run_->runner->sensor_health(), true);
-    if (run_->move) e.move = move_json(*run_);
+    if (run_->move) e.move = move_account(*run_);
     if (run_->calibration) e.calibration_progress = run_->calibration->progress();
   }
   const std::string body = protocol::encode_map(e);

@@ -64,8 +64,9 @@ protocol::ConfigureRequest Daemon::apply_configuration(const protocol::Configure
   return r;
 }
 
-json Daemon::start(const std::string& client, std::optional<double> requested_lease_s,
-                   const Program& program, const char* cmd) {
+protocol::StartReply Daemon::start(const std::string& client,
+                                   std::optional<double> requested_lease_s, const Program& program,
+                                   const char* cmd) {
   run_state_.require_can_start(client, cmd);
   if (!configured_) {
     throw ProtocolError(code::bad_state, "", fmt::format("{}: send configure first", cmd));
@@ -114,10 +115,12 @@ json Daemon::start(const std::string& client, std::optional<double> requested_le
                         run_->request.drive.V0, run_->request.drive.f, run_->request.duration_s,
                         lease_s));
   publish_state();
-  return {{"run", run_->id},
-          {"t0_ns", run_->t0},
-          {"lease_s", lease_s},
-          {"duration_s", run_->request.duration_s}};
+  protocol::StartReply started;
+  started.run = run_->id;
+  started.t0_ns = run_->t0;
+  started.lease_s = lease_s;
+  started.duration_s = run_->request.duration_s;
+  return started;
 }
 
 void Daemon::build_runner(Run& run, const Program& program) {
@@ -182,9 +185,9 @@ json Daemon::step(const std::string& client, const json& args) {
   }
   const auto configured =
       apply_configuration({request.drive, static_cast<double>(request.count) / f}, "step");
-  json started = start(client, request.lease_s, Program{}, "step");
-  started["count"] = request.count;
-  started["direction"] = model::name(configured.drive.direction);
+  protocol::StartReply started = start(client, request.lease_s, Program{}, "step");
+  started.count = request.count;
+  started.direction = configured.drive.direction;
   return started;
 }
 
@@ -272,7 +275,7 @@ void Daemon::finish_run() {
   const auto cause = run.runner->cause();
   run.summary = summary(run);
   if (run.move) {
-    run.summary.move = move_json(run);
+    run.summary.move = move_account(run);
     // The move's own zero, to the last bit, when it took one because the
     // board had none; a zero acknowledged before the move is never undone.
     if (const double z = run.move->zero_displacement_m();
@@ -292,8 +295,7 @@ void Daemon::finish_run() {
 void Daemon::take_calibration(Run& run) {
   const auto cause = run.runner->cause();
   const auto& result = run.calibration->result();
-  run.summary.has_calibration = true;
-  run.summary.calibration = nullptr;
+  run.summary.calibration = nlohmann::json(nullptr);  // a calibration run's: present, nil for none
   if (!result.complete || cause != firmware::StopCause::completed) {
     run.summary.calibration_error = fmt::format(
         "the experiment ended {} before it was complete; the board keeps {}",

@@ -44,8 +44,7 @@ Hello a_hello() {
   h.clock = "virtual";
   h.backends = {"sim", "modbus-tcp", "none"};
   h.limits = {0.0, 80.0, 20000.0, 1000.0, 0.1, 500.0, 86400.0, 10.0};
-  h.sensor_r2_m = 0.05;
-  h.sensor_zero_m = 0.0701;
+  h.sensor = {0.05, 0.0701};
   h.drive_rate_hz = 10000.0;
   h.sensor_rate_hz = 1000.0;
   h.output_latency_s = 1e-4;
@@ -61,6 +60,25 @@ LoopHealth a_health(bool timing) {
   return l;
 }
 
+/// A move's account, under way or ended (on target, with a hold).
+MoveAccount a_move(bool ended) {
+  MoveAccount m;
+  m.state = ended ? firmware::MoveState::on_target : firmware::MoveState::coarse;
+  m.target_rad = 0.01;
+  m.tolerance_rad = 25e-6;
+  m.position_rad = 0.01;
+  m.error_rad = 0.0;
+  m.on_target = ended;
+  if (ended) m.on_target_at_s = 0.4;
+  m.steps = 3;
+  m.f_hz = 10.0;
+  if (ended) {
+    m.hold = MoveAccount::Hold{0.5, 1e-6, std::nullopt};
+    m.stop_cause = firmware::MoveEnd::on_target;
+  }
+  return m;
+}
+
 RunSummary a_summary() {
   RunSummary s;
   s.cause = firmware::StopCause::link_lost;
@@ -68,10 +86,8 @@ RunSummary a_summary() {
   s.drive = a_health(true);
   s.sensor = a_health(true);
   s.realtime = {"SCHED_FIFO refused"};
-  s.drive_samples = 48000;
-  s.sensor_samples = 4800;
-  s.move = {{"state", "on_target"}, {"position_rad", 0.01}};
-  s.has_calibration = true;
+  s.samples = {48000, 4800};
+  s.move = a_move(true);
   s.calibration = nullptr;
   s.calibration_error = "the experiment ended link_lost before it was complete";
   return s;
@@ -81,13 +97,13 @@ TEST(Messages, HelloRoundTripsWithTheSensorRadius) {
   const Hello h = a_hello();
   const Hello back = over_the_wire(h);
   EXPECT_EQ(json(back), json(h));
-  EXPECT_EQ(back.sensor_r2_m, 0.05);
+  EXPECT_EQ(back.sensor.r2_m, 0.05);
   EXPECT_EQ(json(h).at("sensor").at("r2_m"), 0.05) << "the documented place: sensor.r2_m";
-  EXPECT_EQ(back.sensor_zero_m, 0.0701);
+  EXPECT_EQ(back.sensor.zero_displacement_m, 0.0701);
   Hello none = h;
-  none.sensor_zero_m.reset();
+  none.sensor.zero_displacement_m.reset();
   EXPECT_TRUE(json(none).at("sensor").at("zero_displacement_m").is_null());
-  EXPECT_FALSE(over_the_wire(none).sensor_zero_m.has_value());
+  EXPECT_FALSE(over_the_wire(none).sensor.zero_displacement_m.has_value());
 }
 
 TEST(Messages, LoopHealthRoundTripsWithAndWithoutTiming) {
@@ -209,8 +225,8 @@ TEST(Messages, EventsAndSummariesRoundTrip) {
   const RunSummary s = a_summary();
   EXPECT_EQ(json(over_the_wire(s)), json(s));
   RunSummary plain = a_summary();
-  plain.move = nullptr;
-  plain.has_calibration = false;
+  plain.move.reset();
+  plain.calibration.reset();
   plain.calibration_error.reset();
   plain.output.acknowledged_V.reset();
   EXPECT_EQ(json(over_the_wire(plain)), json(plain));
@@ -222,10 +238,9 @@ TEST(Messages, EventsAndSummariesRoundTrip) {
   EXPECT_EQ(json(over_the_wire(idle)), json(idle));
   EXPECT_TRUE(json(idle).at("run").is_null()) << "nil, as documented";
 
-  HealthEvent h{BoardState::running,       99,  a_health(true), a_health(true),
-                json{{"state", "coarse"}}, 0.25};
+  HealthEvent h{BoardState::running, 99, a_health(true), a_health(true), a_move(false), 0.25};
   EXPECT_EQ(json(over_the_wire(h)), json(h));
-  HealthEvent quiet{BoardState::idle, 1, std::nullopt, std::nullopt, nullptr, std::nullopt};
+  HealthEvent quiet{BoardState::idle, 1, std::nullopt, std::nullopt, std::nullopt, std::nullopt};
   EXPECT_EQ(json(over_the_wire(quiet)), json(quiet));
 }
 
@@ -233,7 +248,7 @@ TEST(Messages, StatusRoundTripsIdleAndDuringARun) {
   Status idle;
   idle.state = BoardState::idle;
   idle.board_ns = 42;
-  idle.drive_recorded = {0, 0};
+  idle.recorder.drive = {0, 0};
   idle.calibration = nullptr;
   EXPECT_EQ(json(over_the_wire(idle)), json(idle));
   EXPECT_TRUE(json(idle).at("position").at("position_rad").is_null());
@@ -244,10 +259,9 @@ TEST(Messages, StatusRoundTripsIdleAndDuringARun) {
   busy.controller = true;
   busy.controlled = true;
   busy.fault = firmware::StopCause::link_lost;
-  busy.drive_recorded = {100, 48000};
-  busy.sensor_recorded = {10, 4800};
-  busy.position_rad = 0.0123;
-  busy.zero_displacement_m = 0.07;
+  busy.recorder = {{100, 48000}, {10, 4800}};
+  busy.position = {0.0123, 0.07};
+  busy.requests = {{"status", 3}, {"move_to", 1}};
   busy.calibration = {{"noise_m", 4e-7}};
   busy.configured = ConfigureRequest{{80.0, 10.0, 0.95, 0.789, model::Direction::forward}, 4.8};
   RunStatus r;
@@ -259,7 +273,7 @@ TEST(Messages, StatusRoundTripsIdleAndDuringARun) {
   r.drive = a_health(false);
   r.sensor = a_health(false);
   r.summary = a_summary();
-  r.move = {{"state", "on_target"}};
+  r.move = a_move(true);
   r.calibration_progress = 1.0;
   busy.run = r;
   EXPECT_EQ(json(over_the_wire(busy)), json(busy));
@@ -272,7 +286,7 @@ TEST(Messages, TheWiresEnumsBecomeTheirNamesInJson) {
   EXPECT_EQ(json(BoardState::ramping_down), "ramping_down");
   EXPECT_EQ(json(firmware::StopCause::link_lost), "link_lost");
   EXPECT_EQ(json(firmware::OutputState::enable_unconfirmed), "enable_unconfirmed");
-  const json health = HealthEvent{BoardState::running, 1, {}, {}, nullptr, {}};
+  const json health = HealthEvent{BoardState::running, 1, {}, {}, {}, {}};
   EXPECT_EQ(health.at("state"), "running");
 }
 
@@ -292,6 +306,62 @@ TEST(Messages, AReplyOrEventMissingAFieldIsMalformedNamingIt) {
   summary.at("output")["state"] = "maybe";
   EXPECT_EQ(refusal_key<RunSummary>(summary), "malformed state");
   EXPECT_EQ(refusal_key<HealthEvent>(json::array()), "malformed ");
+}
+
+}  // namespace
+}  // namespace piezo::protocol
+
+namespace piezo::protocol {
+namespace {
+
+// A move's account travels as its fields, its end by name; a start's reply
+// carries each run's own part and nothing of the others'.
+TEST(Messages, AMovesAccountAndAStartsReplyRoundTrip) {
+  for (const bool ended : {false, true}) {
+    const MoveAccount m = a_move(ended);
+    EXPECT_EQ(json(over_the_wire(m)), json(m));
+    EXPECT_EQ(json(m).contains("stop_cause"), ended);
+    EXPECT_EQ(json(m).contains("hold_s"), ended);
+  }
+  EXPECT_EQ(json(a_move(true)).at("stop_cause"), "on_target");
+  EXPECT_EQ(json(a_move(true)).at("state"), "on_target");
+
+  StartReply plain{7, 1'000, 0.5, 4.8, std::nullopt, std::nullopt, std::nullopt, std::nullopt};
+  EXPECT_EQ(json(over_the_wire(plain)), json(plain));
+  EXPECT_EQ(json(plain).size(), 4u) << json(plain).dump();
+  StartReply step = plain;
+  step.count = 3;
+  step.direction = model::Direction::reverse;
+  EXPECT_EQ(json(step).at("direction"), "reverse");
+  EXPECT_EQ(json(over_the_wire(step)), json(step));
+  StartReply move = plain;
+  MoveToRequest taken;
+  taken.move.target_rad = 0.002;
+  taken.V0 = 60.0;
+  taken.f = 10.0;
+  move.move = StartReply::Move{true, 0.07, taken};
+  EXPECT_EQ(json(move).at("target_rad"), 0.002);
+  EXPECT_EQ(json(move).at("approach"), "either");
+  EXPECT_EQ(json(over_the_wire(move)), json(move));
+  StartReply calibration = plain;
+  calibration.calibration = StartReply::Calibration{8, 60.0, {10.0, 20.0}};
+  EXPECT_EQ(json(over_the_wire(calibration)), json(calibration));
+  EXPECT_FALSE(over_the_wire(calibration).move.has_value());
+}
+
+// Every key of a reply's or event's field list is a name of its own kind:
+// letters, digits and underscores (the docs' tables and every client's
+// reading rely on them).
+TEST(Messages, TheFieldListsKeysAreWireNames) {
+  const auto keys = reply_keys();
+  EXPECT_GT(keys.size(), 60u);
+  for (const std::string_view key : keys) {
+    EXPECT_FALSE(key.empty());
+    EXPECT_EQ(
+        key.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_"),
+        std::string_view::npos)
+        << key;
+  }
 }
 
 }  // namespace

@@ -176,8 +176,6 @@ json describe(const std::vector<CommandSpec>& commands, const Hello::Limits& lim
     }
     described[c.name] = {{"caller", c.anyone ? "anyone" : "controller"}, {"args", args}};
   }
-  json move_ends = json::array();
-  for (const std::string_view name : firmware::move_end_names()) move_ends.push_back(name);
   json error_codes = json::array();
   for (const char* name : code::kAll) error_codes.push_back(name);
   return {{"protocol", kProtocolVersion},
@@ -185,7 +183,7 @@ json describe(const std::vector<CommandSpec>& commands, const Hello::Limits& lim
           {"names",
            {{"states", names_of(kBoardStateNames)},
             {"stop_causes", names_of(firmware::kStopCauseNames)},
-            {"move_ends", move_ends},
+            {"move_ends", names_of(firmware::kMoveEndNames)},
             {"move_states", names_of(firmware::kMoveStateNames)},
             {"output_states", names_of(firmware::kOutputStateNames)},
             {"error_codes", error_codes},
@@ -259,8 +257,9 @@ std::optional<ArgumentBreach> check_arguments(const json& dictionary, std::strin
       const std::string unit = a.at("unit").get<std::string>();
       return ArgumentBreach{
           code::out_of_limits, key,
-          fmt::format("{:g}{} is beyond the board's limits; allowed: {}{}{}", v, unit.empty() ? "" : " " + unit,
-                      allowed_text(a), unit.empty() ? "" : " " + unit,
+          fmt::format("{:g}{} is beyond the board's limits; allowed: {}{}{}", v,
+                      unit.empty() ? "" : " " + unit, allowed_text(a),
+                      unit.empty() ? "" : " " + unit,
                       limit.is_string()
                           ? fmt::format(" (the board's {} is {:g}{})", limit.get<std::string>(),
                                         allowed.max, unit.empty() ? "" : " " + unit)

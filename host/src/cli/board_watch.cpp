@@ -141,11 +141,12 @@ json BoardWatch::move_to(const json& args) {
     throw std::invalid_argument(fmt::format("{}: {}", breach->key, breach->message));
   }
   const std::lock_guard lock(commands_);
-  const json started = client_.call("move_to", request);
-  lease_s_ = started.at("lease_s").get<double>();
+  const json reply = client_.call("move_to", request);
+  const auto started = protocol::decode<protocol::StartReply>(reply);
+  lease_s_ = started.lease_s;
   last_lease_ = std::chrono::steady_clock::now();
-  controlled_run_ = started.at("run").get<std::uint64_t>();
-  return started;
+  controlled_run_ = started.run;
+  return reply;
 }
 
 }  // namespace piezo::host

@@ -35,8 +35,8 @@ std::string status_text(const protocol::Status& s) {
     }
     out += fmt::format("samples    drive {}, sensor {}\n", r.drive.cycles, r.sensor.cycles);
   }
-  if (s.position_rad) {
-    out += fmt::format("position   {:.4f} mrad from the zero\n", 1e3 * *s.position_rad);
+  if (s.position.position_rad) {
+    out += fmt::format("position   {:.4f} mrad from the zero\n", 1e3 * *s.position.position_rad);
   }
   out += fmt::format("controlled {}\n", s.controlled ? "yes" : "no");
   const nlohmann::json& cal = s.calibration;

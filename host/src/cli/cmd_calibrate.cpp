@@ -16,8 +16,8 @@ int report_calibration(const FinishedRun& run) {
   const RunSummary& summary = run.summary;
   const RunOptions& o = run.options;
   nlohmann::json result = run.result;
-  const nlohmann::json& measured = summary.board.calibration;
-  if (!summary.board.has_calibration || measured.is_null() || summary.status() != "completed") {
+  const nlohmann::json measured = summary.board.calibration.value_or(nullptr);
+  if (measured.is_null() || summary.status() != "completed") {
     const std::string why = summary.board.calibration_error
                                 ? *summary.board.calibration_error
                                 : fmt::format("the run ended {}", summary.stop_cause());

@@ -99,7 +99,7 @@ config::RunSettings::Move move_request(const MoveOptions& m, const RunOptions& o
 /// `piezo move`'s result: the board's account of the move, the time it took
 /// and the run it was, in one object.
 nlohmann::json move_result(const RunSummary& s, const nlohmann::json& run) {
-  nlohmann::json m = s.board.move.is_object() ? s.board.move : nlohmann::json::object();
+  nlohmann::json m = s.board.move ? nlohmann::json(*s.board.move) : nlohmann::json::object();
   if (!m.contains("stop_cause")) m["stop_cause"] = s.stop_cause();
   if (!m.contains("on_target")) m["on_target"] = false;
   for (const char* key : {"position_rad", "error_rad", "steps"}) {

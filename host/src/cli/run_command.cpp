@@ -190,7 +190,7 @@ nlohmann::json loop_json(const protocol::LoopHealth& h,
 /// A calibration run's result as the run's JSON keeps it: the calibration
 /// installed (nil when none was) and why not.
 nlohmann::json calibration_result(const protocol::RunSummary& b) {
-  return {{"calibration", b.calibration},
+  return {{"calibration", b.calibration.value_or(nullptr)},
           {"error",
            b.calibration_error ? nlohmann::json(*b.calibration_error) : nlohmann::json(nullptr)}};
 }
@@ -466,11 +466,11 @@ int run(const RunOptions& o, const RunProgram& program) {
   // The run's JSON, with the move's account (target, controller's result).
   const auto result_json = [&] {
     nlohmann::json j = summary_json(summary, dir, log_path, signals.received());
-    if (!summary.board.move.is_null()) j["move"] = summary.board.move;
+    if (summary.board.move) j["move"] = *summary.board.move;
     return j;
   };
   nlohmann::json logged = result_json();
-  if (summary.board.has_calibration) logged["calibration"] = calibration_result(summary.board);
+  if (summary.board.calibration) logged["calibration"] = calibration_result(summary.board);
   finish_log(log, summary, logged);
   try {
     append_catalogue(dir, utc_start, config, summary);

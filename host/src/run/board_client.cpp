@@ -111,7 +111,7 @@ protocol::Hello BoardClient::hello() {
 }
 
 std::string adopt_board_sensor(config::RigConfig& c, const protocol::Hello& hello) {
-  const double board_r2 = hello.sensor_r2_m;
+  const double board_r2 = hello.sensor.r2_m;
   if (!(board_r2 > 0.0)) return {};
   std::string note;
   if (board_r2 != c.board.sensor.r2_m) {

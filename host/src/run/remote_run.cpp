@@ -83,15 +83,15 @@ namespace {
 class FollowedRun {
  public:
   FollowedRun(const config::RigConfig& c, BoardClient& client, const protocol::Hello& hello,
-              RunLog& log, const json& started, const ClockMapping& clock, ObserverStage* observer,
-              std::function<void(const log_schema::LogRows&)> on_rows)
+              RunLog& log, const protocol::StartReply& started, const ClockMapping& clock,
+              ObserverStage* observer, std::function<void(const log_schema::LogRows&)> on_rows)
       : c_(c),
         client_(client),
         log_(log),
         started_(started),
-        t0_(started.at("t0_ns").get<hal::TimeNs>()),
-        run_id_(started.at("run").get<std::uint64_t>()),
-        lease_s_(started.at("lease_s").get<double>()),
+        t0_(started.t0_ns),
+        run_id_(started.run),
+        lease_s_(started.lease_s),
         clock_(clock),
         virtual_clock_(hello.clock == "virtual"),
         observer_(observer),
@@ -119,11 +119,11 @@ class FollowedRun {
   void report(const std::function<void(const LiveStatus&)>& on_status, bool at_once = false);
 
  private:
-  static double zero_of(const json& started) {
+  static double zero_of(const protocol::StartReply& started) {
     // A move's angles are from the board's zero (the frame of its target and
     // of every position it reports); a run's from its first good reading.
-    const json zero = started.value("zero_displacement_m", json());
-    return zero.is_number() ? zero.get<double>() : std::numeric_limits<double>::quiet_NaN();
+    const auto zero = started.move ? started.move->zero_displacement_m : std::nullopt;
+    return zero.value_or(std::numeric_limits<double>::quiet_NaN());
   }
   [[nodiscard]] double board_run_s() const {
     return virtual_clock_ ? collector_.last_t()
@@ -141,7 +141,7 @@ class FollowedRun {
   const config::RigConfig& c_;
   BoardClient& client_;
   RunLog& log_;
-  json started_;
+  protocol::StartReply started_;
   hal::TimeNs t0_;
   std::uint64_t run_id_;
   double lease_s_;
@@ -303,8 +303,7 @@ void FollowedRun::report(const std::function<void(const LiveStatus&)>& on_status
   const auto now = SteadyClock::now();
   if (!on_status || (!at_once && now - last_status_ < kStatusPeriod)) return;
   const auto& health = follower_.health();
-  on_status({collector_.last_t(), started_.value("duration_s", c_.host.run.duration_s),
-             collector_.last_V(), collector_.last_theta(),
+  on_status({collector_.last_t(), started_.duration_s, collector_.last_V(), collector_.last_theta(),
              observer_ ? observer_->summary().last_residual_rad : 0.0, follower_.sensor_next(),
              health.sensor ? health.sensor->errors : 0, health.drive ? health.drive->overruns : 0,
              health,
@@ -316,8 +315,8 @@ void FollowedRun::report(const std::function<void(const LiveStatus&)>& on_status
 RunSummary FollowedRun::finish(const std::optional<protocol::RunSummary>& end) {
   if (end) {
     // The stream's tail may still be in flight or lost: the recorder has it all.
-    follower_.fetch(protocol::Stream::drive, end->drive_samples);
-    follower_.fetch(protocol::Stream::sensor, end->sensor_samples);
+    follower_.fetch(protocol::Stream::drive, end->samples.drive);
+    follower_.fetch(protocol::Stream::sensor, end->samples.sensor);
   }
   finish_writing();
   if (!std::isnan(quiet_since_s_) || !end) {
@@ -378,12 +377,11 @@ RunSummary execute_remote_run(const config::RigConfig& c, BoardClient& client,
   }
   // Subscribed before the start, so that the run's first samples come.
   StreamFollower::subscribe(client);
-  const json started = start_request(request, client);
-  log.set_attribute(log_schema::kBoardT0, std::to_string(started.at("t0_ns").get<hal::TimeNs>()));
+  const auto started = protocol::decode<protocol::StartReply>(start_request(request, client));
+  log.set_attribute(log_schema::kBoardT0, std::to_string(started.t0_ns));
   log.set_attribute(log_schema::kRig, client.address());
-  if (const json zero = started.value("zero_displacement_m", json()); zero.is_number()) {
-    log.set_attribute(log_schema::kThetaZero,
-                      fmt::format("{:.12g} (the board's zero)", zero.get<double>()));
+  if (const auto zero = started.move ? started.move->zero_displacement_m : std::nullopt) {
+    log.set_attribute(log_schema::kThetaZero, fmt::format("{:.12g} (the board's zero)", *zero));
   }
   FollowedRun run(c, client, hello, log, started, clock, observer ? &*observer : nullptr, on_rows);
   const auto end = run.follow(stop, estop, on_status);

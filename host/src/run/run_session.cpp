@@ -12,14 +12,12 @@ std::string RunSummary::stop_cause() const {
   if (!host_error.empty()) return "log_failed";
   // A move that ended by itself says how: on_target, or timeout (the board's
   // cause is `completed` for both).
-  const auto& move = board.move;
-  if (board.cause == firmware::StopCause::completed && move.is_object() &&
-      move.contains("stop_cause")) {
-    return move.at("stop_cause").get<std::string>();
+  if (board.cause == firmware::StopCause::completed && board.move && board.move->stop_cause) {
+    return std::string(firmware::kMoveEndNames.name(*board.move->stop_cause));
   }
   // A calibration that ran to its end but gave none the board could keep.
-  if (board.cause == firmware::StopCause::completed && board.has_calibration &&
-      board.calibration.is_null()) {
+  if (board.cause == firmware::StopCause::completed && board.calibration &&
+      board.calibration->is_null()) {
     return "calibration_unusable";
   }
   return std::string(firmware::to_string(board.cause));

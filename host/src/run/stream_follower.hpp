@@ -80,7 +80,7 @@ class StreamFollower {
   bool from_sample_zero_ = true;
   bool drive_started_ = false, sensor_started_ = false;  ///< a frame of each stream was seen
   protocol::HealthEvent health_{
-      protocol::BoardState::running, 0, std::nullopt, std::nullopt, nullptr, std::nullopt};
+      protocol::BoardState::running, 0, std::nullopt, std::nullopt, std::nullopt, std::nullopt};
   std::uint64_t drive_next_ = 0, sensor_next_ = 0;
   SteadyClock::time_point last_heard_ = SteadyClock::now();
   std::vector<std::string> gaps_;

@@ -37,25 +37,48 @@ inline constexpr auto kMoveStateNames =
                       {MoveState::sensor_implausible, "sensor_implausible"},
                       {MoveState::holding, "holding"}});
 
-/// How a move ended: on target, out of time (its run ran the whole
-/// timeout), or stopped for its run's cause (stalled, estop, link_lost, ...).
-[[nodiscard]] constexpr std::string_view move_end(bool on_target, StopCause cause) {
-  if (on_target) return "on_target";
-  if (cause == StopCause::completed) return "timeout";
-  return to_string(cause);
+/// How a move ended (its account's `stop_cause`): on target, out of time
+/// (its run ran the whole timeout), or stopped for its run's cause.
+enum class MoveEnd : std::uint8_t {
+  on_target,
+  timeout,
+  interrupted,
+  estop,
+  sensor_fault,
+  drive_fault,
+  link_lost,
+  stalled,
+  sensor_implausible,
+  travel_limit,
+};
+
+inline constexpr auto kMoveEndNames =
+    names<MoveEnd>({{MoveEnd::on_target, "on_target"},
+                    {MoveEnd::timeout, "timeout"},
+                    {MoveEnd::interrupted, "interrupted"},
+                    {MoveEnd::estop, "estop"},
+                    {MoveEnd::sensor_fault, "sensor_fault"},
+                    {MoveEnd::drive_fault, "drive_fault"},
+                    {MoveEnd::link_lost, "link_lost"},
+                    {MoveEnd::stalled, "stalled"},
+                    {MoveEnd::sensor_implausible, "sensor_implausible"},
+                    {MoveEnd::travel_limit, "travel_limit"}});
+
+/// A run's causes past `completed` are a move's ends past `timeout`, in order.
+[[nodiscard]] constexpr MoveEnd move_end(bool on_target, StopCause cause) {
+  if (on_target) return MoveEnd::on_target;
+  if (cause == StopCause::completed || cause == StopCause::none) return MoveEnd::timeout;
+  return static_cast<MoveEnd>(static_cast<std::uint8_t>(cause) -
+                              static_cast<std::uint8_t>(StopCause::completed) +
+                              static_cast<std::uint8_t>(MoveEnd::timeout));
 }
 
-/// Every name `move_end` gives, in order.
-[[nodiscard]] constexpr auto move_end_names() {
-  std::array<std::string_view, 2 + static_cast<std::size_t>(kLastStopCause) - 1> out{};
-  out[0] = move_end(true, StopCause::none);
-  out[1] = move_end(false, StopCause::completed);
-  std::size_t i = 2;
-  for (auto c = static_cast<std::uint8_t>(StopCause::completed) + 1;
-       c <= static_cast<std::uint8_t>(kLastStopCause); ++c) {
-    out[i++] = to_string(static_cast<StopCause>(c));
-  }
-  return out;
-}
+static_assert(kMoveEndNames.name(move_end(false, StopCause::travel_limit)) ==
+              to_string(StopCause::travel_limit));
+static_assert(kMoveEndNames.name(move_end(false, StopCause::interrupted)) ==
+              to_string(StopCause::interrupted));
+static_assert(kMoveEndNames.entries().size() == static_cast<std::size_t>(kLastStopCause) -
+                                                    static_cast<std::size_t>(StopCause::completed) +
+                                                    2);
 
 }  // namespace piezo::firmware

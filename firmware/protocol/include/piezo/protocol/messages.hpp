@@ -3,10 +3,12 @@
 /// The protocol's messages as types (docs/protocol.md): the board encodes
 /// them and the host decodes them through these, and nowhere else. Each
 /// converts to and from the JSON value that travels as a MessagePack map
-/// (nlohmann's to_json/from_json, found by argument-dependent lookup);
-/// decoding a map that lacks a field, or holds one of the wrong type,
-/// throws ProtocolError (malformed, naming the field). Optional fields are
-/// nil on the wire when absent.
+/// (nlohmann's to_json/from_json, found by argument-dependent lookup). A
+/// reply's or an event's codec is generated from its one field list
+/// (messages.cpp, wire_fields.hpp); a request's keys are its arguments'
+/// declared names (request_arguments.hpp). Decoding a map that lacks a
+/// field, or holds one of the wrong type, throws ProtocolError (malformed,
+/// naming the field). Optional fields are nil on the wire when absent.
 
 #include <array>
 #include <cstdint>
@@ -17,6 +19,7 @@
 #include <string_view>
 #include <vector>
 
+#include "piezo/firmware/move_state.hpp"
 #include "piezo/firmware/output_state.hpp"
 #include "piezo/firmware/request_arguments.hpp"
 #include "piezo/firmware/request_limits.hpp"
@@ -42,10 +45,12 @@ struct Hello {
     double V_min = 0.0, V_max = 0.0, slew_V_per_s = 0.0, ramp_down_V_per_s = 0.0,
            sensor_stale_s = 0.0, f_max_hz = 0.0, duration_max_s = 0.0, lease_max_s = 0.0;
   } limits;
-  double sensor_r2_m = 0.0;  ///< `sensor.r2_m`: angles are displacements over it
-  /// `sensor.zero_displacement_m`: the board's zero when asked (nil: none
-  /// yet); a move's reply and `status` say it again as it changes.
-  std::optional<double> sensor_zero_m;
+  struct Sensor {
+    double r2_m = 0.0;  ///< angles are displacements over it
+    /// The board's zero when asked (nil: none yet); a move's reply and
+    /// `status` say it again as it changes.
+    std::optional<double> zero_displacement_m;
+  } sensor;
   double drive_rate_hz = 0.0;
   double sensor_rate_hz = 0.0;
   double output_latency_s = 0.0;
@@ -153,17 +158,66 @@ struct OutputEnd {
   std::string enable_status = "ok";
 };
 
+/// A closed-loop move's account: its progress while it runs (health,
+/// status) and its result once it ended (the run's summary).
+struct MoveAccount {
+  firmware::MoveState state = firmware::MoveState::none;
+  double target_rad = 0.0, tolerance_rad = 0.0;
+  std::optional<double> position_rad, error_rad;  ///< nil before any good reading
+  bool on_target = false;
+  std::optional<double> on_target_at_s;
+  std::uint64_t steps = 0;
+  double f_hz = 0.0;
+  std::optional<double> noise_m;
+  /// With hold_s > 0: how closely the fine servo held the target.
+  struct Hold {
+    double hold_s = 0.0;
+    std::optional<double> hold_rms_error_rad, hold_max_error_rad;
+  };
+  std::optional<Hold> hold;
+  std::optional<firmware::MoveEnd> stop_cause;  ///< once the move ended
+};
+
 /// A finished run's account (in the `state` event, and in `status`).
 struct RunSummary {
   firmware::StopCause cause = firmware::StopCause::none;
   OutputEnd output;
   LoopHealth drive, sensor;
   std::vector<std::string> realtime;
-  std::uint64_t drive_samples = 0, sensor_samples = 0;  ///< `samples` {drive, sensor}
-  nlohmann::json move;                                  ///< a move's account, or nil
-  nlohmann::json calibration;    ///< a calibration run's result (nil when none was installed)
-  bool has_calibration = false;  ///< a calibration run: `calibration` is present (maybe nil)
+  struct Samples {
+    std::uint64_t drive = 0, sensor = 0;
+  } samples;
+  std::optional<MoveAccount> move;  ///< a move's account
+  /// A calibration run's result: present in a calibration run's summary,
+  /// nil when it installed none (calibration_error says why).
+  std::optional<nlohmann::json> calibration;
   std::optional<std::string> calibration_error;
+};
+
+/// `start`'s reply, and the start of every run (`step`, `move_to` and
+/// `calibrate` add their own).
+struct StartReply {
+  std::uint64_t run = 0;
+  std::int64_t t0_ns = 0;  ///< the first drive deadline and the sawtooth's phase origin
+  double lease_s = 0.0, duration_s = 0.0;
+  std::optional<std::uint64_t> count;         ///< a step's periods
+  std::optional<model::Direction> direction;  ///< a step's direction
+  /// A move's: the request as the board took it (every field, and the
+  /// coarse steps' waveform as used), the zero its target is from, and
+  /// whether the calibration's step table is used.
+  struct Move {
+    bool calibrated = false;
+    std::optional<double> zero_displacement_m;
+    MoveToRequest request;
+  };
+  std::optional<Move> move;
+  /// A calibration's: its V0, the frequencies it steps at, the steps per point.
+  struct Calibration {
+    std::uint32_t steps_per_point = 0;
+    double V0 = 0.0;
+    std::vector<double> f_hz;
+  };
+  std::optional<Calibration> calibration;
 };
 
 /// The `state` event: published at every change of state.
@@ -183,7 +237,7 @@ struct RunStatus {
   bool finished = false;
   LoopHealth drive, sensor;
   std::optional<RunSummary> summary;  ///< once finished
-  nlohmann::json move;                ///< a move's progress, or nil
+  std::optional<MoveAccount> move;    ///< a move's progress
   std::optional<double> calibration_progress;
 };
 
@@ -199,9 +253,14 @@ struct Status {
   std::optional<firmware::StopCause> fault;
   struct Span {
     std::uint64_t first = 0, next = 0;
-  } drive_recorded, sensor_recorded;  ///< `recorder` {drive, sensor}
-  /// `position` {position_rad, zero_displacement_m}
-  std::optional<double> position_rad, zero_displacement_m;
+  };
+  struct Recorder {
+    Span drive, sensor;
+  } recorder;
+  struct Position {
+    std::optional<double> position_rad;  ///< the mean of the last good readings from the zero
+    std::optional<double> zero_displacement_m;  ///< the board's zero
+  } position;
   nlohmann::json calibration;  ///< as in hello
   std::optional<ConfigureRequest> configured;
   std::optional<RunStatus> run;
@@ -215,7 +274,7 @@ struct HealthEvent {
   BoardState state = BoardState::idle;
   std::int64_t board_ns = 0;
   std::optional<LoopHealth> drive, sensor;  ///< while a run is under way
-  nlohmann::json move;                      ///< a move's progress, or nil
+  std::optional<MoveAccount> move;          ///< a move's progress
   std::optional<double> calibration_progress;
 };
 
@@ -251,6 +310,13 @@ void to_json(nlohmann::json& j, const RunStatus& m);
 void from_json(const nlohmann::json& j, RunStatus& m);
 void to_json(nlohmann::json& j, const Status& m);
 void from_json(const nlohmann::json& j, Status& m);
+void to_json(nlohmann::json& j, const MoveAccount& m);
+void from_json(const nlohmann::json& j, MoveAccount& m);
+void to_json(nlohmann::json& j, const StartReply& m);
+void from_json(const nlohmann::json& j, StartReply& m);
+
+/// Every key of the replies' and events' field lists (tests count them).
+[[nodiscard]] std::vector<std::string_view> reply_keys();
 
 /// Decodes `j` as a T, any failure a ProtocolError naming the field.
 template <class T>
