@@ -3,8 +3,8 @@
 // direction, amplitude and frequency, the angle per volt in stick, the
 // sensor's noise), the figures derived from it (the fastest reliable
 // frequency, the resolution and the smallest tolerance a move may ask for),
-// and a host's fitted model beside it. Kept as JSON (docs/protocol.md,
-// "Calibration"), checked on every way in (a run's result, `set_calibration`,
+// and a host's fitted model beside it, as protocol::CalibrationRecord
+// (docs/protocol.md, "Calibration"); checked on every way in (a run's result, `set_calibration`,
 // the file the board persists it in), and applied to moves.
 
 #include <nlohmann/json.hpp>
@@ -13,6 +13,7 @@
 
 #include "piezo/firmware/calibration_program.hpp"
 #include "piezo/firmware/move_controller.hpp"
+#include "piezo/protocol/messages.hpp"
 
 namespace piezo::daemon {
 
@@ -23,14 +24,17 @@ struct CalibrationLimits {
 };
 
 /// The calibration a finished experiment gives (created: the board's UTC time).
-[[nodiscard]] nlohmann::json calibration_json(const firmware::CalibrationPlan& plan,
-                                              const firmware::CalibrationResult& result);
+[[nodiscard]] protocol::CalibrationRecord measured_calibration(
+    const firmware::CalibrationPlan& plan, const firmware::CalibrationResult& result);
 
-/// Checks a calibration (a client's, or a file's) and returns it with its
-/// derived figures recomputed; throws ProtocolError (bad_argument /
-/// out_of_limits) naming the key.
-[[nodiscard]] nlohmann::json checked_calibration(const nlohmann::json& c,
-                                                 const CalibrationLimits& limits);
+/// Checks a calibration (a client's, a file's, or one measured) against the
+/// ranges its field list declares and the board's limits, and returns it
+/// with its derived figures recomputed; throws ProtocolError
+/// (bad_argument) naming the key as `calibration.KEY`.
+[[nodiscard]] protocol::CalibrationRecord checked_calibration(protocol::CalibrationRecord c,
+                                                              const CalibrationLimits& limits);
+[[nodiscard]] protocol::CalibrationRecord checked_calibration(const nlohmann::json& given,
+                                                              const CalibrationLimits& limits);
 
 /// A reading's noise [m] as an angle's resolution: the settle's best
 /// confidence half-width, twice the standard error of its longest mean.
@@ -42,13 +46,14 @@ struct CalibrationLimits {
 /// calibration. `f` is the frequency the caller asked for (none: the
 /// calibration's fastest); false when the calibration has no table for it
 /// at the move's V0 (the model's predictions stay).
-bool apply_calibration(const nlohmann::json& c, std::optional<double> f, firmware::MoveSettings& m);
+bool apply_calibration(const protocol::CalibrationRecord& c, std::optional<double> f,
+                       firmware::MoveSettings& m);
 
 /// The calibration kept in `path` (none when the file does not exist);
 /// throws std::runtime_error naming the file when it cannot be used.
-[[nodiscard]] std::optional<nlohmann::json> load_calibration(const std::string& path,
-                                                             const CalibrationLimits& limits);
+[[nodiscard]] std::optional<protocol::CalibrationRecord> load_calibration(
+    const std::string& path, const CalibrationLimits& limits);
 /// Writes it atomically (a new file renamed over the old one, synced).
-void save_calibration(const std::string& path, const nlohmann::json& c);
+void save_calibration(const std::string& path, const protocol::CalibrationRecord& c);
 
 }  // namespace piezo::daemon

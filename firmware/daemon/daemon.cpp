@@ -122,8 +122,7 @@ void Daemon::load_calibration_file() {
         board_.daemon.calibration_file,
         {board_.drive.limits.V_max, firmware::max_drive_frequency(board_.drive.rate_hz)});
     if (calibration_) {
-      log_event(fmt::format("calibration of {} loaded from {}",
-                            calibration_->at("created").get<std::string>(),
+      log_event(fmt::format("calibration of {} loaded from {}", calibration_->created,
                             board_.daemon.calibration_file));
     }
   } catch (const std::exception& e) {

@@ -93,7 +93,7 @@ class Daemon {
                                                  const char* cmd);
   /// `lease_s`: the request's, if it named one (else the board's default).
   protocol::StartReply start(const std::string& client, std::optional<double> lease_s,
-                       const Program& program = {}, const char* cmd = "start");
+                             const Program& program = {}, const char* cmd = "start");
   /// The loop runner for the program, over the run's own parts.
   void build_runner(Run& run, const Program& program);
   nlohmann::json step(const std::string& client, const nlohmann::json& args);
@@ -115,7 +115,7 @@ class Daemon {
   /// Installs a checked calibration and keeps it in the board's file.
   /// Installs `c` and keeps it in [piezod] calibration_file, if any:
   /// why it could not be saved there, or nothing.
-  std::optional<std::string> install_calibration(nlohmann::json c);
+  std::optional<std::string> install_calibration(protocol::CalibrationRecord c);
   nlohmann::json set_zero(const std::string& client);
   /// Reads the sensor `n` times at its rate with the loops stopped and the
   /// drive at 0 V: the mean of the good readings and their spread (they
@@ -149,7 +149,7 @@ class Daemon {
   /// since the daemon started.
   firmware::AngleZero zero_;
   /// The installed calibration (docs/protocol.md, "Calibration"), if any.
-  std::optional<nlohmann::json> calibration_;
+  std::optional<protocol::CalibrationRecord> calibration_;
   static constexpr std::size_t kRecentReadings = 8;  ///< averaged for a position
   std::deque<double> recent_readings_;               ///< the last good readings of any run
   std::chrono::steady_clock::time_point last_health_;

@@ -62,8 +62,7 @@ firmware::MoveSettings Daemon::plan_move(const protocol::MoveToRequest& request,
     log_event(fmt::format("zero set at {:.9g} m (the mean of {} readings at rest before a move)",
                           rest.mean_m, rest.good));
   }
-  const std::optional<double> noise = calibration_
-                                          ? std::optional(calibration_->at("noise_m").get<double>())
+  const std::optional<double> noise = calibration_     ? std::optional(calibration_->noise_m)
                                       : rest.good >= 4 ? std::optional(rest.stddev_m)
                                                        : std::nullopt;
   // A tolerance finer than the sensor resolves would never be reached.
@@ -86,9 +85,9 @@ firmware::MoveSettings Daemon::plan_move(const protocol::MoveToRequest& request,
   d.C_dr = request.C_dr.value_or(d.C_dr);
   d.e_dr = request.e_dr.value_or(d.e_dr);
   d.f = request.f.value_or(d.f);
-  if (!request.f && calibration_ && calibration_->at("fastest_f_hz").is_number() &&
-      std::abs(calibration_->at("V0").get<double>() - d.V0) <= 1e-9 * d.V0) {
-    d.f = calibration_->at("fastest_f_hz").get<double>();
+  if (!request.f && calibration_ && calibration_->fastest_f_hz &&
+      std::abs(calibration_->V0 - d.V0) <= 1e-9 * d.V0) {
+    d.f = *calibration_->fastest_f_hz;
   }
   (void)apply_configuration({d, request.move.timeout_s}, "move_to");
   m.zero_displacement_m = zero_.displacement_m();
@@ -171,7 +170,7 @@ json Daemon::set_calibration(const std::string&, const json& args) {
   }
   const std::optional<std::string> save_error = install_calibration(checked_calibration(
       given, {board_.drive.limits.V_max, firmware::max_drive_frequency(board_.drive.rate_hz)}));
-  json reply = {{"calibration", *calibration_}};
+  json reply = {{"calibration", json(*calibration_)}};
   reply["saved_to"] = board_.daemon.calibration_file.empty() || save_error
                           ? json()
                           : json(board_.daemon.calibration_file);
@@ -179,7 +178,7 @@ json Daemon::set_calibration(const std::string&, const json& args) {
   return reply;
 }
 
-std::optional<std::string> Daemon::install_calibration(json c) {
+std::optional<std::string> Daemon::install_calibration(protocol::CalibrationRecord c) {
   calibration_ = std::move(c);
   std::string kept = "in memory only (no piezod.calibration_file)";
   std::optional<std::string> save_error;
@@ -192,11 +191,10 @@ std::optional<std::string> Daemon::install_calibration(json c) {
       kept = fmt::format("NOT kept: {}", e.what());
     }
   }
-  const json& fastest = calibration_->at("fastest_f_hz");
-  log_event(fmt::format(
-      "calibration installed: fastest reliable {}, noise {:.3g} m; {}",
-      fastest.is_number() ? fmt::format("{:g} Hz", fastest.get<double>()) : std::string("none"),
-      calibration_->at("noise_m").get<double>(), kept));
+  const auto& fastest = calibration_->fastest_f_hz;
+  log_event(fmt::format("calibration installed: fastest reliable {}, noise {:.3g} m; {}",
+                        fastest ? fmt::format("{:g} Hz", *fastest) : std::string("none"),
+                        calibration_->noise_m, kept));
   return save_error;
 }
 

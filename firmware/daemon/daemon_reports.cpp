@@ -59,7 +59,7 @@ protocol::Hello Daemon::hello() const {
   h.output_latency_s = rig_.drive->output_latency_s();
   h.lease_s = board_.daemon.lease_s;
   h.recorder_s = board_.daemon.recorder_s;
-  h.calibration = calibration_ ? *calibration_ : json(nullptr);
+  h.calibration = calibration_;
   return h;
 }
 
@@ -76,7 +76,7 @@ protocol::Status Daemon::status(const std::string& client) const {
   const auto last = recent_displacement_m();
   if (zero_.known() && last) s.position.position_rad = zero_.angle_rad(*last, board_.sensor.r2_m);
   s.position.zero_displacement_m = zero_.value();
-  s.calibration = calibration_ ? *calibration_ : json(nullptr);
+  s.calibration = calibration_;
   s.configured = configured_;
   if (run_) {
     protocol::RunStatus r;

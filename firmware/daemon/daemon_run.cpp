@@ -151,14 +151,14 @@ void Daemon::build_runner(Run& run, const Program& program) {
     g.f = run.request.drive.f;
     g.direction = run.request.drive.direction == model::Direction::forward ? 1.0 : -1.0;
     g.r2_m = board_.sensor.r2_m;
-    const double rad_per_V = calibration_ ? calibration_->at("rad_per_V").get<double>()
-                                          : board_.model.motor.d_e / board_.model.motor.r;
+    const double rad_per_V =
+        calibration_ ? calibration_->rad_per_V : board_.model.motor.d_e / board_.model.motor.r;
     g.stroke_rad = rad_per_V * run.request.drive.V0;
     // The noise at rest, measured now (a few readings before the drive
     // starts), or the calibration's if larger.
     const AtRest rest = read_at_rest(2 * kRecentReadings);
-    g.noise_m = std::max(rest.good >= 4 ? rest.stddev_m : 0.0,
-                         calibration_ ? calibration_->at("noise_m").get<double>() : 0.0);
+    g.noise_m =
+        std::max(rest.good >= 4 ? rest.stddev_m : 0.0, calibration_ ? calibration_->noise_m : 0.0);
     run.guard = std::make_unique<firmware::RunGuard>(run.waveform, g, run.feed);
     runner(*run.guard);
   } else {
@@ -295,7 +295,7 @@ void Daemon::finish_run() {
 void Daemon::take_calibration(Run& run) {
   const auto cause = run.runner->cause();
   const auto& result = run.calibration->result();
-  run.summary.calibration = nlohmann::json(nullptr);  // a calibration run's: present, nil for none
+  run.summary.calibration.present = true;  // a calibration run's: nil when it installed none
   if (!result.complete || cause != firmware::StopCause::completed) {
     run.summary.calibration_error = fmt::format(
         "the experiment ended {} before it was complete; the board keeps {}",
@@ -304,9 +304,9 @@ void Daemon::take_calibration(Run& run) {
   }
   try {
     install_calibration(checked_calibration(
-        calibration_json(run.calibration->plan(), result),
+        measured_calibration(run.calibration->plan(), result),
         {board_.drive.limits.V_max, firmware::max_drive_frequency(board_.drive.rate_hz)}));
-    run.summary.calibration = *calibration_;
+    run.summary.calibration.value = *calibration_;
   } catch (const std::exception& e) {
     // Measurements no calibration can hold (no motion, a sensor that saw
     // nothing): the old calibration stays; the summary says why.

@@ -35,6 +35,24 @@ std::string refusal_key(const json& j) {
   return "accepted";
 }
 
+/// A calibration as the board measures it: one frequency, its derived figures.
+CalibrationRecord a_calibration() {
+  CalibrationRecord c;
+  c.created = "2026-11-26T03:00:00Z";
+  c.V0 = 80.0;
+  c.D = 0.74955;
+  c.r2_m = 0.062;
+  c.steps_per_point = 8;
+  c.rest_readings = CalibrationRecord::RestReadings{10, 16};
+  c.step_fractions = {0.25, 0.5, 1.0};
+  c.noise_m = 5e-7;
+  c.rad_per_V = 3e-5;
+  c.frequencies = {{10.0, {1e-5, 4e-5, 2e-4}, {-1e-5, -4e-5, -2e-4}, true, 2e-3}};
+  c.fastest_f_hz = 10.0;
+  c.smallest_tolerance_rad = 1e-5;
+  return c;
+}
+
 Hello a_hello() {
   Hello h;
   h.protocol = 2;
@@ -50,7 +68,7 @@ Hello a_hello() {
   h.output_latency_s = 1e-4;
   h.lease_s = 0.5;
   h.recorder_s = 120.0;
-  h.calibration = {{"created", "2026-11-26T03:00:00Z"}, {"noise_m", 5e-7}};
+  h.calibration = a_calibration();
   return h;
 }
 
@@ -88,7 +106,7 @@ RunSummary a_summary() {
   s.realtime = {"SCHED_FIFO refused"};
   s.samples = {48000, 4800};
   s.move = a_move(true);
-  s.calibration = nullptr;
+  s.calibration.present = true;  // a calibration run that installed none
   s.calibration_error = "the experiment ended link_lost before it was complete";
   return s;
 }
@@ -226,7 +244,7 @@ TEST(Messages, EventsAndSummariesRoundTrip) {
   EXPECT_EQ(json(over_the_wire(s)), json(s));
   RunSummary plain = a_summary();
   plain.move.reset();
-  plain.calibration.reset();
+  plain.calibration = {};
   plain.calibration_error.reset();
   plain.output.acknowledged_V.reset();
   EXPECT_EQ(json(over_the_wire(plain)), json(plain));
@@ -249,7 +267,7 @@ TEST(Messages, StatusRoundTripsIdleAndDuringARun) {
   idle.state = BoardState::idle;
   idle.board_ns = 42;
   idle.recorder.drive = {0, 0};
-  idle.calibration = nullptr;
+  idle.calibration.reset();
   EXPECT_EQ(json(over_the_wire(idle)), json(idle));
   EXPECT_TRUE(json(idle).at("position").at("position_rad").is_null());
   EXPECT_FALSE(json(idle).contains("run"));
@@ -262,7 +280,7 @@ TEST(Messages, StatusRoundTripsIdleAndDuringARun) {
   busy.recorder = {{100, 48000}, {10, 4800}};
   busy.position = {0.0123, 0.07};
   busy.requests = {{"status", 3}, {"move_to", 1}};
-  busy.calibration = {{"noise_m", 4e-7}};
+  busy.calibration = a_calibration();
   busy.configured = ConfigureRequest{{80.0, 10.0, 0.95, 0.789, model::Direction::forward}, 4.8};
   RunStatus r;
   r.id = 3;
@@ -347,6 +365,27 @@ TEST(Messages, AMovesAccountAndAStartsReplyRoundTrip) {
   calibration.calibration = StartReply::Calibration{8, 60.0, {10.0, 20.0}};
   EXPECT_EQ(json(over_the_wire(calibration)), json(calibration));
   EXPECT_FALSE(over_the_wire(calibration).move.has_value());
+}
+
+// A calibration travels as its fields; its declared ranges name the key
+// and the board's limit.
+TEST(Messages, ACalibrationRoundTripsAndItsRangesAreChecked) {
+  const CalibrationRecord c = a_calibration();
+  EXPECT_EQ(json(over_the_wire(c)), json(c));
+  EXPECT_EQ(json(c).at("frequencies")[0].at("f_hz"), 10.0);
+  EXPECT_FALSE(check_calibration_ranges(c, 80.0, 500.0).has_value());
+  const auto beyond = check_calibration_ranges(c, 60.0, 500.0);
+  ASSERT_TRUE(beyond.has_value());
+  EXPECT_EQ(beyond->key, "V0");
+  EXPECT_NE(beyond->message.find("(0, 60] V"), std::string::npos) << beyond->message;
+  CalibrationRecord wild = c;
+  wild.frequencies[0].reverse_rad[1] = 3.0;
+  const auto step = check_calibration_ranges(wild, 80.0, 500.0);
+  ASSERT_TRUE(step.has_value());
+  EXPECT_EQ(step->key, "frequencies[0].reverse_rad[1]");
+  json missing = c;
+  missing.at("frequencies")[0].erase("f_hz");
+  EXPECT_EQ(refusal_key<CalibrationRecord>(missing), "malformed f_hz");
 }
 
 // Every key of a reply's or event's field list is a name of its own kind:

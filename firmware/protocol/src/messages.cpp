@@ -40,6 +40,46 @@ struct Names<model::Direction> {
 };
 
 template <>
+struct Fields<CalibrationRecord::RestReadings> {
+  using T = CalibrationRecord::RestReadings;
+  static constexpr auto list =
+      std::tuple{field("skipped", &T::skipped), field("averaged", &T::averaged)};
+};
+template <>
+struct Fields<CalibrationRecord::Frequency> {
+  using T = CalibrationRecord::Frequency;
+  static constexpr auto list =
+      std::tuple{field("f_hz", &T::f_hz).within({1e-3, 1e9}, "Hz", "f_max_hz"),
+                 // Each a step per period in rad, one per step fraction.
+                 field("forward_rad", &T::forward_rad).within({-1.0, 1.0}, "rad"),
+                 field("reverse_rad", &T::reverse_rad).within({-1.0, 1.0}, "rad"),
+                 field("reliable", &T::reliable, omitted_when_absent),
+                 field("speed_rad_per_s", &T::speed_rad_per_s, omitted_when_absent)};
+};
+template <>
+struct Fields<CalibrationRecord> {
+  using T = CalibrationRecord;
+  static constexpr auto list =
+      std::tuple{field("version", &T::version).within({T::kVersion, T::kVersion}, ""),
+                 field("created", &T::created, may_be_missing),
+                 field(firmware::arguments::V0.name, &T::V0).within({0.0, 1e9, true}, "V", "V_max"),
+                 field("D", &T::D).within({0.01, 0.99}, ""),
+                 field("r2_m", &T::r2_m).within({1e-6, 10.0}, "m"),
+                 field("steps_per_point", &T::steps_per_point).within({1.0, 1000.0}, "periods"),
+                 field("rest_readings", &T::rest_readings, omitted_when_absent),
+                 field("step_fractions", &T::step_fractions, may_be_missing),
+                 field("noise_m", &T::noise_m).within({0.0, 1e-2}, "m"),
+                 field("rad_per_V", &T::rad_per_V).within({1e-9, 1e-2}, "rad/V"),
+                 field("frequencies", &T::frequencies),
+                 field("model", &T::model, may_be_missing),
+                 field("step_floor_rad", &T::step_floor_rad, may_be_missing),
+                 field("fastest_f_hz", &T::fastest_f_hz, may_be_missing),
+                 field("noise_rad", &T::noise_rad, may_be_missing),
+                 field("resolution_rad", &T::resolution_rad, may_be_missing),
+                 field("smallest_tolerance_rad", &T::smallest_tolerance_rad, may_be_missing)};
+};
+
+template <>
 struct Fields<Hello::Backends> {
   using T = Hello::Backends;
   static constexpr auto list =
@@ -308,6 +348,12 @@ json drive_json(const model::DriveParameters& d) {
 
 }  // namespace
 
+void to_json(json& j, const CalibrationRecord& m) {
+  j = wire::encode(m);
+}
+void from_json(const json& j, CalibrationRecord& m) {
+  wire::decode_into(j, m);
+}
 void to_json(json& j, const Hello& m) {
   j = wire::encode(m);
 }
@@ -498,9 +544,16 @@ void from_json(const json& j, MoveToRequest& m) {
   m.lease_s = optional_number_arg(j, firmware::arguments::lease_s.name);
 }
 
+std::optional<wire::RangeBreach> check_calibration_ranges(const CalibrationRecord& c, double V_max,
+                                                          double f_max_hz) {
+  return wire::check_ranges(
+      c, [&](std::string_view limit) { return limit == "V_max" ? V_max : f_max_hz; });
+}
+
 std::vector<std::string_view> reply_keys() {
   std::vector<std::string_view> keys;
   const auto add = [&](std::string_view key) { keys.push_back(key); };
+  wire::for_each_key<CalibrationRecord>(add);
   wire::for_each_key<Hello>(add);
   wire::for_each_key<LoopHealth>(add);
   wire::for_each_key<ClockReply>(add);
@@ -540,6 +593,7 @@ template StateEvent decode<StateEvent>(const json&);
 template HealthEvent decode<HealthEvent>(const json&);
 template RunStatus decode<RunStatus>(const json&);
 template Status decode<Status>(const json&);
+template CalibrationRecord decode<CalibrationRecord>(const json&);
 template MoveAccount decode<MoveAccount>(const json&);
 template StartReply decode<StartReply>(const json&);
 

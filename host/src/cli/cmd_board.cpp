@@ -39,17 +39,15 @@ std::string status_text(const protocol::Status& s) {
     out += fmt::format("position   {:.4f} mrad from the zero\n", 1e3 * *s.position.position_rad);
   }
   out += fmt::format("controlled {}\n", s.controlled ? "yes" : "no");
-  const nlohmann::json& cal = s.calibration;
-  if (cal.is_object()) {
-    const nlohmann::json& fastest = cal.at("fastest_f_hz");
+  if (const auto& cal = s.calibration) {
     out += fmt::format(
         "calibrated {}: steps fastest at {}, noise {:.3g} m, smallest tolerance "
         "{:.3g} rad{}\n",
-        cal.at("created").get<std::string>(),
-        fastest.is_number() ? fmt::format("{:g} Hz", fastest.get<double>())
-                            : std::string("(none reliable)"),
-        cal.at("noise_m").get<double>(), cal.at("smallest_tolerance_rad").get<double>(),
-        cal.at("model").is_object() ? ", model fitted" : "");
+        cal->created,
+        cal->fastest_f_hz ? fmt::format("{:g} Hz", *cal->fastest_f_hz)
+                          : std::string("(none reliable)"),
+        cal->noise_m, cal->smallest_tolerance_rad.value_or(0.0),
+        cal->model.is_object() ? ", model fitted" : "");
   } else {
     out += "calibrated no (piezo calibrate --rig ADDRESS)\n";
   }

@@ -16,7 +16,8 @@ int report_calibration(const FinishedRun& run) {
   const RunSummary& summary = run.summary;
   const RunOptions& o = run.options;
   nlohmann::json result = run.result;
-  const nlohmann::json measured = summary.board.calibration.value_or(nullptr);
+  const auto& taken = summary.board.calibration.value;
+  const nlohmann::json measured = taken ? nlohmann::json(*taken) : nlohmann::json(nullptr);
   if (measured.is_null() || summary.status() != "completed") {
     const std::string why = summary.board.calibration_error
                                 ? *summary.board.calibration_error

@@ -190,7 +190,8 @@ nlohmann::json loop_json(const protocol::LoopHealth& h,
 /// A calibration run's result as the run's JSON keeps it: the calibration
 /// installed (nil when none was) and why not.
 nlohmann::json calibration_result(const protocol::RunSummary& b) {
-  return {{"calibration", b.calibration.value_or(nullptr)},
+  return {{"calibration",
+           b.calibration.value ? nlohmann::json(*b.calibration.value) : nlohmann::json(nullptr)},
           {"error",
            b.calibration_error ? nlohmann::json(*b.calibration_error) : nlohmann::json(nullptr)}};
 }
@@ -470,7 +471,7 @@ int run(const RunOptions& o, const RunProgram& program) {
     return j;
   };
   nlohmann::json logged = result_json();
-  if (summary.board.calibration) logged["calibration"] = calibration_result(summary.board);
+  if (summary.board.calibration.present) logged["calibration"] = calibration_result(summary.board);
   finish_log(log, summary, logged);
   try {
     append_catalogue(dir, utc_start, config, summary);

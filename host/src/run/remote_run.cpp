@@ -38,10 +38,11 @@ std::int64_t host_ns() {
 model::MotorParameters observer_model(const config::RigConfig& c, const protocol::Hello& hello,
                                       RunLog& log) {
   model::Parameters p{c.host.model.drive, c.host.model.motor};
-  const json& cal = hello.calibration;
-  if (!cal.is_object() || !cal.value("model", json()).is_object()) return p.motor;
+  if (!hello.calibration || !hello.calibration->model.is_object()) return p.motor;
+  const protocol::CalibrationRecord& cal = *hello.calibration;
   std::vector<std::string> used;
-  const json parameters = cal.at("model").value("parameters", json::object());
+  // The fitted model as the host wrote it (calibration_report.cpp): its parameters' values.
+  const json parameters = cal.model.value("parameters", json::object());
   for (const auto& [name, value] : parameters.items()) {
     const model::ParameterSpec* spec = model::find_parameter(name);
     if (spec == nullptr || spec->section != "model" || !value.is_number() ||
@@ -52,9 +53,8 @@ model::MotorParameters observer_model(const config::RigConfig& c, const protocol
     used.push_back(fmt::format("{} = {:.6g}", name, value.get<double>()));
   }
   if (!used.empty()) {
-    log.set_attribute(log_schema::kObserverModel,
-                      fmt::format("the board's calibration of {}: {}",
-                                  cal.value("created", std::string("?")), fmt::join(used, ", ")));
+    log.set_attribute(log_schema::kObserverModel, fmt::format("the board's calibration of {}: {}",
+                                                              cal.created, fmt::join(used, ", ")));
   }
   return p.motor;
 }

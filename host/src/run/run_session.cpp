@@ -16,8 +16,8 @@ std::string RunSummary::stop_cause() const {
     return std::string(firmware::kMoveEndNames.name(*board.move->stop_cause));
   }
   // A calibration that ran to its end but gave none the board could keep.
-  if (board.cause == firmware::StopCause::completed && board.calibration &&
-      board.calibration->is_null()) {
+  if (board.cause == firmware::StopCause::completed && board.calibration.present &&
+      !board.calibration.value) {
     return "calibration_unusable";
   }
   return std::string(firmware::to_string(board.cause));

@@ -27,8 +27,40 @@
 #include "piezo/model/parameters.hpp"
 #include "piezo/protocol/board_state.hpp"
 #include "piezo/protocol/frame.hpp"
+#include "piezo/protocol/wire_fields.hpp"
 
 namespace piezo::protocol {
+
+/// The board's calibration (docs/protocol.md, "Calibration"): what
+/// `calibrate` measured (the step table by direction, amplitude and
+/// frequency, the angle per volt in stick, the sensor's noise), the figures
+/// derived from it, and a host's fitted model beside it.
+struct CalibrationRecord {
+  static constexpr int kVersion = 1;
+  int version = kVersion;
+  std::string created;  ///< the board's UTC time, ISO 8601
+  double V0 = 0.0, D = 0.0, r2_m = 0.0;
+  std::uint32_t steps_per_point = 0;
+  struct RestReadings {
+    std::uint32_t skipped = 0, averaged = 0;
+  };
+  std::optional<RestReadings> rest_readings;
+  std::vector<double> step_fractions;  ///< of V0, as the board steps them
+  double noise_m = 0.0, rad_per_V = 0.0;
+  /// One frequency's steps per period at each step fraction [rad], and
+  /// (derived) whether they are reliable and how fast it moves.
+  struct Frequency {
+    double f_hz = 0.0;
+    std::vector<double> forward_rad, reverse_rad;
+    std::optional<bool> reliable;
+    std::optional<double> speed_rad_per_s;
+  };
+  std::vector<Frequency> frequencies;
+  nlohmann::json model;  ///< a host's fitted model (parameters, intervals), or nil
+  // Derived on the board from the above (recomputed whenever one is taken).
+  std::optional<double> step_floor_rad, fastest_f_hz, noise_rad, resolution_rad,
+      smallest_tolerance_rad;
+};
 
 /// `hello`'s reply: what a client needs before it asks for anything, and to
 /// interpret the samples (the sensor's radius).
@@ -56,7 +88,7 @@ struct Hello {
   double output_latency_s = 0.0;
   double lease_s = 0.0;
   double recorder_s = 0.0;
-  nlohmann::json calibration;  ///< the installed calibration, or nil
+  std::optional<CalibrationRecord> calibration;  ///< the installed calibration
 };
 
 /// A loop's health counters, and its period-error statistics where given
@@ -190,7 +222,7 @@ struct RunSummary {
   std::optional<MoveAccount> move;  ///< a move's account
   /// A calibration run's result: present in a calibration run's summary,
   /// nil when it installed none (calibration_error says why).
-  std::optional<nlohmann::json> calibration;
+  wire::Keyed<CalibrationRecord> calibration;
   std::optional<std::string> calibration_error;
 };
 
@@ -261,7 +293,7 @@ struct Status {
     std::optional<double> position_rad;  ///< the mean of the last good readings from the zero
     std::optional<double> zero_displacement_m;  ///< the board's zero
   } position;
-  nlohmann::json calibration;  ///< as in hello
+  std::optional<CalibrationRecord> calibration;  ///< as in hello
   std::optional<ConfigureRequest> configured;
   std::optional<RunStatus> run;
   /// `requests`: how many of each command the board has had since it
@@ -310,6 +342,8 @@ void to_json(nlohmann::json& j, const RunStatus& m);
 void from_json(const nlohmann::json& j, RunStatus& m);
 void to_json(nlohmann::json& j, const Status& m);
 void from_json(const nlohmann::json& j, Status& m);
+void to_json(nlohmann::json& j, const CalibrationRecord& m);
+void from_json(const nlohmann::json& j, CalibrationRecord& m);
 void to_json(nlohmann::json& j, const MoveAccount& m);
 void from_json(const nlohmann::json& j, MoveAccount& m);
 void to_json(nlohmann::json& j, const StartReply& m);
@@ -317,6 +351,12 @@ void from_json(const nlohmann::json& j, StartReply& m);
 
 /// Every key of the replies' and events' field lists (tests count them).
 [[nodiscard]] std::vector<std::string_view> reply_keys();
+
+/// Where a calibration breaks the ranges its field list declares (the
+/// board's V_max and fastest frequency as the named limits), or nullopt.
+[[nodiscard]] std::optional<wire::RangeBreach> check_calibration_ranges(const CalibrationRecord& c,
+                                                                        double V_max,
+                                                                        double f_max_hz);
 
 /// Decodes `j` as a T, any failure a ProtocolError naming the field.
 template <class T>

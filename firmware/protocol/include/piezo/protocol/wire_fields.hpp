@@ -26,6 +26,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "piezo/interval.hpp"
 #include "piezo/name_table.hpp"
 #include "piezo/protocol/error.hpp"
 
@@ -43,6 +44,20 @@ struct Field {
   std::string_view key;
   M T::*member;
   unsigned travel = plain;
+  /// What a number (or each number of a list) may be, for `check_ranges`:
+  /// its interval, whose upper end is the named limit when one is given.
+  Interval allowed = {};
+  std::string_view unit = {};
+  std::string_view limit = {};
+
+  [[nodiscard]] constexpr Field within(Interval i, std::string_view u,
+                                       std::string_view named_limit = {}) const {
+    Field f = *this;
+    f.allowed = i;
+    f.unit = u;
+    f.limit = named_limit;
+    return f;
+  }
 };
 
 template <class T, class M>
@@ -87,6 +102,29 @@ template <class T>
 struct is_optional<std::optional<T>> : std::true_type {};
 
 template <class T>
+struct is_vector : std::false_type {};
+template <class T>
+struct is_vector<std::vector<T>> : std::true_type {};
+
+/// A list of messages (each a map of its own fields).
+template <class T>
+struct is_message_list : std::false_type {};
+template <class T>
+struct is_message_list<std::vector<T>> : has_fields<T> {};
+
+/// A key whose presence itself says something: a calibration run's summary
+/// has `calibration`, nil when it installed none; other runs' have no key.
+template <class V>
+struct Keyed {
+  bool present = false;
+  std::optional<V> value;
+};
+template <class T>
+struct is_keyed : std::false_type {};
+template <class V>
+struct is_keyed<Keyed<V>> : std::true_type {};
+
+template <class T>
 nlohmann::json encode(const T& message);
 template <class T>
 void decode_into(const nlohmann::json& j, T& message);
@@ -97,6 +135,10 @@ nlohmann::json encode_value(const V& v) {
     return v ? encode_value(*v) : nlohmann::json(nullptr);
   } else if constexpr (has_fields<V>::value) {
     return encode(v);
+  } else if constexpr (is_message_list<V>::value) {
+    nlohmann::json out = nlohmann::json::array();
+    for (const auto& item : v) out.push_back(encode(item));
+    return out;
   } else if constexpr (has_names<V>::value) {
     return nlohmann::json(Names<V>::table.name(v));
   } else {
@@ -115,6 +157,15 @@ V decode_value(const nlohmann::json& v, std::string_view key) {
     }
     V out{};
     decode_into(v, out);
+    return out;
+  } else if constexpr (is_message_list<V>::value) {
+    if (!v.is_array()) {
+      throw ProtocolError(code::malformed, std::string(key), fmt::format("{}: not a list", key));
+    }
+    V out;
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      out.push_back(decode_value<typename V::value_type>(v[i], fmt::format("{}[{}]", key, i)));
+    }
     return out;
   } else if constexpr (has_names<V>::value) {
     const auto& table = Names<V>::table;
@@ -135,10 +186,14 @@ V decode_value(const nlohmann::json& v, std::string_view key) {
 template <class T, class M>
 void encode_one(nlohmann::json& j, const T& message, const Field<T, M>& f) {
   const M& value = message.*(f.member);
-  if constexpr (is_optional<M>::value) {
-    if (!value && (f.travel & omitted_when_absent)) return;
+  if constexpr (is_keyed<M>::value) {
+    if (value.present) j[std::string(f.key)] = encode_value(value.value);
+  } else {
+    if constexpr (is_optional<M>::value) {
+      if (!value && (f.travel & omitted_when_absent)) return;
+    }
+    j[std::string(f.key)] = encode_value(value);
   }
-  j[std::string(f.key)] = encode_value(value);
 }
 
 template <class T, class M>
@@ -156,9 +211,10 @@ void decode_one(const nlohmann::json& j, T& message, const Field<T, M>& f) {
   const std::string key(f.key);
   const auto it = j.find(key);
   const bool absent = it == j.end() || it->is_null();
-  if constexpr (std::is_same_v<M, std::optional<nlohmann::json>>) {
-    // Present (nil included) or not: a calibration run that installed none.
-    message.*(f.member) = it == j.end() ? std::nullopt : std::optional(*it);
+  if constexpr (is_keyed<M>::value) {
+    auto& keyed = message.*(f.member);
+    keyed.present = it != j.end();
+    keyed.value = absent ? std::nullopt : decode_value<decltype(keyed.value)>(*it, f.key);
   } else if constexpr (std::is_same_v<M, nlohmann::json>) {
     message.*(f.member) = absent ? nlohmann::json(nullptr) : *it;
   } else if constexpr (is_optional<M>::value) {
@@ -203,6 +259,59 @@ void decode_into(const nlohmann::json& j, T& message) {
   std::apply([&](const auto&... f) { (decode_one(j, message, f), ...); }, Fields<T>::list);
 }
 
+/// Where a value breaks its field's declared range: {key path, message}.
+struct RangeBreach {
+  std::string key, message;
+};
+
+/// Checks every field of `message` that declares a range (and each number
+/// of a list, and each message of a list), its upper end the value of its
+/// named limit where one is named (`limit(name)`). Keys are paths:
+/// `frequencies[0].f_hz`.
+template <class T, class Limit>
+std::optional<RangeBreach> check_ranges(const T& message, const Limit& limit,
+                                        const std::string& prefix = "") {
+  std::optional<RangeBreach> breach;
+  const auto check_number = [&](const std::string& key, double v, Interval allowed,
+                                std::string_view unit) {
+    if (breach || allowed.admits(v)) return;
+    const std::string u = unit.empty() ? "" : " " + std::string(unit);
+    breach = RangeBreach{key, fmt::format("{:g}{}; allowed: {}{}", v, u, allowed.text(), u)};
+  };
+  std::apply(
+      [&](const auto&... f) {
+        (
+            [&](const auto& one) {
+              if constexpr (requires { one.key; }) {
+                const auto& value = message.*(one.member);
+                using M = std::remove_cvref_t<decltype(value)>;
+                const std::string key = prefix + std::string(one.key);
+                Interval allowed = one.allowed;
+                if (!one.limit.empty()) allowed.max = limit(one.limit);
+                const bool ranged = one.allowed.min != Interval{}.min ||
+                                    one.allowed.max != Interval{}.max || !one.limit.empty();
+                if constexpr (std::is_arithmetic_v<M> && !std::is_same_v<M, bool>) {
+                  if (ranged) check_number(key, static_cast<double>(value), allowed, one.unit);
+                } else if constexpr (is_vector<M>::value) {
+                  using V = typename M::value_type;
+                  for (std::size_t i = 0; i < value.size() && !breach; ++i) {
+                    const std::string at = fmt::format("{}[{}]", key, i);
+                    if constexpr (has_fields<V>::value) {
+                      breach = check_ranges(value[i], limit, at + ".");
+                    } else if constexpr (std::is_arithmetic_v<V>) {
+                      if (ranged)
+                        check_number(at, static_cast<double>(value[i]), allowed, one.unit);
+                    }
+                  }
+                }
+              }
+            }(f),
+            ...);
+      },
+      Fields<T>::list);
+  return breach;
+}
+
 /// Calls `visit(key)` for every key of T's list, nested ones included.
 template <class T, class Visit>
 void for_each_key(Visit&& visit) {
@@ -216,7 +325,13 @@ void for_each_key(Visit&& visit) {
                 using M = std::remove_cvref_t<decltype(std::declval<T>().*(one.member))>;
                 using V = typename std::conditional_t<is_optional<M>::value, M,
                                                       std::optional<M>>::value_type;
-                if constexpr (has_fields<V>::value) for_each_key<V>(visit);
+                if constexpr (has_fields<V>::value) {
+                  for_each_key<V>(visit);
+                } else if constexpr (is_vector<V>::value) {
+                  if constexpr (has_fields<typename V::value_type>::value) {
+                    for_each_key<typename V::value_type>(visit);
+                  }
+                }
               } else {
                 using M = std::remove_cvref_t<decltype(std::declval<T>().*(one.member))>;
                 using S = typename std::conditional_t<is_optional<M>::value, M,
