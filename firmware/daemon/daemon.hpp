@@ -127,7 +127,6 @@ class Daemon {
   // daemon_reports.cpp
   [[nodiscard]] protocol::Hello hello() const;
   [[nodiscard]] protocol::Status status(const std::string& client) const;
-  [[nodiscard]] nlohmann::json position_json() const;
   [[nodiscard]] protocol::MoveAccount move_account(const Run& run) const;
   [[nodiscard]] protocol::RunSummary summary(const Run& run) const;
   void publish_state();

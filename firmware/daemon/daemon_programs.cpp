@@ -166,15 +166,14 @@ json Daemon::set_calibration(const std::string&, const json& args) {
       std::filesystem::remove(board_.daemon.calibration_file, ignored);
     }
     log_event("calibration cleared");
-    return {{"calibration", nullptr}};
+    return protocol::SetCalibrationReply{};
   }
   const std::optional<std::string> save_error = install_calibration(checked_calibration(
       given, {board_.drive.limits.V_max, firmware::max_drive_frequency(board_.drive.rate_hz)}));
-  json reply = {{"calibration", json(*calibration_)}};
-  reply["saved_to"] = board_.daemon.calibration_file.empty() || save_error
-                          ? json()
-                          : json(board_.daemon.calibration_file);
-  if (save_error) reply["save_error"] = *save_error;
+  protocol::SetCalibrationReply reply{calibration_, std::nullopt, save_error};
+  if (!board_.daemon.calibration_file.empty() && !save_error) {
+    reply.saved_to = board_.daemon.calibration_file;
+  }
   return reply;
 }
 
@@ -211,7 +210,7 @@ json Daemon::set_zero(const std::string&) {
   }
   zero_.set(*last);
   log_event(fmt::format("zero set at {:.9g} m", *last));
-  return {{"position", position_json()}};
+  return protocol::ZeroReply{status("").position};
 }
 
 Daemon::AtRest Daemon::read_at_rest(std::size_t n) {

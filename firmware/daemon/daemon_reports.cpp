@@ -95,10 +95,6 @@ protocol::Status Daemon::status(const std::string& client) const {
   return s;
 }
 
-json Daemon::position_json() const {
-  return json(status("")).at("position");
-}
-
 protocol::MoveAccount Daemon::move_account(const Run& run) const {
   const firmware::MoveController& m = *run.move;
   const double zero = m.zero_displacement_m();

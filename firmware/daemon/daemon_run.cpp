@@ -34,12 +34,6 @@ std::int64_t wall_ns() {
       .count();
 }
 
-json configured_json(const protocol::ConfigureRequest& r) {
-  json j = r;
-  j["D"] = r.drive.D();
-  return j;
-}
-
 }  // namespace
 
 // The command table has admitted only the controller to these handlers
@@ -47,8 +41,9 @@ json configured_json(const protocol::ConfigureRequest& r) {
 
 json Daemon::configure(const json& args) {
   if (running()) throw ProtocolError(code::bad_state, "", "configure: a run is under way");
-  return configured_json(
-      apply_configuration(protocol::decode<protocol::ConfigureRequest>(args), "configure"));
+  const auto taken =
+      apply_configuration(protocol::decode<protocol::ConfigureRequest>(args), "configure");
+  return protocol::ConfigureReply{taken.drive.D(), taken};
 }
 
 protocol::ConfigureRequest Daemon::apply_configuration(const protocol::ConfigureRequest& r,
@@ -196,7 +191,7 @@ json Daemon::stop_run() {
     run_->runner->request_stop();
     log_event(fmt::format("run {}: stop requested", run_->id));
   }
-  return {{"state", to_string(run_state_.state())}};
+  return protocol::StateReply{run_state_.state()};
 }
 
 json Daemon::estop(const std::string& client) {
@@ -212,7 +207,7 @@ json Daemon::estop(const std::string& client) {
   }
   log_event(fmt::format("e-stop from a client{}",
                         run_state_.is_controller(client) ? " (the controller)" : ""));
-  return {{"state", to_string(run_state_.state())}};
+  return protocol::StateReply{run_state_.state()};
 }
 
 json Daemon::reset_fault() {
@@ -227,7 +222,7 @@ json Daemon::reset_fault() {
     log_event(fmt::format("fault {} reset", firmware::to_string(cleared)));
     publish_state();
   }
-  return {{"state", to_string(run_state_.state())}};
+  return protocol::StateReply{run_state_.state()};
 }
 
 json Daemon::renew_lease(const json& args) {
@@ -239,7 +234,7 @@ json Daemon::renew_lease(const json& args) {
   } else {
     run_->remote.lease_deadline = rig_.clock->now() + hal::from_seconds(run_->lease_s);
   }
-  return {{"lease_s", run_->lease_s}};
+  return protocol::LeaseReply{run_->lease_s};
 }
 
 void Daemon::check_lease_on_wall_clock() {

@@ -98,7 +98,8 @@ json SampleHub::fetch(const std::string& client, const json& args, bool budgeted
   const std::uint64_t held_next = drive ? drive_.next() : sensor_.next();
   if (spill_ && first < held_first) {
     // Past the memory ring: the spill file has it.
-    if (auto frame = spill_->fetch(stream, first, count)) return {{"frame", binary(*frame)}};
+    if (auto frame = spill_->fetch(stream, first, count))
+      return protocol::FetchReply{binary(*frame)};
   }
   if (first < held_first || first > held_next) {
     throw ProtocolError(code::not_available, "first",
@@ -108,11 +109,11 @@ json SampleHub::fetch(const std::string& client, const json& args, bool budgeted
   if (drive) {
     std::vector<firmware::DriveSample> samples;
     drive_.copy(first, count, samples);
-    return {{"frame", binary(protocol::encode_frame(first, samples))}};
+    return protocol::FetchReply{binary(protocol::encode_frame(first, samples))};
   }
   std::vector<firmware::SensorSample> samples;
   sensor_.copy(first, count, samples);
-  return {{"frame", binary(protocol::encode_frame(first, samples))}};
+  return protocol::FetchReply{binary(protocol::encode_frame(first, samples))};
 }
 
 }  // namespace piezo::daemon

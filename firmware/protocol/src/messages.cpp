@@ -289,6 +289,36 @@ struct Fields<Status> {
                                           field("requests", &T::requests, may_be_missing)};
 };
 
+template <>
+struct Fields<StateReply> {
+  static constexpr auto list = std::tuple{field("state", &StateReply::state)};
+};
+template <>
+struct Fields<LeaseReply> {
+  static constexpr auto list =
+      std::tuple{field(firmware::arguments::lease_s.name, &LeaseReply::lease_s)};
+};
+template <>
+struct Fields<ZeroReply> {
+  static constexpr auto list = std::tuple{field("position", &ZeroReply::position)};
+};
+template <>
+struct Fields<ConfigureReply> {
+  using T = ConfigureReply;
+  static constexpr auto list = std::tuple{field("D", &T::D), inline_fields(&T::configured)};
+};
+template <>
+struct Fields<FetchReply> {
+  static constexpr auto list = std::tuple{field("frame", &FetchReply::frame)};
+};
+template <>
+struct Fields<SetCalibrationReply> {
+  using T = SetCalibrationReply;
+  static constexpr auto list =
+      std::tuple{field("calibration", &T::calibration), field("saved_to", &T::saved_to),
+                 field("save_error", &T::save_error, omitted_when_absent)};
+};
+
 }  // namespace piezo::protocol::wire
 
 namespace piezo::protocol {
@@ -352,6 +382,42 @@ void to_json(json& j, const CalibrationRecord& m) {
   j = wire::encode(m);
 }
 void from_json(const json& j, CalibrationRecord& m) {
+  wire::decode_into(j, m);
+}
+void to_json(json& j, const StateReply& m) {
+  j = wire::encode(m);
+}
+void from_json(const json& j, StateReply& m) {
+  wire::decode_into(j, m);
+}
+void to_json(json& j, const LeaseReply& m) {
+  j = wire::encode(m);
+}
+void from_json(const json& j, LeaseReply& m) {
+  wire::decode_into(j, m);
+}
+void to_json(json& j, const ZeroReply& m) {
+  j = wire::encode(m);
+}
+void from_json(const json& j, ZeroReply& m) {
+  wire::decode_into(j, m);
+}
+void to_json(json& j, const ConfigureReply& m) {
+  j = wire::encode(m);
+}
+void from_json(const json& j, ConfigureReply& m) {
+  wire::decode_into(j, m);
+}
+void to_json(json& j, const FetchReply& m) {
+  j = wire::encode(m);
+}
+void from_json(const json& j, FetchReply& m) {
+  wire::decode_into(j, m);
+}
+void to_json(json& j, const SetCalibrationReply& m) {
+  j = wire::encode(m);
+}
+void from_json(const json& j, SetCalibrationReply& m) {
   wire::decode_into(j, m);
 }
 void to_json(json& j, const Hello& m) {
@@ -554,6 +620,12 @@ std::vector<std::string_view> reply_keys() {
   std::vector<std::string_view> keys;
   const auto add = [&](std::string_view key) { keys.push_back(key); };
   wire::for_each_key<CalibrationRecord>(add);
+  wire::for_each_key<StateReply>(add);
+  wire::for_each_key<LeaseReply>(add);
+  wire::for_each_key<ZeroReply>(add);
+  wire::for_each_key<ConfigureReply>(add);
+  wire::for_each_key<FetchReply>(add);
+  wire::for_each_key<SetCalibrationReply>(add);
   wire::for_each_key<Hello>(add);
   wire::for_each_key<LoopHealth>(add);
   wire::for_each_key<ClockReply>(add);
@@ -594,6 +666,13 @@ template HealthEvent decode<HealthEvent>(const json&);
 template RunStatus decode<RunStatus>(const json&);
 template Status decode<Status>(const json&);
 template CalibrationRecord decode<CalibrationRecord>(const json&);
+template StateReply decode<StateReply>(const json&);
+template LeaseReply decode<LeaseReply>(const json&);
+template ZeroReply decode<ZeroReply>(const json&);
+template ConfigureReply decode<ConfigureReply>(const json&);
+template FetchReply decode<FetchReply>(const json&);
+template SetCalibrationReply decode<SetCalibrationReply>(const json&);
+
 template MoveAccount decode<MoveAccount>(const json&);
 template StartReply decode<StartReply>(const json&);
 

@@ -211,25 +211,23 @@ CalibrationReport finish_calibration(const fs::path& dir, const fs::path& log,
   }
   // The board (in this process or at an address) checks it, installs it
   // and says where it keeps it.
-  const json reply = client.call("set_calibration", {{"calibration", cal}});
-  cal = reply.at("calibration");
-  if (reply.contains("save_error")) {
-    throw std::runtime_error(fmt::format("the board could not keep the calibration: {}",
-                                         reply.at("save_error").get<std::string>()));
+  const auto reply = protocol::decode<protocol::SetCalibrationReply>(
+      client.call("set_calibration", {{"calibration", cal}}));
+  cal = reply.calibration ? json(*reply.calibration) : json(nullptr);
+  if (reply.save_error) {
+    throw std::runtime_error(
+        fmt::format("the board could not keep the calibration: {}", *reply.save_error));
   }
-  const json& saved_to = reply.value("saved_to", json());
+  const auto& saved_to = reply.saved_to;
   if (!local) {
-    // (A board before `saved_to` says nothing of where.)
-    const std::string where = !reply.contains("saved_to") ? ""
-                              : saved_to.is_string()
-                                  ? fmt::format(" (in its {})", saved_to.get<std::string>())
-                                  : " (in its memory only)";
+    const std::string where =
+        saved_to ? fmt::format(" (in its {})", *saved_to) : " (in its memory only)";
     report.kept = fmt::format("by the board at {}{}", client.address(), where);
-  } else if (saved_to.is_string()) {
+  } else if (saved_to) {
     report.kept = fmt::format(
         "in {} ([piezod] calibration_file): in-process moves with this "
         "config use it",
-        saved_to.get<std::string>());
+        *saved_to);
   } else {
     report.kept =
         "only in this run directory (set [piezod] calibration_file to keep it for "

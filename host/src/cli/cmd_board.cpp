@@ -64,7 +64,8 @@ int call(const BoardOptions& o, const std::string& cmd) {
   } else if (cmd == "zero") {
     std::cout << "zero: set at the last reading; position 0 rad\n";
   } else {
-    std::cout << fmt::format("{}: sent; state {}\n", cmd, result.at("state").get<std::string>());
+    std::cout << fmt::format("{}: sent; state {}\n", cmd,
+                             protocol::to_string(result.get<protocol::StateReply>().state));
   }
   return 0;
 }

@@ -301,6 +301,39 @@ struct Status {
   std::map<std::string, std::uint64_t> requests;
 };
 
+/// `stop`'s, `estop`'s and `reset_fault`'s reply: the state they left.
+struct StateReply {
+  BoardState state = BoardState::idle;
+};
+
+/// `lease`'s reply.
+struct LeaseReply {
+  double lease_s = 0.0;
+};
+
+/// `zero`'s reply: the position from the new zero.
+struct ZeroReply {
+  Status::Position position;
+};
+
+/// `configure`'s reply: the values taken, and the rise fraction D = C_dr·e_dr.
+struct ConfigureReply {
+  double D = 0.0;
+  ConfigureRequest configured;
+};
+
+/// `fetch`'s reply: a sample frame (MessagePack bin).
+struct FetchReply {
+  nlohmann::json frame;  ///< binary
+};
+
+/// `set_calibration`'s reply.
+struct SetCalibrationReply {
+  std::optional<CalibrationRecord> calibration;  ///< as installed (nil: cleared)
+  std::optional<std::string> saved_to;           ///< the board's file, nil when none or it failed
+  std::optional<std::string> save_error;         ///< why writing the file failed (only then)
+};
+
 /// The `health` event: about four a second.
 struct HealthEvent {
   BoardState state = BoardState::idle;
@@ -344,6 +377,18 @@ void to_json(nlohmann::json& j, const Status& m);
 void from_json(const nlohmann::json& j, Status& m);
 void to_json(nlohmann::json& j, const CalibrationRecord& m);
 void from_json(const nlohmann::json& j, CalibrationRecord& m);
+void to_json(nlohmann::json& j, const StateReply& m);
+void from_json(const nlohmann::json& j, StateReply& m);
+void to_json(nlohmann::json& j, const LeaseReply& m);
+void from_json(const nlohmann::json& j, LeaseReply& m);
+void to_json(nlohmann::json& j, const ZeroReply& m);
+void from_json(const nlohmann::json& j, ZeroReply& m);
+void to_json(nlohmann::json& j, const ConfigureReply& m);
+void from_json(const nlohmann::json& j, ConfigureReply& m);
+void to_json(nlohmann::json& j, const FetchReply& m);
+void from_json(const nlohmann::json& j, FetchReply& m);
+void to_json(nlohmann::json& j, const SetCalibrationReply& m);
+void from_json(const nlohmann::json& j, SetCalibrationReply& m);
 void to_json(nlohmann::json& j, const MoveAccount& m);
 void from_json(const nlohmann::json& j, MoveAccount& m);
 void to_json(nlohmann::json& j, const StartReply& m);
