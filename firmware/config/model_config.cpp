@@ -9,8 +9,8 @@
 #include <sstream>
 #include <string_view>
 
-#include "config_error.hpp"
-#include "piezo/read_file.hpp"
+#include "piezo/config/config_error.hpp"
+#include "piezo/config/read_file.hpp"
 
 namespace piezo::config {
 namespace {

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "piezo/model/parameters.hpp"
-#include "section_reader.hpp"
+#include "piezo/config/section_reader.hpp"
 
 namespace piezo::config {
 

@@ -10,11 +10,11 @@
 #include <sstream>
 #include <variant>
 
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "model_config.hpp"
 #include "piezo/firmware/request_limits.hpp"
 #include "piezo/overload.hpp"
-#include "section_reader.hpp"
+#include "piezo/config/section_reader.hpp"
 
 namespace piezo::config {
 namespace {

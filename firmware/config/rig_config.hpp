@@ -23,7 +23,7 @@
 #include "piezo/hal/sim/modbus_rig_device.hpp"
 #include "piezo/model/lugre_observer.hpp"
 #include "piezo/model/parameters.hpp"
-#include "section_reader.hpp"
+#include "piezo/config/section_reader.hpp"
 
 namespace piezo::config {
 

@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "piezo/protocol/error.hpp"
-#include "piezo/read_file.hpp"
+#include "piezo/config/read_file.hpp"
 
 namespace piezo::daemon {
 namespace {

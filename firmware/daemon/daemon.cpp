@@ -6,7 +6,7 @@
 #include <zmq_addon.hpp>
 
 #include "calibration.hpp"
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "daemon_run.hpp"
 #include "piezo/protocol/endpoints.hpp"
 #include "piezo/protocol/message.hpp"

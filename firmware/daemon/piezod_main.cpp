@@ -7,7 +7,7 @@
 #include <csignal>
 #include <iostream>
 
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "curve.hpp"
 #include "daemon.hpp"
 #include "device_inventory.hpp"

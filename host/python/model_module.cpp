@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "fit_io.hpp"
 #include "global_sensitivity_study.hpp"
 #include "interruption.hpp"

@@ -22,7 +22,7 @@
 #include <thread>
 #include <vector>
 
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "device_inventory.hpp"
 #include "piezo/firmware/loop_runner.hpp"
 #include "piezo/hal/comedi/comedi_analog_input.hpp"

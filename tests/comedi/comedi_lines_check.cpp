@@ -27,7 +27,7 @@
 #include <string>
 #include <thread>
 
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "piezo/firmware/loop_runner.hpp"
 #include "piezo/hal/comedi/comedi_analog_output.hpp"
 #include "piezo/hal/comedi/comedi_digital_lines.hpp"

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "rig_config.hpp"
 
 namespace {

@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "fit_io.hpp"
 #include "h5_file.hpp"
 #include "run_journal.hpp"

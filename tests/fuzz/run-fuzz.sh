@@ -21,8 +21,8 @@ if ! echo 'extern "C" int LLVMFuzzerTestOneInput(const unsigned char*, unsigned 
   echo "SKIP: clang's libFuzzer runtime missing (Debian: libclang-rt-14-dev)"
   exit 77
 fi
-# The name tables (model/names) are the bottom of the tree: every layer's headers use them.
-hal_includes=(-I"$src/hal/include" -I"$src/model/names/include")
+# The name tables (model/include/piezo) are the bottom of the tree: every layer's headers use them.
+hal_includes=(-I"$src/hal/include" -I"$src/model/include")
 for d in "$src"/hal/*/include; do hal_includes+=(-I"$d"); done
 linked=()  # sources only linked, built plain (below)
 case "$target" in
@@ -32,7 +32,7 @@ case "$target" in
            "${hal_includes[@]}")
     libs=(-lfmt) ;;
   config)
-    sources=("$src"/model/names/config/section_reader.cpp
+    sources=("$src"/hal/config/src/section_reader.cpp
              "$src"/firmware/config/{model_config,rig_config}.cpp
              "$src"/firmware/src/{request_limits,request_arguments,move_request}.cpp
              "$src"/hal/{sim,modbus,gpiod,comedi}/src/*_backends.cpp
@@ -46,7 +46,7 @@ case "$target" in
              "$src"/model/src/hybrid/*.cpp; do
       [[ " ${sources[*]} " == *" $f "* || $f == */global_sensitivity.cpp ]] || linked+=("$f")
     done
-    flags=(-I"$src/firmware/config" -I"$src/model/names/error" -I"$src/model/names/config"
+    flags=(-I"$src/firmware/config" -I"$src/hal/config/include"
            -I"$src/firmware/include" "${hal_includes[@]}"
            -I"$src/model/include" -I/usr/include/eigen3 $(pkg-config --cflags libmodbus libgpiod comedilib))
     libs=(-lfmt $(pkg-config --libs libmodbus libgpiod comedilib) -lpthread) ;;
@@ -59,8 +59,8 @@ case "$target" in
     # HDF5 linked in (hdf5_store.cpp): the module loader is never reached.
     sources=("$src"/host/src/io/{fit_io,h5_file,hdf5_store,module_loader,run_journal,run_recovery,catalogue,parameters_json}.cpp
              "$src"/model/src/{parameters,waveform,simulate_names}.cpp)
-    flags=(-I"$src/host/src/io" -I"$src/firmware/config" -I"$src/model/names/error" -I"$src/model/include"
-           -I"$src/model/names/include"
+    flags=(-I"$src/host/src/io" -I"$src/firmware/config" -I"$src/hal/config/include" -I"$src/model/include"
+           -I"$src/model/include"
            -I/usr/include/eigen3 $(pkg-config --cflags hdf5)
            -DPIEZO_MODULE_DIR_FROM_BIN='"."' -DPIEZO_MODULE_BUILD_DIR='"."')
     libs=($(pkg-config --libs hdf5) -lz -lfmt -ldl) ;;

@@ -11,7 +11,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "h5_file.hpp"
 #include "run_log.hpp"
 #include "run_recovery.hpp"

@@ -2,7 +2,7 @@
 
 #include <fmt/format.h>
 
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 
 namespace piezo::hal::comedi {
 namespace {

@@ -6,7 +6,7 @@
 #include <cstdlib>
 #include <stdexcept>
 
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 
 namespace piezo::hal::comedi {
 namespace {

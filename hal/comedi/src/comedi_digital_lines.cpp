@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <thread>
 
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "piezo/hal/gpio/owned_digital_lines.hpp"
 
 namespace piezo::hal::comedi {

@@ -1,6 +1,6 @@
 #include "piezo/hal/gpiod/gpiod_backends.hpp"
 
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 
 namespace piezo::hal::gpiod {
 namespace {

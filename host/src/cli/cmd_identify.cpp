@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "fit_io.hpp"
 #include "model_config.hpp"
 #include "piezo/model/identify.hpp"

@@ -7,7 +7,7 @@
 #include <cctype>
 #include <variant>
 
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "exit_codes.hpp"
 #include "piezo/firmware/move_request.hpp"
 #include "piezo/firmware/request_limits.hpp"

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "log_schema.hpp"
 #include "piezo/protocol/error.hpp"
 #include "piezo/protocol/frame.hpp"

@@ -14,7 +14,7 @@
 
 #include "columns.hpp"
 #include "commands.hpp"
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "fit_io.hpp"
 #include "gnuplot.hpp"
 #include "h5_file.hpp"

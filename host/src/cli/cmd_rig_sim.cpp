@@ -7,7 +7,7 @@
 #include <thread>
 
 #include "commands.hpp"
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "piezo/hal/modbus/modbus_backends.hpp"
 #include "piezo/hal/sim/modbus_rig_device.hpp"
 #include "piezo/hal/sim/sim_backends.hpp"

@@ -9,7 +9,7 @@
 
 #include "columns.hpp"
 #include "commands.hpp"
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "global_sensitivity_study.hpp"
 #include "gnuplot.hpp"
 #include "model_config.hpp"

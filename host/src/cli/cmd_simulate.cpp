@@ -14,7 +14,7 @@
 
 #include "columns.hpp"
 #include "commands.hpp"
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "h5_file.hpp"
 #include "model_config.hpp"
 #include "parameters_json.hpp"

@@ -10,7 +10,7 @@
 
 #include "columns.hpp"
 #include "commands.hpp"
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "gnuplot.hpp"
 #include "interruption.hpp"
 #include "model_config.hpp"

@@ -13,7 +13,7 @@
 #include "board_client.hpp"
 #include "board_watch.hpp"
 #include "commands.hpp"
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "live_feed.hpp"
 #include "rig_config.hpp"
 #include "signals.hpp"

@@ -8,7 +8,7 @@
 
 #include "board_client.hpp"
 #include "commands.hpp"
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "exit_codes.hpp"
 
 namespace {

@@ -13,7 +13,7 @@
 #include <fstream>
 
 #include "catalogue.hpp"
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "effective_config.hpp"
 #include "exit_codes.hpp"
 #include "live_feed.hpp"

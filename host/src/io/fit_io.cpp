@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "h5_file.hpp"
 #include "log_schema.hpp"
 #include "parameters_json.hpp"

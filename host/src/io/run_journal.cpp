@@ -17,7 +17,7 @@
 #include <utility>
 #include <vector>
 
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 
 namespace piezo::host {
 namespace fs = std::filesystem;

@@ -15,7 +15,7 @@
 #include <utility>
 
 #include "catalogue.hpp"
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "h5_file.hpp"
 #include "log_schema.hpp"
 #include "run_journal.hpp"

@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "columns.hpp"
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "gnuplot.hpp"
 #include "interruption.hpp"
 #include "model_config.hpp"

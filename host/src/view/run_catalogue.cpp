@@ -8,7 +8,7 @@
 #include "decimate.hpp"
 #include "h5_file.hpp"
 #include "log_schema.hpp"
-#include "piezo/read_file.hpp"
+#include "piezo/config/read_file.hpp"
 
 namespace piezo::host::view {
 namespace fs = std::filesystem;

@@ -12,7 +12,7 @@
 
 #include "http_server.hpp"
 #include "live_feed.hpp"
-#include "piezo/read_file.hpp"
+#include "piezo/config/read_file.hpp"
 #include "run_catalogue.hpp"
 #include "web_assets.hpp"
 

@@ -4,7 +4,7 @@
 
 #include "../../support/run_command.hpp"
 #include "build_paths.hpp"
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 #include "piezo/hal/gpiod/gpiod_backends.hpp"
 #include "piezo/hal/modbus/modbus_backends.hpp"
 #include "rig_config.hpp"

@@ -16,7 +16,7 @@
 #include "piezo/hal/digital_lines.hpp"
 #include "piezo/hal/displacement_sensor.hpp"
 #include "piezo/hal/drive.hpp"
-#include "section_reader.hpp"
+#include "piezo/config/section_reader.hpp"
 
 namespace piezo::hal {
 namespace sim {

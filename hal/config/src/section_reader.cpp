@@ -1,11 +1,11 @@
-#include "section_reader.hpp"
+#include "piezo/config/section_reader.hpp"
 
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
 
-#include "config_error.hpp"
+#include "piezo/config/config_error.hpp"
 
 namespace piezo::config {
 
