@@ -82,7 +82,7 @@ def test_a_documented_module_has_examples():
 
 def mypy(*paths, cwd):
     package = os.path.dirname(os.path.dirname(piezo_rig.__file__))
-    config = os.path.join(os.environ["PIEZO_SOURCE_DIR"], "host", "python", "mypy.ini")
+    config = os.path.join(os.environ["PIEZO_SOURCE_DIR"], "host", "python", "pyproject.toml")
     return subprocess.run([sys.executable, "-m", "mypy", "--config-file", config,
                            "--cache-dir", os.path.join(str(cwd), ".mypy_cache"), *paths],
                           capture_output=True, text=True, cwd=cwd,
