@@ -17,7 +17,6 @@
 #include <string>
 #include <vector>
 
-#include "piezo/config/config_error.hpp"
 #include "fit_io.hpp"
 #include "global_sensitivity_study.hpp"
 #include "interruption.hpp"
@@ -26,6 +25,7 @@
 #include "observer_stage.hpp"
 #include "parallel.hpp"
 #include "parameters_json.hpp"
+#include "piezo/config/config_error.hpp"
 #include "piezo/model/frequency_sweep.hpp"
 #include "piezo/model/identify.hpp"
 #include "piezo/model/sensitivity.hpp"
@@ -592,6 +592,24 @@ PYBIND11_MODULE(_model, m) {
       py::arg("ramp_time"), py::arg("alpha"), py::arg("beta"), py::arg("gate_rad"),
       py::arg("latency"));
   m.def("load_run", &load_run, py::arg("path"), py::arg("layout"));
+  // The names the package's checks and docs offer, from the tables the C++
+  // reads them with; and the observer's default gains.
+  py::dict names;
+  const auto listed = [](const auto& values) {
+    py::list out;
+    for (const auto& v : values) out.append(std::string(v));
+    return py::tuple(out);
+  };
+  names["models"] = listed(model::friction_model_names());
+  names["integrators"] = listed(model::integrator_names());
+  std::vector<std::string_view> directions;
+  for (const auto& [value, name] : model::kDirectionNames.entries()) directions.push_back(name);
+  names["directions"] = listed(directions);
+  names["outputs"] = listed(host::kStudyOutputs);
+  m.attr("NAMES") = names;
+  const model::ObserverGains gains;
+  m.attr("OBSERVER_GAINS") = py::dict(py::arg("alpha") = gains.alpha, py::arg("beta") = gains.beta,
+                                      py::arg("gate_rad") = gains.gate_rad);
   m.def("parameter_specs", [] {
     py::list out;
     for (const auto& s : model::parameter_specs()) {

@@ -35,4 +35,16 @@ std::optional<Integrator> parse_integrator(std::string_view text) {
   return kIntegratorNames.parse(text);
 }
 
+std::vector<std::string_view> friction_model_names() {
+  std::vector<std::string_view> out;
+  for (const auto& [value, name] : kFrictionModelNames.entries()) out.push_back(name);
+  return out;
+}
+
+std::vector<std::string_view> integrator_names() {
+  std::vector<std::string_view> out;
+  for (const auto& [value, name] : kIntegratorNames.entries()) out.push_back(name);
+  return out;
+}
+
 }  // namespace piezo::model

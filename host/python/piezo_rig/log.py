@@ -90,8 +90,8 @@ class RunLog:
         return model.observe(
             self.drive["t"], self.drive["V"], self.sensor["t"], self.sensor["theta"],
             self.parameters,
-            alpha=gains.get("alpha", 0.3), beta=gains.get("beta", 0.05),
-            gate_rad=gains.get("gate_rad", 1e-3),
+            # The config's gains, else the observer's defaults (observe's own).
+            **{key: gains[key] for key in ("alpha", "beta", "gate_rad") if key in gains},
             ramp_time=1 / self.config.get("drive", {}).get("rate_hz", 10000.0),
             latency=self.attrs.get("drive_latency_s", 0.0))
 

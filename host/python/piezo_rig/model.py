@@ -192,10 +192,11 @@ def _study_names(function: str, value: Any) -> list[str]:
     return names
 
 
-MODELS = ("lugre", "coulomb")
-DIRECTIONS = ("forward", "reverse")
-INTEGRATORS = ("model_default", "hybrid", "dopri5", "closed_form")
-OUTPUTS = ("velocity", "step", "backslip")
+# The choices as the C++ names them (its name tables), not copied here.
+MODELS: tuple[str, ...] = _model.NAMES["models"]
+DIRECTIONS: tuple[str, ...] = _model.NAMES["directions"]
+INTEGRATORS: tuple[str, ...] = _model.NAMES["integrators"]
+OUTPUTS: tuple[str, ...] = _model.NAMES["outputs"]
 
 
 def parameter_specs() -> list[dict[str, Any]]:
@@ -454,8 +455,10 @@ class Observation:
 
 
 def observe(drive_t: Any, drive_V: Any, t: Any, theta: Any,
-            params: Optional[Parameters] = None, *, alpha: float = 0.3, beta: float = 0.05,
-            gate_rad: float = 1e-3, ramp_time: float = 1e-4,
+            params: Optional[Parameters] = None, *,
+            alpha: float = _model.OBSERVER_GAINS["alpha"],
+            beta: float = _model.OBSERVER_GAINS["beta"],
+            gate_rad: float = _model.OBSERVER_GAINS["gate_rad"], ramp_time: float = 1e-4,
             latency: float = 0.0) -> Observation:
     """Runs ``piezo run``'s LuGre observer (docs/analysis.md) on a recorded
     drive (``drive_t`` [s], ``drive_V`` [V]) and measured angle (``t``,

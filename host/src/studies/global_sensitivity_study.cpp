@@ -1,6 +1,7 @@
 #include "global_sensitivity_study.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cmath>
 #include <filesystem>
@@ -8,12 +9,12 @@
 #include <nlohmann/json.hpp>
 
 #include "columns.hpp"
-#include "piezo/config/config_error.hpp"
 #include "gnuplot.hpp"
 #include "interruption.hpp"
 #include "model_config.hpp"
 #include "mpi_ranks.hpp"
 #include "parallel.hpp"
+#include "piezo/config/config_error.hpp"
 #include "piezo/model/frequency_sweep.hpp"
 #include "piezo/model/global_sensitivity.hpp"
 #include "piezo/model/sensitivity.hpp"
@@ -258,8 +259,9 @@ json global_study(const model::Parameters& base, const GlobalStudyOptions& o) {
   if (!(o.range_pct > 0.0 && o.range_pct < 100.0)) {
     throw config::ConfigError(n.range, fmt::format("{:g}", o.range_pct), "allowed: (0, 100) %");
   }
-  if (o.output != "velocity" && o.output != "step" && o.output != "backslip") {
-    throw config::ConfigError(n.output, o.output, "allowed: velocity, step, backslip");
+  if (std::find(kStudyOutputs.begin(), kStudyOutputs.end(), o.output) == kStudyOutputs.end()) {
+    throw config::ConfigError(n.output, o.output,
+                              fmt::format("allowed: {}", fmt::join(kStudyOutputs, ", ")));
   }
   if (!(o.runtime_s > 0.0 && o.runtime_s <= 3600.0)) {
     throw config::ConfigError(n.runtime, fmt::format("{:g}", o.runtime_s), "allowed: (0, 3600] s");

@@ -3,6 +3,7 @@
 // at once over ±P % of its baseline, the motor simulated on each row of the
 // design (all cores, progress on stderr), the indices with their plots.
 
+#include <array>
 #include <cstdint>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -24,13 +25,16 @@ struct StudyOptionNames {
   std::string bootstrap = "--bootstrap";
 };
 
+/// What a global study measures of each run: its mean velocity, a step, the backslip.
+inline constexpr std::array<std::string_view, 3> kStudyOutputs{"velocity", "step", "backslip"};
+
 struct GlobalStudyOptions {
   std::string method;               ///< "morris" or "sobol"
   std::vector<std::string> params;  ///< empty: every Table 1 parameter
   double range_pct = 10.0;
   std::size_t samples = 0;  ///< Sobol' N (>= 8), or Morris trajectories (>= 2)
   std::uint64_t seed = 1;
-  std::string output = "velocity";  ///< velocity, step or backslip
+  std::string output = "velocity";  ///< one of kStudyOutputs
   double runtime_s = 4.8;
   int bootstrap = 200;
   model::FrictionModel model = model::FrictionModel::lugre;

@@ -31,6 +31,10 @@ enum class Integrator {
 
 [[nodiscard]] std::string_view to_string(Integrator i);
 [[nodiscard]] std::optional<Integrator> parse_integrator(std::string_view text);
+/// Every friction model's and integrator's name, in order (the CLI's and
+/// Python's choices).
+[[nodiscard]] std::vector<std::string_view> friction_model_names();
+[[nodiscard]] std::vector<std::string_view> integrator_names();
 
 /// Accuracy settings of the adaptive integrator.
 struct IntegratorSettings {
