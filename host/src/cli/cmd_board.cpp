@@ -85,7 +85,7 @@ void add_board_commands(CLI::App& app, Commands& commands) {
         ->required();
     cmd->add_option("--server-key", o->rig.server_public_key_file, "CURVE: the board's .pub file");
     cmd->add_option("--client-key", o->rig.client_secret_key_file, "CURVE: this host's .key file");
-    cmd->add_flag("--json", o->json, "Print the reply as JSON");
+    add_json_flag(*cmd, o->json, "Print the reply as JSON");
     commands.add(cmd, [o, name = name] { return call(*o, name); });
   }
 }

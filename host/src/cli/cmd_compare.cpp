@@ -100,8 +100,8 @@ void add_compare_command(CLI::App& app, Commands& commands) {
       ->required()
       ->check(CLI::ExistingFile);
   add_log_layout_options(*cmd, o->layout);
-  cmd->add_option("--out", o->out, "Directory for the overlay plot (paper Fig. 13)");
-  cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
+  add_out_option(*cmd, o->out, "Directory for the overlay plot (paper Fig. 13)");
+  add_json_flag(*cmd, o->json);
   commands.add(cmd, [o] { return run(*o); });
 }
 

@@ -6,9 +6,9 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
-#include "piezo/config/config_error.hpp"
 #include "fit_io.hpp"
 #include "model_config.hpp"
+#include "piezo/config/config_error.hpp"
 #include "piezo/model/identify.hpp"
 #include "rig_config.hpp"
 
@@ -94,15 +94,15 @@ void add_identify_command(CLI::App& app, Commands& commands) {
                   "Parameters to fit, comma-separated (simulate's keys); default: lugre "
                   "sigma0,sigma1,F_N,d_e, coulomb F_N,d_e");
   cmd->add_option("--model", o->model, "Friction model: lugre or coulomb")->capture_default_str();
-  cmd->add_option("--config", o->config, "Start values (TOML [drive]/[model]); default: the log's")
+  add_config_option(*cmd, o->config, "Start values (TOML [drive]/[model]); default: the log's")
       ->check(CLI::ExistingFile);
   cmd->add_option("--max-iterations", o->max_iterations,
                   "Levenberg-Marquardt iterations at most (a fit stopped here says it did not "
                   "converge)")
       ->capture_default_str()
       ->check(CLI::Range(1, 10000));
-  cmd->add_option("--out", o->out, "Write the fitted parameters as TOML");
-  cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
+  add_out_option(*cmd, o->out, "Write the fitted parameters as TOML");
+  add_json_flag(*cmd, o->json);
   commands.add(cmd, [o] { return run(*o); });
 }
 

@@ -7,8 +7,8 @@
 #include <cctype>
 #include <variant>
 
-#include "piezo/config/config_error.hpp"
 #include "exit_codes.hpp"
+#include "piezo/config/config_error.hpp"
 #include "piezo/firmware/move_request.hpp"
 #include "piezo/firmware/request_limits.hpp"
 #include "piezo/overload.hpp"

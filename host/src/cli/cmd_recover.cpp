@@ -14,8 +14,8 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "piezo/config/config_error.hpp"
 #include "log_schema.hpp"
+#include "piezo/config/config_error.hpp"
 #include "piezo/protocol/error.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "rig_config.hpp"
@@ -148,9 +148,9 @@ void add_recover_command(CLI::App& app, Commands& commands) {
                   "A piezod spill file (SPILL.previous after a crash): write its samples as a "
                   "run log in RUN_DIR")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--config", o->config, "With --spill: the rig's config, for the sensor's r2")
+  add_config_option(*cmd, o->config, "With --spill: the rig's config, for the sensor's r2")
       ->check(CLI::ExistingFile);
-  cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
+  add_json_flag(*cmd, o->json);
   commands.add(cmd, [o] { return run(*o); });
 }
 

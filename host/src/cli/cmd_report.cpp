@@ -14,12 +14,12 @@
 
 #include "columns.hpp"
 #include "commands.hpp"
-#include "piezo/config/config_error.hpp"
 #include "fit_io.hpp"
 #include "gnuplot.hpp"
 #include "h5_file.hpp"
 #include "log_schema.hpp"
 #include "parameters_json.hpp"
+#include "piezo/config/config_error.hpp"
 #include "piezo/model/simulate.hpp"
 #include "rig_config.hpp"
 #include "run_recovery.hpp"
@@ -174,10 +174,10 @@ void add_report_command(CLI::App& app, Commands& commands) {
       ->required()
       ->check(CLI::ExistingPath);
   add_log_layout_options(*cmd, o->layout);
-  cmd->add_option("--config", o->config, "Model parameters (TOML); default: the log's, or Table 1")
+  add_config_option(*cmd, o->config, "Model parameters (TOML); default: the log's, or Table 1")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--out", o->out, "Folder for the plots (default RUN_DIR/report)");
-  cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
+  add_out_option(*cmd, o->out, "Folder for the plots (default RUN_DIR/report)");
+  add_json_flag(*cmd, o->json);
   commands.add(cmd, [o] { return run(*o); });
 }
 

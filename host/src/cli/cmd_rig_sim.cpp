@@ -94,8 +94,7 @@ int run(const RigSimOptions& o) {
 void add_rig_sim_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<RigSimOptions>();
   CLI::App* cmd = app.add_subcommand("rig-sim", "Serve the simulated rig as a Modbus device");
-  cmd->add_option("--config", o->config,
-                  "Rig config: [plant], [sensor] map, [drive] ao_*, [rig_sim]")
+  add_config_option(*cmd, o->config, "Rig config: [plant], [sensor] map, [drive] ao_*, [rig_sim]")
       ->required()
       ->check(CLI::ExistingFile);
   cmd->add_option("--set", o->sets, "Override a config key: SECTION.KEY=VALUE");

@@ -9,11 +9,11 @@
 
 #include "columns.hpp"
 #include "commands.hpp"
-#include "piezo/config/config_error.hpp"
 #include "global_sensitivity_study.hpp"
 #include "gnuplot.hpp"
 #include "model_config.hpp"
 #include "oat_study.hpp"
+#include "piezo/config/config_error.hpp"
 #include "piezo/model/sensitivity.hpp"
 #include "rig_config.hpp"
 
@@ -137,12 +137,12 @@ int run(const SensitivityOptions& o) {
 void add_sensitivity_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<SensitivityOptions>();
   CLI::App* cmd = app.add_subcommand("sensitivity", "The paper's section 5 sensitivity study");
-  cmd->add_option("--config", o->config, "TOML config with [drive] and [model] (the baseline)")
+  add_config_option(*cmd, o->config, "TOML config with [drive] and [model] (the baseline)")
       ->check(CLI::ExistingFile);
   cmd->add_option("--set", o->sets, "Override a baseline parameter: KEY=VALUE");
   cmd->add_option("--model", o->model, "Friction model: lugre or coulomb")->capture_default_str();
-  cmd->add_option("--out", o->out, "Directory for CSV tables and PNG plots");
-  cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
+  add_out_option(*cmd, o->out, "Directory for CSV tables and PNG plots");
+  add_json_flag(*cmd, o->json);
   cmd->add_option("--method", o->method,
                   "oat (the paper's study), morris (elementary effects) or sobol (indices)")
       ->capture_default_str();

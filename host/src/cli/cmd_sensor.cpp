@@ -129,17 +129,17 @@ void add_sensor_command(CLI::App& app, Commands& commands) {
   CLI::App* sensor = app.add_subcommand("sensor", "Work with the displacement sensor");
   sensor->require_subcommand(1);
   CLI::App* read = sensor->add_subcommand("read", "Poll the configured sensor and print readings");
-  read->add_option("--config", o->config, "Rig config (TOML) with a [sensor] section")
+  add_config_option(*read, o->config, "Rig config (TOML) with a [sensor] section")
       ->required()
       ->check(CLI::ExistingFile);
   read->add_option("--set", o->sets, "Override a config key: sensor.KEY=VALUE");
   read->add_option("--count", o->count, "Readings to take")->check(CLI::Range(1, 1'000'000));
-  read->add_flag("--json", o->json, "Print one JSON object on stdout");
+  add_json_flag(*read, o->json);
   CLI::App* list_devices = sensor->add_subcommand(
       "list",
       "List what the configured drive and sensor devices offer (a DAQ card's "
       "subdevices, channels and ranges), to check the wiring before driving");
-  list_devices->add_option("--config", o->config, "Rig config (TOML)")
+  add_config_option(*list_devices, o->config, "Rig config (TOML)")
       ->required()
       ->check(CLI::ExistingFile);
   list_devices->add_option("--set", o->sets, "Override a config key: SECTION.KEY=VALUE");

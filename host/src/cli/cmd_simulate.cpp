@@ -14,10 +14,10 @@
 
 #include "columns.hpp"
 #include "commands.hpp"
-#include "piezo/config/config_error.hpp"
 #include "h5_file.hpp"
 #include "model_config.hpp"
 #include "parameters_json.hpp"
+#include "piezo/config/config_error.hpp"
 #include "piezo/model/simulate.hpp"
 #include "progress.hpp"
 #include "rig_config.hpp"
@@ -132,7 +132,7 @@ int run(const SimulateOptions& o) {
 void add_simulate_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<SimulateOptions>();
   CLI::App* cmd = app.add_subcommand("simulate", "Simulate the motor from rest");
-  cmd->add_option("--config", o->config, "TOML config with [drive] and [model]")
+  add_config_option(*cmd, o->config, "TOML config with [drive] and [model]")
       ->check(CLI::ExistingFile);
   cmd->add_option("--set", o->sets, "Override a parameter: KEY=VALUE (paper symbols, SI)");
   cmd->add_option("--model", o->model, "Friction model: lugre or coulomb")->capture_default_str();
@@ -157,8 +157,8 @@ void add_simulate_command(CLI::App& app, Commands& commands) {
                   "(adaptive, both models), closed_form (Coulomb: exact between stick/slip "
                   "switches), or model_default (hybrid for LuGre, closed_form for Coulomb)")
       ->capture_default_str();
-  cmd->add_option("--out", o->out, "Write the trajectory: FILE.csv or FILE.h5");
-  cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
+  add_out_option(*cmd, o->out, "Write the trajectory: FILE.csv or FILE.h5");
+  add_json_flag(*cmd, o->json);
   cmd->add_option("--direction", o->direction,
                   "forward (slow rise, fast fall) or reverse (the mirrored sawtooth)")
       ->capture_default_str();

@@ -10,11 +10,11 @@
 
 #include "columns.hpp"
 #include "commands.hpp"
-#include "piezo/config/config_error.hpp"
 #include "gnuplot.hpp"
 #include "interruption.hpp"
 #include "model_config.hpp"
 #include "parallel.hpp"
+#include "piezo/config/config_error.hpp"
 #include "piezo/model/frequency_sweep.hpp"
 #include "piezo/model/sensitivity.hpp"
 #include "progress.hpp"
@@ -278,7 +278,7 @@ void add_sweep_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<SweepOptions>();
   CLI::App* cmd = app.add_subcommand(
       "sweep", "One parameter over a wide range: velocity, step and backward slip per period");
-  cmd->add_option("--config", o->config, "TOML config with [drive] and [model] (the baseline)")
+  add_config_option(*cmd, o->config, "TOML config with [drive] and [model] (the baseline)")
       ->check(CLI::ExistingFile);
   cmd->add_option("--set", o->sets, "Override a baseline parameter: KEY=VALUE");
   cmd->add_option("--param", o->param, "The swept parameter (a Table 1 symbol, or D)")
@@ -295,8 +295,8 @@ void add_sweep_command(CLI::App& app, Commands& commands) {
   cmd->add_option("--to2", o->to2, "Last value of --param2");
   cmd->add_option("--points2", o->points2, "Number of values of --param2")->capture_default_str();
   cmd->add_flag("--log2", o->log2, "Space --param2's values geometrically");
-  cmd->add_option("--out", o->out, "Directory for sweep.csv and sweep.png (map_*.csv, map.png)");
-  cmd->add_flag("--json", o->json, "Print one JSON object on stdout");
+  add_out_option(*cmd, o->out, "Directory for sweep.csv and sweep.png (map_*.csv, map.png)");
+  add_json_flag(*cmd, o->json);
   commands.add(cmd, [o] { return run(*o); });
 }
 

@@ -13,8 +13,8 @@
 #include "board_client.hpp"
 #include "board_watch.hpp"
 #include "commands.hpp"
-#include "piezo/config/config_error.hpp"
 #include "live_feed.hpp"
+#include "piezo/config/config_error.hpp"
 #include "rig_config.hpp"
 #include "signals.hpp"
 #include "view_server.hpp"
@@ -74,8 +74,8 @@ void add_view_command(CLI::App& app, Commands& commands) {
   cmd->add_option("--listen", o->server.listen, "HOST:PORT to serve on (port 0: any free)")
       ->capture_default_str();
   cmd->add_option("--rig", o->rig, "piezod's address: show its runs live");
-  cmd->add_option("--config", o->config,
-                  "Config for the model and sensor radius (default: Table 1, r2 = 62 mm)");
+  add_config_option(*cmd, o->config,
+                    "Config for the model and sensor radius (default: Table 1, r2 = 62 mm)");
   cmd->add_flag("--control", o->server.control,
                 "With --rig: e-stop and move-to from the page, with the token it prints");
   cmd->add_option("--allow-host", o->server.allowed_hosts,

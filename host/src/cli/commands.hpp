@@ -5,12 +5,31 @@
 
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <string>
 #include <utility>
 #include <vector>
 
 namespace piezo::host {
 
 using CommandRunner = std::function<int()>;
+
+// The options many commands share, registered one way (each returns its
+// option for a command's own checks).
+/// --config FILE: `doc` says what the file gives this command.
+template <class T>
+CLI::Option* add_config_option(CLI::App& cmd, T& config, const std::string& doc) {
+  return cmd.add_option("--config", config, doc);
+}
+/// --out PATH: `doc` says what is written there.
+template <class T>
+CLI::Option* add_out_option(CLI::App& cmd, T& out, const std::string& doc) {
+  return cmd.add_option("--out", out, doc);
+}
+/// --json: the result as one JSON object on stdout.
+inline CLI::Option* add_json_flag(CLI::App& cmd, bool& json,
+                                  const std::string& doc = "Print one JSON object on stdout") {
+  return cmd.add_flag("--json", json, doc);
+}
 
 /// What each subcommand runs, by the subcommand it belongs to.
 class Commands {

@@ -8,8 +8,8 @@
 
 #include "board_client.hpp"
 #include "commands.hpp"
-#include "piezo/config/config_error.hpp"
 #include "exit_codes.hpp"
+#include "piezo/config/config_error.hpp"
 
 namespace {
 using piezo::host::kExitBadInput;

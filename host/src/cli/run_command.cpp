@@ -13,13 +13,14 @@
 #include <fstream>
 
 #include "catalogue.hpp"
-#include "piezo/config/config_error.hpp"
+#include "commands.hpp"
 #include "effective_config.hpp"
 #include "exit_codes.hpp"
 #include "live_feed.hpp"
 #include "local_board.hpp"
 #include "log_schema.hpp"
 #include "parameters_json.hpp"
+#include "piezo/config/config_error.hpp"
 #include "remote_run.hpp"
 #include "rig.hpp"
 #include "run_log.hpp"
@@ -487,11 +488,11 @@ int run(const RunOptions& o, const RunProgram& program) {
 
 void add_run_options(CLI::App& cmd, RunOptions& o, const std::string& config_doc,
                      const std::string& rig_doc, const std::string& json_doc) {
-  cmd.add_option("--config", o.config, config_doc)->check(CLI::ExistingFile);
+  add_config_option(cmd, o.config, config_doc)->check(CLI::ExistingFile);
   cmd.add_option("--set", o.sets, "Override a config key: SECTION.KEY=VALUE");
-  cmd.add_option("--out", o.out, "Run directory (default: runs/<UTC time>)");
+  add_out_option(cmd, o.out, "Run directory (default: runs/<UTC time>)");
   cmd.add_option("--rig", o.rig, rig_doc);
-  cmd.add_flag("--json", o.json, json_doc);
+  add_json_flag(cmd, o.json, json_doc);
   cmd.add_option("--view", o.view_listen,
                  "Serve the live page to a browser on HOST:PORT (default 127.0.0.1:8080)")
       ->expected(0, 1);
