@@ -10,11 +10,12 @@
 #include <sstream>
 #include <variant>
 
-#include "piezo/config/config_error.hpp"
 #include "model_config.hpp"
-#include "piezo/firmware/request_limits.hpp"
-#include "piezo/overload.hpp"
+#include "piezo/config/config_error.hpp"
 #include "piezo/config/section_reader.hpp"
+#include "piezo/firmware/request_limits.hpp"
+#include "piezo/model/analysis_limits.hpp"
+#include "piezo/overload.hpp"
 
 namespace piezo::config {
 namespace {
@@ -127,9 +128,9 @@ void read_rig_sim(SectionReader r, hal::sim::ModbusDeviceFaults& f, hal::sim::Tc
 
 void read_observer(SectionReader r, ObserverSettings& o) {
   r.flag("enabled", o.enabled);
-  r.number("alpha", o.gains.alpha, {0.0, 1.0});
-  r.number("beta", o.gains.beta, {0.0, 1.0});
-  r.number("gate_rad", o.gains.gate_rad, {0.0, 10.0, true}, "rad");
+  r.number("alpha", o.gains.alpha, model::limits::kObserverAlpha);
+  r.number("beta", o.gains.beta, model::limits::kObserverBeta);
+  r.number("gate_rad", o.gains.gate_rad, model::limits::kObserverGate_rad, "rad");
   r.finish();
 }
 

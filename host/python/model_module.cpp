@@ -26,6 +26,7 @@
 #include "parallel.hpp"
 #include "parameters_json.hpp"
 #include "piezo/config/config_error.hpp"
+#include "piezo/model/analysis_limits.hpp"
 #include "piezo/model/frequency_sweep.hpp"
 #include "piezo/model/identify.hpp"
 #include "piezo/model/sensitivity.hpp"
@@ -180,9 +181,8 @@ py::dict simulate(model::Parameters p, double duration, const std::string& frict
   if (!(dt > 0.0 && dt <= duration)) {
     throw ConfigError("simulate", "dt", fmt::format("{:g} s (allowed: (0, duration])", dt));
   }
-  if (!(tolerance >= 1e-14 && tolerance <= 1e-2)) {
-    throw ConfigError("simulate", "tolerance",
-                      fmt::format("{:g} (allowed: [1e-14, 1e-2])", tolerance));
+  if (const auto why = model::limits::refused(tolerance, model::limits::kSimulateTolerance)) {
+    throw ConfigError("simulate", "tolerance", *why);
   }
   // The trajectory's eight columns for every sample, before any is made:
   // more than the machine's memory is refused naming dt and the size.
@@ -266,8 +266,8 @@ py::dict sweep(const model::Parameters& base, const std::string& name,
     throw ConfigError("sweep", "name",
                       name + ": unknown (allowed: a Table 1 symbol (V0, f, mu, ...) or D)");
   }
-  if (periods < 3 || periods > 100000) {
-    throw ConfigError("sweep", "periods", std::to_string(periods) + " (allowed: [3, 100000])");
+  if (const auto why = model::limits::refused(periods, model::limits::kSweepPeriods)) {
+    throw ConfigError("sweep", "periods", *why);
   }
   for (double v : values) {
     piezo::config::require_valid(model::with_level(base, name, v),
@@ -326,9 +326,8 @@ py::dict identify(const model::Parameters& start, const model::FitData& data,
                   const std::optional<std::vector<std::string>>& free,
                   const std::string& friction_name, int max_iterations) {
   const auto friction = host::checked_friction_model(friction_name, "model");
-  if (max_iterations < 1 || max_iterations > 10000) {
-    throw ConfigError("identify", "max_iterations",
-                      std::to_string(max_iterations) + " (allowed: [1, 10000])");
+  if (const auto why = model::limits::refused(max_iterations, model::limits::kFitIterations)) {
+    throw ConfigError("identify", "max_iterations", *why);
   }
   piezo::config::require_valid(start, "identify: params");
   const auto names = host::checked_free_parameters(free, friction, "identify", "free");
@@ -354,22 +353,16 @@ py::dict observe(const model::Parameters& p, const model::FitData& data,
                  const model::ObserverGains& gains, double latency) {
   piezo::config::require_valid(p, "observe: params");
   // The ranges of the config's [observer] keys (docs/configuration.md).
-  if (!(gains.alpha >= 0.0 && gains.alpha <= 1.0)) {
-    throw ConfigError("observe", "alpha", fmt::format("{:g} (allowed: [0, 1])", gains.alpha));
-  }
-  if (!(gains.beta >= 0.0 && gains.beta <= 1.0)) {
-    throw ConfigError("observe", "beta", fmt::format("{:g} (allowed: [0, 1])", gains.beta));
-  }
-  if (!(gains.gate_rad > 0.0 && gains.gate_rad <= 10.0)) {
-    throw ConfigError("observe", "gate_rad",
-                      fmt::format("{:g} (allowed: (0, 10] rad)", gains.gate_rad));
-  }
-  if (!(latency >= 0.0 && latency <= 1.0)) {
-    throw ConfigError("observe", "latency", fmt::format("{:g} s (allowed: [0, 1] s)", latency));
-  }
-  if (!(data.ramp_time > 0.0 && data.ramp_time <= 1.0)) {
-    throw ConfigError("observe", "ramp_time",
-                      fmt::format("{:g} s (allowed: (0, 1] s)", data.ramp_time));
+  namespace limits = model::limits;
+  for (const auto& [key, value, allowed, unit] :
+       {std::tuple{"alpha", gains.alpha, limits::kObserverAlpha, ""},
+        std::tuple{"beta", gains.beta, limits::kObserverBeta, ""},
+        std::tuple{"gate_rad", gains.gate_rad, limits::kObserverGate_rad, "rad"},
+        std::tuple{"latency", latency, limits::kObserverLatency_s, "s"},
+        std::tuple{"ramp_time", data.ramp_time, limits::kObserverRampTime_s, "s"}}) {
+    if (const auto why = limits::refused(value, allowed, unit)) {
+      throw ConfigError("observe", key, *why);
+    }
   }
   host::log_schema::ObserverRows rows;
   host::ObserverSummary summary;

@@ -9,6 +9,7 @@
 #include "fit_io.hpp"
 #include "model_config.hpp"
 #include "piezo/config/config_error.hpp"
+#include "piezo/model/analysis_limits.hpp"
 #include "piezo/model/identify.hpp"
 #include "rig_config.hpp"
 
@@ -100,7 +101,8 @@ void add_identify_command(CLI::App& app, Commands& commands) {
                   "Levenberg-Marquardt iterations at most (a fit stopped here says it did not "
                   "converge)")
       ->capture_default_str()
-      ->check(CLI::Range(1, 10000));
+      ->check(CLI::Range(static_cast<int>(model::limits::kFitIterations.min),
+                         static_cast<int>(model::limits::kFitIterations.max)));
   add_out_option(*cmd, o->out, "Write the fitted parameters as TOML");
   add_json_flag(*cmd, o->json);
   commands.add(cmd, [o] { return run(*o); });

@@ -18,6 +18,7 @@
 #include "model_config.hpp"
 #include "parameters_json.hpp"
 #include "piezo/config/config_error.hpp"
+#include "piezo/model/analysis_limits.hpp"
 #include "piezo/model/simulate.hpp"
 #include "progress.hpp"
 #include "rig_config.hpp"
@@ -150,7 +151,8 @@ void add_simulate_command(CLI::App& app, Commands& commands) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   cmd->add_option("--tolerance", o->tolerance, "Integrator tolerance (scaled state)")
-      ->check(CLI::Range(1e-14, 1e-2))
+      ->check(
+          CLI::Range(model::limits::kSimulateTolerance.min, model::limits::kSimulateTolerance.max))
       ->capture_default_str();
   cmd->add_option("--integrator", o->integrator,
                   "hybrid (LuGre: series, linear and stiff modes by event), dopri5 "

@@ -15,6 +15,7 @@
 #include "model_config.hpp"
 #include "parallel.hpp"
 #include "piezo/config/config_error.hpp"
+#include "piezo/model/analysis_limits.hpp"
 #include "piezo/model/frequency_sweep.hpp"
 #include "piezo/model/sensitivity.hpp"
 #include "progress.hpp"
@@ -114,8 +115,9 @@ int run_map(const SweepOptions& o, const model::Parameters& base,
     throw config::ConfigError("--param2", o.param2,
                               "allowed: a Table 1 symbol (V0, f, mu, ...) or D");
   }
-  if (o.points2 < 1 || o.points2 > 1000) {
-    throw config::ConfigError("--points2", std::to_string(o.points2), "allowed: [1, 1000]");
+  if (!model::limits::kSweepMapPoints.admits(o.points2)) {
+    throw config::ConfigError("--points2", std::to_string(o.points2),
+                              "allowed: " + model::limits::kSweepMapPoints.text());
   }
   if (o.log2 && !(o.from2 > 0.0 && o.to2 > 0.0)) {
     throw config::ConfigError("--from2", fmt::format("{:g}", o.from2),
@@ -201,11 +203,13 @@ int run(const SweepOptions& o) {
     throw config::ConfigError("--param", o.param,
                               "allowed: a Table 1 symbol (V0, f, mu, ...) or D");
   }
-  if (o.points < 1 || o.points > 10'000) {
-    throw config::ConfigError("--points", std::to_string(o.points), "allowed: [1, 10000]");
+  if (!model::limits::kSweepPoints.admits(o.points)) {
+    throw config::ConfigError("--points", std::to_string(o.points),
+                              "allowed: " + model::limits::kSweepPoints.text());
   }
-  if (o.periods < 3 || o.periods > 100'000) {
-    throw config::ConfigError("--periods", std::to_string(o.periods), "allowed: [3, 100000]");
+  if (!model::limits::kSweepPeriods.admits(o.periods)) {
+    throw config::ConfigError("--periods", std::to_string(o.periods),
+                              "allowed: " + model::limits::kSweepPeriods.text());
   }
   if (o.log && !(o.from > 0.0 && o.to > 0.0)) {
     throw config::ConfigError("--from", fmt::format("{:g}", o.from),
