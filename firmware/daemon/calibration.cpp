@@ -14,8 +14,8 @@
 #include <stdexcept>
 #include <vector>
 
-#include "piezo/protocol/error.hpp"
 #include "piezo/config/read_file.hpp"
+#include "piezo/protocol/error.hpp"
 
 namespace piezo::daemon {
 namespace {

@@ -6,8 +6,8 @@
 #include <zmq_addon.hpp>
 
 #include "calibration.hpp"
-#include "piezo/config/config_error.hpp"
 #include "daemon_run.hpp"
+#include "piezo/config/config_error.hpp"
 #include "piezo/protocol/endpoints.hpp"
 #include "piezo/protocol/message.hpp"
 

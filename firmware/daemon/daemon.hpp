@@ -23,8 +23,8 @@
 #include <string>
 #include <zmq.hpp>
 
+#include "client_authentication.hpp"
 #include "command_table.hpp"
-#include "curve.hpp"
 #include "piezo/firmware/angle_zero.hpp"
 #include "piezo/firmware/calibration_program.hpp"
 #include "piezo/firmware/move_controller.hpp"

@@ -7,10 +7,10 @@
 #include <csignal>
 #include <iostream>
 
-#include "piezo/config/config_error.hpp"
-#include "curve.hpp"
+#include "client_authentication.hpp"
 #include "daemon.hpp"
 #include "device_inventory.hpp"
+#include "piezo/config/config_error.hpp"
 #include "rig_config.hpp"
 #include "service_manager.hpp"
 

@@ -44,7 +44,7 @@ void BoardWatch::follow_run(std::uint64_t run) {
         std::make_unique<ObserverStage>(config_.host.model.motor, config_.host.observer.gains,
                                         1.0 / hello_.drive_rate_hz, hello_.output_latency_s);
   }
-  collector_ = std::make_unique<SampleCollector>(t0, config_.board.sensor.r2_m, observer_.get());
+  collector_ = std::make_unique<SampleCollector>(t0, hello_.sensor.r2_m, observer_.get());
   follower_.follow(
       *collector_, [] { return std::numeric_limits<double>::quiet_NaN(); }, false);
 }

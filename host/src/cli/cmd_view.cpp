@@ -46,7 +46,7 @@ int serve(const ViewCliOptions& o) {
   config.host.rig.address = o.rig;
   BoardClient client(config.host.rig);
   const protocol::Hello hello = client.hello();
-  if (const std::string note = adopt_board_sensor(config, hello); !note.empty()) {
+  if (const std::string note = sensor_geometry_note(config, hello); !note.empty()) {
     std::cerr << "piezo view: " << note << "\n";
   }
   view::LiveFeed feed(20.0, 0.3);

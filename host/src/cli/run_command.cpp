@@ -12,6 +12,7 @@
 #include <ctime>
 #include <fstream>
 
+#include "board_run.hpp"
 #include "catalogue.hpp"
 #include "commands.hpp"
 #include "effective_config.hpp"
@@ -21,7 +22,6 @@
 #include "log_schema.hpp"
 #include "parameters_json.hpp"
 #include "piezo/config/config_error.hpp"
-#include "remote_run.hpp"
 #include "rig.hpp"
 #include "run_log.hpp"
 #include "signals.hpp"
@@ -317,7 +317,7 @@ struct Board {
   std::string geometry_note;            ///< the board's sensor radius differed from the config's
 };
 
-void connect(Board& board, config::RigConfig& config) {
+void connect(Board& board, const config::RigConfig& config) {
   if (config.host.rig.address.empty()) {
     board.local = std::make_unique<LocalBoard>(config, config::build_rig(config.board));
     board.client.emplace(config::BoardAddress{board.local->address(), "", ""},
@@ -326,7 +326,7 @@ void connect(Board& board, config::RigConfig& config) {
     board.client.emplace(config.host.rig);
   }
   board.hello = board.client->hello();
-  if (const std::string note = adopt_board_sensor(config, board.hello); !note.empty()) {
+  if (const std::string note = sensor_geometry_note(config, board.hello); !note.empty()) {
     write_out(stderr, "piezo: " + note + "\n");
     board.geometry_note = note;
   }
@@ -385,7 +385,7 @@ RunLog create_log(const fs::path& dir, const config::RigConfig& config, const Bo
        {log_schema::kTheta,
         fmt::format("(displacement - first good displacement) / sensor.r2_m, "
                     "r2_m = {:.9g} m{}",
-                    config.board.sensor.r2_m, remote ? " (the board's, from its hello)" : "")}});
+                    board.hello.sensor.r2_m, remote ? " (the board's, from its hello)" : "")}});
   if (!board.geometry_note.empty())
     log.set_attribute(log_schema::kSensorGeometryNote, board.geometry_note);
   return log;
@@ -423,8 +423,8 @@ RunSummary drive(Board& board, const config::RigConfig& config, RunLog& log,
     // fails leaves the view going to the run's end.
     std::function<void(const log_schema::LogRows&)> to_view;
     if (live != nullptr) to_view = [live](const log_schema::LogRows& rows) { live->add(rows); };
-    RunSummary summary = execute_remote_run(config, *board.client, board.hello, log, signals.flag(),
-                                            status_line, *board.request, &estop_requested, to_view);
+    RunSummary summary = run_on_board(config, *board.client, board.hello, log, signals.flag(),
+                                      status_line, *board.request, &estop_requested, to_view);
     if (board.local && !log.broken()) {
       log.set_attribute(log_schema::kBoardEvents, board.local->events());
     }

@@ -5,7 +5,7 @@
 #include <cerrno>
 #include <zmq_addon.hpp>
 
-#include "curve.hpp"
+#include "client_authentication.hpp"
 #include "piezo/protocol/endpoints.hpp"
 #include "piezo/protocol/message.hpp"
 
@@ -110,18 +110,13 @@ protocol::Hello BoardClient::hello() {
   return protocol::decode<protocol::Hello>(hello);
 }
 
-std::string adopt_board_sensor(config::RigConfig& c, const protocol::Hello& hello) {
+std::string sensor_geometry_note(const config::RigConfig& c, const protocol::Hello& hello) {
   const double board_r2 = hello.sensor.r2_m;
-  if (!(board_r2 > 0.0)) return {};
-  std::string note;
-  if (board_r2 != c.board.sensor.r2_m) {
-    note = fmt::format(
-        "the board's sensor.r2_m is {:g} m, the host's config says {:g} m: angles use the "
-        "board's (its sensor measured them)",
-        board_r2, c.board.sensor.r2_m);
-  }
-  c.board.sensor.r2_m = board_r2;
-  return note;
+  if (board_r2 == c.board.sensor.r2_m) return {};
+  return fmt::format(
+      "the board's sensor.r2_m is {:g} m, the host's config says {:g} m: angles use the "
+      "board's (its sensor measured them)",
+      board_r2, c.board.sensor.r2_m);
 }
 
 }  // namespace piezo::host

@@ -67,10 +67,10 @@ class BoardClient {
   std::uint64_t next_id_ = 1;
 };
 
-/// Takes the board's sensor geometry from its `hello` (`sensor.r2_m`) into
-/// `c`: the board's sensor measured the samples, so its radius turns them
-/// into angles. Returns a note when the host's config said otherwise
-/// (empty when they agree or the board does not say).
-[[nodiscard]] std::string adopt_board_sensor(config::RigConfig& c, const protocol::Hello& hello);
+/// The board's sensor measured the samples, so its radius (`hello`'s
+/// `sensor.r2_m`) turns them into angles, whatever the host's config says:
+/// a note when the host's config says another radius (empty when they agree).
+[[nodiscard]] std::string sensor_geometry_note(const config::RigConfig& c,
+                                               const protocol::Hello& hello);
 
 }  // namespace piezo::host

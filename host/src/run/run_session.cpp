@@ -1,9 +1,9 @@
 #include "run_session.hpp"
 
 #include "board_client.hpp"
+#include "board_run.hpp"
 #include "local_board.hpp"
 #include "log_schema.hpp"
-#include "remote_run.hpp"
 
 namespace piezo::host {
 
@@ -56,7 +56,7 @@ RunSummary execute_run(const config::RigConfig& c, config::Rig rig, RunLog& log,
     const protocol::Hello hello = client.hello();
     const BoardRequest request = board_request(c);
     prepare_request(request, client);
-    summary = execute_remote_run(c, client, hello, log, stop, on_status, request, estop, on_rows);
+    summary = run_on_board(c, client, hello, log, stop, on_status, request, estop, on_rows);
   }
   board.stop();
   try {

@@ -1,7 +1,7 @@
 #pragma once
 // One run on a built rig, the one-machine default: an in-process piezod
 // serves the rig and the run goes through the protocol as a remote run
-// does (execute_remote_run: the stream followed into the log, the live
+// does (run_on_board: the stream followed into the log, the live
 // status, the summary at the end).
 
 #include <atomic>
@@ -56,10 +56,10 @@ struct LiveStatus {
 };
 
 /// The one-machine default: serves `rig` by an in-process piezod and runs
-/// through the protocol as a remote run does (execute_remote_run), until
+/// through the protocol as a remote run does (run_on_board), until
 /// the duration elapses, `stop` is set, the supervisor trips or the log
 /// fails (then host_error says why; the drive stops as on `stop`).
-/// `on_rows` sees the rows as execute_remote_run gives them.
+/// `on_rows` sees the rows as run_on_board gives them.
 [[nodiscard]] RunSummary execute_run(
     const config::RigConfig& config, config::Rig rig, RunLog& log, const std::atomic<bool>& stop,
     const std::function<void(const LiveStatus&)>& on_status,

@@ -100,7 +100,8 @@ void StreamFollower::fetch(protocol::Stream stream, std::uint64_t end) {
       next = end;
       return;
     }
-    const auto& bytes = protocol::decode<protocol::FetchReply>(r).frame.get_binary();
+    const auto reply = protocol::decode<protocol::FetchReply>(r);
+    const auto& bytes = reply.frame.get_binary();
     const std::string frame(bytes.begin(), bytes.end());
     const auto header = protocol::decode_header(frame);
     if (header.count == 0) break;

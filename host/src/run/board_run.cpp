@@ -1,4 +1,4 @@
-#include "remote_run.hpp"
+#include "board_run.hpp"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -95,7 +95,7 @@ class FollowedRun {
         clock_(clock),
         virtual_clock_(hello.clock == "virtual"),
         observer_(observer),
-        collector_(t0_, c.board.sensor.r2_m, observer, zero_of(started)),
+        collector_(t0_, hello.sensor.r2_m, observer, zero_of(started)),
         follower_(client,
                   [board = &client](const std::string& cmd, const json& args) {
                     return board->call(cmd, args, 5s);
@@ -353,12 +353,11 @@ RunSummary FollowedRun::finish(const std::optional<protocol::RunSummary>& end) {
 
 }  // namespace
 
-RunSummary execute_remote_run(const config::RigConfig& c, BoardClient& client,
-                              const protocol::Hello& hello, RunLog& log,
-                              const std::atomic<bool>& stop,
-                              const std::function<void(const LiveStatus&)>& on_status,
-                              const BoardRequest& request, const std::atomic<bool>* estop,
-                              const std::function<void(const log_schema::LogRows&)>& on_rows) {
+RunSummary run_on_board(const config::RigConfig& c, BoardClient& client,
+                        const protocol::Hello& hello, RunLog& log, const std::atomic<bool>& stop,
+                        const std::function<void(const LiveStatus&)>& on_status,
+                        const BoardRequest& request, const std::atomic<bool>* estop,
+                        const std::function<void(const log_schema::LogRows&)>& on_rows) {
   if (stop.load()) {
     // Stopped during set-up: the drive is never started.
     RunSummary summary;

@@ -1,4 +1,4 @@
-#include "curve.hpp"
+#include "client_authentication.hpp"
 
 #include <fcntl.h>
 #include <fmt/format.h>

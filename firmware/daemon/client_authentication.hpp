@@ -1,5 +1,5 @@
 #pragma once
-// ZeroMQ CURVE for piezod on a network address: key pairs (`piezod
+// Who may talk to piezod on a network address (ZeroMQ CURVE): key pairs (`piezod
 // keygen`), key files, and the ZAP handler that admits only the clients
 // whose public keys are in the authorized-keys file and logs every refusal.
 

@@ -1,8 +1,8 @@
 #pragma once
-// One run on a rig served by piezod: its request started with a lease, renew
-// it, receive the stream, fetch whatever the stream lost from the board's
-// recorder, run the observer and write the log -- the same summary as an
-// in-process run.
+// One run on a board served by piezod, at an address or in this process
+// (the same path): its request started under a lease, the lease renewed,
+// the stream received, whatever it lost fetched from the board's recorder,
+// the observer run and the log written.
 
 #include <atomic>
 #include <functional>
@@ -29,7 +29,7 @@ struct ClockMapping {
 /// `hello` is the daemon's hello. `on_rows` sees every flush interval's
 /// rows as the collector made them, whether or not the log takes them (the
 /// live view goes on when the log fails).
-[[nodiscard]] RunSummary execute_remote_run(
+[[nodiscard]] RunSummary run_on_board(
     const config::RigConfig& config, BoardClient& client, const protocol::Hello& hello, RunLog& log,
     const std::atomic<bool>& stop, const std::function<void(const LiveStatus&)>& on_status,
     const BoardRequest& request, const std::atomic<bool>* estop = nullptr,
