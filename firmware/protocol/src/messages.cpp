@@ -14,30 +14,19 @@
 // (wire_fields.hpp), so each key is written here once.
 namespace piezo::protocol::wire {
 
-template <>
-struct Names<BoardState> {
-  static constexpr const auto& table = kBoardStateNames;
-};
-template <>
-struct Names<firmware::StopCause> {
-  static constexpr const auto& table = firmware::kStopCauseNames;
-};
-template <>
-struct Names<firmware::OutputState> {
-  static constexpr const auto& table = firmware::kOutputStateNames;
-};
-template <>
-struct Names<firmware::MoveState> {
-  static constexpr const auto& table = firmware::kMoveStateNames;
-};
-template <>
-struct Names<firmware::MoveEnd> {
-  static constexpr const auto& table = firmware::kMoveEndNames;
-};
-template <>
-struct Names<model::Direction> {
-  static constexpr const auto& table = model::kDirectionNames;
-};
+// The enums the wire carries by name: their name tables.
+#define PIEZO_WIRE_NAMES(Enum, table_)           \
+  template <>                                    \
+  struct Names<Enum> {                           \
+    static constexpr const auto& table = table_; \
+  };
+PIEZO_WIRE_NAMES(BoardState, kBoardStateNames)
+PIEZO_WIRE_NAMES(firmware::StopCause, firmware::kStopCauseNames)
+PIEZO_WIRE_NAMES(firmware::OutputState, firmware::kOutputStateNames)
+PIEZO_WIRE_NAMES(firmware::MoveState, firmware::kMoveStateNames)
+PIEZO_WIRE_NAMES(firmware::MoveEnd, firmware::kMoveEndNames)
+PIEZO_WIRE_NAMES(model::Direction, model::kDirectionNames)
+#undef PIEZO_WIRE_NAMES
 
 template <>
 struct Fields<CalibrationRecord::RestReadings> {
@@ -378,114 +367,33 @@ json drive_json(const model::DriveParameters& d) {
 
 }  // namespace
 
-void to_json(json& j, const CalibrationRecord& m) {
-  j = wire::encode(m);
-}
-void from_json(const json& j, CalibrationRecord& m) {
-  wire::decode_into(j, m);
-}
-void to_json(json& j, const StateReply& m) {
-  j = wire::encode(m);
-}
-void from_json(const json& j, StateReply& m) {
-  wire::decode_into(j, m);
-}
-void to_json(json& j, const LeaseReply& m) {
-  j = wire::encode(m);
-}
-void from_json(const json& j, LeaseReply& m) {
-  wire::decode_into(j, m);
-}
-void to_json(json& j, const ZeroReply& m) {
-  j = wire::encode(m);
-}
-void from_json(const json& j, ZeroReply& m) {
-  wire::decode_into(j, m);
-}
-void to_json(json& j, const ConfigureReply& m) {
-  j = wire::encode(m);
-}
-void from_json(const json& j, ConfigureReply& m) {
-  wire::decode_into(j, m);
-}
-void to_json(json& j, const FetchReply& m) {
-  j = wire::encode(m);
-}
-void from_json(const json& j, FetchReply& m) {
-  wire::decode_into(j, m);
-}
-void to_json(json& j, const SetCalibrationReply& m) {
-  j = wire::encode(m);
-}
-void from_json(const json& j, SetCalibrationReply& m) {
-  wire::decode_into(j, m);
-}
-void to_json(json& j, const Hello& m) {
-  j = wire::encode(m);
-}
-void from_json(const json& j, Hello& m) {
-  wire::decode_into(j, m);
-}
-void to_json(json& j, const LoopHealth& m) {
-  j = wire::encode(m);
-}
-void from_json(const json& j, LoopHealth& m) {
-  wire::decode_into(j, m);
-}
-void to_json(json& j, const ClockReply& m) {
-  j = wire::encode(m);
-}
-void from_json(const json& j, ClockReply& m) {
-  wire::decode_into(j, m);
-}
-void to_json(json& j, const OutputEnd& m) {
-  j = wire::encode(m);
-}
-void from_json(const json& j, OutputEnd& m) {
-  wire::decode_into(j, m);
-}
-void to_json(json& j, const MoveAccount& m) {
-  j = wire::encode(m);
-}
-void from_json(const json& j, MoveAccount& m) {
-  wire::decode_into(j, m);
-}
-void to_json(json& j, const RunSummary& m) {
-  j = wire::encode(m);
-}
-void from_json(const json& j, RunSummary& m) {
-  wire::decode_into(j, m);
-}
-void to_json(json& j, const StartReply& m) {
-  j = wire::encode(m);
-}
-void from_json(const json& j, StartReply& m) {
-  wire::decode_into(j, m);
-}
-void to_json(json& j, const StateEvent& m) {
-  j = wire::encode(m);
-}
-void from_json(const json& j, StateEvent& m) {
-  wire::decode_into(j, m);
-}
-void to_json(json& j, const HealthEvent& m) {
-  j = wire::encode(m);
-}
-void from_json(const json& j, HealthEvent& m) {
-  wire::decode_into(j, m);
-}
-void to_json(json& j, const RunStatus& m) {
-  j = wire::encode(m);
-}
-void from_json(const json& j, RunStatus& m) {
-  wire::decode_into(j, m);
-}
-void to_json(json& j, const Status& m) {
-  j = wire::encode(m);
-}
-void from_json(const json& j, Status& m) {
-  wire::decode_into(j, m);
-}
+// Each reply's and event's codec: its field list's encoder and decoder.
+#define PIEZO_FIELD_LIST_CODEC(T)       \
+  void to_json(json& j, const T& m) {   \
+    j = wire::encode(m);                \
+  }                                     \
+  void from_json(const json& j, T& m) { \
+    wire::decode_into(j, m);            \
+  }
+PIEZO_FIELD_LIST_CODEC(CalibrationRecord)
+PIEZO_FIELD_LIST_CODEC(StateReply)
+PIEZO_FIELD_LIST_CODEC(LeaseReply)
+PIEZO_FIELD_LIST_CODEC(ZeroReply)
+PIEZO_FIELD_LIST_CODEC(ConfigureReply)
+PIEZO_FIELD_LIST_CODEC(FetchReply)
+PIEZO_FIELD_LIST_CODEC(SetCalibrationReply)
+PIEZO_FIELD_LIST_CODEC(Hello)
+PIEZO_FIELD_LIST_CODEC(LoopHealth)
+PIEZO_FIELD_LIST_CODEC(ClockReply)
+PIEZO_FIELD_LIST_CODEC(OutputEnd)
+PIEZO_FIELD_LIST_CODEC(MoveAccount)
+PIEZO_FIELD_LIST_CODEC(RunSummary)
+PIEZO_FIELD_LIST_CODEC(StartReply)
+PIEZO_FIELD_LIST_CODEC(StateEvent)
+PIEZO_FIELD_LIST_CODEC(HealthEvent)
+PIEZO_FIELD_LIST_CODEC(RunStatus)
+PIEZO_FIELD_LIST_CODEC(Status)
+#undef PIEZO_FIELD_LIST_CODEC
 
 void to_json(json& j, const ConfigureRequest& m) {
   j = drive_json(m.drive);
