@@ -59,7 +59,7 @@ case "$target" in
     # HDF5 linked in (hdf5_store.cpp): the module loader is never reached.
     sources=("$src"/host/src/io/{fit_io,h5_file,hdf5_store,module_loader,run_journal,run_recovery,catalogue,parameters_json}.cpp
              "$src"/model/src/{parameters,waveform,simulate_names}.cpp)
-    flags=(-I"$src/host/src/io" -I"$src/firmware/config" -I"$src/hal/config/include" -I"$src/model/include"
+    flags=(-I"$src/host/src/io" -I"$src/host/src/jobs" -I"$src/firmware/config" -I"$src/hal/config/include" -I"$src/model/include"
            -I"$src/model/include"
            -I/usr/include/eigen3 $(pkg-config --cflags hdf5)
            -DPIEZO_MODULE_DIR_FROM_BIN='"."' -DPIEZO_MODULE_BUILD_DIR='"."')
