@@ -234,17 +234,20 @@ CommandTable Daemon::command_table() {
        C::anyone,
        {},
        [this](Who, Args) { return json(protocol::ClockReply{rig_.clock->now()}); }},
-      {"configure", C::controller, protocol::specs_of<protocol::ConfigureRequest>(),
+      {protocol::ConfigureRequest::kCommand, C::controller,
+       protocol::specs_of<protocol::ConfigureRequest>(),
        [this](Who, Args a) { return configure(a); }},
-      {"start", C::controller, protocol::specs_of<protocol::StartRequest>(),
+      {protocol::StartRequest::kCommand, C::controller,
+       protocol::specs_of<protocol::StartRequest>(),
        [this](Who c, Args a) {
          return start(c, protocol::decode<protocol::StartRequest>(a).lease_s);
        }},
-      {"step", C::controller, protocol::specs_of<protocol::StepRequest>(),
+      {protocol::StepRequest::kCommand, C::controller, protocol::specs_of<protocol::StepRequest>(),
        [this](Who c, Args a) { return step(c, a); }},
-      {"move_to", C::controller, protocol::move_to_specs(),
+      {protocol::MoveToRequest::kCommand, C::controller, protocol::move_to_specs(),
        [this](Who c, Args a) { return move_to(c, a); }},
-      {"calibrate", C::controller, protocol::specs_of<protocol::CalibrateRequest>(),
+      {protocol::CalibrateRequest::kCommand, C::controller,
+       protocol::specs_of<protocol::CalibrateRequest>(),
        [this](Who c, Args a) { return calibrate(c, a); }},
       {"set_calibration",
        C::controller,
@@ -265,9 +268,10 @@ CommandTable Daemon::command_table() {
       {"estop", C::anyone, {}, [this](Who c, Args) { return estop(c); }},
       // Refused to everyone during a run; between runs nobody controls the rig.
       {"reset_fault", C::anyone, {}, [this](Who, Args) { return reset_fault(); }},
-      {"lease", C::controller, protocol::specs_of<protocol::LeaseRequest>(),
+      {protocol::LeaseRequest::kCommand, C::controller,
+       protocol::specs_of<protocol::LeaseRequest>(),
        [this](Who, Args a) { return renew_lease(a); }},
-      {"fetch", C::anyone, protocol::specs_of<protocol::FetchRequest>(),
+      {protocol::FetchRequest::kCommand, C::anyone, protocol::specs_of<protocol::FetchRequest>(),
        [this](Who c, Args a) {
          return samples_.fetch(c, a, running() && !run_state_.is_controller(c));
        }},

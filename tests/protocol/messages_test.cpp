@@ -195,12 +195,12 @@ std::set<std::string> declared(const std::array<firmware::Argument, N>& args) {
 // The names the board's command table admits are the ones the codec writes
 // and reads: a request declares them once.
 TEST(Messages, EachRequestEncodesExactlyTheArgumentsItDeclares) {
-  EXPECT_EQ(encoded_keys(ConfigureRequest{}), declared(ConfigureRequest::kArgs));
-  EXPECT_EQ(encoded_keys(StartRequest{1.0}), declared(StartRequest::kArgs));
-  EXPECT_EQ(encoded_keys(StepRequest{1, {}, 1.0}), declared(StepRequest::kArgs));
-  EXPECT_EQ(encoded_keys(CalibrateRequest{30.0, 1.0}), declared(CalibrateRequest::kArgs));
-  EXPECT_EQ(encoded_keys(LeaseRequest{1}), declared(LeaseRequest::kArgs));
-  EXPECT_EQ(encoded_keys(FetchRequest{}), declared(FetchRequest::kArgs));
+  EXPECT_EQ(encoded_keys(ConfigureRequest{}), declared(arguments_of<ConfigureRequest>()));
+  EXPECT_EQ(encoded_keys(StartRequest{1.0}), declared(arguments_of<StartRequest>()));
+  EXPECT_EQ(encoded_keys(StepRequest{1, {}, 1.0}), declared(arguments_of<StepRequest>()));
+  EXPECT_EQ(encoded_keys(CalibrateRequest{30.0, 1.0}), declared(arguments_of<CalibrateRequest>()));
+  EXPECT_EQ(encoded_keys(LeaseRequest{1}), declared(arguments_of<LeaseRequest>()));
+  EXPECT_EQ(encoded_keys(FetchRequest{}), declared(arguments_of<FetchRequest>()));
   std::set<std::string> move = declared(MoveToRequest::kWaveformArgs);
   for (const auto& field : firmware::kMoveFields) move.emplace(field.name);
   EXPECT_EQ(encoded_keys(MoveToRequest{{}, 1.0, 1.0, 1.0, 1.0, 1.0}), move);

@@ -322,12 +322,6 @@ std::optional<double> optional_number_arg(const json& args, std::string_view nam
   if (it == args.end() || it->is_null()) return std::nullopt;
   return number_arg(args, key);
 }
-std::optional<std::uint64_t> optional_uint_arg(const json& args, std::string_view name) {
-  const std::string key(name);
-  const auto it = args.find(key);
-  if (it == args.end() || it->is_null()) return std::nullopt;
-  return uint_arg(args, key);
-}
 
 /// Writes an optional argument only when it is given.
 template <class T>
@@ -405,15 +399,6 @@ void from_json(const json& j, ConfigureRequest& m) {
   m.duration_s = number_arg(j, std::string(firmware::arguments::duration_s.name));
 }
 
-void to_json(json& j, const StartRequest& m) {
-  j = json::object();
-  put_if(j, firmware::arguments::lease_s.name, m.lease_s);
-}
-
-void from_json(const json& j, StartRequest& m) {
-  m.lease_s = optional_number_arg(j, firmware::arguments::lease_s.name);
-}
-
 void to_json(json& j, const StepRequest& m) {
   j = drive_json(m.drive);
   j[std::string(firmware::arguments::count.name)] = m.count;
@@ -424,40 +409,6 @@ void from_json(const json& j, StepRequest& m) {
   m.count = uint_arg(j, std::string(firmware::arguments::count.name));
   m.drive = drive_args(j);
   m.lease_s = optional_number_arg(j, firmware::arguments::lease_s.name);
-}
-
-void to_json(json& j, const CalibrateRequest& m) {
-  j = json::object();
-  put_if(j, firmware::arguments::V0.name, m.V0);
-  put_if(j, firmware::arguments::lease_s.name, m.lease_s);
-}
-
-void from_json(const json& j, CalibrateRequest& m) {
-  m.V0 = optional_number_arg(j, firmware::arguments::V0.name);
-  m.lease_s = optional_number_arg(j, firmware::arguments::lease_s.name);
-}
-
-void to_json(json& j, const LeaseRequest& m) {
-  j = json::object();
-  put_if(j, firmware::arguments::drive_received.name, m.drive_received);
-}
-
-void from_json(const json& j, LeaseRequest& m) {
-  m.drive_received = optional_uint_arg(j, firmware::arguments::drive_received.name);
-}
-
-void to_json(json& j, const FetchRequest& m) {
-  namespace a = firmware::arguments;
-  j = {{a::stream.name, to_string(m.stream)},
-       {a::first.name, m.first},
-       {a::fetch_count.name, m.count}};
-}
-
-void from_json(const json& j, FetchRequest& m) {
-  namespace a = firmware::arguments;
-  m.stream = stream_from_string(string_arg(j, std::string(a::stream.name)), a::stream.name);
-  m.first = uint_arg(j, std::string(a::first.name));
-  m.count = uint_arg(j, std::string(a::fetch_count.name));
 }
 
 void to_json(json& j, const MoveToRequest& m) {
@@ -548,41 +499,9 @@ std::vector<std::string_view> reply_keys() {
   return keys;
 }
 
-template <class T>
-T decode(const json& j) {
-  if (!j.is_object()) throw ProtocolError(code::malformed, "", "not a map");
-  return j.get<T>();
-}
-
 void to_json(json& j, BoardState s) {
   j = to_string(s);
 }
-
-template Hello decode<Hello>(const json&);
-template LoopHealth decode<LoopHealth>(const json&);
-template ClockReply decode<ClockReply>(const json&);
-template ConfigureRequest decode<ConfigureRequest>(const json&);
-template StartRequest decode<StartRequest>(const json&);
-template StepRequest decode<StepRequest>(const json&);
-template MoveToRequest decode<MoveToRequest>(const json&);
-template CalibrateRequest decode<CalibrateRequest>(const json&);
-template LeaseRequest decode<LeaseRequest>(const json&);
-template FetchRequest decode<FetchRequest>(const json&);
-template RunSummary decode<RunSummary>(const json&);
-template StateEvent decode<StateEvent>(const json&);
-template HealthEvent decode<HealthEvent>(const json&);
-template RunStatus decode<RunStatus>(const json&);
-template Status decode<Status>(const json&);
-template CalibrationRecord decode<CalibrationRecord>(const json&);
-template StateReply decode<StateReply>(const json&);
-template LeaseReply decode<LeaseReply>(const json&);
-template ZeroReply decode<ZeroReply>(const json&);
-template ConfigureReply decode<ConfigureReply>(const json&);
-template FetchReply decode<FetchReply>(const json&);
-template SetCalibrationReply decode<SetCalibrationReply>(const json&);
-
-template MoveAccount decode<MoveAccount>(const json&);
-template StartReply decode<StartReply>(const json&);
 
 }  // namespace piezo::protocol
 

@@ -66,19 +66,29 @@ std::string move_table(MoveTable kind) {
   return out;
 }
 
+/// Every table by its marker's name: a move's three, `move_to`'s waveform,
+/// and each documented request's under its command.
 const std::map<std::string, std::function<std::string()>>& tables() {
-  static const std::map<std::string, std::function<std::string()>> all{
-      {"move_to", [] { return move_table(MoveTable::arguments); }},
-      {"move-config", [] { return move_table(MoveTable::config_keys); }},
-      {"move-options", [] { return move_table(MoveTable::options); }},
-      {"configure", [] { return arguments_table(protocol::ConfigureRequest::kArgs); }},
-      {"start", [] { return arguments_table(protocol::StartRequest::kArgs); }},
-      {"step", [] { return arguments_table(protocol::StepRequest::kArgs); }},
-      {"move_to-waveform", [] { return arguments_table(protocol::MoveToRequest::kWaveformArgs); }},
-      {"calibrate", [] { return arguments_table(protocol::CalibrateRequest::kArgs); }},
-      {"lease", [] { return arguments_table(protocol::LeaseRequest::kArgs); }},
-      {"fetch", [] { return arguments_table(protocol::FetchRequest::kArgs); }},
-  };
+  static const std::map<std::string, std::function<std::string()>> all = [] {
+    std::map<std::string, std::function<std::string()>> t{
+        {"move_to", [] { return move_table(MoveTable::arguments); }},
+        {"move-config", [] { return move_table(MoveTable::config_keys); }},
+        {"move-options", [] { return move_table(MoveTable::options); }},
+        {"move_to-waveform",
+         [] { return arguments_table(protocol::MoveToRequest::kWaveformArgs); }},
+    };
+    std::apply(
+        [&](auto... request) {
+          ((t[std::string(decltype(request)::kCommand)] =
+                [] {
+                  static constexpr auto declared = protocol::arguments_of<decltype(request)>();
+                  return arguments_table(declared);
+                }),
+           ...);
+        },
+        protocol::DocumentedRequests{});
+    return t;
+  }();
   return all;
 }
 

@@ -37,11 +37,11 @@ struct ArgumentSpec {
 [[nodiscard]] ArgumentSpec spec_of(const firmware::Argument& a);
 [[nodiscard]] ArgumentSpec spec_of(const firmware::MoveField& f);
 
-/// The arguments a request type takes (its `kArgs`).
+/// The arguments a request type takes (arguments_of: its `kArgs`, or its fields').
 template <class Request>
 [[nodiscard]] std::vector<ArgumentSpec> specs_of() {
   std::vector<ArgumentSpec> out;
-  for (const firmware::Argument& a : Request::kArgs) out.push_back(spec_of(a));
+  for (const firmware::Argument& a : arguments_of<Request>()) out.push_back(spec_of(a));
   return out;
 }
 /// `move_to`'s: every field of the move's request, then the waveform's.

@@ -27,6 +27,7 @@
 #include "piezo/model/parameters.hpp"
 #include "piezo/protocol/board_state.hpp"
 #include "piezo/protocol/frame.hpp"
+#include "piezo/protocol/request_fields.hpp"
 #include "piezo/protocol/wire_fields.hpp"
 
 namespace piezo::protocol {
@@ -115,6 +116,7 @@ struct ClockReply {
 
 /// `configure`'s arguments.
 struct ConfigureRequest {
+  static constexpr std::string_view kCommand = "configure";
   static constexpr std::array<firmware::Argument, 6> kArgs{
       firmware::arguments::V0,   firmware::arguments::f,         firmware::arguments::C_dr,
       firmware::arguments::e_dr, firmware::arguments::direction, firmware::arguments::duration_s};
@@ -124,12 +126,18 @@ struct ConfigureRequest {
 
 /// `start`'s arguments (the run `configure` set).
 struct StartRequest {
-  static constexpr std::array<firmware::Argument, 1> kArgs{firmware::arguments::lease_s};
+  static constexpr std::string_view kCommand = "start";
   std::optional<double> lease_s;  ///< absent: the board's `daemon.lease_s`
+};
+template <>
+struct RequestFields<StartRequest> {
+  static constexpr auto list =
+      std::tuple{argument_field(firmware::arguments::lease_s, &StartRequest::lease_s)};
 };
 
 /// `step`'s arguments.
 struct StepRequest {
+  static constexpr std::string_view kCommand = "step";
   static constexpr std::array<firmware::Argument, 7> kArgs{
       firmware::arguments::count,  firmware::arguments::V0,   firmware::arguments::f,
       firmware::arguments::C_dr,   firmware::arguments::e_dr, firmware::arguments::direction,
@@ -142,6 +150,7 @@ struct StepRequest {
 /// `move_to`'s arguments (absent ones take the board's defaults): every
 /// field of firmware::kMoveFields, then these.
 struct MoveToRequest {
+  static constexpr std::string_view kCommand = "move_to";
   static constexpr std::array<firmware::Argument, 5> kWaveformArgs{
       firmware::arguments::V0.defaulting("the board's `[drive]` V0"),
       firmware::arguments::f.defaulting(
@@ -156,26 +165,44 @@ struct MoveToRequest {
 
 /// `calibrate`'s arguments.
 struct CalibrateRequest {
-  static constexpr std::array<firmware::Argument, 2> kArgs{
-      firmware::arguments::V0.defaulting("the board's `[drive]` V0, at most `V_max`"),
-      firmware::arguments::lease_s};
+  static constexpr std::string_view kCommand = "calibrate";
   std::optional<double> V0;  ///< absent: the board's drive.V0 within its V_max
   std::optional<double> lease_s;
+};
+template <>
+struct RequestFields<CalibrateRequest> {
+  using T = CalibrateRequest;
+  static constexpr auto list = std::tuple{
+      argument_field(
+          firmware::arguments::V0.defaulting("the board's `[drive]` V0, at most `V_max`"), &T::V0),
+      argument_field(firmware::arguments::lease_s, &T::lease_s)};
 };
 
 /// `lease`'s arguments: the drive samples the controller has logged (its
 /// acknowledgement; a virtual-clock board waits on it).
 struct LeaseRequest {
-  static constexpr std::array<firmware::Argument, 1> kArgs{firmware::arguments::drive_received};
+  static constexpr std::string_view kCommand = "lease";
   std::optional<std::uint64_t> drive_received;
+};
+template <>
+struct RequestFields<LeaseRequest> {
+  static constexpr auto list = std::tuple{
+      argument_field(firmware::arguments::drive_received, &LeaseRequest::drive_received)};
 };
 
 /// `fetch`'s arguments: `count` recorded samples of `stream` from `first`.
 struct FetchRequest {
-  static constexpr std::array<firmware::Argument, 3> kArgs{
-      firmware::arguments::stream, firmware::arguments::first, firmware::arguments::fetch_count};
+  static constexpr std::string_view kCommand = "fetch";
   Stream stream = Stream::drive;
   std::uint64_t first = 0, count = 0;
+};
+template <>
+struct RequestFields<FetchRequest> {
+  using T = FetchRequest;
+  static constexpr auto list =
+      std::tuple{argument_field(firmware::arguments::stream, &T::stream),
+                 argument_field(firmware::arguments::first, &T::first),
+                 argument_field(firmware::arguments::fetch_count, &T::count)};
 };
 
 /// How the drive's output ended (a run summary's `output`).
@@ -351,18 +378,10 @@ void to_json(nlohmann::json& j, const ClockReply& m);
 void from_json(const nlohmann::json& j, ClockReply& m);
 void to_json(nlohmann::json& j, const ConfigureRequest& m);
 void from_json(const nlohmann::json& j, ConfigureRequest& m);
-void to_json(nlohmann::json& j, const StartRequest& m);
-void from_json(const nlohmann::json& j, StartRequest& m);
 void to_json(nlohmann::json& j, const StepRequest& m);
 void from_json(const nlohmann::json& j, StepRequest& m);
 void to_json(nlohmann::json& j, const MoveToRequest& m);
 void from_json(const nlohmann::json& j, MoveToRequest& m);
-void to_json(nlohmann::json& j, const CalibrateRequest& m);
-void from_json(const nlohmann::json& j, CalibrateRequest& m);
-void to_json(nlohmann::json& j, const LeaseRequest& m);
-void from_json(const nlohmann::json& j, LeaseRequest& m);
-void to_json(nlohmann::json& j, const FetchRequest& m);
-void from_json(const nlohmann::json& j, FetchRequest& m);
 void to_json(nlohmann::json& j, const OutputEnd& m);
 void from_json(const nlohmann::json& j, OutputEnd& m);
 void to_json(nlohmann::json& j, const RunSummary& m);
@@ -405,7 +424,15 @@ void from_json(const nlohmann::json& j, StartReply& m);
 
 /// Decodes `j` as a T, any failure a ProtocolError naming the field.
 template <class T>
-[[nodiscard]] T decode(const nlohmann::json& j);
+[[nodiscard]] T decode(const nlohmann::json& j) {
+  if (!j.is_object()) throw ProtocolError(code::malformed, "", "not a map");
+  return j.get<T>();
+}
+
+/// The requests whose arguments the docs' tables list, each by its command
+/// (`kCommand`); a new command's request goes here.
+using DocumentedRequests = std::tuple<ConfigureRequest, StartRequest, StepRequest, CalibrateRequest,
+                                      LeaseRequest, FetchRequest>;
 
 // The enums the wire carries become their names wherever one is put into a
 // JSON value (nlohmann would write the number otherwise).
