@@ -351,15 +351,9 @@ void check_whole(const RigConfig& c, const std::map<std::string, std::string>& s
   }
 }
 
-}  // namespace
-
-RigConfig load_rig_config(const std::string& path, const std::vector<std::string>& sets,
-                          ConfigScope scope) {
-  return load_rig_config(std::vector<std::string>{path}, sets, scope);
-}
-
-RigConfig load_rig_config(const std::vector<std::string>& paths,
-                          const std::vector<std::string>& sets, ConfigScope scope) {
+/// The files, `--set`, then a command's drive options; checked as a whole.
+RigConfig load(const std::vector<std::string>& paths, const std::vector<std::string>& sets,
+               ConfigScope scope, const DriveOptions& options) {
   RigConfig c;
   // No file: the defaults (a host whose rig is a board with its own config).
   c.source = paths.empty() ? std::string("defaults") : paths.front();
@@ -394,9 +388,46 @@ RigConfig load_rig_config(const std::vector<std::string>& paths,
     source_of[s.substr(0, s.find('='))] = "--set";
     c.text += "# --set " + s + "\n";
   }
+  // The command's own options, as values: the run's config text says so.
+  const auto option = [&](const char* key, const char* name, double value, double& into) {
+    into = value;
+    source_of[key] = name;
+    c.text += fmt::format("# {} {}\n", name, value);
+  };
+  if (options.V0 || options.f || options.duration_s || options.reverse) {
+    c.text += "\n# the command's options\n";
+  }
+  if (options.V0) option("drive.V0", "--V0", *options.V0, c.host.model.drive.V0);
+  if (options.f) option("drive.f", "--f", *options.f, c.host.model.drive.f);
+  if (options.duration_s) {
+    option("run.duration_s", "--duration", *options.duration_s, c.host.run.duration_s);
+  }
+  if (options.reverse) {
+    c.host.model.drive.direction = model::Direction::reverse;
+    source_of["drive.direction"] = "--reverse";
+    c.text += "# --reverse\n";
+  }
+  c.board.model.drive = c.host.model.drive;
   c.board.plant = overlay(c.board.model.motor, plant_keys);
   check_whole(c, source_of, scope);
   return c;
+}
+
+}  // namespace
+
+RigConfig load_rig_config(const std::string& path, const std::vector<std::string>& sets,
+                          ConfigScope scope) {
+  return load_rig_config(std::vector<std::string>{path}, sets, scope);
+}
+
+RigConfig load_rig_config(const std::vector<std::string>& paths,
+                          const std::vector<std::string>& sets, ConfigScope scope) {
+  return load(paths, sets, scope, {});
+}
+
+RigConfig load_rig_config(const std::vector<std::string>& paths,
+                          const std::vector<std::string>& sets, const DriveOptions& options) {
+  return load(paths, sets, ConfigScope::rig, options);
 }
 
 std::string_view name(RunClock c) {

@@ -14,6 +14,7 @@
 #include <string_view>
 #include <vector>
 
+#include "piezo/config/section_reader.hpp"
 #include "piezo/firmware/move_request.hpp"
 #include "piezo/firmware/request_arguments.hpp"
 #include "piezo/firmware/safety_supervisor.hpp"
@@ -23,7 +24,6 @@
 #include "piezo/hal/sim/modbus_rig_device.hpp"
 #include "piezo/model/lugre_observer.hpp"
 #include "piezo/model/parameters.hpp"
-#include "piezo/config/section_reader.hpp"
 
 namespace piezo::config {
 
@@ -127,9 +127,10 @@ struct RunSettings {
 /// The board's daemon ([piezod]): where it listens, what a client may ask.
 struct DaemonSettings {
   std::string listen = "tcp://127.0.0.1:5555";  ///< command socket; the stream is on port + 1
-  double lease_s = firmware::arguments::kDefaultLease_s;                         ///< a start's lease when the client names none
-  double lease_max_s = 10.0;                    ///< the longest lease a client may ask for
-  double recorder_s = 120.0;  ///< samples kept on the board, at the configured rates
+  double lease_s =
+      firmware::arguments::kDefaultLease_s;  ///< a start's lease when the client names none
+  double lease_max_s = 10.0;                 ///< the longest lease a client may ask for
+  double recorder_s = 120.0;                 ///< samples kept on the board, at the configured rates
   /// Every sample of the current run also goes to this file (empty: none),
   /// so a fetch reaches past the memory ring.
   std::string spill_file;
@@ -217,6 +218,19 @@ enum class ConfigScope { rig, sensor };
 [[nodiscard]] RigConfig load_rig_config(const std::vector<std::string>& paths,
                                         const std::vector<std::string>& sets,
                                         ConfigScope scope = ConfigScope::rig);
+
+/// A run command's own options for the drive, given as values (never as
+/// `--set` text): each given one overrides its key after the files and
+/// `--set`, is checked with the rest, and a refusal names the option.
+struct DriveOptions {
+  std::optional<double> V0, f, duration_s;
+  bool reverse = false;
+};
+
+/// The files and `--set`, then the command's drive options.
+[[nodiscard]] RigConfig load_rig_config(const std::vector<std::string>& paths,
+                                        const std::vector<std::string>& sets,
+                                        const DriveOptions& options);
 
 /// Table 1 defaults overlaid with a config file's [drive] waveform and
 /// [model]; a rig config's other sections are read and checked too.

@@ -291,16 +291,14 @@ void finish_log(RunLog& log, RunSummary& summary, const nlohmann::json& result) 
 /// The run's config: the files and --set (with the drive keys given as
 /// options), the command's own request, and the board's address.
 config::RigConfig rig_config(const RunOptions& o, const RunProgram& program) {
-  std::vector<std::string> sets = o.sets;
-  if (o.duration > 0.0) sets.push_back(fmt::format("run.duration_s={}", o.duration));
-  if (o.V0) sets.push_back(fmt::format("drive.V0={}", *o.V0));
-  if (o.f) sets.push_back(fmt::format("drive.f={}", *o.f));
-  if (o.reverse) sets.emplace_back("drive.direction=reverse");
   if (o.config.empty() && o.rig.empty()) {
     throw config::ConfigError("command line", "--config",
                               "required, or --rig ADDRESS (a board with its own config)");
   }
-  config::RigConfig config = config::load_rig_config(o.config, sets);
+  config::RigConfig config = config::load_rig_config(
+      o.config.empty() ? std::vector<std::string>{} : std::vector<std::string>{o.config}, o.sets,
+      config::DriveOptions{o.V0, o.f, o.duration > 0.0 ? std::optional(o.duration) : std::nullopt,
+                           o.reverse});
   if (program.request) program.request(config);
   if (!o.rig.empty()) config.host.rig.address = o.rig;
   return config;
