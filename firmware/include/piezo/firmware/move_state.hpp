@@ -38,7 +38,8 @@ inline constexpr auto kMoveStateNames =
                       {MoveState::holding, "holding"}});
 
 /// How a move ended (its account's `stop_cause`): on target, out of time
-/// (its run ran the whole timeout), or stopped for its run's cause.
+/// (its run ran the whole timeout), or stopped for its run's cause, one end
+/// per cause after `completed`, in the causes' order and under their names.
 enum class MoveEnd : std::uint8_t {
   on_target,
   timeout,
@@ -52,19 +53,12 @@ enum class MoveEnd : std::uint8_t {
   travel_limit,
 };
 
-inline constexpr auto kMoveEndNames =
-    names<MoveEnd>({{MoveEnd::on_target, "on_target"},
-                    {MoveEnd::timeout, "timeout"},
-                    {MoveEnd::interrupted, "interrupted"},
-                    {MoveEnd::estop, "estop"},
-                    {MoveEnd::sensor_fault, "sensor_fault"},
-                    {MoveEnd::drive_fault, "drive_fault"},
-                    {MoveEnd::link_lost, "link_lost"},
-                    {MoveEnd::stalled, "stalled"},
-                    {MoveEnd::sensor_implausible, "sensor_implausible"},
-                    {MoveEnd::travel_limit, "travel_limit"}});
+/// The ends a stopped run gives: those after `completed`.
+inline constexpr std::size_t kMoveEnds =
+    2 + static_cast<std::size_t>(kLastStopCause) - static_cast<std::size_t>(StopCause::completed);
+static_assert(static_cast<std::size_t>(MoveEnd::travel_limit) + 1 == kMoveEnds,
+              "a move end for each stop cause after completed");
 
-/// A run's causes past `completed` are a move's ends past `timeout`, in order.
 [[nodiscard]] constexpr MoveEnd move_end(bool on_target, StopCause cause) {
   if (on_target) return MoveEnd::on_target;
   if (cause == StopCause::completed || cause == StopCause::none) return MoveEnd::timeout;
@@ -73,12 +67,19 @@ inline constexpr auto kMoveEndNames =
                               static_cast<std::uint8_t>(MoveEnd::timeout));
 }
 
-static_assert(kMoveEndNames.name(move_end(false, StopCause::travel_limit)) ==
-              to_string(StopCause::travel_limit));
-static_assert(kMoveEndNames.name(move_end(false, StopCause::interrupted)) ==
-              to_string(StopCause::interrupted));
-static_assert(kMoveEndNames.entries().size() == static_cast<std::size_t>(kLastStopCause) -
-                                                    static_cast<std::size_t>(StopCause::completed) +
-                                                    2);
+/// Its names: its own two, then the causes' own (kStopCauseNames).
+inline constexpr auto kMoveEndNames = [] {
+  std::array<std::pair<MoveEnd, std::string_view>, kMoveEnds> entries{};
+  entries[0] = {MoveEnd::on_target, "on_target"};
+  entries[1] = {MoveEnd::timeout, "timeout"};
+  for (std::size_t i = 2; i < kMoveEnds; ++i) {
+    const auto cause =
+        static_cast<StopCause>(static_cast<std::size_t>(StopCause::completed) + i - 1);
+    entries[i] = {move_end(false, cause), to_string(cause)};
+  }
+  return NameTable<MoveEnd, kMoveEnds>(entries);
+}();
+
+static_assert(kMoveEndNames.name(MoveEnd::stalled) == "stalled");
 
 }  // namespace piezo::firmware
