@@ -53,14 +53,18 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         (void)decode_reply(bytes);
         break;
       case 2: {
-        // A stream map as every typed event and summary (refusals expected).
+        // A map as every typed event, summary and reply (refusals expected).
         const nlohmann::json map = decode_map(bytes);
-        for (int kind = 0; kind < 4; ++kind) {
+        for (int kind = 0; kind < 8; ++kind) {
           try {
             if (kind == 0) (void)decode<StateEvent>(map);
             if (kind == 1) (void)decode<HealthEvent>(map);
             if (kind == 2) (void)decode<RunSummary>(map);
             if (kind == 3) (void)decode<Hello>(map);
+            if (kind == 4) (void)decode<Status>(map);
+            if (kind == 5) (void)decode<StartReply>(map);
+            if (kind == 6) (void)decode<MoveAccount>(map);
+            if (kind == 7) (void)decode<CalibrationRecord>(map);
           } catch (const ProtocolError&) {
           }
         }

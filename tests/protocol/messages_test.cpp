@@ -326,6 +326,23 @@ TEST(Messages, AReplyOrEventMissingAFieldIsMalformedNamingIt) {
   EXPECT_EQ(refusal_key<HealthEvent>(json::array()), "malformed ");
 }
 
+// An integer field holds an integer, or a float that is a whole number in
+// the field's range; anything else is refused by name, never converted
+// (a float past an integer type's range has no conversion at all).
+TEST(Messages, AnIntegerFieldTakesWholeNumbersInItsRangeOnly) {
+  for (const json& bad : {json(1e300), json(-1.0), json(2.5), json(0x1p64), json(-1), json("7")}) {
+    json summary = a_summary();
+    summary.at("samples")["drive"] = bad;
+    EXPECT_EQ(refusal_key<RunSummary>(summary), "malformed drive") << bad;
+  }
+  json summary = a_summary();
+  summary.at("samples")["drive"] = 12.0;
+  EXPECT_EQ(decode<RunSummary>(summary).samples.drive, 12u);
+  json status = json(Status{});
+  status["requests"] = {{"start", 1e300}};
+  EXPECT_EQ(refusal_key<Status>(status), "malformed requests.start");
+}
+
 }  // namespace
 }  // namespace piezo::protocol
 

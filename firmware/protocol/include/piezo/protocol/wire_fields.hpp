@@ -17,6 +17,9 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+#include <cstdint>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -24,6 +27,7 @@
 #include <string_view>
 #include <tuple>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "piezo/interval.hpp"
@@ -106,6 +110,11 @@ struct is_vector : std::false_type {};
 template <class T>
 struct is_vector<std::vector<T>> : std::true_type {};
 
+template <class T>
+struct is_text_map : std::false_type {};
+template <class V>
+struct is_text_map<std::map<std::string, V>> : std::true_type {};
+
 /// A list of messages (each a map of its own fields).
 template <class T>
 struct is_message_list : std::false_type {};
@@ -146,6 +155,37 @@ nlohmann::json encode_value(const V& v) {
   }
 }
 
+/// An integer field's value: an integer on the wire, or a float holding a
+/// whole number (10.0 is 10), within V's range. Checked before converting:
+/// a float or a negative number cast to an integer type out of its range is
+/// undefined behaviour, not an error.
+template <class V>
+V whole_number(const nlohmann::json& v, std::string_view key) {
+  const auto refuse = [&](std::string_view why) {
+    return ProtocolError(code::malformed, std::string(key), fmt::format("{}: {}", key, why));
+  };
+  using limits = std::numeric_limits<V>;
+  if (v.is_number_unsigned()) {
+    const auto u = v.get<std::uint64_t>();
+    if (u > static_cast<std::uint64_t>(limits::max())) throw refuse("out of range");
+    return static_cast<V>(u);
+  }
+  if (v.is_number_integer()) {
+    const auto i = v.get<std::int64_t>();
+    if (std::cmp_less(i, limits::min()) || std::cmp_greater(i, limits::max())) {
+      throw refuse("out of range");
+    }
+    return static_cast<V>(i);
+  }
+  if (!v.is_number_float()) throw refuse(fmt::format("of the wrong type ({})", v.type_name()));
+  const double d = v.get<double>();
+  // The bounds as doubles: min is exact (0 or -2^k); max + 1 is 2^k, exact.
+  const double low = static_cast<double>(limits::min());
+  const double past_high = 2.0 * static_cast<double>(limits::max() / 2 + 1);
+  if (!(d >= low && d < past_high) || d != std::floor(d)) throw refuse("not a whole number in range");
+  return static_cast<V>(d);
+}
+
 template <class V>
 V decode_value(const nlohmann::json& v, std::string_view key) {
   if constexpr (is_optional<V>::value) {
@@ -158,7 +198,7 @@ V decode_value(const nlohmann::json& v, std::string_view key) {
     V out{};
     decode_into(v, out);
     return out;
-  } else if constexpr (is_message_list<V>::value) {
+  } else if constexpr (is_vector<V>::value) {
     if (!v.is_array()) {
       throw ProtocolError(code::malformed, std::string(key), fmt::format("{}: not a list", key));
     }
@@ -167,12 +207,23 @@ V decode_value(const nlohmann::json& v, std::string_view key) {
       out.push_back(decode_value<typename V::value_type>(v[i], fmt::format("{}[{}]", key, i)));
     }
     return out;
+  } else if constexpr (is_text_map<V>::value) {
+    if (!v.is_object()) {
+      throw ProtocolError(code::malformed, std::string(key), fmt::format("{}: not a map", key));
+    }
+    V out;
+    for (const auto& [name, item] : v.items()) {
+      out.emplace(name, decode_value<typename V::mapped_type>(item, fmt::format("{}.{}", key, name)));
+    }
+    return out;
   } else if constexpr (has_names<V>::value) {
     const auto& table = Names<V>::table;
     const std::string text = v.is_string() ? v.get<std::string>() : v.dump();
     if (const auto value = table.parse(text)) return *value;
     throw ProtocolError(code::malformed, std::string(key),
                         fmt::format("{}: \"{}\"; allowed: {}", key, text, table.list()));
+  } else if constexpr (std::is_integral_v<V> && !std::is_same_v<V, bool>) {
+    return whole_number<V>(v, key);
   } else {
     try {
       return v.get<V>();
