@@ -7,7 +7,7 @@
 
 #include <string>
 
-#include "rig_config.hpp"
+#include "config_file.hpp"
 
 namespace piezo::config {
 

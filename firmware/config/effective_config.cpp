@@ -6,7 +6,7 @@
 
 namespace piezo::config {
 
-std::string effective_config_toml(const RigConfig& file) {
+std::string effective_config_toml(const ConfigFile& file) {
   const BoardConfig& c = file.board;
   const HostConfig& h = file.host;
   toml::table drive, motor;
@@ -28,15 +28,15 @@ std::string effective_config_toml(const RigConfig& file) {
                              {"gate_rad", h.observer.gains.gate_rad}};
   toml::table out{
       {"drive", drive}, {"model", motor}, {"sensor", sensor}, {"run", run}, {"observer", observer}};
-  if (!h.rig.address.empty()) {
-    out.insert("rig", toml::table{{"address", h.rig.address}, {"lease_s", h.rig.lease_s}});
+  if (!h.board.address.empty()) {
+    out.insert("rig", toml::table{{"address", h.board.address}, {"lease_s", h.board.lease_s}});
   }
   std::ostringstream text;
   text << out << "\n";
   return text.str();
 }
 
-std::string run_config_file(const RigConfig& c) {
+std::string run_config_file(const ConfigFile& c) {
   const std::string effective = effective_config_toml(c);
   if (c.text.empty()) {
     return "# What the run used, defaults included (it had no config file of its own).\n" +

@@ -11,7 +11,7 @@
 #include "piezo/hal/displacement_sensor.hpp"
 #include "piezo/hal/drive.hpp"
 #include "piezo/hal/sim/sim_rig.hpp"
-#include "rig_config.hpp"
+#include "config_file.hpp"
 
 namespace piezo::config {
 

@@ -30,8 +30,8 @@
 #include "piezo/firmware/move_controller.hpp"
 #include "piezo/firmware/move_planner.hpp"
 #include "piezo/protocol/messages.hpp"
-#include "rig.hpp"
-#include "rig_config.hpp"
+#include "config/rig.hpp"
+#include "config/config_file.hpp"
 #include "run_state.hpp"
 #include "sample_hub.hpp"
 

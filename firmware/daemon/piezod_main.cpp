@@ -9,9 +9,9 @@
 
 #include "client_authentication.hpp"
 #include "daemon.hpp"
-#include "device_inventory.hpp"
+#include "config/device_inventory.hpp"
 #include "piezo/config/config_error.hpp"
-#include "rig_config.hpp"
+#include "config/config_file.hpp"
 #include "service_manager.hpp"
 
 namespace {
@@ -64,7 +64,7 @@ int main(int argc, char** argv) {
                 << key_name << ".pub\n";
       return 0;
     }
-    auto board = piezo::config::load_rig_config(config_path, sets).board;
+    auto board = piezo::config::load_config_file(config_path, sets).board;
     if (*devices) {
       std::cout << piezo::config::device_inventory(board, true);
       return 0;

@@ -17,23 +17,23 @@
 #include <string>
 #include <vector>
 
-#include "fit_io.hpp"
-#include "global_sensitivity_study.hpp"
-#include "interruption.hpp"
-#include "model_config.hpp"
-#include "oat_study.hpp"
-#include "observer_stage.hpp"
-#include "parallel.hpp"
-#include "parameters_json.hpp"
+#include "io/fit_io.hpp"
+#include "studies/global_sensitivity_study.hpp"
+#include "jobs/interruption.hpp"
+#include "config/model_config.hpp"
+#include "studies/oat_study.hpp"
+#include "run/observer_stage.hpp"
+#include "jobs/parallel.hpp"
+#include "io/parameters_json.hpp"
 #include "piezo/config/config_error.hpp"
 #include "piezo/model/analysis_limits.hpp"
 #include "piezo/model/frequency_sweep.hpp"
 #include "piezo/model/identify.hpp"
 #include "piezo/model/sensitivity.hpp"
 #include "piezo/model/simulate.hpp"
-#include "progress.hpp"
-#include "rig_config.hpp"
-#include "simulate_checks.hpp"
+#include "jobs/progress.hpp"
+#include "config/config_file.hpp"
+#include "studies/simulate_checks.hpp"
 
 namespace py = pybind11;
 using piezo::config::ConfigError;

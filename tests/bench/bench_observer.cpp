@@ -8,7 +8,7 @@
 #include <cmath>
 #include <random>
 
-#include "parallel.hpp"
+#include "jobs/parallel.hpp"
 #include "piezo/model/identify.hpp"
 #include "piezo/model/lugre_hybrid.hpp"
 #include "piezo/model/lugre_integrator.hpp"

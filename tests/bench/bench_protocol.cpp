@@ -20,12 +20,12 @@
 #include <zmq_addon.hpp>
 
 #include "../support/rig_sim.hpp"
-#include "board_client.hpp"
+#include "run/board_client.hpp"
 #include "build_paths.hpp"
 #include "piezo/firmware/loop_runner.hpp"
 #include "piezo/protocol/frame.hpp"
-#include "rig.hpp"
-#include "rig_config.hpp"
+#include "config/rig.hpp"
+#include "config/config_file.hpp"
 
 namespace {
 
@@ -113,7 +113,7 @@ Latencies over_the_protocol(double seconds, double& cpu_percent) {
 }
 
 Latencies in_process(double seconds) {
-  auto config = config::load_rig_config(std::string(build_paths::source_dir) + "/configs/sim.toml");
+  auto config = config::load_config_file(std::string(build_paths::source_dir) + "/configs/sim.toml");
   config::Rig rig = config::build_rig(config.board);
   const model::Sawtooth waveform(80.0, 10.0, config.host.model.drive.D());
   firmware::LoopRunner runner(

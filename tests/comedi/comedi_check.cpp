@@ -23,7 +23,7 @@
 #include <vector>
 
 #include "piezo/config/config_error.hpp"
-#include "device_inventory.hpp"
+#include "config/device_inventory.hpp"
 #include "piezo/firmware/loop_runner.hpp"
 #include "piezo/hal/comedi/comedi_analog_input.hpp"
 #include "piezo/hal/comedi/comedi_analog_output.hpp"
@@ -31,8 +31,8 @@
 #include "piezo/hal/posix/no_lines.hpp"
 #include "piezo/hal/sim/null_sensor.hpp"
 #include "piezo/model/waveform.hpp"
-#include "rig.hpp"
-#include "rig_config.hpp"
+#include "config/rig.hpp"
+#include "config/config_file.hpp"
 
 namespace {
 
@@ -107,7 +107,7 @@ void check_listing() {
   // What `piezod devices` and `piezo sensor list` print for a rig on it.
   std::ofstream("/daq-list.toml") << kConfig;
   const std::string listed =
-      config::device_inventory(config::load_rig_config("/daq-list.toml", {}).board, true);
+      config::device_inventory(config::load_config_file("/daq-list.toml", {}).board, true);
   fmt::print("{}", listed);
   check(listed.starts_with("drive (comedi): ") &&
             listed.find("sensor (comedi): the same device") != std::string::npos &&
@@ -130,7 +130,7 @@ void check_refused(OutputProbe& probe) {
                         Case{"sensor.comedi.channel=12", "sensor.comedi.channel"}}) {
     std::string message;
     try {
-      const config::BoardConfig rig = config::load_rig_config("/daq-check.toml", {c.set}).board;
+      const config::BoardConfig rig = config::load_config_file("/daq-check.toml", {c.set}).board;
       (void)config::build_rig(rig);
     } catch (const config::ConfigError& e) {
       message = e.what();

@@ -2,7 +2,7 @@
 // experiment's result, checked on the way in (each refusal naming its
 // key), applied to a move, and kept in a file that survives a round trip.
 
-#include "calibration.hpp"
+#include "daemon/calibration.hpp"
 
 #include <gtest/gtest.h>
 

@@ -3,7 +3,7 @@
 // a caller the command does not admit during another client's run), and
 // that it hands everything else to the handler as sent.
 
-#include "command_table.hpp"
+#include "daemon/command_table.hpp"
 
 #include <gtest/gtest.h>
 

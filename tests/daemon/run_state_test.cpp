@@ -1,7 +1,7 @@
 // The daemon's state machine without sockets: who may do what, and what
 // each way a run ends leaves latched (docs/protocol.md, "States").
 
-#include "run_state.hpp"
+#include "daemon/run_state.hpp"
 
 #include <gtest/gtest.h>
 

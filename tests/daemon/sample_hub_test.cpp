@@ -4,7 +4,7 @@
 // memory ring has moved on, and refuses what is not recorded, too large a
 // count and a watcher over its budget, naming the argument.
 
-#include "sample_hub.hpp"
+#include "daemon/sample_hub.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "build_paths.hpp"
-#include "rig_config.hpp"
+#include "config/config_file.hpp"
 
 namespace {
 

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "piezo/config/config_error.hpp"
-#include "rig_config.hpp"
+#include "config/config_file.hpp"
 
 namespace {
 
@@ -36,9 +36,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       << input.substr(0, std::min(split, input.size()));
   using piezo::config::ConfigError;
   using piezo::config::ConfigScope;
-  for (const ConfigScope scope : {ConfigScope::rig, ConfigScope::sensor}) {
+  for (const ConfigScope scope : {ConfigScope::whole, ConfigScope::sensor}) {
     try {
-      (void)piezo::config::load_rig_config(scratch_file(), sets, scope);
+      (void)piezo::config::load_config_file(scratch_file(), sets, scope);
     } catch (const ConfigError&) {
     }
   }

@@ -17,9 +17,9 @@
 #include <vector>
 
 #include "piezo/config/config_error.hpp"
-#include "fit_io.hpp"
-#include "h5_file.hpp"
-#include "run_journal.hpp"
+#include "io/fit_io.hpp"
+#include "io/h5_file.hpp"
+#include "io/run_journal.hpp"
 
 using namespace piezo;
 using namespace piezo::host;

@@ -33,7 +33,7 @@ case "$target" in
     libs=(-lfmt) ;;
   config)
     sources=("$src"/hal/config/src/section_reader.cpp
-             "$src"/firmware/config/{model_config,rig_config}.cpp
+             "$src"/firmware/config/{model_config,config_file}.cpp
              "$src"/firmware/src/{request_limits,request_arguments,move_request}.cpp
              "$src"/hal/{sim,modbus,gpiod,comedi}/src/*_backends.cpp
              "$src"/hal/registry/src/backends.cpp
@@ -46,7 +46,7 @@ case "$target" in
              "$src"/model/src/hybrid/*.cpp; do
       [[ " ${sources[*]} " == *" $f "* || $f == */global_sensitivity.cpp ]] || linked+=("$f")
     done
-    flags=(-I"$src/firmware/config" -I"$src/hal/config/include"
+    flags=(-I"$src/firmware" -I"$src/hal/config/include"
            -I"$src/firmware/include" "${hal_includes[@]}"
            -I"$src/model/include" -I/usr/include/eigen3 $(pkg-config --cflags libmodbus libgpiod comedilib))
     libs=(-lfmt $(pkg-config --libs libmodbus libgpiod comedilib) -lpthread) ;;
@@ -59,8 +59,7 @@ case "$target" in
     # HDF5 linked in (hdf5_store.cpp): the module loader is never reached.
     sources=("$src"/host/src/io/{fit_io,h5_file,hdf5_store,module_loader,run_journal,run_recovery,catalogue,parameters_json}.cpp
              "$src"/model/src/{parameters,waveform,simulate_names}.cpp)
-    flags=(-I"$src/host/src/io" -I"$src/host/src/jobs" -I"$src/firmware/config" -I"$src/hal/config/include" -I"$src/model/include"
-           -I"$src/model/include"
+    flags=(-I"$src/host/src" -I"$src/firmware" -I"$src/hal/config/include" -I"$src/model/include"
            -I/usr/include/eigen3 $(pkg-config --cflags hdf5)
            -DPIEZO_MODULE_DIR_FROM_BIN='"."' -DPIEZO_MODULE_BUILD_DIR='"."')
     libs=($(pkg-config --libs hdf5) -lz -lfmt -ldl) ;;

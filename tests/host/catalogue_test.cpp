@@ -1,7 +1,7 @@
 // catalogue.csv: one header, then a line per run in the order they ended,
 // with the run directory's own name (also when given with a trailing slash).
 
-#include "catalogue.hpp"
+#include "io/catalogue.hpp"
 
 #include <gtest/gtest.h>
 

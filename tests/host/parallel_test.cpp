@@ -1,7 +1,7 @@
 // parallel_for as the studies and identify use it: every job once, the
 // progress ending on the whole, failures and interruptions brought back to
 // the caller.
-#include "parallel.hpp"
+#include "jobs/parallel.hpp"
 
 #include <gtest/gtest.h>
 

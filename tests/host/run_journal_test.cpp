@@ -1,7 +1,7 @@
 // The run log's journal: what reaches it survives a crash at any byte, and
 // recover_run() turns it into a whole run.h5.
 
-#include "run_journal.hpp"
+#include "io/run_journal.hpp"
 
 #include <gtest/gtest.h>
 #include <hdf5.h>
@@ -12,9 +12,9 @@
 #include <fstream>
 
 #include "piezo/config/config_error.hpp"
-#include "h5_file.hpp"
-#include "run_log.hpp"
-#include "run_recovery.hpp"
+#include "io/h5_file.hpp"
+#include "io/run_log.hpp"
+#include "io/run_recovery.hpp"
 
 namespace piezo::host {
 namespace {

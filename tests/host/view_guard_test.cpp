@@ -16,8 +16,8 @@
 #include <vector>
 
 #include "build_paths.hpp"
-#include "live_feed.hpp"
-#include "view_server.hpp"
+#include "view/live_feed.hpp"
+#include "view/view_server.hpp"
 
 namespace piezo::host::view {
 namespace {

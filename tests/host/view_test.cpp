@@ -8,10 +8,10 @@
 #include <iostream>
 #include <map>
 
-#include "decimate.hpp"
-#include "gzip_stream.hpp"
-#include "live_feed.hpp"
-#include "run_catalogue.hpp"
+#include "view/decimate.hpp"
+#include "view/gzip_stream.hpp"
+#include "view/live_feed.hpp"
+#include "view/run_catalogue.hpp"
 
 namespace piezo::host::view {
 namespace {

@@ -14,15 +14,15 @@
 
 #include "../support/run_command.hpp"
 #include "build_paths.hpp"
-#include "h5_file.hpp"
+#include "io/h5_file.hpp"
 #include "piezo/firmware/samples.hpp"
 #include "piezo/hal/sim/plant.hpp"
 #include "piezo/model/sampled_drive.hpp"
 #include "piezo/model/simulate.hpp"
-#include "rig.hpp"
-#include "rig_config.hpp"
-#include "run_log.hpp"
-#include "run_session.hpp"
+#include "config/rig.hpp"
+#include "config/config_file.hpp"
+#include "io/run_log.hpp"
+#include "run/run_session.hpp"
 
 namespace piezo::host {
 namespace {
@@ -50,8 +50,8 @@ Outcome run_virtual(std::vector<std::string> sets, double stop_at_s = -1.0,
                     const std::string& tag = "hil", std::uint64_t step_periods = 0,
                     std::optional<config::RunSettings::Move> move = std::nullopt) {
   sets.push_back("run.clock=virtual");
-  config::RigConfig config =
-      config::load_rig_config(std::string(build_paths::source_dir) + "/configs/sim.toml", sets);
+  config::ConfigFile config =
+      config::load_config_file(std::string(build_paths::source_dir) + "/configs/sim.toml", sets);
   if (step_periods > 0) {
     config.host.run.step_periods = step_periods;
     config.host.run.duration_s = static_cast<double>(step_periods) / config.host.model.drive.f;
@@ -522,8 +522,8 @@ TEST(SimRun, EveryEndLeavesTheSimulatedAmplifierDisabled) {
 // building the rig and starting: the time origin is fixed after it, so the
 // first cycles are not late and the sensor is not taken for stale.
 TEST(SimRun, SlowSetUpBeforeTheStartIsNoSensorFault) {
-  const config::RigConfig config =
-      config::load_rig_config(std::string(build_paths::source_dir) + "/configs/sim.toml",
+  const config::ConfigFile config =
+      config::load_config_file(std::string(build_paths::source_dir) + "/configs/sim.toml",
                               {"run.duration_s=0.3", "run.lock_memory=false", "run.priority=0"});
   config::Rig rig = config::build_rig(config.board);
   std::this_thread::sleep_for(std::chrono::milliseconds(400));
@@ -548,8 +548,8 @@ TEST(SimRun, EstopDisablesWithinOneDrivePeriod) {
 // the daemon's thread at once, seen on the simulated amplifier itself, not
 // when the write returns. In real time, the run on a thread of its own.
 TEST(SimRun, AnEstopActsDuringASlowDriveWrite) {
-  config::RigConfig config =
-      config::load_rig_config(std::string(build_paths::source_dir) + "/configs/sim.toml",
+  config::ConfigFile config =
+      config::load_config_file(std::string(build_paths::source_dir) + "/configs/sim.toml",
                               {"drive.sim.stall_at_s=0.5", "drive.sim.stall_for_s=5",
                                "run.duration_s=10", "run.priority=0", "run.lock_memory=false"});
   config::Rig rig = config::build_rig(config.board);
@@ -625,7 +625,7 @@ TEST(SimRun, AStopRequestRampsDownAndEndsInterrupted) {
 // still gets the rows to the run's end, the drive's stopped record
 // included, and hears why the log failed.
 TEST(SimRun, AFailedLogKeepsTheLiveRowsComingToTheRunsEnd) {
-  const config::RigConfig config = config::load_rig_config(
+  const config::ConfigFile config = config::load_config_file(
       std::string(build_paths::source_dir) + "/configs/sim.toml",
       {"run.clock=virtual", "run.duration_s=60", "run.flush_interval_s=0.25"});
   config::Rig rig = config::build_rig(config.board);

@@ -14,7 +14,7 @@
 namespace piezo::host {
 using nlohmann::json;
 
-BoardWatch::BoardWatch(const config::RigConfig& config, BoardClient& client,
+BoardWatch::BoardWatch(const config::ConfigFile& config, BoardClient& client,
                        const protocol::Hello& hello, view::LiveFeed& feed)
     : config_(config),
       client_(client),
@@ -134,8 +134,8 @@ json BoardWatch::move_to(const json& args) {
   // its form from the same dictionary); the lease is the config's when it
   // names one, else the board's.
   json request = args.is_object() ? args : json::object();
-  if (!request.contains("lease_s") && config_.host.rig.lease_s > 0.0) {
-    request["lease_s"] = config_.host.rig.lease_s;
+  if (!request.contains("lease_s") && config_.host.board.lease_s > 0.0) {
+    request["lease_s"] = config_.host.board.lease_s;
   }
   if (const auto breach = protocol::check_arguments(dictionary_, "move_to", request)) {
     throw std::invalid_argument(fmt::format("{}: {}", breach->key, breach->message));

@@ -11,19 +11,19 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
-#include "board_client.hpp"
-#include "live_feed.hpp"
-#include "observer_stage.hpp"
-#include "rig_config.hpp"
-#include "sample_collector.hpp"
-#include "stream_follower.hpp"
+#include "run/board_client.hpp"
+#include "view/live_feed.hpp"
+#include "run/observer_stage.hpp"
+#include "config/config_file.hpp"
+#include "run/sample_collector.hpp"
+#include "run/stream_follower.hpp"
 
 namespace piezo::host {
 
 class BoardWatch {
  public:
   /// `hello` is the board's answer to `hello` (rates, latency).
-  BoardWatch(const config::RigConfig& config, BoardClient& client, const protocol::Hello& hello,
+  BoardWatch(const config::ConfigFile& config, BoardClient& client, const protocol::Hello& hello,
              view::LiveFeed& feed);
 
   /// Handles what the stream brought within `wait`, and renews the lease of
@@ -45,7 +45,7 @@ class BoardWatch {
   nlohmann::json call(const std::string& cmd,
                       const nlohmann::json& args = nlohmann::json::object());
 
-  config::RigConfig config_;
+  config::ConfigFile config_;
   BoardClient& client_;
   protocol::Hello hello_;
   view::LiveFeed& feed_;

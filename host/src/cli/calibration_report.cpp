@@ -7,8 +7,8 @@
 #include <fstream>
 #include <stdexcept>
 
-#include "fit_io.hpp"
-#include "gnuplot.hpp"
+#include "io/fit_io.hpp"
+#include "io/gnuplot.hpp"
 #include "piezo/model/identify.hpp"
 
 namespace piezo::host {
@@ -197,7 +197,7 @@ std::string summary_text(const json& cal, const std::string& kept) {
 }  // namespace
 
 CalibrationReport finish_calibration(const fs::path& dir, const fs::path& log,
-                                     const json& board_calibration, const config::RigConfig& config,
+                                     const json& board_calibration, const config::ConfigFile& config,
                                      BoardClient& client, bool local) {
   CalibrationReport report;
   json cal = board_calibration;

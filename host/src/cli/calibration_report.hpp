@@ -10,8 +10,8 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "board_client.hpp"
-#include "rig_config.hpp"
+#include "run/board_client.hpp"
+#include "config/config_file.hpp"
 
 namespace piezo::host {
 
@@ -27,7 +27,7 @@ struct CalibrationReport {
 [[nodiscard]] CalibrationReport finish_calibration(const std::filesystem::path& dir,
                                                    const std::filesystem::path& log,
                                                    const nlohmann::json& board_calibration,
-                                                   const config::RigConfig& config,
+                                                   const config::ConfigFile& config,
                                                    BoardClient& client, bool local);
 
 }  // namespace piezo::host

@@ -6,7 +6,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "board_client.hpp"
+#include "run/board_client.hpp"
 #include "commands.hpp"
 #include "piezo/protocol/messages.hpp"
 

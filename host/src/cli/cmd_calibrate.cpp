@@ -72,7 +72,7 @@ void add_calibrate_command(CLI::App& app, Commands& commands) {
                   "piezod's address (default: [rig] address, or in-process)",
                   "Print one JSON object: the calibration, where it is kept, files");
   cmd->add_option("--V0", o->V0, "Peak voltage of the steps [V] (default: the board's [drive] V0)");
-  RunProgram program{[o](config::RigConfig& config) {
+  RunProgram program{[o](config::ConfigFile& config) {
                        config.host.run.calibrate = config::RunSettings::Calibrate{o->V0};
                        config.host.run.duration_s =
                            60.0;  // the board's plan says how long; its start reply tells

@@ -7,11 +7,11 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "columns.hpp"
+#include "io/columns.hpp"
 #include "commands.hpp"
-#include "fit_io.hpp"
-#include "gnuplot.hpp"
-#include "parameters_json.hpp"
+#include "io/fit_io.hpp"
+#include "io/gnuplot.hpp"
+#include "io/parameters_json.hpp"
 
 namespace piezo::host {
 namespace {

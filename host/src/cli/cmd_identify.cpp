@@ -6,12 +6,12 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
-#include "fit_io.hpp"
-#include "model_config.hpp"
+#include "io/fit_io.hpp"
+#include "config/model_config.hpp"
 #include "piezo/config/config_error.hpp"
 #include "piezo/model/analysis_limits.hpp"
 #include "piezo/model/identify.hpp"
-#include "rig_config.hpp"
+#include "config/config_file.hpp"
 
 namespace piezo::host {
 namespace {

@@ -145,7 +145,7 @@ void add_move_command(CLI::App& app, Commands& commands) {
   cmd->add_option("--f", o->f,
                   "Coarse steps' frequency [Hz] (default: the board's calibrated fastest, else "
                   "its [drive] f)");
-  RunProgram program{[m, o](config::RigConfig& config) {
+  RunProgram program{[m, o](config::ConfigFile& config) {
                        config.host.run.move = move_request(*m, *o, config.host.run.move_defaults);
                        config.host.run.duration_s = config.host.run.move->timeout_s;
                      },

@@ -14,14 +14,14 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "log_schema.hpp"
+#include "io/log_schema.hpp"
 #include "piezo/config/config_error.hpp"
 #include "piezo/protocol/error.hpp"
 #include "piezo/protocol/frame.hpp"
-#include "rig_config.hpp"
-#include "run_log.hpp"
-#include "run_recovery.hpp"
-#include "sample_collector.hpp"
+#include "config/config_file.hpp"
+#include "io/run_log.hpp"
+#include "io/run_recovery.hpp"
+#include "run/sample_collector.hpp"
 
 namespace piezo::host {
 namespace {
@@ -44,7 +44,7 @@ int recover_spill(const RecoverOptions& o) {
   const double r2 =
       o.config.empty()
           ? config::SensorSettings{}.r2_m
-          : config::load_rig_config(o.config, {}, config::ConfigScope::sensor).board.sensor.r2_m;
+          : config::load_config_file(o.config, {}, config::ConfigScope::sensor).board.sensor.r2_m;
   std::ifstream in(o.spill, std::ios::binary);
   if (!in) throw config::ConfigError(o.spill, "file", "cannot be read");
   std::vector<firmware::DriveSample> drive;

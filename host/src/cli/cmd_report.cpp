@@ -12,17 +12,17 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
-#include "columns.hpp"
+#include "io/columns.hpp"
 #include "commands.hpp"
-#include "fit_io.hpp"
-#include "gnuplot.hpp"
-#include "h5_file.hpp"
-#include "log_schema.hpp"
-#include "parameters_json.hpp"
+#include "io/fit_io.hpp"
+#include "io/gnuplot.hpp"
+#include "io/h5_file.hpp"
+#include "io/log_schema.hpp"
+#include "io/parameters_json.hpp"
 #include "piezo/config/config_error.hpp"
 #include "piezo/model/simulate.hpp"
-#include "rig_config.hpp"
-#include "run_recovery.hpp"
+#include "config/config_file.hpp"
+#include "io/run_recovery.hpp"
 
 namespace piezo::host {
 namespace {

@@ -11,7 +11,7 @@
 #include "piezo/hal/modbus/modbus_backends.hpp"
 #include "piezo/hal/sim/modbus_rig_device.hpp"
 #include "piezo/hal/sim/sim_backends.hpp"
-#include "rig_config.hpp"
+#include "config/config_file.hpp"
 
 namespace piezo::host {
 namespace {
@@ -58,8 +58,8 @@ hal::sim::ModbusRigDeviceSettings device_settings(const config::BoardConfig& boa
 }
 
 int run(const RigSimOptions& o) {
-  const config::RigConfig config =
-      config::load_rig_config(o.config, o.sets, config::ConfigScope::sensor);
+  const config::ConfigFile config =
+      config::load_config_file(o.config, o.sets, config::ConfigScope::sensor);
   const auto& serial = config.board.sensor.backends.get<hal::modbus::ModbusSensorBackend>().link();
   std::string tcp = o.tcp;
   if (tcp.empty() && o.rtu.empty()) tcp = serial.host + ":" + std::to_string(serial.port);

@@ -7,15 +7,15 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "columns.hpp"
+#include "io/columns.hpp"
 #include "commands.hpp"
-#include "global_sensitivity_study.hpp"
-#include "gnuplot.hpp"
-#include "model_config.hpp"
-#include "oat_study.hpp"
+#include "studies/global_sensitivity_study.hpp"
+#include "io/gnuplot.hpp"
+#include "config/model_config.hpp"
+#include "studies/oat_study.hpp"
 #include "piezo/config/config_error.hpp"
 #include "piezo/model/sensitivity.hpp"
-#include "rig_config.hpp"
+#include "config/config_file.hpp"
 
 namespace piezo::host {
 namespace {

@@ -11,10 +11,10 @@
 #include <utility>
 
 #include "commands.hpp"
-#include "device_inventory.hpp"
+#include "config/device_inventory.hpp"
 #include "piezo/hal/modbus/modbus_sensor.hpp"
-#include "rig.hpp"
-#include "rig_config.hpp"
+#include "config/rig.hpp"
+#include "config/config_file.hpp"
 
 namespace piezo::host {
 namespace {
@@ -68,8 +68,8 @@ struct SensorReadOptions {
 };
 
 int run(const SensorReadOptions& o) {
-  const config::RigConfig config =
-      config::load_rig_config(o.config, o.sets, config::ConfigScope::sensor);
+  const config::ConfigFile config =
+      config::load_config_file(o.config, o.sets, config::ConfigScope::sensor);
   config::SensorRig rig = config::build_sensor(config.board);
   hal::Clock& clock = *rig.clock;
   const auto period = hal::from_seconds(1.0 / config.board.sensor.rate_hz);
@@ -120,7 +120,7 @@ int run(const SensorReadOptions& o) {
 /// `piezo sensor list`: what the configured drive and sensor devices offer.
 int list(const SensorReadOptions& o) {
   fmt::print("{}",
-             config::device_inventory(config::load_rig_config(o.config, o.sets).board, false));
+             config::device_inventory(config::load_config_file(o.config, o.sets).board, false));
   return 0;
 }
 

@@ -12,17 +12,17 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
-#include "columns.hpp"
+#include "io/columns.hpp"
 #include "commands.hpp"
-#include "h5_file.hpp"
-#include "model_config.hpp"
-#include "parameters_json.hpp"
+#include "io/h5_file.hpp"
+#include "config/model_config.hpp"
+#include "io/parameters_json.hpp"
 #include "piezo/config/config_error.hpp"
 #include "piezo/model/analysis_limits.hpp"
 #include "piezo/model/simulate.hpp"
-#include "progress.hpp"
-#include "rig_config.hpp"
-#include "simulate_checks.hpp"
+#include "jobs/progress.hpp"
+#include "config/config_file.hpp"
+#include "studies/simulate_checks.hpp"
 
 namespace piezo::host {
 namespace {

@@ -18,7 +18,7 @@ void add_step_command(CLI::App& app, Commands& commands) {
   cmd->add_flag("--reverse", o->reverse, "Step backwards (the mirrored sawtooth)");
   cmd->add_option("--V0", o->V0, "Peak voltage [V] (default: [drive] V0)");
   cmd->add_option("--f", o->f, "Drive frequency [Hz] (default: [drive] f)");
-  RunProgram program{[count](config::RigConfig& config) {
+  RunProgram program{[count](config::ConfigFile& config) {
                        config.host.run.step_periods = *count;
                        config.host.run.duration_s =
                            static_cast<double>(*count) / config.host.model.drive.f;

@@ -8,18 +8,18 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "columns.hpp"
+#include "io/columns.hpp"
 #include "commands.hpp"
-#include "gnuplot.hpp"
-#include "interruption.hpp"
-#include "model_config.hpp"
-#include "parallel.hpp"
+#include "io/gnuplot.hpp"
+#include "jobs/interruption.hpp"
+#include "config/model_config.hpp"
+#include "jobs/parallel.hpp"
 #include "piezo/config/config_error.hpp"
 #include "piezo/model/analysis_limits.hpp"
 #include "piezo/model/frequency_sweep.hpp"
 #include "piezo/model/sensitivity.hpp"
-#include "progress.hpp"
-#include "rig_config.hpp"
+#include "jobs/progress.hpp"
+#include "config/config_file.hpp"
 
 namespace piezo::host {
 namespace {

@@ -10,14 +10,14 @@
 #include <optional>
 #include <thread>
 
-#include "board_client.hpp"
+#include "run/board_client.hpp"
 #include "board_watch.hpp"
 #include "commands.hpp"
-#include "live_feed.hpp"
+#include "view/live_feed.hpp"
 #include "piezo/config/config_error.hpp"
-#include "rig_config.hpp"
-#include "signals.hpp"
-#include "view_server.hpp"
+#include "config/config_file.hpp"
+#include "run/signals.hpp"
+#include "view/view_server.hpp"
 
 namespace piezo::host {
 namespace {
@@ -41,10 +41,10 @@ int serve(const ViewCliOptions& o) {
     return 0;
   }
   // The host's view of the model and the sensor's radius: a config, or the defaults.
-  config::RigConfig config =
-      o.config.empty() ? config::RigConfig{} : config::load_rig_config(o.config, {});
-  config.host.rig.address = o.rig;
-  BoardClient client(config.host.rig);
+  config::ConfigFile config =
+      o.config.empty() ? config::ConfigFile{} : config::load_config_file(o.config, {});
+  config.host.board.address = o.rig;
+  BoardClient client(config.host.board);
   const protocol::Hello hello = client.hello();
   if (const std::string note = sensor_geometry_note(config, hello); !note.empty()) {
     std::cerr << "piezo view: " << note << "\n";

@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "board_client.hpp"
+#include "run/board_client.hpp"
 #include "commands.hpp"
 #include "exit_codes.hpp"
 #include "piezo/config/config_error.hpp"

@@ -12,20 +12,20 @@
 #include <ctime>
 #include <fstream>
 
-#include "board_run.hpp"
-#include "catalogue.hpp"
+#include "run/board_run.hpp"
+#include "io/catalogue.hpp"
 #include "commands.hpp"
-#include "effective_config.hpp"
+#include "config/effective_config.hpp"
 #include "exit_codes.hpp"
-#include "live_feed.hpp"
-#include "local_board.hpp"
-#include "log_schema.hpp"
-#include "parameters_json.hpp"
+#include "view/live_feed.hpp"
+#include "run/local_board.hpp"
+#include "io/log_schema.hpp"
+#include "io/parameters_json.hpp"
 #include "piezo/config/config_error.hpp"
-#include "rig.hpp"
-#include "run_log.hpp"
-#include "signals.hpp"
-#include "view_server.hpp"
+#include "config/rig.hpp"
+#include "io/run_log.hpp"
+#include "run/signals.hpp"
+#include "view/view_server.hpp"
 
 namespace piezo::host {
 
@@ -236,7 +236,7 @@ nlohmann::json summary_json(const RunSummary& s, const fs::path& dir, const fs::
 }
 
 void append_catalogue(const fs::path& run_dir, const std::string& utc_start,
-                      const config::RigConfig& config, const RunSummary& s) {
+                      const config::ConfigFile& config, const RunSummary& s) {
   append_to_catalogue(run_dir, {.utc_start = utc_start,
                                 .status = s.status(),
                                 .stop_cause = s.stop_cause(),
@@ -290,17 +290,17 @@ void finish_log(RunLog& log, RunSummary& summary, const nlohmann::json& result) 
 
 /// The run's config: the files and --set (with the drive keys given as
 /// options), the command's own request, and the board's address.
-config::RigConfig rig_config(const RunOptions& o, const RunProgram& program) {
+config::ConfigFile run_config(const RunOptions& o, const RunProgram& program) {
   if (o.config.empty() && o.rig.empty()) {
     throw config::ConfigError("command line", "--config",
                               "required, or --rig ADDRESS (a board with its own config)");
   }
-  config::RigConfig config = config::load_rig_config(
+  config::ConfigFile config = config::load_config_file(
       o.config.empty() ? std::vector<std::string>{} : std::vector<std::string>{o.config}, o.sets,
       config::DriveOptions{o.V0, o.f, o.duration > 0.0 ? std::optional(o.duration) : std::nullopt,
                            o.reverse});
   if (program.request) program.request(config);
-  if (!o.rig.empty()) config.host.rig.address = o.rig;
+  if (!o.rig.empty()) config.host.board.address = o.rig;
   return config;
 }
 
@@ -315,13 +315,13 @@ struct Board {
   std::string geometry_note;            ///< the board's sensor radius differed from the config's
 };
 
-void connect(Board& board, const config::RigConfig& config) {
-  if (config.host.rig.address.empty()) {
+void connect(Board& board, const config::ConfigFile& config) {
+  if (config.host.board.address.empty()) {
     board.local = std::make_unique<LocalBoard>(config, config::build_rig(config.board));
     board.client.emplace(config::BoardAddress{board.local->address(), "", ""},
                          board.local->context());
   } else {
-    board.client.emplace(config.host.rig);
+    board.client.emplace(config.host.board);
   }
   board.hello = board.client->hello();
   if (const std::string note = sensor_geometry_note(config, board.hello); !note.empty()) {
@@ -358,7 +358,7 @@ std::unique_ptr<view::ViewServer> open_view(const RunOptions& o, const fs::path&
 
 /// The run's directory and log, once everything is checked: only now does
 /// the run leave traces.
-RunLog create_log(const fs::path& dir, const config::RigConfig& config, const Board& board,
+RunLog create_log(const fs::path& dir, const config::ConfigFile& config, const Board& board,
                   const std::string& utc_start) {
   fs::create_directories(dir);
   if (!fs::is_empty(dir)) {
@@ -412,7 +412,7 @@ std::function<void(const LiveStatus&)> status_reporter(const RunOptions& o, view
 
 /// Runs it; a failure before the run's end leaves the log marked failed
 /// with the reason (the log keeps what it has) and is thrown on.
-RunSummary drive(Board& board, const config::RigConfig& config, RunLog& log,
+RunSummary drive(Board& board, const config::ConfigFile& config, RunLog& log,
                  const StopOnSignals& signals,
                  const std::function<void(const LiveStatus&)>& status_line,
                  const std::atomic<bool>& estop_requested, view::LiveFeed* live) {
@@ -445,7 +445,7 @@ int run(const RunOptions& o, const RunProgram& program) {
   // From here on every stopping signal ends the run through the ramp; one
   // that comes during set-up stops it before the amplifier is enabled.
   const StopOnSignals signals;
-  config::RigConfig config = rig_config(o, program);
+  config::ConfigFile config = run_config(o, program);
   const fs::path dir = choose_run_dir(o.out);
   Board board;
   connect(board, config);

@@ -15,10 +15,10 @@
 #include <string>
 #include <vector>
 
-#include "board_client.hpp"
+#include "run/board_client.hpp"
 #include "commands.hpp"
-#include "rig_config.hpp"
-#include "run_session.hpp"
+#include "config/config_file.hpp"
+#include "run/run_session.hpp"
 
 namespace piezo::host {
 
@@ -44,7 +44,7 @@ struct RunOptions {
 struct FinishedRun {
   const RunOptions& options;
   const RunSummary& summary;
-  const config::RigConfig& config;
+  const config::ConfigFile& config;
   std::filesystem::path dir, log;
   std::string signal;     ///< the stopping signal received ("" none)
   nlohmann::json result;  ///< the run's JSON summary (a move's account under "move")
@@ -55,7 +55,7 @@ struct FinishedRun {
 /// A command's own part of a run.
 struct RunProgram {
   /// Its request, into the config's [run] once the files and --set are read.
-  std::function<void(config::RigConfig&)> request;
+  std::function<void(config::ConfigFile&)> request;
   /// What it prints; returns the exit code.
   std::function<int(const FinishedRun&)> report;
 };

@@ -346,8 +346,8 @@ std::vector<std::string> parse_parameter_list(const std::string& list) {
 
 #include <fmt/format.h>
 
-#include "parallel.hpp"
-#include "progress.hpp"
+#include "jobs/parallel.hpp"
+#include "jobs/progress.hpp"
 
 namespace piezo::host {
 

@@ -5,7 +5,7 @@
 #include <cerrno>
 #include <zmq_addon.hpp>
 
-#include "client_authentication.hpp"
+#include "daemon/client_authentication.hpp"
 #include "piezo/protocol/endpoints.hpp"
 #include "piezo/protocol/message.hpp"
 
@@ -110,7 +110,7 @@ protocol::Hello BoardClient::hello() {
   return protocol::decode<protocol::Hello>(hello);
 }
 
-std::string sensor_geometry_note(const config::RigConfig& c, const protocol::Hello& hello) {
+std::string sensor_geometry_note(const config::ConfigFile& c, const protocol::Hello& hello) {
   const double board_r2 = hello.sensor.r2_m;
   if (board_r2 == c.board.sensor.r2_m) return {};
   return fmt::format(

@@ -13,7 +13,7 @@
 
 #include "piezo/protocol/error.hpp"
 #include "piezo/protocol/messages.hpp"
-#include "rig_config.hpp"
+#include "config/config_file.hpp"
 
 namespace piezo::host {
 
@@ -70,7 +70,7 @@ class BoardClient {
 /// The board's sensor measured the samples, so its radius (`hello`'s
 /// `sensor.r2_m`) turns them into angles, whatever the host's config says:
 /// a note when the host's config says another radius (empty when they agree).
-[[nodiscard]] std::string sensor_geometry_note(const config::RigConfig& c,
+[[nodiscard]] std::string sensor_geometry_note(const config::ConfigFile& c,
                                                const protocol::Hello& hello);
 
 }  // namespace piezo::host

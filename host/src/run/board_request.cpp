@@ -38,9 +38,9 @@ std::string configure_key(const std::string& argument) {
 
 }  // namespace
 
-BoardRequest board_request(const config::RigConfig& c) {
+BoardRequest board_request(const config::ConfigFile& c) {
   const std::optional<double> lease_s =
-      c.host.rig.lease_s > 0.0 ? std::optional(c.host.rig.lease_s) : std::nullopt;
+      c.host.board.lease_s > 0.0 ? std::optional(c.host.board.lease_s) : std::nullopt;
   const auto& run = c.host.run;
   const auto& drive = c.host.model.drive;
   if (run.move) {

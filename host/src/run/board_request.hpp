@@ -12,7 +12,7 @@
 
 #include "board_client.hpp"
 #include "piezo/protocol/messages.hpp"
-#include "rig_config.hpp"
+#include "config/config_file.hpp"
 
 namespace piezo::host {
 
@@ -27,7 +27,7 @@ using BoardRequest = std::variant<TimedRun, protocol::StepRequest, protocol::Mov
 
 /// The request the config's [run] asks for, under the config's `rig.lease_s`
 /// (none: the board's default lease).
-[[nodiscard]] BoardRequest board_request(const config::RigConfig& c);
+[[nodiscard]] BoardRequest board_request(const config::ConfigFile& c);
 
 /// Refuses (ConfigError naming the argument, the board and its limit) what
 /// the board's dictionary (`describe`) says it would refuse: nothing is sent.

@@ -7,7 +7,7 @@
 #include <optional>
 #include <zmq_addon.hpp>
 
-#include "log_schema.hpp"
+#include "io/log_schema.hpp"
 #include "log_writer.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "piezo/protocol/message.hpp"
@@ -35,7 +35,7 @@ std::int64_t host_ns() {
 
 /// The observer's model: the config's, with the parameters the board's
 /// calibration fitted (its `model`) in their place; the log says which.
-model::MotorParameters observer_model(const config::RigConfig& c, const protocol::Hello& hello,
+model::MotorParameters observer_model(const config::ConfigFile& c, const protocol::Hello& hello,
                                       RunLog& log) {
   model::Parameters p{c.host.model.drive, c.host.model.motor};
   if (!hello.calibration || !hello.calibration->model.is_object()) return p.motor;
@@ -82,7 +82,7 @@ namespace {
 /// and the board's account of the run's end.
 class FollowedRun {
  public:
-  FollowedRun(const config::RigConfig& c, BoardClient& client, const protocol::Hello& hello,
+  FollowedRun(const config::ConfigFile& c, BoardClient& client, const protocol::Hello& hello,
               RunLog& log, const protocol::StartReply& started, const ClockMapping& clock,
               ObserverStage* observer, std::function<void(const log_schema::LogRows&)> on_rows)
       : c_(c),
@@ -138,7 +138,7 @@ class FollowedRun {
   void finish_writing();
   void note_outages();
 
-  const config::RigConfig& c_;
+  const config::ConfigFile& c_;
   BoardClient& client_;
   RunLog& log_;
   protocol::StartReply started_;
@@ -353,7 +353,7 @@ RunSummary FollowedRun::finish(const std::optional<protocol::RunSummary>& end) {
 
 }  // namespace
 
-RunSummary run_on_board(const config::RigConfig& c, BoardClient& client,
+RunSummary run_on_board(const config::ConfigFile& c, BoardClient& client,
                         const protocol::Hello& hello, RunLog& log, const std::atomic<bool>& stop,
                         const std::function<void(const LiveStatus&)>& on_status,
                         const BoardRequest& request, const std::atomic<bool>* estop,

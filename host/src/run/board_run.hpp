@@ -11,8 +11,8 @@
 
 #include "board_client.hpp"
 #include "board_request.hpp"
-#include "rig_config.hpp"
-#include "run_log.hpp"
+#include "config/config_file.hpp"
+#include "io/run_log.hpp"
 #include "run_session.hpp"
 
 namespace piezo::host {
@@ -30,7 +30,7 @@ struct ClockMapping {
 /// rows as the collector made them, whether or not the log takes them (the
 /// live view goes on when the log fails).
 [[nodiscard]] RunSummary run_on_board(
-    const config::RigConfig& config, BoardClient& client, const protocol::Hello& hello, RunLog& log,
+    const config::ConfigFile& config, BoardClient& client, const protocol::Hello& hello, RunLog& log,
     const std::atomic<bool>& stop, const std::function<void(const LiveStatus&)>& on_status,
     const BoardRequest& request, const std::atomic<bool>* estop = nullptr,
     const std::function<void(const log_schema::LogRows&)>& on_rows = {});

@@ -7,7 +7,7 @@
 namespace piezo::host {
 namespace {
 
-config::BoardConfig board_config(const config::RigConfig& c) {
+config::BoardConfig board_config(const config::ConfigFile& c) {
   config::BoardConfig board = c.board;
   // The config's own limits are the board's; only the run's length is the host's to choose.
   board.daemon.duration_max_s = std::max(board.daemon.duration_max_s, c.host.run.duration_s);
@@ -23,7 +23,7 @@ std::string inproc_address() {
 
 }  // namespace
 
-LocalBoard::LocalBoard(const config::RigConfig& config, config::Rig rig)
+LocalBoard::LocalBoard(const config::ConfigFile& config, config::Rig rig)
     : address_(inproc_address()),
       daemon_(std::make_unique<daemon::Daemon>(board_config(config), std::move(rig), context_,
                                                address_, events_)),

@@ -12,9 +12,9 @@
 #include <thread>
 #include <zmq.hpp>
 
-#include "daemon.hpp"
-#include "rig.hpp"
-#include "rig_config.hpp"
+#include "daemon/daemon.hpp"
+#include "config/rig.hpp"
+#include "config/config_file.hpp"
 
 namespace piezo::host {
 
@@ -26,7 +26,7 @@ class LocalBoard {
   static constexpr double kLease_s = 2.0;
 
   /// Serves `rig` with the config's own limits as the board's.
-  LocalBoard(const config::RigConfig& config, config::Rig rig);
+  LocalBoard(const config::ConfigFile& config, config::Rig rig);
   /// Stops the daemon (a run under way ramps down first) and joins it.
   ~LocalBoard();
   LocalBoard(const LocalBoard&) = delete;

@@ -11,7 +11,7 @@
 #include <string>
 #include <thread>
 
-#include "run_log.hpp"
+#include "io/run_log.hpp"
 
 namespace piezo::host {
 

@@ -8,7 +8,7 @@
 #include <deque>
 #include <utility>
 
-#include "log_schema.hpp"
+#include "io/log_schema.hpp"
 #include "piezo/model/lugre_observer.hpp"
 
 namespace piezo::host {

@@ -3,7 +3,7 @@
 #include "board_client.hpp"
 #include "board_run.hpp"
 #include "local_board.hpp"
-#include "log_schema.hpp"
+#include "io/log_schema.hpp"
 
 namespace piezo::host {
 
@@ -42,7 +42,7 @@ std::string RunSummary::status() const {
   }
 }
 
-RunSummary execute_run(const config::RigConfig& c, config::Rig rig, RunLog& log,
+RunSummary execute_run(const config::ConfigFile& c, config::Rig rig, RunLog& log,
                        const std::atomic<bool>& stop,
                        const std::function<void(const LiveStatus&)>& on_status,
                        const std::atomic<bool>* estop,

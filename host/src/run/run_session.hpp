@@ -15,9 +15,9 @@
 
 #include "observer_stage.hpp"
 #include "piezo/protocol/messages.hpp"
-#include "rig.hpp"
-#include "rig_config.hpp"
-#include "run_log.hpp"
+#include "config/rig.hpp"
+#include "config/config_file.hpp"
+#include "io/run_log.hpp"
 
 namespace piezo::host {
 
@@ -61,7 +61,7 @@ struct LiveStatus {
 /// fails (then host_error says why; the drive stops as on `stop`).
 /// `on_rows` sees the rows as run_on_board gives them.
 [[nodiscard]] RunSummary execute_run(
-    const config::RigConfig& config, config::Rig rig, RunLog& log, const std::atomic<bool>& stop,
+    const config::ConfigFile& config, config::Rig rig, RunLog& log, const std::atomic<bool>& stop,
     const std::function<void(const LiveStatus&)>& on_status,
     const std::atomic<bool>* estop = nullptr,
     const std::function<void(const log_schema::LogRows&)>& on_rows = {});

@@ -11,7 +11,7 @@
 #include "observer_stage.hpp"
 #include "piezo/firmware/angle_zero.hpp"
 #include "piezo/firmware/samples.hpp"
-#include "run_log.hpp"
+#include "io/run_log.hpp"
 
 namespace piezo::host {
 

@@ -8,17 +8,17 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "columns.hpp"
-#include "gnuplot.hpp"
-#include "interruption.hpp"
-#include "model_config.hpp"
+#include "io/columns.hpp"
+#include "io/gnuplot.hpp"
+#include "jobs/interruption.hpp"
+#include "config/model_config.hpp"
 #include "mpi_ranks.hpp"
-#include "parallel.hpp"
+#include "jobs/parallel.hpp"
 #include "piezo/config/config_error.hpp"
 #include "piezo/model/frequency_sweep.hpp"
 #include "piezo/model/global_sensitivity.hpp"
 #include "piezo/model/sensitivity.hpp"
-#include "progress.hpp"
+#include "jobs/progress.hpp"
 
 namespace piezo::host {
 namespace {

@@ -2,7 +2,7 @@
 
 #include <cstdlib>
 
-#include "module_loader.hpp"
+#include "io/module_loader.hpp"
 #include "mpi_world.hpp"
 
 namespace piezo::host {

@@ -2,10 +2,10 @@
 
 #include <fmt/format.h>
 
-#include "interruption.hpp"
-#include "model_config.hpp"
-#include "parallel.hpp"
-#include "progress.hpp"
+#include "jobs/interruption.hpp"
+#include "config/model_config.hpp"
+#include "jobs/parallel.hpp"
+#include "jobs/progress.hpp"
 
 namespace piezo::host {
 

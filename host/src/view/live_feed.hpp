@@ -20,7 +20,7 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
-#include "log_schema.hpp"
+#include "io/log_schema.hpp"
 
 namespace piezo::host::view {
 

@@ -6,8 +6,8 @@
 #include <vector>
 
 #include "decimate.hpp"
-#include "h5_file.hpp"
-#include "log_schema.hpp"
+#include "io/h5_file.hpp"
+#include "io/log_schema.hpp"
 #include "piezo/config/read_file.hpp"
 
 namespace piezo::host::view {

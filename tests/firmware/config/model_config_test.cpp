@@ -1,4 +1,4 @@
-#include "model_config.hpp"
+#include "config/model_config.hpp"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include "piezo/config/config_error.hpp"
 #include "piezo/hal/gpiod/gpiod_backends.hpp"
 #include "piezo/hal/modbus/modbus_backends.hpp"
-#include "rig_config.hpp"
+#include "config/config_file.hpp"
 
 namespace piezo::config {
 namespace {
@@ -120,20 +120,20 @@ TEST(ParameterOverride, RejectsBadInput) {
 }  // namespace
 }  // namespace piezo::config
 
-#include "rig_config.hpp"
+#include "config/config_file.hpp"
 
 namespace piezo::config {
 namespace {
 
 // The shipped rig configs are valid as they stand (the devices they name
 // are not opened here).
-TEST(RigConfigs, ShippedConfigsLoad) {
+TEST(ConfigFiles, ShippedConfigsLoad) {
   for (const char* name : {"sim.toml", "modbus-hil.toml", "rig-example.toml", "daq.toml"}) {
     const std::string path = std::string(build_paths::source_dir) + "/configs/" + name;
-    EXPECT_NO_THROW((void)load_rig_config(path)) << name;
+    EXPECT_NO_THROW((void)load_config_file(path)) << name;
   }
   const BoardConfig rig =
-      load_rig_config(std::string(build_paths::source_dir) + "/configs/rig-example.toml").board;
+      load_config_file(std::string(build_paths::source_dir) + "/configs/rig-example.toml").board;
   const auto dac =
       rig.drive.backends.get<hal::gpiod::ParallelDacBackend>().settings(rig.drive_common());
   EXPECT_EQ(dac.dac.bits, 12);

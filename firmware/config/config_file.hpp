@@ -186,7 +186,7 @@ struct HostConfig {
       model;  ///< [drive] waveform + [model]: what a run asks, what the observer models
   RunSettings run;
   ObserverSettings observer;
-  BoardAddress rig;  ///< [rig]: the board (piezod) to drive
+  BoardAddress board;  ///< [rig]: the rig's board (piezod) to drive
 };
 
 /// What `piezo rig-sim` reads beyond the devices it serves (the board's).
@@ -197,7 +197,7 @@ struct RigSimConfig {
 
 /// A config file: each process's part of it. One file may serve all three
 /// (the one-machine default); each process takes only its own part.
-struct RigConfig {
+struct ConfigFile {
   std::string source;  ///< the config file
   std::string text;    ///< the file's text plus the --set lines: stored with the log
   BoardConfig board;
@@ -206,18 +206,18 @@ struct RigConfig {
 };
 
 /// What a command needs of a config: a whole rig, or only its sensor.
-enum class ConfigScope { rig, sensor };
+enum class ConfigScope { whole, sensor };
 
 /// Reads and checks a rig config. Throws ConfigError naming the key, the
 /// source (the file, or "--set") and what is allowed.
-[[nodiscard]] RigConfig load_rig_config(const std::string& path,
+[[nodiscard]] ConfigFile load_config_file(const std::string& path,
                                         const std::vector<std::string>& sets = {},
-                                        ConfigScope scope = ConfigScope::rig);
+                                        ConfigScope scope = ConfigScope::whole);
 
 /// The same over several files, each overlaying the ones before it.
-[[nodiscard]] RigConfig load_rig_config(const std::vector<std::string>& paths,
+[[nodiscard]] ConfigFile load_config_file(const std::vector<std::string>& paths,
                                         const std::vector<std::string>& sets,
-                                        ConfigScope scope = ConfigScope::rig);
+                                        ConfigScope scope = ConfigScope::whole);
 
 /// A run command's own options for the drive, given as values (never as
 /// `--set` text): each given one overrides its key after the files and
@@ -228,7 +228,7 @@ struct DriveOptions {
 };
 
 /// The files and `--set`, then the command's drive options.
-[[nodiscard]] RigConfig load_rig_config(const std::vector<std::string>& paths,
+[[nodiscard]] ConfigFile load_config_file(const std::vector<std::string>& paths,
                                         const std::vector<std::string>& sets,
                                         const DriveOptions& options);
 

@@ -1,4 +1,4 @@
-#include "rig_config.hpp"
+#include "config_file.hpp"
 
 #include <fmt/format.h>
 
@@ -177,7 +177,7 @@ void read_safety(SectionReader r, firmware::SafetySettings& s) {
 /// Everything one table (the file, or one --set) says, read over `c`: each
 /// section into the part of the process that reads it. [plant] keys are
 /// collected apart: the plant is [model] overlaid with them.
-void read_tables(const toml::table& t, const std::string& source, RigConfig& c,
+void read_tables(const toml::table& t, const std::string& source, ConfigFile& c,
                  model::MotorParameters& plant_keys, KeyDeclarations* declarations = nullptr) {
   TableReader file(t, source, declarations);
   BoardConfig& board = c.board;
@@ -201,7 +201,7 @@ void read_tables(const toml::table& t, const std::string& source, RigConfig& c,
   read_rig_sim(file.section("rig_sim"), c.rig_sim.faults, c.rig_sim.tcp);
   read_observer(file.section("observer"), host.observer);
   read_daemon(file.section("piezod"), board.daemon);
-  read_board_address(file.section("rig"), host.rig);
+  read_board_address(file.section("rig"), host.board);
   file.finish();
 }
 
@@ -293,7 +293,7 @@ void check_backends(const BoardConfig& c, const hal::SourceOf& src) {
   check_each(c.lines.backends, hal::LinesCommon{}, src);
 }
 
-void check_whole(const RigConfig& c, const std::map<std::string, std::string>& source_of,
+void check_whole(const ConfigFile& c, const std::map<std::string, std::string>& source_of,
                  ConfigScope scope) {
   const hal::SourceOf src = [&](const std::string& key) {
     const auto it = source_of.find(key);
@@ -352,9 +352,9 @@ void check_whole(const RigConfig& c, const std::map<std::string, std::string>& s
 }
 
 /// The files, `--set`, then a command's drive options; checked as a whole.
-RigConfig load(const std::vector<std::string>& paths, const std::vector<std::string>& sets,
+ConfigFile load(const std::vector<std::string>& paths, const std::vector<std::string>& sets,
                ConfigScope scope, const DriveOptions& options) {
-  RigConfig c;
+  ConfigFile c;
   // No file: the defaults (a host whose rig is a board with its own config).
   c.source = paths.empty() ? std::string("defaults") : paths.front();
   c.board.source = c.source;
@@ -371,7 +371,7 @@ RigConfig load(const std::vector<std::string>& paths, const std::vector<std::str
     read_tables(file, path, c, plant_keys);
   }
   const std::vector<std::string> required =
-      scope == ConfigScope::rig ? kRequiredSections : std::vector<std::string>{"sensor"};
+      scope == ConfigScope::whole ? kRequiredSections : std::vector<std::string>{"sensor"};
   for (const auto& section : paths.empty() ? std::vector<std::string>{} : required) {
     if (std::find(present.begin(), present.end(), section) == present.end()) {
       throw ConfigError(paths.back(), section,
@@ -415,19 +415,19 @@ RigConfig load(const std::vector<std::string>& paths, const std::vector<std::str
 
 }  // namespace
 
-RigConfig load_rig_config(const std::string& path, const std::vector<std::string>& sets,
+ConfigFile load_config_file(const std::string& path, const std::vector<std::string>& sets,
                           ConfigScope scope) {
-  return load_rig_config(std::vector<std::string>{path}, sets, scope);
+  return load_config_file(std::vector<std::string>{path}, sets, scope);
 }
 
-RigConfig load_rig_config(const std::vector<std::string>& paths,
+ConfigFile load_config_file(const std::vector<std::string>& paths,
                           const std::vector<std::string>& sets, ConfigScope scope) {
   return load(paths, sets, scope, {});
 }
 
-RigConfig load_rig_config(const std::vector<std::string>& paths,
+ConfigFile load_config_file(const std::vector<std::string>& paths,
                           const std::vector<std::string>& sets, const DriveOptions& options) {
-  return load(paths, sets, ConfigScope::rig, options);
+  return load(paths, sets, ConfigScope::whole, options);
 }
 
 std::string_view name(RunClock c) {
@@ -437,7 +437,7 @@ std::string_view name(RunClock c) {
 model::Parameters load_model_config(const std::string& path) {
   // Every section is read (and so checked), whatever command asks: one
   // reader per section, one meaning per key.
-  RigConfig c;
+  ConfigFile c;
   model::MotorParameters plant_keys = all_nan();
   read_tables(parse_config_file(path), path, c, plant_keys);
   require_valid(c.host.model, path);
@@ -445,7 +445,7 @@ model::Parameters load_model_config(const std::string& path) {
 }
 
 KeyDeclarations declared_keys() {
-  RigConfig c;
+  ConfigFile c;
   model::MotorParameters plant_keys = all_nan();
   KeyDeclarations declarations;
   read_tables(toml::table{}, "defaults", c, plant_keys, &declarations);
