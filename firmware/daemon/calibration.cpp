@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "piezo/config/read_file.hpp"
+#include "piezo/firmware/wire_keys.hpp"
 #include "piezo/protocol/error.hpp"
 
 namespace piezo::daemon {
@@ -29,8 +30,9 @@ constexpr std::size_t kFractions = firmware::MoveSettings::kStepFractions.size()
 /// The settle's longest mean.
 constexpr double kLongestMean = firmware::SettleMean::kMax;
 
-ProtocolError bad(const std::string& key, const std::string& message) {
-  return {code::bad_argument, "calibration." + key, "calibration." + key + ": " + message};
+ProtocolError bad(std::string_view key, const std::string& message) {
+  const std::string path = fmt::format("{}.{}", wire_key::calibration, key);
+  return {code::bad_argument, path, path + ": " + message};
 }
 
 std::string utc_now() {
@@ -116,12 +118,13 @@ CalibrationRecord checked_calibration(CalibrationRecord c, const CalibrationLimi
   }
   if (c.created.empty()) c.created = utc_now();
   if (!c.step_fractions.empty() && c.step_fractions != step_fractions()) {
-    throw bad("step_fractions", fmt::format("allowed: {}", json(step_fractions()).dump()));
+    throw bad(wire_key::step_fractions, fmt::format("allowed: {}", json(step_fractions()).dump()));
   }
   c.step_fractions = step_fractions();
   if (c.frequencies.empty() || c.frequencies.size() > firmware::CalibrationPlan::kMaxFrequencies) {
-    throw bad("frequencies", fmt::format("1 to {} entries {{f_hz, forward_rad, reverse_rad}}",
-                                         firmware::CalibrationPlan::kMaxFrequencies));
+    throw bad(wire_key::frequencies,
+              fmt::format("1 to {} entries {{f_hz, forward_rad, reverse_rad}}",
+                          firmware::CalibrationPlan::kMaxFrequencies));
   }
   for (std::size_t i = 0; i < c.frequencies.size(); ++i) {
     const auto& f = c.frequencies[i];
@@ -144,7 +147,7 @@ CalibrationRecord checked_calibration(const json& given, const CalibrationLimits
   try {
     return checked_calibration(protocol::decode<CalibrationRecord>(given), limits);
   } catch (const ProtocolError& e) {
-    if (e.key().rfind("calibration", 0) == 0) throw;
+    if (e.key().rfind(wire_key::calibration, 0) == 0) throw;
     throw ProtocolError(code::bad_argument, "calibration." + e.key(),
                         std::string("calibration.") + e.what());
   }

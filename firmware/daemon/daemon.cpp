@@ -8,6 +8,7 @@
 #include "calibration.hpp"
 #include "daemon_run.hpp"
 #include "piezo/config/config_error.hpp"
+#include "piezo/firmware/wire_keys.hpp"
 #include "piezo/protocol/endpoints.hpp"
 #include "piezo/protocol/message.hpp"
 
@@ -230,7 +231,7 @@ CommandTable Daemon::command_table() {
        {},
        [this](Who, Args) { return protocol::describe(command_table_.specs(), hello().limits); }},
       {"status", C::anyone, {}, [this](Who c, Args) { return json(status(c)); }},
-      {"clock",
+      {wire_key::clock,
        C::anyone,
        {},
        [this](Who, Args) { return json(protocol::ClockReply{rig_.clock->now()}); }},
@@ -251,7 +252,7 @@ CommandTable Daemon::command_table() {
        [this](Who c, Args a) { return calibrate(c, a); }},
       {"set_calibration",
        C::controller,
-       {protocol::ArgumentSpec{"calibration",
+       {protocol::ArgumentSpec{std::string(wire_key::calibration),
                                firmware::ArgumentType::map,
                                "",
                                {},

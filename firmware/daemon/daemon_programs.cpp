@@ -11,6 +11,7 @@
 #include "calibration.hpp"
 #include "daemon_run.hpp"
 #include "piezo/firmware/request_limits.hpp"
+#include "piezo/firmware/wire_keys.hpp"
 #include "piezo/protocol/message.hpp"
 
 namespace piezo::daemon {
@@ -70,11 +71,11 @@ firmware::MoveSettings Daemon::plan_move(const protocol::MoveToRequest& request,
     const double smallest = smallest_tolerance_rad(*noise, board_.sensor.r2_m);
     if (m.tolerance_rad < smallest) {
       throw out_of_limits(
-          "tolerance_rad",
+          wire_key::tolerance_rad,
           fmt::format("{:g} rad is below what the sensor resolves: its noise is {:.3g} m "
                       "({:.3g} rad a reading, {} at rest); allowed: at least {:.3g} rad",
                       m.tolerance_rad, *noise, *noise / board_.sensor.r2_m,
-                      calibration_ ? "calibrated" : "measured now", smallest));
+                      calibration_ ? wire_key::calibrated : "measured now", smallest));
     }
   }
   // The coarse steps' waveform: the caller's, or the calibration's fastest
@@ -115,8 +116,9 @@ json Daemon::calibrate(const std::string& client, const json& args) {
   const auto& lim = board_.drive.limits;
   const auto& d0 = board_.model.drive;
   if (request.V0 && !(*request.V0 > 0.0 && *request.V0 <= lim.V_max)) {
-    throw out_of_limits("V0", fmt::format("{:g} V (allowed: (0, {:g}] V, the board's V_max)",
-                                          *request.V0, lim.V_max));
+    throw out_of_limits(
+        wire_key::V0,
+        fmt::format("{:g} V (allowed: (0, {:g}] V, the board's V_max)", *request.V0, lim.V_max));
   }
   firmware::CalibrationPlan plan;
   plan.V0 = request.V0.value_or(std::min(d0.V0, lim.V_max));
@@ -135,9 +137,10 @@ json Daemon::calibrate(const std::string& client, const json& args) {
     plan.f_hz[static_cast<std::size_t>(plan.frequencies++)] = factor * d0.f;
   }
   if (plan.frequencies == 0) {
-    throw out_of_limits("V0", fmt::format("at {:g} V the board's frequency {:g} Hz exceeds its "
-                                          "slew limit; allowed: a lower V0",
-                                          plan.V0, d0.f));
+    throw out_of_limits(wire_key::V0,
+                        fmt::format("at {:g} V the board's frequency {:g} Hz exceeds its "
+                                    "slew limit; allowed: a lower V0",
+                                    plan.V0, d0.f));
   }
   model::DriveParameters d = d0;
   d.direction = model::Direction::forward;
@@ -154,11 +157,11 @@ json Daemon::calibrate(const std::string& client, const json& args) {
 json Daemon::set_calibration(const std::string&, const json& args) {
   // The command table admitted the caller: a run under way is the controller's.
   if (running()) throw ProtocolError(code::bad_state, "", "set_calibration: a run is under way");
-  if (!args.contains("calibration")) {
-    throw ProtocolError(code::bad_argument, "calibration",
+  if (!args.contains(wire_key::calibration)) {
+    throw ProtocolError(code::bad_argument, wire_key::calibration,
                         "calibration: missing (a calibration map, or nil to clear it)");
   }
-  const json& given = args.at("calibration");
+  const json& given = args.at(wire_key::calibration);
   if (given.is_null()) {
     calibration_.reset();
     if (!board_.daemon.calibration_file.empty()) {

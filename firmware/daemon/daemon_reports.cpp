@@ -8,6 +8,7 @@
 #include <zmq_addon.hpp>
 
 #include "daemon_run.hpp"
+#include "piezo/firmware/wire_keys.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "piezo/protocol/message.hpp"
 
@@ -151,7 +152,7 @@ void Daemon::publish_state() {
   if (run_state_.state() == State::fault) e.fault = run_state_.fault();
   if (run_ && run_->finished) e.summary = run_->summary;
   const std::string body = protocol::encode_map(e);
-  std::array<zmq::const_buffer, 2> parts{zmq::str_buffer("state"), zmq::buffer(body)};
+  std::array<zmq::const_buffer, 2> parts{zmq::buffer(wire_key::state), zmq::buffer(body)};
   (void)zmq::send_multipart(stream_, parts, zmq::send_flags::dontwait);
 }
 

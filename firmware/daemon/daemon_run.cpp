@@ -12,6 +12,7 @@
 #include "calibration.hpp"
 #include "piezo/firmware/request_arguments.hpp"
 #include "piezo/firmware/request_limits.hpp"
+#include "piezo/firmware/wire_keys.hpp"
 #include "piezo/protocol/message.hpp"
 
 namespace piezo::daemon {
@@ -69,7 +70,8 @@ protocol::StartReply Daemon::start(const std::string& client,
   const double lease_s = requested_lease_s.value_or(board_.daemon.lease_s);
   if (const Interval allowed = firmware::arguments::lease_s.within(board_.daemon.lease_max_s);
       !allowed.admits(lease_s)) {
-    throw out_of_limits("lease_s", fmt::format("{:g} s; allowed: {} s", lease_s, allowed.text()));
+    throw out_of_limits(wire_key::lease_s,
+                        fmt::format("{:g} s; allowed: {} s", lease_s, allowed.text()));
   }
   run_.reset();  // the last run's runner (joined) goes; its samples are overwritten below
   auto run = std::make_unique<Run>(*configured_);
@@ -172,7 +174,7 @@ json Daemon::step(const std::string& client, const json& args) {
   const Interval allowed =
       firmware::arguments::count.within(std::floor(board_.daemon.duration_max_s * f));
   if (!allowed.admits(static_cast<double>(request.count))) {
-    throw out_of_limits("count",
+    throw out_of_limits(wire_key::count,
                         fmt::format("{} periods at {:g} Hz; allowed: [{:g}, {:g}] (the "
                                     "board's longest run, {:g} s)",
                                     request.count, f, allowed.min, std::max(allowed.max, 0.0),

@@ -42,8 +42,8 @@ struct Daemon::Run {
 };
 
 /// A refusal of a value beyond the board's limits, naming its key.
-inline protocol::ProtocolError out_of_limits(const std::string& key, const std::string& message) {
-  return {protocol::code::out_of_limits, key, key + ": " + message};
+inline protocol::ProtocolError out_of_limits(std::string_view key, const std::string& message) {
+  return {protocol::code::out_of_limits, key, std::string(key) + ": " + message};
 }
 
 }  // namespace piezo::daemon

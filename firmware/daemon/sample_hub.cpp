@@ -7,6 +7,7 @@
 #include <vector>
 #include <zmq_addon.hpp>
 
+#include "piezo/firmware/wire_keys.hpp"
 #include "piezo/protocol/error.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "piezo/protocol/message.hpp"
@@ -56,13 +57,13 @@ bool SampleHub::take(firmware::LoopRunner& runner,
         sensor_.push(s);
         if (s.status == hal::Status::ok) on_good_reading(s.displacement_m);
       });
-  publish("drive", drive_, drive_published_);
-  publish("sensor", sensor_, sensor_published_);
+  publish(wire_key::drive, drive_, drive_published_);
+  publish(wire_key::sensor, sensor_, sensor_published_);
   return ramping;
 }
 
 template <class Sample>
-void SampleHub::publish(const char* topic, const Recorder<Sample>& recorder,
+void SampleHub::publish(std::string_view topic, const Recorder<Sample>& recorder,
                         std::uint64_t& published) {
   std::vector<Sample> batch;
   while (published < recorder.next()) {
@@ -71,8 +72,7 @@ void SampleHub::publish(const char* topic, const Recorder<Sample>& recorder,
     if (batch.empty()) break;
     const std::string frame = protocol::encode_frame(published, batch);
     if (spill_) spill_->append(frame);
-    std::array<zmq::const_buffer, 2> parts{zmq::buffer(std::string_view(topic)),
-                                           zmq::buffer(frame)};
+    std::array<zmq::const_buffer, 2> parts{zmq::buffer(topic), zmq::buffer(frame)};
     (void)zmq::send_multipart(stream_, parts, zmq::send_flags::dontwait);
     published += batch.size();
   }
@@ -81,14 +81,14 @@ void SampleHub::publish(const char* topic, const Recorder<Sample>& recorder,
 json SampleHub::fetch(const std::string& client, const json& args, bool budgeted) {
   const auto [stream, first, count] = protocol::decode<protocol::FetchRequest>(args);
   if (count > kMaxFetch) {
-    throw ProtocolError(code::out_of_limits, "count",
+    throw ProtocolError(code::out_of_limits, wire_key::count,
                         fmt::format("count: {}; allowed: at most {} per fetch", count, kMaxFetch));
   }
   // A watcher's fetches cost the run a bounded amount; the controller's gap
   // filling (which its own lease waits on) is not budgeted.
   if (const double wait_s = budgeted ? budget_.take(client, static_cast<double>(count)) : 0.0;
       wait_s > 0) {
-    throw ProtocolError(code::rate_limited, "count",
+    throw ProtocolError(code::rate_limited, wire_key::count,
                         fmt::format("fetch: over this client's budget of {:g} samples/s; "
                                     "retry in {:.3f} s",
                                     budget_.samples_per_s(), wait_s));
@@ -102,7 +102,7 @@ json SampleHub::fetch(const std::string& client, const json& args, bool budgeted
       return protocol::FetchReply{binary(*frame)};
   }
   if (first < held_first || first > held_next) {
-    throw ProtocolError(code::not_available, "first",
+    throw ProtocolError(code::not_available, wire_key::first,
                         fmt::format("first: {} is not recorded; the recorder holds [{}, {})", first,
                                     held_first, held_next));
   }

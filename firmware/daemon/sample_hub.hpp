@@ -48,7 +48,7 @@ class SampleHub {
 
  private:
   template <class Sample>
-  void publish(const char* topic, const Recorder<Sample>& recorder, std::uint64_t& published);
+  void publish(std::string_view topic, const Recorder<Sample>& recorder, std::uint64_t& published);
 
   Recorder<firmware::DriveSample> drive_;
   Recorder<firmware::SensorSample> sensor_;

@@ -7,6 +7,7 @@
 
 #include "piezo/firmware/move_state.hpp"
 #include "piezo/firmware/output_state.hpp"
+#include "piezo/firmware/wire_keys.hpp"
 #include "piezo/model/parameters.hpp"
 #include "piezo/overload.hpp"
 #include "piezo/protocol/board_state.hpp"
@@ -143,10 +144,10 @@ std::vector<ArgumentSpec> move_to_specs() {
 }
 
 std::optional<double> limit_value(const Hello::Limits& limits, std::string_view name) {
-  if (name == "V_max") return limits.V_max;
-  if (name == "f_max_hz") return limits.f_max_hz;
-  if (name == "duration_max_s") return limits.duration_max_s;
-  if (name == "lease_max_s") return limits.lease_max_s;
+  if (name == wire_key::V_max) return limits.V_max;
+  if (name == wire_key::f_max_hz) return limits.f_max_hz;
+  if (name == wire_key::duration_max_s) return limits.duration_max_s;
+  if (name == wire_key::lease_max_s) return limits.lease_max_s;
   return std::nullopt;
 }
 
@@ -174,11 +175,11 @@ json describe(const std::vector<CommandSpec>& commands, const Hello::Limits& lim
       if (a.type == ArgumentType::choice) arg["choices"] = a.choices;
       args.push_back(std::move(arg));
     }
-    described[c.name] = {{"caller", c.anyone ? "anyone" : "controller"}, {"args", args}};
+    described[c.name] = {{"caller", c.anyone ? "anyone" : wire_key::controller}, {"args", args}};
   }
   json error_codes = json::array();
   for (const char* name : code::kAll) error_codes.push_back(name);
-  return {{"protocol", kProtocolVersion},
+  return {{wire_key::protocol, kProtocolVersion},
           {"commands", described},
           {"names",
            {{"states", names_of(kBoardStateNames)},

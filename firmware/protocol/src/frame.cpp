@@ -5,6 +5,8 @@
 #include <bit>
 #include <cstring>
 
+#include "piezo/firmware/wire_keys.hpp"
+
 namespace piezo::protocol {
 namespace {
 
@@ -56,7 +58,7 @@ std::string header(Stream stream, std::uint64_t first_seq, std::size_t count,
   return out;
 }
 
-ProtocolError bad(const std::string& key, const std::string& message) {
+ProtocolError bad(std::string_view key, const std::string& message) {
   return {code::bad_frame, key, "sample frame: " + message};
 }
 
@@ -117,12 +119,12 @@ FrameHeader decode_header(std::string_view frame) {
   if (frame.substr(0, 4) != kFrameMagic) throw bad("magic", "magic is not \"PZSB\"");
   const auto version = get<std::uint16_t>(frame, 4);
   if (version != kFrameVersion) {
-    throw bad("version",
+    throw bad(wire_key::version,
               fmt::format("version {} (this side reads version {})", version, kFrameVersion));
   }
   const auto raw_stream = get<std::uint16_t>(frame, 6);
   if (raw_stream != 1 && raw_stream != 2) {
-    throw bad("stream", fmt::format("stream {} (allowed: 1 drive, 2 sensor)", raw_stream));
+    throw bad(wire_key::stream, fmt::format("stream {} (allowed: 1 drive, 2 sensor)", raw_stream));
   }
   FrameHeader h{static_cast<Stream>(raw_stream), get<std::uint64_t>(frame, 8),
                 get<std::uint32_t>(frame, 16)};
@@ -134,15 +136,16 @@ FrameHeader decode_header(std::string_view frame) {
   }
   const std::size_t expected = kFrameHeaderBytes + std::size_t{h.count} * record_bytes;
   if (frame.size() != expected) {
-    throw bad("count", fmt::format("{} records need {} bytes, the frame has {}", h.count, expected,
-                                   frame.size()));
+    throw bad(wire_key::count, fmt::format("{} records need {} bytes, the frame has {}", h.count,
+                                           expected, frame.size()));
   }
   return h;
 }
 
 std::vector<firmware::DriveSample> decode_drive(std::string_view frame) {
   const FrameHeader h = decode_header(frame);
-  if (h.stream != Stream::drive) throw bad("stream", "a sensor frame where a drive frame was due");
+  if (h.stream != Stream::drive)
+    throw bad(wire_key::stream, "a sensor frame where a drive frame was due");
   std::vector<firmware::DriveSample> out;
   out.reserve(h.count);
   for (std::size_t i = 0; i < h.count; ++i) {
@@ -161,7 +164,8 @@ std::vector<firmware::DriveSample> decode_drive(std::string_view frame) {
 
 std::vector<firmware::SensorSample> decode_sensor(std::string_view frame) {
   const FrameHeader h = decode_header(frame);
-  if (h.stream != Stream::sensor) throw bad("stream", "a drive frame where a sensor frame was due");
+  if (h.stream != Stream::sensor)
+    throw bad(wire_key::stream, "a drive frame where a sensor frame was due");
   std::vector<firmware::SensorSample> out;
   out.reserve(h.count);
   for (std::size_t i = 0; i < h.count; ++i) {

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <optional>
 
+#include "piezo/firmware/wire_keys.hpp"
+
 namespace piezo::protocol {
 namespace {
 
@@ -23,7 +25,7 @@ class BoundedDomParser : public nlohmann::detail::json_sax_dom_parser<json> {
  public:
   explicit BoundedDomParser(json& result) : json_sax_dom_parser(result, false) {}
   bool key(std::string& k) {
-    id_next_ = depth_ == 1 && k == "id";
+    id_next_ = depth_ == 1 && k == wire_key::id;
     return json_sax_dom_parser::key(k);
   }
   bool number_unsigned(json::number_unsigned_t v) {
@@ -85,24 +87,24 @@ std::string to_bytes(const json& j) {
   return {bytes.begin(), bytes.end()};
 }
 
-const json* find(const json& args, const std::string& key) {
+const json* find(const json& args, std::string_view key) {
   const auto it = args.find(key);
   return it == args.end() || it->is_null() ? nullptr : &*it;
 }
 
-ProtocolError wrong_type(const std::string& key, const char* wanted, const json& got) {
+ProtocolError wrong_type(std::string_view key, const char* wanted, const json& got) {
   return {code::bad_argument, key,
           fmt::format("{}: must be {}, got {}", key, wanted, got.type_name())};
 }
 
-ProtocolError missing(const std::string& key) {
+ProtocolError missing(std::string_view key) {
   return {code::bad_argument, key, fmt::format("{}: missing", key)};
 }
 
 }  // namespace
 
 std::string encode_request(const Request& r) {
-  return to_bytes(json{{"id", r.id}, {"cmd", r.cmd}, {"args", r.args}});
+  return to_bytes(json{{wire_key::id, r.id}, {"cmd", r.cmd}, {"args", r.args}});
 }
 
 Request decode_request(std::string_view bytes, std::optional<std::uint64_t>& id_out) {
@@ -111,7 +113,7 @@ Request decode_request(std::string_view bytes, std::optional<std::uint64_t>& id_
     // match the refusal to its request.
     try {
       const json big = parse_msgpack(bytes, false);
-      if (const json* id = find(big, "id"); id != nullptr && id->is_number_unsigned()) {
+      if (const json* id = find(big, wire_key::id); id != nullptr && id->is_number_unsigned()) {
         id_out = id->get<std::uint64_t>();
       }
     } catch (const ProtocolError&) {
@@ -122,9 +124,9 @@ Request decode_request(std::string_view bytes, std::optional<std::uint64_t>& id_
   Request r;
   // Without an id or a cmd it is no request at all: malformed, as the
   // document says, not a command with a bad argument.
-  const json* id = find(j, "id");
-  if (id == nullptr) throw ProtocolError(code::malformed, "id", "id: missing");
-  if (!id->is_number_unsigned()) throw wrong_type("id", "an unsigned integer", *id);
+  const json* id = find(j, wire_key::id);
+  if (id == nullptr) throw ProtocolError(code::malformed, wire_key::id, "id: missing");
+  if (!id->is_number_unsigned()) throw wrong_type(wire_key::id, "an unsigned integer", *id);
   r.id = id->get<std::uint64_t>();
   id_out = r.id;
   const json* cmd = find(j, "cmd");
@@ -139,12 +141,12 @@ Request decode_request(std::string_view bytes, std::optional<std::uint64_t>& id_
 }
 
 std::string encode_reply(std::uint64_t id, const json& result) {
-  return to_bytes(json{{"id", id}, {"ok", true}, {"result", result}});
+  return to_bytes(json{{wire_key::id, id}, {"ok", true}, {"result", result}});
 }
 
 std::string encode_error(std::optional<std::uint64_t> id, const ErrorBody& e) {
   json j{{"ok", false}, {"error", {{"code", e.code}, {"key", e.key}, {"message", e.message}}}};
-  j["id"] = id ? json(*id) : json(nullptr);
+  j[wire_key::id] = id ? json(*id) : json(nullptr);
   return to_bytes(j);
 }
 
@@ -152,7 +154,7 @@ Reply decode_reply(std::string_view bytes) {
   // Replies are not limited: a fetch carries up to 100000 samples.
   const json j = parse_msgpack(bytes, false);
   Reply r;
-  if (const json* id = find(j, "id"); id != nullptr && id->is_number_unsigned()) {
+  if (const json* id = find(j, wire_key::id); id != nullptr && id->is_number_unsigned()) {
     r.id = id->get<std::uint64_t>();
   }
   const json* ok = find(j, "ok");
@@ -183,7 +185,7 @@ json decode_map(std::string_view bytes) {
   return parse_msgpack(bytes, false);
 }
 
-double number_arg(const json& args, const std::string& key, std::optional<double> fallback) {
+double number_arg(const json& args, std::string_view key, std::optional<double> fallback) {
   const json* v = find(args, key);
   if (v == nullptr) {
     if (fallback) return *fallback;
@@ -193,7 +195,7 @@ double number_arg(const json& args, const std::string& key, std::optional<double
   return v->get<double>();
 }
 
-std::uint64_t uint_arg(const json& args, const std::string& key,
+std::uint64_t uint_arg(const json& args, std::string_view key,
                        std::optional<std::uint64_t> fallback) {
   const json* v = find(args, key);
   if (v == nullptr) {
@@ -221,7 +223,7 @@ void refuse_unknown_args(const json& args, const std::vector<std::string_view>& 
   }
 }
 
-std::string string_arg(const json& args, const std::string& key,
+std::string string_arg(const json& args, std::string_view key,
                        std::optional<std::string> fallback) {
   const json* v = find(args, key);
   if (v == nullptr) {
@@ -232,7 +234,7 @@ std::string string_arg(const json& args, const std::string& key,
   return v->get<std::string>();
 }
 
-bool bool_arg(const json& args, const std::string& key, std::optional<bool> fallback) {
+bool bool_arg(const json& args, std::string_view key, std::optional<bool> fallback) {
   const json* v = find(args, key);
   if (v == nullptr) {
     if (fallback) return *fallback;

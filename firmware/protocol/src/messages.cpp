@@ -5,6 +5,7 @@
 #include <type_traits>
 #include <variant>
 
+#include "piezo/firmware/wire_keys.hpp"
 #include "piezo/protocol/error.hpp"
 #include "piezo/protocol/message.hpp"
 #include "piezo/protocol/wire_fields.hpp"
@@ -38,7 +39,7 @@ template <>
 struct Fields<CalibrationRecord::Frequency> {
   using T = CalibrationRecord::Frequency;
   static constexpr auto list =
-      std::tuple{field("f_hz", &T::f_hz).within({1e-3, 1e9}, "Hz", "f_max_hz"),
+      std::tuple{field(wire_key::f_hz, &T::f_hz).within({1e-3, 1e9}, "Hz", wire_key::f_max_hz),
                  // Each a step per period in rad, one per step fraction.
                  field("forward_rad", &T::forward_rad).within({-1.0, 1.0}, "rad"),
                  field("reverse_rad", &T::reverse_rad).within({-1.0, 1.0}, "rad"),
@@ -48,74 +49,76 @@ struct Fields<CalibrationRecord::Frequency> {
 template <>
 struct Fields<CalibrationRecord> {
   using T = CalibrationRecord;
-  static constexpr auto list =
-      std::tuple{field("version", &T::version).within({T::kVersion, T::kVersion}, ""),
-                 field("created", &T::created, may_be_missing),
-                 field(firmware::arguments::V0.name, &T::V0).within({0.0, 1e9, true}, "V", "V_max"),
-                 field("D", &T::D).within({0.01, 0.99}, ""),
-                 field("r2_m", &T::r2_m).within({1e-6, 10.0}, "m"),
-                 field("steps_per_point", &T::steps_per_point).within({1.0, 1000.0}, "periods"),
-                 field("rest_readings", &T::rest_readings, omitted_when_absent),
-                 field("step_fractions", &T::step_fractions, may_be_missing),
-                 field("noise_m", &T::noise_m).within({0.0, 1e-2}, "m"),
-                 field("rad_per_V", &T::rad_per_V).within({1e-9, 1e-2}, "rad/V"),
-                 field("frequencies", &T::frequencies),
-                 field("model", &T::model, may_be_missing),
-                 field("step_floor_rad", &T::step_floor_rad, may_be_missing),
-                 field("fastest_f_hz", &T::fastest_f_hz, may_be_missing),
-                 field("noise_rad", &T::noise_rad, may_be_missing),
-                 field("resolution_rad", &T::resolution_rad, may_be_missing),
-                 field("smallest_tolerance_rad", &T::smallest_tolerance_rad, may_be_missing)};
+  static constexpr auto list = std::tuple{
+      field(wire_key::version, &T::version).within({T::kVersion, T::kVersion}, ""),
+      field("created", &T::created, may_be_missing),
+      field(firmware::arguments::V0.name, &T::V0).within({0.0, 1e9, true}, "V", wire_key::V_max),
+      field(wire_key::D, &T::D).within({0.01, 0.99}, ""),
+      field(wire_key::r2_m, &T::r2_m).within({1e-6, 10.0}, "m"),
+      field(wire_key::steps_per_point, &T::steps_per_point).within({1.0, 1000.0}, "periods"),
+      field("rest_readings", &T::rest_readings, omitted_when_absent),
+      field(wire_key::step_fractions, &T::step_fractions, may_be_missing),
+      field(wire_key::noise_m, &T::noise_m).within({0.0, 1e-2}, "m"),
+      field("rad_per_V", &T::rad_per_V).within({1e-9, 1e-2}, "rad/V"),
+      field(wire_key::frequencies, &T::frequencies),
+      field(wire_key::model, &T::model, may_be_missing),
+      field("step_floor_rad", &T::step_floor_rad, may_be_missing),
+      field("fastest_f_hz", &T::fastest_f_hz, may_be_missing),
+      field("noise_rad", &T::noise_rad, may_be_missing),
+      field("resolution_rad", &T::resolution_rad, may_be_missing),
+      field("smallest_tolerance_rad", &T::smallest_tolerance_rad, may_be_missing)};
 };
 
 template <>
 struct Fields<Hello::Backends> {
   using T = Hello::Backends;
   static constexpr auto list =
-      std::tuple{field("drive", &T::drive), field("sensor", &T::sensor), field("lines", &T::lines)};
+      std::tuple{field(wire_key::drive, &T::drive), field(wire_key::sensor, &T::sensor),
+                 field("lines", &T::lines)};
 };
 template <>
 struct Fields<Hello::Limits> {
   using T = Hello::Limits;
   static constexpr auto list = std::tuple{field("V_min", &T::V_min),
-                                          field("V_max", &T::V_max),
+                                          field(wire_key::V_max, &T::V_max),
                                           field("slew_V_per_s", &T::slew_V_per_s),
                                           field("ramp_down_V_per_s", &T::ramp_down_V_per_s),
                                           field("sensor_stale_s", &T::sensor_stale_s),
-                                          field("f_max_hz", &T::f_max_hz),
-                                          field("duration_max_s", &T::duration_max_s),
-                                          field("lease_max_s", &T::lease_max_s)};
+                                          field(wire_key::f_max_hz, &T::f_max_hz),
+                                          field(wire_key::duration_max_s, &T::duration_max_s),
+                                          field(wire_key::lease_max_s, &T::lease_max_s)};
 };
 template <>
 struct Fields<Hello::Sensor> {
   using T = Hello::Sensor;
   static constexpr auto list =
-      std::tuple{field("r2_m", &T::r2_m), field("zero_displacement_m", &T::zero_displacement_m)};
+      std::tuple{field(wire_key::r2_m, &T::r2_m),
+                 field(wire_key::zero_displacement_m, &T::zero_displacement_m)};
 };
 template <>
 struct Fields<Hello> {
   using T = Hello;
-  static constexpr auto list = std::tuple{field("protocol", &T::protocol),
+  static constexpr auto list = std::tuple{field(wire_key::protocol, &T::protocol),
                                           field("frame_version", &T::frame_version),
                                           field("daemon", &T::daemon),
-                                          field("stream", &T::stream),
-                                          field("clock", &T::clock),
+                                          field(wire_key::stream, &T::stream),
+                                          field(wire_key::clock, &T::clock),
                                           field("backends", &T::backends),
                                           field("limits", &T::limits),
-                                          field("sensor", &T::sensor),
+                                          field(wire_key::sensor, &T::sensor),
                                           field("drive_rate_hz", &T::drive_rate_hz),
                                           field("sensor_rate_hz", &T::sensor_rate_hz),
                                           field("output_latency_s", &T::output_latency_s),
-                                          field("lease_s", &T::lease_s),
+                                          field(wire_key::lease_s, &T::lease_s),
                                           field("recorder_s", &T::recorder_s),
-                                          field("calibration", &T::calibration)};
+                                          field(wire_key::calibration, &T::calibration)};
 };
 template <>
 struct Fields<LoopHealth::Timing> {
   using T = LoopHealth::Timing;
   static constexpr auto list = std::tuple{
       field("p50_us", &T::p50_us), field("p99_us", &T::p99_us), field("max_us", &T::max_us),
-      field("mean_us", &T::mean_us), field("histogram_us", &T::histogram_us)};
+      field("mean_us", &T::mean_us), field(wire_key::histogram_us, &T::histogram_us)};
 };
 template <>
 struct Fields<LoopHealth> {
@@ -124,18 +127,18 @@ struct Fields<LoopHealth> {
                                           field("overruns", &T::overruns),
                                           field("missed_cycles", &T::missed_cycles),
                                           field("dropped", &T::dropped),
-                                          field("errors", &T::errors),
+                                          field(wire_key::errors, &T::errors),
                                           inline_fields(&T::timing)};
 };
 template <>
 struct Fields<ClockReply> {
-  static constexpr auto list = std::tuple{field("board_ns", &ClockReply::board_ns)};
+  static constexpr auto list = std::tuple{field(wire_key::board_ns, &ClockReply::board_ns)};
 };
 template <>
 struct Fields<OutputEnd> {
   using T = OutputEnd;
   static constexpr auto list =
-      std::tuple{field("state", &T::state),
+      std::tuple{field(wire_key::state, &T::state),
                  field("zero_confirmed", &T::zero_confirmed),
                  field("zero_read_back", &T::zero_read_back, may_be_missing),
                  field("acknowledged_V", &T::acknowledged_V),
@@ -147,30 +150,31 @@ struct Fields<OutputEnd> {
 template <>
 struct Fields<MoveAccount::Hold> {
   using T = MoveAccount::Hold;
-  static constexpr auto list =
-      std::tuple{field("hold_s", &T::hold_s), field("hold_rms_error_rad", &T::hold_rms_error_rad),
-                 field("hold_max_error_rad", &T::hold_max_error_rad)};
+  static constexpr auto list = std::tuple{field(wire_key::hold_s, &T::hold_s),
+                                          field("hold_rms_error_rad", &T::hold_rms_error_rad),
+                                          field("hold_max_error_rad", &T::hold_max_error_rad)};
 };
 template <>
 struct Fields<MoveAccount> {
   using T = MoveAccount;
-  static constexpr auto list = std::tuple{field("state", &T::state),
-                                          field("target_rad", &T::target_rad),
-                                          field("tolerance_rad", &T::tolerance_rad),
-                                          field("position_rad", &T::position_rad),
+  static constexpr auto list = std::tuple{field(wire_key::state, &T::state),
+                                          field(wire_key::target_rad, &T::target_rad),
+                                          field(wire_key::tolerance_rad, &T::tolerance_rad),
+                                          field(wire_key::position_rad, &T::position_rad),
                                           field("error_rad", &T::error_rad),
                                           field("on_target", &T::on_target),
                                           field("on_target_at_s", &T::on_target_at_s),
                                           field("steps", &T::steps),
-                                          field("f_hz", &T::f_hz),
-                                          field("noise_m", &T::noise_m),
+                                          field(wire_key::f_hz, &T::f_hz),
+                                          field(wire_key::noise_m, &T::noise_m),
                                           inline_fields(&T::hold),
                                           field("stop_cause", &T::stop_cause, omitted_when_absent)};
 };
 template <>
 struct Fields<RunSummary::Samples> {
   using T = RunSummary::Samples;
-  static constexpr auto list = std::tuple{field("drive", &T::drive), field("sensor", &T::sensor)};
+  static constexpr auto list =
+      std::tuple{field(wire_key::drive, &T::drive), field(wire_key::sensor, &T::sensor)};
 };
 template <>
 struct Fields<RunSummary> {
@@ -178,34 +182,34 @@ struct Fields<RunSummary> {
   static constexpr auto list =
       std::tuple{field("cause", &T::cause),
                  field("output", &T::output),
-                 field("drive", &T::drive),
-                 field("sensor", &T::sensor),
+                 field(wire_key::drive, &T::drive),
+                 field(wire_key::sensor, &T::sensor),
                  field("realtime", &T::realtime, may_be_missing),
                  field("samples", &T::samples),
-                 field("move", &T::move, omitted_when_absent),
-                 field("calibration", &T::calibration, omitted_when_absent),
+                 field(wire_key::move, &T::move, omitted_when_absent),
+                 field(wire_key::calibration, &T::calibration, omitted_when_absent),
                  field("calibration_error", &T::calibration_error, omitted_when_absent)};
 };
 template <>
 struct Fields<StartReply::Move> {
   using T = StartReply::Move;
-  static constexpr auto list =
-      std::tuple{field("calibrated", &T::calibrated),
-                 field("zero_displacement_m", &T::zero_displacement_m), inline_fields(&T::request)};
+  static constexpr auto list = std::tuple{
+      field(wire_key::calibrated, &T::calibrated),
+      field(wire_key::zero_displacement_m, &T::zero_displacement_m), inline_fields(&T::request)};
 };
 template <>
 struct Fields<StartReply::Calibration> {
   using T = StartReply::Calibration;
   static constexpr auto list =
-      std::tuple{field("steps_per_point", &T::steps_per_point),
-                 field(firmware::arguments::V0.name, &T::V0), field("f_hz", &T::f_hz)};
+      std::tuple{field(wire_key::steps_per_point, &T::steps_per_point),
+                 field(firmware::arguments::V0.name, &T::V0), field(wire_key::f_hz, &T::f_hz)};
 };
 template <>
 struct Fields<StartReply> {
   using T = StartReply;
   static constexpr auto list =
-      std::tuple{field("run", &T::run),
-                 field("t0_ns", &T::t0_ns),
+      std::tuple{field(wire_key::run, &T::run),
+                 field(wire_key::t0_ns, &T::t0_ns),
                  field(firmware::arguments::lease_s.name, &T::lease_s),
                  field(firmware::arguments::duration_s.name, &T::duration_s),
                  field(firmware::arguments::count.name, &T::count, omitted_when_absent),
@@ -217,70 +221,74 @@ template <>
 struct Fields<StateEvent> {
   using T = StateEvent;
   static constexpr auto list =
-      std::tuple{field("state", &T::state), field("board_ns", &T::board_ns), field("run", &T::run),
-                 field("fault", &T::fault), field("summary", &T::summary, omitted_when_absent)};
+      std::tuple{field(wire_key::state, &T::state), field(wire_key::board_ns, &T::board_ns),
+                 field(wire_key::run, &T::run), field(wire_key::fault, &T::fault),
+                 field(wire_key::summary, &T::summary, omitted_when_absent)};
 };
 template <>
 struct Fields<HealthEvent> {
   using T = HealthEvent;
-  static constexpr auto list =
-      std::tuple{field("state", &T::state),
-                 field("board_ns", &T::board_ns),
-                 field("drive", &T::drive, omitted_when_absent),
-                 field("sensor", &T::sensor, omitted_when_absent),
-                 field("move", &T::move, omitted_when_absent),
-                 field("calibration_progress", &T::calibration_progress, omitted_when_absent)};
+  static constexpr auto list = std::tuple{
+      field(wire_key::state, &T::state),
+      field(wire_key::board_ns, &T::board_ns),
+      field(wire_key::drive, &T::drive, omitted_when_absent),
+      field(wire_key::sensor, &T::sensor, omitted_when_absent),
+      field(wire_key::move, &T::move, omitted_when_absent),
+      field(wire_key::calibration_progress, &T::calibration_progress, omitted_when_absent)};
 };
 template <>
 struct Fields<RunStatus> {
   using T = RunStatus;
-  static constexpr auto list =
-      std::tuple{field("id", &T::id),
-                 field("t0_ns", &T::t0_ns),
-                 field(firmware::arguments::duration_s.name, &T::duration_s),
-                 field(firmware::arguments::lease_s.name, &T::lease_s),
-                 field("finished", &T::finished),
-                 field("drive", &T::drive),
-                 field("sensor", &T::sensor),
-                 field("summary", &T::summary, omitted_when_absent),
-                 field("move", &T::move, omitted_when_absent),
-                 field("calibration_progress", &T::calibration_progress, omitted_when_absent)};
+  static constexpr auto list = std::tuple{
+      field(wire_key::id, &T::id),
+      field(wire_key::t0_ns, &T::t0_ns),
+      field(firmware::arguments::duration_s.name, &T::duration_s),
+      field(firmware::arguments::lease_s.name, &T::lease_s),
+      field("finished", &T::finished),
+      field(wire_key::drive, &T::drive),
+      field(wire_key::sensor, &T::sensor),
+      field(wire_key::summary, &T::summary, omitted_when_absent),
+      field(wire_key::move, &T::move, omitted_when_absent),
+      field(wire_key::calibration_progress, &T::calibration_progress, omitted_when_absent)};
 };
 template <>
 struct Fields<Status::Span> {
   using T = Status::Span;
-  static constexpr auto list = std::tuple{field("first", &T::first), field("next", &T::next)};
+  static constexpr auto list =
+      std::tuple{field(wire_key::first, &T::first), field("next", &T::next)};
 };
 template <>
 struct Fields<Status::Recorder> {
   using T = Status::Recorder;
-  static constexpr auto list = std::tuple{field("drive", &T::drive), field("sensor", &T::sensor)};
+  static constexpr auto list =
+      std::tuple{field(wire_key::drive, &T::drive), field(wire_key::sensor, &T::sensor)};
 };
 template <>
 struct Fields<Status::Position> {
   using T = Status::Position;
-  static constexpr auto list = std::tuple{field("position_rad", &T::position_rad),
-                                          field("zero_displacement_m", &T::zero_displacement_m)};
+  static constexpr auto list =
+      std::tuple{field(wire_key::position_rad, &T::position_rad),
+                 field(wire_key::zero_displacement_m, &T::zero_displacement_m)};
 };
 template <>
 struct Fields<Status> {
   using T = Status;
-  static constexpr auto list = std::tuple{field("state", &T::state),
-                                          field("board_ns", &T::board_ns),
-                                          field("controller", &T::controller),
+  static constexpr auto list = std::tuple{field(wire_key::state, &T::state),
+                                          field(wire_key::board_ns, &T::board_ns),
+                                          field(wire_key::controller, &T::controller),
                                           field("controlled", &T::controlled),
-                                          field("fault", &T::fault),
+                                          field(wire_key::fault, &T::fault),
                                           field("recorder", &T::recorder),
-                                          field("position", &T::position),
-                                          field("calibration", &T::calibration),
+                                          field(wire_key::position, &T::position),
+                                          field(wire_key::calibration, &T::calibration),
                                           field("configured", &T::configured, omitted_when_absent),
-                                          field("run", &T::run, omitted_when_absent),
+                                          field(wire_key::run, &T::run, omitted_when_absent),
                                           field("requests", &T::requests, may_be_missing)};
 };
 
 template <>
 struct Fields<StateReply> {
-  static constexpr auto list = std::tuple{field("state", &StateReply::state)};
+  static constexpr auto list = std::tuple{field(wire_key::state, &StateReply::state)};
 };
 template <>
 struct Fields<LeaseReply> {
@@ -289,12 +297,12 @@ struct Fields<LeaseReply> {
 };
 template <>
 struct Fields<ZeroReply> {
-  static constexpr auto list = std::tuple{field("position", &ZeroReply::position)};
+  static constexpr auto list = std::tuple{field(wire_key::position, &ZeroReply::position)};
 };
 template <>
 struct Fields<ConfigureReply> {
   using T = ConfigureReply;
-  static constexpr auto list = std::tuple{field("D", &T::D), inline_fields(&T::configured)};
+  static constexpr auto list = std::tuple{field(wire_key::D, &T::D), inline_fields(&T::configured)};
 };
 template <>
 struct Fields<FetchReply> {
@@ -304,7 +312,7 @@ template <>
 struct Fields<SetCalibrationReply> {
   using T = SetCalibrationReply;
   static constexpr auto list =
-      std::tuple{field("calibration", &T::calibration), field("saved_to", &T::saved_to),
+      std::tuple{field(wire_key::calibration, &T::calibration), field("saved_to", &T::saved_to),
                  field("save_error", &T::save_error, omitted_when_absent)};
 };
 
@@ -472,7 +480,7 @@ void from_json(const json& j, MoveToRequest& m) {
 std::optional<wire::RangeBreach> check_calibration_ranges(const CalibrationRecord& c, double V_max,
                                                           double f_max_hz) {
   return wire::check_ranges(
-      c, [&](std::string_view limit) { return limit == "V_max" ? V_max : f_max_hz; });
+      c, [&](std::string_view limit) { return limit == wire_key::V_max ? V_max : f_max_hz; });
 }
 
 std::vector<std::string_view> reply_keys() {

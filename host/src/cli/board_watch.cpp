@@ -7,6 +7,7 @@
 #include <vector>
 #include <zmq_addon.hpp>
 
+#include "piezo/firmware/wire_keys.hpp"
 #include "piezo/protocol/dictionary.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "piezo/protocol/message.hpp"
@@ -36,7 +37,7 @@ void BoardWatch::follow_run(std::uint64_t run) {
   if (!status.run || status.run->id != run) return;
   run_ = run;
   last_summary_ = nullptr;
-  health_.erase("summary");
+  health_.erase(wire_key::summary);
   const hal::TimeNs t0 = status.run->t0_ns;
   observer_.reset();
   if (config_.host.observer.enabled) {
@@ -59,9 +60,9 @@ void BoardWatch::on_state(const protocol::StateEvent& state) {
       controlled_run_.reset();  // the move this watch started has ended
     }
   }
-  health_["state"] = protocol::to_string(state.state);
+  health_[wire_key::state] = protocol::to_string(state.state);
   if (state.summary) {
-    health_["summary"] = last_summary_ = *state.summary;
+    health_[wire_key::summary] = last_summary_ = *state.summary;
   }
 }
 
@@ -71,12 +72,13 @@ void BoardWatch::poll(std::chrono::milliseconds wait) {
     // The periodic health replaces the last; the end of the last run (its
     // summary, from the state event) stays until the next starts.
     health_ = health;
-    if (!last_summary_.is_null()) health_["summary"] = last_summary_;
+    if (!last_summary_.is_null()) health_[wire_key::summary] = last_summary_;
   };
   handlers.on_state = [this](const protocol::StateEvent& state) { on_state(state); };
   follower_.drain(wait, 256, handlers);
   // A run already under way when the watch started: its start event was missed.
-  if (!run_ && health_.value("state", "") == "running") {
+  if (!run_ &&
+      health_.value(wire_key::state, "") == protocol::to_string(protocol::BoardState::running)) {
     const auto status = protocol::decode<protocol::Status>(call("status"));
     if (status.run) follow_run(status.run->id);
   }
@@ -91,17 +93,18 @@ void BoardWatch::poll(std::chrono::milliseconds wait) {
   if (collector_) {
     feed_.add(collector_->rows());
     collector_->rows() = {};
-    feed_.set_status(
-        {{"t_s", collector_->last_t()},
-         {"V", collector_->last_V()},
-         {"theta_rad", collector_->last_theta()},
-         {"residual_rad", observer_ ? observer_->summary().last_residual_rad : 0.0},
-         {"sensor_samples", follower_.sensor_next()},
-         {"sensor_errors", health_.value("sensor", json::object()).value("errors", 0)},
-         {"board", health_},
-         {"errors_by_class",
-          {{"drive", collector_->drive_errors()}, {"sensor", collector_->sensor_errors()}}},
-         {"lease_s", lease_json()}});
+    feed_.set_status({{"t_s", collector_->last_t()},
+                      {"V", collector_->last_V()},
+                      {"theta_rad", collector_->last_theta()},
+                      {"residual_rad", observer_ ? observer_->summary().last_residual_rad : 0.0},
+                      {"sensor_samples", follower_.sensor_next()},
+                      {"sensor_errors",
+                       health_.value(wire_key::sensor, json::object()).value(wire_key::errors, 0)},
+                      {"board", health_},
+                      {"errors_by_class",
+                       {{wire_key::drive, collector_->drive_errors()},
+                        {wire_key::sensor, collector_->sensor_errors()}}},
+                      {wire_key::lease_s, lease_json()}});
   } else {
     feed_.set_status({{"board", health_}});
   }
@@ -134,8 +137,8 @@ json BoardWatch::move_to(const json& args) {
   // its form from the same dictionary); the lease is the config's when it
   // names one, else the board's.
   json request = args.is_object() ? args : json::object();
-  if (!request.contains("lease_s") && config_.host.board.lease_s > 0.0) {
-    request["lease_s"] = config_.host.board.lease_s;
+  if (!request.contains(wire_key::lease_s) && config_.host.board.lease_s > 0.0) {
+    request[wire_key::lease_s] = config_.host.board.lease_s;
   }
   if (const auto breach = protocol::check_arguments(dictionary_, "move_to", request)) {
     throw std::invalid_argument(fmt::format("{}: {}", breach->key, breach->message));

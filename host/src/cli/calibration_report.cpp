@@ -10,8 +10,41 @@
 #include "io/fit_io.hpp"
 #include "io/gnuplot.hpp"
 #include "piezo/model/identify.hpp"
+#include "piezo/protocol/wire_fields.hpp"
+
+namespace piezo::protocol::wire {
+template <>
+struct Fields<host::CalibrationFit> {
+  using T = host::CalibrationFit;
+  static constexpr auto list = std::tuple{field("friction", &T::friction),
+                                          field("parameters", &T::parameters),
+                                          field("confidence_95", &T::confidence_95),
+                                          field("rmse_rad", &T::rmse_rad),
+                                          field("initial_rmse_rad", &T::initial_rmse_rad),
+                                          field("converged", &T::converged),
+                                          field("window_s", &T::window_s),
+                                          field("notes", &T::notes, may_be_missing)};
+};
+}  // namespace piezo::protocol::wire
 
 namespace piezo::host {
+
+void to_json(nlohmann::json& j, const CalibrationFit& m) {
+  j = protocol::wire::encode(m);
+}
+void from_json(const nlohmann::json& j, CalibrationFit& m) {
+  protocol::wire::decode_into(j, m);
+}
+
+std::optional<CalibrationFit> fit_of(const Calibration& c) {
+  if (!c.model.is_object()) return std::nullopt;
+  try {
+    return protocol::decode<CalibrationFit>(c.model);
+  } catch (const protocol::ProtocolError&) {
+    return std::nullopt;
+  }
+}
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -22,13 +55,12 @@ using nlohmann::json;
 /// with the rests after them, from rest, shifted to start at 0 s and 0 rad:
 /// under a second of data that shows sticking, slipping and both
 /// directions, short enough to fit in seconds.
-model::FitData full_amplitude_window(const model::FitData& all, const json& cal,
+model::FitData full_amplitude_window(const model::FitData& all, const Calibration& cal,
                                      double sensor_rate_hz, std::pair<double, double>& window) {
-  const double V0 = cal.at("V0").get<double>(), D = cal.at("D").get<double>();
-  const double f = cal.at("fastest_f_hz").is_number()
-                       ? cal.at("fastest_f_hz").get<double>()
-                       : cal.at("frequencies").at(0).at("f_hz").get<double>();
-  const int steps = cal.at("steps_per_point").get<int>();
+  if (cal.frequencies.empty()) throw std::runtime_error("the calibration stepped no frequency");
+  const double V0 = cal.V0, D = cal.D;
+  const double f = cal.fastest_f_hz.value_or(cal.frequencies.front().f_hz);
+  const auto steps = static_cast<int>(cal.steps_per_point);
   // The peaks at V0: the first of a series one period apart is the start.
   std::vector<double> peaks;
   for (std::size_t i = 1; i < all.drive_V.size(); ++i) {
@@ -44,9 +76,9 @@ model::FitData full_amplitude_window(const model::FitData& all, const json& cal,
   if (first + 1 >= peaks.size()) {
     throw std::runtime_error(fmt::format("the log has no full-amplitude steps at {:g} Hz", f));
   }
-  const json rest = cal.value("rest_readings", json::object());
-  const double rest_s =
-      (rest.value("skipped", 10) + rest.value("averaged", 32) + 2) / sensor_rate_hz;
+  // A record from before the rests were reported: the board's defaults then.
+  const auto rest = cal.rest_readings.value_or(Calibration::RestReadings{10, 32});
+  const double rest_s = (rest.skipped + rest.averaged + 2) / sensor_rate_hz;
   // The steps begin a rise before the first peak, after a rest whose
   // second half is the rotor at rest: the fit's zero.
   const double steps_begin = peaks[first] - D / f;
@@ -79,7 +111,7 @@ model::FitData full_amplitude_window(const model::FitData& all, const json& cal,
   return w;
 }
 
-json fit_model(const fs::path& log, const json& cal, double sensor_rate_hz) {
+CalibrationFit fit_model(const fs::path& log, const Calibration& cal, double sensor_rate_hz) {
   LoadedRun run = load_run_for_fit(log.string());
   std::pair<double, double> window;
   const model::FitData data = full_amplitude_window(run.data, cal, sensor_rate_hz, window);
@@ -89,56 +121,55 @@ json fit_model(const fs::path& log, const json& cal, double sensor_rate_hz) {
       model::identify(run.parameters, data,
                       cli_fit_settings({"sigma0", "sigma1", "F_N", "d_e"},
                                        model::FrictionModel::lugre, "calibrate"));
-  json parameters, intervals;
+  CalibrationFit fit{std::string(to_string(model::FrictionModel::lugre)),
+                     {},
+                     {},
+                     r.rmse_rad,
+                     r.initial_rmse_rad,
+                     r.converged,
+                     {window.first, window.second},
+                     r.notes};
   for (const auto& p : r.fitted) {
-    parameters[p.name] = p.value;
-    intervals[p.name] = {p.low95, p.high95};
+    fit.parameters[p.name] = p.value;
+    fit.confidence_95[p.name] = {p.low95, p.high95};
   }
-  return {{"friction", "lugre"},
-          {"parameters", parameters},
-          {"confidence_95", intervals},
-          {"rmse_rad", r.rmse_rad},
-          {"initial_rmse_rad", r.initial_rmse_rad},
-          {"converged", r.converged},
-          {"window_s", {window.first, window.second}},
-          {"notes", r.notes}};
+  return fit;
 }
 
-fs::path plot_steps(const fs::path& dir, const json& cal) {
+fs::path plot_steps(const fs::path& dir, const Calibration& cal) {
   const fs::path csv = dir / "calibration_steps.csv", png = dir / "calibration.png";
   std::ofstream out(csv);
   out << "f_hz,fraction,forward_urad,reverse_urad\n";
-  const auto& fractions = cal.at("step_fractions");
-  for (const auto& f : cal.at("frequencies")) {
+  const auto& fractions = cal.step_fractions;
+  for (const auto& f : cal.frequencies) {
     for (std::size_t i = 0; i < fractions.size(); ++i) {
-      out << fmt::format("{:g},{:g},{:.6g},{:.6g}\n", f.at("f_hz").get<double>(),
-                         fractions[i].get<double>(), 1e6 * f.at("forward_rad")[i].get<double>(),
-                         -1e6 * f.at("reverse_rad")[i].get<double>());
+      out << fmt::format("{:g},{:g},{:.6g},{:.6g}\n", f.f_hz, fractions[i],
+                         1e6 * f.forward_rad.at(i), -1e6 * f.reverse_rad.at(i));
     }
     out << "\n\n";  // one gnuplot data block per frequency
   }
   out.close();
   std::string plots;
-  for (std::size_t k = 0; k < cal.at("frequencies").size(); ++k) {
-    const double f = cal.at("frequencies")[k].at("f_hz").get<double>();
+  for (std::size_t k = 0; k < cal.frequencies.size(); ++k) {
+    const double f = cal.frequencies[k].f_hz;
     plots += fmt::format(
         "{}{} index {} using ($2*{:g}):3 with linespoints lt {} title '{:g} Hz forward', "
         "{} index {} using ($2*{:g}):4 with linespoints lt {} dt 2 title '{:g} Hz reverse'",
-        k == 0 ? "" : ", ", gnuplot_quote(csv.string()), k, cal.at("V0").get<double>(), k + 1, f,
-        gnuplot_quote(csv.string()), k, cal.at("V0").get<double>(), k + 1, f);
+        k == 0 ? "" : ", ", gnuplot_quote(csv.string()), k, cal.V0, k + 1, f,
+        gnuplot_quote(csv.string()), k, cal.V0, k + 1, f);
   }
   run_gnuplot(fmt::format(
       "set terminal pngcairo size 900,560\nset output {}\n"
       "set title 'Step per period as measured (calibration of {})'\n"
       "set xlabel 'amplitude [V]'\nset ylabel 'step per period [urad]'\nset key top left\n"
       "set grid\nset datafile missing 'nan'\nplot {}\n",
-      gnuplot_quote(png.string()), cal.value("created", std::string()), plots));
+      gnuplot_quote(png.string()), cal.created, plots));
   return png;
 }
 
-std::string summary_text(const json& cal, const std::string& kept) {
-  const auto urad = [](const json& v) {
-    return v.is_number() ? fmt::format("{:.2f}", 1e6 * v.get<double>()) : std::string("-");
+std::string summary_text(const Calibration& cal, const std::string& kept) {
+  const auto urad = [](std::optional<double> v) {
+    return v ? fmt::format("{:.2f}", 1e6 * *v) : std::string("-");
   };
   std::string s = fmt::format(
       "# Calibration of {}\n\n"
@@ -150,45 +181,34 @@ std::string summary_text(const json& cal, const std::string& kept) {
       "- Fastest reliable step frequency: {}.\n"
       "- Kept: {}.\n\n"
       "## Step per period [urad] (forward / reverse)\n\n| f [Hz] |",
-      cal.at("created").get<std::string>(), cal.at("V0").get<double>(), cal.at("D").get<double>(),
-      cal.at("steps_per_point").get<int>(), cal.at("r2_m").get<double>(),
-      cal.at("noise_m").get<double>(), urad(cal.at("noise_rad")), urad(cal.at("resolution_rad")),
-      urad(cal.at("smallest_tolerance_rad")), 1e6 * cal.at("rad_per_V").get<double>(),
-      cal.at("fastest_f_hz").is_number()
-          ? fmt::format("{:g} Hz", cal.at("fastest_f_hz").get<double>())
-          : std::string("none (no frequency stepped reliably both ways)"),
+      cal.created, cal.V0, cal.D, cal.steps_per_point, cal.r2_m, cal.noise_m, urad(cal.noise_rad),
+      urad(cal.resolution_rad), urad(cal.smallest_tolerance_rad), 1e6 * cal.rad_per_V,
+      cal.fastest_f_hz ? fmt::format("{:g} Hz", *cal.fastest_f_hz)
+                       : std::string("none (no frequency stepped reliably both ways)"),
       kept);
-  for (const auto& fr : cal.at("step_fractions")) {
-    s += fmt::format(" {:g} V |", fr.get<double>() * cal.at("V0").get<double>());
-  }
+  for (const double fraction : cal.step_fractions) s += fmt::format(" {:g} V |", fraction * cal.V0);
   s += " reliable | speed [mrad/s] |\n|---|";
-  for (std::size_t i = 0; i < cal.at("step_fractions").size() + 2; ++i) s += "---|";
+  for (std::size_t i = 0; i < cal.step_fractions.size() + 2; ++i) s += "---|";
   s += "\n";
-  for (const auto& f : cal.at("frequencies")) {
-    s += fmt::format("| {:g} |", f.at("f_hz").get<double>());
-    for (std::size_t i = 0; i < f.at("forward_rad").size(); ++i) {
-      s += fmt::format(" {} / {} |", urad(f.at("forward_rad")[i]),
-                       urad(-f.at("reverse_rad")[i].get<double>()));
+  for (const auto& f : cal.frequencies) {
+    s += fmt::format("| {:g} |", f.f_hz);
+    for (std::size_t i = 0; i < f.forward_rad.size(); ++i) {
+      s += fmt::format(" {} / {} |", urad(f.forward_rad[i]), urad(-f.reverse_rad.at(i)));
     }
-    s += fmt::format(" {} | {:.2f} |\n", f.at("reliable").get<bool>() ? "yes" : "no",
-                     1e3 * f.at("speed_rad_per_s").get<double>());
+    s += fmt::format(" {} | {:.2f} |\n", f.reliable.value_or(false) ? "yes" : "no",
+                     1e3 * f.speed_rad_per_s.value_or(0.0));
   }
-  const json& m = cal.at("model");
-  if (m.is_object()) {
+  if (const auto m = fit_of(cal)) {
     s += fmt::format(
         "\n## Fitted model (LuGre, {:.2f}-{:.2f} s of the log)\n\nRMSE {:.2f} urad "
         "(from {:.2f} with the start values).\n\n| parameter | value | 95 % |\n"
         "|---|---|---|\n",
-        m.at("window_s")[0].get<double>(), m.at("window_s")[1].get<double>(),
-        1e6 * m.at("rmse_rad").get<double>(), 1e6 * m.at("initial_rmse_rad").get<double>());
-    for (const auto& [name, value] : m.at("parameters").items()) {
-      const auto& ci = m.at("confidence_95").at(name);
-      s += fmt::format("| {} | {:.6g} | {:.6g} .. {:.6g} |\n", name, value.get<double>(),
-                       ci[0].get<double>(), ci[1].get<double>());
+        m->window_s.at(0), m->window_s.at(1), 1e6 * m->rmse_rad, 1e6 * m->initial_rmse_rad);
+    for (const auto& [name, value] : m->parameters) {
+      const auto& ci = m->confidence_95.at(name);
+      s += fmt::format("| {} | {:.6g} | {:.6g} .. {:.6g} |\n", name, value, ci.at(0), ci.at(1));
     }
-    for (const auto& note : m.value("notes", json::array())) {
-      s += fmt::format("\nNote: {}\n", note.get<std::string>());
-    }
+    for (const auto& note : m->notes) s += fmt::format("\nNote: {}\n", note);
   }
   s += "\n![steps](calibration.png)\n";
   return s;
@@ -197,23 +217,25 @@ std::string summary_text(const json& cal, const std::string& kept) {
 }  // namespace
 
 CalibrationReport finish_calibration(const fs::path& dir, const fs::path& log,
-                                     const json& board_calibration, const config::ConfigFile& config,
-                                     BoardClient& client, bool local) {
+                                     const Calibration& board_calibration,
+                                     const config::ConfigFile& config, BoardClient& client,
+                                     bool local) {
   CalibrationReport report;
-  json cal = board_calibration;
+  Calibration cal = board_calibration;
   const double sensor_rate_hz = config.board.sensor.rate_hz;
   try {
-    cal["model"] = fit_model(log, cal, sensor_rate_hz);
+    cal.model = json(fit_model(log, cal, sensor_rate_hz));
   } catch (const std::exception& e) {
     // The measured table stands without a model: moves use it all the same.
     fmt::print(stderr, "calibrate: warning: no model fitted: {}\n", e.what());
-    cal["model"] = nullptr;
+    cal.model = nullptr;
   }
   // The board (in this process or at an address) checks it, installs it
   // and says where it keeps it.
   const auto reply = protocol::decode<protocol::SetCalibrationReply>(
-      client.call("set_calibration", {{"calibration", cal}}));
-  cal = reply.calibration ? json(*reply.calibration) : json(nullptr);
+      client.call("set_calibration", {{"calibration", json(cal)}}));
+  if (!reply.calibration) throw std::runtime_error("the board installed no calibration");
+  cal = *reply.calibration;
   if (reply.save_error) {
     throw std::runtime_error(
         fmt::format("the board could not keep the calibration: {}", *reply.save_error));
@@ -235,7 +257,7 @@ CalibrationReport finish_calibration(const fs::path& dir, const fs::path& log,
   }
   report.calibration = cal;
   report.file = dir / "calibration.json";
-  std::ofstream(report.file) << cal.dump(2) << "\n";
+  std::ofstream(report.file) << json(cal).dump(2) << "\n";
   try {
     report.plot = plot_steps(dir, cal);
   } catch (const std::exception& e) {

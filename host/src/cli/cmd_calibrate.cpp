@@ -16,9 +16,8 @@ int report_calibration(const FinishedRun& run) {
   const RunSummary& summary = run.summary;
   const RunOptions& o = run.options;
   nlohmann::json result = run.result;
-  const auto& taken = summary.board.calibration.value;
-  const nlohmann::json measured = taken ? nlohmann::json(*taken) : nlohmann::json(nullptr);
-  if (measured.is_null() || summary.status() != "completed") {
+  const auto& measured = summary.board.calibration.value;
+  if (!measured || summary.status() != "completed") {
     const std::string why = summary.board.calibration_error
                                 ? *summary.board.calibration_error
                                 : fmt::format("the run ended {}", summary.stop_cause());
@@ -30,8 +29,8 @@ int report_calibration(const FinishedRun& run) {
     return kExitFailed;
   }
   const CalibrationReport report =
-      finish_calibration(run.dir, run.log, measured, run.config, run.board, run.local);
-  result["calibration"] = report.calibration;
+      finish_calibration(run.dir, run.log, *measured, run.config, run.board, run.local);
+  result["calibration"] = nlohmann::json(report.calibration);
   result["kept"] = report.kept;
   result["files"] = {
       {"calibration", report.file.string()},
@@ -41,19 +40,15 @@ int report_calibration(const FinishedRun& run) {
     write_out(stdout, result.dump() + "\n");
   } else {
     const auto& c = report.calibration;
+    const auto fit = fit_of(c);
     write_out(
         stdout,
         fmt::format("calibrated: fastest reliable step frequency {}, noise {:.3g} m, "
                     "smallest tolerance {:.3g} rad, {:.4g} urad/V in stick{}\n"
                     "kept {}\nsummary {}\n",
-                    c.at("fastest_f_hz").is_number()
-                        ? fmt::format("{:g} Hz", c.at("fastest_f_hz").get<double>())
-                        : std::string("none"),
-                    c.at("noise_m").get<double>(), c.at("smallest_tolerance_rad").get<double>(),
-                    1e6 * c.at("rad_per_V").get<double>(),
-                    c.at("model").is_object()
-                        ? fmt::format(", model fitted (RMSE {:.2f} urad)",
-                                      1e6 * c.at("model").at("rmse_rad").get<double>())
+                    c.fastest_f_hz ? fmt::format("{:g} Hz", *c.fastest_f_hz) : std::string("none"),
+                    c.noise_m, c.smallest_tolerance_rad.value_or(0.0), 1e6 * c.rad_per_V,
+                    fit ? fmt::format(", model fitted (RMSE {:.2f} urad)", 1e6 * fit->rmse_rad)
                         : std::string(),
                     report.kept, report.summary.string()));
   }

@@ -12,10 +12,37 @@
 #include "piezo/firmware/move_request.hpp"
 #include "piezo/firmware/request_limits.hpp"
 #include "piezo/overload.hpp"
+#include "piezo/protocol/wire_fields.hpp"
 #include "run_command.hpp"
 
 namespace piezo::host {
 namespace {
+/// `piezo move`'s result: the board's account of the move, the time it took
+/// and the run it was, in one object.
+struct MoveResult {
+  protocol::MoveAccount move;  ///< the board's (a move that never began: its run's end)
+  double time_s = 0.0;         ///< to on target, else the whole run
+  std::string run_dir, log;
+  nlohmann::json run;  ///< the run's own JSON summary
+};
+
+}  // namespace
+}  // namespace piezo::host
+
+template <>
+struct piezo::protocol::wire::Fields<piezo::host::MoveResult> {
+  using T = piezo::host::MoveResult;
+  static constexpr auto list =
+      std::tuple{inline_fields(&T::move), field("time_s", &T::time_s),
+                 field("run_dir", &T::run_dir), field("log", &T::log), field("run", &T::run)};
+};
+
+namespace piezo::host {
+namespace {
+
+void to_json(nlohmann::json& j, const MoveResult& m) {
+  j = protocol::wire::encode(m);
+}
 
 /// The request as `piezo move` was given it: each field's option, and
 /// which of them the user gave (the others come from the config's [move]).
@@ -96,37 +123,30 @@ config::RunSettings::Move move_request(const MoveOptions& m, const RunOptions& o
   return move;
 }
 
-/// `piezo move`'s result: the board's account of the move, the time it took
-/// and the run it was, in one object.
-nlohmann::json move_result(const RunSummary& s, const nlohmann::json& run) {
-  nlohmann::json m = s.board.move ? nlohmann::json(*s.board.move) : nlohmann::json::object();
-  if (!m.contains("stop_cause")) m["stop_cause"] = s.stop_cause();
-  if (!m.contains("on_target")) m["on_target"] = false;
-  for (const char* key : {"position_rad", "error_rad", "steps"}) {
-    if (!m.contains(key)) m[key] = nullptr;
-  }
-  const bool on_target = m.at("on_target").get<bool>();
-  m["time_s"] = on_target ? m.at("on_target_at_s") : nlohmann::json(s.t_end_s);
-  m["run_dir"] = run.at("run_dir");
-  m["log"] = run.at("log");
-  m["run"] = run;
-  return m;
+MoveResult move_result(const FinishedRun& run) {
+  const RunSummary& s = run.summary;
+  MoveResult r;
+  r.move = s.board.move.value_or(protocol::MoveAccount{});
+  if (!r.move.stop_cause) r.move.stop_cause = firmware::move_end(r.move.on_target, s.board.cause);
+  r.time_s = r.move.on_target ? r.move.on_target_at_s.value_or(s.t_end_s) : s.t_end_s;
+  r.run_dir = run.dir.string();
+  r.log = run.log.string();
+  r.run = run.result;
+  return r;
 }
 
-std::string move_text(const nlohmann::json& m) {
-  const auto mrad = [](const nlohmann::json& v) {
-    return v.is_number() ? fmt::format("{:.4f} mrad", 1e3 * v.get<double>()) : std::string("-");
+std::string move_text(const MoveResult& r) {
+  const auto mrad = [](std::optional<double> v) {
+    return v ? fmt::format("{:.4f} mrad", 1e3 * *v) : std::string("-");
   };
-  const auto urad = [](const nlohmann::json& v) {
-    return v.is_number() ? fmt::format("{:.1f} urad", 1e6 * v.get<double>()) : std::string("-");
+  const auto urad = [](std::optional<double> v) {
+    return v ? fmt::format("{:.1f} urad", 1e6 * *v) : std::string("-");
   };
+  const auto& m = r.move;
   return fmt::format("move {} ({}): position {} for target {}, error {}, {} steps, {:.3f} s\n",
-                     m.at("on_target").get<bool>() ? "on target" : "NOT on target",
-                     m.at("stop_cause").get<std::string>(),
-                     mrad(m.value("position_rad", nlohmann::json())),
-                     mrad(m.value("target_rad", nlohmann::json())), urad(m.at("error_rad")),
-                     m.at("steps").is_number() ? m.at("steps").get<long>() : 0L,
-                     m.at("time_s").is_number() ? m.at("time_s").get<double>() : 0.0);
+                     m.on_target ? "on target" : "NOT on target",
+                     firmware::kMoveEndNames.name(*m.stop_cause), mrad(m.position_rad),
+                     mrad(m.target_rad), urad(m.error_rad), m.steps, r.time_s);
 }
 
 }  // namespace
@@ -150,16 +170,16 @@ void add_move_command(CLI::App& app, Commands& commands) {
                        config.host.run.duration_s = config.host.run.move->timeout_s;
                      },
                      [](const FinishedRun& run) {
-                       const nlohmann::json move = move_result(run.summary, run.result);
+                       const MoveResult move = move_result(run);
                        write_out(stdout, run.options.json
-                                             ? move.dump() + "\n"
+                                             ? nlohmann::json(move).dump() + "\n"
                                              : move_text(move) + summary_text(run.summary, run.log,
                                                                               run.signal, nullptr));
                        if (run.summary.output_state() != "confirmed") {
                          write_out(stderr, "piezo: " + output_line(run.summary) + "\n");
                        }
                        if (exit_code(run.summary) != 0) return exit_code(run.summary);
-                       return move.at("on_target").get<bool>() ? 0 : kExitFailed;
+                       return move.move.on_target ? 0 : kExitFailed;
                      }};
   commands.add(cmd, run_command(cmd, o, std::move(program)));
 }

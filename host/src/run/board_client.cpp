@@ -6,6 +6,7 @@
 #include <zmq_addon.hpp>
 
 #include "daemon/client_authentication.hpp"
+#include "piezo/firmware/wire_keys.hpp"
 #include "piezo/protocol/endpoints.hpp"
 #include "piezo/protocol/message.hpp"
 
@@ -101,7 +102,7 @@ void BoardClient::subscribe(std::initializer_list<const char*> topics) {
 protocol::Hello BoardClient::hello() {
   const nlohmann::json hello = call("hello");
   // The version first: another version's hello may hold other fields.
-  const auto version = hello.value("protocol", std::uint64_t{0});
+  const auto version = hello.value(wire_key::protocol, std::uint64_t{0});
   if (version != protocol::kProtocolVersion) {
     throw std::runtime_error(fmt::format(
         "piezod at {} speaks protocol version {}, this piezo version {}: update one of them",

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include "piezo/config/config_error.hpp"
+#include "piezo/firmware/wire_keys.hpp"
 #include "piezo/overload.hpp"
 #include "piezo/protocol/dictionary.hpp"
 
@@ -33,7 +34,7 @@ std::vector<std::pair<std::string, json>> wire_requests(const BoardRequest& requ
 
 /// The config key a timed run's `configure` argument comes from.
 std::string configure_key(const std::string& argument) {
-  return argument == "duration_s" ? "run.duration_s" : "drive." + argument;
+  return argument == wire_key::duration_s ? "run.duration_s" : "drive." + argument;
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 
 #include "io/log_schema.hpp"
 #include "log_writer.hpp"
+#include "piezo/firmware/wire_keys.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "piezo/protocol/message.hpp"
 #include "sample_collector.hpp"
@@ -45,7 +46,7 @@ model::MotorParameters observer_model(const config::ConfigFile& c, const protoco
   const json parameters = cal.model.value("parameters", json::object());
   for (const auto& [name, value] : parameters.items()) {
     const model::ParameterSpec* spec = model::find_parameter(name);
-    if (spec == nullptr || spec->section != "model" || !value.is_number() ||
+    if (spec == nullptr || spec->section != wire_key::model || !value.is_number() ||
         !spec->admits(value.get<double>())) {
       continue;
     }
@@ -307,7 +308,8 @@ void FollowedRun::report(const std::function<void(const LiveStatus&)>& on_status
              observer_ ? observer_->summary().last_residual_rad : 0.0, follower_.sensor_next(),
              health.sensor ? health.sensor->errors : 0, health.drive ? health.drive->overruns : 0,
              health,
-             json{{"drive", collector_.drive_errors()}, {"sensor", collector_.sensor_errors()}},
+             json{{wire_key::drive, collector_.drive_errors()},
+                  {wire_key::sensor, collector_.sensor_errors()}},
              lease_s_, log_ok_ ? std::string() : summary_.host_error});
   last_status_ = now;
 }

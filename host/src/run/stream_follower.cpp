@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <zmq_addon.hpp>
 
+#include "piezo/firmware/wire_keys.hpp"
 #include "piezo/protocol/message.hpp"
 
 namespace piezo::host {
@@ -58,7 +59,7 @@ void StreamFollower::drain(std::chrono::milliseconds wait, int max_messages,
     if (topic == "health") {
       health_ = protocol::decode<protocol::HealthEvent>(protocol::decode_map(body));
       if (handlers.on_health) handlers.on_health(health_);
-    } else if (topic == "state") {
+    } else if (topic == wire_key::state) {
       const auto state = protocol::decode<protocol::StateEvent>(protocol::decode_map(body));
       if (handlers.on_state) handlers.on_state(state);
     } else if (collector_ != nullptr) {

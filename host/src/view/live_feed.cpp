@@ -4,12 +4,13 @@
 #include <cmath>
 
 #include "decimate.hpp"
+#include "piezo/firmware/wire_keys.hpp"
 
 namespace piezo::host::view {
 namespace {
 
-constexpr std::array<const char*, 5> kNames{"drive", "measured", "observer", "open_loop",
-                                            "residual"};
+constexpr std::array<std::string_view, 5> kNames{wire_key::drive, "measured", "observer",
+                                                 "open_loop", "residual"};
 enum : std::size_t { kDrive, kMeasured, kObserver, kOpenLoop, kResidual };
 /// The zoom (thousands of full-rate samples) and changed loop histograms go
 /// with every fourth event: about once a second, which is most of what a
@@ -22,16 +23,16 @@ nlohmann::json take_histograms(nlohmann::json& status) {
   nlohmann::json taken = nlohmann::json::object();
   auto board = status.find("board");
   if (board == status.end() || !board->is_object()) return taken;
-  for (const char* loop : {"drive", "sensor"}) {
+  for (const std::string_view loop : {wire_key::drive, wire_key::sensor}) {
     auto health = board->find(loop);
-    if (health != board->end() && health->is_object() && health->contains("histogram_us")) {
-      taken[loop] = std::move((*health)["histogram_us"]);
-      health->erase("histogram_us");
+    if (health != board->end() && health->is_object() && health->contains(wire_key::histogram_us)) {
+      taken[loop] = std::move((*health)[wire_key::histogram_us]);
+      health->erase(wire_key::histogram_us);
     }
-    auto summary = board->find("summary");
+    auto summary = board->find(wire_key::summary);
     if (summary != board->end() && summary->is_object() && summary->contains(loop) &&
         (*summary)[loop].is_object()) {
-      (*summary)[loop].erase("histogram_us");
+      (*summary)[loop].erase(wire_key::histogram_us);
     }
   }
   return taken;

@@ -9,6 +9,7 @@
 #include "io/h5_file.hpp"
 #include "io/log_schema.hpp"
 #include "piezo/config/read_file.hpp"
+#include "piezo/firmware/wire_keys.hpp"
 
 namespace piezo::host::view {
 namespace fs = std::filesystem;
@@ -69,7 +70,7 @@ nlohmann::json run_plots(const fs::path& run_dir, std::size_t columns) {
       {"status", f.has_attribute("/", "status") ? f.attribute("/", "status") : "unknown"},
       {"t_end", t_end},
       {"measured", series(min_max_decimate(sensor_t, theta, 0.0, t1, columns))},
-      {"drive", series(min_max_decimate(drive_t, drive_V, 0.0, t1, columns))}};
+      {wire_key::drive, series(min_max_decimate(drive_t, drive_V, 0.0, t1, columns))}};
   // The zoom: the first 0.3 s of the drive, every sample.
   const auto zoom_end = std::upper_bound(drive_t.begin(), drive_t.end(), 0.3) - drive_t.begin();
   out["zoom"] = {{"t", std::vector<double>(drive_t.begin(), drive_t.begin() + zoom_end)},

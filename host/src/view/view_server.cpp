@@ -172,7 +172,7 @@ HttpReply ViewServer::serve(const HttpRequest& req) {
     // form cannot send, and a cross-site script only after a preflight this
     // server never answers), from this page's own origin: refusal() checked
     // it all before the body was read.
-    const auto action = [&](const ViewControls::Action& act, const char* what) {
+    const auto action = [&](const ViewControls::Action& act, const std::string& what) {
       if (!act) return refused(404, fmt::format("{}: not available here", what));
       try {
         const nlohmann::json body =
@@ -182,9 +182,11 @@ HttpReply ViewServer::serve(const HttpRequest& req) {
         return refused(409, fmt::format("{}: {}", what, e.what()));
       }
     };
-    if (path == "/api/stop") return action(controls_.stop, "stop");
-    if (path == "/api/estop") return action(controls_.estop, "estop");
-    if (path == "/api/move") return action(controls_.move, "move");
+    // Each action is named by its path: /api/stop is "stop".
+    const std::string what = path.substr(path.rfind('/') + 1);
+    if (path == "/api/stop") return action(controls_.stop, what);
+    if (path == "/api/estop") return action(controls_.estop, what);
+    if (path == "/api/move") return action(controls_.move, what);
     return refused(404, fmt::format("no POST {}", path));
   }
   if (req.method != "GET") return refused(405, "GET or POST only");

@@ -17,6 +17,7 @@
 #include <string_view>
 #include <variant>
 
+#include "piezo/firmware/wire_keys.hpp"
 #include "piezo/interval.hpp"
 #include "piezo/name_table.hpp"
 
@@ -65,14 +66,14 @@ struct MoveField {
 inline constexpr double kNoBound = std::numeric_limits<double>::infinity();
 
 inline constexpr std::array<MoveField, 8> kMoveFields{{
-    {"target_rad",
+    {wire_key::target_rad,
      "--to",
      "rad",
      {-10.0, 10.0},
      "target angle from the board's zero",
      &MoveRequest::target_rad,
      true},
-    {"tolerance_rad",
+    {wire_key::tolerance_rad,
      "--tolerance",
      "rad",
      {0.0, 0.1, true},
@@ -91,8 +92,8 @@ inline constexpr std::array<MoveField, 8> kMoveFields{{
      "give up after this long (at most the board's duration_max_s)",
      &MoveRequest::timeout_s,
      false,
-     "duration_max_s"},
-    {"hold_s",
+     wire_key::duration_max_s},
+    {wire_key::hold_s,
      "--hold",
      "s",
      {0.0, kNoBound, false, true},

@@ -14,6 +14,7 @@
 #include <string>
 #include <string_view>
 
+#include "piezo/firmware/wire_keys.hpp"
 #include "piezo/interval.hpp"
 
 namespace piezo::firmware {
@@ -58,13 +59,14 @@ namespace arguments {
 
 inline constexpr double kOpen = std::numeric_limits<double>::infinity();
 
-inline constexpr Argument V0{"V0", "V",        {0.0, kOpen, true},           "V_max",
-                             "",   "required", "the sawtooth's peak voltage"};
-inline constexpr Argument f{"f", "Hz",       {0.0, kOpen, true},        "f_max_hz",
-                            "",  "required", "the sawtooth's frequency"};
-inline constexpr Argument C_dr{"C_dr", "",     {0.0, 1.0, true, false}, "",
-                               "",     "0.95", "commanded duty ratio"};
-inline constexpr Argument e_dr{"e_dr",
+inline constexpr Argument V0{
+    wire_key::V0, "V",        {0.0, kOpen, true},           wire_key::V_max,
+    "",           "required", "the sawtooth's peak voltage"};
+inline constexpr Argument f{wire_key::f, "Hz",       {0.0, kOpen, true},        wire_key::f_max_hz,
+                            "",          "required", "the sawtooth's frequency"};
+inline constexpr Argument C_dr{wire_key::C_dr,        "", {0.0, 1.0, true, false}, "", "", "0.95",
+                               "commanded duty ratio"};
+inline constexpr Argument e_dr{wire_key::e_dr,
                                "",
                                {0.0, 1.0, false, true},
                                "",
@@ -79,20 +81,21 @@ inline constexpr Argument direction{
     "forward, reverse",
     "forward",
     "`reverse`: the mirrored sawtooth (rise fraction 1 − D), the rotor turns backwards"};
-inline constexpr Argument duration_s{"duration_s", "s",        {0.0, kOpen, true}, "duration_max_s",
-                                     "",           "required", "the run's length"};
+inline constexpr Argument duration_s{wire_key::duration_s,     "s", {0.0, kOpen, true},
+                                     wire_key::duration_max_s, "",  "required",
+                                     "the run's length"};
 /// A run's lease when neither the client nor the board's config names one.
 inline constexpr double kDefaultLease_s = 0.5;
 inline constexpr Argument lease_s{
-    "lease_s",
+    wire_key::lease_s,
     "s",
     {0.0, kOpen, true},
-    "lease_max_s",
+    wire_key::lease_max_s,
     "",
     "`hello.lease_s`",
     "the run stops by itself when no `lease` renews it for this long"};
 inline constexpr Argument count{
-    "count",
+    wire_key::count,
     "",
     {1.0, kOpen},
     "",
@@ -110,9 +113,9 @@ inline constexpr Argument drive_received{
     "drive samples the client has taken care of; on the virtual clock the board waits while "
     "more than half its recorder, or 20 s of drive samples, are not",
     ArgumentType::integer};
-inline constexpr Argument stream{"stream",        "", {}, "", "drive, sensor", "required",
+inline constexpr Argument stream{wire_key::stream, "", {}, "", "drive, sensor", "required",
                                  "which recorder"};
-inline constexpr Argument first{"first",
+inline constexpr Argument first{wire_key::first,
                                 "",
                                 {0.0, kOpen},
                                 "",
@@ -123,9 +126,14 @@ inline constexpr Argument first{"first",
 /// A fetch's size: at most this many samples (the board's recorder serves
 /// no more in one frame).
 inline constexpr std::uint64_t kMaxFetch = 100'000;
-inline constexpr Argument fetch_count{
-    "count", "",         {0.0, static_cast<double>(kMaxFetch)},  "",
-    "",      "required", "samples, fewer at the recorder's end", ArgumentType::integer};
+inline constexpr Argument fetch_count{wire_key::count,
+                                      "",
+                                      {0.0, static_cast<double>(kMaxFetch)},
+                                      "",
+                                      "",
+                                      "required",
+                                      "samples, fewer at the recorder's end",
+                                      ArgumentType::integer};
 
 }  // namespace arguments
 }  // namespace piezo::firmware

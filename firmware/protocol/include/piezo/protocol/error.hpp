@@ -5,6 +5,7 @@
 #include <array>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 namespace piezo::protocol {
 
@@ -31,8 +32,8 @@ inline constexpr std::array<const char*, 12> kAll{
 
 class ProtocolError : public std::runtime_error {
  public:
-  ProtocolError(std::string code, std::string key, const std::string& message)
-      : std::runtime_error(message), code_(std::move(code)), key_(std::move(key)) {}
+  ProtocolError(std::string code, std::string_view key, const std::string& message)
+      : std::runtime_error(message), code_(std::move(code)), key_(key) {}
   [[nodiscard]] const std::string& code() const { return code_; }
   [[nodiscard]] const std::string& key() const { return key_; }
 

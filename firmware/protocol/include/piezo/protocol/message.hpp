@@ -59,13 +59,13 @@ struct Reply {
 [[nodiscard]] nlohmann::json decode_map(std::string_view bytes);
 
 /// Argument readers: throw ProtocolError(bad_argument, key) on a wrong type.
-[[nodiscard]] double number_arg(const nlohmann::json& args, const std::string& key,
+[[nodiscard]] double number_arg(const nlohmann::json& args, std::string_view key,
                                 std::optional<double> fallback = std::nullopt);
-[[nodiscard]] std::uint64_t uint_arg(const nlohmann::json& args, const std::string& key,
+[[nodiscard]] std::uint64_t uint_arg(const nlohmann::json& args, std::string_view key,
                                      std::optional<std::uint64_t> fallback = std::nullopt);
-[[nodiscard]] std::string string_arg(const nlohmann::json& args, const std::string& key,
+[[nodiscard]] std::string string_arg(const nlohmann::json& args, std::string_view key,
                                      std::optional<std::string> fallback = std::nullopt);
-[[nodiscard]] bool bool_arg(const nlohmann::json& args, const std::string& key,
+[[nodiscard]] bool bool_arg(const nlohmann::json& args, std::string_view key,
                             std::optional<bool> fallback = std::nullopt);
 /// Refuses (bad_argument, naming the key and what `cmd` takes) any argument
 /// not in `known`: a misspelt optional argument is an error, never ignored.
