@@ -343,6 +343,16 @@ TEST(Messages, AnIntegerFieldTakesWholeNumbersInItsRangeOnly) {
   EXPECT_EQ(refusal_key<Status>(status), "malformed requests.start");
 }
 
+// A name that is not text, holding bytes that are not UTF-8 (msgpack does
+// not check), is refused by name like any other (the fuzzer's find: showing
+// it in the refusal threw).
+TEST(Messages, ANameThatIsNotTextIsRefusedWhateverItHolds) {
+  const json bad_state = json::array({std::string("\xa6\xa6 not UTF-8")});
+  EXPECT_EQ(refusal_key<StateEvent>({{"state", bad_state}, {"board_ns", 1}}), "malformed state");
+  EXPECT_EQ(refusal_key<StateEvent>({{"state", std::string("\xa6")}, {"board_ns", 1}}),
+            "malformed state");
+}
+
 }  // namespace
 }  // namespace piezo::protocol
 

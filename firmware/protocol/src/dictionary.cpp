@@ -14,6 +14,7 @@
 #include "piezo/protocol/error.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "piezo/protocol/message.hpp"
+#include "piezo/protocol/wire_fields.hpp"
 
 namespace piezo::protocol {
 namespace {
@@ -237,13 +238,13 @@ std::optional<ArgumentBreach> check_arguments(const json& dictionary, std::strin
           allowed += (allowed.empty() ? "" : ", ") + c.get<std::string>();
         }
         return ArgumentBreach{code::bad_argument, key,
-                              fmt::format("{}; allowed: {}", value.dump(), allowed)};
+                              fmt::format("{}; allowed: {}", wire::shown(value), allowed)};
       }
       continue;
     }
     if (!value.is_number() || value.is_boolean()) {
       return ArgumentBreach{code::bad_argument, key,
-                            fmt::format("expected a number; got {}", value.dump())};
+                            fmt::format("expected a number; got {}", wire::shown(value))};
     }
     const double v = value.get<double>();
     if (type == "integer" && (v < 0.0 || v != std::floor(v))) {

@@ -155,6 +155,13 @@ nlohmann::json encode_value(const V& v) {
   }
 }
 
+/// A received value as text for a message: what came in, whatever it holds
+/// (a string that is not UTF-8 shows U+FFFD where its bad bytes were; a
+/// plain dump() would throw on it).
+inline std::string shown(const nlohmann::json& v) {
+  return v.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
 /// An integer field's value: an integer on the wire, or a float holding a
 /// whole number (10.0 is 10), within V's range. Checked before converting:
 /// a float or a negative number cast to an integer type out of its range is
@@ -182,7 +189,8 @@ V whole_number(const nlohmann::json& v, std::string_view key) {
   // The bounds as doubles: min is exact (0 or -2^k); max + 1 is 2^k, exact.
   const double low = static_cast<double>(limits::min());
   const double past_high = 2.0 * static_cast<double>(limits::max() / 2 + 1);
-  if (!(d >= low && d < past_high) || d != std::floor(d)) throw refuse("not a whole number in range");
+  if (!(d >= low && d < past_high) || d != std::floor(d))
+    throw refuse("not a whole number in range");
   return static_cast<V>(d);
 }
 
@@ -213,15 +221,17 @@ V decode_value(const nlohmann::json& v, std::string_view key) {
     }
     V out;
     for (const auto& [name, item] : v.items()) {
-      out.emplace(name, decode_value<typename V::mapped_type>(item, fmt::format("{}.{}", key, name)));
+      out.emplace(name,
+                  decode_value<typename V::mapped_type>(item, fmt::format("{}.{}", key, name)));
     }
     return out;
   } else if constexpr (has_names<V>::value) {
     const auto& table = Names<V>::table;
-    const std::string text = v.is_string() ? v.get<std::string>() : v.dump();
-    if (const auto value = table.parse(text)) return *value;
+    if (v.is_string()) {
+      if (const auto value = table.parse(v.get_ref<const std::string&>())) return *value;
+    }
     throw ProtocolError(code::malformed, std::string(key),
-                        fmt::format("{}: \"{}\"; allowed: {}", key, text, table.list()));
+                        fmt::format("{}: {}; allowed: {}", key, shown(v), table.list()));
   } else if constexpr (std::is_integral_v<V> && !std::is_same_v<V, bool>) {
     return whole_number<V>(v, key);
   } else {
