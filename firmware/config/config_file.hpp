@@ -99,29 +99,13 @@ struct BoardRunSettings {
   bool lock_memory = true;
 };
 
-/// [run] and [move] as the host reads them, and what its commands ask for.
+/// [run] and [move] as the host reads them (what a command asks a board
+/// to run travels beside the config: host/src/run/board_request.hpp).
 struct RunSettings {
   double duration_s = 4.8;
   double flush_interval_s = 0.25;  ///< log flush period: the most a crash can lose
-  /// Not a file key: `piezo step` sets it to run this many whole drive
-  /// periods through the protocol's `step` (0: a timed run, `start`).
-  std::uint64_t step_periods = 0;
-  /// Not a file key: `piezo move` sets it to run a closed-loop move (the
-  /// protocol's `move_to`) instead of the waveform.
-  struct Move : firmware::MoveRequest {
-    /// The coarse steps' waveform when the user named it; else the board
-    /// chooses (its calibration's fastest frequency, or its [drive]).
-    std::optional<double> V0 = std::nullopt, f = std::nullopt;
-  };
-  std::optional<Move> move;
   /// [move]: the defaults of `piezo move`'s options (the target aside).
   firmware::MoveRequest move_defaults;
-  /// Not a file key: `piezo calibrate` runs the board's calibration (at
-  /// V0 when the user named it; else the board's).
-  struct Calibrate {
-    std::optional<double> V0 = std::nullopt;
-  };
-  std::optional<Calibrate> calibrate;
 };
 
 /// The board's daemon ([piezod]): where it listens, what a client may ask.
@@ -211,13 +195,13 @@ enum class ConfigScope { whole, sensor };
 /// Reads and checks a rig config. Throws ConfigError naming the key, the
 /// source (the file, or "--set") and what is allowed.
 [[nodiscard]] ConfigFile load_config_file(const std::string& path,
-                                        const std::vector<std::string>& sets = {},
-                                        ConfigScope scope = ConfigScope::whole);
+                                          const std::vector<std::string>& sets = {},
+                                          ConfigScope scope = ConfigScope::whole);
 
 /// The same over several files, each overlaying the ones before it.
 [[nodiscard]] ConfigFile load_config_file(const std::vector<std::string>& paths,
-                                        const std::vector<std::string>& sets,
-                                        ConfigScope scope = ConfigScope::whole);
+                                          const std::vector<std::string>& sets,
+                                          ConfigScope scope = ConfigScope::whole);
 
 /// A run command's own options for the drive, given as values (never as
 /// `--set` text): each given one overrides its key after the files and
@@ -229,8 +213,8 @@ struct DriveOptions {
 
 /// The files and `--set`, then the command's drive options.
 [[nodiscard]] ConfigFile load_config_file(const std::vector<std::string>& paths,
-                                        const std::vector<std::string>& sets,
-                                        const DriveOptions& options);
+                                          const std::vector<std::string>& sets,
+                                          const DriveOptions& options);
 
 /// Table 1 defaults overlaid with a config file's [drive] waveform and
 /// [model]; a rig config's other sections are read and checked too.

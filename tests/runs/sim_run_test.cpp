@@ -14,14 +14,14 @@
 
 #include "../support/run_command.hpp"
 #include "build_paths.hpp"
+#include "config/config_file.hpp"
+#include "config/rig.hpp"
 #include "io/h5_file.hpp"
+#include "io/run_log.hpp"
 #include "piezo/firmware/samples.hpp"
 #include "piezo/hal/sim/plant.hpp"
 #include "piezo/model/sampled_drive.hpp"
 #include "piezo/model/simulate.hpp"
-#include "config/rig.hpp"
-#include "config/config_file.hpp"
-#include "io/run_log.hpp"
 #include "run/run_session.hpp"
 
 namespace piezo::host {
@@ -48,16 +48,17 @@ nlohmann::json move_of(const Outcome& o) {
 /// with `move`, a closed-loop move (`piezo move`).
 Outcome run_virtual(std::vector<std::string> sets, double stop_at_s = -1.0,
                     const std::string& tag = "hil", std::uint64_t step_periods = 0,
-                    std::optional<config::RunSettings::Move> move = std::nullopt) {
+                    std::optional<asked::Move> move = std::nullopt) {
   sets.push_back("run.clock=virtual");
   config::ConfigFile config =
       config::load_config_file(std::string(build_paths::source_dir) + "/configs/sim.toml", sets);
+  RunAsked asked = asked::Timed{};
   if (step_periods > 0) {
-    config.host.run.step_periods = step_periods;
+    asked = asked::Periods{step_periods};
     config.host.run.duration_s = static_cast<double>(step_periods) / config.host.model.drive.f;
   }
   if (move) {
-    config.host.run.move = move;
+    asked = *move;
     config.host.run.duration_s = move->timeout_s;
   }
   config::Rig rig = config::build_rig(config.board);
@@ -72,7 +73,7 @@ Outcome run_virtual(std::vector<std::string> sets, double stop_at_s = -1.0,
   // The device side: the simulated amplifier the drive and lines act on,
   // kept here while the rig goes to the in-process piezod.
   const std::shared_ptr<const hal::sim::SimRig> device = rig.sim;
-  out.summary = execute_run(config, std::move(rig), log, stop, on_status);
+  out.summary = execute_run(config, asked, std::move(rig), log, stop, on_status);
   out.amplifier_enabled_at_end = device->plant().enabled();
   out.amplifier_V_at_end = device->plant().latest().V_out;
   out.rotor_theta_at_end = device->plant().latest().theta;
@@ -194,7 +195,7 @@ TEST(SimRun, MovesEndOnTargetOnAMismatchedPlantBothWays) {
                                           "plant.sigma0=2000", "drive.f=40"};
   constexpr double kNoise = 0.5e-6 / 0.062;
   for (const double target : {1e-4, 1e-3, 1e-2, 1e-1, -1e-4, -1e-3, -1e-2, -1e-1}) {
-    config::RunSettings::Move move{
+    asked::Move move{
         {.target_rad = target, .tolerance_rad = 15e-6, .settle_s = 0.1, .timeout_s = 30.0}};
     const Outcome o = run_virtual(mismatch, -1.0, "hil-move", 0, move);
     const nlohmann::json m = move_of(o);
@@ -236,8 +237,7 @@ TEST(SimRun, MovesEndOnTargetOnAMismatchedPlantBothWays) {
 // Either ends the move with its cause, the drive at 0 V and the amplifier
 // disabled, on the simulated amplifier itself.
 TEST(SimRun, AMoveIntoAStalledSensorOrAnEstopStopsAtZeroVolts) {
-  config::RunSettings::Move far{
-      {.target_rad = 0.05, .tolerance_rad = 15e-6, .settle_s = 0.1, .timeout_s = 10.0}};
+  asked::Move far{{.target_rad = 0.05, .tolerance_rad = 15e-6, .settle_s = 0.1, .timeout_s = 10.0}};
   for (const auto& [fault, cause] :
        {std::pair{std::string("sensor.sim.stall_at_s=0.3"), std::string("sensor_fault")},
         std::pair{std::string("lines.sim.estop_at_s=0.3"), std::string("estop")}}) {
@@ -256,7 +256,7 @@ TEST(SimRun, AMoveIntoAStalledSensorOrAnEstopStopsAtZeroVolts) {
     EXPECT_LT(o.drive_t.back(), 0.6) << fault;
   }
   // A target out of reach within the timeout ends as such, at 0 V.
-  config::RunSettings::Move unreachable{
+  asked::Move unreachable{
       {.target_rad = 1.0, .tolerance_rad = 15e-6, .settle_s = 0.1, .timeout_s = 0.5}};
   const Outcome o = run_virtual({}, -1.0, "hil-move-timeout", 0, unreachable);
   EXPECT_EQ(move_of(o).at("stop_cause"), "timeout");
@@ -265,9 +265,8 @@ TEST(SimRun, AMoveIntoAStalledSensorOrAnEstopStopsAtZeroVolts) {
   // Its position is the rotor's at 0 V, read after the stop (before, the
   // controller's last reading, from before the ramp: up to a step off).
   EXPECT_NEAR(move_of(o).at("position_rad").get<double>(), o.rotor_theta_at_end, 20e-6);
-  std::cout << "timed-out move: reported "
-            << move_of(o).at("position_rad").get<double>() * 1e3 << " mrad, the rotor at "
-            << o.rotor_theta_at_end * 1e3 << " mrad\n";
+  std::cout << "timed-out move: reported " << move_of(o).at("position_rad").get<double>() * 1e3
+            << " mrad, the rotor at " << o.rotor_theta_at_end * 1e3 << " mrad\n";
 }
 
 // A move's protection, seen on the simulated device: a rotor that cannot
@@ -281,8 +280,7 @@ TEST(SimRun, AMoveIntoAStalledSensorOrAnEstopStopsAtZeroVolts) {
 // (before, each drove to its 10 s timeout: the blind sensor's rotor ran
 // 0.4 rad in the probe).
 TEST(SimRun, AMoveThatCannotProgressStopsAtZeroVoltsWithItsCause) {
-  config::RunSettings::Move far{
-      {.target_rad = 0.05, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0}};
+  asked::Move far{{.target_rad = 0.05, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0}};
   const double full_step = 1.4e-3;  // the model's at 80 V, 10 Hz (configs/sim.toml)
   for (const auto& [fault, cause] :
        {std::pair{std::string("plant.mu=2,plant.F_N=0.05"), std::string("stalled")},
@@ -322,8 +320,7 @@ TEST(SimRun, AMoveThatCannotProgressStopsAtZeroVoltsWithItsCause) {
 // rotor at the stop (it is dragged back a little in each slip: that swing
 // tells a blocked rotor from a sensor that does not see it).
 TEST(SimRun, AMoveIntoAnEndStopEndsStalled) {
-  config::RunSettings::Move far{
-      {.target_rad = 0.05, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0}};
+  asked::Move far{{.target_rad = 0.05, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0}};
   const Outcome o = run_virtual({"plant.end_stop_rad=0.003"}, -1.0, "hil-move-end-stop", 0, far);
   EXPECT_EQ(move_of(o).at("stop_cause"), "stalled");
   EXPECT_FALSE(o.amplifier_enabled_at_end);
@@ -388,7 +385,7 @@ TEST(SimRun, APlainRunWithProtectionStopsOnABlindSensorOrAStuckRotor) {
 TEST(SimRun, AMoveComesOnTargetThroughFiveTimesTheNoise) {
   for (const double target : {0.002, -0.0005}) {
     SCOPED_TRACE(target);
-    config::RunSettings::Move move{
+    asked::Move move{
         {.target_rad = target, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0}};
     const Outcome o = run_virtual({"sensor.sim.noise_m=2.5e-6"}, -1.0, "hil-move-noisy", 0, move);
     EXPECT_EQ(move_of(o).at("stop_cause"), "on_target");
@@ -426,11 +423,11 @@ TEST(SimRun, TwentyMovesWithAForwardApproachAllArriveFromBelow) {
   for (int i = 0; i < 20; ++i) {
     const double target = (i % 2 == 0 ? 1.0 : -1.0) * (0.4e-3 + 0.1e-3 * i);
     SCOPED_TRACE(target);
-    config::RunSettings::Move move{{.target_rad = target,
-                                    .tolerance_rad = 25e-6,
-                                    .settle_s = 0.1,
-                                    .timeout_s = 10.0,
-                                    .approach = firmware::Approach::forward}};
+    asked::Move move{{.target_rad = target,
+                      .tolerance_rad = 25e-6,
+                      .settle_s = 0.1,
+                      .timeout_s = 10.0,
+                      .approach = firmware::Approach::forward}};
     const Outcome o = run_virtual({}, -1.0, "hil-move-approach", 0, move);
     ASSERT_EQ(move_of(o).at("stop_cause"), "on_target");
     EXPECT_NEAR(o.rotor_theta_at_end, target, 25e-6 + 3 * 0.5e-6 / 0.062);
@@ -482,8 +479,7 @@ TEST(SimRun, ARunOrAMoveThatWouldLeaveTheTravelWindowStopsAtItsEdge) {
   EXPECT_LT(highest, 0.005 + full_step);
   EXPECT_LT(run.rotor_theta_at_end, 0.005);
   EXPECT_LT(run.drive_t.back(), 1.0) << "the run would have driven 2 s";
-  config::RunSettings::Move far{
-      {.target_rad = 0.05, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0}};
+  asked::Move far{{.target_rad = 0.05, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0}};
   const Outcome move = run_virtual({"safety.travel_min_rad=-0.01", "safety.travel_max_rad=0.01"},
                                    -1.0, "hil-move-travel", 0, far);
   EXPECT_EQ(move_of(move).at("stop_cause"), "travel_limit");
@@ -524,13 +520,13 @@ TEST(SimRun, EveryEndLeavesTheSimulatedAmplifierDisabled) {
 TEST(SimRun, SlowSetUpBeforeTheStartIsNoSensorFault) {
   const config::ConfigFile config =
       config::load_config_file(std::string(build_paths::source_dir) + "/configs/sim.toml",
-                              {"run.duration_s=0.3", "run.lock_memory=false", "run.priority=0"});
+                               {"run.duration_s=0.3", "run.lock_memory=false", "run.priority=0"});
   config::Rig rig = config::build_rig(config.board);
   std::this_thread::sleep_for(std::chrono::milliseconds(400));
   const auto dir = testing::fresh_temp_dir("hil-slow-setup");
   RunLog log = RunLog::create((dir / "run.h5").string(), {{"config", config.text}});
   const std::atomic<bool> never{false};
-  const RunSummary s = execute_run(config, std::move(rig), log, never, {});
+  const RunSummary s = execute_run(config, asked::Timed{}, std::move(rig), log, never, {});
   EXPECT_EQ(s.board.cause, firmware::StopCause::completed);
 }
 
@@ -550,15 +546,17 @@ TEST(SimRun, EstopDisablesWithinOneDrivePeriod) {
 TEST(SimRun, AnEstopActsDuringASlowDriveWrite) {
   config::ConfigFile config =
       config::load_config_file(std::string(build_paths::source_dir) + "/configs/sim.toml",
-                              {"drive.sim.stall_at_s=0.5", "drive.sim.stall_for_s=5",
-                               "run.duration_s=10", "run.priority=0", "run.lock_memory=false"});
+                               {"drive.sim.stall_at_s=0.5", "drive.sim.stall_for_s=5",
+                                "run.duration_s=10", "run.priority=0", "run.lock_memory=false"});
   config::Rig rig = config::build_rig(config.board);
   const std::shared_ptr<const hal::sim::SimRig> device = rig.sim;
   const auto dir = testing::fresh_temp_dir("hil-slow-write");
   RunLog log = RunLog::create((dir / "run.h5").string(), {{"config", config.text}});
   std::atomic<bool> stop{false}, estop{false};
   RunSummary summary;
-  std::thread run([&] { summary = execute_run(config, std::move(rig), log, stop, {}, &estop); });
+  std::thread run([&] {
+    summary = execute_run(config, asked::Timed{}, std::move(rig), log, stop, {}, &estop);
+  });
   using Clock = std::chrono::steady_clock;
   const auto waited = [&](auto ready, std::chrono::milliseconds limit) {
     const auto until = Clock::now() + limit;
@@ -641,7 +639,7 @@ TEST(SimRun, AFailedLogKeepsTheLiveRowsComingToTheRunsEnd) {
   std::string log_error;
   const std::atomic<bool> never{false};
   const RunSummary s = execute_run(
-      config, std::move(rig), log, never,
+      config, asked::Timed{}, std::move(rig), log, never,
       [&](const LiveStatus& status) {
         if (!status.log_error.empty()) log_error = status.log_error;
       },

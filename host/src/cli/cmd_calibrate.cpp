@@ -68,9 +68,9 @@ void add_calibrate_command(CLI::App& app, Commands& commands) {
                   "Print one JSON object: the calibration, where it is kept, files");
   cmd->add_option("--V0", o->V0, "Peak voltage of the steps [V] (default: the board's [drive] V0)");
   RunProgram program{[o](config::ConfigFile& config) {
-                       config.host.run.calibrate = config::RunSettings::Calibrate{o->V0};
                        config.host.run.duration_s =
                            60.0;  // the board's plan says how long; its start reply tells
+                       return asked::Calibration{o->V0};
                      },
                      report_calibration};
   commands.add(cmd, run_command(cmd, o, std::move(program)));

@@ -105,9 +105,9 @@ void add_move_options(CLI::App& cmd, MoveOptions& o) {
 /// it, else from the config's [move]. The board refuses the same (one
 /// rule); checked here first so that a refused move leaves no run
 /// directory behind.
-config::RunSettings::Move move_request(const MoveOptions& m, const RunOptions& o,
-                                       const firmware::MoveRequest& defaults) {
-  config::RunSettings::Move move;
+asked::Move move_request(const MoveOptions& m, const RunOptions& o,
+                         const firmware::MoveRequest& defaults) {
+  asked::Move move;
   static_cast<firmware::MoveRequest&>(move) = defaults;
   for (const auto& [field, option] : m.given) {
     if (option->count() == 0) continue;
@@ -166,8 +166,9 @@ void add_move_command(CLI::App& app, Commands& commands) {
                   "Coarse steps' frequency [Hz] (default: the board's calibrated fastest, else "
                   "its [drive] f)");
   RunProgram program{[m, o](config::ConfigFile& config) {
-                       config.host.run.move = move_request(*m, *o, config.host.run.move_defaults);
-                       config.host.run.duration_s = config.host.run.move->timeout_s;
+                       asked::Move move = move_request(*m, *o, config.host.run.move_defaults);
+                       config.host.run.duration_s = move.timeout_s;
+                       return move;
                      },
                      [](const FinishedRun& run) {
                        const MoveResult move = move_result(run);

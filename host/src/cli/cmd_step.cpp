@@ -19,9 +19,9 @@ void add_step_command(CLI::App& app, Commands& commands) {
   cmd->add_option("--V0", o->V0, "Peak voltage [V] (default: [drive] V0)");
   cmd->add_option("--f", o->f, "Drive frequency [Hz] (default: [drive] f)");
   RunProgram program{[count](config::ConfigFile& config) {
-                       config.host.run.step_periods = *count;
                        config.host.run.duration_s =
                            static_cast<double>(*count) / config.host.model.drive.f;
+                       return asked::Periods{*count};
                      },
                      [count](const FinishedRun& run) {
                        const double travel = run.summary.theta_end_rad;

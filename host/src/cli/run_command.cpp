@@ -12,19 +12,19 @@
 #include <ctime>
 #include <fstream>
 
-#include "run/board_run.hpp"
-#include "io/catalogue.hpp"
 #include "commands.hpp"
 #include "config/effective_config.hpp"
+#include "config/rig.hpp"
 #include "exit_codes.hpp"
-#include "view/live_feed.hpp"
-#include "run/local_board.hpp"
+#include "io/catalogue.hpp"
 #include "io/log_schema.hpp"
 #include "io/parameters_json.hpp"
-#include "piezo/config/config_error.hpp"
-#include "config/rig.hpp"
 #include "io/run_log.hpp"
+#include "piezo/config/config_error.hpp"
+#include "run/board_run.hpp"
+#include "run/local_board.hpp"
 #include "run/signals.hpp"
+#include "view/live_feed.hpp"
 #include "view/view_server.hpp"
 
 namespace piezo::host {
@@ -289,8 +289,8 @@ void finish_log(RunLog& log, RunSummary& summary, const nlohmann::json& result) 
 }
 
 /// The run's config: the files and --set (with the drive keys given as
-/// options), the command's own request, and the board's address.
-config::ConfigFile run_config(const RunOptions& o, const RunProgram& program) {
+/// options) and the board's address; `asked`: what the command asks for.
+config::ConfigFile run_config(const RunOptions& o, const RunProgram& program, RunAsked& asked) {
   if (o.config.empty() && o.rig.empty()) {
     throw config::ConfigError("command line", "--config",
                               "required, or --rig ADDRESS (a board with its own config)");
@@ -299,7 +299,7 @@ config::ConfigFile run_config(const RunOptions& o, const RunProgram& program) {
       o.config.empty() ? std::vector<std::string>{} : std::vector<std::string>{o.config}, o.sets,
       config::DriveOptions{o.V0, o.f, o.duration > 0.0 ? std::optional(o.duration) : std::nullopt,
                            o.reverse});
-  if (program.request) program.request(config);
+  asked = program.request ? program.request(config) : RunAsked{asked::Timed{}};
   if (!o.rig.empty()) config.host.board.address = o.rig;
   return config;
 }
@@ -315,7 +315,7 @@ struct Board {
   std::string geometry_note;            ///< the board's sensor radius differed from the config's
 };
 
-void connect(Board& board, const config::ConfigFile& config) {
+void connect(Board& board, const config::ConfigFile& config, const RunAsked& asked) {
   if (config.host.board.address.empty()) {
     board.local = std::make_unique<LocalBoard>(config, config::build_rig(config.board));
     board.client.emplace(config::BoardAddress{board.local->address(), "", ""},
@@ -329,7 +329,7 @@ void connect(Board& board, const config::ConfigFile& config) {
     board.geometry_note = note;
   }
   board.dictionary = board.client->call("describe");
-  board.request = board_request(config);
+  board.request = board_request(config.host, asked);
   check_request(*board.request, board.dictionary, board.client->address());
   prepare_request(*board.request, *board.client);
 }
@@ -445,10 +445,11 @@ int run(const RunOptions& o, const RunProgram& program) {
   // From here on every stopping signal ends the run through the ramp; one
   // that comes during set-up stops it before the amplifier is enabled.
   const StopOnSignals signals;
-  config::ConfigFile config = run_config(o, program);
+  RunAsked asked;
+  config::ConfigFile config = run_config(o, program, asked);
   const fs::path dir = choose_run_dir(o.out);
   Board board;
-  connect(board, config);
+  connect(board, config, asked);
   std::optional<view::LiveFeed> live;
   std::unique_ptr<view::ViewServer> server;
   std::atomic<bool> estop_requested{false};

@@ -15,9 +15,10 @@
 #include <string>
 #include <vector>
 
-#include "run/board_client.hpp"
 #include "commands.hpp"
 #include "config/config_file.hpp"
+#include "run/board_client.hpp"
+#include "run/board_request.hpp"
 #include "run/run_session.hpp"
 
 namespace piezo::host {
@@ -54,8 +55,9 @@ struct FinishedRun {
 
 /// A command's own part of a run.
 struct RunProgram {
-  /// Its request, into the config's [run] once the files and --set are read.
-  std::function<void(config::ConfigFile&)> request;
+  /// What it asks the board to run, once the files and --set are read (it
+  /// may set [run] duration_s, the run's length; none: a timed run).
+  std::function<RunAsked(config::ConfigFile&)> request;
   /// What it prints; returns the exit code.
   std::function<int(const FinishedRun&)> report;
 };

@@ -39,18 +39,26 @@ std::string configure_key(const std::string& argument) {
 
 }  // namespace
 
-BoardRequest board_request(const config::ConfigFile& c) {
+BoardRequest board_request(const config::HostConfig& host, const RunAsked& asked) {
   const std::optional<double> lease_s =
-      c.host.board.lease_s > 0.0 ? std::optional(c.host.board.lease_s) : std::nullopt;
-  const auto& run = c.host.run;
-  const auto& drive = c.host.model.drive;
-  if (run.move) {
-    return protocol::MoveToRequest{*run.move,  run.move->V0, run.move->f,
-                                   drive.C_dr, drive.e_dr,   lease_s};
-  }
-  if (run.calibrate) return protocol::CalibrateRequest{run.calibrate->V0, lease_s};
-  if (run.step_periods > 0) return protocol::StepRequest{run.step_periods, drive, lease_s};
-  return TimedRun{{drive, run.duration_s}, {lease_s}};
+      host.board.lease_s > 0.0 ? std::optional(host.board.lease_s) : std::nullopt;
+  const auto& drive = host.model.drive;
+  return std::visit(Overload{
+                        [&](const asked::Timed&) -> BoardRequest {
+                          return TimedRun{{drive, host.run.duration_s}, {lease_s}};
+                        },
+                        [&](const asked::Periods& p) -> BoardRequest {
+                          return protocol::StepRequest{p.count, drive, lease_s};
+                        },
+                        [&](const asked::Move& m) -> BoardRequest {
+                          return protocol::MoveToRequest{m,          m.V0,       m.f,
+                                                         drive.C_dr, drive.e_dr, lease_s};
+                        },
+                        [&](const asked::Calibration& c) -> BoardRequest {
+                          return protocol::CalibrateRequest{c.V0, lease_s};
+                        },
+                    },
+                    asked);
 }
 
 void check_request(const BoardRequest& request, const json& dictionary,

@@ -11,8 +11,8 @@
 #include <variant>
 
 #include "board_client.hpp"
-#include "piezo/protocol/messages.hpp"
 #include "config/config_file.hpp"
+#include "piezo/protocol/messages.hpp"
 
 namespace piezo::host {
 
@@ -25,9 +25,27 @@ struct TimedRun {
 using BoardRequest = std::variant<TimedRun, protocol::StepRequest, protocol::MoveToRequest,
                                   protocol::CalibrateRequest>;
 
-/// The request the config's [run] asks for, under the config's `rig.lease_s`
-/// (none: the board's default lease).
-[[nodiscard]] BoardRequest board_request(const config::ConfigFile& c);
+/// What a run command asks for, beside the host's config (none of it is a
+/// config key): the command's own choice, with what the user gave it.
+namespace asked {
+struct Timed {};  ///< `piezo run`: [drive]'s waveform for [run] duration_s
+struct Periods {  ///< `piezo step`: whole drive periods
+  std::uint64_t count = 0;
+};
+struct Move : firmware::MoveRequest {  ///< `piezo move`
+  /// The coarse steps' waveform when the user named it; else the board
+  /// chooses (its calibration's fastest frequency, or its [drive]).
+  std::optional<double> V0 = std::nullopt, f = std::nullopt;
+};
+struct Calibration {  ///< `piezo calibrate`, at V0 when the user named it; else the board's
+  std::optional<double> V0 = std::nullopt;
+};
+}  // namespace asked
+using RunAsked = std::variant<asked::Timed, asked::Periods, asked::Move, asked::Calibration>;
+
+/// The request for what was asked, with the host config's waveform where
+/// it needs one, under its `[rig] lease_s` (none: the board's default lease).
+[[nodiscard]] BoardRequest board_request(const config::HostConfig& host, const RunAsked& asked);
 
 /// Refuses (ConfigError naming the argument, the board and its limit) what
 /// the board's dictionary (`describe`) says it would refuse: nothing is sent.

@@ -2,8 +2,8 @@
 
 #include "board_client.hpp"
 #include "board_run.hpp"
-#include "local_board.hpp"
 #include "io/log_schema.hpp"
+#include "local_board.hpp"
 
 namespace piezo::host {
 
@@ -42,8 +42,8 @@ std::string RunSummary::status() const {
   }
 }
 
-RunSummary execute_run(const config::ConfigFile& c, config::Rig rig, RunLog& log,
-                       const std::atomic<bool>& stop,
+RunSummary execute_run(const config::ConfigFile& c, const RunAsked& asked, config::Rig rig,
+                       RunLog& log, const std::atomic<bool>& stop,
                        const std::function<void(const LiveStatus&)>& on_status,
                        const std::atomic<bool>* estop,
                        const std::function<void(const log_schema::LogRows&)>& on_rows) {
@@ -54,7 +54,7 @@ RunSummary execute_run(const config::ConfigFile& c, config::Rig rig, RunLog& log
   {
     BoardClient client(config::BoardAddress{board.address(), "", ""}, board.context());
     const protocol::Hello hello = client.hello();
-    const BoardRequest request = board_request(c);
+    const BoardRequest request = board_request(c.host, asked);
     prepare_request(request, client);
     summary = run_on_board(c, client, hello, log, stop, on_status, request, estop, on_rows);
   }

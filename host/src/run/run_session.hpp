@@ -13,11 +13,12 @@
 #include <string>
 #include <vector>
 
+#include "board_request.hpp"
+#include "config/config_file.hpp"
+#include "config/rig.hpp"
+#include "io/run_log.hpp"
 #include "observer_stage.hpp"
 #include "piezo/protocol/messages.hpp"
-#include "config/rig.hpp"
-#include "config/config_file.hpp"
-#include "io/run_log.hpp"
 
 namespace piezo::host {
 
@@ -56,13 +57,13 @@ struct LiveStatus {
 };
 
 /// The one-machine default: serves `rig` by an in-process piezod and runs
-/// through the protocol as a remote run does (run_on_board), until
+/// what was `asked` through the protocol as a remote run does (run_on_board), until
 /// the duration elapses, `stop` is set, the supervisor trips or the log
 /// fails (then host_error says why; the drive stops as on `stop`).
 /// `on_rows` sees the rows as run_on_board gives them.
 [[nodiscard]] RunSummary execute_run(
-    const config::ConfigFile& config, config::Rig rig, RunLog& log, const std::atomic<bool>& stop,
-    const std::function<void(const LiveStatus&)>& on_status,
+    const config::ConfigFile& config, const RunAsked& asked, config::Rig rig, RunLog& log,
+    const std::atomic<bool>& stop, const std::function<void(const LiveStatus&)>& on_status,
     const std::atomic<bool>* estop = nullptr,
     const std::function<void(const log_schema::LogRows&)>& on_rows = {});
 
