@@ -3,7 +3,12 @@
 // with the field named.
 #include <gtest/gtest.h>
 
+#include <array>
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include "piezo/protocol/frame.hpp"
@@ -65,6 +70,68 @@ TEST(Frame, LayoutIsTheDocumentedLittleEndianOne) {
   EXPECT_EQ(static_cast<unsigned char>(f[32 + 7]), 0x3F);
   EXPECT_EQ(f[40], 1);  // phase ramping_down
   EXPECT_EQ(f[41], static_cast<char>(hal::Status::io_error));
+}
+
+/// The little-endian value of the layout field `f` in `bytes` at `base`,
+/// read as its declared type says (any type but text).
+double read_field(const std::string& bytes, std::size_t base, const LayoutField& f) {
+  const std::size_t size = static_cast<std::size_t>(f.type.back() - '0');
+  std::uint64_t raw = 0;
+  for (std::size_t i = 0; i < size; ++i) {
+    raw |= std::uint64_t{static_cast<unsigned char>(bytes.at(base + f.offset + i))} << (8 * i);
+  }
+  if (f.type == "<f8") return std::bit_cast<double>(raw);
+  if (f.type == "<i8") return static_cast<double>(static_cast<std::int64_t>(raw));
+  return static_cast<double>(raw);
+}
+
+template <std::size_t N>
+double field_named(const std::string& bytes, std::size_t base,
+                   const std::array<LayoutField, N>& layout, std::string_view name) {
+  for (const LayoutField& f : layout) {
+    if (f.name == name) return read_field(bytes, base, f);
+  }
+  ADD_FAILURE() << "no field " << name;
+  return std::nan("");
+}
+
+// The layout the board describes (`describe`'s `frames`, from which clients
+// build their decoders) is where the encoder writes each value.
+TEST(Frame, TheEncoderWritesEachValueWhereTheDescribedLayoutSays) {
+  const DriveSample d{-123456789, 42.5, DrivePhase::ramping_down, hal::Status::io_error, 5};
+  const std::string df = encode_frame(77, std::vector<DriveSample>{d});
+  EXPECT_EQ(df.substr(0, 4), kFrameMagic);
+  EXPECT_EQ(field_named(df, 0, kFrameHeaderLayout, "version"), kFrameVersion);
+  EXPECT_EQ(field_named(df, 0, kFrameHeaderLayout, "stream"), 1);
+  EXPECT_EQ(field_named(df, 0, kFrameHeaderLayout, "first"), 77);
+  EXPECT_EQ(field_named(df, 0, kFrameHeaderLayout, "count"), 1);
+  EXPECT_EQ(field_named(df, 0, kFrameHeaderLayout, "record_bytes"), kDriveRecordBytes);
+  const std::size_t r = kFrameHeaderBytes;
+  EXPECT_EQ(field_named(df, r, kDriveRecordLayout, "t_ns"), -123456789);
+  EXPECT_EQ(field_named(df, r, kDriveRecordLayout, "V"), 42.5);
+  EXPECT_EQ(field_named(df, r, kDriveRecordLayout, "phase"), static_cast<int>(d.phase));
+  EXPECT_EQ(field_named(df, r, kDriveRecordLayout, "status"), static_cast<int>(d.status));
+  EXPECT_EQ(field_named(df, r, kDriveRecordLayout, "move_state"), 5);
+  const SensorSample s{11, -22, 3.25e-6, hal::Status::timeout};
+  const std::string sf = encode_frame(0, std::vector<SensorSample>{s});
+  EXPECT_EQ(field_named(sf, 0, kFrameHeaderLayout, "stream"), 2);
+  EXPECT_EQ(field_named(sf, r, kSensorRecordLayout, "t_request_ns"), 11);
+  EXPECT_EQ(field_named(sf, r, kSensorRecordLayout, "t_response_ns"), -22);
+  EXPECT_EQ(field_named(sf, r, kSensorRecordLayout, "displacement_m"), 3.25e-6);
+  EXPECT_EQ(field_named(sf, r, kSensorRecordLayout, "status"), static_cast<int>(s.status));
+  // Every record field lies inside its record, without overlap.
+  for (const auto& [fields, bytes] :
+       {std::pair{std::vector<LayoutField>(kDriveRecordLayout.begin(), kDriveRecordLayout.end()),
+                  kDriveRecordBytes},
+        std::pair{std::vector<LayoutField>(kSensorRecordLayout.begin(), kSensorRecordLayout.end()),
+                  kSensorRecordBytes}}) {
+    std::size_t end = 0;
+    for (const LayoutField& f : fields) {
+      EXPECT_GE(f.offset, end) << f.name;
+      end = f.offset + static_cast<std::size_t>(f.type.back() - '0');
+    }
+    EXPECT_LE(end, bytes);
+  }
 }
 
 struct BadFrame {
@@ -142,10 +209,11 @@ TEST(Message, MalformedRequestsAreNamed) {
   EXPECT_THROW((void)decode_reply(std::string(60'000, '\x91')), ProtocolError);
   // A map with an integer key: malformed, but under the id read before it.
   id.reset();
-  const std::string integer_key("\x83\xa2"
-                                "id\x09\xa3"
-                                "cmd\xa5"
-                                "hello\x05\x01");
+  const std::string integer_key(
+      "\x83\xa2"
+      "id\x09\xa3"
+      "cmd\xa5"
+      "hello\x05\x01");
   EXPECT_EQ(refuse(integer_key).code(), code::malformed);
   EXPECT_EQ(id, 9u);
 }

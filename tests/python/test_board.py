@@ -549,3 +549,23 @@ def test_a_board_limited_to_60_v_is_refused_70_v_by_every_client_before_sending(
     finally:
         process.terminate()
         process.wait(10)
+
+
+def test_frames_decode_by_the_layout_the_board_describes(board):
+    """The client holds no copy of the frame layout: it takes the board's,
+    and refuses a frame that does not match it."""
+    from piezo_rig.frames import FrameError
+    layout = board.frame_layout
+    assert layout.record("drive").names == ("t_ns", "V", "phase", "status", "move_state")
+    assert layout.record("sensor")["displacement_m"] == np.dtype("<f8")
+    with board.run(V0=60, f=10, duration=0.2) as run:
+        for _ in run:
+            pass
+    recorded = board.fetch("drive", 0, 100)
+    assert recorded.dtype.names == layout.record("drive").names and len(recorded) == 100
+    frame = board.call("fetch", stream="sensor", first=0, count=3)["frame"]
+    stream, first, records = layout.decode(frame)
+    assert (layout.names[stream], first, len(records)) == ("sensor", 0, 3)
+    for bad in (frame[:10], b"XXXX" + frame[4:], frame + b"\0"):
+        with pytest.raises(FrameError):
+            layout.decode(bad)

@@ -180,18 +180,40 @@ json describe(const std::vector<CommandSpec>& commands, const Hello::Limits& lim
   }
   json error_codes = json::array();
   for (const char* name : code::kAll) error_codes.push_back(name);
-  return {{wire_key::protocol, kProtocolVersion},
-          {"commands", described},
-          {"names",
-           {{"states", names_of(kBoardStateNames)},
-            {"stop_causes", names_of(firmware::kStopCauseNames)},
-            {"move_ends", names_of(firmware::kMoveEndNames)},
-            {"move_states", names_of(firmware::kMoveStateNames)},
-            {"output_states", names_of(firmware::kOutputStateNames)},
-            {"error_codes", error_codes},
-            {"directions", names_of(model::kDirectionNames)},
-            {"approaches", names_of(firmware::kApproachNames)},
-            {"streams", names_of(kStreamNames)}}}};
+  const auto layout = [](const auto& fields) {
+    json out = json::array();
+    for (const LayoutField& f : fields) {
+      out.push_back({{"name", f.name}, {"type", f.type}, {"offset", f.offset}});
+    }
+    return out;
+  };
+  const auto stream = [&](Stream s, std::size_t record_bytes, const auto& fields) {
+    return json{{wire_key::id, static_cast<std::uint16_t>(s)},
+                {"record_bytes", record_bytes},
+                {"fields", layout(fields)}};
+  };
+  return {
+      {wire_key::protocol, kProtocolVersion},
+      {"commands", described},
+      {"names",
+       {{"states", names_of(kBoardStateNames)},
+        {"stop_causes", names_of(firmware::kStopCauseNames)},
+        {"move_ends", names_of(firmware::kMoveEndNames)},
+        {"move_states", names_of(firmware::kMoveStateNames)},
+        {"output_states", names_of(firmware::kOutputStateNames)},
+        {"error_codes", error_codes},
+        {"directions", names_of(model::kDirectionNames)},
+        {"approaches", names_of(firmware::kApproachNames)},
+        {"streams", names_of(kStreamNames)}}},
+      {"frames",
+       {{"magic", kFrameMagic},
+        {wire_key::version, kFrameVersion},
+        {"header_bytes", kFrameHeaderBytes},
+        {"header", layout(kFrameHeaderLayout)},
+        {"streams",
+         {{to_string(Stream::drive), stream(Stream::drive, kDriveRecordBytes, kDriveRecordLayout)},
+          {to_string(Stream::sensor),
+           stream(Stream::sensor, kSensorRecordBytes, kSensorRecordLayout)}}}}}};
 }
 
 std::optional<ArgumentBreach> check_arguments(const json& dictionary, std::string_view command,

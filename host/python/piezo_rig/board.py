@@ -189,6 +189,7 @@ class Board:
         self._ids = itertools.count(1)
         self._hello: Optional[dict[str, Any]] = None
         self._dictionary: Optional[dict[str, Any]] = None
+        self._layout: Optional[frames.Layout] = None
         self._runs: "weakref.WeakSet[Run]" = weakref.WeakSet()
         self._closed = False
 
@@ -267,6 +268,13 @@ class Board:
             self._dictionary = self.call("describe")
         return self._dictionary
 
+    @property
+    def frame_layout(self) -> frames.Layout:
+        """The sample frames' layout, as this board describes it."""
+        if self._layout is None:
+            self._layout = frames.Layout(self.describe()["frames"])
+        return self._layout
+
     def arguments(self, command: str) -> list[dict[str, Any]]:
         """The arguments ``command`` takes on this board, as it describes them."""
         commands: dict[str, Any] = self.describe()["commands"]
@@ -340,14 +348,13 @@ class Board:
         while count > 0:
             frame = self.call("fetch", stream=stream, first=first,
                               count=min(count, largest))["frame"]
-            _, _, records = frames.decode(frame)
+            _, _, records = self.frame_layout.decode(frame)
             out.append(records)
             if len(records) == 0:
                 break
             first += len(records)
             count -= len(records)
-        dtype = frames.DRIVE_RECORD if stream == "drive" else frames.SENSOR_RECORD
-        return np.concatenate(out) if out else np.empty(0, dtype)
+        return np.concatenate(out) if out else np.empty(0, self.frame_layout.record(stream))
 
     # -- runs -----------------------------------------------------------------
     def run(self, V0: float, f: float, duration: float, *, renew: bool = True,
@@ -481,8 +488,11 @@ class Run:
         self._heard = time.monotonic()
         self._summary: Optional[dict[str, Any]] = None  # the board's, once the run ended
         self.gaps_fetched = 0
-        self._next = {frames.DRIVE: 0, frames.SENSOR: 0}
-        self._blocks: dict[int, list[np.ndarray[Any, Any]]] = {frames.DRIVE: [], frames.SENSOR: []}
+        self._layout = board.frame_layout
+        self._drive = self._layout.ids["drive"]
+        self._sensor = self._layout.ids["sensor"]
+        self._next = {stream: 0 for stream in self._layout.names}
+        self._blocks: dict[int, list[np.ndarray[Any, Any]]] = {s: [] for s in self._layout.names}
         self._pending: list[Block] = []
         self._stopping = threading.Event()
         self._closed = False
@@ -502,7 +512,7 @@ class Run:
         period = float(self.started["lease_s"]) / 4
         while renew and not self._stopping.wait(period):
             try:
-                self.board.call("lease", drive_received=self._next[frames.DRIVE])
+                self.board.call("lease", drive_received=self._next[self._drive])
             except (BoardError, ClientClosed):
                 return  # the run has ended (bad_state / not_controller), or the client
             except NoReply:
@@ -603,7 +613,7 @@ class Run:
             if "summary" in event and event.get("state") in ("idle", "fault"):
                 self._finish(event["summary"])
             return
-        stream, first, records = frames.decode(body)
+        stream, first, records = self._layout.decode(body)
         if first > self._next[stream]:
             self._fetch_gap(stream, first)
         if first + len(records) > self._next[stream]:
@@ -628,7 +638,7 @@ class Run:
             self._finish(run["summary"])
 
     def _fetch_gap(self, stream: int, until: int) -> None:
-        name = frames.STREAM_NAMES[stream]
+        name = self._layout.names[stream]
         missing = until - self._next[stream]
         self._accept(stream, self.board.fetch(name, self._next[stream], missing))
         self.gaps_fetched += missing
@@ -636,14 +646,14 @@ class Run:
     def _accept(self, stream: int, records: np.ndarray[Any, Any]) -> None:
         if len(records) == 0:
             return
-        block = Block(frames.STREAM_NAMES[stream], self._next[stream], records)
+        block = Block(self._layout.names[stream], self._next[stream], records)
         self._next[stream] += len(records)
         self._blocks[stream].append(records)
         self._pending.append(block)
 
     def _finish(self, summary: dict[str, Any]) -> None:
         # The tail the stream had not delivered yet is in the recorder.
-        for stream, name in frames.STREAM_NAMES.items():
+        for stream, name in self._layout.names.items():
             total = summary.get("samples", {}).get(name, self._next[stream])
             if total > self._next[stream]:
                 self._fetch_gap(stream, total)
@@ -658,13 +668,13 @@ class Run:
     @property
     def drive(self) -> np.ndarray[Any, Any]:
         """Every drive record so far (t_ns, V, phase, status, move_state)."""
-        return _joined(self._blocks[frames.DRIVE], frames.DRIVE_RECORD)
+        return _joined(self._blocks[self._drive], self._layout.records[self._drive])
 
     @property
     def sensor(self) -> np.ndarray[Any, Any]:
         """Every sensor record so far (t_request_ns, t_response_ns,
         displacement_m, status)."""
-        return _joined(self._blocks[frames.SENSOR], frames.SENSOR_RECORD)
+        return _joined(self._blocks[self._sensor], self._layout.records[self._sensor])
 
     @property
     def zero_displacement_m(self) -> Optional[float]:

@@ -1,41 +1,66 @@
 """Sample frames (docs/protocol.md, "Sample frames") as numpy structured
-arrays: little-endian, field by field."""
+arrays, decoded by the layout the board describes (``describe``'s
+``frames``): the header's and each stream's record fields with their types
+and offsets, so no copy of the layout lives here."""
 
 from __future__ import annotations
 
 from typing import Any
 
-import struct
-
 import numpy as np
-
-MAGIC = b"PZSB"
-HEADER = struct.Struct("<4sHHQII")
-DRIVE, SENSOR = 1, 2
-
-DRIVE_RECORD = np.dtype([("t_ns", "<i8"), ("V", "<f8"), ("phase", "u1"), ("status", "u1"),
-                         ("move_state", "u1"), ("_pad", "V5")])
-SENSOR_RECORD = np.dtype([("t_request_ns", "<i8"), ("t_response_ns", "<i8"),
-                          ("displacement_m", "<f8"), ("status", "u1"), ("_pad", "V7")])
-RECORDS = {DRIVE: DRIVE_RECORD, SENSOR: SENSOR_RECORD}
-STREAM_NAMES = {DRIVE: "drive", SENSOR: "sensor"}
 
 
 class FrameError(ValueError):
     """A frame whose magic, version, stream, record size or length is wrong."""
 
 
-def decode(body: bytes) -> tuple[int, int, np.ndarray[Any, Any]]:
-    """(stream, first sequence number, records) of one frame; refuses any
-    frame that does not match the documented layout."""
-    if len(body) < HEADER.size:
-        raise FrameError(f"frame of {len(body)} bytes, shorter than its header")
-    magic, version, stream, first, count, size = HEADER.unpack_from(body)
-    if magic != MAGIC or version != 1:
-        raise FrameError(f"frame magic {magic!r} version {version}")
-    dtype = RECORDS.get(stream)
-    if dtype is None or size != dtype.itemsize:
-        raise FrameError(f"stream {stream} with {size}-byte records")
-    if len(body) != HEADER.size + count * size:
-        raise FrameError(f"frame of {len(body)} bytes for {count} records")
-    return stream, first, np.frombuffer(body, dtype, count, HEADER.size).copy()
+def _dtype(fields: list[dict[str, Any]], itemsize: int) -> np.dtype[Any]:
+    """A structured type with each described field at its offset."""
+    return np.dtype({"names": [f["name"] for f in fields],
+                     "formats": [f["type"] for f in fields],
+                     "offsets": [int(f["offset"]) for f in fields],
+                     "itemsize": itemsize})
+
+
+class Layout:
+    """A board's frame layout, from its dictionary's ``frames``.
+
+    >>> layout = Layout({"magic": "PZSB", "version": 1, "header_bytes": 8,
+    ...                  "header": [{"name": "count", "type": "<u4", "offset": 0}],
+    ...                  "streams": {"drive": {"id": 1, "record_bytes": 8, "fields": [
+    ...                      {"name": "V", "type": "<f8", "offset": 0}]}}})
+    >>> layout.record("drive").names
+    ('V',)
+    """
+
+    def __init__(self, described: dict[str, Any]) -> None:
+        self.magic = str(described["magic"]).encode()
+        self.version = int(described["version"])
+        self.header = _dtype(described["header"], int(described["header_bytes"]))
+        streams = described["streams"]
+        self.names = {int(s["id"]): name for name, s in streams.items()}
+        self.ids = {name: stream_id for stream_id, name in self.names.items()}
+        self.records = {int(s["id"]): _dtype(s["fields"], int(s["record_bytes"]))
+                        for s in streams.values()}
+
+    def record(self, stream: str) -> np.dtype[Any]:
+        """The record type of the stream named ``stream`` ("drive", "sensor")."""
+        return self.records[self.ids[stream]]
+
+    def decode(self, body: bytes) -> tuple[int, int, np.ndarray[Any, Any]]:
+        """(stream id, first sequence number, records) of one frame; refuses
+        any frame that does not match the described layout."""
+        if len(body) < self.header.itemsize:
+            raise FrameError(f"frame of {len(body)} bytes, shorter than its header")
+        header = np.frombuffer(body, self.header, 1)[0]
+        if bytes(header["magic"]) != self.magic or int(header["version"]) != self.version:
+            raise FrameError(f"frame magic {bytes(header['magic'])!r} version "
+                             f"{int(header['version'])}")
+        stream, count, size = int(header["stream"]), int(header["count"]), int(header["record_bytes"])
+        dtype = self.records.get(stream)
+        if dtype is None or size != dtype.itemsize:
+            raise FrameError(f"stream {stream} with {size}-byte records")
+        if len(body) != self.header.itemsize + count * size:
+            raise FrameError(f"frame of {len(body)} bytes for {count} records")
+        records = np.frombuffer(body, dtype, count, self.header.itemsize).copy()
+        return stream, int(header["first"]), records

@@ -13,6 +13,7 @@
 ///   20     4     record size in bytes (24 drive, 32 sensor)
 ///   24     ...   count records
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -20,6 +21,7 @@
 #include <vector>
 
 #include "piezo/firmware/samples.hpp"
+#include "piezo/firmware/wire_keys.hpp"
 #include "piezo/name_table.hpp"
 #include "piezo/protocol/error.hpp"
 
@@ -30,6 +32,31 @@ inline constexpr std::uint16_t kFrameVersion = 1;
 inline constexpr std::size_t kFrameHeaderBytes = 24;
 inline constexpr std::size_t kDriveRecordBytes = 24;
 inline constexpr std::size_t kSensorRecordBytes = 32;
+
+/// One field of the header or of a record as the wire lays it out: its
+/// name, its type in numpy's notation ("<i8": little-endian 8-byte
+/// integer; "S4": 4 bytes of text) and its offset. The board describes the
+/// layout from these (`describe`'s `frames`), so a client builds its
+/// decoder from the board; codec_test holds the encoder to them.
+struct LayoutField {
+  std::string_view name, type;
+  std::size_t offset;
+};
+inline constexpr std::array<LayoutField, 6> kFrameHeaderLayout{{{"magic", "S4", 0},
+                                                                {wire_key::version, "<u2", 4},
+                                                                {wire_key::stream, "<u2", 6},
+                                                                {wire_key::first, "<u8", 8},
+                                                                {wire_key::count, "<u4", 16},
+                                                                {"record_bytes", "<u4", 20}}};
+inline constexpr std::array<LayoutField, 5> kDriveRecordLayout{{{"t_ns", "<i8", 0},
+                                                                {"V", "<f8", 8},
+                                                                {"phase", "u1", 16},
+                                                                {"status", "u1", 17},
+                                                                {"move_state", "u1", 18}}};
+inline constexpr std::array<LayoutField, 4> kSensorRecordLayout{{{"t_request_ns", "<i8", 0},
+                                                                 {"t_response_ns", "<i8", 8},
+                                                                 {"displacement_m", "<f8", 16},
+                                                                 {"status", "u1", 24}}};
 
 enum class Stream : std::uint16_t { drive = 1, sensor = 2 };
 inline constexpr auto kStreamNames =
