@@ -21,6 +21,7 @@
 #include "io/parameters_json.hpp"
 #include "io/run_log.hpp"
 #include "piezo/config/config_error.hpp"
+#include "piezo/firmware/wire_keys.hpp"
 #include "run/board_run.hpp"
 #include "run/local_board.hpp"
 #include "run/signals.hpp"
@@ -248,7 +249,7 @@ void append_catalogue(const fs::path& run_dir, const std::string& utc_start,
 void show_status(const LiveStatus& st) {
   static const bool tty = isatty(STDERR_FILENO) != 0;
   static auto last_line = std::chrono::steady_clock::time_point{};
-  const double progress = st.board.value("calibration_progress", -1.0);
+  const double progress = st.board.value(wire_key::calibration_progress, -1.0);
   const std::string line = fmt::format(
       "{}t {:6.2f}/{:.2f} s  V {:5.1f} V  theta {:8.4f} mrad  residual {:6.1f} urad  sensor {} "
       "({} errors)  overruns {}",
