@@ -17,22 +17,23 @@
 #include <string>
 #include <vector>
 
-#include "io/fit_io.hpp"
-#include "studies/global_sensitivity_study.hpp"
-#include "jobs/interruption.hpp"
+#include "config/config_file.hpp"
 #include "config/model_config.hpp"
-#include "studies/oat_study.hpp"
-#include "run/observer_stage.hpp"
-#include "jobs/parallel.hpp"
+#include "io/fit_io.hpp"
 #include "io/parameters_json.hpp"
+#include "jobs/interruption.hpp"
+#include "jobs/parallel.hpp"
+#include "jobs/progress.hpp"
 #include "piezo/config/config_error.hpp"
 #include "piezo/model/analysis_limits.hpp"
 #include "piezo/model/frequency_sweep.hpp"
 #include "piezo/model/identify.hpp"
 #include "piezo/model/sensitivity.hpp"
 #include "piezo/model/simulate.hpp"
-#include "jobs/progress.hpp"
-#include "config/config_file.hpp"
+#include "piezo/model/travel_targets.hpp"
+#include "run/observer_stage.hpp"
+#include "studies/global_sensitivity_study.hpp"
+#include "studies/oat_study.hpp"
 #include "studies/simulate_checks.hpp"
 
 namespace py = pybind11;
@@ -347,6 +348,53 @@ py::dict identify(const model::Parameters& start, const model::FitData& data,
   return fit_result(std::move(r), data.t.size());
 }
 
+/// A fit to reported travel times (`piezo identify --target`): each target
+/// (settings by symbol, angle [rad], time [s]) as the CLI reads it.
+py::dict fit_travel_targets(
+    const model::Parameters& start,
+    const std::vector<std::tuple<std::map<std::string, double>, double, double>>& targets,
+    const std::optional<std::vector<std::string>>& free, const std::string& friction_name,
+    int max_iterations) {
+  const auto friction = host::checked_friction_model(friction_name, "model");
+  if (const auto why = model::limits::refused(max_iterations, model::limits::kFitIterations)) {
+    throw ConfigError("identify", "max_iterations", *why);
+  }
+  piezo::config::require_valid(start, "identify: params");
+  std::vector<model::TravelTarget> parsed;
+  for (std::size_t i = 0; i < targets.size(); ++i) {
+    const auto& [settings, angle, time] = targets[i];
+    std::string text;
+    for (const auto& [name, value] : settings) text += fmt::format("{}={},", name, value);
+    // The CLI's reader: one set of checks and words for both.
+    parsed.push_back(
+        host::parse_travel_target(fmt::format("{}angle={},time={}", text, angle, time)));
+  }
+  const auto names = host::checked_free_parameters(free, friction, "identify", "free");
+  if (names.size() > parsed.size()) {
+    throw ConfigError("identify", "free",
+                      fmt::format("{} targets fix at most {} free parameters; got {}",
+                                  parsed.size(), parsed.size(), names.size()));
+  }
+  model::TargetFitResult r;
+  {
+    py::gil_scoped_release free_python;
+    auto settings = host::cli_target_fit_settings(names, friction, "identify");
+    settings.max_iterations = max_iterations;
+    r = model::fit_travel_targets(start, parsed, settings);
+  }
+  py::dict out = fit_result(std::move(r.fit), 0);
+  py::list met;
+  for (std::size_t i = 0; i < parsed.size(); ++i) {
+    py::dict t;
+    t["model_time_s"] = r.targets[i].model_time_s;
+    t["relative_error"] = r.targets[i].relative_error;
+    t["initial_model_time_s"] = r.initial_targets[i].model_time_s;
+    met.append(t);
+  }
+  out["targets"] = met;
+  return out;
+}
+
 /// The LuGre observer of `piezo run` (host/src/run/observer_stage.hpp) on a
 /// recorded drive and angle, as the host runs it beside a live run.
 py::dict observe(const model::Parameters& p, const model::FitData& data,
@@ -566,6 +614,8 @@ PYBIND11_MODULE(_model, m) {
         py::arg("model"));
   m.def("identify", &identify, py::arg("params"), py::arg("data"), py::arg("free"),
         py::arg("model"), py::arg("max_iterations"));
+  m.def("fit_travel_targets", &fit_travel_targets, py::arg("params"), py::arg("targets"),
+        py::arg("free"), py::arg("model"), py::arg("max_iterations"));
   m.def(
       "observe",
       [](const model::Parameters& p,

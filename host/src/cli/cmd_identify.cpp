@@ -1,4 +1,5 @@
-// `piezo identify`: fits model parameters to a logged run.
+// `piezo identify`: fits model parameters to a logged run, or to figures a
+// paper reports (--target, target_fit.cpp).
 
 #include <fmt/format.h>
 
@@ -6,12 +7,13 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
-#include "io/fit_io.hpp"
+#include "config/config_file.hpp"
 #include "config/model_config.hpp"
+#include "io/fit_io.hpp"
 #include "piezo/config/config_error.hpp"
 #include "piezo/model/analysis_limits.hpp"
 #include "piezo/model/identify.hpp"
-#include "config/config_file.hpp"
+#include "target_fit.hpp"
 
 namespace piezo::host {
 namespace {
@@ -19,7 +21,8 @@ namespace {
 struct IdentifyOptions {
   LogLayout layout;  ///< where another tool's file keeps t, V and theta
   std::string log;
-  std::string params;  ///< empty: the model's defaults
+  std::vector<std::string> targets;  ///< --target: fit to these instead of a log
+  std::string params;                ///< empty: the model's defaults
   std::string model = "lugre";
   std::string config;  // start values instead of the log's
   std::string out;
@@ -28,6 +31,13 @@ struct IdentifyOptions {
 };
 
 int run(const IdentifyOptions& o) {
+  if (!o.targets.empty()) {
+    return run_target_fit(
+        {o.targets, o.params, o.model, o.config, o.out, o.max_iterations, o.json});
+  }
+  if (o.log.empty()) {
+    throw config::ConfigError("command line", "--log", "required, or --target (see --help)");
+  }
   const auto friction = model::parse_friction_model(o.model);
   if (!friction) throw config::ConfigError("--model", o.model, "allowed: lugre, coulomb");
   LoadedRun run = load_run_for_fit(o.log, o.layout);
@@ -84,18 +94,25 @@ int run(const IdentifyOptions& o) {
 
 void add_identify_command(CLI::App& app, Commands& commands) {
   auto o = std::make_shared<IdentifyOptions>();
-  CLI::App* cmd = app.add_subcommand("identify", "Fit model parameters to a logged run");
-  cmd->add_option("--log", o->log,
-                  "A run log (run.h5), another tool's HDF5 or MATLAB v7.3 file (--t, --V, "
-                  "--theta), or a CSV")
-      ->required()
-      ->check(CLI::ExistingFile);
+  CLI::App* cmd = app.add_subcommand(
+      "identify", "Fit model parameters to a logged run, or to reported travel times (--target)");
+  CLI::Option* log = cmd->add_option("--log", o->log,
+                                     "A run log (run.h5), another tool's HDF5 or MATLAB v7.3 file "
+                                     "(--t, --V, --theta), or a CSV")
+                         ->check(CLI::ExistingFile);
+  cmd->add_option("--target", o->targets,
+                  "Instead of a log, a reported figure: the rotor covered ANGLE rad in TIME s "
+                  "from rest, with these parameters set (repeat for each; fit at most as many "
+                  "--params as targets), e.g. f=20,d_e=0.228e-6,angle=0.010,time=1.36")
+      ->excludes(log);
   add_log_layout_options(*cmd, o->layout);
   cmd->add_option("--params", o->params,
                   "Parameters to fit, comma-separated (simulate's keys); default: lugre "
                   "sigma0,sigma1,F_N,d_e, coulomb F_N,d_e");
   cmd->add_option("--model", o->model, "Friction model: lugre or coulomb")->capture_default_str();
-  add_config_option(*cmd, o->config, "Start values (TOML [drive]/[model]); default: the log's")
+  add_config_option(*cmd, o->config,
+                    "Start values (TOML [drive]/[model]); default: the log's (with --target: "
+                    "Table 1)")
       ->check(CLI::ExistingFile);
   cmd->add_option("--max-iterations", o->max_iterations,
                   "Levenberg-Marquardt iterations at most (a fit stopped here says it did not "

@@ -10,10 +10,10 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "piezo/config/config_error.hpp"
 #include "h5_file.hpp"
 #include "log_schema.hpp"
 #include "parameters_json.hpp"
+#include "piezo/config/config_error.hpp"
 #include "run_recovery.hpp"
 
 namespace piezo::host {
@@ -367,6 +367,61 @@ model::FitSettings cli_fit_settings(const std::vector<std::string>& free,
         fmt::format("{}: iteration {}, RMSE {:.3f} urad\n", label, iteration, 1e6 * rmse));
   };
   return s;
+}
+
+model::FitSettings cli_target_fit_settings(const std::vector<std::string>& free,
+                                           model::FrictionModel friction,
+                                           const std::string& label) {
+  model::FitSettings s = cli_fit_settings(free, friction, label);
+  s.progress = [label](int iteration, double rms) {
+    show_progress(fmt::format("{}: iteration {}, RMS of ln(model time / target time) {:.4f}\n",
+                              label, iteration, rms));
+  };
+  return s;
+}
+
+model::TravelTarget parse_travel_target(const std::string& text) {
+  const auto refuse = [&](const std::string& why) {
+    return config::ConfigError("--target", text,
+                               why + " (e.g. f=20,d_e=0.228e-6,angle=0.010,time=1.36)");
+  };
+  model::TravelTarget t;
+  bool has_angle = false, has_time = false;
+  std::size_t begin = 0;
+  while (begin <= text.size()) {
+    const std::size_t end = std::min(text.find(',', begin), text.size());
+    const std::string item = text.substr(begin, end - begin);
+    begin = end + 1;
+    const std::size_t eq = item.find('=');
+    if (eq == std::string::npos) throw refuse("\"" + item + "\" is not KEY=VALUE");
+    const std::string key = item.substr(0, eq), value_text = item.substr(eq + 1);
+    double value = 0.0;
+    try {
+      std::size_t used = 0;
+      value = std::stod(value_text, &used);
+      if (used != value_text.size()) throw std::invalid_argument(value_text);
+    } catch (const std::exception&) {
+      throw refuse(key + " = \"" + value_text + "\" is not a number");
+    }
+    if (!std::isfinite(value)) throw refuse(key + " is not finite");
+    if (key == "angle") {
+      if (value == 0.0) throw refuse("angle: the angle to cover [rad], not 0");
+      t.angle_rad = value;
+      has_angle = true;
+    } else if (key == "time") {
+      if (!(value > 0.0)) throw refuse("time: the time it took [s], above 0");
+      t.time_s = value;
+      has_time = true;
+    } else if (const model::ParameterSpec* s = model::find_parameter(key); s == nullptr) {
+      throw refuse("\"" + key + "\" is neither angle, time nor a parameter symbol");
+    } else if (!s->admits(value)) {
+      throw refuse(fmt::format("{} = {:g}; allowed: {}", key, value, s->range_text()));
+    } else {
+      t.settings.emplace_back(key, value);
+    }
+  }
+  if (!has_angle || !has_time) throw refuse("needs angle=RAD and time=S");
+  return t;
 }
 
 }  // namespace piezo::host

@@ -9,6 +9,7 @@
 
 #include "piezo/model/identify.hpp"
 #include "piezo/model/parameters.hpp"
+#include "piezo/model/travel_targets.hpp"
 
 namespace piezo::host {
 
@@ -38,6 +39,12 @@ struct LogLayout {
 /// and an overlay (`--config rig.toml --config FITTED.toml`) for run.
 void write_parameters_toml(const std::string& path, const model::Parameters& p,
                            const std::string& comment);
+
+/// A reported figure for `piezo identify --target`:
+/// "f=20,d_e=0.228e-6,angle=0.010,time=1.36", `angle` [rad] and `time` [s]
+/// required, every other key a parameter symbol this target runs with.
+/// Throws ConfigError naming --target, the text and what is wrong.
+[[nodiscard]] model::TravelTarget parse_travel_target(const std::string& text);
 
 /// Parses "a,b,c" into names, checking each is a parameter.
 [[nodiscard]] std::vector<std::string> parse_parameter_list(const std::string& list);
@@ -83,5 +90,11 @@ namespace piezo::host {
 [[nodiscard]] model::FitSettings cli_fit_settings(const std::vector<std::string>& free,
                                                   model::FrictionModel friction,
                                                   const std::string& label);
+
+/// The same for a fit to travel targets: its progress is the RMS of the
+/// targets' log time ratios.
+[[nodiscard]] model::FitSettings cli_target_fit_settings(const std::vector<std::string>& free,
+                                                         model::FrictionModel friction,
+                                                         const std::string& label);
 
 }  // namespace piezo::host
