@@ -29,14 +29,14 @@ import json
 import numbers
 import os
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Optional, Sequence, TypedDict, Union, cast
+from typing import Any, Iterable, Mapping, Optional, Sequence, TypedDict, Union, cast, overload
 
 import numpy as np
 
 from . import _model, _values
 from ._model import FitData, LogLayout, ParameterError, Parameters
 
-__all__ = ["Parameters", "ParameterError", "FitData", "Simulation", "Fit", "Observation",
+__all__ = ["Parameters", "ParameterError", "FitData", "Simulation", "Fit", "TargetFit", "Observation",
            "simulate", "sensitivity", "sobol", "morris", "sweep", "identify", "fit_data",
            "load_fit_data", "observe", "parameter_specs", "show_progress", "SensitivityStudy",
            "LevelRuns", "SobolStudy", "SobolIndex", "MorrisStudy", "MorrisEffect", "Sweep"]
@@ -390,11 +390,49 @@ def fit_data(drive_t: Any, drive_V: Any, t: Any, theta: Any, *,
                    function)
 
 
+@_values.by_value
+@dataclass(eq=False)
+class TargetFit:
+    """A fit to reported figures (``identify(targets=...)``): ``parameters``
+    the fitted values by name, with ``standard_errors`` and 95 %
+    ``confidence_95`` intervals when there are more targets than free
+    parameters (else NaN: the fit meets them exactly or not at all);
+    ``targets`` how the fit met each, in order (``model_time_s``,
+    ``relative_error``, ``initial_model_time_s`` at the start values);
+    ``fitted`` the whole parameter set (a start for ``simulate``)."""
+
+    parameters: dict[str, Any]
+    standard_errors: dict[str, Any]
+    confidence_95: dict[str, Any]
+    targets: list[dict[str, Any]]
+    iterations: int
+    converged: bool
+    stop_reason: str
+    notes: list[Any]
+    fitted: Parameters
+    model: str
+
+
+@overload
 def identify(log_or_arrays: Any, params: Optional[Parameters] = None, *,
              free: Optional[Sequence[str]] = None, model: str = "lugre",
-             max_iterations: int = 40, layout: Optional[dict[str, Any]] = None) -> Fit:
+             max_iterations: int = 40, layout: Optional[dict[str, Any]] = None) -> Fit: ...
+
+
+@overload
+def identify(log_or_arrays: None = None, params: Optional[Parameters] = None, *,
+             free: Optional[Sequence[str]] = None, model: str = "lugre",
+             max_iterations: int = 40, layout: Optional[dict[str, Any]] = None,
+             targets: Sequence[Mapping[str, float]]) -> TargetFit: ...
+
+
+def identify(log_or_arrays: Any = None, params: Optional[Parameters] = None, *,
+             free: Optional[Sequence[str]] = None, model: str = "lugre",
+             max_iterations: int = 40, layout: Optional[dict[str, Any]] = None,
+             targets: Optional[Sequence[Mapping[str, float]]] = None) -> Union[Fit, TargetFit]:
     """Fits ``free`` parameters to a measured run (Levenberg-Marquardt, on
-    all cores), as ``piezo identify``.
+    all cores), as ``piezo identify``; or, with ``targets`` instead of a
+    run, to figures a paper reports (``piezo identify --target``).
 
     log_or_arrays: a log path (see ``load_fit_data``; ``layout`` names another
         tool's datasets: ``{"t": ..., "V": ..., "theta": ...}``), a
@@ -407,7 +445,25 @@ def identify(log_or_arrays: Any, params: Optional[Parameters] = None, *,
     free: the parameters to fit; default the model's: LuGre sigma0, sigma1,
         F_N and d_e, Coulomb F_N and d_e. A parameter the model does not use
         (a bristle's sigma0 under Coulomb) is refused.
+    targets: each "the rotor covered ``angle`` rad from rest in ``time`` s"
+        with its other keys set as parameters (``{"f": 20, "d_e": 0.228e-6,
+        "angle": 0.010, "time": 1.36}``); the angle is read at the drive's
+        periods' ends. At most as many ``free`` as targets. Gives a
+        ``TargetFit``; the start is Table 1 unless ``params``. The paper's
+        section 4.2 (docs/model.md):
+
+        >>> fit = identify(targets=[{"f": 10, "angle": 0.010, "time": 4.9},
+        ...                         {"f": 20, "d_e": 0.228e-6, "angle": 0.010, "time": 1.36}],
+        ...                free=["F_N", "d_e"])
+        >>> round(fit.parameters["F_N"] * 1e3, 2), round(fit.parameters["d_e"] * 1e6, 3)
+        (6.16, 0.383)
+        >>> [round(t["model_time_s"], 2) for t in fit.targets]
+        [4.9, 1.36]
     """
+    if targets is not None:
+        if log_or_arrays is not None:
+            raise TypeError("identify: give a run or targets, not both")
+        return _identify_targets(targets, params, free, model, max_iterations)
     start = Parameters()
     # An opened log (piezo_rig.log.RunLog, which depends on this module and
     # not the other way round) is read from its file, with its layout.
@@ -432,6 +488,29 @@ def identify(log_or_arrays: Any, params: Optional[Parameters] = None, *,
     out = _model.identify(start, data, names, _text("identify", "model", model, MODELS),
                           _integer("identify", "max_iterations", max_iterations))
     return Fit(model=model, data=data, **out)
+
+
+def _identify_targets(targets: Sequence[Mapping[str, float]], params: Optional[Parameters],
+                      free: Optional[Sequence[str]], model: str,
+                      max_iterations: int) -> TargetFit:
+    start = Parameters() if params is None else _parameters("identify", params, {})
+    parsed = []
+    for i, target in enumerate(targets):
+        if not isinstance(target, Mapping) or "angle" not in target or "time" not in target:
+            raise ValueError(f"identify: targets[{i}]: a mapping with angle, time and the "
+                             "parameters it ran with, e.g. {\"f\": 20, \"angle\": 0.010, "
+                             "\"time\": 1.36}")
+        settings = {str(k): _number("identify", f"targets[{i}].{k}", v)
+                    for k, v in target.items() if k not in ("angle", "time")}
+        parsed.append((settings, _number("identify", f"targets[{i}].angle", target["angle"]),
+                       _number("identify", f"targets[{i}].time", target["time"])))
+    names = None if free is None else _names("identify", free)
+    out = _model.fit_travel_targets(start, parsed, names,
+                                    _text("identify", "model", model, MODELS),
+                                    _integer("identify", "max_iterations", max_iterations))
+    for key in ("rmse_rad", "initial_rmse_rad", "samples", "theta_fit"):
+        out.pop(key)
+    return TargetFit(model=model, **out)
 
 
 @_values.by_value
