@@ -369,7 +369,8 @@ py::dict fit_travel_targets(
     parsed.push_back(
         host::parse_travel_target(fmt::format("{}angle={},time={}", text, angle, time)));
   }
-  const auto names = host::checked_free_parameters(free, friction, "identify", "free");
+  const auto names =
+      host::checked_target_free_parameters(free, friction, parsed.size(), "identify", "free");
   if (names.size() > parsed.size()) {
     throw ConfigError("identify", "free",
                       fmt::format("{} targets fix at most {} free parameters; got {}",

@@ -12,27 +12,26 @@ namespace {
 constexpr double kZ95 = 1.959964;
 
 struct Residuals : Eigen::DenseFunctor<double> {
-  Residuals(const Parameters& start, std::vector<const ParameterSpec*> specs, int values,
-            const std::function<void(const Parameters&, Eigen::VectorXd&)>& residuals,
+  Residuals(const std::vector<Unknown>& unknowns, int count,
+            const std::function<void(const std::vector<double>&, Eigen::VectorXd&)>& residuals,
             const FitSettings& settings, double difference_step)
-      : DenseFunctor(static_cast<int>(specs.size()), values),
+      : DenseFunctor(static_cast<int>(unknowns.size()), count),
         step_(difference_step),
-        start_(start),
-        specs_(std::move(specs)),
+        unknowns_(unknowns),
         residuals_(residuals),
         settings_(settings) {}
 
-  [[nodiscard]] Parameters at(const Eigen::VectorXd& u) const {
-    Parameters p = start_;
-    for (std::size_t i = 0; i < specs_.size(); ++i) {
-      const ParameterSpec& s = *specs_[i];
-      double v = std::exp(u[static_cast<Eigen::Index>(i)]);
-      // Keep to the allowed range (open ends nudged inside).
-      v = std::clamp(v, s.min_inclusive ? s.min : std::nextafter(s.min, s.max),
-                     s.max_inclusive ? s.max : std::nextafter(s.max, s.min));
-      s.ref(p) = v;
+  /// The values at log-space point u, each kept to its parameter's range
+  /// (open ends nudged inside).
+  [[nodiscard]] std::vector<double> at(const Eigen::VectorXd& u) const {
+    std::vector<double> values(unknowns_.size());
+    for (std::size_t i = 0; i < unknowns_.size(); ++i) {
+      const ParameterSpec& s = *unknowns_[i].spec;
+      values[i] = std::clamp(std::exp(u[static_cast<Eigen::Index>(i)]),
+                             s.min_inclusive ? s.min : std::nextafter(s.min, s.max),
+                             s.max_inclusive ? s.max : std::nextafter(s.max, s.min));
     }
-    return p;
+    return values;
   }
 
   int operator()(const Eigen::VectorXd& u, Eigen::VectorXd& r) const {
@@ -57,9 +56,8 @@ struct Residuals : Eigen::DenseFunctor<double> {
 
  private:
   double step_;
-  Parameters start_;
-  std::vector<const ParameterSpec*> specs_;
-  const std::function<void(const Parameters&, Eigen::VectorXd&)>& residuals_;
+  const std::vector<Unknown>& unknowns_;
+  const std::function<void(const std::vector<double>&, Eigen::VectorXd&)>& residuals_;
   const FitSettings& settings_;
 };
 
@@ -69,32 +67,28 @@ double rms(const Eigen::VectorXd& r) {
   return std::sqrt(r.squaredNorm() / static_cast<double>(r.size()));
 }
 
-std::vector<const ParameterSpec*> free_specs(const Parameters& start, const FitSettings& settings,
-                                             const std::string& who) {
-  if (settings.free.empty()) throw std::invalid_argument(who + ": no parameter to fit");
-  std::vector<const ParameterSpec*> specs;
-  for (const auto& name : settings.free) {
-    const ParameterSpec* s = find_parameter(name);
-    if (s == nullptr) throw std::invalid_argument(who + ": unknown parameter '" + name + "'");
-    if (!model_uses(settings.model, name)) {
-      throw std::invalid_argument(who + ": the model does not use '" + name + "'");
-    }
-    if (!(s->min >= 0.0) || !(get_parameter(start, name).value() > 0.0)) {
-      throw std::invalid_argument(who + ": '" + name + "' must be positive to be fitted");
-    }
-    specs.push_back(s);
+const ParameterSpec* free_spec(const Parameters& start, const std::string& name,
+                               FrictionModel model, const std::string& who) {
+  const ParameterSpec* s = find_parameter(name);
+  if (s == nullptr) throw std::invalid_argument(who + ": unknown parameter '" + name + "'");
+  if (!model_uses(model, name)) {
+    throw std::invalid_argument(who + ": the model does not use '" + name + "'");
   }
-  return specs;
+  if (!(s->min >= 0.0) || !(get_parameter(start, name).value() > 0.0)) {
+    throw std::invalid_argument(who + ": '" + name + "' must be positive to be fitted");
+  }
+  return s;
 }
 
 LogSpaceFit fit_in_log_space(
-    const Parameters& start, const std::vector<const ParameterSpec*>& specs, int values,
-    const std::function<void(const Parameters&, Eigen::VectorXd&)>& residuals,
+    const std::vector<Unknown>& unknowns, int count,
+    const std::function<void(const std::vector<double>&, Eigen::VectorXd&)>& residuals,
     const FitSettings& settings, double difference_step) {
-  Residuals f(start, specs, values, residuals, settings, difference_step);
-  Eigen::VectorXd u(static_cast<Eigen::Index>(specs.size()));
-  for (std::size_t i = 0; i < specs.size(); ++i) {
-    u[static_cast<Eigen::Index>(i)] = std::log(*get_parameter(start, specs[i]->name));
+  if (unknowns.empty()) throw std::invalid_argument("no parameter to fit");
+  Residuals f(unknowns, count, residuals, settings, difference_step);
+  Eigen::VectorXd u(static_cast<Eigen::Index>(unknowns.size()));
+  for (std::size_t i = 0; i < unknowns.size(); ++i) {
+    u[static_cast<Eigen::Index>(i)] = std::log(unknowns[i].start);
   }
   LogSpaceFit out;
   out.initial_residuals.resize(f.values());
@@ -144,7 +138,7 @@ LogSpaceFit fit_in_log_space(
           "stopped: Levenberg-Marquardt status " + std::to_string(static_cast<int>(status));
       break;
   }
-  out.parameters = f.at(u);
+  out.values = f.at(u);
   f(u, r);
   out.residuals = r;
 
@@ -168,29 +162,29 @@ LogSpaceFit fit_in_log_space(
   return out;
 }
 
-std::vector<FittedParameter> fitted_parameters(const std::vector<const ParameterSpec*>& specs,
+std::vector<FittedParameter> fitted_parameters(const std::vector<Unknown>& unknowns,
                                                const LogSpaceFit& fit) {
   std::vector<FittedParameter> out;
   constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
-  for (std::size_t i = 0; i < specs.size(); ++i) {
+  for (std::size_t i = 0; i < unknowns.size(); ++i) {
     const auto k = static_cast<Eigen::Index>(i);
-    const double value = *get_parameter(fit.parameters, specs[i]->name);
+    const double value = fit.values[i];
     if (fit.covariance.size() == 0) {
-      out.push_back({std::string(specs[i]->name), value, kNone, kNone, kNone});
+      out.push_back({unknowns[i].name, value, kNone, kNone, kNone});
       continue;
     }
     const double sigma_log = std::sqrt(std::max(fit.covariance(k, k), 0.0));
-    out.push_back({std::string(specs[i]->name), value, value * sigma_log,
-                   value * std::exp(-kZ95 * sigma_log), value * std::exp(kZ95 * sigma_log)});
+    out.push_back({unknowns[i].name, value, value * sigma_log, value * std::exp(-kZ95 * sigma_log),
+                   value * std::exp(kZ95 * sigma_log)});
   }
   return out;
 }
 
-std::vector<std::string> fit_notes(const std::vector<const ParameterSpec*>& specs,
-                                   const LogSpaceFit& fit) {
+std::vector<std::string> fit_notes(const std::vector<Unknown>& unknowns, const LogSpaceFit& fit) {
   std::vector<std::string> notes;
   auto has = [&](std::string_view n) {
-    return std::any_of(specs.begin(), specs.end(), [&](auto* s) { return s->name == n; });
+    return std::any_of(unknowns.begin(), unknowns.end(),
+                       [&](const Unknown& u) { return u.spec->name == n; });
   };
   if (has("mu") && has("F_N")) {
     notes.push_back(
@@ -200,8 +194,8 @@ std::vector<std::string> fit_notes(const std::vector<const ParameterSpec*>& spec
   for (Eigen::Index i = 0; i < fit.correlation.rows(); ++i) {
     for (Eigen::Index j = i + 1; j < fit.correlation.cols(); ++j) {
       if (std::abs(fit.correlation(i, j)) > 0.99) {
-        notes.push_back(std::string(specs[static_cast<std::size_t>(i)]->name) + " and " +
-                        std::string(specs[static_cast<std::size_t>(j)]->name) +
+        notes.push_back(unknowns[static_cast<std::size_t>(i)].name + " and " +
+                        unknowns[static_cast<std::size_t>(j)].name +
                         " are strongly correlated in this data (|r| > 0.99): the data cannot "
                         "tell them apart well");
       }

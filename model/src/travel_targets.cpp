@@ -1,5 +1,6 @@
 #include "piezo/model/travel_targets.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -19,6 +20,20 @@ constexpr double kHorizon = 3.0;
 constexpr double kTravelDifferenceStep = 1e-3;
 
 }  // namespace
+
+std::pair<std::string, std::size_t> split_free_name(const std::string& name, std::size_t targets) {
+  const std::size_t at = name.find('@');
+  if (at == std::string::npos) return {name, 0};
+  const std::string number = name.substr(at + 1);
+  std::size_t k = 0;
+  if (number.empty() || number.size() > 6 ||
+      number.find_first_not_of("0123456789") != std::string::npos || (k = std::stoul(number)) < 1 ||
+      k > targets) {
+    throw std::invalid_argument("targets: " + name + ": after @ a target's number, 1 to " +
+                                std::to_string(targets));
+  }
+  return {name.substr(0, at), k};
+}
 
 double travel_time(const Parameters& p, double angle_rad, FrictionModel model, double t_max_s,
                    double tolerance) {
@@ -58,10 +73,10 @@ Parameters with_settings(const Parameters& start, const TravelTarget& target) {
 TargetFitResult fit_travel_targets(const Parameters& start,
                                    const std::vector<TravelTarget>& targets,
                                    const FitSettings& settings) {
-  const auto specs = detail::free_specs(start, settings, "targets");
-  if (targets.size() < specs.size()) {
+  if (settings.free.empty()) throw std::invalid_argument("targets: no parameter to fit");
+  if (targets.size() < settings.free.size()) {
     throw std::invalid_argument("targets: " + std::to_string(targets.size()) +
-                                " targets cannot fix " + std::to_string(specs.size()) +
+                                " targets cannot fix " + std::to_string(settings.free.size()) +
                                 " free parameters; free at most as many as there are targets");
   }
   for (const auto& t : targets) {
@@ -70,45 +85,76 @@ TargetFitResult fit_travel_targets(const Parameters& start,
     }
     (void)with_settings(start, t);  // its settings are known symbols in range
   }
-  // The log of the model's time over the target's: the same weight for a
-  // 5 s and a 1 s target, and symmetric in too fast and too slow.
-  const auto outcome = [&](const Parameters& p, const TravelTarget& t) {
-    const double time = travel_time(with_settings(p, t), t.angle_rad, settings.model,
-                                    kHorizon * t.time_s, settings.tolerance);
+  // Each unknown: a shared one (target 0) or one target's own ("d_e@2": target 2's).
+  std::vector<detail::Unknown> unknowns;
+  std::vector<std::size_t> owner;  // 0: every target; k: target k only (1-based)
+  for (const auto& name : settings.free) {
+    const auto [base, k] = split_free_name(name, targets.size());
+    const Parameters& at = k == 0 ? start : with_settings(start, targets[k - 1]);
+    const ParameterSpec* s = detail::free_spec(at, base, settings.model, "targets");
+    if (k > 0 && std::any_of(targets[k - 1].settings.begin(), targets[k - 1].settings.end(),
+                             [&](const auto& kv) { return kv.first == base; })) {
+      throw std::invalid_argument("targets: " + name + ": target " + std::to_string(k) + " sets " +
+                                  base + " itself; free it or set it, not both");
+    }
+    unknowns.push_back({s, name, *get_parameter(at, base)});
+    owner.push_back(k);
+  }
+  // Target i's parameters: the shared values, its own settings, its own values.
+  const auto parameters_for = [&](const std::vector<double>& values, std::size_t i) {
+    Parameters p = start;
+    for (std::size_t u = 0; u < unknowns.size(); ++u) {
+      if (owner[u] == 0) unknowns[u].spec->ref(p) = values[u];
+    }
+    p = with_settings(p, targets[i]);
+    for (std::size_t u = 0; u < unknowns.size(); ++u) {
+      if (owner[u] == i + 1) unknowns[u].spec->ref(p) = values[u];
+    }
+    return p;
+  };
+  const auto outcome = [&](const Parameters& q, const TravelTarget& t) {
+    const double time =
+        travel_time(q, t.angle_rad, settings.model, kHorizon * t.time_s, settings.tolerance);
     return TargetOutcome{time, time / t.time_s - 1.0};
   };
-  const auto residual = [&](const Parameters& p, const TravelTarget& t) {
-    const double time = outcome(p, t).model_time_s;
+  // The log of the model's time over the target's: the same weight for a
+  // 5 s and a 1 s target, and symmetric in too fast and too slow.
+  const auto residual = [&](const Parameters& q, const TravelTarget& t) {
+    const double time = outcome(q, t).model_time_s;
     if (std::isfinite(time)) return std::log(time / t.time_s);
     // Not reached: beyond the horizon, by the share of the angle still to cover.
-    const Parameters q = with_settings(p, t);
     const double end =
         final_angle(q.motor, Sawtooth(q.drive.V0, q.drive.f, q.drive.rise()), settings.model,
                     kHorizon * t.time_s, {.tolerance = settings.tolerance});
     return std::log(kHorizon) + std::max(0.0, 1.0 - end / t.angle_rad);
   };
-  const auto residuals = [&](const Parameters& p, Eigen::VectorXd& r) {
+  const auto residuals = [&](const std::vector<double>& values, Eigen::VectorXd& r) {
     for (std::size_t i = 0; i < targets.size(); ++i) {
-      r[static_cast<Eigen::Index>(i)] = residual(p, targets[i]);
+      r[static_cast<Eigen::Index>(i)] = residual(parameters_for(values, i), targets[i]);
     }
   };
   const detail::LogSpaceFit fit = detail::fit_in_log_space(
-      start, specs, static_cast<int>(targets.size()), residuals, settings, kTravelDifferenceStep);
+      unknowns, static_cast<int>(targets.size()), residuals, settings, kTravelDifferenceStep);
   TargetFitResult result;
-  result.fit.parameters = fit.parameters;
+  result.fit.parameters = start;
+  for (std::size_t u = 0; u < unknowns.size(); ++u) {
+    if (owner[u] == 0) unknowns[u].spec->ref(result.fit.parameters) = fit.values[u];
+  }
   result.fit.iterations = fit.iterations;
   result.fit.converged = fit.converged;
   result.fit.stop_reason = fit.stop_reason;
-  result.fit.fitted = detail::fitted_parameters(specs, fit);
-  result.fit.notes = detail::fit_notes(specs, fit);
+  result.fit.fitted = detail::fitted_parameters(unknowns, fit);
+  result.fit.notes = detail::fit_notes(unknowns, fit);
   if (fit.covariance.size() == 0) {
     result.fit.notes.push_back(
         "as many targets as free parameters: the fit meets them exactly or not at all, and "
         "has no intervals");
   }
-  for (const auto& t : targets) {
-    result.initial_targets.push_back(outcome(start, t));
-    result.targets.push_back(outcome(fit.parameters, t));
+  std::vector<double> initial;
+  for (const auto& u : unknowns) initial.push_back(u.start);
+  for (std::size_t i = 0; i < targets.size(); ++i) {
+    result.initial_targets.push_back(outcome(parameters_for(initial, i), targets[i]));
+    result.targets.push_back(outcome(parameters_for(fit.values, i), targets[i]));
   }
   return result;
 }

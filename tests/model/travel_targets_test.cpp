@@ -54,6 +54,31 @@ TEST(TravelTargets, RecoverTheParametersThatMadeThem) {
   EXPECT_GT(std::abs(r.initial_targets[0].relative_error), 0.2);
 }
 
+// A parameter free for one target alone ("d_e@2") takes that target's own
+// value: d_e identified per frequency, as the paper does, comes back.
+TEST(TravelTargets, AParameterOfOneTargetIsFittedForItAlone) {
+  std::vector<TravelTarget> targets{{{{"f", 10.0}, {"d_e", 0.42e-6}}, 0.010, 0.0},
+                                    {{{"f", 20.0}, {"d_e", 0.26e-6}}, 0.010, 0.0}};
+  for (auto& t : targets) {
+    t.time_s = travel_time(with_settings(Parameters{}, t), t.angle_rad, FrictionModel::lugre, 10.0);
+    t.settings.pop_back();  // the fit is not told d_e
+  }
+  FitSettings settings;
+  settings.free = {"d_e@1", "d_e@2"};
+  const TargetFitResult r = fit_travel_targets(Parameters{}, targets, settings);
+  ASSERT_EQ(r.fit.fitted.size(), 2u);
+  EXPECT_EQ(r.fit.fitted[0].name, "d_e@1");
+  EXPECT_NEAR(r.fit.fitted[0].value, 0.42e-6, 0.005 * 0.42e-6);
+  EXPECT_NEAR(r.fit.fitted[1].value, 0.26e-6, 0.005 * 0.26e-6);
+  EXPECT_EQ(r.fit.parameters.motor.d_e, Parameters{}.motor.d_e);  // no shared d_e was fitted
+  // A target's own free parameter it also sets, or a number that is no target's, is refused.
+  settings.free = {"d_e@3"};
+  EXPECT_THROW((void)fit_travel_targets(Parameters{}, targets, settings), std::invalid_argument);
+  targets[0].settings.emplace_back("d_e", 0.4e-6);
+  settings.free = {"d_e@1"};
+  EXPECT_THROW((void)fit_travel_targets(Parameters{}, targets, settings), std::invalid_argument);
+}
+
 TEST(TravelTargets, RefuseMoreFreeParametersThanTargetsAndBadTargets) {
   FitSettings settings;
   settings.free = {"F_N", "sigma0"};

@@ -448,7 +448,9 @@ def identify(log_or_arrays: Any = None, params: Optional[Parameters] = None, *,
     targets: each "the rotor covered ``angle`` rad from rest in ``time`` s"
         with its other keys set as parameters (``{"f": 20, "d_e": 0.228e-6,
         "angle": 0.010, "time": 1.36}``); the angle is read at the drive's
-        periods' ends. At most as many ``free`` as targets. Gives a
+        periods' ends. At most as many ``free`` as targets; a name is
+        shared by all, or one target's own with its number (``"d_e@2"``,
+        counted from 1). Gives a
         ``TargetFit``; the start is Table 1 unless ``params``. The paper's
         section 4.2 (docs/model.md):
 

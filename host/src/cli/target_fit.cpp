@@ -25,6 +25,21 @@ std::string settings_text(const model::TravelTarget& t) {
   return s;
 }
 
+/// "a,b@2,c" as its items, spaces around each dropped.
+std::vector<std::string> split_list(const std::string& list) {
+  std::vector<std::string> items;
+  std::size_t begin = 0;
+  while (begin <= list.size()) {
+    const std::size_t end = std::min(list.find(',', begin), list.size());
+    std::string item = list.substr(begin, end - begin);
+    item.erase(0, item.find_first_not_of(' '));
+    item.erase(item.find_last_not_of(' ') + 1);
+    items.push_back(item);
+    begin = end + 1;
+  }
+  return items;
+}
+
 }  // namespace
 
 int run_target_fit(const TargetFitOptions& o) {
@@ -35,9 +50,9 @@ int run_target_fit(const TargetFitOptions& o) {
   const model::Parameters start =
       o.config.empty() ? model::Parameters{} : config::load_model_config(o.config);
   model::FitSettings settings = cli_target_fit_settings(
-      checked_free_parameters(
-          o.params.empty() ? std::nullopt : std::optional(parse_parameter_list(o.params)),
-          *friction, "identify", "--params"),
+      checked_target_free_parameters(
+          o.params.empty() ? std::nullopt : std::optional(split_list(o.params)), *friction,
+          targets.size(), "identify", "--params"),
       *friction, "identify");
   settings.max_iterations = o.max_iterations;
   if (settings.free.size() > targets.size()) {

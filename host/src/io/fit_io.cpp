@@ -369,6 +369,33 @@ model::FitSettings cli_fit_settings(const std::vector<std::string>& free,
   return s;
 }
 
+std::vector<std::string> checked_target_free_parameters(
+    const std::optional<std::vector<std::string>>& free, model::FrictionModel friction,
+    std::size_t targets, const std::string& source, const std::string& key) {
+  if (!free) return checked_free_parameters(free, friction, source, key);
+  // Each name's parameter checked as a log fit's; the target after @ here.
+  std::vector<std::string> bases;
+  for (const auto& name : *free) {
+    try {
+      bases.push_back(model::split_free_name(name, targets).first);
+    } catch (const std::invalid_argument& e) {
+      throw config::ConfigError(source, key, e.what());
+    }
+  }
+  // A parameter may be free for several targets ("d_e@1,d_e@2"): each checked once.
+  std::sort(bases.begin(), bases.end());
+  bases.erase(std::unique(bases.begin(), bases.end()), bases.end());
+  (void)checked_free_parameters(bases, friction, source, key);
+  for (std::size_t i = 0; i < free->size(); ++i) {
+    for (std::size_t j = 0; j < i; ++j) {
+      if ((*free)[i] == (*free)[j]) {
+        throw config::ConfigError(source, key, (*free)[i] + ": named twice");
+      }
+    }
+  }
+  return *free;
+}
+
 model::FitSettings cli_target_fit_settings(const std::vector<std::string>& free,
                                            model::FrictionModel friction,
                                            const std::string& label) {

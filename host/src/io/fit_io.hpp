@@ -57,6 +57,12 @@ void write_parameters_toml(const std::string& path, const model::Parameters& p,
     const std::optional<std::vector<std::string>>& free, model::FrictionModel model,
     const std::string& source, const std::string& key);
 
+/// The same for a fit to `targets` travel targets: a name may carry a
+/// target's number ("d_e@2": target 2's own value; 1-based). Throws ConfigError.
+[[nodiscard]] std::vector<std::string> checked_target_free_parameters(
+    const std::optional<std::vector<std::string>>& free, model::FrictionModel friction,
+    std::size_t targets, const std::string& source, const std::string& key);
+
 /// The typical interval of strictly increasing times: their median step.
 [[nodiscard]] double median_interval(const std::vector<double>& t);
 

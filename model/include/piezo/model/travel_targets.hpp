@@ -50,8 +50,17 @@ struct TargetFitResult {
   std::vector<TargetOutcome> initial_targets;
 };
 
+/// A free name's parameter and whose it is: "F_N" is every target's (0),
+/// "d_e@2" target 2's own (1-based). Throws std::invalid_argument naming a
+/// number that is not a target's.
+[[nodiscard]] std::pair<std::string, std::size_t> split_free_name(const std::string& name,
+                                                                  std::size_t targets);
+
 /// Fits settings.free (at most as many as there are targets) to the
-/// targets' times, minimising the sum of squared log time ratios. Throws
+/// targets' times, minimising the sum of squared log time ratios. A name is
+/// shared by every target ("F_N") or one target's own ("d_e@2", fitted for
+/// target 2 alone; a target may not also set it). FitResult::parameters
+/// holds the shared values; `fitted` every value under its name. Throws
 /// std::invalid_argument for unknown or unfittable names, too few targets,
 /// or a target without a positive angle and time.
 [[nodiscard]] TargetFitResult fit_travel_targets(const Parameters& start,
