@@ -21,20 +21,6 @@ constexpr double kTravelDifferenceStep = 1e-3;
 
 }  // namespace
 
-std::pair<std::string, std::size_t> split_free_name(const std::string& name, std::size_t targets) {
-  const std::size_t at = name.find('@');
-  if (at == std::string::npos) return {name, 0};
-  const std::string number = name.substr(at + 1);
-  std::size_t k = 0;
-  if (number.empty() || number.size() > 6 ||
-      number.find_first_not_of("0123456789") != std::string::npos || (k = std::stoul(number)) < 1 ||
-      k > targets) {
-    throw std::invalid_argument("targets: " + name + ": after @ a target's number, 1 to " +
-                                std::to_string(targets));
-  }
-  return {name.substr(0, at), k};
-}
-
 double travel_time(const Parameters& p, double angle_rad, FrictionModel model, double t_max_s,
                    double tolerance) {
   const Sawtooth drive(p.drive.V0, p.drive.f, p.drive.rise());
@@ -89,7 +75,10 @@ TargetFitResult fit_travel_targets(const Parameters& start,
   std::vector<detail::Unknown> unknowns;
   std::vector<std::size_t> owner;  // 0: every target; k: target k only (1-based)
   for (const auto& name : settings.free) {
-    const auto [base, k] = split_free_name(name, targets.size());
+    // Named, not bound: a lambda below may not capture a structured binding (clang).
+    const auto split = split_free_name(name, targets.size());
+    const std::string& base = split.first;
+    const std::size_t k = split.second;
     const Parameters& at = k == 0 ? start : with_settings(start, targets[k - 1]);
     const ParameterSpec* s = detail::free_spec(at, base, settings.model, "targets");
     if (k > 0 && std::any_of(targets[k - 1].settings.begin(), targets[k - 1].settings.end(),

@@ -8,6 +8,7 @@
 /// every target, as identify() does for a log (Levenberg-Marquardt in log
 /// space, the same report).
 
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -53,8 +54,20 @@ struct TargetFitResult {
 /// A free name's parameter and whose it is: "F_N" is every target's (0),
 /// "d_e@2" target 2's own (1-based). Throws std::invalid_argument naming a
 /// number that is not a target's.
-[[nodiscard]] std::pair<std::string, std::size_t> split_free_name(const std::string& name,
-                                                                  std::size_t targets);
+[[nodiscard]] inline std::pair<std::string, std::size_t> split_free_name(const std::string& name,
+                                                                         std::size_t targets) {
+  const std::size_t at = name.find('@');
+  if (at == std::string::npos) return {name, 0};
+  const std::string number = name.substr(at + 1);
+  std::size_t k = 0;
+  if (number.empty() || number.size() > 6 ||
+      number.find_first_not_of("0123456789") != std::string::npos || (k = std::stoul(number)) < 1 ||
+      k > targets) {
+    throw std::invalid_argument("targets: " + name + ": after @ a target's number, 1 to " +
+                                std::to_string(targets));
+  }
+  return {name.substr(0, at), k};
+}
 
 /// Fits settings.free (at most as many as there are targets) to the
 /// targets' times, minimising the sum of squared log time ratios. A name is
