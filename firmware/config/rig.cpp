@@ -24,14 +24,13 @@ std::shared_ptr<hal::sim::SimRig> make_sim_rig(const BoardConfig& c, hal::Clock&
                                                hal::TimeNs t0) {
   const auto& drive = c.drive.backends.get<hal::sim::SimDriveBackend>();
   const hal::DriveCommon common = c.drive_common();
-  const hal::sim::SimRigSettings settings{
-      c.plant,
-      drive.amplifier(common),
-      drive.dac(common),
+  const hal::sim::SimAxisSettings axis{
+      c.plant, drive.amplifier(common), drive.dac(common),
       c.sensor.backends.get<hal::sim::SimSensorBackend>().settings(c.sensor.common()),
-      c.lines.backends.get<hal::sim::SimLinesBackend>().settings(),
       c.plant_end_stop_rad};
-  return std::make_shared<hal::sim::SimRig>(settings, clock, t0);
+  return std::make_shared<hal::sim::SimRig>(
+      std::vector<hal::sim::SimAxisSettings>{axis},
+      c.lines.backends.get<hal::sim::SimLinesBackend>().settings(), clock, t0);
 }
 
 std::unique_ptr<hal::DisplacementSensor> held_to_range(const BoardConfig& c,

@@ -121,19 +121,18 @@ protocol::StartReply Daemon::start(const std::string& client,
 }
 
 void Daemon::build_runner(Run& run, const Program& program) {
-  firmware::LoopRunnerSettings settings{{board_.drive.rate_hz, run.request.duration_s,
-                                         1.0 / run.request.drive.f, board_.drive.limits},
-                                        board_.safety,
+  firmware::LoopRunnerSettings settings{{board_.drive.rate_hz, run.request.duration_s},
                                         board_.sensor.rate_hz,
                                         !board_.virtual_clock(),
                                         board_.run.priority,
                                         board_.run.lock_memory};
-  settings.r2_m = board_.sensor.r2_m;
-  settings.zero_m = zero_.displacement_m();
-  const firmware::LoopDevices devices{*rig_.clock, *rig_.drive, *rig_.sensor, *rig_.lines};
-  const auto runner = [&](auto& program_to_follow) {
-    run.runner = std::make_unique<firmware::LoopRunner>(settings, program_to_follow, devices,
-                                                        &run.remote, &run.feed);
+  const auto runner = [&](firmware::DriveProgram& program_to_follow) {
+    std::vector<firmware::RunAxis> axes{{*rig_.drive, *rig_.sensor, program_to_follow,
+                                         board_.drive.limits, 1.0 / run.request.drive.f,
+                                         board_.safety, board_.sensor.r2_m,
+                                         zero_.displacement_m(), &run.feed}};
+    run.runner = std::make_unique<firmware::LoopRunner>(settings, std::move(axes), *rig_.clock,
+                                                        *rig_.lines, &run.remote);
   };
   if (program.move) {
     run.move = std::make_unique<firmware::MoveController>(*program.move, run.feed);
@@ -159,7 +158,7 @@ void Daemon::build_runner(Run& run, const Program& program) {
     run.guard = std::make_unique<firmware::RunGuard>(run.waveform, g, run.feed);
     runner(*run.guard);
   } else {
-    runner(run.waveform);
+    runner(run.waveform_program);
   }
 }
 

@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "daemon.hpp"
+#include "piezo/firmware/drive_program.hpp"
 #include "piezo/firmware/loop_runner.hpp"
 #include "piezo/firmware/run_guard.hpp"
 #include "piezo/model/waveform.hpp"
@@ -19,6 +20,7 @@ struct Daemon::Run {
   std::uint64_t id = 0;
   protocol::ConfigureRequest request;
   model::Sawtooth waveform;
+  firmware::WaveformProgram waveform_program{waveform};  ///< a plain run's program
   firmware::RemoteControl remote;
   std::unique_ptr<firmware::LoopRunner> runner;
   hal::TimeNs t0 = 0;

@@ -48,7 +48,9 @@ void SampleHub::clear() {
 bool SampleHub::take(firmware::LoopRunner& runner,
                      const std::function<void(double)>& on_good_reading) {
   bool ramping = false;
+  // The board serves one axis today: the runner's first.
   runner.drain(
+      0,
       [&](const firmware::DriveSample& s) {
         drive_.push(s);
         ramping = ramping || s.phase == firmware::DrivePhase::ramping_down;

@@ -1,16 +1,22 @@
 #include "piezo/firmware/acquire_loop.hpp"
 
+#include <utility>
+
 namespace piezo::firmware {
 
-AcquireLoop::AcquireLoop(hal::Clock& clock, hal::DisplacementSensor& sensor, double rate_hz,
-                         SensorHealth& sensor_health, SpscRing<SensorSample>& ring,
-                         PositionFeed* feed)
-    : clock_(clock),
-      sensor_(sensor),
-      period_(hal::from_seconds(1.0 / rate_hz)),
-      sensor_health_(sensor_health),
-      ring_(ring),
-      feed_(feed) {}
+AcquireLoop::AcquireLoop(hal::Clock& clock, std::vector<AcquireAxis> axes, double rate_hz)
+    : clock_(clock), axes_(std::move(axes)), period_(hal::from_seconds(1.0 / rate_hz)) {}
+
+void AcquireLoop::read(const AcquireAxis& axis) {
+  const hal::DisplacementReading r = axis.sensor->read();
+  const bool good = r.status == hal::Status::ok;
+  axis.health->report(good, r.t_response);
+  if (!good) health_.count(health_.errors);
+  if (good && axis.feed != nullptr) axis.feed->publish(r.displacement_m);
+  if (!axis.ring->try_push({r.t_request, r.t_response, r.displacement_m, r.status})) {
+    health_.count(health_.dropped_samples);
+  }
+}
 
 void AcquireLoop::run(hal::TimeNs t0, const std::atomic<bool>& stop) {
   const hal::TimeNs period = period_;
@@ -20,15 +26,7 @@ void AcquireLoop::run(hal::TimeNs t0, const std::atomic<bool>& stop) {
     if (stop.load(std::memory_order_acquire)) break;
     health_.period_error.record(clock_.now() - deadline);
     health_.count(health_.cycles);
-
-    const hal::DisplacementReading r = sensor_.read();
-    const bool good = r.status == hal::Status::ok;
-    sensor_health_.report(good, r.t_response);
-    if (!good) health_.count(health_.errors);
-    if (good && feed_ != nullptr) feed_->publish(r.displacement_m);
-    if (!ring_.try_push({r.t_request, r.t_response, r.displacement_m, r.status})) {
-      health_.count(health_.dropped_samples);
-    }
+    for (const AcquireAxis& axis : axes_) read(axis);
 
     deadline += period;
     const hal::TimeNs done = clock_.now();

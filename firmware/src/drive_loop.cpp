@@ -2,16 +2,39 @@
 
 #include <cmath>
 #include <limits>
+#include <utility>
 
 namespace piezo::firmware {
+namespace {
+// A waveform's end within this of 0 V is 0 V (the period's end, up to the
+// rounding of t).
+constexpr double kOnZero_V = 1e-6;
 
-DriveLoop::DriveLoop(const DriveLoopSettings& settings, DriveProgram& program,
-                     SafetySupervisor& supervisor, DriveLoopIo io)
-    : settings_(settings), program_(program), supervisor_(supervisor), io_(io) {}
+/// A cause that is an axis's own fault, which fault_stops_all spreads.
+[[nodiscard]] bool is_axis_fault(StopCause c) {
+  switch (c) {
+    case StopCause::sensor_fault:
+    case StopCause::drive_fault:
+    case StopCause::stalled:
+    case StopCause::sensor_implausible:
+    case StopCause::travel_limit:
+      return true;
+    default:
+      return false;
+  }
+}
+}  // namespace
 
-void DriveLoop::emit(hal::TimeNs t, double V, DrivePhase phase, hal::Status status) {
+DriveLoop::DriveLoop(const DriveLoopSettings& settings, std::vector<DriveAxis> axes,
+                     DriveLoopIo io)
+    : settings_(settings), io_(io) {
+  axes_.reserve(axes.size());
+  for (const DriveAxis& a : axes) axes_.push_back({a, {}, {}, false, 0});
+}
+
+void DriveLoop::emit(Axis& axis, hal::TimeNs t, double V, DrivePhase phase, hal::Status status) {
   if (status != hal::Status::ok) health_.count(health_.errors);
-  if (!io_.ring.try_push({t, V, phase, status, program_.state_code()})) {
+  if (!axis.io.ring->try_push({t, V, phase, status, axis.io.program->state_code()})) {
     health_.count(health_.dropped_samples);
   }
 }
@@ -20,99 +43,174 @@ void DriveLoop::count_failure(hal::Status s) {
   if (s != hal::Status::ok) health_.count(health_.errors);
 }
 
-void DriveLoop::stop_output(hal::TimeNs t) {
-  // The enable drops first: it is the path that works when the drive does
-  // not. Then 0 V, written until the drive acknowledges it or the bound
-  // passes; a drive that times out paces the retries itself.
+bool DriveLoop::all_stopped() const {
+  for (const Axis& a : axes_)
+    if (!a.stopped) return false;
+  return true;
+}
+
+void DriveLoop::drop_enable() {
+  if (enable_dropped_) return;
+  enable_dropped_ = true;
+  enable_status_ = io_.lines.set_amplifier_enable(false);
+  count_failure(enable_status_);
+}
+
+void DriveLoop::stop_axis(Axis& axis, hal::TimeNs t) {
+  // The last axis drops the enable first: it is the path that works when
+  // the drive does not. Then 0 V, written until the drive acknowledges it
+  // or the bound passes; a drive that times out paces the retries itself.
   constexpr hal::TimeNs kRetryPause = 2'000'000;
-  outcome_.enable_status = io_.lines.set_amplifier_enable(false);
-  count_failure(outcome_.enable_status);
+  axis.stopped = true;
+  axis.stop_rank = ++stops_;
+  OutputOutcome& o = axis.outcome;
+  if (all_stopped()) {
+    drop_enable();
+    o.enable_status = enable_status_;
+  }
+  hal::Drive& drive = *axis.io.drive;
   const hal::TimeNs give_up =
-      io_.clock.now() + hal::from_seconds(supervisor_.settings().stop_confirm_s);
+      io_.clock.now() + hal::from_seconds(axis.io.supervisor->settings().stop_confirm_s);
   for (;;) {
-    outcome_.zero_status = io_.drive.write_now(0.0);
-    ++outcome_.zero_writes;
-    if (outcome_.zero_status == hal::Status::ok || io_.clock.now() >= give_up) break;
+    o.zero_status = drive.write_now(0.0);
+    ++o.zero_writes;
+    if (o.zero_status == hal::Status::ok || io_.clock.now() >= give_up) break;
     io_.clock.sleep_until(io_.clock.now() + kRetryPause);
   }
-  count_failure(outcome_.zero_status);
-  count_failure(io_.lines.set_sync(false));
-  outcome_.zero_confirmed = outcome_.zero_status == hal::Status::ok;
-  outcome_.zero_read_back = outcome_.zero_confirmed && io_.drive.reads_back();
-  outcome_.acknowledged_V = io_.drive.acknowledged_V();
+  count_failure(o.zero_status);
+  o.zero_confirmed = o.zero_status == hal::Status::ok;
+  o.zero_read_back = o.zero_confirmed && drive.reads_back();
+  o.acknowledged_V = drive.acknowledged_V();
   // The log holds what the device acknowledged, never a 0 V it did not reach.
-  if (outcome_.zero_confirmed) {
-    emit(t, 0.0, DrivePhase::stopped, outcome_.zero_status);
+  if (o.zero_confirmed) {
+    emit(axis, t, 0.0, DrivePhase::stopped, o.zero_status);
   } else {
-    emit(t, outcome_.acknowledged_V, DrivePhase::output_unconfirmed, outcome_.zero_status);
+    emit(axis, t, o.acknowledged_V, DrivePhase::output_unconfirmed, o.zero_status);
+    // Its drive no longer answers: only the board's enable still reaches it.
+    for (Axis& other : axes_) other.io.supervisor->stop_now(StopCause::other_axis_fault);
+    stop_all(t);
+  }
+  if (all_stopped()) count_failure(io_.lines.set_sync(false));
+}
+
+void DriveLoop::stop_all(hal::TimeNs t) {
+  drop_enable();
+  for (Axis& a : axes_) {
+    if (a.stopped) continue;
+    a.outcome.enable_status = enable_status_;
+    stop_axis(a, t);
   }
 }
 
-namespace {
-// A waveform's end within this of 0 V is 0 V (the period's end, up to the
-// rounding of t).
-constexpr double kOnZero_V = 1e-6;
-}  // namespace
-
 bool DriveLoop::enable() {
-  const hal::Status zeroed = io_.drive.write(0.0);
-  supervisor_.report_start(zeroed);
-  if (supervisor_.check(io_.clock.now(), io_.lines.poll_estop(),
-                        io_.stop_requested.load(std::memory_order_relaxed),
-                        false) == SafetyAction::disable_now) {
+  for (Axis& a : axes_) a.io.supervisor->report_start(a.io.drive->write(0.0));
+  const hal::EstopState estop = io_.lines.poll_estop();
+  const bool stop = io_.stop_requested.load(std::memory_order_relaxed);
+  bool refused = false;
+  for (Axis& a : axes_) {
+    refused |= a.io.supervisor->check(io_.clock.now(), estop, stop, false) ==
+               SafetyAction::disable_now;
+  }
+  // One axis whose drive does not take 0 V keeps the amplifier off for all:
+  // nothing is enabled that cannot be stopped.
+  if (refused) {
+    for (Axis& a : axes_) a.io.supervisor->stop_now(StopCause::other_axis_fault);
     return false;
   }
-  outcome_.enabled_ever = true;
+  for (Axis& a : axes_) a.outcome.enabled_ever = true;
   count_failure(io_.lines.set_amplifier_enable(true));
   return true;
 }
 
-SafetyAction DriveLoop::check(hal::TimeNs now, double t) {
-  if (const StopCause fault = program_.fault(); fault != StopCause::none) {
-    supervisor_.report_program_fault(fault);
+SafetyAction DriveLoop::check(Axis& axis, hal::TimeNs now, double t,
+                              const hal::EstopState& estop) {
+  DriveProgram& program = *axis.io.program;
+  if (const StopCause fault = program.fault(); fault != StopCause::none) {
+    axis.io.supervisor->report_program_fault(fault);
   }
-  return supervisor_.check(now, io_.lines.poll_estop(),
-                           io_.stop_requested.load(std::memory_order_relaxed),
-                           t >= settings_.duration_s || program_.finished());
+  return axis.io.supervisor->check(now, estop, io_.stop_requested.load(std::memory_order_relaxed),
+                                   t >= settings_.duration_s || program.finished());
 }
 
-void DriveLoop::begin_ramp(Output& out) {
-  out.phase = DrivePhase::ramping_down;
+void DriveLoop::begin_ramp(Axis& axis) {
+  axis.out.phase = DrivePhase::ramping_down;
   // A waveform that ran its whole duration ends on its own value there
   // (0 V at a period's end) at the slew limit, as its own edges go, instead
   // of ramping from its last sample: a step's fast edge stays fast, also
   // when missed deadlines left the drive behind it.
-  const double end = program_.end_voltage(settings_.duration_s);
-  if (supervisor_.cause() == StopCause::completed && std::isfinite(end)) {
-    out.end_V = std::abs(end) < kOnZero_V ? 0.0 : end;
+  const double end = axis.io.program->end_voltage(settings_.duration_s);
+  if (axis.io.supervisor->cause() == StopCause::completed && std::isfinite(end)) {
+    axis.out.end_V = std::abs(end) < kOnZero_V ? 0.0 : end;
   }
 }
 
-double DriveLoop::next_value(Output& out, double t, double dt) {
+double DriveLoop::next_value(Axis& axis, double t, double dt) {
   // Each step is bounded as the hardware applies it, within about one
   // update period: after a stall the drive catches up at the slew limit
   // instead of jumping by all the time it lost.
+  Output& out = axis.out;
+  const VoltageLimits& limits = axis.io.limits;
   if (out.phase == DrivePhase::driving) {
-    return limit_voltage(settings_.limits, program_.next_voltage(t, dt), out.V, dt);
+    return limit_voltage(limits, axis.io.program->next_voltage(t, dt), out.V, dt);
   }
   if (!std::isnan(out.end_V)) {
-    const double V = limit_voltage(settings_.limits, out.end_V, out.V, dt);
+    const double V = limit_voltage(limits, out.end_V, out.V, dt);
     if (std::abs(V - out.end_V) >= kOnZero_V) return V;
     const double end = out.end_V;
     out.end_V = std::numeric_limits<double>::quiet_NaN();  // 0 V stops; else the ramp goes on
     return end;
   }
-  return step_towards(out.V, 0.0, supervisor_.settings().ramp_down_V_per_s, dt);
+  return step_towards(out.V, 0.0, axis.io.supervisor->settings().ramp_down_V_per_s, dt);
 }
 
-void DriveLoop::update_sync(Output& out, double t) {
-  const auto waveform_period = static_cast<long>(std::floor(t / settings_.period_s));
+bool DriveLoop::drive_axis(Axis& axis, hal::TimeNs deadline, hal::TimeNs now, double t, double dt,
+                           const hal::EstopState& estop) {
+  const SafetyAction action = check(axis, now, t, estop);
+  if (action == SafetyAction::disable_now) {
+    stop_axis(axis, deadline);  // instead of this deadline's value
+    return true;
+  }
+  Output& out = axis.out;
+  if (action == SafetyAction::ramp_down && out.phase == DrivePhase::driving) {
+    begin_ramp(axis);
+    // A waveform that completes on its own 0 V (a step's whole periods)
+    // and is there within this update has nothing to ramp: it stops on
+    // this deadline, and no record or state says ramping_down. Its
+    // samples are the driven ones; the stop record follows them.
+    if (out.end_V == 0.0 && std::abs(limit_voltage(axis.io.limits, 0.0, out.V, dt)) == 0.0) {
+      stop_axis(axis, deadline);
+      return false;
+    }
+  }
+  out.V = next_value(axis, t, dt);
+  const hal::Status written = axis.io.drive->write(out.V);
+  axis.io.supervisor->report_drive_write(written);
+  emit(axis, deadline, out.V, out.phase, written);
+  if (out.phase == DrivePhase::ramping_down && out.V == 0.0) {
+    // The stop record belongs to the grid too: the next deadline.
+    stop_axis(axis, deadline + hal::from_seconds(dt));
+  }
+  return true;
+}
+
+void DriveLoop::spread_faults() {
+  if (!settings_.fault_stops_all || axes_.size() < 2) return;
+  for (const Axis& a : axes_) {
+    if (!is_axis_fault(a.io.supervisor->cause())) continue;
+    for (Axis& other : axes_) other.io.supervisor->report_program_fault(StopCause::other_axis_fault);
+    return;
+  }
+}
+
+void DriveLoop::update_sync(double t) {
+  const Axis& first = axes_.front();
+  const auto waveform_period = static_cast<long>(std::floor(t / first.io.period_s));
   const bool want_sync =
-      out.phase == DrivePhase::driving && waveform_period != out.last_waveform_period;
-  out.last_waveform_period = waveform_period;
-  if (want_sync != out.sync_high) {
+      !first.stopped && first.out.phase == DrivePhase::driving && waveform_period != last_sync_period_;
+  last_sync_period_ = waveform_period;
+  if (want_sync != sync_high_) {
     count_failure(io_.lines.set_sync(want_sync));
-    out.sync_high = want_sync;
+    sync_high_ = want_sync;
   }
 }
 
@@ -127,16 +225,29 @@ void DriveLoop::count_lateness(hal::TimeNs deadline, hal::TimeNs period) {
   }
 }
 
+StopCause DriveLoop::run_cause() const {
+  // The first axis to stop for anything but its end names the run's end
+  // (an e-stop names every axis's); a run whose axes all completed completed.
+  const Axis* first = nullptr;
+  for (const Axis& a : axes_) {
+    const StopCause c = a.io.supervisor->cause();
+    if (c != StopCause::completed && c != StopCause::other_axis_fault &&
+        (first == nullptr || a.stop_rank < first->stop_rank)) {
+      first = &a;
+    }
+  }
+  return first != nullptr ? first->io.supervisor->cause() : axes_.front().io.supervisor->cause();
+}
+
 StopCause DriveLoop::run(hal::TimeNs t0) {
   const auto period = hal::from_seconds(1.0 / settings_.rate_hz);
   const double dt = 1.0 / settings_.rate_hz;
-  // Enable only once the drive holds 0 V and the e-stop has been looked at.
+  // Enable only once every drive holds 0 V and the e-stop has been looked at.
   if (!enable()) {
-    stop_output(t0);
-    return supervisor_.cause();
+    stop_all(t0);
+    return run_cause();
   }
   hal::TimeNs deadline = t0;
-  Output out;
   for (;;) {
     io_.clock.sleep_until(deadline);
     const hal::TimeNs now = io_.clock.now();
@@ -144,34 +255,15 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
     // The value belongs to its deadline: a hardware-timed DAC latches it on
     // the grid, so wake-up jitter must not shift the waveform's phase.
     const double t = hal::to_seconds(deadline - t0);
-    const SafetyAction action = check(now, t);
-    if (action == SafetyAction::disable_now) {
-      health_.count(health_.cycles);
-      stop_output(deadline);  // instead of this deadline's value
-      return supervisor_.cause();
+    const hal::EstopState estop = io_.lines.poll_estop();  // once per tick, for every axis
+    bool cycle = false;
+    for (Axis& axis : axes_) {
+      if (!axis.stopped) cycle |= drive_axis(axis, deadline, now, t, dt, estop);
     }
-    if (action == SafetyAction::ramp_down && out.phase == DrivePhase::driving) {
-      begin_ramp(out);
-      // A waveform that completes on its own 0 V (a step's whole periods)
-      // and is there within this update has nothing to ramp: it stops on
-      // this deadline, and no record or state says ramping_down. Its
-      // samples are the driven ones; the stop record follows them.
-      if (out.end_V == 0.0 && std::abs(limit_voltage(settings_.limits, 0.0, out.V, dt)) == 0.0) {
-        stop_output(deadline);
-        return supervisor_.cause();
-      }
-    }
-    health_.count(health_.cycles);
-    out.V = next_value(out, t, dt);
-    const hal::Status written = io_.drive.write(out.V);
-    supervisor_.report_drive_write(written);
-    update_sync(out, t);
-    emit(deadline, out.V, out.phase, written);
-    if (out.phase == DrivePhase::ramping_down && out.V == 0.0) {
-      // The stop record belongs to the grid too: the next deadline.
-      stop_output(deadline + period);
-      return supervisor_.cause();
-    }
+    if (cycle) health_.count(health_.cycles);
+    if (all_stopped()) return run_cause();
+    spread_faults();
+    update_sync(t);
     deadline += period;
     count_lateness(deadline, period);
   }

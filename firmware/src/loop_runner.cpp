@@ -16,36 +16,28 @@ std::size_t ring_capacity(double rate_hz, double seconds) {
 
 }  // namespace
 
-LoopRunner::LoopRunner(const LoopRunnerSettings& settings, const model::Excitation& waveform,
-                       LoopDevices devices, const RemoteControl* remote, PositionFeed* feed)
-    : LoopRunner(settings, nullptr, &waveform, devices, remote, feed) {}
-
-LoopRunner::LoopRunner(const LoopRunnerSettings& settings, DriveProgram& program,
-                       LoopDevices devices, const RemoteControl* remote, PositionFeed* feed)
-    : LoopRunner(settings, &program, nullptr, devices, remote, feed) {}
-
-LoopRunner::LoopRunner(const LoopRunnerSettings& settings, DriveProgram* program,
-                       const model::Excitation* waveform, LoopDevices devices,
-                       const RemoteControl* remote, PositionFeed* feed)
-    : settings_(settings),
-      devices_(devices),
-      remote_(remote),
-      drive_ring_(ring_capacity(settings.drive.rate_hz, settings.ring_s)),
-      sensor_ring_(ring_capacity(settings.sensor_rate_hz, settings.ring_s)),
-      supervisor_(settings.safety, sensor_health_, devices.clock.now()),
-      waveform_program_(waveform != nullptr
-                            ? std::optional<WaveformProgram>(std::in_place, *waveform)
-                            : std::nullopt),
-      drive_loop_(settings.drive, program != nullptr ? *program : *waveform_program_, supervisor_,
-                  {devices.clock, devices.drive, devices.lines, drive_ring_, stop_}),
-      acquire_loop_(devices.clock, devices.sensor, settings.sensor_rate_hz, sensor_health_,
-                    sensor_ring_, feed) {
-  supervisor_.set_remote(remote);
-  const bool travel_window = std::isfinite(settings.safety.travel_min_rad) ||
-                             std::isfinite(settings.safety.travel_max_rad);
-  if (travel_window && feed != nullptr) {
-    supervisor_.set_travel_feed(feed, settings.zero_m, settings.r2_m);
+LoopRunner::LoopRunner(const LoopRunnerSettings& settings, std::vector<RunAxis> axes,
+                       hal::Clock& clock, hal::DigitalLines& lines, const RemoteControl* remote)
+    : settings_(settings), clock_(clock), remote_(remote) {
+  std::vector<DriveAxis> drive_axes;
+  std::vector<AcquireAxis> acquire_axes;
+  for (const RunAxis& axis : axes) {
+    auto& parts = *axes_.emplace_back(std::make_unique<AxisParts>(
+        ring_capacity(settings.drive.rate_hz, settings.ring_s),
+        ring_capacity(settings.sensor_rate_hz, settings.ring_s), axis.safety, clock.now()));
+    parts.supervisor.set_remote(remote);
+    const bool travel_window =
+        std::isfinite(axis.safety.travel_min_rad) || std::isfinite(axis.safety.travel_max_rad);
+    if (travel_window && axis.feed != nullptr) {
+      parts.supervisor.set_travel_feed(axis.feed, axis.zero_m, axis.r2_m);
+    }
+    drive_axes.push_back(
+        {axis.limits, axis.period_s, &axis.program, &parts.supervisor, &axis.drive,
+         &parts.drive_ring});
+    acquire_axes.push_back({&axis.sensor, &parts.health, &parts.sensor_ring, axis.feed});
   }
+  drive_loop_.emplace(settings.drive, std::move(drive_axes), DriveLoopIo{clock, lines, stop_});
+  acquire_loop_.emplace(clock, std::move(acquire_axes), settings.sensor_rate_hz);
 }
 
 LoopRunner::~LoopRunner() {
@@ -60,9 +52,19 @@ void LoopRunner::set_up_thread(int priority, std::string& note) const {
   note = priority > 0 ? make_thread_fifo(priority).note : "normal priority (priority = 0)";
 }
 
+bool LoopRunner::rings_past_half() const {
+  for (const auto& a : axes_) {
+    if (a->drive_ring.size_approx() > a->drive_ring.capacity() / 2 ||
+        a->sensor_ring.size_approx() > a->sensor_ring.capacity() / 2) {
+      return true;
+    }
+  }
+  return false;
+}
+
 hal::TimeNs LoopRunner::start(const std::function<void(hal::TimeNs)>& on_time_origin,
                               std::function<bool()> lagging) {
-  hal::Clock& clock = devices_.clock;
+  hal::Clock& clock = clock_;
   if (settings_.realtime) {
     if (settings_.lock_memory) memory_note_ = lock_process_memory().note;
     cpu_note_ = cpu_latency_.emplace().result().note;
@@ -71,8 +73,7 @@ hal::TimeNs LoopRunner::start(const std::function<void(hal::TimeNs)>& on_time_or
     // A stop or an e-stop is never held back: the loop must see it.
     const bool estop = remote_ != nullptr && remote_->estop.load();
     if (consumer_failed_.load() || stop_.load() || estop) return false;
-    return drive_ring_.size_approx() > drive_ring_.capacity() / 2 ||
-           sensor_ring_.size_approx() > sensor_ring_.capacity() / 2 || (lagging && lagging());
+    return rings_past_half() || (lagging && lagging());
   });
   clock_hooked_ = true;
 
@@ -82,7 +83,7 @@ hal::TimeNs LoopRunner::start(const std::function<void(hal::TimeNs)>& on_time_or
     set_up_thread(settings_.priority, drive_note_);
     threads_ready_.count_down();
     time_origin_fixed_.wait();
-    cause_ = drive_loop_.run(t0_);
+    cause_ = drive_loop_->run(t0_);
     drive_done_.store(true, std::memory_order_release);
   });
   acquire_thread_ = std::thread([&, scope = std::move(acquire_scope)]() mutable {
@@ -90,13 +91,15 @@ hal::TimeNs LoopRunner::start(const std::function<void(hal::TimeNs)>& on_time_or
     set_up_thread(std::max(0, settings_.priority - 1), acquire_note_);
     threads_ready_.count_down();
     time_origin_fixed_.wait();
-    acquire_loop_.run(t0_, drive_done_);
+    acquire_loop_->run(t0_, drive_done_);
     acquire_done_.store(true, std::memory_order_release);
   });
   threads_ready_.wait();
   t0_ = clock.now() + hal::from_seconds(kStartLead_s);
-  supervisor_.set_time_origin(t0_);
-  supervisor_.set_end(t0_ + hal::from_seconds(settings_.drive.duration_s));
+  for (const auto& a : axes_) {
+    a->supervisor.set_time_origin(t0_);
+    a->supervisor.set_end(t0_ + hal::from_seconds(settings_.drive.duration_s));
+  }
   if (on_time_origin) on_time_origin(t0_);
   time_origin_fixed_.count_down();
   return t0_;
@@ -106,7 +109,7 @@ void LoopRunner::join() {
   if (drive_thread_.joinable()) drive_thread_.join();
   if (acquire_thread_.joinable()) acquire_thread_.join();
   if (clock_hooked_) {
-    devices_.clock.set_backpressure({});
+    clock_.set_backpressure({});
     clock_hooked_ = false;
   }
   cpu_latency_.reset();

@@ -1,7 +1,8 @@
 // Bench: the drive loop's period error at 10 kHz on CLOCK_MONOTONIC beside
 // cyclictest (rt-tests) at the same period and priority on this machine,
 // and SPSC ring throughput. The loops run as in piezod, through
-// firmware::LoopRunner, with a null sensor at 1 kHz beside the drive. Usage: bench_loops [seconds
+// firmware::LoopRunner, with a null sensor per axis at 1 kHz beside the drive; one to four
+// simulated axes on one tick show what each added axis costs. Usage: bench_loops [seconds
 // per measurement]. Figures, not assertions: the machines are shared and noisy.
 
 #include <fmt/format.h>
@@ -37,18 +38,43 @@ struct Row {
   std::string note;
 };
 
-Row measure_drive_loop(const std::string& name, hal::Drive& drive, hal::DigitalLines& lines,
-                       double seconds) {
+/// The drive loop driving `axes` axes, each on its own drive (a null one,
+/// or a simulated plant's DAC), with a null sensor per axis at 1 kHz beside it.
+Row measure_drive_loop(const std::string& name, int axes, bool plants, double seconds) {
   hal::posix::MonotonicClock clock;
-  hal::sim::NullSensor sensor(clock);
-  firmware::LoopRunnerSettings settings;
-  settings.drive = {kRateHz, seconds, 0.1, {0.0, 80.0, 20'000.0}};
-  settings.priority = kPriority;
+  std::vector<std::unique_ptr<hal::sim::Plant>> plant;
+  std::vector<std::unique_ptr<hal::Drive>> drive;
+  std::vector<std::unique_ptr<hal::sim::NullSensor>> sensor;
   const model::Sawtooth saw(80.0, 10.0, 0.95 * 0.789);
-  firmware::LoopRunner runner(settings, saw, {clock, drive, sensor, lines});
+  std::vector<std::unique_ptr<firmware::WaveformProgram>> program;
+  std::vector<hal::sim::Plant*> enabled;
+  for (int i = 0; i < axes; ++i) {
+    plant.push_back(std::make_unique<hal::sim::Plant>(model::MotorParameters{},
+                                                      hal::sim::AmplifierSettings{}, clock.now()));
+    enabled.push_back(plant.back().get());
+    if (plants) {
+      drive.push_back(std::make_unique<hal::sim::SimDrive>(hal::sim::DacSettings{}, *plant.back(),
+                                                           clock));
+    } else {
+      drive.push_back(std::make_unique<hal::sim::NullDrive>(clock));
+    }
+    sensor.push_back(std::make_unique<hal::sim::NullSensor>(clock));
+    program.push_back(std::make_unique<firmware::WaveformProgram>(saw));
+  }
+  hal::sim::SimLines lines({}, enabled, clock, clock.now());
+  firmware::LoopRunnerSettings settings;
+  settings.drive = {kRateHz, seconds};
+  settings.priority = kPriority;
+  std::vector<firmware::RunAxis> run_axes;
+  for (int i = 0; i < axes; ++i) {
+    run_axes.push_back({*drive[i], *sensor[i], *program[i], {0.0, 80.0, 20'000.0}, 0.1, {}});
+  }
+  firmware::LoopRunner runner(settings, std::move(run_axes), clock, lines);
   (void)runner.start({});
+  const auto ignore_drive = [](const firmware::DriveSample&) {};
+  const auto ignore_sensor = [](const firmware::SensorSample&) {};
   while (!runner.finished()) {  // a consumer, as in a run
-    runner.drain([](const firmware::DriveSample&) {}, [](const firmware::SensorSample&) {});
+    for (int i = 0; i < axes; ++i) runner.drain(i, ignore_drive, ignore_sensor);
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   runner.join();
@@ -130,22 +156,18 @@ int main(int argc, char** argv) {
              seconds);
 
   std::vector<Row> rows;
-  hal::posix::MonotonicClock clock;
-  hal::sim::NullDrive null_drive(clock);
-  hal::sim::Plant idle_plant(model::MotorParameters{}, {}, clock.now());
-  hal::sim::SimLines null_lines({}, idle_plant, clock, clock.now());
-  rows.push_back(measure_drive_loop("drive loop, null drive", null_drive, null_lines, seconds));
-
-  hal::sim::Plant plant(model::MotorParameters{}, {}, clock.now());
-  hal::sim::SimDrive sim_drive({}, plant, clock);
-  hal::sim::SimLines sim_lines({}, plant, clock, clock.now());
-  rows.push_back(measure_drive_loop("drive loop, simulated plant", sim_drive, sim_lines, seconds));
+  rows.push_back(measure_drive_loop("drive loop, null drive", 1, false, seconds));
+  for (int axes = 1; axes <= 4; ++axes) {
+    rows.push_back(measure_drive_loop(
+        fmt::format("drive loop, {} simulated {}", axes, axes > 1 ? "axes" : "axis"), axes, true,
+        seconds));
+  }
   rows.push_back(measure_cyclictest(seconds));
 
-  fmt::print("{:<30} {:>9} {:>9} {:>10} {:>9}  {}\n", "", "p50 [us]", "p99 [us]", "max [us]",
+  fmt::print("{:<34} {:>9} {:>9} {:>10} {:>9}  {}\n", "", "p50 [us]", "p99 [us]", "max [us]",
              "cycles", "scheduling");
   for (const auto& r : rows) {
-    fmt::print("{:<30} {:>9.0f} {:>9.0f} {:>10.1f} {:>9}  {}\n", r.name, r.p50_us, r.p99_us,
+    fmt::print("{:<34} {:>9.0f} {:>9.0f} {:>10.1f} {:>9}  {}\n", r.name, r.p50_us, r.p99_us,
                r.max_us, r.cycles, r.note);
   }
   const double rate = ring_throughput(20'000'000);

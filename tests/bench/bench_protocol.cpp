@@ -116,14 +116,15 @@ Latencies in_process(double seconds) {
   auto config = config::load_config_file(std::string(build_paths::source_dir) + "/configs/sim.toml");
   config::Rig rig = config::build_rig(config.board);
   const model::Sawtooth waveform(80.0, 10.0, config.host.model.drive.D());
-  firmware::LoopRunner runner(
-      {{config.board.drive.rate_hz, seconds, 0.1, config.board.drive.limits},
-       config.board.safety,
-       config.board.sensor.rate_hz,
-       true,
-       config.board.run.priority,
-       config.board.run.lock_memory},
-      waveform, {*rig.clock, *rig.drive, *rig.sensor, *rig.lines});
+  firmware::WaveformProgram program(waveform);
+  std::vector<firmware::RunAxis> axes{{*rig.drive, *rig.sensor, program, config.board.drive.limits,
+                                       0.1, config.board.safety}};
+  firmware::LoopRunner runner({{config.board.drive.rate_hz, seconds},
+                               config.board.sensor.rate_hz,
+                               true,
+                               config.board.run.priority,
+                               config.board.run.lock_memory},
+                              std::move(axes), *rig.clock, *rig.lines);
   runner.start([&](hal::TimeNs t0) { rig.start_at(t0); });
   Latencies l;
   // Drained as often as piezod's network thread does (every 2 ms).
@@ -131,6 +132,7 @@ Latencies in_process(double seconds) {
     std::this_thread::sleep_for(2ms);
     const std::int64_t now = monotonic_ns();
     runner.drain(
+        0,
         [&](const firmware::DriveSample& s) {
           l.drive_us.push_back(1e-3 * static_cast<double>(now - s.t));
         },

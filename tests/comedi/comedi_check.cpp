@@ -218,11 +218,18 @@ void check_inputs(double amplitude_V, double period_s) {
 /// (RemoteControl), as piezod's does.
 firmware::LoopRunnerSettings run_settings(double duration_s) {
   firmware::LoopRunnerSettings s;
-  s.drive = {kLoopRate, duration_s, 0.05, {0.0, 80.0, 20'000.0}};
+  s.drive = {kLoopRate, duration_s};
   s.sensor_rate_hz = 1000.0;
   s.realtime = false;  // the guest is emulated
-  s.safety.ramp_down_V_per_s = 1000.0;
   return s;
+}
+
+/// The one axis of these runs, following `program`.
+std::vector<firmware::RunAxis> one_axis(hal::Drive& drive, hal::DisplacementSensor& sensor,
+                                        firmware::DriveProgram& program) {
+  firmware::SafetySettings safety;
+  safety.ramp_down_V_per_s = 1000.0;
+  return {{drive, sensor, program, {0.0, 80.0, 20'000.0}, 0.05, safety}};
 }
 
 comedi::AnalogOutputSettings output_settings(double rate_hz = kLoopRate) {
@@ -247,7 +254,8 @@ void check_stream(OutputProbe& probe) {
   hal::sim::NullSensor sensor(clock);
   hal::posix::NoLines lines;
   const model::Sawtooth saw(80.0, 20.0, 0.75);
-  firmware::LoopRunner runner(run_settings(kSeconds), saw, {clock, drive, sensor, lines});
+  firmware::WaveformProgram program(saw);
+  firmware::LoopRunner runner(run_settings(kSeconds), one_axis(drive, sensor, program), clock, lines);
   std::atomic<bool> done{false};
   double peak_V = 0.0;
   std::thread watcher([&] {
@@ -262,7 +270,7 @@ void check_stream(OutputProbe& probe) {
   done = true;
   watcher.join();
   std::size_t records = 0;
-  runner.drain([&](const firmware::DriveSample&) { ++records; },
+  runner.drain(0, [&](const firmware::DriveSample&) { ++records; },
                [](const firmware::SensorSample&) {});
   const auto& health = runner.drive_health();
   const double ticks = kSeconds * kLoopRate, preload = kPreload_s * kLoopRate;
@@ -337,7 +345,8 @@ void check_stop(OutputProbe& probe, bool estop) {
   hal::posix::NoLines lines;
   firmware::RemoteControl remote;
   const model::Sawtooth saw(80.0, 20.0, 0.75);
-  firmware::LoopRunner runner(run_settings(30.0), saw, {clock, drive, sensor, lines}, &remote);
+  firmware::WaveformProgram program(saw);
+  firmware::LoopRunner runner(run_settings(30.0), one_axis(drive, sensor, program), clock, lines, &remote);
   const hal::TimeNs t0 = runner.start({});
   if (!estop) remote.lease_deadline = t0 + hal::from_seconds(0.6);  // never renewed
   std::this_thread::sleep_for(std::chrono::milliseconds(600));
@@ -354,7 +363,7 @@ void check_stop(OutputProbe& probe, bool estop) {
     std::this_thread::sleep_for(std::chrono::microseconds(500));
   }
   runner.join();
-  runner.drain([](const firmware::DriveSample&) {}, [](const firmware::SensorSample&) {});
+  runner.drain(0, [](const firmware::DriveSample&) {}, [](const firmware::SensorSample&) {});
   const auto expected = estop ? firmware::StopCause::estop : firmware::StopCause::link_lost;
   check(
       runner.cause() == expected && std::isfinite(zero_after_s) && std::abs(probe.volts(0)) < 0.01,
@@ -387,7 +396,8 @@ void check_closed_under_run(OutputProbe& probe) {
   hal::sim::NullSensor sensor(clock);
   hal::posix::NoLines lines;
   const model::Sawtooth saw(80.0, 20.0, 0.75);
-  firmware::LoopRunner runner(run_settings(30.0), saw, {clock, drive, sensor, lines});
+  firmware::WaveformProgram program(saw);
+  firmware::LoopRunner runner(run_settings(30.0), one_axis(drive, sensor, program), clock, lines);
   (void)runner.start({});
   std::this_thread::sleep_for(std::chrono::milliseconds(600));
   const double moving_V = probe.volts(0);
@@ -405,7 +415,7 @@ void check_closed_under_run(OutputProbe& probe) {
     std::this_thread::sleep_for(std::chrono::microseconds(500));
   }
   runner.join();
-  runner.drain([](const firmware::DriveSample&) {}, [](const firmware::SensorSample&) {});
+  runner.drain(0, [](const firmware::DriveSample&) {}, [](const firmware::SensorSample&) {});
   const auto& outcome = runner.outcome();
   check(drive_fds.size() == 1 && runner.cause() == firmware::StopCause::drive_fault &&
             outcome.zero_confirmed && outcome.zero_read_back && std::isfinite(zero_after_s) &&

@@ -191,12 +191,16 @@ void check_run(Bench& bench) {
   hal::sim::NullSensor sensor(clock);
   const auto lines = comedi::open_digital_lines(line_settings());
   firmware::LoopRunnerSettings s;
-  s.drive = {2000.0, 30.0, 0.05, {0.0, 80.0, 20'000.0}};
+  s.drive = {2000.0, 30.0};
   s.sensor_rate_hz = 1000.0;
   s.realtime = false;  // the guest is emulated
-  s.safety.ramp_down_V_per_s = 1000.0;
+  firmware::SafetySettings safety;
+  safety.ramp_down_V_per_s = 1000.0;
   const model::Sawtooth saw(80.0, 20.0, 0.75);
-  firmware::LoopRunner runner(s, saw, {clock, drive, sensor, *lines});
+  firmware::WaveformProgram program(saw);
+  std::vector<firmware::RunAxis> axes{
+      {drive, sensor, program, {0.0, 80.0, 20'000.0}, 0.05, safety}};
+  firmware::LoopRunner runner(s, std::move(axes), clock, *lines);
   comedi::ComediDevice card(kCard);
   comedi_polynomial_t to_volts = card.converter(0, 0, 0, COMEDI_TO_PHYSICAL);
   const auto card_V = [&] {
@@ -222,7 +226,7 @@ void check_run(Bench& bench) {
     if (!std::isfinite(zero_ms) && std::abs(card_V()) < 0.01) zero_ms = since_ms();
   }
   runner.join();
-  runner.drain([](const firmware::DriveSample&) {}, [](const firmware::SensorSample&) {});
+  runner.drain(0, [](const firmware::DriveSample&) {}, [](const firmware::SensorSample&) {});
   const double end_V = card_V();
   check(enabled == 1 && runner.cause() == firmware::StopCause::estop &&
             bench.data_line(kEnable) == 0 && std::abs(end_V) < 0.01 &&

@@ -67,11 +67,14 @@ void run_into(SampleHub& hub, double seconds, const std::function<void(double)>&
   hal::sim::NullSensor sensor{clock};
   hal::posix::NoLines lines;
   const model::Sawtooth saw{10.0, 20.0, 0.75};
+  firmware::WaveformProgram program{saw};
   firmware::LoopRunnerSettings s;
-  s.drive = {kRateHz, seconds, 0.05, {0.0, 80.0, 20'000.0}};
+  s.drive = {kRateHz, seconds};
   s.sensor_rate_hz = kRateHz;
   s.realtime = false;
-  firmware::LoopRunner runner(s, saw, {clock, drive, sensor, lines});
+  std::vector<firmware::RunAxis> axes{
+      {drive, sensor, program, {0.0, 80.0, 20'000.0}, 0.05, firmware::SafetySettings{}}};
+  firmware::LoopRunner runner(s, std::move(axes), clock, lines);
   const auto good = [&](double x) {
     if (on_good) on_good(x);
   };

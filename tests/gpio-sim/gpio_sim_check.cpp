@@ -52,12 +52,18 @@ void set_pull(unsigned offset, const char* pull) {
 
 /// The run's loops as piezod starts them, on a null drive and sensor: only
 /// the lines are real here. Real-time set-up is off: the guest is emulated.
-firmware::LoopRunnerSettings loop_settings(double rate_hz, double duration_s, double period_s) {
+firmware::LoopRunnerSettings loop_settings(double rate_hz, double duration_s) {
   firmware::LoopRunnerSettings s;
-  s.drive = {rate_hz, duration_s, period_s, {0.0, 80.0, 1e6}};
+  s.drive = {rate_hz, duration_s};
   s.sensor_rate_hz = 100.0;
   s.realtime = false;
   return s;
+}
+
+/// The one axis of these runs, following `program`.
+std::vector<firmware::RunAxis> one_axis(hal::Drive& drive, hal::DisplacementSensor& sensor,
+                                        firmware::DriveProgram& program, double period_s) {
+  return {{drive, sensor, program, {0.0, 80.0, 1e6}, period_s, firmware::SafetySettings{}}};
 }
 
 /// Forwards to the real lines and reads every line back from sysfs after
@@ -206,7 +212,9 @@ void check_refused_start(const std::string& chip) {
   hal::sim::NullDrive drive(clock);
   hal::sim::NullSensor sensor(clock);
   const model::Sawtooth saw(80.0, 50.0, 0.75);
-  firmware::LoopRunner runner(loop_settings(1000.0, 1.0, 0.02), saw, {clock, drive, sensor, lines});
+  firmware::WaveformProgram program(saw);
+  firmware::LoopRunner runner(loop_settings(1000.0, 1.0), one_axis(drive, sensor, program, 0.02),
+                              clock, lines);
   (void)runner.start({});
   runner.join();
   const firmware::StopCause cause = runner.cause();
@@ -232,8 +240,9 @@ void check_loop_sync_and_estop(const std::string& chip) {
   hal::sim::NullSensor sensor(clock);
   constexpr double kRate = 1000.0, kWaveform = 50.0;
   const model::Sawtooth saw(80.0, kWaveform, 0.75);
-  firmware::LoopRunner runner(loop_settings(kRate, 100.0, 1.0 / kWaveform), saw,
-                              {clock, drive, sensor, lines});
+  firmware::WaveformProgram program(saw);
+  firmware::LoopRunner runner(loop_settings(kRate, 100.0),
+                              one_axis(drive, sensor, program, 1.0 / kWaveform), clock, lines);
   (void)runner.start({});
 
   std::this_thread::sleep_until(std::chrono::steady_clock::now() + std::chrono::milliseconds(50));
@@ -274,6 +283,7 @@ void check_loop_sync_and_estop(const std::string& chip) {
   firmware::DriveSample last_sample{};
   int driving_after_edge = 0;
   runner.drain(
+      0,
       [&](const firmware::DriveSample& s) {
         if (s.phase == firmware::DrivePhase::driving && s.t > edge) ++driving_after_edge;
         last_sample = s;

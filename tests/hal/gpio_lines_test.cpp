@@ -190,8 +190,9 @@ TEST(GpioDigitalLines, AnEstopEdgeDropsTheEnableLineWithinOneDrivePeriod) {
   const model::Sawtooth saw(80.0, 10.0, 0.75);
   const std::atomic<bool> stop{false};
   firmware::WaveformProgram program(saw);
-  firmware::DriveLoop loop({10'000.0, 10.0, 0.1, {0.0, 80.0, 20'000.0}}, program, supervisor,
-                           {clock, drive, lines, ring, stop});
+  firmware::DriveLoop loop({10'000.0, 10.0},
+                           {{0.0, 80.0, 20'000.0}, 0.1, &program, &supervisor, &drive, &ring},
+                           {clock, lines, stop});
   const TimeNs press_at = t0 + 500'000'000 + 37'000;  // between two drive deadlines
   SleeperScope loop_scope(clock), presser_scope(clock);
   std::thread presser([&, scope = std::move(presser_scope)]() mutable {
@@ -260,8 +261,9 @@ TEST(GpioDigitalLines, AnEstopDropsTheEnableLineWhileTheDriveWriteBlocks) {
   const model::Sawtooth saw(80.0, 10.0, 0.75);
   const std::atomic<bool> stop{false};
   firmware::WaveformProgram program(saw);
-  firmware::DriveLoop loop({1000.0, 10.0, 0.1, {0.0, 80.0, 1e6}}, program, supervisor,
-                           {clock, drive, lines, ring, stop});
+  firmware::DriveLoop loop({1000.0, 10.0},
+                           {{0.0, 80.0, 1e6}, 0.1, &program, &supervisor, &drive, &ring},
+                           {clock, lines, stop});
   std::thread driver([&] { (void)loop.run(t0); });
   // The first write (0 V before enabling) and the enable, then the loop's
   // first cycle blocks in its write for 300 ms: press in the middle of it.

@@ -1,17 +1,22 @@
 #include "piezo/hal/sim/sim_lines.hpp"
 
+#include <utility>
+
 namespace piezo::hal::sim {
 
-SimLines::SimLines(const SimLinesSettings& settings, Plant& plant, const Clock& clock, TimeNs t0)
-    : settings_(settings), plant_(plant), clock_(clock), t0_(t0) {}
+SimLines::SimLines(const SimLinesSettings& settings, std::vector<Plant*> plants,
+                   const Clock& clock, TimeNs t0)
+    : settings_(settings), plants_(std::move(plants)), clock_(clock), t0_(t0) {}
 
 Status SimLines::set_amplifier_enable(bool enabled) {
-  plant_.set_enabled(clock_.now(), enabled);
+  const TimeNs now = clock_.now();
+  for (Plant* plant : plants_) plant->set_enabled(now, enabled);
   return Status::ok;
 }
 
 bool SimLines::trip() {
-  plant_.trip(clock_.now());
+  const TimeNs now = clock_.now();
+  for (Plant* plant : plants_) plant->trip(now);
   return true;
 }
 

@@ -2,16 +2,21 @@
 
 namespace piezo::hal::sim {
 
-SimRig::SimRig(const SimRigSettings& settings, Clock& clock, TimeNs t0)
-    : plant_(settings.plant, settings.amplifier, t0, settings.end_stop_rad),
-      drive_(settings.dac, plant_, clock, t0),
-      sensor_(settings.sensor, plant_, clock, t0),
-      lines_(settings.lines, plant_, clock, t0) {}
+SimRig::SimRig(const std::vector<SimAxisSettings>& axes, const SimLinesSettings& lines,
+               Clock& clock, TimeNs t0) {
+  std::vector<Plant*> plants;
+  for (const SimAxisSettings& s : axes) {
+    plants.push_back(&axes_.emplace_back(std::make_unique<Axis>(s, clock, t0))->plant);
+  }
+  lines_ = std::make_unique<SimLines>(lines, std::move(plants), clock, t0);
+}
 
 void SimRig::set_time_origin(TimeNs t0) {
-  drive_.set_time_origin(t0);
-  sensor_.set_time_origin(t0);
-  lines_.set_time_origin(t0);
+  for (const auto& a : axes_) {
+    a->drive.set_time_origin(t0);
+    a->sensor.set_time_origin(t0);
+  }
+  lines_->set_time_origin(t0);
 }
 
 }  // namespace piezo::hal::sim

@@ -1,11 +1,14 @@
 #pragma once
 /// @file
-/// The acquire loop: at its configured rate it issues one blocking read,
-/// reports the outcome to the safety supervisor (through SensorHealth) and
-/// pushes a timestamped SensorSample. Same rules as the drive loop: no
-/// allocation, locks, exceptions or I/O beyond the HAL inside it.
+/// The acquire loop: at its configured rate it issues one blocking read per
+/// axis's sensor, one after the other in the same tick, reports each
+/// outcome to that axis's safety supervisor (through its SensorHealth) and
+/// pushes a timestamped SensorSample to the axis's ring. Same rules as the
+/// drive loop: no allocation, locks, exceptions or I/O beyond the HAL
+/// inside it.
 
 #include <atomic>
+#include <vector>
 
 #include "piezo/firmware/loop_health.hpp"
 #include "piezo/firmware/position_feed.hpp"
@@ -17,11 +20,18 @@
 
 namespace piezo::firmware {
 
+/// One axis's sensor and where its readings go; all outlive the loop.
+struct AcquireAxis {
+  hal::DisplacementSensor* sensor = nullptr;
+  SensorHealth* health = nullptr;
+  SpscRing<SensorSample>* ring = nullptr;
+  PositionFeed* feed = nullptr;  ///< good readings for a controller in the drive loop (may be null)
+};
+
 class AcquireLoop {
  public:
-  AcquireLoop(hal::Clock& clock, hal::DisplacementSensor& sensor, double rate_hz,
-              SensorHealth& sensor_health, SpscRing<SensorSample>& ring,
-              PositionFeed* feed = nullptr);
+  /// `axes` holds at least one axis.
+  AcquireLoop(hal::Clock& clock, std::vector<AcquireAxis> axes, double rate_hz);
 
   /// Samples from t0 until `stop` is set (the drive loop has finished).
   void run(hal::TimeNs t0, const std::atomic<bool>& stop);
@@ -30,12 +40,11 @@ class AcquireLoop {
   [[nodiscard]] const LoopHealth& health() const { return health_; }
 
  private:
+  void read(const AcquireAxis& axis);
+
   hal::Clock& clock_;
-  hal::DisplacementSensor& sensor_;
+  std::vector<AcquireAxis> axes_;
   hal::TimeNs period_;
-  SensorHealth& sensor_health_;
-  SpscRing<SensorSample>& ring_;
-  PositionFeed* feed_;  ///< good readings for a controller in the drive loop (may be null)
   LoopHealth health_;
 };
 

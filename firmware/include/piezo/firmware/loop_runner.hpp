@@ -1,14 +1,17 @@
 #pragma once
 /// @file
-/// One run of the real-time part: the rings, the sensor health, the safety
-/// supervisor, the drive and acquire loops, their threads and real-time
-/// set-up, and the virtual clock's backpressure. piezod, the tests and the
-/// benchmarks start runs through it; whoever owns it drains the rings.
+/// One run of the real-time part: each axis's rings, sensor health and
+/// safety supervisor, the drive and acquire loops (one tick for every
+/// axis), their threads and real-time set-up, and the virtual clock's
+/// backpressure. piezod, the tests and the benchmarks start runs through
+/// it; whoever owns it drains the rings.
 
 #include <atomic>
+#include <cstddef>
 #include <functional>
 #include <latch>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <thread>
@@ -25,44 +28,42 @@
 #include "piezo/hal/digital_lines.hpp"
 #include "piezo/hal/displacement_sensor.hpp"
 #include "piezo/hal/drive.hpp"
-#include "piezo/model/waveform.hpp"
 
 namespace piezo::firmware {
 
+/// The board's: its loops' rates and scheduling.
 struct LoopRunnerSettings {
   DriveLoopSettings drive;
-  SafetySettings safety;
   double sensor_rate_hz = 1000.0;
   bool realtime = true;     ///< real-time set-up (false on the virtual clock)
   int priority = 80;        ///< SCHED_FIFO priority of the drive loop (0: do not ask);
                             ///< the acquire loop runs one below
   bool lock_memory = true;  ///< mlockall before the loops start
   double ring_s = 2.0;      ///< each ring holds this much of its loop's output
+};
+
+/// One axis of a run: its devices, what it follows and its own limits.
+/// Everything referred to outlives the runner.
+struct RunAxis {
+  hal::Drive& drive;
+  hal::DisplacementSensor& sensor;
+  DriveProgram& program;  ///< a waveform (WaveformProgram) or a controller reading `feed`
+  VoltageLimits limits;
+  double period_s = 0.1;  ///< of its waveform, for the sync pulse
+  SafetySettings safety;
   /// The sensor's radius and the zero [m] (NaN: the run's first reading),
   /// for the travel window (safety.travel_min_rad/travel_max_rad).
   double r2_m = hal::kDefaultSensorRadius_m;
   double zero_m = std::numeric_limits<double>::quiet_NaN();
-};
-
-/// The devices a run works with; all outlive the runner.
-struct LoopDevices {
-  hal::Clock& clock;
-  hal::Drive& drive;
-  hal::DisplacementSensor& sensor;
-  hal::DigitalLines& lines;
+  PositionFeed* feed = nullptr;  ///< filled by the acquire loop (may be null)
 };
 
 class LoopRunner {
  public:
-  /// `remote` (may be null) adds a client's lease and e-stop to the safety
-  /// checks; `waveform` outlives the runner.
-  LoopRunner(const LoopRunnerSettings& settings, const model::Excitation& waveform,
-             LoopDevices devices, const RemoteControl* remote = nullptr,
-             PositionFeed* feed = nullptr);
-  /// A run that follows `program` (e.g. a MoveController reading `feed`,
-  /// which the acquire loop fills); both outlive the runner.
-  LoopRunner(const LoopRunnerSettings& settings, DriveProgram& program, LoopDevices devices,
-             const RemoteControl* remote, PositionFeed* feed);
+  /// `axes` holds at least one; `remote` (may be null) adds a client's lease
+  /// and e-stop to every axis's safety checks.
+  LoopRunner(const LoopRunnerSettings& settings, std::vector<RunAxis> axes, hal::Clock& clock,
+             hal::DigitalLines& lines, const RemoteControl* remote = nullptr);
   /// Stops and joins a run still under way (the drive ramps down first).
   ~LoopRunner();
   LoopRunner(const LoopRunner&) = delete;
@@ -76,50 +77,58 @@ class LoopRunner {
   hal::TimeNs start(const std::function<void(hal::TimeNs)>& on_time_origin,
                     std::function<bool()> lagging = {});
 
-  /// Asks the drive to ramp down and stop (an operator stop).
+  /// Asks every axis to ramp down and stop (an operator stop).
   void request_stop() { stop_.store(true); }
   /// Both loops have returned.
   [[nodiscard]] bool finished() const { return acquire_done_.load(std::memory_order_acquire); }
   /// Waits for both threads; idempotent.
   void join();
 
-  /// Hands every queued sample to the callbacks (one consumer thread).
+  /// Hands every queued sample of one axis to the callbacks (one consumer thread).
   template <typename OnDrive, typename OnSensor>
-  void drain(OnDrive&& on_drive, OnSensor&& on_sensor) {
-    drive_ring_.drain(on_drive);
-    sensor_ring_.drain(on_sensor);
+  void drain(std::size_t axis, OnDrive&& on_drive, OnSensor&& on_sensor) {
+    axes_[axis]->drive_ring.drain(on_drive);
+    axes_[axis]->sensor_ring.drain(on_sensor);
   }
 
+  [[nodiscard]] std::size_t axis_count() const { return axes_.size(); }
   [[nodiscard]] hal::TimeNs time_origin() const { return t0_; }
-  [[nodiscard]] const LoopHealth& drive_health() const { return drive_loop_.health(); }
-  [[nodiscard]] const LoopHealth& sensor_health() const { return acquire_loop_.health(); }
-  /// Valid after join().
+  [[nodiscard]] const LoopHealth& drive_health() const { return drive_loop_->health(); }
+  [[nodiscard]] const LoopHealth& sensor_health() const { return acquire_loop_->health(); }
+  /// Valid after join(): how the run ended (DriveLoop::run), and each axis.
   [[nodiscard]] StopCause cause() const { return cause_; }
-  [[nodiscard]] const OutputOutcome& outcome() const { return drive_loop_.outcome(); }
+  [[nodiscard]] StopCause cause(std::size_t axis) const { return drive_loop_->cause(axis); }
+  [[nodiscard]] const OutputOutcome& outcome(std::size_t axis = 0) const {
+    return drive_loop_->outcome(axis);
+  }
   /// What the real-time set-up did or could not do; complete after join().
   [[nodiscard]] std::vector<std::string> realtime_notes() const;
 
  private:
-  /// One of `program` and `waveform` is given.
-  LoopRunner(const LoopRunnerSettings& settings, DriveProgram* program,
-             const model::Excitation* waveform, LoopDevices devices, const RemoteControl* remote,
-             PositionFeed* feed);
+  /// What the runner keeps for each axis (atomics: neither copied nor moved).
+  struct AxisParts {
+    AxisParts(std::size_t drive_capacity, std::size_t sensor_capacity,
+              const SafetySettings& safety, hal::TimeNs now)
+        : drive_ring(drive_capacity), sensor_ring(sensor_capacity), supervisor(safety, health, now) {}
+    SpscRing<DriveSample> drive_ring;
+    SpscRing<SensorSample> sensor_ring;
+    SensorHealth health;
+    SafetySupervisor supervisor;
+  };
+
   void set_up_thread(int priority, std::string& note) const;
+  [[nodiscard]] bool rings_past_half() const;
 
   LoopRunnerSettings settings_;
-  LoopDevices devices_;
+  hal::Clock& clock_;
   const RemoteControl* remote_;  ///< may be null
   std::optional<CpuLatencyRequest> cpu_latency_;
   std::string memory_note_, cpu_note_, drive_note_, acquire_note_;
   std::atomic<bool> stop_{false}, consumer_failed_{false};
   std::atomic<bool> drive_done_{false}, acquire_done_{false};
-  SpscRing<DriveSample> drive_ring_;
-  SpscRing<SensorSample> sensor_ring_;
-  SensorHealth sensor_health_;
-  SafetySupervisor supervisor_;
-  std::optional<WaveformProgram> waveform_program_;
-  DriveLoop drive_loop_;
-  AcquireLoop acquire_loop_;
+  std::vector<std::unique_ptr<AxisParts>> axes_;
+  std::optional<DriveLoop> drive_loop_;
+  std::optional<AcquireLoop> acquire_loop_;
   hal::TimeNs t0_ = 0;
   StopCause cause_ = StopCause::none;
   std::latch threads_ready_{2}, time_origin_fixed_{1};

@@ -51,12 +51,13 @@ enum class MoveEnd : std::uint8_t {
   stalled,
   sensor_implausible,
   travel_limit,
+  other_axis_fault,
 };
 
 /// The ends a stopped run gives: those after `completed`.
 inline constexpr std::size_t kMoveEnds =
     2 + static_cast<std::size_t>(kLastStopCause) - static_cast<std::size_t>(StopCause::completed);
-static_assert(static_cast<std::size_t>(MoveEnd::travel_limit) + 1 == kMoveEnds,
+static_assert(static_cast<std::size_t>(MoveEnd::other_axis_fault) + 1 == kMoveEnds,
               "a move end for each stop cause after completed");
 
 [[nodiscard]] constexpr MoveEnd move_end(bool on_target, StopCause cause) {

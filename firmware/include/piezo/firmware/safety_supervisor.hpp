@@ -87,6 +87,12 @@ class SafetySupervisor {
     if (program_fault_ == StopCause::none) program_fault_ = c;
   }
 
+  /// Stops with `c` now unless another cause came first: the drive loop
+  /// stopping the board around this axis.
+  void stop_now(StopCause c) {
+    if (cause_ == StopCause::none) cause_ = c;
+  }
+
   /// Watches the travel window on the readings of `feed`: the angle from
   /// the zero (AngleZero's rule: a NaN zero takes the first reading). Three
   /// readings in a row outside the window stop the run (one wild reading

@@ -23,9 +23,11 @@ enum class StopCause : std::uint8_t {
   stalled,             ///< a move made no progress over its stall steps
   sensor_implausible,  ///< a move's readings are no driven rotor's (frozen, against the drive)
   travel_limit,        ///< the measured angle left safety.travel_min_rad..travel_max_rad
+  other_axis_fault,    ///< another axis's fault stopped the board (safety.fault_stops_all,
+                       ///< or its drive could not confirm 0 V)
 };
 /// The last StopCause, for code that goes through them all.
-inline constexpr StopCause kLastStopCause = StopCause::travel_limit;
+inline constexpr StopCause kLastStopCause = StopCause::other_axis_fault;
 
 inline constexpr auto kStopCauseNames =
     names<StopCause>({{StopCause::none, "none"},
@@ -37,7 +39,8 @@ inline constexpr auto kStopCauseNames =
                       {StopCause::link_lost, "link_lost"},
                       {StopCause::stalled, "stalled"},
                       {StopCause::sensor_implausible, "sensor_implausible"},
-                      {StopCause::travel_limit, "travel_limit"}});
+                      {StopCause::travel_limit, "travel_limit"},
+                      {StopCause::other_axis_fault, "other_axis_fault"}});
 
 [[nodiscard]] constexpr std::string_view to_string(StopCause c) {
   return kStopCauseNames.name(c);

@@ -1,12 +1,14 @@
 #pragma once
 /// @file
-/// Simulated digital lines: amplifier enable goes to the plant's amplifier,
+/// Simulated digital lines: the amplifier enable goes to every plant's
+/// amplifier (one enable for the board's axes),
 /// sync pulses are counted, and the e-stop can be pressed at a set time and
 /// held, as an operator holds the button: the board latches the press, and
 /// its reset is refused until the button is released.
 
 #include <atomic>
 #include <limits>
+#include <vector>
 
 #include "piezo/hal/clock.hpp"
 #include "piezo/hal/digital_lines.hpp"
@@ -24,7 +26,11 @@ struct SimLinesSettings {
 
 class SimLines final : public DigitalLines {
  public:
-  SimLines(const SimLinesSettings& settings, Plant& plant, const Clock& clock, TimeNs t0);
+  /// `plants` (at least one) outlive the lines.
+  SimLines(const SimLinesSettings& settings, std::vector<Plant*> plants, const Clock& clock,
+           TimeNs t0);
+  SimLines(const SimLinesSettings& settings, Plant& plant, const Clock& clock, TimeNs t0)
+      : SimLines(settings, std::vector<Plant*>{&plant}, clock, t0) {}
 
   Status set_amplifier_enable(bool enabled) override;
   Status set_sync(bool high) override;
@@ -46,7 +52,7 @@ class SimLines final : public DigitalLines {
 
  private:
   SimLinesSettings settings_;
-  Plant& plant_;
+  std::vector<Plant*> plants_;
   const Clock& clock_;
   TimeNs t0_;
   bool sync_ = false;

@@ -1,0 +1,187 @@
+// Several axes on one board's loops: one tick writes every axis, an axis's
+// own fault stops that axis alone (or every axis, when the board says so),
+// a board cause stops them all. Each check looks at the simulated devices
+// (the plants' amplifier outputs and rotors) beside the loops' records.
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <thread>
+#include <vector>
+
+#include "piezo/firmware/drive_program.hpp"
+#include "piezo/firmware/loop_runner.hpp"
+#include "piezo/hal/sim/sim_rig.hpp"
+#include "piezo/hal/sim/virtual_clock.hpp"
+#include "piezo/model/waveform.hpp"
+
+namespace piezo::firmware {
+namespace {
+
+constexpr std::size_t kAxes = 3;
+constexpr double kDriveRateHz = 10'000.0;
+
+/// Three simulated axes, each driven by its own sawtooth, on the virtual
+/// clock; what each axis's loops recorded, kept for the checks.
+class ThreeAxes : public ::testing::Test {
+ protected:
+  ThreeAxes() {
+    for (std::size_t i = 0; i < kAxes; ++i) {
+      hal::sim::SimAxisSettings axis;
+      axis.amplifier.ramp_time_s = 1e-4;
+      axis.sensor.latency_s = 1e-4;
+      axes.push_back(axis);
+      // Different amplitudes and frequencies: the axes are not copies.
+      const double k = static_cast<double>(i);
+      waveforms.emplace_back(40.0 + 15.0 * k, 10.0 * (1.0 + k), 0.75);
+    }
+  }
+
+  /// Runs the board for duration_s (unless something stops it first).
+  void run(double duration_s, const RemoteControl* remote = nullptr) {
+    rig = std::make_unique<hal::sim::SimRig>(axes, lines, clock, clock.now());
+    std::vector<std::unique_ptr<WaveformProgram>> programs;
+    std::vector<RunAxis> run_axes;
+    for (std::size_t i = 0; i < kAxes; ++i) {
+      programs.push_back(std::make_unique<WaveformProgram>(waveforms[i]));
+      run_axes.push_back({rig->drive(i), rig->sensor(i), *programs.back(),
+                          VoltageLimits{0.0, 80.0, 1e6}, waveforms[i].period(), safety});
+    }
+    LoopRunnerSettings settings;
+    settings.drive = {kDriveRateHz, duration_s, fault_stops_all};
+    settings.realtime = false;
+    LoopRunner runner(settings, std::move(run_axes), clock, rig->lines(), remote);
+    drive.assign(kAxes, {});
+    sensor.assign(kAxes, {});
+    t0 = runner.start([&](hal::TimeNs origin) { rig->set_time_origin(origin); });
+    const auto take = [&] {
+      for (std::size_t i = 0; i < kAxes; ++i) {
+        runner.drain(
+            i, [&](const DriveSample& s) { drive[i].push_back(s); },
+            [&](const SensorSample& s) { sensor[i].push_back(s); });
+      }
+    };
+    while (!runner.finished()) {
+      take();
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    runner.join();
+    take();
+    cause = runner.cause();
+    for (std::size_t i = 0; i < kAxes; ++i) {
+      causes.push_back(runner.cause(i));
+      outcomes.push_back(runner.outcome(i));
+    }
+  }
+
+  /// When axis i's drive stopped [s from the time origin].
+  [[nodiscard]] double stopped_at(std::size_t i) const {
+    return hal::to_seconds(drive[i].back().t - t0);
+  }
+
+  hal::sim::VirtualClock clock{1'000'000'000};
+  std::vector<hal::sim::SimAxisSettings> axes;
+  hal::sim::SimLinesSettings lines;
+  std::vector<model::Sawtooth> waveforms;
+  SafetySettings safety;
+  bool fault_stops_all = false;
+  std::unique_ptr<hal::sim::SimRig> rig;
+  hal::TimeNs t0 = 0;
+  std::vector<std::vector<DriveSample>> drive;
+  std::vector<std::vector<SensorSample>> sensor;
+  StopCause cause = StopCause::none;
+  std::vector<StopCause> causes;
+  std::vector<OutputOutcome> outcomes;
+};
+
+TEST_F(ThreeAxes, OneTickWritesEveryAxisAndEachEndsAtZeroVolts) {
+  run(0.3);
+  EXPECT_EQ(cause, StopCause::completed);
+  for (std::size_t i = 0; i < kAxes; ++i) {
+    SCOPED_TRACE(i);
+    EXPECT_EQ(causes[i], StopCause::completed);
+    ASSERT_EQ(drive[i].size(), drive[0].size());
+    for (std::size_t k = 0; k < drive[i].size(); ++k) {
+      ASSERT_EQ(drive[i][k].t, drive[0][k].t) << "record " << k << ": one deadline for all";
+    }
+    EXPECT_EQ(drive[i].back().phase, DrivePhase::stopped);
+    EXPECT_TRUE(outcomes[i].zero_confirmed);
+    // The device side: each rotor moved by its own waveform, each DAC holds
+    // 0 V and the board's one enable is off.
+    EXPECT_GT(rig->plant(i).latest().theta, 1e-4);
+    EXPECT_EQ(rig->drive(i).last_code(), 0u) << "the DAC holds 0 V";
+    EXPECT_FALSE(rig->plant(i).enabled());
+    EXPECT_GT(sensor[i].size(), 250u) << "1 kHz for 0.3 s";
+  }
+  EXPECT_NE(rig->plant(0).latest().theta, rig->plant(2).latest().theta);
+}
+
+TEST_F(ThreeAxes, AStalledSensorStopsItsOwnAxisWhileTheOthersGoOn) {
+  axes[1].sensor.stall_at_s = 0.1;  // stops answering: its reads time out
+  run(0.5);
+  EXPECT_EQ(causes[1], StopCause::sensor_fault);
+  EXPECT_EQ(causes[0], StopCause::completed);
+  EXPECT_EQ(causes[2], StopCause::completed);
+  EXPECT_EQ(cause, StopCause::sensor_fault) << "the run says what went wrong";
+  EXPECT_LT(stopped_at(1), 0.35) << "the stale bound (0.1 s) after its last reading, ramped";
+  EXPECT_GE(stopped_at(0), 0.5);
+  EXPECT_GE(stopped_at(2), 0.5);
+  EXPECT_EQ(drive[1].back().phase, DrivePhase::stopped);
+  EXPECT_EQ(drive[1].back().V, 0.0);
+  EXPECT_TRUE(outcomes[1].zero_confirmed);
+  // Nothing lost: the others' records run on the grid to their end.
+  for (std::size_t i : {0u, 2u}) {
+    for (std::size_t k = 1; k < drive[i].size(); ++k) {
+      ASSERT_EQ(drive[i][k].t - drive[i][k - 1].t, 100'000) << "axis " << i << " record " << k;
+    }
+  }
+  for (std::size_t i = 0; i < kAxes; ++i) EXPECT_EQ(rig->drive(i).last_code(), 0u);
+}
+
+TEST_F(ThreeAxes, WhenTheBoardSaysSoAnAxisFaultStopsEveryAxis) {
+  fault_stops_all = true;
+  axes[1].sensor.stall_at_s = 0.1;
+  run(0.5);
+  EXPECT_EQ(causes[1], StopCause::sensor_fault);
+  EXPECT_EQ(causes[0], StopCause::other_axis_fault);
+  EXPECT_EQ(causes[2], StopCause::other_axis_fault);
+  EXPECT_EQ(cause, StopCause::sensor_fault);
+  for (std::size_t i = 0; i < kAxes; ++i) {
+    SCOPED_TRACE(i);
+    EXPECT_LT(stopped_at(i), 0.4) << "ramped down with the faulty axis";
+    EXPECT_EQ(drive[i].back().phase, DrivePhase::stopped);
+    EXPECT_EQ(rig->drive(i).last_code(), 0u) << "the DAC holds 0 V";
+  }
+}
+
+TEST_F(ThreeAxes, TheEstopStopsEveryAxisAtOnce) {
+  lines.estop_at_s = 0.15;
+  run(1.0);
+  EXPECT_EQ(cause, StopCause::estop);
+  for (std::size_t i = 0; i < kAxes; ++i) {
+    SCOPED_TRACE(i);
+    EXPECT_EQ(causes[i], StopCause::estop);
+    EXPECT_NEAR(stopped_at(i), 0.15, 2e-4) << "within a drive period of the press";
+    EXPECT_FALSE(rig->plant(i).enabled()) << "the board's enable dropped";
+    EXPECT_EQ(rig->drive(i).last_code(), 0u) << "the DAC holds 0 V";
+  }
+}
+
+TEST_F(ThreeAxes, ALapsedLeaseStopsEveryAxis) {
+  RemoteControl remote;
+  remote.lease_deadline = clock.now() + hal::from_seconds(0.2);  // before t0 is fixed: ~0.18 s in
+  run(1.0, &remote);
+  EXPECT_EQ(cause, StopCause::link_lost);
+  for (std::size_t i = 0; i < kAxes; ++i) {
+    SCOPED_TRACE(i);
+    EXPECT_EQ(causes[i], StopCause::link_lost);
+    EXPECT_LT(stopped_at(i), 0.4);
+    EXPECT_EQ(drive[i].back().phase, DrivePhase::stopped);
+    EXPECT_EQ(rig->drive(i).last_code(), 0u) << "the DAC holds 0 V";
+  }
+}
+
+}  // namespace
+}  // namespace piezo::firmware
