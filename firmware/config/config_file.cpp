@@ -157,7 +157,8 @@ void read_board_address(SectionReader r, BoardAddress& a) {
   r.finish();
 }
 
-void read_safety(SectionReader r, firmware::SafetySettings& s) {
+/// [safety]'s keys that each axis has (the caller finishes the section).
+void read_safety(SectionReader& r, firmware::SafetySettings& s) {
   r.number("sensor_stale_s", s.sensor_stale_s, {0.0, 60.0, true}, "s");
   int sensor_errors = static_cast<int>(s.max_sensor_errors);
   int drive_errors = static_cast<int>(s.max_drive_errors);
@@ -171,38 +172,67 @@ void read_safety(SectionReader r, firmware::SafetySettings& s) {
   r.flag("protect_runs", s.protect_runs);
   r.integer("stall_periods", s.stall_periods, 1, 16);
   r.number("travel_max_rad", s.travel_max_rad, {-10.0, 10.0}, "rad");
+}
+
+/// [plant]: the simulated motor's keys, collected apart (NaN marks absent),
+/// its end stop and its crosstalk from the other axes.
+void read_plant(SectionReader r, model::MotorParameters& plant_keys, AxisConfig& axis) {
+  read_motor(r, plant_keys);
+  r.number("end_stop_rad", axis.plant_end_stop_rad, {-10.0, 10.0}, "rad");
+  r.number("coupling", axis.plant_coupling, {0.0, 0.5});
   r.finish();
 }
 
 /// Everything one table (the file, or one --set) says, read over `c`: each
-/// section into the part of the process that reads it. [plant] keys are
-/// collected apart: the plant is [model] overlaid with them.
+/// section into the part of the process that reads it, the axis's sections
+/// into the board's first axis. [plant] keys are collected apart: the plant
+/// is [model] overlaid with them. [axes] is read by read_axis_tables.
 void read_tables(const toml::table& t, const std::string& source, ConfigFile& c,
                  model::MotorParameters& plant_keys, KeyDeclarations* declarations = nullptr) {
   TableReader file(t, source, declarations);
   BoardConfig& board = c.board;
+  AxisConfig& axis = board.axis();
   HostConfig& host = c.host;
-  read_drive(file.section("drive"), board.drive, board.model);
+  read_drive(file.section("drive"), axis.drive, axis.model);
   SectionReader model = file.section("model");
-  read_motor(model, board.model.motor);
+  read_motor(model, axis.model.motor);
   model.finish();
   // The waveform and the model are the board's defaults and what the host's
   // run asks for: one file says both.
-  host.model = board.model;
-  SectionReader plant = file.section("plant");
-  read_motor(plant, plant_keys);
-  plant.number("end_stop_rad", board.plant_end_stop_rad, {-10.0, 10.0}, "rad");
-  plant.finish();
-  read_sensor(file.section("sensor"), board.sensor);
+  host.model = axis.model;
+  read_plant(file.section("plant"), plant_keys, axis);
+  read_sensor(file.section("sensor"), axis.sensor);
   read_lines(file.section("lines"), board.lines);
   read_run(file.section("run"), host.run, board.run);
   read_move(file.section("move"), host.run.move_defaults);
-  read_safety(file.section("safety"), board.safety);
+  SectionReader safety = file.section("safety");
+  read_safety(safety, axis.safety);
+  safety.flag("fault_stops_all", board.fault_stops_all);
+  safety.finish();
   read_rig_sim(file.section("rig_sim"), c.rig_sim.faults, c.rig_sim.tcp);
   read_observer(file.section("observer"), host.observer);
   read_daemon(file.section("piezod"), board.daemon);
   read_board_address(file.section("rig"), host.board);
+  (void)file.section("axes");  // each axis's own sections: read_axis_tables
   file.finish();
+}
+
+/// [axes.NAME]'s own sections, read over the file's for that axis (the
+/// board's first in `c`): the sections an axis has, under its name.
+void read_axis_tables(const toml::table& t, const std::string& axis, const std::string& source,
+                      ConfigFile& c, model::MotorParameters& plant_keys) {
+  TableReader own(t, source, nullptr, "axes." + axis);
+  AxisConfig& a = c.board.axis();
+  read_drive(own.section("drive"), a.drive, a.model);
+  SectionReader model = own.section("model");
+  read_motor(model, a.model.motor);
+  model.finish();
+  read_plant(own.section("plant"), plant_keys, a);
+  read_sensor(own.section("sensor"), a.sensor);
+  SectionReader safety = own.section("safety");
+  read_safety(safety, a.safety);
+  safety.finish();
+  own.finish();
 }
 
 /// "SECTION.KEY=VALUE" as a one-key TOML table; VALUE is read as TOML
@@ -213,13 +243,17 @@ toml::table override_table(const std::string& assignment) {
   if (eq == std::string::npos || dot == std::string::npos || dot > eq) {
     throw ConfigError("--set", assignment, "expected SECTION.KEY=VALUE, e.g. drive.V0=70");
   }
-  const std::string section = assignment.substr(0, dot);
-  // SECTION.KEY, or SECTION.BACKEND.KEY for a backend's own section.
-  std::string key = assignment.substr(dot + 1, eq - dot - 1);
-  std::string backend;
-  if (const auto inner_dot = key.find('.'); inner_dot != std::string::npos) {
-    backend = key.substr(0, inner_dot);
-    key = key.substr(inner_dot + 1);
+  // SECTION.KEY, SECTION.BACKEND.KEY, or axes.NAME.SECTION.KEY...: each
+  // dot a table.
+  std::vector<std::string> path;
+  for (std::string::size_type begin = 0;;) {
+    const auto next = assignment.find('.', begin);
+    if (next == std::string::npos || next > eq) {
+      path.push_back(assignment.substr(begin, eq - begin));
+      break;
+    }
+    path.push_back(assignment.substr(begin, next - begin));
+    begin = next + 1;
   }
   const std::string value = assignment.substr(eq + 1);
   require_ascii_outside_comments(assignment, "--set");
@@ -230,9 +264,11 @@ toml::table override_table(const std::string& assignment) {
     parsed = toml::table{{"v", value}};
   }
   toml::table inner;
-  inner.insert(key, *parsed.get("v"));
-  if (!backend.empty()) inner = toml::table{{backend, inner}};
-  return toml::table{{section, inner}};
+  inner.insert(path.back(), *parsed.get("v"));
+  for (auto level = path.rbegin() + 1; level != path.rend(); ++level) {
+    inner = toml::table{{*level, inner}};
+  }
+  return inner;
 }
 
 /// The plant: [model] with each [plant] key that was given (NaN marks absent).
@@ -262,113 +298,216 @@ void check_each(const Backends<Base>& kind, const Common& common, const hal::Sou
   for (const auto& b : kind.all) b->check(common, b->name() == kind.backend, src);
 }
 
-void check_backends(const BoardConfig& c, const hal::SourceOf& src) {
-  if (!(c.sensor.range_min_m < c.sensor.range_max_m)) {
-    throw ConfigError(src("sensor.range_max_m"), "sensor.range_max_m",
-                      fmt::format("{:g} m; allowed: above sensor.range_min_m ({:g} m)",
-                                  c.sensor.range_max_m, c.sensor.range_min_m));
+/// An axis's keys as an error names them: its own ([axes.NAME.drive] V_max
+/// is "axes.NAME.drive.V_max"), or the file's section it took them from,
+/// with the axis's name when the board has several.
+struct KeyNamer {
+  std::string axis;                     ///< empty: the board's one axis, from the file's sections
+  std::vector<const toml::table*> own;  ///< its [axes.NAME] tables, in reading order
+
+  [[nodiscard]] std::string operator()(const std::string& key) const {
+    if (axis.empty()) return key;
+    for (const toml::table* t : own)
+      if (t->at_path(key)) return "axes." + axis + "." + key;
+    return key + " (axis " + axis + ")";
+  }
+};
+
+void check_backends(const BoardConfig& b, const AxisConfig& a, const KeyNamer& named,
+                    const hal::SourceOf& src) {
+  const auto fail = [&](const std::string& key, const std::string& message) {
+    const std::string name = named(key);
+    throw ConfigError(src(name), name, message);
+  };
+  if (!(a.sensor.range_min_m < a.sensor.range_max_m)) {
+    fail("sensor.range_max_m", fmt::format("{:g} m; allowed: above sensor.range_min_m ({:g} m)",
+                                           a.sensor.range_max_m, a.sensor.range_min_m));
   }
   // The simulated drive and sensor share one plant: neither works alone.
-  const bool sim_drive = c.drive.backends.chosen().simulated(),
-             sim_sensor = c.sensor.backends.chosen().simulated();
+  const bool sim_drive = a.drive.backends.chosen().simulated(),
+             sim_sensor = a.sensor.backends.chosen().simulated();
   if (sim_drive != sim_sensor) {
-    throw ConfigError(src("sensor.backend"), "sensor.backend",
-                      fmt::format("\"{}\" cannot go with drive.backend = \"{}\": the "
-                                  "simulated drive and sensor share one plant; allowed: both "
-                                  "simulated (\"sim\") or neither",
-                                  c.sensor.backend(), c.drive.backend()));
+    fail("sensor.backend", fmt::format("\"{}\" cannot go with drive.backend = \"{}\": the "
+                                       "simulated drive and sensor share one plant; allowed: both "
+                                       "simulated (\"sim\") or neither",
+                                       a.sensor.backend(), a.drive.backend()));
   }
-  if (c.lines.backends.chosen().simulated() && !sim_drive) {
+  if (b.lines.backends.chosen().simulated() && !sim_drive) {
     throw ConfigError(src("lines.backend"), "lines.backend",
                       fmt::format("\"{}\" needs the simulated drive; allowed here: a real "
                                   "backend (\"gpiod\", \"none\")",
-                                  c.lines.backend()));
+                                  b.lines.backend()));
   }
-  if (c.virtual_clock() && !sim_drive) {
+  if (b.virtual_clock() && !sim_drive) {
     throw ConfigError(src("run.clock"), "run.clock",
                       "\"virtual\" needs the simulated rig (backend = \"sim\"); real devices "
                       "run in real time");
   }
-  check_each(c.drive.backends, c.drive_common(), src);
-  check_each(c.lines.backends, hal::LinesCommon{}, src);
+  check_each(a.drive.backends,
+             hal::DriveCommon{a.drive.rate_hz, a.drive.amplifier_gain, b.lines.backend() != "none"},
+             src);
+  check_each(b.lines.backends, hal::LinesCommon{}, src);
 }
 
-void check_whole(const ConfigFile& c, const std::map<std::string, std::string>& source_of,
-                 ConfigScope scope) {
+/// One axis's config as a whole (the board's first, in an axis's reading).
+void check_whole(const ConfigFile& c, const KeyNamer& named,
+                 const std::map<std::string, std::string>& source_of, ConfigScope scope) {
   const hal::SourceOf src = [&](const std::string& key) {
     const auto it = source_of.find(key);
     return it == source_of.end() ? c.source : it->second;
   };
+  const auto fail = [&](const std::string& key, const std::string& message) {
+    const std::string name = named(key);
+    throw ConfigError(src(name), name, message);
+  };
   const BoardConfig& b = c.board;
+  const AxisConfig& a = b.axis();
   const HostConfig& h = c.host;
-  require_valid(b.model, c.source);
+  require_valid(a.model, c.source);
   // [move]'s defaults by the board's own rule (hold below the timeout).
   if (const auto breach = firmware::check_move(h.run.move_defaults)) {
     const std::string key = "move." + breach->key;
     throw ConfigError(src(key), key, breach->message);
   }
-  model::Parameters plant{b.model.drive, b.plant};
+  model::Parameters plant{a.model.drive, a.plant};
   if (const auto issues = model::validate(plant); !issues.empty()) {
-    throw ConfigError(c.source, "plant." + issues.front().name, issues.front().message);
+    fail("plant." + issues.front().name, issues.front().message);
   }
-  check_each(b.sensor.backends, b.sensor.common(), src);
+  check_each(a.sensor.backends, a.sensor.common(), src);
   // A sensor-only tool (`piezo sensor read`, rig-sim) uses no drive: how the
   // drive would pair with the sensor, or its limits, are not its business.
   if (scope == ConfigScope::sensor) return;
-  check_backends(b, src);
-  const auto& lim = b.drive.limits;
+  check_backends(b, a, named, src);
+  const auto& lim = a.drive.limits;
   if (lim.V_min >= lim.V_max) {
-    throw ConfigError(
-        src("drive.V_min"), "drive.V_min",
-        fmt::format("{:g} V must be below drive.V_max = {:g} V", lim.V_min, lim.V_max));
+    fail("drive.V_min",
+         fmt::format("{:g} V must be below drive.V_max = {:g} V", lim.V_min, lim.V_max));
   }
   // The board checks its requests by the same rule (a run with nothing to
   // drive is a mistake).
   if (const auto breach =
-          firmware::check_drive(h.model.drive, h.run.duration_s, {lim, b.drive.rate_hz})) {
-    const std::string key = "drive." + breach->key;
-    throw ConfigError(src(key), key, breach->message);
+          firmware::check_drive(a.model.drive, h.run.duration_s, {lim, a.drive.rate_hz})) {
+    fail("drive." + breach->key, breach->message);
   }
-  if (b.sensor.rate_hz > b.drive.rate_hz) {
-    throw ConfigError(src("sensor.rate_hz"), "sensor.rate_hz",
-                      fmt::format("{:g} Hz exceeds drive.rate_hz = {:g} Hz; allowed: <= {:g}",
-                                  b.sensor.rate_hz, b.drive.rate_hz, b.drive.rate_hz));
+  if (a.sensor.rate_hz > a.drive.rate_hz) {
+    fail("sensor.rate_hz", fmt::format("{:g} Hz exceeds drive.rate_hz = {:g} Hz; allowed: <= {:g}",
+                                       a.sensor.rate_hz, a.drive.rate_hz, a.drive.rate_hz));
   }
   // A ramp to 0 V that takes longer than this is no stop.
   constexpr double kLongestRamp_s = 2.0;
-  if (b.safety.ramp_down_V_per_s < lim.V_max / kLongestRamp_s) {
-    throw ConfigError(
-        src("safety.ramp_down_V_per_s"), "safety.ramp_down_V_per_s",
-        fmt::format("{:g} V/s takes {:.3g} s to ramp from drive.V_max = {:g} V; "
-                    "allowed: >= {:g} V/s (at most {:g} s)",
-                    b.safety.ramp_down_V_per_s, lim.V_max / b.safety.ramp_down_V_per_s, lim.V_max,
-                    lim.V_max / kLongestRamp_s, kLongestRamp_s));
+  if (a.safety.ramp_down_V_per_s < lim.V_max / kLongestRamp_s) {
+    fail("safety.ramp_down_V_per_s",
+         fmt::format("{:g} V/s takes {:.3g} s to ramp from drive.V_max = {:g} V; "
+                     "allowed: >= {:g} V/s (at most {:g} s)",
+                     a.safety.ramp_down_V_per_s, lim.V_max / a.safety.ramp_down_V_per_s, lim.V_max,
+                     lim.V_max / kLongestRamp_s, kLongestRamp_s));
   }
-  if (b.safety.sensor_stale_s <= 1.0 / b.sensor.rate_hz) {
-    throw ConfigError(src("safety.sensor_stale_s"), "safety.sensor_stale_s",
-                      fmt::format("{:g} s must exceed one sensor period ({:g} s)",
-                                  b.safety.sensor_stale_s, 1.0 / b.sensor.rate_hz));
+  if (a.safety.sensor_stale_s <= 1.0 / a.sensor.rate_hz) {
+    fail("safety.sensor_stale_s", fmt::format("{:g} s must exceed one sensor period ({:g} s)",
+                                              a.safety.sensor_stale_s, 1.0 / a.sensor.rate_hz));
   }
 }
 
-/// The files, `--set`, then a command's drive options; checked as a whole.
+/// What holds between the axes: one tick (the rates are the board's), and
+/// no device resource taken twice.
+void check_axes(const BoardConfig& b, const std::vector<KeyNamer>& named,
+                const std::string& source) {
+  const AxisConfig& first = b.axis();
+  for (std::size_t i = 0; i < b.axes.size(); ++i) {
+    const AxisConfig& a = b.axes[i];
+    const auto same_rate = [&](const std::string& key, double mine, double board) {
+      if (mine != board) {
+        throw ConfigError(source, named[i](key),
+                          fmt::format("{:g} Hz; allowed: {:g} Hz, the board's (axis {}): one "
+                                      "tick drives and reads every axis",
+                                      mine, board, first.name));
+      }
+    };
+    same_rate("drive.rate_hz", a.drive.rate_hz, first.drive.rate_hz);
+    same_rate("sensor.rate_hz", a.sensor.rate_hz, first.sensor.rate_hz);
+  }
+  // Each chosen backend's resources, against every earlier axis's.
+  struct Taken {
+    std::string key;
+    std::string resource;
+  };
+  std::vector<Taken> taken;
+  for (std::size_t i = 0; i < b.axes.size(); ++i) {
+    const AxisConfig& a = b.axes[i];
+    std::vector<hal::Claim> claims = a.drive.backends.chosen().claims();
+    for (hal::Claim& claim : a.sensor.backends.chosen().claims())
+      claims.push_back(std::move(claim));
+    for (const hal::Claim& claim : claims) {
+      const std::string key = named[i](claim.key);
+      for (const Taken& t : taken) {
+        if (t.resource == claim.resource) {
+          throw ConfigError(source, key,
+                            fmt::format("{} is also {}'s; allowed: a resource no other axis "
+                                        "takes",
+                                        claim.resource, t.key));
+        }
+      }
+      taken.push_back({key, claim.resource});
+    }
+  }
+}
+
+/// A file, or one --set: parsed once, read once for each axis.
+struct Layer {
+  toml::table table;
+  std::string source;
+};
+
+/// The axes the layers declare ([axes.NAME]), in the order they name them.
+std::vector<std::string> axis_names(const std::vector<Layer>& layers) {
+  std::vector<std::string> names;
+  for (const Layer& layer : layers) {
+    const toml::table* axes = layer.table["axes"].as_table();
+    if (axes == nullptr) continue;
+    // A table's keys come sorted: the file's order is where each begins.
+    std::vector<std::pair<toml::source_position, std::string>> in_file_order;
+    for (const auto& [k, node] : *axes) in_file_order.emplace_back(k.source().begin, k.str());
+    std::sort(in_file_order.begin(), in_file_order.end(), [](const auto& a, const auto& b) {
+      return std::pair{a.first.line, a.first.column} < std::pair{b.first.line, b.first.column};
+    });
+    for (const auto& [position, name] : in_file_order) {
+      const toml::node& node = *axes->get(name);
+      const bool plain = !name.empty() && std::all_of(name.begin(), name.end(), [](char ch) {
+        return std::isalnum(static_cast<unsigned char>(ch)) != 0 || ch == '_' || ch == '-';
+      });
+      if (!plain) {
+        throw ConfigError(layer.source, "axes." + name,
+                          "an axis name is letters, digits, '_' or '-' (command lines, the "
+                          "protocol and the log's groups carry it)");
+      }
+      if (!node.is_table()) {
+        throw ConfigError(layer.source, "axes." + name,
+                          "must be a table of the axis's sections ([axes." + name +
+                              ".drive], [axes." + name + ".sensor], ...)");
+      }
+      if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
+    }
+  }
+  return names;
+}
+
+/// The files, `--set`, then a command's drive options; each axis read over
+/// the file's sections and checked as a whole, then the axes together.
 ConfigFile load(const std::vector<std::string>& paths, const std::vector<std::string>& sets,
-               ConfigScope scope, const DriveOptions& options) {
-  ConfigFile c;
+                ConfigScope scope, const DriveOptions& options) {
   // No file: the defaults (a host whose rig is a board with its own config).
-  c.source = paths.empty() ? std::string("defaults") : paths.front();
-  c.board.source = c.source;
-  model::MotorParameters plant_keys = all_nan();
+  const std::string source = paths.empty() ? std::string("defaults") : paths.front();
+  std::string text;
+  std::vector<Layer> layers;
   std::vector<std::string> present;
   // Each file overlays the ones before it (e.g. a rig config, then fitted parameters).
   for (const auto& path : paths) {
     // Read once: the text is parsed and kept as the run's config.
-    const std::string text = read_config_file(path);
-    const toml::table file = parse_config_text(text, path);
-    for (const auto& [k, node] : file) present.emplace_back(k.str());
-    if (!c.text.empty()) c.text += "\n# ---- " + path + "\n";
-    c.text += text;
-    read_tables(file, path, c, plant_keys);
+    const std::string file_text = read_config_file(path);
+    layers.push_back({parse_config_text(file_text, path), path});
+    for (const auto& [k, node] : layers.back().table) present.emplace_back(k.str());
+    if (!text.empty()) text += "\n# ---- " + path + "\n";
+    text += file_text;
   }
   const std::vector<std::string> required =
       scope == ConfigScope::whole ? kRequiredSections : std::vector<std::string>{"sensor"};
@@ -379,55 +518,89 @@ ConfigFile load(const std::vector<std::string>& paths, const std::vector<std::st
                                     fmt::join(required, "], [")));
     }
   }
-
   std::map<std::string, std::string> source_of;
-  if (!sets.empty()) c.text += "\n# --set overrides\n";
+  if (!sets.empty()) text += "\n# --set overrides\n";
   for (const auto& s : sets) {
-    const toml::table t = override_table(s);
-    read_tables(t, "--set", c, plant_keys);
+    layers.push_back({override_table(s), "--set"});
     source_of[s.substr(0, s.find('='))] = "--set";
-    c.text += "# --set " + s + "\n";
+    text += "# --set " + s + "\n";
   }
   // The command's own options, as values: the run's config text says so.
-  const auto option = [&](const char* key, const char* name, double value, double& into) {
-    into = value;
+  const auto option = [&](const char* key, const char* name, double value) {
     source_of[key] = name;
-    c.text += fmt::format("# {} {}\n", name, value);
+    text += fmt::format("# {} {}\n", name, value);
   };
   if (options.V0 || options.f || options.duration_s || options.reverse) {
-    c.text += "\n# the command's options\n";
+    text += "\n# the command's options\n";
   }
-  if (options.V0) option("drive.V0", "--V0", *options.V0, c.host.model.drive.V0);
-  if (options.f) option("drive.f", "--f", *options.f, c.host.model.drive.f);
-  if (options.duration_s) {
-    option("run.duration_s", "--duration", *options.duration_s, c.host.run.duration_s);
-  }
+  if (options.V0) option("drive.V0", "--V0", *options.V0);
+  if (options.f) option("drive.f", "--f", *options.f);
+  if (options.duration_s) option("run.duration_s", "--duration", *options.duration_s);
   if (options.reverse) {
-    c.host.model.drive.direction = model::Direction::reverse;
     source_of["drive.direction"] = "--reverse";
-    c.text += "# --reverse\n";
+    text += "# --reverse\n";
   }
-  c.board.model.drive = c.host.model.drive;
-  c.board.plant = overlay(c.board.model.motor, plant_keys);
-  check_whole(c, source_of, scope);
+  const auto apply_options = [&](model::DriveParameters& drive) {
+    if (options.V0) drive.V0 = *options.V0;
+    if (options.f) drive.f = *options.f;
+    if (options.reverse) drive.direction = model::Direction::reverse;
+  };
+
+  // One reading per axis: the layers, then the axis's own tables over them.
+  const auto read_axis = [&](const std::string& name, KeyNamer& named) {
+    ConfigFile c;
+    c.source = c.board.source = source;
+    c.text = text;
+    model::MotorParameters plant_keys = all_nan();
+    for (const Layer& layer : layers) read_tables(layer.table, layer.source, c, plant_keys);
+    AxisConfig& axis = c.board.axis();
+    if (!name.empty()) {
+      named.axis = axis.name = name;
+      for (const Layer& layer : layers) {
+        if (const toml::table* own = layer.table["axes"][name].as_table()) {
+          read_axis_tables(layer.table, name, layer.source, c, plant_keys);
+          named.own.push_back(own);
+        }
+      }
+    }
+    apply_options(c.host.model.drive);
+    apply_options(axis.model.drive);
+    if (options.duration_s) c.host.run.duration_s = *options.duration_s;
+    axis.plant = overlay(axis.model.motor, plant_keys);
+    check_whole(c, named, source_of, scope);
+    return c;
+  };
+  const std::vector<std::string> names = axis_names(layers);
+  std::vector<KeyNamer> named(std::max<std::size_t>(1, names.size()));
+  ConfigFile c = read_axis(names.empty() ? std::string() : names.front(), named.front());
+  for (std::size_t i = 1; i < names.size(); ++i) {
+    c.board.axes.push_back(std::move(read_axis(names[i], named[i]).board.axis()));
+  }
+  if (scope == ConfigScope::whole) check_axes(c.board, named, source);
   return c;
 }
 
 }  // namespace
 
 ConfigFile load_config_file(const std::string& path, const std::vector<std::string>& sets,
-                          ConfigScope scope) {
+                            ConfigScope scope) {
   return load_config_file(std::vector<std::string>{path}, sets, scope);
 }
 
 ConfigFile load_config_file(const std::vector<std::string>& paths,
-                          const std::vector<std::string>& sets, ConfigScope scope) {
+                            const std::vector<std::string>& sets, ConfigScope scope) {
   return load(paths, sets, scope, {});
 }
 
 ConfigFile load_config_file(const std::vector<std::string>& paths,
-                          const std::vector<std::string>& sets, const DriveOptions& options) {
+                            const std::vector<std::string>& sets, const DriveOptions& options) {
   return load(paths, sets, ConfigScope::whole, options);
+}
+
+const AxisConfig* BoardConfig::find_axis(std::string_view name) const {
+  for (const AxisConfig& a : axes)
+    if (a.name == name) return &a;
+  return nullptr;
 }
 
 std::string_view name(RunClock c) {
@@ -452,11 +625,12 @@ KeyDeclarations declared_keys() {
   return declarations;
 }
 
-void check_drive_hardware(const BoardConfig& c, double hardware_V_min, double hardware_V_max) {
-  const auto& lim = c.drive.limits;
+void check_drive_hardware(const BoardConfig& c, std::size_t axis, double hardware_V_min,
+                          double hardware_V_max) {
+  const auto& lim = c.axis(axis).drive.limits;
   if (lim.V_max > hardware_V_max || lim.V_min < hardware_V_min) {
     throw ConfigError(
-        c.source, "drive.V_max",
+        c.source, c.axes.size() > 1 ? "axes." + c.axis(axis).name + ".drive.V_max" : "drive.V_max",
         fmt::format("[{:g}, {:g}] V exceeds what the drive hardware can produce, "
                     "[{:g}, {:g}] V (DAC full scale x amplifier gain, amplifier rails)",
                     lim.V_min, lim.V_max, hardware_V_min, hardware_V_max));

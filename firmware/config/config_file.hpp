@@ -141,25 +141,48 @@ struct BoardAddress {
   double lease_s = 0.0;                ///< the lease a run asks for; 0: the board's default
 };
 
-/// What the board reads (piezod, or the board the host starts in-process):
-/// its devices, their limits, its defaults and its daemon.
-struct BoardConfig {
-  std::string source;            ///< the config file, for messages
-  model::Parameters model;       ///< [drive] waveform + [model]: the board's defaults
+/// The name of a board's one axis when its config declares no [axes].
+inline constexpr std::string_view kDefaultAxisName = "rotor";
+
+/// One axis of a board: a motor with its own drive, sensor, plant and
+/// limits. A config without [axes] has one, from the file's own sections;
+/// each [axes.NAME] overlays them for that axis (docs/configuration.md).
+struct AxisConfig {
+  std::string name{kDefaultAxisName};
+  model::Parameters model;       ///< [drive] waveform + [model]: the axis's defaults
   model::MotorParameters plant;  ///< [model] overlaid with [plant]: the simulated rig's
   /// [plant] end_stop_rad: the simulated rotor's end stop (NaN: none).
   double plant_end_stop_rad = std::numeric_limits<double>::quiet_NaN();
+  /// [plant] coupling: the share of every other axis's stator stroke this
+  /// axis's simulated stator takes (crosstalk; 0: none).
+  double plant_coupling = 0.0;
   DriveSettings drive;
   SensorSettings sensor;
+  firmware::SafetySettings safety;
+};
+
+/// What the board reads (piezod, or the board the host starts in-process):
+/// its axes, their devices and limits, its lines, its defaults and its daemon.
+struct BoardConfig {
+  std::string source;  ///< the config file, for messages
+  /// At least one; in the file's order. One tick drives them all: their
+  /// drive.rate_hz and sensor.rate_hz are the board's, the same for each.
+  std::vector<AxisConfig> axes = std::vector<AxisConfig>(1);
   LinesSettings lines;
   BoardRunSettings run;
-  firmware::SafetySettings safety;
+  /// [safety] fault_stops_all: an axis's own fault stops every axis.
+  bool fault_stops_all = false;
   DaemonSettings daemon;
 
+  [[nodiscard]] const AxisConfig& axis(std::size_t i = 0) const { return axes.at(i); }
+  [[nodiscard]] AxisConfig& axis(std::size_t i = 0) { return axes.at(i); }
+  /// The axis named `name`, or null.
+  [[nodiscard]] const AxisConfig* find_axis(std::string_view name) const;
   [[nodiscard]] bool virtual_clock() const { return run.clock == RunClock::virtual_time; }
-  /// What the drive backends take from [drive] (and whether [lines] has an enable line).
-  [[nodiscard]] hal::DriveCommon drive_common() const {
-    return {drive.rate_hz, drive.amplifier_gain, lines.backend() != "none"};
+  /// What an axis's drive backends take from its [drive] (and whether [lines] has an enable line).
+  [[nodiscard]] hal::DriveCommon drive_common(std::size_t axis = 0) const {
+    const DriveSettings& d = axes.at(axis).drive;
+    return {d.rate_hz, d.amplifier_gain, lines.backend() != "none"};
   }
 };
 
@@ -224,7 +247,8 @@ struct DriveOptions {
 /// range or choices, and default): what docs/configuration.md documents.
 [[nodiscard]] KeyDeclarations declared_keys();
 
-/// Checks the drive limits against what the built drive hardware can do.
-void check_drive_hardware(const BoardConfig& config, double hardware_V_min, double hardware_V_max);
+/// Checks an axis's drive limits against what its built drive hardware can do.
+void check_drive_hardware(const BoardConfig& config, std::size_t axis, double hardware_V_min,
+                          double hardware_V_max);
 
 }  // namespace piezo::config

@@ -9,8 +9,8 @@
 #include <string_view>
 #include <vector>
 
-#include "piezo/model/parameters.hpp"
 #include "piezo/config/section_reader.hpp"
+#include "piezo/model/parameters.hpp"
 
 namespace piezo::config {
 

@@ -18,25 +18,27 @@ std::unique_ptr<hal::Clock> make_clock(RunClock clock) {
   return nullptr;
 }
 
-/// The simulated rig: its drive, sensor and lines share one plant, so it is
-/// made once from the three backends' sections.
+/// The simulated rig: each axis's drive and sensor share its plant, the
+/// lines reach every plant, so it is made once from the backends' sections.
 std::shared_ptr<hal::sim::SimRig> make_sim_rig(const BoardConfig& c, hal::Clock& clock,
                                                hal::TimeNs t0) {
-  const auto& drive = c.drive.backends.get<hal::sim::SimDriveBackend>();
-  const hal::DriveCommon common = c.drive_common();
-  const hal::sim::SimAxisSettings axis{
-      c.plant, drive.amplifier(common), drive.dac(common),
-      c.sensor.backends.get<hal::sim::SimSensorBackend>().settings(c.sensor.common()),
-      c.plant_end_stop_rad};
+  std::vector<hal::sim::SimAxisSettings> axes;
+  for (std::size_t i = 0; i < c.axes.size(); ++i) {
+    const AxisConfig& a = c.axes[i];
+    const auto& drive = a.drive.backends.get<hal::sim::SimDriveBackend>();
+    const hal::DriveCommon common = c.drive_common(i);
+    axes.push_back({a.plant, drive.amplifier(common), drive.dac(common),
+                    a.sensor.backends.get<hal::sim::SimSensorBackend>().settings(a.sensor.common()),
+                    a.plant_end_stop_rad, a.plant_coupling});
+  }
   return std::make_shared<hal::sim::SimRig>(
-      std::vector<hal::sim::SimAxisSettings>{axis},
-      c.lines.backends.get<hal::sim::SimLinesBackend>().settings(), clock, t0);
+      axes, c.lines.backends.get<hal::sim::SimLinesBackend>().settings(), clock, t0);
 }
 
-std::unique_ptr<hal::DisplacementSensor> held_to_range(const BoardConfig& c,
+std::unique_ptr<hal::DisplacementSensor> held_to_range(const AxisConfig& a,
                                                        hal::DisplacementSensor& sensor) {
-  return std::make_unique<hal::RangeCheckedSensor>(sensor, c.sensor.range_min_m,
-                                                   c.sensor.range_max_m);
+  return std::make_unique<hal::RangeCheckedSensor>(sensor, a.sensor.range_min_m,
+                                                   a.sensor.range_max_m);
 }
 
 }  // namespace
@@ -46,29 +48,34 @@ Rig build_rig(const BoardConfig& c) {
   rig.clock = make_clock(c.run.clock);
   rig.t0 = rig.clock->now();
   // The config checks that simulated backends come together.
-  if (c.drive.backends.chosen().simulated()) rig.sim = make_sim_rig(c, *rig.clock, rig.t0);
+  if (c.axis().drive.backends.chosen().simulated()) rig.sim = make_sim_rig(c, *rig.clock, rig.t0);
   hal::OpenContext context{*rig.clock, rig.sim};
-  rig.own_drive = c.drive.backends.chosen().open(c.drive_common(), context);
-  rig.own_sensor = c.sensor.backends.chosen().open(c.sensor.common(), context);
+  for (std::size_t i = 0; i < c.axes.size(); ++i) {
+    const AxisConfig& a = c.axes[i];
+    context.axis = i;
+    RigAxis& axis = rig.axes.emplace_back();
+    axis.own_drive = a.drive.backends.chosen().open(c.drive_common(i), context);
+    axis.own_sensor = a.sensor.backends.chosen().open(a.sensor.common(), context);
+    axis.drive = axis.own_drive.get();
+    axis.checked_sensor = held_to_range(a, *axis.own_sensor);
+    axis.sensor = axis.checked_sensor.get();
+    const hal::DriveLimits hw = axis.drive->limits();
+    check_drive_hardware(c, i, hw.V_min, hw.V_max);
+  }
   rig.own_lines = c.lines.backends.chosen().open({}, context);
-  rig.drive = rig.own_drive.get();
-  rig.checked_sensor = held_to_range(c, *rig.own_sensor);
-  rig.sensor = rig.checked_sensor.get();
   rig.lines = rig.own_lines.get();
-
-  const hal::DriveLimits hw = rig.drive->limits();
-  check_drive_hardware(c, hw.V_min, hw.V_max);
   return rig;
 }
 
-SensorRig build_sensor(const BoardConfig& c) {
+SensorRig build_sensor(const BoardConfig& c, std::size_t axis) {
   SensorRig s;
   s.clock = std::make_unique<hal::posix::MonotonicClock>();
-  const auto& backend = c.sensor.backends.chosen();
-  hal::OpenContext context{*s.clock, nullptr};
+  const AxisConfig& a = c.axis(axis);
+  const auto& backend = a.sensor.backends.chosen();
+  hal::OpenContext context{*s.clock, nullptr, axis};
   if (backend.simulated()) context.sim = make_sim_rig(c, *s.clock, s.clock->now());
-  s.own_sensor = backend.open(c.sensor.common(), context);
-  s.checked_sensor = held_to_range(c, *s.own_sensor);
+  s.own_sensor = backend.open(a.sensor.common(), context);
+  s.checked_sensor = held_to_range(a, *s.own_sensor);
   s.sensor = s.checked_sensor.get();
   return s;
 }

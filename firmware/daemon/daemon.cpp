@@ -25,22 +25,40 @@ constexpr auto kHealthPeriod = std::chrono::milliseconds(250);
 
 }  // namespace
 
+namespace {
+
+/// The board config piezod serves: one axis. Several are refused before
+/// any device is opened, rather than served in part.
+const config::BoardConfig& served(const config::BoardConfig& board) {
+  if (board.axes.size() > 1) {
+    std::vector<std::string> names;
+    for (const auto& a : board.axes) names.push_back(a.name);
+    throw config::ConfigError(board.source, "axes",
+                              fmt::format("piezod serves one axis; this config declares {} ({})",
+                                          names.size(), fmt::join(names, ", ")));
+  }
+  return board;
+}
+
+}  // namespace
+
 Daemon::Daemon(const config::BoardConfig& board, zmq::context_t& context, const std::string& listen,
                std::ostream& log)
-    : Daemon(board, config::build_rig(board), context, listen, log) {}
+    : Daemon(board, config::build_rig(served(board)), context, listen, log) {}
 
 Daemon::Daemon(const config::BoardConfig& board, config::Rig rig, zmq::context_t& context,
                const std::string& listen, std::ostream& log)
-    : board_(board),
+    : board_(served(board)),
+      axis_(board_.axis()),
       log_(log),
       rig_(std::move(rig)),
       context_(context),
       commands_(context, zmq::socket_type::router),
       stream_(context, zmq::socket_type::pub),
       command_endpoint_(listen.empty() ? board.daemon.listen : listen),
-      samples_(board.daemon.recorder_s, board.drive.rate_hz, board.sensor.rate_hz,
+      samples_(board.daemon.recorder_s, axis_.drive.rate_hz, axis_.sensor.rate_hz,
                board.daemon.spill_file, board.daemon.fetch_samples_per_s, stream_),
-      planner_(board.model.motor),
+      planner_(axis_.model.motor),
       command_table_(command_table()) {
   try {
     stream_endpoint_ = protocol::stream_endpoint(command_endpoint_);
@@ -52,12 +70,12 @@ Daemon::Daemon(const config::BoardConfig& board, config::Rig rig, zmq::context_t
   load_calibration_file();
   // The board's own waveform's step table, before any client asks for a
   // move: a move at the board's [drive] costs the network thread nothing.
-  const auto& d0 = board_.model.drive;
+  const auto& d0 = axis_.model.drive;
   (void)planner_.steps(d0.V0, d0.f, d0.D());
   last_health_ = Clock::now();
   log_event(fmt::format("listening: commands {}, stream {}; drive {}, sensor {}, lines {}",
-                        command_endpoint_, stream_endpoint_, board_.drive.backend(),
-                        board_.sensor.backend(), board_.lines.backend()));
+                        command_endpoint_, stream_endpoint_, axis_.drive.backend(),
+                        axis_.sensor.backend(), board_.lines.backend()));
 }
 
 Daemon::~Daemon() = default;
@@ -121,7 +139,7 @@ void Daemon::load_calibration_file() {
   try {
     calibration_ = load_calibration(
         board_.daemon.calibration_file,
-        {board_.drive.limits.V_max, firmware::max_drive_frequency(board_.drive.rate_hz)});
+        {axis_.drive.limits.V_max, firmware::max_drive_frequency(axis_.drive.rate_hz)});
     if (calibration_) {
       log_event(fmt::format("calibration of {} loaded from {}", calibration_->created,
                             board_.daemon.calibration_file));

@@ -25,13 +25,13 @@
 
 #include "client_authentication.hpp"
 #include "command_table.hpp"
+#include "config/config_file.hpp"
+#include "config/rig.hpp"
 #include "piezo/firmware/angle_zero.hpp"
 #include "piezo/firmware/calibration_program.hpp"
 #include "piezo/firmware/move_controller.hpp"
 #include "piezo/firmware/move_planner.hpp"
 #include "piezo/protocol/messages.hpp"
-#include "config/rig.hpp"
-#include "config/config_file.hpp"
 #include "run_state.hpp"
 #include "sample_hub.hpp"
 
@@ -133,6 +133,7 @@ class Daemon {
   void publish_health();
 
   config::BoardConfig board_;
+  const config::AxisConfig& axis_;  ///< the one axis piezod serves
   std::ostream& log_;
   config::Rig rig_;
   zmq::context_t& context_;

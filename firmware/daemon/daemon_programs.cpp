@@ -68,19 +68,19 @@ firmware::MoveSettings Daemon::plan_move(const protocol::MoveToRequest& request,
                                                        : std::nullopt;
   // A tolerance finer than the sensor resolves would never be reached.
   if (noise) {
-    const double smallest = smallest_tolerance_rad(*noise, board_.sensor.r2_m);
+    const double smallest = smallest_tolerance_rad(*noise, axis_.sensor.r2_m);
     if (m.tolerance_rad < smallest) {
       throw out_of_limits(
           wire_key::tolerance_rad,
           fmt::format("{:g} rad is below what the sensor resolves: its noise is {:.3g} m "
                       "({:.3g} rad a reading, {} at rest); allowed: at least {:.3g} rad",
-                      m.tolerance_rad, *noise, *noise / board_.sensor.r2_m,
+                      m.tolerance_rad, *noise, *noise / axis_.sensor.r2_m,
                       calibration_ ? wire_key::calibrated : "measured now", smallest));
     }
   }
   // The coarse steps' waveform: the caller's, or the calibration's fastest
   // frequency, or the board's [drive] values.
-  model::DriveParameters d = board_.model.drive;
+  model::DriveParameters d = axis_.model.drive;
   d.direction = model::Direction::forward;
   d.V0 = request.V0.value_or(d.V0);
   d.C_dr = request.C_dr.value_or(d.C_dr);
@@ -92,19 +92,19 @@ firmware::MoveSettings Daemon::plan_move(const protocol::MoveToRequest& request,
   }
   (void)apply_configuration({d, request.move.timeout_s}, "move_to");
   m.zero_displacement_m = zero_.displacement_m();
-  m.r2_m = board_.sensor.r2_m;
+  m.r2_m = axis_.sensor.r2_m;
   m.V0 = d.V0;
   m.f = d.f;
   m.D = d.D();
-  m.fine_V_max = firmware::kHoldFractionOfVmax * board_.drive.limits.V_max;
-  m.fast_slew_V_per_s = board_.drive.limits.slew_V_per_s;
+  m.fine_V_max = firmware::kHoldFractionOfVmax * axis_.drive.limits.V_max;
+  m.fast_slew_V_per_s = axis_.drive.limits.slew_V_per_s;
   // The model's (or a fitted config's) view of the motor; a calibration
   // replaces the step tables with measured ones. Uncalibrated, and with no
   // frequency asked for: the model's tables at 2f and 4f too.
-  planner_.plan(m, false, board_.drive.rate_hz, board_.drive.limits.slew_V_per_s);
+  planner_.plan(m, false, axis_.drive.rate_hz, axis_.drive.limits.slew_V_per_s);
   calibrated = calibration_ && apply_calibration(*calibration_, request.f, m);
   if (!calibrated && !request.f) {
-    planner_.plan(m, true, board_.drive.rate_hz, board_.drive.limits.slew_V_per_s);
+    planner_.plan(m, true, axis_.drive.rate_hz, axis_.drive.limits.slew_V_per_s);
   }
   return m;
 }
@@ -113,8 +113,8 @@ json Daemon::calibrate(const std::string& client, const json& args) {
   run_state_.require_can_start(client,
                                "calibrate");  // before configure: a refused one changes nothing
   const auto request = protocol::decode<protocol::CalibrateRequest>(args);
-  const auto& lim = board_.drive.limits;
-  const auto& d0 = board_.model.drive;
+  const auto& lim = axis_.drive.limits;
+  const auto& d0 = axis_.model.drive;
   if (request.V0 && !(*request.V0 > 0.0 && *request.V0 <= lim.V_max)) {
     throw out_of_limits(
         wire_key::V0,
@@ -123,13 +123,13 @@ json Daemon::calibrate(const std::string& client, const json& args) {
   firmware::CalibrationPlan plan;
   plan.V0 = request.V0.value_or(std::min(d0.V0, lim.V_max));
   plan.D = d0.D();
-  plan.r2_m = board_.sensor.r2_m;
+  plan.r2_m = axis_.sensor.r2_m;
   plan.hold_V_max = firmware::kHoldFractionOfVmax * lim.V_max;
   plan.fast_slew_V_per_s = lim.slew_V_per_s;
-  plan.flush_readings = std::max(10, static_cast<int>(std::ceil(0.1 * board_.sensor.rate_hz)));
+  plan.flush_readings = std::max(10, static_cast<int>(std::ceil(0.1 * axis_.sensor.rate_hz)));
   // The board's frequency, twice and four times it: as many as the board's
   // rate and slew limit allow at V0.
-  const double f_max = std::min(firmware::max_drive_frequency(board_.drive.rate_hz),
+  const double f_max = std::min(firmware::max_drive_frequency(axis_.drive.rate_hz),
                                 lim.slew_V_per_s * std::min(plan.D, 1.0 - plan.D) / plan.V0);
   plan.frequencies = 0;
   for (const double factor : {1.0, 2.0, 4.0}) {
@@ -146,7 +146,7 @@ json Daemon::calibrate(const std::string& client, const json& args) {
   d.direction = model::Direction::forward;
   d.V0 = plan.V0;
   d.f = plan.f_hz[static_cast<std::size_t>(plan.frequencies - 1)];
-  (void)apply_configuration({d, 1.5 * plan.duration_s(board_.sensor.rate_hz) + 1.0}, "calibrate");
+  (void)apply_configuration({d, 1.5 * plan.duration_s(axis_.sensor.rate_hz) + 1.0}, "calibrate");
   protocol::StartReply started = start(client, request.lease_s, {std::nullopt, plan}, "calibrate");
   started.calibration = protocol::StartReply::Calibration{
       static_cast<std::uint32_t>(plan.steps), plan.V0,
@@ -172,7 +172,7 @@ json Daemon::set_calibration(const std::string&, const json& args) {
     return protocol::SetCalibrationReply{};
   }
   const std::optional<std::string> save_error = install_calibration(checked_calibration(
-      given, {board_.drive.limits.V_max, firmware::max_drive_frequency(board_.drive.rate_hz)}));
+      given, {axis_.drive.limits.V_max, firmware::max_drive_frequency(axis_.drive.rate_hz)}));
   protocol::SetCalibrationReply reply{calibration_, std::nullopt, save_error};
   if (!board_.daemon.calibration_file.empty() && !save_error) {
     reply.saved_to = board_.daemon.calibration_file;
@@ -219,7 +219,7 @@ json Daemon::set_zero(const std::string&) {
 Daemon::AtRest Daemon::read_at_rest(std::size_t n) {
   hal::Clock& clock = *rig_.clock;
   clock.add_sleeper();  // the virtual clock schedules the threads it knows of
-  const hal::TimeNs period = hal::from_seconds(1.0 / board_.sensor.rate_hz);
+  const hal::TimeNs period = hal::from_seconds(1.0 / axis_.sensor.rate_hz);
   hal::TimeNs next = clock.now();
   std::vector<double> readings;
   // The first readings after an idle gap may be the sensor's last ones
@@ -231,8 +231,8 @@ Daemon::AtRest Daemon::read_at_rest(std::size_t n) {
     // 0 V again (the output holds it anyway, the amplifier is off): a
     // simulated plant advances only at a write, so the reading sees the
     // rotor at its time, not extrapolated from the stop.
-    (void)rig_.drive->write(0.0);
-    const hal::DisplacementReading r = rig_.sensor->read();
+    (void)rig_.axes.front().drive->write(0.0);
+    const hal::DisplacementReading r = rig_.axes.front().sensor->read();
     if (i < kSkipped || r.status != hal::Status::ok || !std::isfinite(r.displacement_m)) continue;
     readings.push_back(r.displacement_m);
     remember_reading(r.displacement_m);

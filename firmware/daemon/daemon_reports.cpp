@@ -36,28 +36,28 @@ protocol::LoopHealth health_of(const firmware::LoopHealth& h, bool with_timing) 
 }  // namespace
 
 protocol::Hello Daemon::hello() const {
-  const auto& lim = board_.drive.limits;
+  const auto& lim = axis_.drive.limits;
   protocol::Hello h;
   h.protocol = protocol::kProtocolVersion;
   h.frame_version = protocol::kFrameVersion;
   h.daemon = PIEZO_VERSION;
   h.stream = stream_endpoint_;
   h.clock = config::name(board_.run.clock);
-  h.backends = {std::string(board_.drive.backend()), std::string(board_.sensor.backend()),
+  h.backends = {std::string(axis_.drive.backend()), std::string(axis_.sensor.backend()),
                 std::string(board_.lines.backend())};
   h.limits = {lim.V_min,
               lim.V_max,
               lim.slew_V_per_s,
-              board_.safety.ramp_down_V_per_s,
-              board_.safety.sensor_stale_s,
-              firmware::max_drive_frequency(board_.drive.rate_hz),
+              axis_.safety.ramp_down_V_per_s,
+              axis_.safety.sensor_stale_s,
+              firmware::max_drive_frequency(axis_.drive.rate_hz),
               board_.daemon.duration_max_s,
               board_.daemon.lease_max_s};
-  h.sensor.r2_m = board_.sensor.r2_m;
+  h.sensor.r2_m = axis_.sensor.r2_m;
   h.sensor.zero_displacement_m = zero_.value();
-  h.drive_rate_hz = board_.drive.rate_hz;
-  h.sensor_rate_hz = board_.sensor.rate_hz;
-  h.output_latency_s = rig_.drive->output_latency_s();
+  h.drive_rate_hz = axis_.drive.rate_hz;
+  h.sensor_rate_hz = axis_.sensor.rate_hz;
+  h.output_latency_s = rig_.axes.front().drive->output_latency_s();
   h.lease_s = board_.daemon.lease_s;
   h.recorder_s = board_.daemon.recorder_s;
   h.calibration = calibration_;
@@ -75,7 +75,7 @@ protocol::Status Daemon::status(const std::string& client) const {
   s.recorder = {{samples_.drive_first(), samples_.drive_recorded()},
                 {samples_.sensor_first(), samples_.sensor_recorded()}};
   const auto last = recent_displacement_m();
-  if (zero_.known() && last) s.position.position_rad = zero_.angle_rad(*last, board_.sensor.r2_m);
+  if (zero_.known() && last) s.position.position_rad = zero_.angle_rad(*last, axis_.sensor.r2_m);
   s.position.zero_displacement_m = zero_.value();
   s.calibration = calibration_;
   s.configured = configured_;

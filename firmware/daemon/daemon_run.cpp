@@ -53,7 +53,7 @@ protocol::ConfigureRequest Daemon::apply_configuration(const protocol::Configure
     throw ProtocolError(code::bad_state, "", fmt::format("{}: a run is under way", cmd));
   if (const auto breach = firmware::check_drive(
           r.drive, r.duration_s,
-          {board_.drive.limits, board_.drive.rate_hz, board_.daemon.duration_max_s})) {
+          {axis_.drive.limits, axis_.drive.rate_hz, board_.daemon.duration_max_s})) {
     throw out_of_limits(breach->key, breach->message);
   }
   configured_ = r;
@@ -87,7 +87,7 @@ protocol::StartReply Daemon::start(const std::string& client,
     Run* r = run.get();
     const auto window = static_cast<std::uint64_t>(
         std::min(kVirtualAckWindow * static_cast<double>(samples_.drive_capacity()),
-                 kVirtualAckWindow_s * board_.drive.rate_hz));
+                 kVirtualAckWindow_s * axis_.drive.rate_hz));
     const auto lease_ns = static_cast<std::int64_t>(lease_s * 1e9);
     lagging = [r, window, lease_ns] {
       return wall_ns() - r->lease_renewed_ns.load() < lease_ns &&
@@ -121,15 +121,15 @@ protocol::StartReply Daemon::start(const std::string& client,
 }
 
 void Daemon::build_runner(Run& run, const Program& program) {
-  firmware::LoopRunnerSettings settings{{board_.drive.rate_hz, run.request.duration_s},
-                                        board_.sensor.rate_hz,
+  firmware::LoopRunnerSettings settings{{axis_.drive.rate_hz, run.request.duration_s},
+                                        axis_.sensor.rate_hz,
                                         !board_.virtual_clock(),
                                         board_.run.priority,
                                         board_.run.lock_memory};
   const auto runner = [&](firmware::DriveProgram& program_to_follow) {
-    std::vector<firmware::RunAxis> axes{{*rig_.drive, *rig_.sensor, program_to_follow,
-                                         board_.drive.limits, 1.0 / run.request.drive.f,
-                                         board_.safety, board_.sensor.r2_m,
+    std::vector<firmware::RunAxis> axes{{*rig_.axes.front().drive, *rig_.axes.front().sensor,
+                                         program_to_follow, axis_.drive.limits,
+                                         1.0 / run.request.drive.f, axis_.safety, axis_.sensor.r2_m,
                                          zero_.displacement_m(), &run.feed}};
     run.runner = std::make_unique<firmware::LoopRunner>(settings, std::move(axes), *rig_.clock,
                                                         *rig_.lines, &run.remote);
@@ -141,14 +141,14 @@ void Daemon::build_runner(Run& run, const Program& program) {
     run.calibration =
         std::make_unique<firmware::CalibrationProgram>(*program.calibration, run.feed);
     runner(*run.calibration);
-  } else if (board_.safety.protect_runs) {
+  } else if (axis_.safety.protect_runs) {
     firmware::RunGuardSettings g;
-    g.periods = board_.safety.stall_periods;
+    g.periods = axis_.safety.stall_periods;
     g.f = run.request.drive.f;
     g.direction = run.request.drive.direction == model::Direction::forward ? 1.0 : -1.0;
-    g.r2_m = board_.sensor.r2_m;
+    g.r2_m = axis_.sensor.r2_m;
     const double rad_per_V =
-        calibration_ ? calibration_->rad_per_V : board_.model.motor.d_e / board_.model.motor.r;
+        calibration_ ? calibration_->rad_per_V : axis_.model.motor.d_e / axis_.model.motor.r;
     g.stroke_rad = rad_per_V * run.request.drive.V0;
     // The noise at rest, measured now (a few readings before the drive
     // starts), or the calibration's if larger.
@@ -301,7 +301,7 @@ void Daemon::take_calibration(Run& run) {
   try {
     install_calibration(checked_calibration(
         measured_calibration(run.calibration->plan(), result),
-        {board_.drive.limits.V_max, firmware::max_drive_frequency(board_.drive.rate_hz)}));
+        {axis_.drive.limits.V_max, firmware::max_drive_frequency(axis_.drive.rate_hz)}));
     run.summary.calibration.value = *calibration_;
   } catch (const std::exception& e) {
     // Measurements no calibration can hold (no motion, a sensor that saw

@@ -8,10 +8,10 @@
 #include <iostream>
 
 #include "client_authentication.hpp"
-#include "daemon.hpp"
-#include "config/device_inventory.hpp"
-#include "piezo/config/config_error.hpp"
 #include "config/config_file.hpp"
+#include "config/device_inventory.hpp"
+#include "daemon.hpp"
+#include "piezo/config/config_error.hpp"
 #include "service_manager.hpp"
 
 namespace {

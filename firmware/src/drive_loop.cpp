@@ -25,8 +25,7 @@ constexpr double kOnZero_V = 1e-6;
 }
 }  // namespace
 
-DriveLoop::DriveLoop(const DriveLoopSettings& settings, std::vector<DriveAxis> axes,
-                     DriveLoopIo io)
+DriveLoop::DriveLoop(const DriveLoopSettings& settings, std::vector<DriveAxis> axes, DriveLoopIo io)
     : settings_(settings), io_(io) {
   axes_.reserve(axes.size());
   for (const DriveAxis& a : axes) axes_.push_back({a, {}, {}, false, 0});
@@ -108,8 +107,8 @@ bool DriveLoop::enable() {
   const bool stop = io_.stop_requested.load(std::memory_order_relaxed);
   bool refused = false;
   for (Axis& a : axes_) {
-    refused |= a.io.supervisor->check(io_.clock.now(), estop, stop, false) ==
-               SafetyAction::disable_now;
+    refused |=
+        a.io.supervisor->check(io_.clock.now(), estop, stop, false) == SafetyAction::disable_now;
   }
   // One axis whose drive does not take 0 V keeps the amplifier off for all:
   // nothing is enabled that cannot be stopped.
@@ -122,8 +121,7 @@ bool DriveLoop::enable() {
   return true;
 }
 
-SafetyAction DriveLoop::check(Axis& axis, hal::TimeNs now, double t,
-                              const hal::EstopState& estop) {
+SafetyAction DriveLoop::check(Axis& axis, hal::TimeNs now, double t, const hal::EstopState& estop) {
   DriveProgram& program = *axis.io.program;
   if (const StopCause fault = program.fault(); fault != StopCause::none) {
     axis.io.supervisor->report_program_fault(fault);
@@ -197,7 +195,8 @@ void DriveLoop::spread_faults() {
   if (!settings_.fault_stops_all || axes_.size() < 2) return;
   for (const Axis& a : axes_) {
     if (!is_axis_fault(a.io.supervisor->cause())) continue;
-    for (Axis& other : axes_) other.io.supervisor->report_program_fault(StopCause::other_axis_fault);
+    for (Axis& other : axes_)
+      other.io.supervisor->report_program_fault(StopCause::other_axis_fault);
     return;
   }
 }
@@ -205,8 +204,8 @@ void DriveLoop::spread_faults() {
 void DriveLoop::update_sync(double t) {
   const Axis& first = axes_.front();
   const auto waveform_period = static_cast<long>(std::floor(t / first.io.period_s));
-  const bool want_sync =
-      !first.stopped && first.out.phase == DrivePhase::driving && waveform_period != last_sync_period_;
+  const bool want_sync = !first.stopped && first.out.phase == DrivePhase::driving &&
+                         waveform_period != last_sync_period_;
   last_sync_period_ = waveform_period;
   if (want_sync != sync_high_) {
     count_failure(io_.lines.set_sync(want_sync));

@@ -31,9 +31,8 @@ LoopRunner::LoopRunner(const LoopRunnerSettings& settings, std::vector<RunAxis> 
     if (travel_window && axis.feed != nullptr) {
       parts.supervisor.set_travel_feed(axis.feed, axis.zero_m, axis.r2_m);
     }
-    drive_axes.push_back(
-        {axis.limits, axis.period_s, &axis.program, &parts.supervisor, &axis.drive,
-         &parts.drive_ring});
+    drive_axes.push_back({axis.limits, axis.period_s, &axis.program, &parts.supervisor, &axis.drive,
+                          &parts.drive_ring});
     acquire_axes.push_back({&axis.sensor, &parts.health, &parts.sensor_ring, axis.feed});
   }
   drive_loop_.emplace(settings.drive, std::move(drive_axes), DriveLoopIo{clock, lines, stop_});

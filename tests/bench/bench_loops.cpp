@@ -53,8 +53,8 @@ Row measure_drive_loop(const std::string& name, int axes, bool plants, double se
                                                       hal::sim::AmplifierSettings{}, clock.now()));
     enabled.push_back(plant.back().get());
     if (plants) {
-      drive.push_back(std::make_unique<hal::sim::SimDrive>(hal::sim::DacSettings{}, *plant.back(),
-                                                           clock));
+      drive.push_back(
+          std::make_unique<hal::sim::SimDrive>(hal::sim::DacSettings{}, *plant.back(), clock));
     } else {
       drive.push_back(std::make_unique<hal::sim::NullDrive>(clock));
     }

@@ -20,12 +20,12 @@
 #include <zmq_addon.hpp>
 
 #include "../support/rig_sim.hpp"
-#include "run/board_client.hpp"
 #include "build_paths.hpp"
+#include "config/config_file.hpp"
+#include "config/rig.hpp"
 #include "piezo/firmware/loop_runner.hpp"
 #include "piezo/protocol/frame.hpp"
-#include "config/rig.hpp"
-#include "config/config_file.hpp"
+#include "run/board_client.hpp"
 
 namespace {
 
@@ -113,14 +113,16 @@ Latencies over_the_protocol(double seconds, double& cpu_percent) {
 }
 
 Latencies in_process(double seconds) {
-  auto config = config::load_config_file(std::string(build_paths::source_dir) + "/configs/sim.toml");
+  auto config =
+      config::load_config_file(std::string(build_paths::source_dir) + "/configs/sim.toml");
   config::Rig rig = config::build_rig(config.board);
   const model::Sawtooth waveform(80.0, 10.0, config.host.model.drive.D());
   firmware::WaveformProgram program(waveform);
-  std::vector<firmware::RunAxis> axes{{*rig.drive, *rig.sensor, program, config.board.drive.limits,
-                                       0.1, config.board.safety}};
-  firmware::LoopRunner runner({{config.board.drive.rate_hz, seconds},
-                               config.board.sensor.rate_hz,
+  std::vector<firmware::RunAxis> axes{{*rig.axes.front().drive, *rig.axes.front().sensor, program,
+                                       config.board.axis().drive.limits, 0.1,
+                                       config.board.axis().safety}};
+  firmware::LoopRunner runner({{config.board.axis().drive.rate_hz, seconds},
+                               config.board.axis().sensor.rate_hz,
                                true,
                                config.board.run.priority,
                                config.board.run.lock_memory},

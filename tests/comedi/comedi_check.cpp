@@ -22,8 +22,10 @@
 #include <thread>
 #include <vector>
 
-#include "piezo/config/config_error.hpp"
+#include "config/config_file.hpp"
 #include "config/device_inventory.hpp"
+#include "config/rig.hpp"
+#include "piezo/config/config_error.hpp"
 #include "piezo/firmware/loop_runner.hpp"
 #include "piezo/hal/comedi/comedi_analog_input.hpp"
 #include "piezo/hal/comedi/comedi_analog_output.hpp"
@@ -31,8 +33,6 @@
 #include "piezo/hal/posix/no_lines.hpp"
 #include "piezo/hal/sim/null_sensor.hpp"
 #include "piezo/model/waveform.hpp"
-#include "config/rig.hpp"
-#include "config/config_file.hpp"
 
 namespace {
 
@@ -255,7 +255,8 @@ void check_stream(OutputProbe& probe) {
   hal::posix::NoLines lines;
   const model::Sawtooth saw(80.0, 20.0, 0.75);
   firmware::WaveformProgram program(saw);
-  firmware::LoopRunner runner(run_settings(kSeconds), one_axis(drive, sensor, program), clock, lines);
+  firmware::LoopRunner runner(run_settings(kSeconds), one_axis(drive, sensor, program), clock,
+                              lines);
   std::atomic<bool> done{false};
   double peak_V = 0.0;
   std::thread watcher([&] {
@@ -270,8 +271,8 @@ void check_stream(OutputProbe& probe) {
   done = true;
   watcher.join();
   std::size_t records = 0;
-  runner.drain(0, [&](const firmware::DriveSample&) { ++records; },
-               [](const firmware::SensorSample&) {});
+  runner.drain(
+      0, [&](const firmware::DriveSample&) { ++records; }, [](const firmware::SensorSample&) {});
   const auto& health = runner.drive_health();
   const double ticks = kSeconds * kLoopRate, preload = kPreload_s * kLoopRate;
   const auto queued = static_cast<double>(drive.samples_queued());
@@ -346,7 +347,8 @@ void check_stop(OutputProbe& probe, bool estop) {
   firmware::RemoteControl remote;
   const model::Sawtooth saw(80.0, 20.0, 0.75);
   firmware::WaveformProgram program(saw);
-  firmware::LoopRunner runner(run_settings(30.0), one_axis(drive, sensor, program), clock, lines, &remote);
+  firmware::LoopRunner runner(run_settings(30.0), one_axis(drive, sensor, program), clock, lines,
+                              &remote);
   const hal::TimeNs t0 = runner.start({});
   if (!estop) remote.lease_deadline = t0 + hal::from_seconds(0.6);  // never renewed
   std::this_thread::sleep_for(std::chrono::milliseconds(600));
@@ -363,7 +365,8 @@ void check_stop(OutputProbe& probe, bool estop) {
     std::this_thread::sleep_for(std::chrono::microseconds(500));
   }
   runner.join();
-  runner.drain(0, [](const firmware::DriveSample&) {}, [](const firmware::SensorSample&) {});
+  runner.drain(
+      0, [](const firmware::DriveSample&) {}, [](const firmware::SensorSample&) {});
   const auto expected = estop ? firmware::StopCause::estop : firmware::StopCause::link_lost;
   check(
       runner.cause() == expected && std::isfinite(zero_after_s) && std::abs(probe.volts(0)) < 0.01,
@@ -415,7 +418,8 @@ void check_closed_under_run(OutputProbe& probe) {
     std::this_thread::sleep_for(std::chrono::microseconds(500));
   }
   runner.join();
-  runner.drain(0, [](const firmware::DriveSample&) {}, [](const firmware::SensorSample&) {});
+  runner.drain(
+      0, [](const firmware::DriveSample&) {}, [](const firmware::SensorSample&) {});
   const auto& outcome = runner.outcome();
   check(drive_fds.size() == 1 && runner.cause() == firmware::StopCause::drive_fault &&
             outcome.zero_confirmed && outcome.zero_read_back && std::isfinite(zero_after_s) &&

@@ -226,7 +226,8 @@ void check_run(Bench& bench) {
     if (!std::isfinite(zero_ms) && std::abs(card_V()) < 0.01) zero_ms = since_ms();
   }
   runner.join();
-  runner.drain(0, [](const firmware::DriveSample&) {}, [](const firmware::SensorSample&) {});
+  runner.drain(
+      0, [](const firmware::DriveSample&) {}, [](const firmware::SensorSample&) {});
   const double end_V = card_V();
   check(enabled == 1 && runner.cause() == firmware::StopCause::estop &&
             bench.data_line(kEnable) == 0 && std::abs(end_V) < 0.01 &&

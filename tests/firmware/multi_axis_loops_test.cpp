@@ -23,6 +23,13 @@ namespace {
 constexpr std::size_t kAxes = 3;
 constexpr double kDriveRateHz = 10'000.0;
 
+/// An axis held at 0 V for the run's whole duration.
+class AtZero final : public DriveProgram {
+ public:
+  double next_voltage(double, double) override { return 0.0; }
+  [[nodiscard]] double end_voltage(double) const override { return 0.0; }
+};
+
 /// Three simulated axes, each driven by its own sawtooth, on the virtual
 /// clock; what each axis's loops recorded, kept for the checks.
 class ThreeAxes : public ::testing::Test {
@@ -42,10 +49,14 @@ class ThreeAxes : public ::testing::Test {
   /// Runs the board for duration_s (unless something stops it first).
   void run(double duration_s, const RemoteControl* remote = nullptr) {
     rig = std::make_unique<hal::sim::SimRig>(axes, lines, clock, clock.now());
-    std::vector<std::unique_ptr<WaveformProgram>> programs;
+    std::vector<std::unique_ptr<DriveProgram>> programs;
     std::vector<RunAxis> run_axes;
     for (std::size_t i = 0; i < kAxes; ++i) {
-      programs.push_back(std::make_unique<WaveformProgram>(waveforms[i]));
+      if (idle[i]) {
+        programs.push_back(std::make_unique<AtZero>());
+      } else {
+        programs.push_back(std::make_unique<WaveformProgram>(waveforms[i]));
+      }
       run_axes.push_back({rig->drive(i), rig->sensor(i), *programs.back(),
                           VoltageLimits{0.0, 80.0, 1e6}, waveforms[i].period(), safety});
     }
@@ -85,6 +96,7 @@ class ThreeAxes : public ::testing::Test {
   std::vector<hal::sim::SimAxisSettings> axes;
   hal::sim::SimLinesSettings lines;
   std::vector<model::Sawtooth> waveforms;
+  std::vector<bool> idle = std::vector<bool>(kAxes, false);  ///< held at 0 V
   SafetySettings safety;
   bool fault_stops_all = false;
   std::unique_ptr<hal::sim::SimRig> rig;
@@ -181,6 +193,28 @@ TEST_F(ThreeAxes, ALapsedLeaseStopsEveryAxis) {
     EXPECT_EQ(drive[i].back().phase, DrivePhase::stopped);
     EXPECT_EQ(rig->drive(i).last_code(), 0u) << "the DAC holds 0 V";
   }
+}
+
+// Crosstalk: axis 1 held at 0 V beside two driven axes. Uncoupled its rotor
+// stays where it was to the last bit; coupled, its stator takes a share of
+// the others' strokes, which carries its rotor along in stick and slips it
+// on their fast edges: it creeps.
+TEST_F(ThreeAxes, ACoupledRotorAtRestCreepsWhenItsNeighboursStep) {
+  idle[1] = true;
+  run(0.5);
+  EXPECT_EQ(rig->plant(1).latest().theta, 0.0) << "uncoupled: untouched";
+  const double alone = rig->plant(0).latest().theta;
+
+  for (auto& axis : axes) axis.coupling = 0.05;
+  causes.clear();
+  outcomes.clear();
+  run(0.5);
+  EXPECT_EQ(cause, StopCause::completed);
+  const double crept = rig->plant(1).latest().theta;
+  EXPECT_GT(std::abs(crept), 1e-6) << "coupled: the neighbours' steps moved it";
+  EXPECT_LT(std::abs(crept), std::abs(alone)) << "less than a driven axis travels";
+  EXPECT_GT(std::abs(sensor[1].back().displacement_m - sensor[1].front().displacement_m), 1e-8)
+      << "and its sensor saw it";
 }
 
 }  // namespace

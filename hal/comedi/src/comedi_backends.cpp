@@ -17,10 +17,27 @@ void read_address(config::SectionReader& r, ChannelAddress& a, const std::string
   r.integer(prefix + "range", a.range, 0, 255);
 }
 
+/// A card's analog channel as a resource two axes must not share.
+std::string analog_channel(const ChannelAddress& a, const char* kind) {
+  return fmt::format("comedi {} analog {} {} (subdevice {})", a.device, kind, a.channel,
+                     a.subdevice);
+}
+
 }  // namespace
 
 std::string ComediDriveBackend::describe() const {
   return fmt::format("comedi {} channel {}", settings_.output.device, settings_.output.channel);
+}
+
+std::vector<Claim> ComediDriveBackend::claims() const {
+  std::vector<Claim> out{{analog_channel(settings_.output, "output"), "drive.comedi.channel"}};
+  if (settings_.readback.channel >= 0) {
+    const ChannelAddress input{
+        settings_.readback.device.empty() ? settings_.output.device : settings_.readback.device,
+        settings_.readback.subdevice, settings_.readback.channel, 0};
+    out.push_back({analog_channel(input, "input"), "drive.comedi.readback_channel"});
+  }
+  return out;
 }
 
 std::string ComediDriveBackend::inventory() const {
@@ -48,6 +65,10 @@ std::shared_ptr<Drive> ComediDriveBackend::open(const DriveCommon& common, OpenC
 
 std::string ComediSensorBackend::describe() const {
   return fmt::format("comedi {} channel {}", settings_.input.device, settings_.input.channel);
+}
+
+std::vector<Claim> ComediSensorBackend::claims() const {
+  return {{analog_channel(settings_.input, "input"), "sensor.comedi.channel"}};
 }
 
 std::string ComediSensorBackend::inventory() const {

@@ -191,16 +191,24 @@ void SectionReader::finish() const {
 
 SectionReader TableReader::section(const std::string& name) {
   if (std::find(read_.begin(), read_.end(), name) == read_.end()) read_.push_back(name);
-  SectionReader reader(root_, name, source_);
+  SectionReader reader(root_, prefix_.empty() ? name : prefix_ + "." + name, source_);
   reader.declarations_ = declarations_;
   return reader;
 }
 
 void TableReader::finish() const {
-  for (const auto& [k, node] : root_) {
+  const toml::table* table = &root_;
+  if (!prefix_.empty()) {
+    // The prefix's table, if the root has it (SectionReader checks each level).
+    const SectionReader at_prefix(root_, prefix_, source_);
+    table = at_prefix.table_;
+    if (table == nullptr) return;
+  }
+  for (const auto& [k, node] : *table) {
     const std::string name(k.str());
     if (std::find(read_.begin(), read_.end(), name) == read_.end()) {
-      throw ConfigError(source_, name,
+      const std::string shown = prefix_.empty() ? name : prefix_ + "." + name;
+      throw ConfigError(source_, shown,
                         fmt::format("unknown section (allowed: {})", fmt::join(read_, ", ")));
     }
   }

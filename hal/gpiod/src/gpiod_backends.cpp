@@ -1,5 +1,7 @@
 #include "piezo/hal/gpiod/gpiod_backends.hpp"
 
+#include <fmt/format.h>
+
 #include "piezo/config/config_error.hpp"
 
 namespace piezo::hal::gpiod {
@@ -11,6 +13,19 @@ using config::ConfigError;
 constexpr const char* kConsumer = "piezo";
 
 }  // namespace
+
+std::vector<Claim> ParallelDacBackend::claims() const {
+  std::vector<Claim> out;
+  for (const int offset : settings_.data_offsets) {
+    out.push_back(
+        {fmt::format("{} line {}", settings_.chip, offset), "drive.gpiod-dac.data_offsets"});
+  }
+  if (settings_.strobe_offset >= 0) {
+    out.push_back({fmt::format("{} line {}", settings_.chip, settings_.strobe_offset),
+                   "drive.gpiod-dac.strobe_offset"});
+  }
+  return out;
+}
 
 std::vector<MovedKey> ParallelDacBackend::moved_keys() const {
   return {{"gpio_chip", "drive.gpiod-dac.chip"},

@@ -12,6 +12,16 @@ using config::ConfigError;
 
 constexpr double kRiftekCounts = 16384.0;  // RF602: X = D * range / 16384
 
+/// A register on a link (its device or address, not its speed) as a
+/// resource two axes must not share.
+std::string register_resource(const LinkSettings& link, int unit_id, std::string_view function,
+                              int address) {
+  const std::string where = link.transport == LinkSettings::Transport::tcp
+                                ? fmt::format("tcp {}:{}", link.host, link.port)
+                                : "rtu " + link.device;
+  return fmt::format("modbus {} unit {} {} register {}", where, unit_id, function, address);
+}
+
 }  // namespace
 
 void apply_baumer_om30(LinkSettings& link, RegisterMap& map) {
@@ -29,6 +39,11 @@ ModbusSensorBackend::ModbusSensorBackend(LinkSettings::Transport transport) {
 
 std::string_view ModbusSensorBackend::name() const {
   return link_.transport == LinkSettings::Transport::rtu ? "modbus-rtu" : "modbus-tcp";
+}
+
+std::vector<Claim> ModbusSensorBackend::claims() const {
+  return {{register_resource(link_, map_.unit_id, kFunctionNames.name(map_.function), map_.address),
+           "sensor.modbus.address"}};
 }
 
 std::vector<MovedKey> ModbusSensorBackend::moved_keys() const {
@@ -106,6 +121,11 @@ void ModbusSensorBackend::check(const SensorCommon&, bool chosen, const SourceOf
 std::shared_ptr<DisplacementSensor> ModbusSensorBackend::open(const SensorCommon&,
                                                               OpenContext& context) const {
   return std::make_shared<ModbusSensor>(link_, map_, context.clock);
+}
+
+std::vector<Claim> AnalogOutputBackend::claims() const {
+  return {
+      {register_resource(link_, ao_.unit_id, "holding", ao_.address), "drive.modbus-ao.address"}};
 }
 
 std::vector<MovedKey> AnalogOutputBackend::moved_keys() const {

@@ -149,8 +149,8 @@ void ModbusRigDevice::serve_tcp(const std::string& host, int port) {
     for (int i = 0; i < ready; ++i) {
       const int fd = events[static_cast<std::size_t>(i)].data.fd;
       if (fd == listener) {
-        for (int client; listening && (client = accept4(listener, nullptr, nullptr,
-                                                        SOCK_CLOEXEC)) >= 0;) {
+        for (int client;
+             listening && (client = accept4(listener, nullptr, nullptr, SOCK_CLOEXEC)) >= 0;) {
           admit(client, now);
         }
       } else if (clients.contains(fd)) {

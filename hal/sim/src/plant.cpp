@@ -24,7 +24,7 @@ void Plant::advance_to(TimeNs t) {
   const TimeNs ramp_stop = std::min(t, std::max(ramp_end_, t_));
   const double t_ramp = to_seconds(ramp_stop);
   if (ramp_stop > t_) {
-    motor_.advance({t0, V_out_, slope_}, t_ramp);
+    motor_.advance({t0, stator_V(), slope_}, t_ramp);
     V_out_ += slope_ * (t_ramp - t0);
     hold_at_end_stop();
   }
@@ -41,7 +41,7 @@ void Plant::advance_to(TimeNs t) {
         break;
       }
       const TimeNs to = std::min(t, from + kSlice);
-      motor_.advance({to_seconds(from), V_out_, 0.0}, to_seconds(to));
+      motor_.advance({to_seconds(from), stator_V(), 0.0}, to_seconds(to));
       hold_at_end_stop();
       from = to;
     }
@@ -67,7 +67,7 @@ bool Plant::at_rest() const {
   // zero crossing of a ringing stator).
   const model::LuGreState& y = motor_.state();
   model::LuGreState dydt{};
-  rhs_.derivative(V_out_, y, dydt);
+  rhs_.derivative(stator_V(), y, dydt);
   return std::abs(y[model::kXDot]) <= 1e-9 && std::abs(y[model::kThetaDot]) <= 1e-9 &&
          std::abs(dydt[model::kXDot]) <= 1e-6 && std::abs(dydt[model::kThetaDot]) <= 1e-6;
 }
@@ -101,6 +101,7 @@ void Plant::set_input(TimeNs t, double V_in) {
   V_in_ = V_in;
   start_ramp();
   publish();
+  notify_neighbours();
 }
 
 void Plant::set_enabled(TimeNs t, bool enabled) {
@@ -109,6 +110,29 @@ void Plant::set_enabled(TimeNs t, bool enabled) {
   enabled_ = enabled;
   published_enabled_.store(enabled);
   start_ramp();
+  publish();
+  notify_neighbours();
+}
+
+void Plant::couple_to(Plant& neighbour, double coupling) {
+  neighbours_.push_back(&neighbour);
+  neighbour.sources_.push_back({this, coupling});
+}
+
+void Plant::notify_neighbours() {
+  for (Plant* n : neighbours_) n->update_coupled(t_);
+}
+
+void Plant::update_coupled(TimeNs t) {
+  // The sources' output targets, not their ramps: a neighbour's amplifier
+  // reaches its target within its slew time, far shorter than a drive
+  // period's edges.
+  double V = 0.0;
+  for (const Coupling& c : sources_) V += c.coupling * c.source->output_target();
+  if (V == coupled_V_) return;
+  take_trip();
+  advance_to(t);
+  coupled_V_ = V;
   publish();
 }
 

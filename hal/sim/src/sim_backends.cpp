@@ -52,7 +52,7 @@ AmplifierSettings SimDriveBackend::amplifier(const DriveCommon& common) const {
 
 std::shared_ptr<Drive> SimDriveBackend::open(const DriveCommon&, OpenContext& context) const {
   // Shares the rig's ownership: the drive lives as long as anyone holds it.
-  return {context.sim, &rig_of(context).drive()};
+  return {context.sim, &rig_of(context).drive(context.axis)};
 }
 
 std::vector<MovedKey> SimSensorBackend::moved_keys() const {
@@ -96,7 +96,7 @@ SimSensorSettings SimSensorBackend::settings(const SensorCommon& common) const {
 
 std::shared_ptr<DisplacementSensor> SimSensorBackend::open(const SensorCommon&,
                                                            OpenContext& context) const {
-  return {context.sim, &rig_of(context).sensor()};
+  return {context.sim, &rig_of(context).sensor(context.axis)};
 }
 
 std::vector<MovedKey> SimLinesBackend::moved_keys() const {

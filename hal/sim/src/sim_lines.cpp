@@ -4,8 +4,8 @@
 
 namespace piezo::hal::sim {
 
-SimLines::SimLines(const SimLinesSettings& settings, std::vector<Plant*> plants,
-                   const Clock& clock, TimeNs t0)
+SimLines::SimLines(const SimLinesSettings& settings, std::vector<Plant*> plants, const Clock& clock,
+                   TimeNs t0)
     : settings_(settings), plants_(std::move(plants)), clock_(clock), t0_(t0) {}
 
 Status SimLines::set_amplifier_enable(bool enabled) {

@@ -8,6 +8,12 @@ SimRig::SimRig(const std::vector<SimAxisSettings>& axes, const SimLinesSettings&
   for (const SimAxisSettings& s : axes) {
     plants.push_back(&axes_.emplace_back(std::make_unique<Axis>(s, clock, t0))->plant);
   }
+  for (std::size_t i = 0; i < axes.size(); ++i) {
+    if (axes[i].coupling == 0.0) continue;
+    for (std::size_t j = 0; j < axes.size(); ++j) {
+      if (j != i) axes_[j]->plant.couple_to(axes_[i]->plant, axes[i].coupling);
+    }
+  }
   lines_ = std::make_unique<SimLines>(lines, std::move(plants), clock, t0);
 }
 

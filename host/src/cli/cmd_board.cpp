@@ -6,9 +6,9 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "run/board_client.hpp"
 #include "commands.hpp"
 #include "piezo/protocol/messages.hpp"
+#include "run/board_client.hpp"
 
 namespace piezo::host {
 namespace {

@@ -7,8 +7,8 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "io/columns.hpp"
 #include "commands.hpp"
+#include "io/columns.hpp"
 #include "io/fit_io.hpp"
 #include "io/gnuplot.hpp"
 #include "io/parameters_json.hpp"

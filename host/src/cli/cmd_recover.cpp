@@ -14,13 +14,13 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "config/config_file.hpp"
 #include "io/log_schema.hpp"
+#include "io/run_log.hpp"
+#include "io/run_recovery.hpp"
 #include "piezo/config/config_error.hpp"
 #include "piezo/protocol/error.hpp"
 #include "piezo/protocol/frame.hpp"
-#include "config/config_file.hpp"
-#include "io/run_log.hpp"
-#include "io/run_recovery.hpp"
 #include "run/sample_collector.hpp"
 
 namespace piezo::host {
@@ -41,10 +41,11 @@ int recover_spill(const RecoverOptions& o) {
   if (fs::exists(fs::path(o.run_dir) / "run.h5")) {
     throw config::ConfigError("--out", o.run_dir, "holds a run.h5 already");
   }
-  const double r2 =
-      o.config.empty()
-          ? config::SensorSettings{}.r2_m
-          : config::load_config_file(o.config, {}, config::ConfigScope::sensor).board.sensor.r2_m;
+  const double r2 = o.config.empty()
+                        ? config::SensorSettings{}.r2_m
+                        : config::load_config_file(o.config, {}, config::ConfigScope::sensor)
+                              .board.axis()
+                              .sensor.r2_m;
   std::ifstream in(o.spill, std::ios::binary);
   if (!in) throw config::ConfigError(o.spill, "file", "cannot be read");
   std::vector<firmware::DriveSample> drive;

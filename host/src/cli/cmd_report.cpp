@@ -12,17 +12,17 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
-#include "io/columns.hpp"
 #include "commands.hpp"
+#include "config/config_file.hpp"
+#include "io/columns.hpp"
 #include "io/fit_io.hpp"
 #include "io/gnuplot.hpp"
 #include "io/h5_file.hpp"
 #include "io/log_schema.hpp"
 #include "io/parameters_json.hpp"
+#include "io/run_recovery.hpp"
 #include "piezo/config/config_error.hpp"
 #include "piezo/model/simulate.hpp"
-#include "config/config_file.hpp"
-#include "io/run_recovery.hpp"
 
 namespace piezo::host {
 namespace {

@@ -7,11 +7,11 @@
 #include <thread>
 
 #include "commands.hpp"
+#include "config/config_file.hpp"
 #include "piezo/config/config_error.hpp"
 #include "piezo/hal/modbus/modbus_backends.hpp"
 #include "piezo/hal/sim/modbus_rig_device.hpp"
 #include "piezo/hal/sim/sim_backends.hpp"
-#include "config/config_file.hpp"
 
 namespace piezo::host {
 namespace {
@@ -41,15 +41,15 @@ std::pair<std::string, int> split_host_port(const std::string& text) {
 hal::sim::ModbusRigDeviceSettings device_settings(const config::BoardConfig& board,
                                                   const config::RigSimConfig& own) {
   hal::sim::ModbusRigDeviceSettings s;
-  s.plant = board.plant;
+  const config::AxisConfig& a = board.axis();
+  s.plant = a.plant;
   const hal::DriveCommon drive = board.drive_common();
-  s.amplifier = board.drive.backends.get<hal::sim::SimDriveBackend>().amplifier(drive);
-  s.sensor =
-      board.sensor.backends.get<hal::sim::SimSensorBackend>().settings(board.sensor.common());
-  const auto& sensor = board.sensor.backends.get<hal::modbus::ModbusSensorBackend>();
+  s.amplifier = a.drive.backends.get<hal::sim::SimDriveBackend>().amplifier(drive);
+  s.sensor = a.sensor.backends.get<hal::sim::SimSensorBackend>().settings(a.sensor.common());
+  const auto& sensor = a.sensor.backends.get<hal::modbus::ModbusSensorBackend>();
   s.sensor_map = sensor.map();
   s.serial = sensor.link();
-  const auto ao = board.drive.backends.get<hal::modbus::AnalogOutputBackend>().settings(drive);
+  const auto ao = a.drive.backends.get<hal::modbus::AnalogOutputBackend>().settings(drive);
   s.ao_address = ao.address;
   s.ao_counts_per_V = ao.counts_per_V;
   s.faults = own.faults;
@@ -60,7 +60,13 @@ hal::sim::ModbusRigDeviceSettings device_settings(const config::BoardConfig& boa
 int run(const RigSimOptions& o) {
   const config::ConfigFile config =
       config::load_config_file(o.config, o.sets, config::ConfigScope::sensor);
-  const auto& serial = config.board.sensor.backends.get<hal::modbus::ModbusSensorBackend>().link();
+  if (config.board.axes.size() > 1) {
+    throw config::ConfigError(
+        config.source, "axes",
+        fmt::format("rig-sim serves one axis; this config declares {}", config.board.axes.size()));
+  }
+  const auto& serial =
+      config.board.axis().sensor.backends.get<hal::modbus::ModbusSensorBackend>().link();
   std::string tcp = o.tcp;
   if (tcp.empty() && o.rtu.empty()) tcp = serial.host + ":" + std::to_string(serial.port);
   hal::sim::ModbusRigDevice server(device_settings(config.board, config.rig_sim));

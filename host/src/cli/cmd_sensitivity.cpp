@@ -7,15 +7,15 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "io/columns.hpp"
 #include "commands.hpp"
-#include "studies/global_sensitivity_study.hpp"
-#include "io/gnuplot.hpp"
+#include "config/config_file.hpp"
 #include "config/model_config.hpp"
-#include "studies/oat_study.hpp"
+#include "io/columns.hpp"
+#include "io/gnuplot.hpp"
 #include "piezo/config/config_error.hpp"
 #include "piezo/model/sensitivity.hpp"
-#include "config/config_file.hpp"
+#include "studies/global_sensitivity_study.hpp"
+#include "studies/oat_study.hpp"
 
 namespace piezo::host {
 namespace {

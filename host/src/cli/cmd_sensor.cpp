@@ -11,10 +11,10 @@
 #include <utility>
 
 #include "commands.hpp"
-#include "config/device_inventory.hpp"
-#include "piezo/hal/modbus/modbus_sensor.hpp"
-#include "config/rig.hpp"
 #include "config/config_file.hpp"
+#include "config/device_inventory.hpp"
+#include "config/rig.hpp"
+#include "piezo/hal/modbus/modbus_sensor.hpp"
 
 namespace piezo::host {
 namespace {
@@ -72,7 +72,7 @@ int run(const SensorReadOptions& o) {
       config::load_config_file(o.config, o.sets, config::ConfigScope::sensor);
   config::SensorRig rig = config::build_sensor(config.board);
   hal::Clock& clock = *rig.clock;
-  const auto period = hal::from_seconds(1.0 / config.board.sensor.rate_hz);
+  const auto period = hal::from_seconds(1.0 / config.board.axis().sensor.rate_hz);
   const hal::TimeNs t0 = clock.now();
   nlohmann::json readings = nlohmann::json::array();
   int errors = 0;
@@ -87,7 +87,7 @@ int run(const SensorReadOptions& o) {
     if (modbus != nullptr && warning.empty() &&
         (r.status == hal::Status::ok || r.status == hal::Status::out_of_range ||
          r.status == hal::Status::invalid_reading)) {
-      warning = word_order_hint(*modbus, config.board.sensor);
+      warning = word_order_hint(*modbus, config.board.axis().sensor);
       if (!warning.empty()) std::cerr << "piezo sensor read: warning: " << warning << "\n";
     }
     const double t = hal::to_seconds(r.t_request - t0);
@@ -110,7 +110,8 @@ int run(const SensorReadOptions& o) {
     std::cout << j.dump() << "\n";
   } else {
     fmt::print("{} readings, {} errors ({} sensor, {})\n", o.count, errors,
-               config.board.sensor.backend(), config.board.sensor.backends.chosen().describe());
+               config.board.axis().sensor.backend(),
+               config.board.axis().sensor.backends.chosen().describe());
   }
   return errors == o.count ? 1 : 0;
 }

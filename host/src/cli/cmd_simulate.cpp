@@ -12,16 +12,16 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
-#include "io/columns.hpp"
 #include "commands.hpp"
-#include "io/h5_file.hpp"
+#include "config/config_file.hpp"
 #include "config/model_config.hpp"
+#include "io/columns.hpp"
+#include "io/h5_file.hpp"
 #include "io/parameters_json.hpp"
+#include "jobs/progress.hpp"
 #include "piezo/config/config_error.hpp"
 #include "piezo/model/analysis_limits.hpp"
 #include "piezo/model/simulate.hpp"
-#include "jobs/progress.hpp"
-#include "config/config_file.hpp"
 #include "studies/simulate_checks.hpp"
 
 namespace piezo::host {

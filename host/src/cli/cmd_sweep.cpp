@@ -8,18 +8,18 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "io/columns.hpp"
 #include "commands.hpp"
+#include "config/config_file.hpp"
+#include "config/model_config.hpp"
+#include "io/columns.hpp"
 #include "io/gnuplot.hpp"
 #include "jobs/interruption.hpp"
-#include "config/model_config.hpp"
 #include "jobs/parallel.hpp"
+#include "jobs/progress.hpp"
 #include "piezo/config/config_error.hpp"
 #include "piezo/model/analysis_limits.hpp"
 #include "piezo/model/frequency_sweep.hpp"
 #include "piezo/model/sensitivity.hpp"
-#include "jobs/progress.hpp"
-#include "config/config_file.hpp"
 
 namespace piezo::host {
 namespace {

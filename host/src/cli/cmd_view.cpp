@@ -10,13 +10,13 @@
 #include <optional>
 #include <thread>
 
-#include "run/board_client.hpp"
 #include "board_watch.hpp"
 #include "commands.hpp"
-#include "view/live_feed.hpp"
-#include "piezo/config/config_error.hpp"
 #include "config/config_file.hpp"
+#include "piezo/config/config_error.hpp"
+#include "run/board_client.hpp"
 #include "run/signals.hpp"
+#include "view/live_feed.hpp"
 #include "view/view_server.hpp"
 
 namespace piezo::host {

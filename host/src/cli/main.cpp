@@ -6,10 +6,10 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "run/board_client.hpp"
 #include "commands.hpp"
 #include "exit_codes.hpp"
 #include "piezo/config/config_error.hpp"
+#include "run/board_client.hpp"
 
 namespace {
 using piezo::host::kExitBadInput;

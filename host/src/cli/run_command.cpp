@@ -374,7 +374,7 @@ RunLog create_log(const fs::path& dir, const config::ConfigFile& config, const B
        {log_schema::kConfigSource, config.source},
        {log_schema::kModelParameters, to_json(config.host.model).dump()},
        {log_schema::kPlantParameters,
-        to_json(model::Parameters{config.host.model.drive, config.board.plant}).dump()},
+        to_json(model::Parameters{config.host.model.drive, config.board.axis().plant}).dump()},
        {log_schema::kVersion, PIEZO_VERSION},
        {log_schema::kUtcStart, utc_start},
        {log_schema::kHost, host_name()},

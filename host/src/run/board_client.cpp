@@ -113,11 +113,11 @@ protocol::Hello BoardClient::hello() {
 
 std::string sensor_geometry_note(const config::ConfigFile& c, const protocol::Hello& hello) {
   const double board_r2 = hello.sensor.r2_m;
-  if (board_r2 == c.board.sensor.r2_m) return {};
+  if (board_r2 == c.board.axis().sensor.r2_m) return {};
   return fmt::format(
       "the board's sensor.r2_m is {:g} m, the host's config says {:g} m: angles use the "
       "board's (its sensor measured them)",
-      board_r2, c.board.sensor.r2_m);
+      board_r2, c.board.axis().sensor.r2_m);
 }
 
 }  // namespace piezo::host

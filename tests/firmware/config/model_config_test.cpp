@@ -136,10 +136,10 @@ TEST(ConfigFiles, ShippedConfigsLoad) {
   const BoardConfig rig =
       load_config_file(std::string(build_paths::source_dir) + "/configs/rig-example.toml").board;
   const auto dac =
-      rig.drive.backends.get<hal::gpiod::ParallelDacBackend>().settings(rig.drive_common());
+      rig.axis().drive.backends.get<hal::gpiod::ParallelDacBackend>().settings(rig.drive_common());
   EXPECT_EQ(dac.dac.bits, 12);
   EXPECT_TRUE(dac.dac.has_strobe);
-  const auto& sensor = rig.sensor.backends.get<hal::modbus::ModbusSensorBackend>();
+  const auto& sensor = rig.axis().sensor.backends.get<hal::modbus::ModbusSensorBackend>();
   EXPECT_EQ(sensor.map().address, 202);
   EXPECT_EQ(sensor.link().parity, 'E');
   EXPECT_EQ(rig.lines.backends.get<hal::gpiod::RigLinesBackend>().settings().estop_offset, 18);

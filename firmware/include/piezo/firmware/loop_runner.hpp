@@ -107,9 +107,11 @@ class LoopRunner {
  private:
   /// What the runner keeps for each axis (atomics: neither copied nor moved).
   struct AxisParts {
-    AxisParts(std::size_t drive_capacity, std::size_t sensor_capacity,
-              const SafetySettings& safety, hal::TimeNs now)
-        : drive_ring(drive_capacity), sensor_ring(sensor_capacity), supervisor(safety, health, now) {}
+    AxisParts(std::size_t drive_capacity, std::size_t sensor_capacity, const SafetySettings& safety,
+              hal::TimeNs now)
+        : drive_ring(drive_capacity),
+          sensor_ring(sensor_capacity),
+          supervisor(safety, health, now) {}
     SpscRing<DriveSample> drive_ring;
     SpscRing<SensorSample> sensor_ring;
     SensorHealth health;

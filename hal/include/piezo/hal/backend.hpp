@@ -12,11 +12,11 @@
 #include <string_view>
 #include <vector>
 
+#include "piezo/config/section_reader.hpp"
 #include "piezo/hal/clock.hpp"
 #include "piezo/hal/digital_lines.hpp"
 #include "piezo/hal/displacement_sensor.hpp"
 #include "piezo/hal/drive.hpp"
-#include "piezo/config/section_reader.hpp"
 
 namespace piezo::hal {
 namespace sim {
@@ -28,6 +28,14 @@ class SimRig;
 struct MovedKey {
   std::string_view old_key;
   std::string_view new_key;
+};
+
+/// A device resource a backend's config takes for itself (an output
+/// channel, a register, a GPIO line) and the key that names it: two axes
+/// of one board must not take the same one.
+struct Claim {
+  std::string resource;  ///< "comedi /dev/comedi0 analog output 0 (subdevice -1)"
+  std::string key;       ///< the kind's key that sets it, e.g. "drive.comedi.channel"
 };
 
 /// What every drive backend takes from [drive].
@@ -61,6 +69,7 @@ struct OpenContext {
   /// The simulated rig when the chosen backends are simulated (they share
   /// its plant); null otherwise.
   std::shared_ptr<sim::SimRig> sim;
+  std::size_t axis = 0;  ///< which of the board's axes the device is for
 };
 
 template <class Device, class Common>
@@ -85,6 +94,9 @@ class Backend {
   /// What its device offers, for the wiring check (a card's subdevices,
   /// channels and ranges); may open the device, and throws when it cannot.
   [[nodiscard]] virtual std::string inventory() const { return describe(); }
+  /// The resources its config takes (none: a backend that owns its device
+  /// alone, such as the simulated rig's one plant per axis).
+  [[nodiscard]] virtual std::vector<Claim> claims() const { return {}; }
   /// Keys of the kind's section that moved into this backend's.
   [[nodiscard]] virtual std::vector<MovedKey> moved_keys() const { return {}; }
 

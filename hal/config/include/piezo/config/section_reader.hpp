@@ -99,11 +99,17 @@ class SectionReader {
 
 /// The sections of one table (a file, or one --set): section() hands out a
 /// reader per section and finish() refuses a section no one asked for.
+/// With a `prefix` ("axes.phi"), the sections are the ones inside that
+/// table of the root ([axes.phi.drive], ...), and every error names them so.
 class TableReader {
  public:
   /// With `declarations`, every key read is declared there too.
-  TableReader(const toml::table& root, std::string source, KeyDeclarations* declarations = nullptr)
-      : root_(root), source_(std::move(source)), declarations_(declarations) {}
+  TableReader(const toml::table& root, std::string source, KeyDeclarations* declarations = nullptr,
+              std::string prefix = "")
+      : root_(root),
+        source_(std::move(source)),
+        declarations_(declarations),
+        prefix_(std::move(prefix)) {}
 
   [[nodiscard]] SectionReader section(const std::string& name);
   void finish() const;
@@ -113,6 +119,7 @@ class TableReader {
   std::string source_;
   std::vector<std::string> read_;
   KeyDeclarations* declarations_ = nullptr;
+  std::string prefix_;
 };
 
 }  // namespace piezo::config

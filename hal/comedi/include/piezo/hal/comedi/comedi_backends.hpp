@@ -17,6 +17,7 @@ class ComediDriveBackend final : public DriveBackend {
   [[nodiscard]] std::string_view name() const override { return "comedi"; }
   [[nodiscard]] std::string describe() const override;
   [[nodiscard]] std::string inventory() const override;
+  [[nodiscard]] std::vector<Claim> claims() const override;
   void read(config::SectionReader& section) override;
   [[nodiscard]] std::shared_ptr<Drive> open(const DriveCommon& common,
                                             OpenContext& context) const override;
@@ -33,6 +34,7 @@ class ComediSensorBackend final : public SensorBackend {
   [[nodiscard]] std::string_view name() const override { return "comedi"; }
   [[nodiscard]] std::string describe() const override;
   [[nodiscard]] std::string inventory() const override;
+  [[nodiscard]] std::vector<Claim> claims() const override;
   void read(config::SectionReader& section) override;
   void check(const SensorCommon& common, bool chosen, const SourceOf& source) const override;
   [[nodiscard]] std::shared_ptr<DisplacementSensor> open(const SensorCommon& common,

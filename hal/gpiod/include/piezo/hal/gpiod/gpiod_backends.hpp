@@ -13,6 +13,7 @@ class ParallelDacBackend final : public DriveBackend {
  public:
   [[nodiscard]] std::string_view name() const override { return "gpiod-dac"; }
   [[nodiscard]] std::vector<MovedKey> moved_keys() const override;
+  [[nodiscard]] std::vector<Claim> claims() const override;
   void read(config::SectionReader& section) override;
   void check(const DriveCommon& common, bool chosen, const SourceOf& source) const override;
   [[nodiscard]] std::shared_ptr<Drive> open(const DriveCommon& common,

@@ -23,6 +23,7 @@ class ModbusSensorBackend final : public SensorBackend {
   [[nodiscard]] std::string_view section() const override { return "modbus"; }
   [[nodiscard]] std::string describe() const override { return link_.describe(); }
   [[nodiscard]] std::vector<MovedKey> moved_keys() const override;
+  [[nodiscard]] std::vector<Claim> claims() const override;
   /// Reads `preset` first, then the link's and the map's keys over it.
   void read(config::SectionReader& section) override;
   void check(const SensorCommon& common, bool chosen, const SourceOf& source) const override;
@@ -47,6 +48,7 @@ class AnalogOutputBackend final : public DriveBackend {
  public:
   [[nodiscard]] std::string_view name() const override { return "modbus-ao"; }
   [[nodiscard]] std::vector<MovedKey> moved_keys() const override;
+  [[nodiscard]] std::vector<Claim> claims() const override;
   void read(config::SectionReader& section) override;
   void check(const DriveCommon& common, bool chosen, const SourceOf& source) const override;
   [[nodiscard]] std::shared_ptr<Drive> open(const DriveCommon& common,

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cstdint>
 #include <limits>
+#include <vector>
 
 #include "piezo/hal/clock.hpp"
 #include "piezo/model/lugre_integrator.hpp"
@@ -51,6 +52,11 @@ class Plant {
   /// seen disabled at once, and the motor follows from t when the drive
   /// thread next advances it.
   void trip(TimeNs t);
+  /// Crosstalk: this plant's amplifier output also reaches `neighbour`'s
+  /// stator, scaled by `coupling` (the share of this axis's stator stroke
+  /// the neighbour's stator takes through the frame they share). Set up
+  /// before the plants run; both written from the same drive thread.
+  void couple_to(Plant& neighbour, double coupling);
   /// The latest published state. Any thread, wait-free for the writer.
   [[nodiscard]] PlantSnapshot latest() const;
 
@@ -69,6 +75,16 @@ class Plant {
   void hold_at_end_stop();
   void publish();
   [[nodiscard]] double output_target() const;
+  /// The stator's input: its own output and what its neighbours couple in.
+  [[nodiscard]] double stator_V() const { return V_out_ + coupled_V_; }
+  /// A source's output changed at t: the coupled input follows from t on.
+  void update_coupled(TimeNs t);
+  void notify_neighbours();
+
+  struct Coupling {
+    const Plant* source;
+    double coupling;
+  };
 
   AmplifierSettings amplifier_;
   model::LuGreIntegrator motor_;
@@ -80,6 +96,9 @@ class Plant {
   double slope_ = 0.0;   // of the output's ramp towards its target [V/s]
   TimeNs ramp_end_ = 0;  // when the target is reached
   bool enabled_ = false;
+  double coupled_V_ = 0.0;          ///< the neighbours' outputs, as this stator sees them
+  std::vector<Coupling> sources_;   ///< whose outputs reach this stator
+  std::vector<Plant*> neighbours_;  ///< whose stators this output reaches
 
   std::atomic<std::uint64_t> sequence_{0};
   std::atomic<TimeNs> published_t_{0};

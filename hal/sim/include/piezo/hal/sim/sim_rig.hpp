@@ -28,6 +28,10 @@ struct SimAxisSettings {
   /// An end stop the rotor cannot pass, at this angle from where it starts
   /// (NaN: none); for tests of a blocked rotor.
   double end_stop_rad = std::numeric_limits<double>::quiet_NaN();
+  /// Crosstalk: the share of every other axis's stator stroke this axis's
+  /// stator takes through the frame they share (0: none). A neighbour's
+  /// sawtooth rocks this stator, and its fast edge can slip this rotor.
+  double coupling = 0.0;
 };
 
 /// A rig of one axis.

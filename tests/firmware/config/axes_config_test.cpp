@@ -1,0 +1,194 @@
+// A board's axes in its config: [axes.NAME] overlays the file's sections
+// for that axis; a config without [axes] is one axis, as before. Each
+// refusal names the key, the file and what is allowed.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <string>
+
+#include "../../support/run_command.hpp"
+#include "build_paths.hpp"
+#include "config/config_file.hpp"
+#include "config/rig.hpp"
+#include "piezo/config/config_error.hpp"
+
+namespace piezo::config {
+namespace {
+
+using piezo::testing::fresh_temp_dir;
+using piezo::testing::write_file;
+
+const std::string kBoard = R"(
+[drive]
+backend = "sim"
+[sensor]
+backend = "sim"
+[lines]
+backend = "sim"
+[run]
+clock = "virtual"
+)";
+
+class AxesConfig : public ::testing::Test {
+ protected:
+  std::filesystem::path dir = fresh_temp_dir("axes-config");
+  std::string file(const std::string& text) {
+    const auto path = dir / "board.toml";
+    write_file(path, text);
+    return path.string();
+  }
+  /// The refusal's text (empty: none).
+  std::string refusal(const std::string& text, const std::vector<std::string>& sets = {}) {
+    try {
+      (void)load_config_file(file(text), sets);
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return {};
+  }
+  void TearDown() override { std::filesystem::remove_all(dir); }
+};
+
+TEST_F(AxesConfig, AConfigWithoutAxesIsOneAxisNamedRotor) {
+  const BoardConfig board = load_config_file(file(kBoard)).board;
+  ASSERT_EQ(board.axes.size(), 1u);
+  EXPECT_EQ(board.axis().name, "rotor");
+  EXPECT_FALSE(board.fault_stops_all);
+}
+
+TEST_F(AxesConfig, TheThreeAxisBoardOverlaysEachAxisOnTheFilesSections) {
+  const BoardConfig board =
+      load_config_file(std::string(build_paths::source_dir) + "/configs/three-axes.toml").board;
+  ASSERT_EQ(board.axes.size(), 3u);
+  EXPECT_EQ(board.axes[0].name, "theta");
+  EXPECT_EQ(board.axes[1].name, "phi");
+  EXPECT_EQ(board.axes[2].name, "chi");
+  // Each axis's own keys; the rest is the file's.
+  EXPECT_EQ(board.axes[1].plant.J, 3.0e-6);
+  EXPECT_EQ(board.axes[1].sensor.r2_m, 0.08);
+  EXPECT_EQ(board.axes[0].sensor.r2_m, 0.062);
+  EXPECT_EQ(board.axes[0].plant.J, board.axes[2].plant.J);
+  EXPECT_EQ(board.axes[2].drive.limits.V_max, 60.0);
+  EXPECT_EQ(board.axes[2].model.drive.V0, 60.0);
+  EXPECT_EQ(board.axes[0].drive.limits.V_max, 80.0);
+  EXPECT_EQ(board.axes[2].safety.travel_max_rad, 0.5);
+  EXPECT_TRUE(std::isinf(board.axes[0].safety.travel_max_rad));
+  for (const AxisConfig& a : board.axes) {
+    EXPECT_EQ(a.drive.rate_hz, 10'000.0) << a.name;
+    EXPECT_EQ(a.plant_coupling, 0.02) << a.name << ": crosstalk on";
+  }
+}
+
+TEST_F(AxesConfig, SetReachesOneAxis) {
+  const BoardConfig board = load_config_file(file(kBoard + "[axes.a]\n[axes.b]\n"),
+                                             {"axes.b.drive.V_max=50", "axes.b.drive.V0=40"})
+                                .board;
+  EXPECT_EQ(board.axes[0].drive.limits.V_max, 80.0);
+  EXPECT_EQ(board.axes[1].drive.limits.V_max, 50.0);
+}
+
+TEST_F(AxesConfig, TheSimulatedRigHasAPlantPerAxisOnOneEnable) {
+  const BoardConfig board =
+      load_config_file(std::string(build_paths::source_dir) + "/configs/three-axes.toml").board;
+  const Rig rig = build_rig(board);
+  ASSERT_EQ(rig.axes.size(), 3u);
+  ASSERT_TRUE(rig.sim);
+  EXPECT_EQ(rig.sim->axis_count(), 3u);
+  EXPECT_NE(rig.axes[0].drive, rig.axes[1].drive);
+  EXPECT_EQ(rig.axes[2].drive->limits().V_max, 100.0) << "the DAC's reach, whatever the axis asks";
+  EXPECT_EQ(rig.sim->plant(1).latest().theta, 0.0);
+}
+
+TEST_F(AxesConfig, AnAxisNamedTwiceIsRefused) {
+  const std::string e = refusal(kBoard + "[axes.a]\n[axes.a]\n");
+  EXPECT_NE(e.find("axes.a"), std::string::npos) << e;
+}
+
+TEST_F(AxesConfig, TwoAxesOnOneOutputAreRefusedNamingBoth) {
+  const std::string two_on_one = R"(
+[drive]
+backend = "modbus-ao"
+[drive.modbus-ao]
+host = "127.0.0.1"
+address = 3
+link_loss_acknowledged = true
+[sensor]
+backend = "modbus-tcp"
+[sensor.modbus]
+host = "127.0.0.1"
+[lines]
+backend = "none"
+[run]
+[axes.theta]
+[axes.theta.sensor.modbus]
+unit_id = 1
+[axes.phi]
+[axes.phi.sensor.modbus]
+unit_id = 2
+)";
+  const std::string e = refusal(two_on_one);
+  EXPECT_NE(e.find("drive.modbus-ao.address (axis phi)"), std::string::npos) << e;
+  EXPECT_NE(e.find("theta"), std::string::npos) << e;
+  EXPECT_NE(e.find("register 3"), std::string::npos) << e;
+  // Each its own register: accepted.
+  EXPECT_EQ(refusal(two_on_one + "[axes.phi.drive.modbus-ao]\naddress = 4\n"), "");
+}
+
+TEST_F(AxesConfig, TwoAxesOnOneInputAreRefused) {
+  const std::string e = refusal(R"(
+[drive]
+backend = "modbus-ao"
+[drive.modbus-ao]
+host = "127.0.0.1"
+link_loss_acknowledged = true
+[sensor]
+backend = "modbus-tcp"
+[sensor.modbus]
+host = "127.0.0.1"
+[lines]
+backend = "none"
+[run]
+[axes.theta]
+[axes.phi]
+[axes.phi.drive.modbus-ao]
+address = 9
+)");
+  EXPECT_NE(e.find("sensor.modbus.address (axis phi)"), std::string::npos) << e;
+}
+
+TEST_F(AxesConfig, AKeyOfAnAxisIsNamedUnderItsAxis) {
+  EXPECT_NE(refusal(kBoard + "[axes.phi.drive]\nV_mx = 3\n").find("axes.phi.drive.V_mx"),
+            std::string::npos);
+  const std::string range = refusal(kBoard + "[axes.phi.drive]\nV_max = 3000\n");
+  EXPECT_NE(range.find("axes.phi.drive.V_max"), std::string::npos) << range;
+  EXPECT_NE(range.find("board.toml"), std::string::npos) << range;
+}
+
+TEST_F(AxesConfig, TheBoardsOwnSectionsAreNotAnAxiss) {
+  const std::string lines = refusal(kBoard + "[axes.phi.lines]\nbackend = \"none\"\n");
+  EXPECT_NE(lines.find("axes.phi.lines"), std::string::npos) << lines;
+  EXPECT_NE(lines.find("allowed"), std::string::npos) << lines;
+  const std::string rate = refusal(kBoard + "[axes.a]\n[axes.b.drive]\nrate_hz = 5000\n");
+  EXPECT_NE(rate.find("axes.b.drive.rate_hz"), std::string::npos) << rate;
+  EXPECT_NE(rate.find("one tick"), std::string::npos) << rate;
+  EXPECT_NE(refusal(kBoard + "[axes.a.safety]\nfault_stops_all = true\n")
+                .find("axes.a.safety.fault_stops_all"),
+            std::string::npos);
+}
+
+TEST_F(AxesConfig, AnAxisNameACommandLineCannotCarryIsRefused) {
+  const std::string e = refusal(kBoard + "[axes.\"a b\"]\n");
+  EXPECT_NE(e.find("axes.a b"), std::string::npos) << e;
+  EXPECT_NE(refusal(kBoard + "[axes]\nphi = 3\n").find("axes.phi"), std::string::npos);
+}
+
+TEST_F(AxesConfig, AValueBadForOneAxisNamesThatAxis) {
+  // [drive] V_max is fine for theta; chi's own V_min is above it.
+  const std::string e = refusal(kBoard + "[axes.theta]\n[axes.chi.drive]\nV_min = 79\nV0 = 80\n");
+  EXPECT_NE(e.find("axes.chi.drive"), std::string::npos) << e;
+}
+
+}  // namespace
+}  // namespace piezo::config
