@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cerrno>
+#include <filesystem>
 #include <zmq_addon.hpp>
 
 #include "calibration.hpp"
@@ -27,39 +28,39 @@ constexpr auto kHealthPeriod = std::chrono::milliseconds(250);
 
 namespace {
 
-/// The board config piezod serves: one axis. Several are refused before
-/// any device is opened, rather than served in part.
-const config::BoardConfig& served(const config::BoardConfig& board) {
-  if (board.axes.size() > 1) {
-    std::vector<std::string> names;
-    for (const auto& a : board.axes) names.push_back(a.name);
-    throw config::ConfigError(board.source, "axes",
-                              fmt::format("piezod serves one axis; this config declares {} ({})",
-                                          names.size(), fmt::join(names, ", ")));
-  }
-  return board;
+/// Where an axis keeps its calibration: the board's file, or on a board of
+/// several axes that file with the axis's name before its extension
+/// ("calibration.json": "calibration.theta.json").
+std::string calibration_file_of(const std::string& file, const std::string& axis, bool several) {
+  if (file.empty() || !several) return file;
+  const std::filesystem::path p(file);
+  return (p.parent_path() / (p.stem().string() + "." + axis + p.extension().string())).string();
 }
 
 }  // namespace
 
 Daemon::Daemon(const config::BoardConfig& board, zmq::context_t& context, const std::string& listen,
                std::ostream& log)
-    : Daemon(board, config::build_rig(served(board)), context, listen, log) {}
+    : Daemon(board, config::build_rig(board), context, listen, log) {}
 
 Daemon::Daemon(const config::BoardConfig& board, config::Rig rig, zmq::context_t& context,
                const std::string& listen, std::ostream& log)
-    : board_(served(board)),
-      axis_(board_.axis()),
+    : board_(board),
       log_(log),
       rig_(std::move(rig)),
       context_(context),
       commands_(context, zmq::socket_type::router),
       stream_(context, zmq::socket_type::pub),
       command_endpoint_(listen.empty() ? board.daemon.listen : listen),
-      samples_(board.daemon.recorder_s, axis_.drive.rate_hz, axis_.sensor.rate_hz,
+      samples_(board.daemon.recorder_s, board_.axis().drive.rate_hz, board_.axis().sensor.rate_hz,
                board.daemon.spill_file, board.daemon.fetch_samples_per_s, stream_),
-      planner_(axis_.model.motor),
       command_table_(command_table()) {
+  for (std::size_t i = 0; i < board_.axes.size(); ++i) {
+    axes_.push_back(std::make_unique<ServedAxis>(
+        i, board_.axes[i], rig_.axes.at(i),
+        calibration_file_of(board_.daemon.calibration_file, board_.axes[i].name,
+                            board_.axes.size() > 1)));
+  }
   try {
     stream_endpoint_ = protocol::stream_endpoint(command_endpoint_);
   } catch (const std::invalid_argument& e) {
@@ -67,15 +68,22 @@ Daemon::Daemon(const config::BoardConfig& board, config::Rig rig, zmq::context_t
                               e.what());
   }
   bind_sockets();
-  load_calibration_file();
-  // The board's own waveform's step table, before any client asks for a
-  // move: a move at the board's [drive] costs the network thread nothing.
-  const auto& d0 = axis_.model.drive;
-  (void)planner_.steps(d0.V0, d0.f, d0.D());
+  for (const auto& axis : axes_) {
+    load_calibration_file(*axis);
+    // The axis's own waveform's step table, before any client asks for a
+    // move: a move at its [drive] costs the network thread nothing.
+    const auto& d0 = axis->config.model.drive;
+    (void)axis->planner.steps(d0.V0, d0.f, d0.D());
+  }
   last_health_ = Clock::now();
-  log_event(fmt::format("listening: commands {}, stream {}; drive {}, sensor {}, lines {}",
-                        command_endpoint_, stream_endpoint_, axis_.drive.backend(),
-                        axis_.sensor.backend(), board_.lines.backend()));
+  std::string devices;
+  for (const auto& axis : axes_) {
+    devices += fmt::format("{}{}drive {}, sensor {}", devices.empty() ? "" : "; ",
+                           axes_.size() > 1 ? "axis " + axis->name() + ": " : "",
+                           axis->config.drive.backend(), axis->config.sensor.backend());
+  }
+  log_event(fmt::format("listening: commands {}, stream {}; {}; lines {}", command_endpoint_,
+                        stream_endpoint_, devices, board_.lines.backend()));
 }
 
 Daemon::~Daemon() = default;
@@ -132,21 +140,44 @@ void Daemon::bind_sockets() {
   }
 }
 
-void Daemon::load_calibration_file() {
-  if (board_.daemon.calibration_file.empty()) return;
-  // A file that cannot be used leaves the board uncalibrated (moves use
+void Daemon::load_calibration_file(ServedAxis& axis) {
+  if (axis.calibration_file.empty()) return;
+  // A file that cannot be used leaves the axis uncalibrated (moves use
   // the model), said in the log; it is replaced by the next calibration.
+  const config::DriveSettings& drive = axis.config.drive;
   try {
-    calibration_ = load_calibration(
-        board_.daemon.calibration_file,
-        {axis_.drive.limits.V_max, firmware::max_drive_frequency(axis_.drive.rate_hz)});
-    if (calibration_) {
-      log_event(fmt::format("calibration of {} loaded from {}", calibration_->created,
-                            board_.daemon.calibration_file));
+    axis.calibration = load_calibration(
+        axis.calibration_file, {drive.limits.V_max, firmware::max_drive_frequency(drive.rate_hz)});
+    if (axis.calibration) {
+      log_event(fmt::format("calibration of {} loaded from {}", axis.calibration->created,
+                            axis.calibration_file));
     }
   } catch (const std::exception& e) {
     log_event(fmt::format("calibration not loaded: {}", e.what()));
   }
+}
+
+ServedAxis& Daemon::axis_of(const json& args, std::string_view cmd) {
+  const auto it = args.find(wire_key::axis);
+  if (it == args.end() || it->is_null()) {
+    if (axes_.size() == 1) return *axes_.front();
+    throw ProtocolError(code::bad_argument, wire_key::axis,
+                        fmt::format("{}: axis: required on a board of several axes (allowed: {})",
+                                    cmd, axis_names()));
+  }
+  const std::string name = it->is_string() ? it->get<std::string>() : protocol::wire::shown(*it);
+  for (const auto& a : axes_) {
+    if (it->is_string() && a->name() == name) return *a;
+  }
+  throw ProtocolError(code::bad_argument, wire_key::axis,
+                      fmt::format("{}: axis: {} is not an axis of this board (allowed: {})", cmd,
+                                  it->is_string() ? "\"" + name + "\"" : name, axis_names()));
+}
+
+std::string Daemon::axis_names() const {
+  std::string out;
+  for (const auto& a : axes_) out += (out.empty() ? "" : ", ") + a->name();
+  return out;
 }
 
 void Daemon::log_event(const std::string& line) {
@@ -238,10 +269,27 @@ void Daemon::on_command(std::vector<zmq::message_t>& frames) {
   (void)zmq::send_multipart(commands_, out, zmq::send_flags::dontwait);
 }
 
+protocol::ArgumentSpec Daemon::axis_spec() const {
+  protocol::ArgumentSpec s;
+  s.name = wire_key::axis;
+  s.type = firmware::ArgumentType::choice;
+  for (const config::AxisConfig& a : board_.axes) s.choices.push_back(a.name);
+  s.required = board_.axes.size() > 1;
+  if (!s.required) s.default_value = board_.axis().name;
+  s.default_text = s.required ? "required (a board of several axes)" : "the board's one axis";
+  s.doc = "which axis (`hello.axes`)";
+  return s;
+}
+
 CommandTable Daemon::command_table() {
   using C = Caller;
   using Args = const json&;
   using Who = const std::string&;
+  // The commands that act on one axis take `axis` beside their own arguments.
+  const auto on_axis = [this](std::vector<protocol::ArgumentSpec> args) {
+    args.push_back(axis_spec());
+    return args;
+  };
   return CommandTable({
       {"hello", C::anyone, {}, [this](Who, Args) { return json(hello()); }},
       {"describe",
@@ -254,34 +302,35 @@ CommandTable Daemon::command_table() {
        {},
        [this](Who, Args) { return json(protocol::ClockReply{rig_.clock->now()}); }},
       {protocol::ConfigureRequest::kCommand, C::controller,
-       protocol::specs_of<protocol::ConfigureRequest>(),
+       on_axis(protocol::specs_of<protocol::ConfigureRequest>()),
        [this](Who, Args a) { return configure(a); }},
       {protocol::StartRequest::kCommand, C::controller,
        protocol::specs_of<protocol::StartRequest>(),
        [this](Who c, Args a) {
          return start(c, protocol::decode<protocol::StartRequest>(a).lease_s);
        }},
-      {protocol::StepRequest::kCommand, C::controller, protocol::specs_of<protocol::StepRequest>(),
+      {protocol::StepRequest::kCommand, C::controller,
+       on_axis(protocol::specs_of<protocol::StepRequest>()),
        [this](Who c, Args a) { return step(c, a); }},
-      {protocol::MoveToRequest::kCommand, C::controller, protocol::move_to_specs(),
+      {protocol::MoveToRequest::kCommand, C::controller, on_axis(protocol::move_to_specs()),
        [this](Who c, Args a) { return move_to(c, a); }},
       {protocol::CalibrateRequest::kCommand, C::controller,
-       protocol::specs_of<protocol::CalibrateRequest>(),
+       on_axis(protocol::specs_of<protocol::CalibrateRequest>()),
        [this](Who c, Args a) { return calibrate(c, a); }},
-      {"set_calibration",
-       C::controller,
-       {protocol::ArgumentSpec{std::string(wire_key::calibration),
-                               firmware::ArgumentType::map,
-                               "",
-                               {},
-                               "",
-                               {},
-                               true,
-                               nullptr,
-                               "required",
-                               "a calibration (docs/protocol.md, \"Calibration\"), or nil"}},
+      {"set_calibration", C::controller,
+       on_axis(
+           {protocol::ArgumentSpec{std::string(wire_key::calibration),
+                                   firmware::ArgumentType::map,
+                                   "",
+                                   {},
+                                   "",
+                                   {},
+                                   true,
+                                   nullptr,
+                                   "required",
+                                   "a calibration (docs/protocol.md, \"Calibration\"), or nil"}}),
        [this](Who c, Args a) { return set_calibration(c, a); }},
-      {"zero", C::controller, {}, [this](Who c, Args) { return set_zero(c); }},
+      {"zero", C::controller, on_axis({}), [this](Who c, Args a) { return set_zero(c, a); }},
       {"stop", C::controller, {}, [this](Who, Args) { return stop_run(); }},
       // Anyone may press it: it only ever makes the rig safer.
       {"estop", C::anyone, {}, [this](Who c, Args) { return estop(c); }},

@@ -34,6 +34,7 @@
 #include "piezo/protocol/messages.hpp"
 #include "run_state.hpp"
 #include "sample_hub.hpp"
+#include "served_axis.hpp"
 
 namespace piezo::daemon {
 
@@ -76,10 +77,12 @@ class Daemon {
 
   // daemon.cpp
   void bind_sockets();
-  void load_calibration_file();
+  void load_calibration_file(ServedAxis& axis);
   void poll_once();
   void on_command(std::vector<zmq::message_t>& frames);
   CommandTable command_table();
+  /// `axis`: the board's axes' names; required when it has several.
+  [[nodiscard]] protocol::ArgumentSpec axis_spec() const;
   void log_event(const std::string& line);
   [[nodiscard]] bool running() const { return run_state_.under_way(); }
   /// False once a run's drive loop has counted no cycle for a second on
@@ -88,8 +91,13 @@ class Daemon {
 
   // daemon_run.cpp
   nlohmann::json configure(const nlohmann::json& args);
-  /// Checks and keeps a waveform; `cmd` names the command in refusals.
-  protocol::ConfigureRequest apply_configuration(const protocol::ConfigureRequest& request,
+  /// The axis a request names (`axis`), or the board's one axis; throws
+  /// bad_argument naming the axes there are.
+  [[nodiscard]] ServedAxis& axis_of(const nlohmann::json& args, std::string_view cmd);
+  [[nodiscard]] std::string axis_names() const;  ///< "theta, phi, chi"
+  /// Checks and keeps a waveform for `axis`; `cmd` names the command in refusals.
+  protocol::ConfigureRequest apply_configuration(ServedAxis& axis,
+                                                 const protocol::ConfigureRequest& request,
                                                  const char* cmd);
   /// `lease_s`: the request's, if it named one (else the board's default).
   protocol::StartReply start(const std::string& client, std::optional<double> lease_s,
@@ -109,23 +117,24 @@ class Daemon {
   // daemon_programs.cpp
   nlohmann::json move_to(const std::string& client, const nlohmann::json& args);
   /// The move's settings from its request: limits, zero, noise, waveform, steps.
-  firmware::MoveSettings plan_move(const protocol::MoveToRequest& request, bool& calibrated);
+  firmware::MoveSettings plan_move(ServedAxis& axis, const protocol::MoveToRequest& request,
+                                   bool& calibrated);
   nlohmann::json calibrate(const std::string& client, const nlohmann::json& args);
   nlohmann::json set_calibration(const std::string& client, const nlohmann::json& args);
   /// Installs a checked calibration and keeps it in the board's file.
   /// Installs `c` and keeps it in [piezod] calibration_file, if any:
   /// why it could not be saved there, or nothing.
-  std::optional<std::string> install_calibration(protocol::CalibrationRecord c);
-  nlohmann::json set_zero(const std::string& client);
+  std::optional<std::string> install_calibration(ServedAxis& axis, protocol::CalibrationRecord c);
+  nlohmann::json set_zero(const std::string& client, const nlohmann::json& args);
   /// Reads the sensor `n` times at its rate with the loops stopped and the
   /// drive at 0 V: the mean of the good readings and their spread (they
   /// also become the recent ones, so `status` says the same).
-  [[nodiscard]] AtRest read_at_rest(std::size_t n);
-  [[nodiscard]] std::optional<double> recent_displacement_m() const;
-  void remember_reading(double displacement_m);
+  [[nodiscard]] AtRest read_at_rest(ServedAxis& axis, std::size_t n);
 
   // daemon_reports.cpp
   [[nodiscard]] protocol::Hello hello() const;
+  /// An axis's position from its zero and its latest readings.
+  [[nodiscard]] protocol::Status::Position position_of(const ServedAxis& axis) const;
   [[nodiscard]] protocol::Status status(const std::string& client) const;
   [[nodiscard]] protocol::MoveAccount move_account(const Run& run) const;
   [[nodiscard]] protocol::RunSummary summary(const Run& run) const;
@@ -133,7 +142,6 @@ class Daemon {
   void publish_health();
 
   config::BoardConfig board_;
-  const config::AxisConfig& axis_;  ///< the one axis piezod serves
   std::ostream& log_;
   config::Rig rig_;
   zmq::context_t& context_;
@@ -141,22 +149,16 @@ class Daemon {
   std::unique_ptr<ZapHandler> zap_;
   std::string command_endpoint_, stream_endpoint_;
   RunState run_state_;
+  std::vector<std::unique_ptr<ServedAxis>> axes_;  ///< in the board's order
   std::optional<protocol::ConfigureRequest> configured_;
+  ServedAxis* configured_axis_ = nullptr;  ///< the axis configured_ is for
   std::unique_ptr<Run> run_;
   std::uint64_t run_count_ = 0;
   SampleHub samples_;
-  /// The angle's zero: set by `zero` or a move, else the first good reading
-  /// since the daemon started.
-  firmware::AngleZero zero_;
-  /// The installed calibration (docs/protocol.md, "Calibration"), if any.
-  std::optional<protocol::CalibrationRecord> calibration_;
-  static constexpr std::size_t kRecentReadings = 8;  ///< averaged for a position
-  std::deque<double> recent_readings_;               ///< the last good readings of any run
   std::chrono::steady_clock::time_point last_health_;
   std::uint64_t last_drive_cycles_ = 0;
   std::chrono::steady_clock::time_point last_drive_progress_;
-  firmware::MovePlanner planner_;  ///< the model's step tables, per waveform
-  CommandTable command_table_;     ///< last: its handlers use the members above
+  CommandTable command_table_;  ///< last: its handlers use the members above
 };
 
 }  // namespace piezo::daemon

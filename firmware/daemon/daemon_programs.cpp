@@ -26,15 +26,16 @@ namespace code = protocol::code;
 json Daemon::move_to(const std::string& client, const json& args) {
   run_state_.require_can_start(client,
                                "move_to");  // before configure: a refused move changes nothing
+  ServedAxis& axis = axis_of(args, "move_to");
   const auto request = protocol::decode<protocol::MoveToRequest>(args);
   if (const auto breach = firmware::check_move(request.move, board_.daemon.duration_max_s)) {
     throw out_of_limits(breach->key, breach->message);
   }
   bool calibrated = false;
-  const firmware::MoveSettings m = plan_move(request, calibrated);
+  const firmware::MoveSettings m = plan_move(axis, request, calibrated);
   // Known now unless the readings at rest failed: then the move takes its
   // own, and the board keeps it afterwards.
-  const bool zero_before = zero_.known();
+  const bool zero_before = axis.zero.known();
   protocol::StartReply started = start(client, request.lease_s, {m, std::nullopt}, "move_to");
   // The request as taken: every field, and the coarse steps' waveform as used.
   protocol::MoveToRequest taken = request;
@@ -50,61 +51,66 @@ json Daemon::move_to(const std::string& client, const json& args) {
   return started;
 }
 
-firmware::MoveSettings Daemon::plan_move(const protocol::MoveToRequest& request, bool& calibrated) {
+firmware::MoveSettings Daemon::plan_move(ServedAxis& axis, const protocol::MoveToRequest& request,
+                                         bool& calibrated) {
+  const config::AxisConfig& c = axis.config;
+  const std::optional<protocol::CalibrationRecord>& calibration = axis.calibration;
+  firmware::AngleZero& zero = axis.zero;
   firmware::MoveSettings m;
   static_cast<firmware::MoveRequest&>(m) = request.move;
   // At rest before the move: the board's zero when it has none (the frame
   // of the target, and of the log's angles), and the sensor's noise when
   // no calibration gives it.
-  const AtRest rest =
-      !zero_.known() || !calibration_ ? read_at_rest(2 * kRecentReadings) : AtRest{};
-  if (!zero_.known() && rest.good >= 4) {
-    zero_.set(rest.mean_m);
+  const AtRest rest = !zero.known() || !calibration
+                          ? read_at_rest(axis, 2 * ServedAxis::kRecentReadings)
+                          : AtRest{};
+  if (!zero.known() && rest.good >= 4) {
+    zero.set(rest.mean_m);
     log_event(fmt::format("zero set at {:.9g} m (the mean of {} readings at rest before a move)",
                           rest.mean_m, rest.good));
   }
-  const std::optional<double> noise = calibration_     ? std::optional(calibration_->noise_m)
+  const std::optional<double> noise = calibration      ? std::optional(calibration->noise_m)
                                       : rest.good >= 4 ? std::optional(rest.stddev_m)
                                                        : std::nullopt;
   // A tolerance finer than the sensor resolves would never be reached.
   if (noise) {
-    const double smallest = smallest_tolerance_rad(*noise, axis_.sensor.r2_m);
+    const double smallest = smallest_tolerance_rad(*noise, c.sensor.r2_m);
     if (m.tolerance_rad < smallest) {
       throw out_of_limits(
           wire_key::tolerance_rad,
           fmt::format("{:g} rad is below what the sensor resolves: its noise is {:.3g} m "
                       "({:.3g} rad a reading, {} at rest); allowed: at least {:.3g} rad",
-                      m.tolerance_rad, *noise, *noise / axis_.sensor.r2_m,
-                      calibration_ ? wire_key::calibrated : "measured now", smallest));
+                      m.tolerance_rad, *noise, *noise / c.sensor.r2_m,
+                      calibration ? wire_key::calibrated : "measured now", smallest));
     }
   }
   // The coarse steps' waveform: the caller's, or the calibration's fastest
   // frequency, or the board's [drive] values.
-  model::DriveParameters d = axis_.model.drive;
+  model::DriveParameters d = c.model.drive;
   d.direction = model::Direction::forward;
   d.V0 = request.V0.value_or(d.V0);
   d.C_dr = request.C_dr.value_or(d.C_dr);
   d.e_dr = request.e_dr.value_or(d.e_dr);
   d.f = request.f.value_or(d.f);
-  if (!request.f && calibration_ && calibration_->fastest_f_hz &&
-      std::abs(calibration_->V0 - d.V0) <= 1e-9 * d.V0) {
-    d.f = *calibration_->fastest_f_hz;
+  if (!request.f && calibration && calibration->fastest_f_hz &&
+      std::abs(calibration->V0 - d.V0) <= 1e-9 * d.V0) {
+    d.f = *calibration->fastest_f_hz;
   }
-  (void)apply_configuration({d, request.move.timeout_s}, "move_to");
-  m.zero_displacement_m = zero_.displacement_m();
-  m.r2_m = axis_.sensor.r2_m;
+  (void)apply_configuration(axis, {d, request.move.timeout_s}, "move_to");
+  m.zero_displacement_m = zero.displacement_m();
+  m.r2_m = c.sensor.r2_m;
   m.V0 = d.V0;
   m.f = d.f;
   m.D = d.D();
-  m.fine_V_max = firmware::kHoldFractionOfVmax * axis_.drive.limits.V_max;
-  m.fast_slew_V_per_s = axis_.drive.limits.slew_V_per_s;
+  m.fine_V_max = firmware::kHoldFractionOfVmax * c.drive.limits.V_max;
+  m.fast_slew_V_per_s = c.drive.limits.slew_V_per_s;
   // The model's (or a fitted config's) view of the motor; a calibration
   // replaces the step tables with measured ones. Uncalibrated, and with no
   // frequency asked for: the model's tables at 2f and 4f too.
-  planner_.plan(m, false, axis_.drive.rate_hz, axis_.drive.limits.slew_V_per_s);
-  calibrated = calibration_ && apply_calibration(*calibration_, request.f, m);
+  axis.planner.plan(m, false, c.drive.rate_hz, c.drive.limits.slew_V_per_s);
+  calibrated = calibration && apply_calibration(*calibration, request.f, m);
   if (!calibrated && !request.f) {
-    planner_.plan(m, true, axis_.drive.rate_hz, axis_.drive.limits.slew_V_per_s);
+    axis.planner.plan(m, true, c.drive.rate_hz, c.drive.limits.slew_V_per_s);
   }
   return m;
 }
@@ -112,9 +118,11 @@ firmware::MoveSettings Daemon::plan_move(const protocol::MoveToRequest& request,
 json Daemon::calibrate(const std::string& client, const json& args) {
   run_state_.require_can_start(client,
                                "calibrate");  // before configure: a refused one changes nothing
+  ServedAxis& axis = axis_of(args, "calibrate");
+  const config::AxisConfig& c = axis.config;
   const auto request = protocol::decode<protocol::CalibrateRequest>(args);
-  const auto& lim = axis_.drive.limits;
-  const auto& d0 = axis_.model.drive;
+  const auto& lim = c.drive.limits;
+  const auto& d0 = c.model.drive;
   if (request.V0 && !(*request.V0 > 0.0 && *request.V0 <= lim.V_max)) {
     throw out_of_limits(
         wire_key::V0,
@@ -123,13 +131,13 @@ json Daemon::calibrate(const std::string& client, const json& args) {
   firmware::CalibrationPlan plan;
   plan.V0 = request.V0.value_or(std::min(d0.V0, lim.V_max));
   plan.D = d0.D();
-  plan.r2_m = axis_.sensor.r2_m;
+  plan.r2_m = c.sensor.r2_m;
   plan.hold_V_max = firmware::kHoldFractionOfVmax * lim.V_max;
   plan.fast_slew_V_per_s = lim.slew_V_per_s;
-  plan.flush_readings = std::max(10, static_cast<int>(std::ceil(0.1 * axis_.sensor.rate_hz)));
+  plan.flush_readings = std::max(10, static_cast<int>(std::ceil(0.1 * c.sensor.rate_hz)));
   // The board's frequency, twice and four times it: as many as the board's
   // rate and slew limit allow at V0.
-  const double f_max = std::min(firmware::max_drive_frequency(axis_.drive.rate_hz),
+  const double f_max = std::min(firmware::max_drive_frequency(c.drive.rate_hz),
                                 lim.slew_V_per_s * std::min(plan.D, 1.0 - plan.D) / plan.V0);
   plan.frequencies = 0;
   for (const double factor : {1.0, 2.0, 4.0}) {
@@ -146,7 +154,7 @@ json Daemon::calibrate(const std::string& client, const json& args) {
   d.direction = model::Direction::forward;
   d.V0 = plan.V0;
   d.f = plan.f_hz[static_cast<std::size_t>(plan.frequencies - 1)];
-  (void)apply_configuration({d, 1.5 * plan.duration_s(axis_.sensor.rate_hz) + 1.0}, "calibrate");
+  (void)apply_configuration(axis, {d, 1.5 * plan.duration_s(c.sensor.rate_hz) + 1.0}, "calibrate");
   protocol::StartReply started = start(client, request.lease_s, {std::nullopt, plan}, "calibrate");
   started.calibration = protocol::StartReply::Calibration{
       static_cast<std::uint32_t>(plan.steps), plan.V0,
@@ -157,69 +165,74 @@ json Daemon::calibrate(const std::string& client, const json& args) {
 json Daemon::set_calibration(const std::string&, const json& args) {
   // The command table admitted the caller: a run under way is the controller's.
   if (running()) throw ProtocolError(code::bad_state, "", "set_calibration: a run is under way");
+  ServedAxis& axis = axis_of(args, "set_calibration");
   if (!args.contains(wire_key::calibration)) {
     throw ProtocolError(code::bad_argument, wire_key::calibration,
                         "calibration: missing (a calibration map, or nil to clear it)");
   }
   const json& given = args.at(wire_key::calibration);
   if (given.is_null()) {
-    calibration_.reset();
-    if (!board_.daemon.calibration_file.empty()) {
+    axis.calibration.reset();
+    if (!axis.calibration_file.empty()) {
       std::error_code ignored;
-      std::filesystem::remove(board_.daemon.calibration_file, ignored);
+      std::filesystem::remove(axis.calibration_file, ignored);
     }
     log_event("calibration cleared");
     return protocol::SetCalibrationReply{};
   }
-  const std::optional<std::string> save_error = install_calibration(checked_calibration(
-      given, {axis_.drive.limits.V_max, firmware::max_drive_frequency(axis_.drive.rate_hz)}));
-  protocol::SetCalibrationReply reply{calibration_, std::nullopt, save_error};
-  if (!board_.daemon.calibration_file.empty() && !save_error) {
-    reply.saved_to = board_.daemon.calibration_file;
-  }
+  const config::DriveSettings& drive = axis.config.drive;
+  const std::optional<std::string> save_error = install_calibration(
+      axis, checked_calibration(
+                given, {drive.limits.V_max, firmware::max_drive_frequency(drive.rate_hz)}));
+  protocol::SetCalibrationReply reply{axis.calibration, std::nullopt, save_error};
+  if (!axis.calibration_file.empty() && !save_error) reply.saved_to = axis.calibration_file;
   return reply;
 }
 
-std::optional<std::string> Daemon::install_calibration(protocol::CalibrationRecord c) {
-  calibration_ = std::move(c);
+std::optional<std::string> Daemon::install_calibration(ServedAxis& axis,
+                                                       protocol::CalibrationRecord c) {
+  axis.calibration = std::move(c);
   std::string kept = "in memory only (no piezod.calibration_file)";
   std::optional<std::string> save_error;
-  if (!board_.daemon.calibration_file.empty()) {
+  if (!axis.calibration_file.empty()) {
     try {
-      save_calibration(board_.daemon.calibration_file, *calibration_);
-      kept = "kept in " + board_.daemon.calibration_file;
+      save_calibration(axis.calibration_file, *axis.calibration);
+      kept = "kept in " + axis.calibration_file;
     } catch (const std::exception& e) {
       save_error = e.what();
       kept = fmt::format("NOT kept: {}", e.what());
     }
   }
-  const auto& fastest = calibration_->fastest_f_hz;
-  log_event(fmt::format("calibration installed: fastest reliable {}, noise {:.3g} m; {}",
+  const auto& fastest = axis.calibration->fastest_f_hz;
+  log_event(fmt::format("calibration installed{}: fastest reliable {}, noise {:.3g} m; {}",
+                        axes_.size() > 1 ? " on " + axis.name() : "",
                         fastest ? fmt::format("{:g} Hz", *fastest) : std::string("none"),
-                        calibration_->noise_m, kept));
+                        axis.calibration->noise_m, kept));
   return save_error;
 }
 
-json Daemon::set_zero(const std::string&) {
+json Daemon::set_zero(const std::string&, const json& args) {
   // The frame of a run's target (a move's) must not shift under it: the
   // zero is the controller's between runs, and nobody's during one.
   if (running())
     throw ProtocolError(code::bad_state, "", "zero: a run is under way; zero after it ends");
-  const auto last = recent_displacement_m();
+  ServedAxis& axis = axis_of(args, "zero");
+  const auto last = axis.recent_displacement_m();
   if (!last) {
     throw ProtocolError(code::bad_state, "",
                         "zero: no sensor reading yet; the zero is the first reading of the "
                         "next run or move until then");
   }
-  zero_.set(*last);
-  log_event(fmt::format("zero set at {:.9g} m", *last));
-  return protocol::ZeroReply{status("").position};
+  axis.zero.set(*last);
+  log_event(
+      fmt::format("zero{} set at {:.9g} m", axes_.size() > 1 ? " of " + axis.name() : "", *last));
+  return protocol::ZeroReply{position_of(axis)};
 }
 
-Daemon::AtRest Daemon::read_at_rest(std::size_t n) {
+Daemon::AtRest Daemon::read_at_rest(ServedAxis& axis, std::size_t n) {
   hal::Clock& clock = *rig_.clock;
   clock.add_sleeper();  // the virtual clock schedules the threads it knows of
-  const hal::TimeNs period = hal::from_seconds(1.0 / axis_.sensor.rate_hz);
+  const hal::TimeNs period = hal::from_seconds(1.0 / axis.config.sensor.rate_hz);
   hal::TimeNs next = clock.now();
   std::vector<double> readings;
   // The first readings after an idle gap may be the sensor's last ones
@@ -231,11 +244,11 @@ Daemon::AtRest Daemon::read_at_rest(std::size_t n) {
     // 0 V again (the output holds it anyway, the amplifier is off): a
     // simulated plant advances only at a write, so the reading sees the
     // rotor at its time, not extrapolated from the stop.
-    (void)rig_.axes.front().drive->write(0.0);
-    const hal::DisplacementReading r = rig_.axes.front().sensor->read();
+    (void)axis.rig.drive->write(0.0);
+    const hal::DisplacementReading r = axis.rig.sensor->read();
     if (i < kSkipped || r.status != hal::Status::ok || !std::isfinite(r.displacement_m)) continue;
     readings.push_back(r.displacement_m);
-    remember_reading(r.displacement_m);
+    axis.remember_reading(r.displacement_m);
   }
   clock.remove_sleeper();
   AtRest r;
@@ -258,18 +271,6 @@ Daemon::AtRest Daemon::read_at_rest(std::size_t n) {
     r.stddev_m = steps[steps.size() / 2] / (0.6745 * std::sqrt(2.0));
   }
   return r;
-}
-
-void Daemon::remember_reading(double displacement_m) {
-  recent_readings_.push_back(displacement_m);
-  if (recent_readings_.size() > kRecentReadings) recent_readings_.pop_front();
-}
-
-std::optional<double> Daemon::recent_displacement_m() const {
-  if (recent_readings_.empty()) return std::nullopt;
-  double sum = 0.0;
-  for (double d : recent_readings_) sum += d;
-  return sum / static_cast<double>(recent_readings_.size());
 }
 
 }  // namespace piezo::daemon

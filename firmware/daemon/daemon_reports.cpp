@@ -36,32 +36,52 @@ protocol::LoopHealth health_of(const firmware::LoopHealth& h, bool with_timing) 
 }  // namespace
 
 protocol::Hello Daemon::hello() const {
-  const auto& lim = axis_.drive.limits;
+  // The top-level fields are the first axis's (a board of one: its axis).
+  const ServedAxis& first = *axes_.front();
+  const config::AxisConfig& c = first.config;
+  const auto& lim = c.drive.limits;
   protocol::Hello h;
   h.protocol = protocol::kProtocolVersion;
   h.frame_version = protocol::kFrameVersion;
   h.daemon = PIEZO_VERSION;
   h.stream = stream_endpoint_;
   h.clock = config::name(board_.run.clock);
-  h.backends = {std::string(axis_.drive.backend()), std::string(axis_.sensor.backend()),
+  h.backends = {std::string(c.drive.backend()), std::string(c.sensor.backend()),
                 std::string(board_.lines.backend())};
   h.limits = {lim.V_min,
               lim.V_max,
               lim.slew_V_per_s,
-              axis_.safety.ramp_down_V_per_s,
-              axis_.safety.sensor_stale_s,
-              firmware::max_drive_frequency(axis_.drive.rate_hz),
+              c.safety.ramp_down_V_per_s,
+              c.safety.sensor_stale_s,
+              firmware::max_drive_frequency(c.drive.rate_hz),
               board_.daemon.duration_max_s,
               board_.daemon.lease_max_s};
-  h.sensor.r2_m = axis_.sensor.r2_m;
-  h.sensor.zero_displacement_m = zero_.value();
-  h.drive_rate_hz = axis_.drive.rate_hz;
-  h.sensor_rate_hz = axis_.sensor.rate_hz;
-  h.output_latency_s = rig_.axes.front().drive->output_latency_s();
+  h.sensor.r2_m = c.sensor.r2_m;
+  h.sensor.zero_displacement_m = first.zero.value();
+  h.drive_rate_hz = c.drive.rate_hz;
+  h.sensor_rate_hz = c.sensor.rate_hz;
+  h.output_latency_s = first.rig.drive->output_latency_s();
   h.lease_s = board_.daemon.lease_s;
   h.recorder_s = board_.daemon.recorder_s;
-  h.calibration = calibration_;
+  h.calibration = first.calibration;
+  const auto end = [](double v) { return std::isfinite(v) ? std::optional(v) : std::nullopt; };
+  for (const auto& axis : axes_) {
+    const config::AxisConfig& a = axis->config;
+    h.axes.push_back({a.name, a.sensor.r2_m, a.drive.limits.V_min, a.drive.limits.V_max,
+                      a.drive.limits.slew_V_per_s, end(a.safety.travel_min_rad),
+                      end(a.safety.travel_max_rad), std::string(a.drive.backend()),
+                      std::string(a.sensor.backend()), axis->zero.value(), axis->calibration});
+  }
   return h;
+}
+
+protocol::Status::Position Daemon::position_of(const ServedAxis& axis) const {
+  protocol::Status::Position p;
+  const auto last = axis.recent_displacement_m();
+  if (axis.zero.known() && last)
+    p.position_rad = axis.zero.angle_rad(*last, axis.config.sensor.r2_m);
+  p.zero_displacement_m = axis.zero.value();
+  return p;
 }
 
 protocol::Status Daemon::status(const std::string& client) const {
@@ -74,14 +94,16 @@ protocol::Status Daemon::status(const std::string& client) const {
   if (run_state_.state() == State::fault) s.fault = run_state_.fault();
   s.recorder = {{samples_.drive_first(), samples_.drive_recorded()},
                 {samples_.sensor_first(), samples_.sensor_recorded()}};
-  const auto last = recent_displacement_m();
-  if (zero_.known() && last) s.position.position_rad = zero_.angle_rad(*last, axis_.sensor.r2_m);
-  s.position.zero_displacement_m = zero_.value();
-  s.calibration = calibration_;
+  s.position = position_of(*axes_.front());
+  s.calibration = axes_.front()->calibration;
+  for (const auto& axis : axes_) {
+    s.axes.push_back({axis->name(), position_of(*axis), axis->calibration.has_value()});
+  }
   s.configured = configured_;
   if (run_) {
     protocol::RunStatus r;
     r.id = run_->id;
+    r.axis = run_->axis.name();
     r.t0_ns = run_->t0;
     r.duration_s = run_->request.duration_s;
     r.lease_s = run_->lease_s;

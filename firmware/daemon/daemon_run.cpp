@@ -42,21 +42,23 @@ std::int64_t wall_ns() {
 
 json Daemon::configure(const json& args) {
   if (running()) throw ProtocolError(code::bad_state, "", "configure: a run is under way");
-  const auto taken =
-      apply_configuration(protocol::decode<protocol::ConfigureRequest>(args), "configure");
+  const auto taken = apply_configuration(
+      axis_of(args, "configure"), protocol::decode<protocol::ConfigureRequest>(args), "configure");
   return protocol::ConfigureReply{taken.drive.D(), taken};
 }
 
-protocol::ConfigureRequest Daemon::apply_configuration(const protocol::ConfigureRequest& r,
+protocol::ConfigureRequest Daemon::apply_configuration(ServedAxis& axis,
+                                                       const protocol::ConfigureRequest& r,
                                                        const char* cmd) {
   if (running())
     throw ProtocolError(code::bad_state, "", fmt::format("{}: a run is under way", cmd));
   if (const auto breach = firmware::check_drive(
           r.drive, r.duration_s,
-          {axis_.drive.limits, axis_.drive.rate_hz, board_.daemon.duration_max_s})) {
+          {axis.config.drive.limits, axis.config.drive.rate_hz, board_.daemon.duration_max_s})) {
     throw out_of_limits(breach->key, breach->message);
   }
   configured_ = r;
+  configured_axis_ = &axis;
   return r;
 }
 
@@ -74,7 +76,7 @@ protocol::StartReply Daemon::start(const std::string& client,
                         fmt::format("{:g} s; allowed: {} s", lease_s, allowed.text()));
   }
   run_.reset();  // the last run's runner (joined) goes; its samples are overwritten below
-  auto run = std::make_unique<Run>(*configured_);
+  auto run = std::make_unique<Run>(*configured_, *configured_axis_);
   run->id = ++run_count_;
   run->lease_s = lease_s;
   samples_.clear();
@@ -87,7 +89,7 @@ protocol::StartReply Daemon::start(const std::string& client,
     Run* r = run.get();
     const auto window = static_cast<std::uint64_t>(
         std::min(kVirtualAckWindow * static_cast<double>(samples_.drive_capacity()),
-                 kVirtualAckWindow_s * axis_.drive.rate_hz));
+                 kVirtualAckWindow_s * board_.axis().drive.rate_hz));
     const auto lease_ns = static_cast<std::int64_t>(lease_s * 1e9);
     lagging = [r, window, lease_ns] {
       return wall_ns() - r->lease_renewed_ns.load() < lease_ns &&
@@ -121,16 +123,18 @@ protocol::StartReply Daemon::start(const std::string& client,
 }
 
 void Daemon::build_runner(Run& run, const Program& program) {
-  firmware::LoopRunnerSettings settings{{axis_.drive.rate_hz, run.request.duration_s},
-                                        axis_.sensor.rate_hz,
-                                        !board_.virtual_clock(),
-                                        board_.run.priority,
-                                        board_.run.lock_memory};
+  ServedAxis& axis = run.axis;
+  const config::AxisConfig& c = axis.config;
+  firmware::LoopRunnerSettings settings{
+      {c.drive.rate_hz, run.request.duration_s, board_.fault_stops_all},
+      c.sensor.rate_hz,
+      !board_.virtual_clock(),
+      board_.run.priority,
+      board_.run.lock_memory};
   const auto runner = [&](firmware::DriveProgram& program_to_follow) {
-    std::vector<firmware::RunAxis> axes{{*rig_.axes.front().drive, *rig_.axes.front().sensor,
-                                         program_to_follow, axis_.drive.limits,
-                                         1.0 / run.request.drive.f, axis_.safety, axis_.sensor.r2_m,
-                                         zero_.displacement_m(), &run.feed}};
+    std::vector<firmware::RunAxis> axes{{*axis.rig.drive, *axis.rig.sensor, program_to_follow,
+                                         c.drive.limits, 1.0 / run.request.drive.f, c.safety,
+                                         c.sensor.r2_m, axis.zero.displacement_m(), &run.feed}};
     run.runner = std::make_unique<firmware::LoopRunner>(settings, std::move(axes), *rig_.clock,
                                                         *rig_.lines, &run.remote);
   };
@@ -141,20 +145,20 @@ void Daemon::build_runner(Run& run, const Program& program) {
     run.calibration =
         std::make_unique<firmware::CalibrationProgram>(*program.calibration, run.feed);
     runner(*run.calibration);
-  } else if (axis_.safety.protect_runs) {
+  } else if (c.safety.protect_runs) {
     firmware::RunGuardSettings g;
-    g.periods = axis_.safety.stall_periods;
+    g.periods = c.safety.stall_periods;
     g.f = run.request.drive.f;
     g.direction = run.request.drive.direction == model::Direction::forward ? 1.0 : -1.0;
-    g.r2_m = axis_.sensor.r2_m;
+    g.r2_m = c.sensor.r2_m;
     const double rad_per_V =
-        calibration_ ? calibration_->rad_per_V : axis_.model.motor.d_e / axis_.model.motor.r;
+        axis.calibration ? axis.calibration->rad_per_V : c.model.motor.d_e / c.model.motor.r;
     g.stroke_rad = rad_per_V * run.request.drive.V0;
     // The noise at rest, measured now (a few readings before the drive
     // starts), or the calibration's if larger.
-    const AtRest rest = read_at_rest(2 * kRecentReadings);
-    g.noise_m =
-        std::max(rest.good >= 4 ? rest.stddev_m : 0.0, calibration_ ? calibration_->noise_m : 0.0);
+    const AtRest rest = read_at_rest(axis, 2 * ServedAxis::kRecentReadings);
+    g.noise_m = std::max(rest.good >= 4 ? rest.stddev_m : 0.0,
+                         axis.calibration ? axis.calibration->noise_m : 0.0);
     run.guard = std::make_unique<firmware::RunGuard>(run.waveform, g, run.feed);
     runner(*run.guard);
   } else {
@@ -167,6 +171,7 @@ json Daemon::step(const std::string& client, const json& args) {
   // the fast edge forward, the slow edge in reverse), so the run ends there
   // with nothing left to ramp and the rotor is not pulled back.
   run_state_.require_can_start(client, "step");  // before configure: a refused step changes nothing
+  ServedAxis& axis = axis_of(args, "step");
   const auto request = protocol::decode<protocol::StepRequest>(args);
   const double f = request.drive.f;
   // At most the board's longest run of whole periods.
@@ -180,7 +185,7 @@ json Daemon::step(const std::string& client, const json& args) {
                                     board_.daemon.duration_max_s));
   }
   const auto configured =
-      apply_configuration({request.drive, static_cast<double>(request.count) / f}, "step");
+      apply_configuration(axis, {request.drive, static_cast<double>(request.count) / f}, "step");
   protocol::StartReply started = start(client, request.lease_s, Program{}, "step");
   started.count = request.count;
   started.direction = configured.drive.direction;
@@ -250,9 +255,10 @@ void Daemon::check_lease_on_wall_clock() {
 
 void Daemon::pump_samples() {
   if (!run_) return;
-  const bool ramping = samples_.take(*run_->runner, [this](double d) {
-    remember_reading(d);
-    zero_.offer(d);  // no zero yet: the first good reading
+  ServedAxis& axis = run_->axis;
+  const bool ramping = samples_.take(*run_->runner, [&axis](double d) {
+    axis.remember_reading(d);
+    axis.zero.offer(d);  // no zero yet: the first good reading
   });
   run_->drive_recorded = samples_.drive_recorded();
   // The drive's own phase says when the stop began.
@@ -264,7 +270,7 @@ void Daemon::finish_run() {
   run.runner->join();
   pump_samples();
   if (run.move || run.calibration) {
-    const AtRest rest = read_at_rest(kRecentReadings);
+    const AtRest rest = read_at_rest(run.axis, ServedAxis::kRecentReadings);
     if (rest.good > 0) run.final_displacement_m = rest.mean_m;
   }
   run.finished = true;
@@ -276,7 +282,7 @@ void Daemon::finish_run() {
     // board had none; a zero acknowledged before the move is never undone.
     if (const double z = run.move->zero_displacement_m();
         run.move_takes_its_zero && !std::isnan(z)) {
-      zero_.set(z);
+      run.axis.zero.set(z);
     }
   }
   if (run.calibration) take_calibration(run);
@@ -295,14 +301,16 @@ void Daemon::take_calibration(Run& run) {
   if (!result.complete || cause != firmware::StopCause::completed) {
     run.summary.calibration_error = fmt::format(
         "the experiment ended {} before it was complete; the board keeps {}",
-        firmware::to_string(cause), calibration_ ? "its calibration" : "no calibration");
+        firmware::to_string(cause), run.axis.calibration ? "its calibration" : "no calibration");
     return;
   }
   try {
-    install_calibration(checked_calibration(
-        measured_calibration(run.calibration->plan(), result),
-        {axis_.drive.limits.V_max, firmware::max_drive_frequency(axis_.drive.rate_hz)}));
-    run.summary.calibration.value = *calibration_;
+    const config::DriveSettings& drive = run.axis.config.drive;
+    install_calibration(
+        run.axis,
+        checked_calibration(measured_calibration(run.calibration->plan(), result),
+                            {drive.limits.V_max, firmware::max_drive_frequency(drive.rate_hz)}));
+    run.summary.calibration.value = *run.axis.calibration;
   } catch (const std::exception& e) {
     // Measurements no calibration can hold (no motion, a sensor that saw
     // nothing): the old calibration stays; the summary says why.

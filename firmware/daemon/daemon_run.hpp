@@ -18,6 +18,7 @@ namespace piezo::daemon {
 
 struct Daemon::Run {
   std::uint64_t id = 0;
+  ServedAxis& axis;  ///< the axis it drives
   protocol::ConfigureRequest request;
   model::Sawtooth waveform;
   firmware::WaveformProgram waveform_program{waveform};  ///< a plain run's program
@@ -39,8 +40,8 @@ struct Daemon::Run {
   std::atomic<std::int64_t> lease_renewed_ns{0};
   std::atomic<std::uint64_t> drive_acked{0}, drive_recorded{0};
 
-  explicit Run(const protocol::ConfigureRequest& r)
-      : request(r), waveform(r.drive.V0, r.drive.f, r.drive.rise()) {}
+  Run(const protocol::ConfigureRequest& r, ServedAxis& a)
+      : axis(a), request(r), waveform(r.drive.V0, r.drive.f, r.drive.rise()) {}
 };
 
 /// A refusal of a value beyond the board's limits, naming its key.

@@ -159,7 +159,7 @@ json describe(const std::vector<CommandSpec>& commands, const Hello::Limits& lim
     for (const ArgumentSpec& a : c.args) {
       Interval allowed = a.allowed;
       if (const auto v = limit_value(limits, a.limit)) allowed.max = *v;
-      json arg{{"name", a.name},
+      json arg{{wire_key::name, a.name},
                {"type", type_name(a.type)},
                {"unit", a.unit},
                {"required", a.required},
@@ -183,7 +183,7 @@ json describe(const std::vector<CommandSpec>& commands, const Hello::Limits& lim
   const auto layout = [](const auto& fields) {
     json out = json::array();
     for (const LayoutField& f : fields) {
-      out.push_back({{"name", f.name}, {"type", f.type}, {"offset", f.offset}});
+      out.push_back({{wire_key::name, f.name}, {"type", f.type}, {"offset", f.offset}});
     }
     return out;
   };
@@ -227,11 +227,11 @@ std::optional<ArgumentBreach> check_arguments(const json& dictionary, std::strin
   const json& declared = commands.at(cmd).at("args");
   std::string takes;
   for (const json& a : declared) {
-    takes += (takes.empty() ? "" : ", ") + a.at("name").get<std::string>();
+    takes += (takes.empty() ? "" : ", ") + a.at(wire_key::name).get<std::string>();
   }
   for (const auto& [key, value] : args.items()) {
     const auto it = std::find_if(declared.begin(), declared.end(),
-                                 [&](const json& a) { return a.at("name") == key; });
+                                 [&](const json& a) { return a.at(wire_key::name) == key; });
     if (it == declared.end()) {
       return ArgumentBreach{code::bad_argument, key,
                             fmt::format("not an argument of {} (it takes: {})", cmd,
@@ -291,8 +291,8 @@ std::optional<ArgumentBreach> check_arguments(const json& dictionary, std::strin
     }
   }
   for (const json& a : declared) {
-    if (a.at("required").get<bool>() && !args.contains(a.at("name").get<std::string>())) {
-      const std::string key = a.at("name").get<std::string>();
+    if (a.at("required").get<bool>() && !args.contains(a.at(wire_key::name).get<std::string>())) {
+      const std::string key = a.at(wire_key::name).get<std::string>();
       return ArgumentBreach{code::bad_argument, key, "missing"};
     }
   }

@@ -79,9 +79,9 @@ struct Fields<Hello::Backends> {
 template <>
 struct Fields<Hello::Limits> {
   using T = Hello::Limits;
-  static constexpr auto list = std::tuple{field("V_min", &T::V_min),
+  static constexpr auto list = std::tuple{field(wire_key::V_min, &T::V_min),
                                           field(wire_key::V_max, &T::V_max),
-                                          field("slew_V_per_s", &T::slew_V_per_s),
+                                          field(wire_key::slew_V_per_s, &T::slew_V_per_s),
                                           field("ramp_down_V_per_s", &T::ramp_down_V_per_s),
                                           field("sensor_stale_s", &T::sensor_stale_s),
                                           field(wire_key::f_max_hz, &T::f_max_hz),
@@ -94,6 +94,22 @@ struct Fields<Hello::Sensor> {
   static constexpr auto list =
       std::tuple{field(wire_key::r2_m, &T::r2_m),
                  field(wire_key::zero_displacement_m, &T::zero_displacement_m)};
+};
+template <>
+struct Fields<AxisInfo> {
+  using T = AxisInfo;
+  static constexpr auto list =
+      std::tuple{field(wire_key::name, &T::name),
+                 field(wire_key::r2_m, &T::r2_m),
+                 field(wire_key::V_min, &T::V_min),
+                 field(wire_key::V_max, &T::V_max),
+                 field(wire_key::slew_V_per_s, &T::slew_V_per_s),
+                 field("travel_min_rad", &T::travel_min_rad),
+                 field("travel_max_rad", &T::travel_max_rad),
+                 field(wire_key::drive, &T::drive),
+                 field(wire_key::sensor, &T::sensor),
+                 field(wire_key::zero_displacement_m, &T::zero_displacement_m),
+                 field(wire_key::calibration, &T::calibration)};
 };
 template <>
 struct Fields<Hello> {
@@ -111,7 +127,8 @@ struct Fields<Hello> {
                                           field("output_latency_s", &T::output_latency_s),
                                           field(wire_key::lease_s, &T::lease_s),
                                           field("recorder_s", &T::recorder_s),
-                                          field(wire_key::calibration, &T::calibration)};
+                                          field(wire_key::calibration, &T::calibration),
+                                          field(wire_key::axes, &T::axes, may_be_missing)};
 };
 template <>
 struct Fields<LoopHealth::Timing> {
@@ -241,6 +258,7 @@ struct Fields<RunStatus> {
   using T = RunStatus;
   static constexpr auto list = std::tuple{
       field(wire_key::id, &T::id),
+      field(wire_key::axis, &T::axis, may_be_missing),
       field(wire_key::t0_ns, &T::t0_ns),
       field(firmware::arguments::duration_s.name, &T::duration_s),
       field(firmware::arguments::lease_s.name, &T::lease_s),
@@ -271,6 +289,13 @@ struct Fields<Status::Position> {
                  field(wire_key::zero_displacement_m, &T::zero_displacement_m)};
 };
 template <>
+struct Fields<Status::Axis> {
+  using T = Status::Axis;
+  static constexpr auto list =
+      std::tuple{field(wire_key::name, &T::name), field(wire_key::position, &T::position),
+                 field(wire_key::calibrated, &T::calibrated)};
+};
+template <>
 struct Fields<Status> {
   using T = Status;
   static constexpr auto list = std::tuple{field(wire_key::state, &T::state),
@@ -283,7 +308,8 @@ struct Fields<Status> {
                                           field(wire_key::calibration, &T::calibration),
                                           field("configured", &T::configured, omitted_when_absent),
                                           field(wire_key::run, &T::run, omitted_when_absent),
-                                          field("requests", &T::requests, may_be_missing)};
+                                          field("requests", &T::requests, may_be_missing),
+                                          field(wire_key::axes, &T::axes, may_be_missing)};
 };
 
 template <>

@@ -310,11 +310,20 @@ class Board:
         """The board's CLOCK_MONOTONIC [ns]."""
         return int(self.call("clock")["board_ns"])
 
-    def zero(self) -> dict[str, Any]:
+    def zero(self, axis: Optional[str] = None) -> dict[str, Any]:
         """Makes the rotor's position now (the mean of the last 8 good
-        readings) the zero; returns ``position``. Between runs only."""
-        position: dict[str, Any] = self.call("zero")["position"]
+        readings) the zero; returns ``position``. Between runs only.
+        ``axis``: which (required on a board of several axes)."""
+        position: dict[str, Any] = self.call("zero", **self.checked("zero", {"axis": axis}))[
+            "position"]
         return position
+
+    @property
+    def axes(self) -> dict[str, "Axis"]:
+        """The board's axes by name, in its order (``hello()["axes"]``):
+        ``board.axes["theta"].move_to(0.01)``. A board of one has one."""
+        hello = self._hello or self.hello()
+        return {a["name"]: Axis(self, a["name"]) for a in hello.get("axes", [])}
 
     def stop(self) -> str:
         """Ramps the drive to 0 V and ends the run (the controller only)."""
@@ -331,11 +340,14 @@ class Board:
         """Clears a latched fault (not during a run)."""
         return str(self.call("reset_fault")["state"])
 
-    def set_calibration(self, calibration: Optional[dict[str, Any]]) -> Optional[dict[str, Any]]:
+    def set_calibration(self, calibration: Optional[dict[str, Any]],
+                        axis: Optional[str] = None) -> Optional[dict[str, Any]]:
         """Installs a calibration (a map as ``calibrate`` measures it, perhaps
-        with a fitted ``model``), or clears it with None."""
-        installed: Optional[dict[str, Any]] = self.call(
-            "set_calibration", calibration=calibration)["calibration"]
+        with a fitted ``model``), or clears it with None; ``axis``: whose."""
+        args: dict[str, Any] = {"calibration": calibration}
+        if axis is not None:
+            args["axis"] = axis
+        installed: Optional[dict[str, Any]] = self.call("set_calibration", **args)["calibration"]
         return installed
 
     def fetch(self, stream: str, first: int, count: int) -> np.ndarray[Any, Any]:
@@ -384,7 +396,7 @@ class Board:
         configure.update({k: v for k, v in options.items() if k not in start_keys})
         start = {k: v for k, v in options.items() if k in start_keys}
         self.call("configure", **self.checked("configure", configure))
-        return Run(self, "start", self.checked("start", start), renew)
+        return Run(self, "start", self.checked("start", start), renew, axis=options.get("axis"))
 
     def step(self, count: int, V0: float, f: float, **options: Any) -> "Run":
         """Exactly ``count`` whole sawtooth periods, ending at 0 V; waits for
@@ -461,6 +473,50 @@ class Board:
         return calibration
 
 
+class Axis:
+    """One axis of a board (``Board.axes``): the board's commands that act on
+    one axis, with ``axis`` filled in. Its ``info`` is its entry of
+    ``hello()["axes"]`` (radius, limits, travel window, backends)."""
+
+    def __init__(self, board: Board, name: str):
+        self.board, self.name = board, name
+
+    def __repr__(self) -> str:
+        return f"Axis({self.name!r})"
+
+    @property
+    def info(self) -> dict[str, Any]:
+        hello = self.board._hello or self.board.hello()
+        entry: dict[str, Any] = next(a for a in hello["axes"] if a["name"] == self.name)
+        return entry
+
+    def status(self) -> dict[str, Any]:
+        """Its entry of ``status()["axes"]``: ``position`` and ``calibrated``."""
+        entry: dict[str, Any] = next(
+            a for a in self.board.status()["axes"] if a["name"] == self.name)
+        return entry
+
+    def run(self, V0: float, f: float, duration: float, **options: Any) -> "Run":
+        """``Board.run`` on this axis."""
+        return self.board.run(V0, f, duration, axis=self.name, **options)
+
+    def step(self, count: int, V0: float, f: float, **options: Any) -> "Run":
+        """``Board.step`` on this axis."""
+        return self.board.step(count, V0, f, axis=self.name, **options)
+
+    def move_to(self, target_rad: float, **options: Any) -> dict[str, Any]:
+        """``Board.move_to`` on this axis."""
+        return self.board.move_to(target_rad, axis=self.name, **options)
+
+    def calibrate(self, V0: Optional[float] = None, **options: Any) -> dict[str, Any]:
+        """``Board.calibrate`` on this axis."""
+        return self.board.calibrate(V0, axis=self.name, **options)
+
+    def zero(self) -> dict[str, Any]:
+        """``Board.zero`` on this axis."""
+        return self.board.zero(self.name)
+
+
 class Run:
     """A run this client controls (from ``Board.run``, ``step``, ...):
     iterate it for ``Block`` s in sequence, gaps fetched from the board's
@@ -470,9 +526,14 @@ class Run:
     every record so far."""
 
     def __init__(self, board: Board, command: str, args: dict[str, Any], renew: bool,
-                 raise_on_fault: bool = True):
+                 raise_on_fault: bool = True, axis: Optional[str] = None):
         self.board = board
         self.hello = board._hello or board.hello()
+        # The axis it drives, and the radius of the sensor that measures it.
+        axes = self.hello.get("axes") or []
+        self.axis: Optional[str] = axis or args.get("axis") or (axes[0]["name"] if axes else None)
+        self.r2_m = next((float(a["r2_m"]) for a in axes if a["name"] == self.axis),
+                         float(self.hello["sensor"]["r2_m"]))
         self._raise_on_fault = raise_on_fault
         self._sub = board._socket_for(zmq.SUB)
         self._sub.setsockopt(zmq.RCVHWM, board.stream_queue)
@@ -699,7 +760,7 @@ class Run:
         the reading failed."""
         records = self.sensor if records is None else records
         zero = self.zero_displacement_m
-        theta = (records["displacement_m"] - (zero or 0.0)) / self.hello["sensor"]["r2_m"]
+        theta = (records["displacement_m"] - (zero or 0.0)) / self.r2_m
         return np.where(records["status"] == 0, theta, np.nan)
 
 

@@ -63,8 +63,22 @@ struct CalibrationRecord {
       smallest_tolerance_rad;
 };
 
+/// One of the board's axes as `hello` lists it: its name (what `axis`
+/// takes), its sensor's radius, its drive's limits, its travel window, its
+/// backends, its zero and its calibration.
+struct AxisInfo {
+  std::string name;
+  double r2_m = 0.0;
+  double V_min = 0.0, V_max = 0.0, slew_V_per_s = 0.0;
+  std::optional<double> travel_min_rad, travel_max_rad;  ///< nil: no end there
+  std::string drive, sensor;                             ///< its backends
+  std::optional<double> zero_displacement_m;
+  std::optional<CalibrationRecord> calibration;
+};
+
 /// `hello`'s reply: what a client needs before it asks for anything, and to
-/// interpret the samples (the sensor's radius).
+/// interpret the samples (the sensor's radius). Its top-level fields are
+/// the first axis's; `axes` lists every axis.
 struct Hello {
   std::uint32_t protocol = 0;
   std::uint32_t frame_version = 0;
@@ -90,6 +104,7 @@ struct Hello {
   double lease_s = 0.0;
   double recorder_s = 0.0;
   std::optional<CalibrationRecord> calibration;  ///< the installed calibration
+  std::vector<AxisInfo> axes;                    ///< in the board's order
 };
 
 /// A loop's health counters, and its period-error statistics where given
@@ -291,6 +306,7 @@ struct StateEvent {
 /// The run in `status`: the one under way, or the last.
 struct RunStatus {
   std::uint64_t id = 0;
+  std::string axis;  ///< the axis it drives
   std::int64_t t0_ns = 0;
   double duration_s = 0.0, lease_s = 0.0;
   bool finished = false;
@@ -323,6 +339,14 @@ struct Status {
   std::optional<CalibrationRecord> calibration;  ///< as in hello
   std::optional<ConfigureRequest> configured;
   std::optional<RunStatus> run;
+  /// Each axis's position from its zero, and whether it is calibrated, in
+  /// the board's order (`position` and `calibration` above are the first's).
+  struct Axis {
+    std::string name;
+    Position position;
+    bool calibrated = false;
+  };
+  std::vector<Axis> axes;
   /// `requests`: how many of each command the board has had since it
   /// started (taken or refused; unknown ones under kUnknownCommands).
   std::map<std::string, std::uint64_t> requests;
