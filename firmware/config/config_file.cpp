@@ -154,6 +154,7 @@ void read_board_address(SectionReader r, BoardAddress& a) {
   r.number("lease_s", a.lease_s, {0.0, 600.0}, "s");
   r.text("server_public_key_file", a.server_public_key_file);
   r.text("client_secret_key_file", a.client_secret_key_file);
+  r.text("axis", a.axis);
   r.finish();
 }
 

@@ -139,6 +139,9 @@ struct BoardAddress {
   std::string server_public_key_file;  ///< CURVE: the board's public key (Z85)
   std::string client_secret_key_file;  ///< CURVE: this host's key pair, from `piezod keygen`
   double lease_s = 0.0;                ///< the lease a run asks for; 0: the board's default
+  /// The board's axis this host's commands drive (empty: the board's one
+  /// axis; a board of several asks for one).
+  std::string axis;
 };
 
 /// The name of a board's one axis when its config declares no [axes].

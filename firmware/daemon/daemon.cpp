@@ -281,6 +281,31 @@ protocol::ArgumentSpec Daemon::axis_spec() const {
   return s;
 }
 
+std::vector<protocol::ArgumentSpec> Daemon::move_to_specs() const {
+  std::vector<protocol::ArgumentSpec> args = protocol::move_to_specs();
+  // A group move names its axes and targets in `targets` instead.
+  for (protocol::ArgumentSpec& a : args) {
+    if (a.name != wire_key::target_rad) continue;
+    a.required = false;
+    a.default_text = "required, unless `targets` names the targets";
+  }
+  protocol::ArgumentSpec axis = axis_spec();
+  if (axis.required) {
+    axis.required = false;
+    axis.default_text = "required, unless `targets` names the axes";
+  }
+  args.push_back(std::move(axis));
+  protocol::ArgumentSpec targets;
+  targets.name = wire_key::targets;
+  targets.type = firmware::ArgumentType::map;
+  targets.default_text = "none: one axis's move (`target_rad`, `axis`)";
+  targets.doc =
+      "a group move: {axis: target_rad, ...}, every axis started on one tick, each ending on "
+      "its own; the other arguments hold for each";
+  args.push_back(std::move(targets));
+  return args;
+}
+
 CommandTable Daemon::command_table() {
   using C = Caller;
   using Args = const json&;
@@ -312,7 +337,7 @@ CommandTable Daemon::command_table() {
       {protocol::StepRequest::kCommand, C::controller,
        on_axis(protocol::specs_of<protocol::StepRequest>()),
        [this](Who c, Args a) { return step(c, a); }},
-      {protocol::MoveToRequest::kCommand, C::controller, on_axis(protocol::move_to_specs()),
+      {protocol::MoveToRequest::kCommand, C::controller, move_to_specs(),
        [this](Who c, Args a) { return move_to(c, a); }},
       {protocol::CalibrateRequest::kCommand, C::controller,
        on_axis(protocol::specs_of<protocol::CalibrateRequest>()),

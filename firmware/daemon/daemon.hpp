@@ -9,6 +9,7 @@
 //   daemon_reports.cpp  what the board says: hello, status, events (typed messages)
 //   run_state.*         the state machine and its latching rules
 //   command_table.*     commands, their arguments and who may send them
+//   served_axis.hpp     what the board keeps for each of its axes
 //   sample_hub.*        recorder, spill file, publishing and fetch
 
 #include <atomic>
@@ -67,7 +68,12 @@ class Daemon {
   /// What a run follows: the configured waveform, a closed-loop move, or
   /// the calibration experiment.
   struct Program {
-    std::optional<firmware::MoveSettings> move;
+    /// A move's settings on its axis: one for a move, several for a group.
+    struct Move {
+      ServedAxis* axis = nullptr;
+      firmware::MoveSettings settings;
+    };
+    std::vector<Move> moves;
     std::optional<firmware::CalibrationPlan> calibration;
   };
   struct AtRest {
@@ -83,6 +89,8 @@ class Daemon {
   CommandTable command_table();
   /// `axis`: the board's axes' names; required when it has several.
   [[nodiscard]] protocol::ArgumentSpec axis_spec() const;
+  /// `move_to`'s: the move's request, `axis`, and a group's `targets`.
+  [[nodiscard]] std::vector<protocol::ArgumentSpec> move_to_specs() const;
   void log_event(const std::string& line);
   [[nodiscard]] bool running() const { return run_state_.under_way(); }
   /// False once a run's drive loop has counted no cycle for a second on
@@ -136,7 +144,9 @@ class Daemon {
   /// An axis's position from its zero and its latest readings.
   [[nodiscard]] protocol::Status::Position position_of(const ServedAxis& axis) const;
   [[nodiscard]] protocol::Status status(const std::string& client) const;
-  [[nodiscard]] protocol::MoveAccount move_account(const Run& run) const;
+  [[nodiscard]] protocol::MoveAccount move_account(const Run& run, std::size_t part) const;
+  /// Each part's move account (empty: not a move).
+  [[nodiscard]] std::vector<protocol::MoveAccount> move_accounts(const Run& run) const;
   [[nodiscard]] protocol::RunSummary summary(const Run& run) const;
   void publish_state();
   void publish_health();

@@ -26,28 +26,75 @@ namespace code = protocol::code;
 json Daemon::move_to(const std::string& client, const json& args) {
   run_state_.require_can_start(client,
                                "move_to");  // before configure: a refused move changes nothing
-  ServedAxis& axis = axis_of(args, "move_to");
-  const auto request = protocol::decode<protocol::MoveToRequest>(args);
-  if (const auto breach = firmware::check_move(request.move, board_.daemon.duration_max_s)) {
-    throw out_of_limits(breach->key, breach->message);
+  // One request per axis: the request itself, or one per target of a group
+  // (`targets`: {axis: target_rad}), each with the group's other arguments.
+  std::vector<std::pair<ServedAxis*, json>> requests;
+  if (const auto t = args.find(wire_key::targets); t != args.end() && !t->is_null()) {
+    if (args.contains(wire_key::target_rad) || args.contains(wire_key::axis)) {
+      throw ProtocolError(code::bad_argument, wire_key::targets,
+                          "move_to: targets: give targets (a group), or target_rad and axis, "
+                          "not both");
+    }
+    if (!t->is_object() || t->empty()) {
+      throw ProtocolError(code::bad_argument, wire_key::targets,
+                          fmt::format("move_to: targets: a map of axis to target_rad, e.g. "
+                                      "{{\"{}\": 0.01}} (axes: {})",
+                                      axes_.front()->name(), axis_names()));
+    }
+    for (const auto& [name, target] : t->items()) {
+      json one = args;
+      one.erase(std::string(wire_key::targets));
+      one[wire_key::target_rad] = target;
+      one[wire_key::axis] = name;
+      requests.emplace_back(&axis_of(one, "move_to"), std::move(one));
+    }
+    // In the board's order, whatever the map's.
+    std::sort(requests.begin(), requests.end(),
+              [](const auto& a, const auto& b) { return a.first->index < b.first->index; });
+  } else {
+    requests.emplace_back(&axis_of(args, "move_to"), args);
   }
-  bool calibrated = false;
-  const firmware::MoveSettings m = plan_move(axis, request, calibrated);
-  // Known now unless the readings at rest failed: then the move takes its
-  // own, and the board keeps it afterwards.
-  const bool zero_before = axis.zero.known();
-  protocol::StartReply started = start(client, request.lease_s, {m, std::nullopt}, "move_to");
-  // The request as taken: every field, and the coarse steps' waveform as used.
-  protocol::MoveToRequest taken = request;
-  const auto& d = configured_->drive;
-  taken.V0 = d.V0;
-  taken.f = d.f;
-  taken.C_dr = d.C_dr;
-  taken.e_dr = d.e_dr;
-  taken.lease_s.reset();  // the reply's own
-  started.move = protocol::StartReply::Move{
-      calibrated, zero_before ? std::optional(m.zero_displacement_m) : std::nullopt, taken};
-  run_->move_takes_its_zero = !zero_before;
+  // Every move checked and planned before any starts: one refused, none moves.
+  Program program;
+  std::vector<protocol::StartReply::Move> taken;
+  std::optional<double> lease_s;
+  for (auto& [axis, one] : requests) {
+    try {
+      const auto request = protocol::decode<protocol::MoveToRequest>(one);
+      if (const auto breach = firmware::check_move(request.move, board_.daemon.duration_max_s)) {
+        throw out_of_limits(breach->key, breach->message);
+      }
+      bool calibrated = false;
+      const firmware::MoveSettings m = plan_move(*axis, request, calibrated);
+      // Known now unless the readings at rest failed: then the move takes
+      // its own, and the axis keeps it afterwards.
+      const bool zero_before = axis->zero.known();
+      // The request as taken: every field, and the coarse steps' waveform as used.
+      protocol::MoveToRequest as_taken = request;
+      const auto& d = configured_->drive;
+      as_taken.V0 = d.V0;
+      as_taken.f = d.f;
+      as_taken.C_dr = d.C_dr;
+      as_taken.e_dr = d.e_dr;
+      as_taken.lease_s.reset();  // the reply's own
+      taken.push_back({axis->name(), calibrated,
+                       zero_before ? std::optional(m.zero_displacement_m) : std::nullopt,
+                       as_taken});
+      program.moves.push_back({axis, m});
+      lease_s = request.lease_s;
+    } catch (const ProtocolError& e) {
+      if (requests.size() == 1) throw;
+      // A group's refusal names the axis whose move it refuses.
+      throw ProtocolError(e.code(), std::string(wire_key::targets) + "." + axis->name(),
+                          fmt::format("{}: {}", axis->name(), e.what()));
+    }
+  }
+  protocol::StartReply started = start(client, lease_s, program, "move_to");
+  for (std::size_t i = 0; i < taken.size(); ++i) {
+    run_->parts[i]->move_takes_its_zero = !taken[i].zero_displacement_m;
+  }
+  started.move = taken.front();
+  if (taken.size() > 1) started.moves = std::move(taken);
   return started;
 }
 
@@ -155,7 +202,7 @@ json Daemon::calibrate(const std::string& client, const json& args) {
   d.V0 = plan.V0;
   d.f = plan.f_hz[static_cast<std::size_t>(plan.frequencies - 1)];
   (void)apply_configuration(axis, {d, 1.5 * plan.duration_s(c.sensor.rate_hz) + 1.0}, "calibrate");
-  protocol::StartReply started = start(client, request.lease_s, {std::nullopt, plan}, "calibrate");
+  protocol::StartReply started = start(client, request.lease_s, {{}, plan}, "calibrate");
   started.calibration = protocol::StartReply::Calibration{
       static_cast<std::uint32_t>(plan.steps), plan.V0,
       std::vector<double>(plan.f_hz.begin(), plan.f_hz.begin() + plan.frequencies)};

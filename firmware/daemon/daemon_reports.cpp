@@ -103,7 +103,7 @@ protocol::Status Daemon::status(const std::string& client) const {
   if (run_) {
     protocol::RunStatus r;
     r.id = run_->id;
-    r.axis = run_->axis.name();
+    r.axis = run_->first().axis.name();
     r.t0_ns = run_->t0;
     r.duration_s = run_->request.duration_s;
     r.lease_s = run_->lease_s;
@@ -111,24 +111,35 @@ protocol::Status Daemon::status(const std::string& client) const {
     r.drive = health_of(run_->runner->drive_health(), false);
     r.sensor = health_of(run_->runner->sensor_health(), false);
     if (run_->finished) r.summary = run_->summary;
-    if (run_->move) r.move = move_account(*run_);
+    const auto moves = move_accounts(*run_);
+    if (!moves.empty()) r.move = moves.front();
+    if (moves.size() > 1) r.moves = moves;  // a move of one axis: `move` says it
     if (run_->calibration) r.calibration_progress = run_->calibration->progress();
     s.run = r;
   }
   return s;
 }
 
-protocol::MoveAccount Daemon::move_account(const Run& run) const {
-  const firmware::MoveController& m = *run.move;
+std::vector<protocol::MoveAccount> Daemon::move_accounts(const Run& run) const {
+  std::vector<protocol::MoveAccount> out;
+  if (!run.is_move()) return out;
+  for (std::size_t i = 0; i < run.parts.size(); ++i) out.push_back(move_account(run, i));
+  return out;
+}
+
+protocol::MoveAccount Daemon::move_account(const Run& run, std::size_t part) const {
+  const Run::Part& p = *run.parts[part];
+  const firmware::MoveController& m = *p.move;
   const double zero = m.zero_displacement_m();
   // On target, the settle's mean (read at 0 V, of as many readings as the
   // noise asks for); any other end, the readings taken after the stop.
   const bool on_target = m.state() == firmware::MoveState::on_target;
-  const double position = !on_target && run.final_displacement_m && !std::isnan(zero)
-                              ? (*run.final_displacement_m - zero) / m.settings().r2_m
+  const double position = !on_target && p.final_displacement_m && !std::isnan(zero)
+                              ? (*p.final_displacement_m - zero) / m.settings().r2_m
                               : m.position_rad();
   const auto finite = [](double v) { return std::isnan(v) ? std::nullopt : std::optional(v); };
   protocol::MoveAccount a;
+  a.axis = p.axis.name();
   a.state = m.state();
   a.target_rad = m.settings().target_rad;
   a.tolerance_rad = m.settings().tolerance_rad;
@@ -143,22 +154,42 @@ protocol::MoveAccount Daemon::move_account(const Run& run) const {
     a.hold = protocol::MoveAccount::Hold{m.settings().hold_s, finite(m.hold_rms_error_rad()),
                                          finite(m.hold_max_error_rad())};
   }
-  if (run.finished) a.stop_cause = firmware::move_end(on_target, run.runner->cause());
+  // Each axis of a group ends on its own; a move of one axis ends as its run.
+  const auto cause = run.parts.size() > 1 ? run.runner->cause(part) : run.runner->cause();
+  if (run.finished) a.stop_cause = firmware::move_end(on_target, cause);
   return a;
 }
 
+namespace {
+
+protocol::OutputEnd output_end(const firmware::OutputOutcome& out) {
+  return {firmware::output_state(out),
+          out.zero_confirmed,
+          out.zero_read_back,
+          std::isnan(out.acknowledged_V) ? std::nullopt : std::optional(out.acknowledged_V),
+          out.zero_writes,
+          std::string(hal::to_string(out.zero_status)),
+          out.enabled_ever,
+          std::string(hal::to_string(out.enable_status))};
+}
+
+}  // namespace
+
 protocol::RunSummary Daemon::summary(const Run& run) const {
-  const auto& out = run.runner->outcome();
   protocol::RunSummary s;
   s.cause = run.runner->cause();
-  s.output = {firmware::output_state(out),
-              out.zero_confirmed,
-              out.zero_read_back,
-              std::isnan(out.acknowledged_V) ? std::nullopt : std::optional(out.acknowledged_V),
-              out.zero_writes,
-              std::string(hal::to_string(out.zero_status)),
-              out.enabled_ever,
-              std::string(hal::to_string(out.enable_status))};
+  // The run's output is every axis's: confirmed only when each is (the
+  // first unconfirmed one's otherwise).
+  s.output = output_end(run.runner->outcome(0));
+  for (std::size_t i = 0; i < run.parts.size(); ++i) {
+    const protocol::OutputEnd out = output_end(run.runner->outcome(i));
+    if (s.output.state == firmware::OutputState::confirmed) s.output = out;
+    protocol::RunSummary::Axis axis{run.parts[i]->axis.name(), run.runner->cause(i), out,
+                                    std::nullopt};
+    if (run.is_move()) axis.move = move_account(run, i);
+    s.axes.push_back(std::move(axis));
+  }
+  if (run.is_move()) s.move = s.axes.front().move;
   s.drive = health_of(run.runner->drive_health(), true);
   s.sensor = health_of(run.runner->sensor_health(), true);
   s.realtime = run.runner->realtime_notes();
@@ -185,7 +216,9 @@ void Daemon::publish_health() {
   if (running()) {
     e.drive = health_of(run_->runner->drive_health(), true);
     e.sensor = health_of(run_->runner->sensor_health(), true);
-    if (run_->move) e.move = move_account(*run_);
+    const auto moves = move_accounts(*run_);
+    if (!moves.empty()) e.move = moves.front();
+    if (moves.size() > 1) e.moves = moves;
     if (run_->calibration) e.calibration_progress = run_->calibration->progress();
   }
   const std::string body = protocol::encode_map(e);

@@ -76,7 +76,11 @@ protocol::StartReply Daemon::start(const std::string& client,
                         fmt::format("{:g} s; allowed: {} s", lease_s, allowed.text()));
   }
   run_.reset();  // the last run's runner (joined) goes; its samples are overwritten below
-  auto run = std::make_unique<Run>(*configured_, *configured_axis_);
+  // A move's axes (a group's several), or the axis `configure` set.
+  std::vector<ServedAxis*> axes;
+  for (const Program::Move& m : program.moves) axes.push_back(m.axis);
+  if (axes.empty()) axes.push_back(configured_axis_);
+  auto run = std::make_unique<Run>(*configured_, axes);
   run->id = ++run_count_;
   run->lease_s = lease_s;
   samples_.clear();
@@ -123,28 +127,48 @@ protocol::StartReply Daemon::start(const std::string& client,
 }
 
 void Daemon::build_runner(Run& run, const Program& program) {
-  ServedAxis& axis = run.axis;
-  const config::AxisConfig& c = axis.config;
+  // The rates are the board's (one tick for every axis).
+  const config::AxisConfig& board_axis = board_.axis();
   firmware::LoopRunnerSettings settings{
-      {c.drive.rate_hz, run.request.duration_s, board_.fault_stops_all},
-      c.sensor.rate_hz,
+      {board_axis.drive.rate_hz, run.request.duration_s, board_.fault_stops_all},
+      board_axis.sensor.rate_hz,
       !board_.virtual_clock(),
       board_.run.priority,
       board_.run.lock_memory};
-  const auto runner = [&](firmware::DriveProgram& program_to_follow) {
-    std::vector<firmware::RunAxis> axes{{*axis.rig.drive, *axis.rig.sensor, program_to_follow,
-                                         c.drive.limits, 1.0 / run.request.drive.f, c.safety,
-                                         c.sensor.r2_m, axis.zero.displacement_m(), &run.feed}};
+  // Each part's axis: its devices, limits, safety, geometry and zero.
+  const auto run_axis = [&](Run::Part& part, firmware::DriveProgram& program_to_follow,
+                            double period_s) {
+    const ServedAxis& axis = part.axis;
+    const config::AxisConfig& c = axis.config;
+    return firmware::RunAxis{*axis.rig.drive,   *axis.rig.sensor,
+                             program_to_follow, c.drive.limits,
+                             period_s,          c.safety,
+                             c.sensor.r2_m,     axis.zero.displacement_m(),
+                             &part.feed,        static_cast<std::uint8_t>(axis.index)};
+  };
+  const auto start_loops = [&](std::vector<firmware::RunAxis> axes) {
     run.runner = std::make_unique<firmware::LoopRunner>(settings, std::move(axes), *rig_.clock,
                                                         *rig_.lines, &run.remote);
   };
-  if (program.move) {
-    run.move = std::make_unique<firmware::MoveController>(*program.move, run.feed);
-    runner(*run.move);
-  } else if (program.calibration) {
+  if (!program.moves.empty()) {
+    std::vector<firmware::RunAxis> axes;
+    for (std::size_t i = 0; i < program.moves.size(); ++i) {
+      Run::Part& part = *run.parts[i];
+      const firmware::MoveSettings& m = program.moves[i].settings;
+      part.move = std::make_unique<firmware::MoveController>(m, part.feed);
+      axes.push_back(run_axis(part, *part.move, 1.0 / m.f));
+    }
+    start_loops(std::move(axes));
+    return;
+  }
+  Run::Part& part = run.first();
+  ServedAxis& axis = part.axis;
+  const config::AxisConfig& c = axis.config;
+  const double period_s = 1.0 / run.request.drive.f;
+  if (program.calibration) {
     run.calibration =
-        std::make_unique<firmware::CalibrationProgram>(*program.calibration, run.feed);
-    runner(*run.calibration);
+        std::make_unique<firmware::CalibrationProgram>(*program.calibration, part.feed);
+    start_loops({run_axis(part, *run.calibration, period_s)});
   } else if (c.safety.protect_runs) {
     firmware::RunGuardSettings g;
     g.periods = c.safety.stall_periods;
@@ -159,10 +183,10 @@ void Daemon::build_runner(Run& run, const Program& program) {
     const AtRest rest = read_at_rest(axis, 2 * ServedAxis::kRecentReadings);
     g.noise_m = std::max(rest.good >= 4 ? rest.stddev_m : 0.0,
                          axis.calibration ? axis.calibration->noise_m : 0.0);
-    run.guard = std::make_unique<firmware::RunGuard>(run.waveform, g, run.feed);
-    runner(*run.guard);
+    run.guard = std::make_unique<firmware::RunGuard>(run.waveform, g, part.feed);
+    start_loops({run_axis(part, *run.guard, period_s)});
   } else {
-    runner(run.waveform_program);
+    start_loops({run_axis(part, run.waveform_program, period_s)});
   }
 }
 
@@ -255,13 +279,27 @@ void Daemon::check_lease_on_wall_clock() {
 
 void Daemon::pump_samples() {
   if (!run_) return;
-  ServedAxis& axis = run_->axis;
-  const bool ramping = samples_.take(*run_->runner, [&axis](double d) {
-    axis.remember_reading(d);
-    axis.zero.offer(d);  // no zero yet: the first good reading
-  });
-  run_->drive_recorded = samples_.drive_recorded();
-  // The drive's own phase says when the stop began.
+  Run& run = *run_;
+  samples_.take(
+      *run.runner,
+      [&run](const firmware::DriveSample& s) {
+        if (Run::Part* part = run.part_of(s.axis)) part->phase = s.phase;
+      },
+      [this](std::uint8_t axis_index, double d) {
+        ServedAxis& axis = *axes_.at(axis_index);
+        axis.remember_reading(d);
+        axis.zero.offer(d);  // no zero yet: the first good reading
+      });
+  run.drive_recorded = samples_.drive_recorded();
+  // The drive's own phase says when the stop began: once no axis of the
+  // run drives any more (an axis of a group that ended on its own is not
+  // the board's stop).
+  const bool ramping =
+      std::all_of(run.parts.begin(), run.parts.end(),
+                  [](const auto& part) { return part->phase != firmware::DrivePhase::driving; }) &&
+      std::any_of(run.parts.begin(), run.parts.end(), [](const auto& part) {
+        return part->phase == firmware::DrivePhase::ramping_down;
+      });
   if (ramping && run_state_.ramping()) publish_state();
 }
 
@@ -269,20 +307,22 @@ void Daemon::finish_run() {
   auto& run = *run_;
   run.runner->join();
   pump_samples();
-  if (run.move || run.calibration) {
-    const AtRest rest = read_at_rest(run.axis, ServedAxis::kRecentReadings);
-    if (rest.good > 0) run.final_displacement_m = rest.mean_m;
+  if (run.is_move() || run.calibration) {
+    for (const auto& part : run.parts) {
+      const AtRest rest = read_at_rest(part->axis, ServedAxis::kRecentReadings);
+      if (rest.good > 0) part->final_displacement_m = rest.mean_m;
+    }
   }
   run.finished = true;
   const auto cause = run.runner->cause();
   run.summary = summary(run);
-  if (run.move) {
-    run.summary.move = move_account(run);
-    // The move's own zero, to the last bit, when it took one because the
-    // board had none; a zero acknowledged before the move is never undone.
-    if (const double z = run.move->zero_displacement_m();
-        run.move_takes_its_zero && !std::isnan(z)) {
-      run.axis.zero.set(z);
+  for (const auto& part : run.parts) {
+    // A move's own zero, to the last bit, when it took one because its
+    // axis had none; a zero acknowledged before the move is never undone.
+    if (!part->move) continue;
+    if (const double z = part->move->zero_displacement_m();
+        part->move_takes_its_zero && !std::isnan(z)) {
+      part->axis.zero.set(z);
     }
   }
   if (run.calibration) take_calibration(run);
@@ -299,18 +339,20 @@ void Daemon::take_calibration(Run& run) {
   const auto& result = run.calibration->result();
   run.summary.calibration.present = true;  // a calibration run's: nil when it installed none
   if (!result.complete || cause != firmware::StopCause::completed) {
-    run.summary.calibration_error = fmt::format(
-        "the experiment ended {} before it was complete; the board keeps {}",
-        firmware::to_string(cause), run.axis.calibration ? "its calibration" : "no calibration");
+    run.summary.calibration_error =
+        fmt::format("the experiment ended {} before it was complete; the board keeps {}",
+                    firmware::to_string(cause),
+                    run.first().axis.calibration ? "its calibration" : "no calibration");
     return;
   }
   try {
-    const config::DriveSettings& drive = run.axis.config.drive;
+    ServedAxis& axis = run.first().axis;
+    const config::DriveSettings& drive = axis.config.drive;
     install_calibration(
-        run.axis,
+        axis,
         checked_calibration(measured_calibration(run.calibration->plan(), result),
                             {drive.limits.V_max, firmware::max_drive_frequency(drive.rate_hz)}));
-    run.summary.calibration.value = *run.axis.calibration;
+    run.summary.calibration.value = *axis.calibration;
   } catch (const std::exception& e) {
     // Measurements no calibration can hold (no motion, a sensor that saw
     // nothing): the old calibration stays; the summary says why.

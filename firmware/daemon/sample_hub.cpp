@@ -45,23 +45,23 @@ void SampleHub::clear() {
   drive_published_ = sensor_published_ = 0;
 }
 
-bool SampleHub::take(firmware::LoopRunner& runner,
-                     const std::function<void(double)>& on_good_reading) {
-  bool ramping = false;
-  // The board serves one axis today: the runner's first.
-  runner.drain(
-      0,
-      [&](const firmware::DriveSample& s) {
-        drive_.push(s);
-        ramping = ramping || s.phase == firmware::DrivePhase::ramping_down;
-      },
-      [&](const firmware::SensorSample& s) {
-        sensor_.push(s);
-        if (s.status == hal::Status::ok) on_good_reading(s.displacement_m);
-      });
+void SampleHub::take(firmware::LoopRunner& runner,
+                     const std::function<void(const firmware::DriveSample&)>& on_drive,
+                     const std::function<void(std::uint8_t, double)>& on_good_reading) {
+  for (std::size_t axis = 0; axis < runner.axis_count(); ++axis) {
+    runner.drain(
+        axis,
+        [&](const firmware::DriveSample& s) {
+          drive_.push(s);
+          on_drive(s);
+        },
+        [&](const firmware::SensorSample& s) {
+          sensor_.push(s);
+          if (s.status == hal::Status::ok) on_good_reading(s.axis, s.displacement_m);
+        });
+  }
   publish(wire_key::drive, drive_, drive_published_);
   publish(wire_key::sensor, sensor_, sensor_published_);
-  return ramping;
 }
 
 template <class Sample>

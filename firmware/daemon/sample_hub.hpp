@@ -31,10 +31,12 @@ class SampleHub {
 
   /// A new run: numbering restarts at 0 and the spill file starts again.
   void clear();
-  /// Takes what the loops produced into the recorder and publishes it (and
-  /// spills it); `on_good_reading` sees each good displacement [m]. True
-  /// when a drive sample said the stop's ramp began.
-  bool take(firmware::LoopRunner& runner, const std::function<void(double)>& on_good_reading);
+  /// Takes what the loops produced, every axis's, into the recorder and
+  /// publishes it (and spills it); `on_drive` sees each drive sample,
+  /// `on_good_reading` each good reading (its axis, its displacement [m]).
+  void take(firmware::LoopRunner& runner,
+            const std::function<void(const firmware::DriveSample&)>& on_drive,
+            const std::function<void(std::uint8_t, double)>& on_good_reading);
   /// `fetch` (docs/protocol.md): the samples as a frame; `budgeted` for a
   /// client that watches another's run. Throws ProtocolError.
   [[nodiscard]] nlohmann::json fetch(const std::string& client, const nlohmann::json& args,

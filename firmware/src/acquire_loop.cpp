@@ -13,7 +13,7 @@ void AcquireLoop::read(const AcquireAxis& axis) {
   axis.health->report(good, r.t_response);
   if (!good) health_.count(health_.errors);
   if (good && axis.feed != nullptr) axis.feed->publish(r.displacement_m);
-  if (!axis.ring->try_push({r.t_request, r.t_response, r.displacement_m, r.status})) {
+  if (!axis.ring->try_push({r.t_request, r.t_response, r.displacement_m, r.status, axis.index})) {
     health_.count(health_.dropped_samples);
   }
 }

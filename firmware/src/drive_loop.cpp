@@ -33,7 +33,8 @@ DriveLoop::DriveLoop(const DriveLoopSettings& settings, std::vector<DriveAxis> a
 
 void DriveLoop::emit(Axis& axis, hal::TimeNs t, double V, DrivePhase phase, hal::Status status) {
   if (status != hal::Status::ok) health_.count(health_.errors);
-  if (!axis.io.ring->try_push({t, V, phase, status, axis.io.program->state_code()})) {
+  if (!axis.io.ring->try_push(
+          {t, V, phase, status, axis.io.program->state_code(), axis.io.index})) {
     health_.count(health_.dropped_samples);
   }
 }

@@ -73,7 +73,7 @@ Latencies over_the_protocol(double seconds, double& cpu_percent) {
        std::string(build_paths::source_dir) + "/configs/piezod-sim.toml", "--listen", address},
       "/dev/null");
   piezo::testing::wait_for_tcp(port);
-  host::BoardClient client({address, "", ""});
+  host::BoardClient client({address, "", "", 0.0, ""});
   (void)client.call("configure", {{"V0", 80.0}, {"f", 10.0}, {"duration_s", seconds}});
   client.subscribe({"drive", "sensor", "state"});
   std::this_thread::sleep_for(200ms);

@@ -75,16 +75,17 @@ void run_into(SampleHub& hub, double seconds, const std::function<void(double)>&
   std::vector<firmware::RunAxis> axes{
       {drive, sensor, program, {0.0, 80.0, 20'000.0}, 0.05, firmware::SafetySettings{}}};
   firmware::LoopRunner runner(s, std::move(axes), clock, lines);
-  const auto good = [&](double x) {
+  const auto good = [&](std::uint8_t, double x) {
     if (on_good) on_good(x);
   };
+  const auto on_drive = [](const firmware::DriveSample&) {};
   (void)runner.start({});
   while (!runner.finished()) {
-    (void)hub.take(runner, good);
+    hub.take(runner, on_drive, good);
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   runner.join();
-  (void)hub.take(runner, good);
+  hub.take(runner, on_drive, good);
 }
 
 /// What the stream carried, by topic, in order.

@@ -256,9 +256,11 @@ TEST(Messages, EventsAndSummariesRoundTrip) {
   EXPECT_EQ(json(over_the_wire(idle)), json(idle));
   EXPECT_TRUE(json(idle).at("run").is_null()) << "nil, as documented";
 
-  HealthEvent h{BoardState::running, 99, a_health(true), a_health(true), a_move(false), 0.25};
+  HealthEvent h{BoardState::running, 99,  a_health(true), a_health(true), a_move(false),
+                std::nullopt,        0.25};
   EXPECT_EQ(json(over_the_wire(h)), json(h));
-  HealthEvent quiet{BoardState::idle, 1, std::nullopt, std::nullopt, std::nullopt, std::nullopt};
+  HealthEvent quiet{BoardState::idle, 1,           std::nullopt, std::nullopt, std::nullopt,
+                    std::nullopt,     std::nullopt};
   EXPECT_EQ(json(over_the_wire(quiet)), json(quiet));
 }
 
@@ -304,7 +306,7 @@ TEST(Messages, TheWiresEnumsBecomeTheirNamesInJson) {
   EXPECT_EQ(json(BoardState::ramping_down), "ramping_down");
   EXPECT_EQ(json(firmware::StopCause::link_lost), "link_lost");
   EXPECT_EQ(json(firmware::OutputState::enable_unconfirmed), "enable_unconfirmed");
-  const json health = HealthEvent{BoardState::running, 1, {}, {}, {}, {}};
+  const json health = HealthEvent{BoardState::running, 1, {}, {}, {}, {}, {}};
   EXPECT_EQ(health.at("state"), "running");
 }
 
@@ -371,7 +373,8 @@ TEST(Messages, AMovesAccountAndAStartsReplyRoundTrip) {
   EXPECT_EQ(json(a_move(true)).at("stop_cause"), "on_target");
   EXPECT_EQ(json(a_move(true)).at("state"), "on_target");
 
-  StartReply plain{7, 1'000, 0.5, 4.8, std::nullopt, std::nullopt, std::nullopt, std::nullopt};
+  StartReply plain{
+      7, 1'000, 0.5, 4.8, std::nullopt, std::nullopt, std::nullopt, std::nullopt, std::nullopt};
   EXPECT_EQ(json(over_the_wire(plain)), json(plain));
   EXPECT_EQ(json(plain).size(), 4u) << json(plain).dump();
   StartReply step = plain;
@@ -384,7 +387,7 @@ TEST(Messages, AMovesAccountAndAStartsReplyRoundTrip) {
   taken.move.target_rad = 0.002;
   taken.V0 = 60.0;
   taken.f = 10.0;
-  move.move = StartReply::Move{true, 0.07, taken};
+  move.move = StartReply::Move{"", true, 0.07, taken};
   EXPECT_EQ(json(move).at("target_rad"), 0.002);
   EXPECT_EQ(json(move).at("approach"), "either");
   EXPECT_EQ(json(over_the_wire(move)), json(move));

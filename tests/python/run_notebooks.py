@@ -37,12 +37,17 @@ os.makedirs(out, exist_ok=True)
 board, address = peers.start_piezod(os.environ["PIEZOD_BINARY"],
                                     os.path.join(source, "configs", "piezod-sim.toml"),
                                     os.path.join(out, "piezod.err"))
+# A board of three axes, for the notebook that moves several.
+axes_board, axes_address = peers.start_piezod(os.environ["PIEZOD_BINARY"],
+                                              os.path.join(source, "configs", "three-axes.toml"),
+                                              os.path.join(out, "piezod-axes.err"))
 run_dir = os.path.join(out, "runs", "first")
 subprocess.run(["rm", "-rf", run_dir])
 subprocess.run([os.environ["PIEZO_BINARY"], "run", "--config",
                 os.path.join(source, "configs", "sim.toml"), "--set", "run.clock=virtual",
                 "--duration", "1", "--out", run_dir], check=True, stdout=subprocess.DEVNULL)
 os.environ["PIEZO_BOARD"], os.environ["PIEZO_RUN"] = address, os.path.abspath(run_dir)
+os.environ["PIEZO_AXES_BOARD"] = axes_address
 # The kernels run in OUT: the package's path must not be relative.
 os.environ["PYDEVD_DISABLE_FILE_VALIDATION"] = "1"  # the kernel's debugger notice
 os.environ["PYTHONPATH"] = os.pathsep.join(
@@ -72,6 +77,7 @@ try:
             failed.append(name)
         nbformat.write(nb, os.path.join(out, name))
 finally:
-    board.terminate()
-    board.wait(10)
+    for process in (board, axes_board):
+        process.terminate()
+        process.wait(10)
 sys.exit(1 if failed else 0)

@@ -5,13 +5,17 @@ request that names no axis, or one the board lacks, is refused before
 anything moves."""
 
 import os
+import signal
+import subprocess
+import sys
+import time
 
 import numpy as np
 import pytest
 
 import peers
 from piezo_rig import errors
-from piezo_rig.board import Board
+from piezo_rig.board import Board, Run
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +45,7 @@ def test_hello_lists_every_axis_with_its_geometry_and_limits(board):
     assert axes[2]["V_max"] == 60.0 and axes[0]["V_max"] == 80.0
     assert axes[2]["travel_min_rad"] == -0.5 and axes[2]["travel_max_rad"] == 0.5
     assert axes[0]["travel_max_rad"] is None
-    described = {a["name"]: a for a in board.arguments("move_to")}
+    described = {a["name"]: a for a in board.arguments("step")}
     assert described["axis"]["choices"] == ["theta", "phi", "chi"]
     assert described["axis"]["required"]
 
@@ -91,3 +95,146 @@ def test_a_move_on_one_axis_ends_on_its_target(board):
     assert move["stop_cause"] == "on_target" and abs(move["error_rad"]) <= 5e-5
     theta = {a["name"]: a for a in board.status()["axes"]}["theta"]
     assert theta["position"]["position_rad"] == pytest.approx(0.01, abs=1e-4)
+
+
+def test_a_group_move_starts_every_axis_on_one_tick_and_each_ends_on_target(board):
+    for axis in board.axes.values():
+        axis.step(2, 40, 10)  # each axis's zero: its first reading
+    targets = {"theta": 0.01, "phi": -0.02, "chi": 0.005}
+    with pytest.raises(errors.BadArgument):
+        board.move_to(targets, axis="theta")  # targets name the axes
+    runs_before = board.status()["run"]["id"]
+    moves = board.move_to(targets, tolerance_rad=5e-5)
+    assert list(moves) == ["theta", "phi", "chi"], "in the board's order"
+    for name, move in moves.items():
+        assert move["stop_cause"] == "on_target", (name, move)
+        assert abs(move["position_rad"] - targets[name]) <= 5e-5, (name, move)
+    run = board.status()["run"]
+    assert run["id"] == runs_before + 1, "one run for the group"
+    summary = run["summary"]
+    assert summary["cause"] == "completed"
+    assert [(a["name"], a["cause"], a["output"]["state"]) for a in summary["axes"]] == [
+        ("theta", "completed", "confirmed"), ("phi", "completed", "confirmed"),
+        ("chi", "completed", "confirmed")]
+    # One tick's start: every axis's first drive record is on the same deadline.
+    drive = board.fetch("drive", 0, summary["samples"]["drive"])
+    firsts = {int(a): drive["t_ns"][drive["axis"] == a][0] for a in np.unique(drive["axis"])}
+    assert sorted(firsts) == [0, 1, 2] and len(set(firsts.values())) == 1
+    # Each axis ends on its own: not all on the same record.
+    lasts = [drive["t_ns"][drive["axis"] == a][-1] for a in range(3)]
+    assert len(set(lasts)) > 1
+
+
+def test_a_group_with_one_target_beyond_its_limits_is_refused_whole(board):
+    before = board.status()
+    with pytest.raises(errors.OutOfLimits) as refused:
+        board.call("move_to", targets={"theta": 0.001, "phi": 99.0})
+    assert "phi" in str(refused.value) and "target_rad" in str(refused.value)
+    with pytest.raises(errors.BadArgument) as refused:
+        board.call("move_to", targets={"theta": 0.001, "psi": 0.001})
+    assert "psi" in str(refused.value)
+    after = board.status()
+    assert after["state"] == "idle" and after["run"]["id"] == before["run"]["id"], "nothing moved"
+
+
+def test_a_board_e_stop_in_a_group_move_stops_every_axis(board_address):
+    with Board(board_address) as mover, Board(board_address) as watcher:
+        for axis in mover.axes.values():
+            axis.step(1, 40, 10)
+        args = mover.checked("move_to", {"targets": {"theta": 0.5, "phi": -0.5, "chi": 0.4}})
+        with Run(mover, "move_to", args, True, raise_on_fault=False) as run:
+            for block in run:
+                if block.first > 2000:
+                    assert watcher.estop() in ("running", "ramping_down", "fault")
+                    break
+            run.wait()
+        summary = watcher.status()["run"]["summary"]
+        assert summary["cause"] == "estop"
+        for axis in summary["axes"]:
+            assert axis["cause"] == "estop", axis
+            assert axis["output"]["state"] == "confirmed", axis  # 0 V acknowledged
+            assert axis["move"]["stop_cause"] == "estop", axis
+        drive = watcher.fetch("drive", 0, summary["samples"]["drive"])
+        for a in range(3):
+            mine = drive[drive["axis"] == a]
+            assert mine["V"][-1] == 0.0 and mine["phase"][-1] == 2, a  # stopped at 0 V
+        assert watcher.reset_fault() == "idle"
+
+
+GROUP_MOVER = """
+import sys
+from piezo_rig.board import Board, Run
+with Board(sys.argv[1]) as board:
+    args = board.checked("move_to", {"targets": {"theta": -0.5, "phi": 0.5, "chi": -0.4}})
+    with Run(board, "move_to", args, True, raise_on_fault=False) as run:
+        for block in run:
+            if block.first > 1000:
+                print("moving", flush=True)
+                sys.stdin.read()  # killed here
+"""
+
+
+def test_a_killed_client_or_a_lapsed_lease_stops_every_axis_of_a_group(board_address):
+    with Board(board_address) as watcher:
+        # The client killed with SIGKILL mid-move: the board's lease stops it.
+        client = subprocess.Popen([sys.executable, "-c", GROUP_MOVER, board_address],
+                                  stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+                                  env=dict(os.environ))
+        try:
+            assert client.stdout.readline().strip() == "moving"
+            client.send_signal(signal.SIGKILL)
+        finally:
+            client.wait(10)
+        deadline = time.monotonic() + 20
+        while watcher.status()["state"] in ("running", "ramping_down"):
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        summary = watcher.status()["run"]["summary"]
+        assert [(a["name"], a["cause"]) for a in summary["axes"]] == [
+            ("theta", "link_lost"), ("phi", "link_lost"), ("chi", "link_lost")]
+        drive = watcher.fetch("drive", 0, summary["samples"]["drive"])
+        for a in range(3):
+            mine = drive[drive["axis"] == a]
+            assert mine["V"][-1] == 0.0 and mine["phase"][-1] == 2, a
+        assert watcher.reset_fault() == "idle"
+
+    with Board(board_address) as mover:
+        # A lease never renewed: the same, and the client hears it.
+        args = mover.checked("move_to", {"targets": {"theta": 0.5, "chi": 0.4}})
+        with Run(mover, "move_to", args, False, raise_on_fault=False) as run:
+            summary = run.wait()
+        assert summary["cause"] == "link_lost"
+        assert [a["cause"] for a in summary["axes"]] == ["link_lost", "link_lost"]
+        assert mover.reset_fault() == "idle"
+
+
+def test_a_stalled_sensor_in_a_group_move_stops_its_axis_alone(tmp_path, source):
+    # phi's sensor stops answering 0.5 s into each run (after its zero is taken).
+    process, address = peers.start_piezod(
+        os.environ["PIEZOD_BINARY"], os.path.join(source, "configs", "three-axes.toml"),
+        str(tmp_path / "piezod.err"), sets=["axes.phi.sensor.sim.stall_at_s=0.5"])
+    try:
+        with Board(address) as board:
+            for axis in board.axes.values():
+                axis.step(2, 40, 10)
+            args = board.checked("move_to", {"targets": {"theta": 0.01, "phi": 0.02, "chi": -0.005},
+                                             "tolerance_rad": 5e-5})
+            with Run(board, "move_to", args, True, raise_on_fault=False) as run:
+                summary = run.wait()
+            ends = {a["name"]: a for a in summary["axes"]}
+            assert ends["phi"]["cause"] == "sensor_fault"
+            assert ends["phi"]["move"]["stop_cause"] == "sensor_fault"
+            assert ends["phi"]["output"]["state"] == "confirmed"
+            for name in ("theta", "chi"):
+                assert ends[name]["move"]["stop_cause"] == "on_target", ends[name]
+            assert summary["cause"] == "sensor_fault"
+            # Nothing lost: each axis's drive records run on the grid to its own end.
+            drive = run.drive
+            for a in range(3):
+                mine = drive[drive["axis"] == a]
+                assert np.all(np.diff(mine["t_ns"]) == 100_000), a
+                assert mine["V"][-1] == 0.0 and mine["phase"][-1] == 2, a
+            board.reset_fault()
+    finally:
+        process.terminate()
+        process.wait(10)

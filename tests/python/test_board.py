@@ -556,7 +556,7 @@ def test_frames_decode_by_the_layout_the_board_describes(board):
     and refuses a frame that does not match it."""
     from piezo_rig.frames import FrameError
     layout = board.frame_layout
-    assert layout.record("drive").names == ("t_ns", "V", "phase", "status", "move_state")
+    assert layout.record("drive").names == ("t_ns", "V", "phase", "status", "move_state", "axis")
     assert layout.record("sensor")["displacement_m"] == np.dtype("<f8")
     with board.run(V0=60, f=10, duration=0.2) as run:
         for _ in run:

@@ -21,6 +21,8 @@ import piezo_rig
 # The documents and docstrings name the default address; the test's board
 # listens on a free port.
 DOCUMENTED_ADDRESS = "tcp://127.0.0.1:5555"
+# ...and a board of several axes (configs/three-axes.toml) this one.
+DOCUMENTED_AXES_ADDRESS = "tcp://127.0.0.1:5565"
 MODULES = ["piezo_rig", "piezo_rig.model", "piezo_rig.board", "piezo_rig.log",
            "piezo_rig.errors", "piezo_rig.frames"]
 
@@ -48,12 +50,24 @@ def workdir(tmp_path_factory, piezo, source):
     os.chdir(old)
 
 
-def test_every_python_block_of_the_guide_runs(workdir, board_address, source):
+@pytest.fixture(scope="module")
+def axes_address(tmp_path_factory, source):
+    import peers
+    process, address = peers.start_piezod(
+        os.environ["PIEZOD_BINARY"], os.path.join(source, "configs", "three-axes.toml"),
+        str(tmp_path_factory.mktemp("axes") / "piezod.err"))
+    yield address
+    process.terminate()
+    process.wait(10)
+
+
+def test_every_python_block_of_the_guide_runs(workdir, board_address, axes_address, source):
     blocks = python_blocks(os.path.join(source, "docs", "python.md"))
     assert len(blocks) >= 3
     session: dict = {}
     for i, block in enumerate(blocks):
-        code = block.replace(DOCUMENTED_ADDRESS, board_address)
+        code = block.replace(DOCUMENTED_ADDRESS, board_address).replace(
+            DOCUMENTED_AXES_ADDRESS, axes_address)
         try:
             exec(compile(code, f"docs/python.md, Python block {i + 1}", "exec"), session)
         except Exception as e:

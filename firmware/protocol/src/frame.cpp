@@ -94,7 +94,8 @@ std::string encode_frame(std::uint64_t first_seq, std::span<const firmware::Driv
     out.push_back(static_cast<char>(s.phase));
     out.push_back(static_cast<char>(s.status));
     out.push_back(static_cast<char>(s.move_state));
-    pad(out, 5);
+    out.push_back(static_cast<char>(s.axis));
+    pad(out, 4);
   }
   return out;
 }
@@ -106,7 +107,8 @@ std::string encode_frame(std::uint64_t first_seq, std::span<const firmware::Sens
     put_i64(out, s.t_response);
     put_f64(out, s.displacement_m);
     out.push_back(static_cast<char>(s.status));
-    pad(out, 7);
+    out.push_back(static_cast<char>(s.axis));
+    pad(out, 6);
   }
   return out;
 }
@@ -154,10 +156,10 @@ std::vector<firmware::DriveSample> decode_drive(std::string_view frame) {
     if (phase > static_cast<std::uint8_t>(firmware::DrivePhase::output_unconfirmed)) {
       throw bad("phase", fmt::format("drive phase {} is not a known phase", phase));
     }
-    out.push_back({get_i64(frame, o), get_f64(frame, o + 8),
-                   static_cast<firmware::DrivePhase>(phase),
-                   status_from(static_cast<std::uint8_t>(frame[o + 17]), "status"),
-                   static_cast<std::uint8_t>(frame[o + 18])});
+    out.push_back(
+        {get_i64(frame, o), get_f64(frame, o + 8), static_cast<firmware::DrivePhase>(phase),
+         status_from(static_cast<std::uint8_t>(frame[o + 17]), "status"),
+         static_cast<std::uint8_t>(frame[o + 18]), static_cast<std::uint8_t>(frame[o + 19])});
   }
   return out;
 }
@@ -171,7 +173,8 @@ std::vector<firmware::SensorSample> decode_sensor(std::string_view frame) {
   for (std::size_t i = 0; i < h.count; ++i) {
     const std::size_t o = kFrameHeaderBytes + i * kSensorRecordBytes;
     out.push_back({get_i64(frame, o), get_i64(frame, o + 8), get_f64(frame, o + 16),
-                   status_from(static_cast<std::uint8_t>(frame[o + 24]), "status")});
+                   status_from(static_cast<std::uint8_t>(frame[o + 24]), "status"),
+                   static_cast<std::uint8_t>(frame[o + 25])});
   }
   return out;
 }

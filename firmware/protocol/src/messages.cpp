@@ -174,7 +174,8 @@ struct Fields<MoveAccount::Hold> {
 template <>
 struct Fields<MoveAccount> {
   using T = MoveAccount;
-  static constexpr auto list = std::tuple{field(wire_key::state, &T::state),
+  static constexpr auto list = std::tuple{field(wire_key::axis, &T::axis, may_be_missing),
+                                          field(wire_key::state, &T::state),
                                           field(wire_key::target_rad, &T::target_rad),
                                           field(wire_key::tolerance_rad, &T::tolerance_rad),
                                           field(wire_key::position_rad, &T::position_rad),
@@ -194,16 +195,24 @@ struct Fields<RunSummary::Samples> {
       std::tuple{field(wire_key::drive, &T::drive), field(wire_key::sensor, &T::sensor)};
 };
 template <>
+struct Fields<RunSummary::Axis> {
+  using T = RunSummary::Axis;
+  static constexpr auto list = std::tuple{
+      field(wire_key::name, &T::name), field(wire_key::cause, &T::cause),
+      field(wire_key::output, &T::output), field(wire_key::move, &T::move, omitted_when_absent)};
+};
+template <>
 struct Fields<RunSummary> {
   using T = RunSummary;
   static constexpr auto list =
-      std::tuple{field("cause", &T::cause),
-                 field("output", &T::output),
+      std::tuple{field(wire_key::cause, &T::cause),
+                 field(wire_key::output, &T::output),
                  field(wire_key::drive, &T::drive),
                  field(wire_key::sensor, &T::sensor),
                  field("realtime", &T::realtime, may_be_missing),
                  field("samples", &T::samples),
                  field(wire_key::move, &T::move, omitted_when_absent),
+                 field(wire_key::axes, &T::axes, may_be_missing),
                  field(wire_key::calibration, &T::calibration, omitted_when_absent),
                  field("calibration_error", &T::calibration_error, omitted_when_absent)};
 };
@@ -211,7 +220,7 @@ template <>
 struct Fields<StartReply::Move> {
   using T = StartReply::Move;
   static constexpr auto list = std::tuple{
-      field(wire_key::calibrated, &T::calibrated),
+      field(wire_key::axis, &T::axis, may_be_missing), field(wire_key::calibrated, &T::calibrated),
       field(wire_key::zero_displacement_m, &T::zero_displacement_m), inline_fields(&T::request)};
 };
 template <>
@@ -232,6 +241,7 @@ struct Fields<StartReply> {
                  field(firmware::arguments::count.name, &T::count, omitted_when_absent),
                  field(firmware::arguments::direction.name, &T::direction, omitted_when_absent),
                  inline_fields(&T::move),
+                 field(wire_key::moves, &T::moves, omitted_when_absent),
                  inline_fields(&T::calibration)};
 };
 template <>
@@ -251,6 +261,7 @@ struct Fields<HealthEvent> {
       field(wire_key::drive, &T::drive, omitted_when_absent),
       field(wire_key::sensor, &T::sensor, omitted_when_absent),
       field(wire_key::move, &T::move, omitted_when_absent),
+      field(wire_key::moves, &T::moves, omitted_when_absent),
       field(wire_key::calibration_progress, &T::calibration_progress, omitted_when_absent)};
 };
 template <>
@@ -267,6 +278,7 @@ struct Fields<RunStatus> {
       field(wire_key::sensor, &T::sensor),
       field(wire_key::summary, &T::summary, omitted_when_absent),
       field(wire_key::move, &T::move, omitted_when_absent),
+      field(wire_key::moves, &T::moves, omitted_when_absent),
       field(wire_key::calibration_progress, &T::calibration_progress, omitted_when_absent)};
 };
 template <>

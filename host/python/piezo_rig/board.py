@@ -28,7 +28,7 @@ import time
 import tomllib
 import weakref
 from dataclasses import dataclass
-from typing import Any, Iterator, Optional
+from typing import Any, Iterator, Optional, Union
 
 import msgpack
 import numpy as np
@@ -191,6 +191,8 @@ class Board:
         self._dictionary: Optional[dict[str, Any]] = None
         self._layout: Optional[frames.Layout] = None
         self._runs: "weakref.WeakSet[Run]" = weakref.WeakSet()
+        #: The latest run this client started (``move_to``'s, say), with its records.
+        self.last_run: Optional[Run] = None
         self._closed = False
 
     def _socket_for(self, kind: int) -> zmq.Socket[bytes]:
@@ -409,9 +411,18 @@ class Board:
             run.wait()
         return run
 
-    def move_to(self, target_rad: float, **options: Any) -> dict[str, Any]:
+    def move_to(self, target_rad: Union[float, dict[str, float]],
+                **options: Any) -> dict[str, Any]:
         """Moves the rotor to ``target_rad`` from the board's zero in closed
         loop (the board's move controller) and waits until the move ends.
+
+        ``target_rad`` a map of axis name to target moves several axes at
+        once (a group: every axis starts on the same tick and ends on its
+        own), e.g. ``board.move_to({"theta": 0.01, "phi": -0.02})``; it
+        returns each axis's move by name, and raises ``RunEnded`` when any
+        ended other than on target (its ``summary["axes"]`` says how each
+        ended). One axis of several: ``axis="theta"``, or
+        ``board.axes["theta"].move_to(0.01)``.
 
         Returns the move's map: ``position_rad`` (measured at 0 V),
         ``error_rad``, ``on_target_at_s``, ``steps``, ``f_hz``, ... (see
@@ -434,6 +445,8 @@ class Board:
         ``link_lost``, ...) when the move ends other than on target, and
         ``OutOfLimits`` for a tolerance below what the sensor resolves (the
         calibration's ``smallest_tolerance_rad``)."""
+        if isinstance(target_rad, dict):
+            return self._move_group(target_rad, options)
         args = self.checked("move_to", {"target_rad": target_rad, **options})
         with Run(self, "move_to", args, True, raise_on_fault=False) as run:
             summary = run.wait()
@@ -442,6 +455,17 @@ class Board:
             raise RunEnded("move_to", str(move.get("stop_cause") or summary.get("cause", "?")),
                            summary)
         return move
+
+    def _move_group(self, targets: dict[str, float], options: dict[str, Any]) -> dict[str, Any]:
+        args = self.checked("move_to", {"targets": dict(targets), **options})
+        with Run(self, "move_to", args, True, raise_on_fault=False) as run:
+            summary = run.wait()
+        moves = {a["name"]: a.get("move") or {} for a in summary.get("axes", [])}
+        missed = {name: m.get("stop_cause") for name, m in moves.items()
+                  if m.get("stop_cause") != "on_target"}
+        if missed:
+            raise RunEnded("move_to", ", ".join(f"{k}: {v}" for k, v in missed.items()), summary)
+        return moves
 
     def calibrate(self, V0: Optional[float] = None, *, progress: bool = True,
                   **options: Any) -> dict[str, Any]:
@@ -560,6 +584,7 @@ class Run:
         self._lease = threading.Thread(target=self._renew, args=(renew,), daemon=True)
         self._lease.start()
         board._runs.add(self)
+        board.last_run = self
 
     def _wait_for_subscription(self) -> None:
         # A PUB socket drops what it publishes before a subscription reaches
@@ -740,11 +765,31 @@ class Run:
     @property
     def zero_displacement_m(self) -> Optional[float]:
         """The angles' zero: the move's (its reply carries it), else the
-        run's first good reading (docs/protocol.md, "Angles")."""
-        if self.started.get("zero_displacement_m") is not None:
-            return float(self.started["zero_displacement_m"])
-        good = self.sensor[self.sensor["status"] == 0]
+        run's first good reading (docs/protocol.md, "Angles"); a group
+        move's first axis's (``zero_of(axis)`` for another)."""
+        return self.zero_of(self.axis)
+
+    def zero_of(self, axis: Optional[str]) -> Optional[float]:
+        """The zero of ``axis``'s angles in this run (None: the run's axis)."""
+        axis = axis or self.axis
+        moves = self.started.get("moves") or [self.started]
+        started: dict[str, Any] = next((m for m in moves if m.get("axis", axis) == axis), {})
+        if started.get("zero_displacement_m") is not None:
+            return float(started["zero_displacement_m"])
+        sensor = self.records_of(axis, self.sensor)
+        good = sensor[sensor["status"] == 0]
         return float(good["displacement_m"][0]) if len(good) else None
+
+    def records_of(self, axis: Optional[str],
+                   records: np.ndarray[Any, Any]) -> np.ndarray[Any, Any]:
+        """The records of ``axis`` among ``records`` (a group move's
+        records carry their axis; None: the run's axis)."""
+        names = [a["name"] for a in self.hello.get("axes") or []]
+        if "axis" not in (records.dtype.names or ()) or (axis or self.axis) not in names:
+            return records
+        index = names.index(axis or self.axis)
+        mine: np.ndarray[Any, Any] = records[records["axis"] == index]
+        return mine
 
     def t(self, records: Optional[np.ndarray[Any, Any]] = None) -> np.ndarray[Any, Any]:
         """Times [s] from the run's origin ``t0_ns`` of drive or sensor
@@ -754,15 +799,19 @@ class Run:
         seconds: np.ndarray[Any, Any] = (records[field] - self.started["t0_ns"]) * 1e-9
         return seconds
 
-    def theta(self, records: Optional[np.ndarray[Any, Any]] = None) -> np.ndarray[Any, Any]:
-        """Angles [rad] of sensor records (all of the run's by default): the
-        displacement from the zero over the board's sensor radius; NaN where
-        the reading failed."""
-        records = self.sensor if records is None else records
-        zero = self.zero_displacement_m
-        theta = (records["displacement_m"] - (zero or 0.0)) / self.r2_m
+    def theta(self, records: Optional[np.ndarray[Any, Any]] = None,
+              axis: Optional[str] = None) -> np.ndarray[Any, Any]:
+        """Angles [rad] of sensor records (all of the run's axis's by
+        default; ``axis`` names another of a group move): the displacement
+        from that axis's zero over the radius of the sensor that measured it;
+        NaN where the reading failed."""
+        axis = axis or self.axis
+        records = self.records_of(axis, self.sensor if records is None else records)
+        r2_m = next((float(a["r2_m"]) for a in self.hello.get("axes") or []
+                     if a["name"] == axis), self.r2_m)
+        zero = self.zero_of(axis)
+        theta = (records["displacement_m"] - (zero or 0.0)) / r2_m
         return np.where(records["status"] == 0, theta, np.nan)
-
 
     def fit_arrays(self) -> tuple[np.ndarray[Any, Any], np.ndarray[Any, Any], np.ndarray[Any, Any], np.ndarray[Any, Any]]:
         """(drive_t, drive_V, t, theta) of this run for

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "piezo/firmware/wire_keys.hpp"
 #include "piezo/protocol/messages.hpp"
 #include "run/board_client.hpp"
 
@@ -15,6 +16,7 @@ namespace {
 
 struct BoardOptions {
   config::BoardAddress rig;
+  std::string axis;  ///< `zero`'s axis on a board of several
   bool json = false;
 };
 
@@ -27,13 +29,26 @@ std::string status_text(const protocol::Status& s) {
   out += "\n";
   if (s.run) {
     const protocol::RunStatus& r = *s.run;
-    out += fmt::format("run        {} ({:g} s, lease {:g} s){}\n", r.id, r.duration_s, r.lease_s,
-                       r.finished ? ", finished" : "");
+    out += fmt::format("run        {} ({:g} s, lease {:g} s){}{}\n", r.id, r.duration_s, r.lease_s,
+                       r.finished ? ", finished" : "",
+                       s.axes.size() > 1 ? ", axis " + r.axis : std::string());
     if (r.summary) {
       out += fmt::format("stop cause {}\noutput     {}\n", firmware::to_string(r.summary->cause),
                          firmware::to_string(r.summary->output.state));
     }
     out += fmt::format("samples    drive {}, sensor {}\n", r.drive.cycles, r.sensor.cycles);
+  }
+  if (s.axes.size() > 1) {
+    // A board of several axes: each axis's position and calibration.
+    for (const protocol::Status::Axis& a : s.axes) {
+      out += fmt::format("axis {:<6}{}, {}\n", a.name,
+                         a.position.position_rad ? fmt::format("{:.4f} mrad from its zero",
+                                                               1e3 * *a.position.position_rad)
+                                                 : std::string("no reading yet"),
+                         a.calibrated ? "calibrated" : "not calibrated");
+    }
+    out += fmt::format("controlled {}\n", s.controlled ? "yes" : "no");
+    return out;
   }
   if (s.position.position_rad) {
     out += fmt::format("position   {:.4f} mrad from the zero\n", 1e3 * *s.position.position_rad);
@@ -56,7 +71,9 @@ std::string status_text(const protocol::Status& s) {
 
 int call(const BoardOptions& o, const std::string& cmd) {
   BoardClient client(o.rig);
-  const nlohmann::json result = client.call(cmd == "reset-fault" ? "reset_fault" : cmd);
+  nlohmann::json args = nlohmann::json::object();
+  if (cmd == "zero" && !o.axis.empty()) args[wire_key::axis] = o.axis;
+  const nlohmann::json result = client.call(cmd == "reset-fault" ? "reset_fault" : cmd, args);
   if (o.json) {
     std::cout << result.dump() << "\n";
   } else if (cmd == "status") {
@@ -85,6 +102,9 @@ void add_board_commands(CLI::App& app, Commands& commands) {
         ->required();
     cmd->add_option("--server-key", o->rig.server_public_key_file, "CURVE: the board's .pub file");
     cmd->add_option("--client-key", o->rig.client_secret_key_file, "CURVE: this host's .key file");
+    if (name == "zero") {
+      cmd->add_option("--axis", o->axis, "The axis to zero (required on a board of several)");
+    }
     add_json_flag(*cmd, o->json, "Print the reply as JSON");
     commands.add(cmd, [o, name = name] { return call(*o, name); });
   }

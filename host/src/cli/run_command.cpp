@@ -302,6 +302,7 @@ config::ConfigFile run_config(const RunOptions& o, const RunProgram& program, Ru
                            o.reverse});
   asked = program.request ? program.request(config) : RunAsked{asked::Timed{}};
   if (!o.rig.empty()) config.host.board.address = o.rig;
+  if (!o.axis.empty()) config.host.board.axis = o.axis;
   return config;
 }
 
@@ -319,12 +320,12 @@ struct Board {
 void connect(Board& board, const config::ConfigFile& config, const RunAsked& asked) {
   if (config.host.board.address.empty()) {
     board.local = std::make_unique<LocalBoard>(config, config::build_rig(config.board));
-    board.client.emplace(config::BoardAddress{board.local->address(), "", ""},
+    board.client.emplace(config::BoardAddress{board.local->address(), "", "", 0.0, ""},
                          board.local->context());
   } else {
     board.client.emplace(config.host.board);
   }
-  board.hello = board.client->hello();
+  board.hello = axis_view(board.client->hello(), config.host.board.axis, board.client->address());
   if (const std::string note = sensor_geometry_note(config, board.hello); !note.empty()) {
     write_out(stderr, "piezo: " + note + "\n");
     board.geometry_note = note;
@@ -492,6 +493,9 @@ void add_run_options(CLI::App& cmd, RunOptions& o, const std::string& config_doc
   cmd.add_option("--set", o.sets, "Override a config key: SECTION.KEY=VALUE");
   add_out_option(cmd, o.out, "Run directory (default: runs/<UTC time>)");
   cmd.add_option("--rig", o.rig, rig_doc);
+  cmd.add_option("--axis", o.axis,
+                 "The board's axis to drive, by name (default: [rig] axis; required on a board "
+                 "of several axes)");
   add_json_flag(cmd, o.json, json_doc);
   cmd.add_option("--view", o.view_listen,
                  "Serve the live page to a browser on HOST:PORT (default 127.0.0.1:8080)")

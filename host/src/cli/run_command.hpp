@@ -29,7 +29,8 @@ struct RunOptions {
   std::vector<std::string> config;
   std::vector<std::string> sets;
   std::string out;
-  std::string rig;  ///< piezod's address; empty: the config's [rig] address, or in-process
+  std::string rig;   ///< piezod's address; empty: the config's [rig] address, or in-process
+  std::string axis;  ///< the board's axis to drive; empty: the config's [rig] axis
   bool json = false;
   double duration = 0.0;  ///< --duration; 0: the config's [run] duration_s
   bool reverse = false;   ///< --reverse: drive.direction = reverse

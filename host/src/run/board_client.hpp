@@ -11,9 +11,9 @@
 #include <string>
 #include <zmq.hpp>
 
+#include "config/config_file.hpp"
 #include "piezo/protocol/error.hpp"
 #include "piezo/protocol/messages.hpp"
-#include "config/config_file.hpp"
 
 namespace piezo::host {
 
@@ -66,6 +66,13 @@ class BoardClient {
   zmq::socket_t commands_, stream_;
   std::uint64_t next_id_ = 1;
 };
+
+/// The board as one of its axes sees it: `hello` with the top-level sensor
+/// (radius, zero), limits, backends and calibration of the axis `axis` names
+/// ([rig] axis; empty: the board's one axis). Throws ConfigError (key
+/// `rig.axis`) for an axis the board lacks, or none on a board of several.
+[[nodiscard]] protocol::Hello axis_view(const protocol::Hello& hello, const std::string& axis,
+                                        const std::string& board_address);
 
 /// The board's sensor measured the samples, so its radius (`hello`'s
 /// `sensor.r2_m`) turns them into angles, whatever the host's config says:

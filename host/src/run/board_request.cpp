@@ -14,7 +14,7 @@ using nlohmann::json;
 
 /// Each command a request sends, with its arguments.
 std::vector<std::pair<std::string, json>> wire_requests(const BoardRequest& request) {
-  return std::visit(
+  auto sent = std::visit(
       Overload{
           [](const TimedRun& r) -> std::vector<std::pair<std::string, json>> {
             return {{"configure", r.configure}, {"start", r.start}};
@@ -29,7 +29,13 @@ std::vector<std::pair<std::string, json>> wire_requests(const BoardRequest& requ
             return {{"calibrate", r}};
           },
       },
-      request);
+      request.command);
+  // The axis goes with each command but `start`, which runs what `configure` set.
+  if (request.axis) {
+    for (auto& [cmd, args] : sent)
+      if (cmd != "start") args[wire_key::axis] = *request.axis;
+  }
+  return sent;
 }
 
 /// The config key a timed run's `configure` argument comes from.
@@ -43,22 +49,25 @@ BoardRequest board_request(const config::HostConfig& host, const RunAsked& asked
   const std::optional<double> lease_s =
       host.board.lease_s > 0.0 ? std::optional(host.board.lease_s) : std::nullopt;
   const auto& drive = host.model.drive;
-  return std::visit(Overload{
-                        [&](const asked::Timed&) -> BoardRequest {
-                          return TimedRun{{drive, host.run.duration_s}, {lease_s}};
-                        },
-                        [&](const asked::Periods& p) -> BoardRequest {
-                          return protocol::StepRequest{p.count, drive, lease_s};
-                        },
-                        [&](const asked::Move& m) -> BoardRequest {
-                          return protocol::MoveToRequest{m,          m.V0,       m.f,
-                                                         drive.C_dr, drive.e_dr, lease_s};
-                        },
-                        [&](const asked::Calibration& c) -> BoardRequest {
-                          return protocol::CalibrateRequest{c.V0, lease_s};
-                        },
-                    },
-                    asked);
+  const std::optional<std::string> axis =
+      host.board.axis.empty() ? std::nullopt : std::optional(host.board.axis);
+  BoardCommand command = std::visit(Overload{
+                                        [&](const asked::Timed&) -> BoardCommand {
+                                          return TimedRun{{drive, host.run.duration_s}, {lease_s}};
+                                        },
+                                        [&](const asked::Periods& p) -> BoardCommand {
+                                          return protocol::StepRequest{p.count, drive, lease_s};
+                                        },
+                                        [&](const asked::Move& m) -> BoardCommand {
+                                          return protocol::MoveToRequest{
+                                              m, m.V0, m.f, drive.C_dr, drive.e_dr, lease_s};
+                                        },
+                                        [&](const asked::Calibration& c) -> BoardCommand {
+                                          return protocol::CalibrateRequest{c.V0, lease_s};
+                                        },
+                                    },
+                                    asked);
+  return {std::move(command), axis};
 }
 
 void check_request(const BoardRequest& request, const json& dictionary,
@@ -74,10 +83,9 @@ void check_request(const BoardRequest& request, const json& dictionary,
 }
 
 void prepare_request(const BoardRequest& request, BoardClient& client) {
-  const auto* timed = std::get_if<TimedRun>(&request);
-  if (timed == nullptr) return;
+  if (!std::holds_alternative<TimedRun>(request.command)) return;
   try {
-    (void)client.call("configure", timed->configure);
+    (void)client.call("configure", wire_requests(request).front().second);
   } catch (const RemoteError& e) {
     throw config::ConfigError("piezod at " + client.address(), configure_key(e.key()),
                               fmt::format("refused by the board ({}): {}", e.code(), e.what()));

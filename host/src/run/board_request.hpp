@@ -22,8 +22,14 @@ struct TimedRun {
   protocol::StartRequest start;
 };
 
-using BoardRequest = std::variant<TimedRun, protocol::StepRequest, protocol::MoveToRequest,
+using BoardCommand = std::variant<TimedRun, protocol::StepRequest, protocol::MoveToRequest,
                                   protocol::CalibrateRequest>;
+
+/// A command and the board's axis it drives.
+struct BoardRequest {
+  BoardCommand command;
+  std::optional<std::string> axis;  ///< [rig] axis; none: the board's one axis
+};
 
 /// What a run command asks for, beside the host's config (none of it is a
 /// config key): the command's own choice, with what the user gave it.
@@ -44,7 +50,8 @@ struct Calibration {  ///< `piezo calibrate`, at V0 when the user named it; else
 using RunAsked = std::variant<asked::Timed, asked::Periods, asked::Move, asked::Calibration>;
 
 /// The request for what was asked, with the host config's waveform where
-/// it needs one, under its `[rig] lease_s` (none: the board's default lease).
+/// it needs one, under its `[rig] lease_s` (none: the board's default
+/// lease), on its `[rig] axis`.
 [[nodiscard]] BoardRequest board_request(const config::HostConfig& host, const RunAsked& asked);
 
 /// Refuses (ConfigError naming the argument, the board and its limit) what

@@ -52,8 +52,8 @@ RunSummary execute_run(const config::ConfigFile& c, const RunAsked& asked, confi
   LocalBoard board(c, std::move(rig));
   RunSummary summary;
   {
-    BoardClient client(config::BoardAddress{board.address(), "", ""}, board.context());
-    const protocol::Hello hello = client.hello();
+    BoardClient client(config::BoardAddress{board.address(), "", "", 0.0, ""}, board.context());
+    const protocol::Hello hello = axis_view(client.hello(), c.host.board.axis, client.address());
     const BoardRequest request = board_request(c.host, asked);
     prepare_request(request, client);
     summary = run_on_board(c, client, hello, log, stop, on_status, request, estop, on_rows);

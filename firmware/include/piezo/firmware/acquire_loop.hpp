@@ -26,6 +26,7 @@ struct AcquireAxis {
   SensorHealth* health = nullptr;
   SpscRing<SensorSample>* ring = nullptr;
   PositionFeed* feed = nullptr;  ///< good readings for a controller in the drive loop (may be null)
+  std::uint8_t index = 0;        ///< the board's axis, written on its records
 };
 
 class AcquireLoop {

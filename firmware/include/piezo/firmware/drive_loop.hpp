@@ -51,6 +51,7 @@ struct DriveAxis {
   SafetySupervisor* supervisor = nullptr;
   hal::Drive* drive = nullptr;
   SpscRing<DriveSample>* ring = nullptr;
+  std::uint8_t index = 0;  ///< the board's axis, written on its records
 };
 
 /// The board's devices and channels; all outlive the loop.

@@ -24,6 +24,7 @@ struct DriveSample {
   DrivePhase phase;
   hal::Status status;           ///< of the write
   std::uint8_t move_state = 0;  ///< a closed-loop move's MoveState (0: none)
+  std::uint8_t axis = 0;        ///< the board's axis (its index in hello.axes)
 };
 
 struct SensorSample {
@@ -31,6 +32,7 @@ struct SensorSample {
   hal::TimeNs t_response;
   double displacement_m;
   hal::Status status;
+  std::uint8_t axis = 0;  ///< the board's axis (its index in hello.axes)
 };
 
 }  // namespace piezo::firmware

@@ -48,15 +48,19 @@ inline constexpr std::array<LayoutField, 6> kFrameHeaderLayout{{{"magic", "S4", 
                                                                 {wire_key::first, "<u8", 8},
                                                                 {wire_key::count, "<u4", 16},
                                                                 {"record_bytes", "<u4", 20}}};
-inline constexpr std::array<LayoutField, 5> kDriveRecordLayout{{{"t_ns", "<i8", 0},
+/// A record's `axis` is the board's axis it belongs to (its index in
+/// hello.axes): 0 on a board of one, where the byte was padding before.
+inline constexpr std::array<LayoutField, 6> kDriveRecordLayout{{{"t_ns", "<i8", 0},
                                                                 {"V", "<f8", 8},
                                                                 {"phase", "u1", 16},
                                                                 {"status", "u1", 17},
-                                                                {"move_state", "u1", 18}}};
-inline constexpr std::array<LayoutField, 4> kSensorRecordLayout{{{"t_request_ns", "<i8", 0},
+                                                                {"move_state", "u1", 18},
+                                                                {wire_key::axis, "u1", 19}}};
+inline constexpr std::array<LayoutField, 5> kSensorRecordLayout{{{"t_request_ns", "<i8", 0},
                                                                  {"t_response_ns", "<i8", 8},
                                                                  {"displacement_m", "<f8", 16},
-                                                                 {"status", "u1", 24}}};
+                                                                 {"status", "u1", 24},
+                                                                 {wire_key::axis, "u1", 25}}};
 
 enum class Stream : std::uint16_t { drive = 1, sensor = 2 };
 inline constexpr auto kStreamNames =

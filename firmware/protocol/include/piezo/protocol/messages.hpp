@@ -235,6 +235,7 @@ struct OutputEnd {
 /// A closed-loop move's account: its progress while it runs (health,
 /// status) and its result once it ended (the run's summary).
 struct MoveAccount {
+  std::string axis;  ///< the axis it moves
   firmware::MoveState state = firmware::MoveState::none;
   double target_rad = 0.0, tolerance_rad = 0.0;
   std::optional<double> position_rad, error_rad;  ///< nil before any good reading
@@ -261,7 +262,16 @@ struct RunSummary {
   struct Samples {
     std::uint64_t drive = 0, sensor = 0;
   } samples;
-  std::optional<MoveAccount> move;  ///< a move's account
+  std::optional<MoveAccount> move;  ///< a move's account (a group's: its first axis's)
+  /// How each axis of the run ended, in the run's order: its cause, its
+  /// output and (a move's) its account. A run of one axis has one.
+  struct Axis {
+    std::string name;
+    firmware::StopCause cause = firmware::StopCause::none;
+    OutputEnd output;
+    std::optional<MoveAccount> move;
+  };
+  std::vector<Axis> axes;
   /// A calibration run's result: present in a calibration run's summary,
   /// nil when it installed none (calibration_error says why).
   wire::Keyed<CalibrationRecord> calibration;
@@ -280,11 +290,13 @@ struct StartReply {
   /// coarse steps' waveform as used), the zero its target is from, and
   /// whether the calibration's step table is used.
   struct Move {
+    std::string axis;
     bool calibrated = false;
     std::optional<double> zero_displacement_m;
     MoveToRequest request;
   };
   std::optional<Move> move;
+  std::optional<std::vector<Move>> moves;  ///< a group move's, one per axis (its first is `move`)
   /// A calibration's: its V0, the frequencies it steps at, the steps per point.
   struct Calibration {
     std::uint32_t steps_per_point = 0;
@@ -312,7 +324,8 @@ struct RunStatus {
   bool finished = false;
   LoopHealth drive, sensor;
   std::optional<RunSummary> summary;  ///< once finished
-  std::optional<MoveAccount> move;    ///< a move's progress
+  std::optional<MoveAccount> move;    ///< a move's progress (a group's: its first axis's)
+  std::optional<std::vector<MoveAccount>> moves;  ///< a group move's, one per axis
   std::optional<double> calibration_progress;
 };
 
@@ -390,7 +403,8 @@ struct HealthEvent {
   BoardState state = BoardState::idle;
   std::int64_t board_ns = 0;
   std::optional<LoopHealth> drive, sensor;  ///< while a run is under way
-  std::optional<MoveAccount> move;          ///< a move's progress
+  std::optional<MoveAccount> move;          ///< a move's progress (a group's: its first axis's)
+  std::optional<std::vector<MoveAccount>> moves;  ///< a group move's, one per axis
   std::optional<double> calibration_progress;
 };
 
