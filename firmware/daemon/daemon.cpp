@@ -52,7 +52,10 @@ Daemon::Daemon(const config::BoardConfig& board, config::Rig rig, zmq::context_t
       commands_(context, zmq::socket_type::router),
       stream_(context, zmq::socket_type::pub),
       command_endpoint_(listen.empty() ? board.daemon.listen : listen),
-      samples_(board.daemon.recorder_s, board_.axis().drive.rate_hz, board_.axis().sensor.rate_hz,
+      // recorder_s of a run of every axis: a group move records each axis's samples.
+      samples_(board.daemon.recorder_s,
+               board_.axis().drive.rate_hz * static_cast<double>(board_.axes.size()),
+               board_.axis().sensor.rate_hz * static_cast<double>(board_.axes.size()),
                board.daemon.spill_file, board.daemon.fetch_samples_per_s, stream_),
       command_table_(command_table()) {
   for (std::size_t i = 0; i < board_.axes.size(); ++i) {

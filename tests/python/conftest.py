@@ -42,6 +42,16 @@ def start_board(tmp_path, *extra_sets):
     return peers.start_piezod(os.environ["PIEZOD_BINARY"], str(config), str(tmp_path / "piezod.err"))
 
 
+@pytest.fixture
+def board(board_address):
+    """A client of the module's board (`board_address`), its fault cleared."""
+    from piezo_rig.board import Board
+    with Board(board_address) as b:
+        if b.status()["state"] == "fault":
+            b.reset_fault()
+        yield b
+
+
 @pytest.fixture(scope="module")
 def board_address(tmp_path_factory):
     process, address = start_board(tmp_path_factory.mktemp("board"))

@@ -29,14 +29,6 @@ def board_address(tmp_path_factory, source):
     process.wait(10)
 
 
-@pytest.fixture
-def board(board_address):
-    with Board(board_address) as b:
-        if b.status()["state"] == "fault":
-            b.reset_fault()
-        yield b
-
-
 def test_hello_lists_every_axis_with_its_geometry_and_limits(board):
     axes = board.hello()["axes"]
     assert [a["name"] for a in axes] == ["theta", "phi", "chi"]

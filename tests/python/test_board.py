@@ -17,14 +17,6 @@ from piezo_rig import errors
 from piezo_rig.board import Board
 
 
-@pytest.fixture
-def board(board_address):
-    with Board(board_address) as b:
-        if b.status()["state"] == "fault":
-            b.reset_fault()
-        yield b
-
-
 def test_a_two_second_run_keeps_every_sample(board):
     hello = board.hello()
     assert hello["protocol"] == 2 and hello["sensor"]["r2_m"] > 0

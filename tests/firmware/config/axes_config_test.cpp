@@ -106,8 +106,9 @@ TEST_F(AxesConfig, AnAxisNamedTwiceIsRefused) {
   EXPECT_NE(e.find("axes.a"), std::string::npos) << e;
 }
 
-TEST_F(AxesConfig, TwoAxesOnOneOutputAreRefusedNamingBoth) {
-  const std::string two_on_one = R"(
+/// Two axes on one Modbus link: the analog-output module's register 3 and
+/// the sensor's register (its default) for both, until an axis says otherwise.
+const std::string kModbusAxes = R"(
 [drive]
 backend = "modbus-ao"
 [drive.modbus-ao]
@@ -122,39 +123,22 @@ host = "127.0.0.1"
 backend = "none"
 [run]
 [axes.theta]
-[axes.theta.sensor.modbus]
-unit_id = 1
 [axes.phi]
-[axes.phi.sensor.modbus]
-unit_id = 2
 )";
-  const std::string e = refusal(two_on_one);
+
+TEST_F(AxesConfig, TwoAxesOnOneOutputAreRefusedNamingBoth) {
+  const std::string sensors_apart = "[axes.phi.sensor.modbus]\nunit_id = 2\n";
+  const std::string e = refusal(kModbusAxes + sensors_apart);
   EXPECT_NE(e.find("drive.modbus-ao.address (axis phi)"), std::string::npos) << e;
   EXPECT_NE(e.find("theta"), std::string::npos) << e;
   EXPECT_NE(e.find("register 3"), std::string::npos) << e;
   // Each its own register: accepted.
-  EXPECT_EQ(refusal(two_on_one + "[axes.phi.drive.modbus-ao]\naddress = 4\n"), "");
+  EXPECT_EQ(refusal(kModbusAxes + sensors_apart + "[axes.phi.drive.modbus-ao]\naddress = 4\n"),
+            "");
 }
 
 TEST_F(AxesConfig, TwoAxesOnOneInputAreRefused) {
-  const std::string e = refusal(R"(
-[drive]
-backend = "modbus-ao"
-[drive.modbus-ao]
-host = "127.0.0.1"
-link_loss_acknowledged = true
-[sensor]
-backend = "modbus-tcp"
-[sensor.modbus]
-host = "127.0.0.1"
-[lines]
-backend = "none"
-[run]
-[axes.theta]
-[axes.phi]
-[axes.phi.drive.modbus-ao]
-address = 9
-)");
+  const std::string e = refusal(kModbusAxes + "[axes.phi.drive.modbus-ao]\naddress = 9\n");
   EXPECT_NE(e.find("sensor.modbus.address (axis phi)"), std::string::npos) << e;
 }
 
