@@ -154,9 +154,12 @@ protocol::MoveAccount Daemon::move_account(const Run& run, std::size_t part) con
     a.hold = protocol::MoveAccount::Hold{m.settings().hold_s, finite(m.hold_rms_error_rad()),
                                          finite(m.hold_max_error_rad())};
   }
-  // Each axis of a group ends on its own; a move of one axis ends as its run.
-  const auto cause = run.parts.size() > 1 ? run.runner->cause(part) : run.runner->cause();
-  if (run.finished) a.stop_cause = firmware::move_end(on_target, cause);
+  // Once the loops have ended (their causes are theirs until then): each
+  // axis of a group ends on its own, a move of one axis as its run.
+  if (run.finished) {
+    a.stop_cause = firmware::move_end(
+        on_target, run.parts.size() > 1 ? run.runner->cause(part) : run.runner->cause());
+  }
   return a;
 }
 

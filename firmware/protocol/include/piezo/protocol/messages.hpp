@@ -318,7 +318,7 @@ struct StateEvent {
 /// The run in `status`: the one under way, or the last.
 struct RunStatus {
   std::uint64_t id = 0;
-  std::string axis;  ///< the axis it drives
+  std::string axis;  ///< the axis it drives (a group move's first; `moves` names each)
   std::int64_t t0_ns = 0;
   double duration_s = 0.0, lease_s = 0.0;
   bool finished = false;
