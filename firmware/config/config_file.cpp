@@ -239,6 +239,15 @@ void read_axis_tables(const toml::table& t, const std::string& axis, const std::
 /// "SECTION.KEY=VALUE" as a one-key TOML table; VALUE is read as TOML
 /// (numbers, true/false, "strings"), and a bare word as a string.
 toml::table override_table(const std::string& assignment) {
+  // A --set line has no comments: ASCII throughout (a file's '#' rule does
+  // not apply; the TOML reader must never see bytes it cannot take).
+  for (const char c : assignment) {
+    if (const auto byte = static_cast<unsigned char>(c); byte >= 0x80 || byte < 0x20) {
+      throw ConfigError("--set", "--set",
+                        "a non-ASCII or control character (allowed: printable ASCII, e.g. "
+                        "drive.V0=70)");
+    }
+  }
   const auto eq = assignment.find('=');
   const auto dot = assignment.find('.');
   if (eq == std::string::npos || dot == std::string::npos || dot > eq) {
@@ -257,7 +266,6 @@ toml::table override_table(const std::string& assignment) {
     begin = next + 1;
   }
   const std::string value = assignment.substr(eq + 1);
-  require_ascii_outside_comments(assignment, "--set");
   toml::table parsed;
   try {
     parsed = toml::parse("v = " + value);
