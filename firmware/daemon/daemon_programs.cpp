@@ -64,6 +64,16 @@ json Daemon::move_to(const std::string& client, const json& args) {
       if (const auto breach = firmware::check_move(request.move, board_.daemon.duration_max_s)) {
         throw out_of_limits(breach->key, breach->message);
       }
+      // A target the travel window excludes would only end in travel_limit.
+      const auto& safety = axis->config.safety;
+      if (request.move.target_rad < safety.travel_min_rad ||
+          request.move.target_rad > safety.travel_max_rad) {
+        throw out_of_limits(
+            wire_key::target_rad,
+            fmt::format("move_to: target_rad: {:g} rad is outside the axis's travel window "
+                        "[{:g}, {:g}] rad (safety.travel_min_rad, safety.travel_max_rad)",
+                        request.move.target_rad, safety.travel_min_rad, safety.travel_max_rad));
+      }
       bool calibrated = false;
       const firmware::MoveSettings m = plan_move(*axis, request, calibrated);
       // Known now unless the readings at rest failed: then the move takes

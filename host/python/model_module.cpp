@@ -599,11 +599,13 @@ PYBIND11_MODULE(_model, m) {
           }));
 
   py::class_<host::LogLayout>(m, "LogLayout")
-      .def(py::init([](std::string t, std::string V, std::string theta, std::string theta_t) {
+      .def(py::init([](std::string t, std::string V, std::string theta, std::string theta_t,
+                       std::string axis) {
              return host::LogLayout{std::move(t), std::move(V), std::move(theta),
-                                    std::move(theta_t)};
+                                    std::move(theta_t), std::move(axis)};
            }),
-           py::arg("t") = "", py::arg("V") = "", py::arg("theta") = "", py::arg("theta_t") = "");
+           py::arg("t") = "", py::arg("V") = "", py::arg("theta") = "", py::arg("theta_t") = "",
+           py::arg("axis") = "");
 
   m.def("simulate", &simulate, py::arg("params"), py::arg("duration"), py::arg("model"),
         py::arg("direction"), py::arg("dt"), py::arg("tolerance"), py::arg("integrator"));

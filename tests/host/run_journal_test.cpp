@@ -11,10 +11,10 @@
 #include <filesystem>
 #include <fstream>
 
-#include "piezo/config/config_error.hpp"
 #include "io/h5_file.hpp"
 #include "io/run_log.hpp"
 #include "io/run_recovery.hpp"
+#include "piezo/config/config_error.hpp"
 
 namespace piezo::host {
 namespace {
@@ -64,7 +64,8 @@ TEST_F(RunJournalTest, HoldsEveryFlushedRowAndTheHeader) {
     for (int b = 0; b < 3; ++b) {
       log_schema::LogRows rows;
       fill(rows, b);
-      j.append(rows);
+      log_schema::AxesRows one{rows};
+      j.append(one, {""});
     }
     j.set_attribute("board_t0_ns", "42");
   }
@@ -73,11 +74,12 @@ TEST_F(RunJournalTest, HoldsEveryFlushedRowAndTheHeader) {
   EXPECT_EQ(c.torn_bytes, 0u);
   EXPECT_EQ(c.header.at("config"), "[drive]");
   EXPECT_EQ(c.attributes.at("board_t0_ns"), "42");
-  ASSERT_EQ(c.rows.drive.t.size(), 300u);
-  ASSERT_EQ(c.rows.sensor.theta.size(), 30u);
-  for (std::size_t i = 0; i < 300; ++i) EXPECT_EQ(c.rows.drive.t[i], static_cast<double>(i));
-  EXPECT_TRUE(std::isnan(c.rows.sensor.theta[5]));
-  EXPECT_EQ(c.rows.sensor.theta[6], 6e-3);
+  ASSERT_EQ(c.rows.front().drive.t.size(), 300u);
+  ASSERT_EQ(c.rows.front().sensor.theta.size(), 30u);
+  for (std::size_t i = 0; i < 300; ++i)
+    EXPECT_EQ(c.rows.front().drive.t[i], static_cast<double>(i));
+  EXPECT_TRUE(std::isnan(c.rows.front().sensor.theta[5]));
+  EXPECT_EQ(c.rows.front().sensor.theta[6], 6e-3);
 }
 
 TEST_F(RunJournalTest, ATornOrCorruptTailLosesOnlyItsBlock) {
@@ -86,7 +88,8 @@ TEST_F(RunJournalTest, ATornOrCorruptTailLosesOnlyItsBlock) {
     for (int b = 0; b < 3; ++b) {
       log_schema::LogRows rows;
       fill(rows, b);
-      j.append(rows);
+      log_schema::AxesRows one{rows};
+      j.append(one, {""});
     }
   }
   const auto size = fs::file_size(journal());
@@ -102,7 +105,7 @@ TEST_F(RunJournalTest, ATornOrCorruptTailLosesOnlyItsBlock) {
   for (auto cut = two_blocks_end; cut < size; cut += 7) {
     fs::resize_file(journal(), cut);
     const JournalContents c = read_journal(journal());
-    EXPECT_EQ(c.rows.drive.t.size(), 200u) << "cut at " << cut;
+    EXPECT_EQ(c.rows.front().drive.t.size(), 200u) << "cut at " << cut;
     EXPECT_EQ(c.torn_bytes, cut - two_blocks_end);
   }
   // A flipped bit inside the second block: its CRC fails, the first stays.
@@ -112,8 +115,8 @@ TEST_F(RunJournalTest, ATornOrCorruptTailLosesOnlyItsBlock) {
     f.seekp(static_cast<std::streamoff>(two_blocks_end - 20));
     f.put('\x5a');
   }
-  EXPECT_EQ(read_journal(journal()).rows.drive.t.size(), 100u);
-  EXPECT_EQ(whole.rows.drive.t.size(), 300u);
+  EXPECT_EQ(read_journal(journal()).rows.front().drive.t.size(), 100u);
+  EXPECT_EQ(whole.rows.front().drive.t.size(), 300u);
 }
 
 TEST_F(RunJournalTest, NotAJournalIsSaidSo) {
@@ -156,6 +159,37 @@ TEST_F(RunJournalTest, RecoverRebuildsAnAbandonedLog) {
   // Again: nothing to do.
   EXPECT_FALSE(recover_run((dir_ / "run").string()).rebuilt);
   EXPECT_TRUE(fs::exists(dir_ / "catalogue.csv"));
+}
+
+// A group move's log abandoned mid-run: each axis's rows come back under
+// its own group, with its own attributes, and nothing of one reaches another.
+TEST_F(RunJournalTest, RecoverRebuildsEachAxisOfAGroupLog) {
+  {
+    RunLog log = RunLog::create(log_path(), {{"utc_start", "x"}}, {"theta", "phi"});
+    for (int b = 0; b < 3; ++b) {
+      log_schema::AxesRows rows(2);
+      fill(rows[0], b);
+      fill(rows[1], b);
+      for (double& v : rows[1].drive.V) v = -v;  // phi's own values
+      if (b == 2) rows[1].drive = {};            // phi's drive ended before the last flush
+      log.append(rows);
+    }
+    log.set_axis_attribute(1, "theta_zero_m", "0.5");
+    log.abandon();
+  }
+  const Recovery r = recover_run((dir_ / "run").string());
+  EXPECT_TRUE(r.rebuilt);
+  EXPECT_EQ(r.drive_rows, 500u);
+  EXPECT_EQ(r.sensor_rows, 60u);
+  const H5File f = H5File::open(log_path());
+  EXPECT_EQ(f.attribute("/", "axes"), "theta,phi");
+  EXPECT_EQ(f.read("/axes/theta/drive/t").size(), 300u);
+  EXPECT_EQ(f.read("/axes/phi/drive/t").size(), 200u);
+  EXPECT_EQ(f.read("/axes/phi/drive/V")[7], -f.read("/axes/theta/drive/V")[7]);
+  EXPECT_EQ(f.read("/axes/phi/sensor/theta").size(), 30u);
+  EXPECT_EQ(f.attribute("/axes/phi", "theta_zero_m"), "0.5");
+  EXPECT_FALSE(f.exists("/drive/t"));
+  EXPECT_FALSE(recover_run((dir_ / "run").string()).rebuilt);
 }
 
 TEST_F(RunJournalTest, AClosedLogLeavesNoJournal) {

@@ -46,6 +46,37 @@ def test_identify_takes_a_log_as_the_cli_does(logged_run, piezo):
     assert fit.samples == cli["samples"]
 
 
+@pytest.fixture(scope="module")
+def group_run(tmp_path_factory, piezo, source):
+    out = tmp_path_factory.mktemp("runs") / "group"
+    piezo("move", "--config", os.path.join(source, "configs", "three-axes.toml"),
+          "--to", "theta=0.004", "--to", "phi=-0.006", "--out", str(out), "--json")
+    return out
+
+
+def test_a_group_moves_log_reads_axis_by_axis(group_run, piezo):
+    with pytest.raises(KeyError, match=r"required: the log holds several axes \(theta, phi\)"):
+        log.open_run(group_run)
+    with pytest.raises(KeyError, match="'chi' is not an axis of the log"):
+        log.open_run(group_run, axis="chi")
+    theta, phi = (log.open_run(group_run, axis=a) for a in ("theta", "phi"))
+    assert theta.axes == phi.axes == ["theta", "phi"] and phi.axis == "phi"
+    with h5py.File(group_run / "run.h5") as f:
+        for name in f["axes/phi/drive"]:
+            np.testing.assert_array_equal(phi.drive[name].to_numpy(), f["axes/phi/drive"][name][()])
+    # Each axis its own account, angle and parameters (phi: its own rotor).
+    assert theta.summary["move"]["target_rad"] == 0.004
+    assert phi.summary["move"]["target_rad"] == -0.006
+    assert phi.stop_cause == theta.stop_cause == "on_target" and phi.status == "completed"
+    assert abs(phi.sensor["theta"].iloc[-1] + 0.006) < 1e-4
+    assert phi.attrs["plant_parameters"]["J"] == 3e-6 != theta.attrs["plant_parameters"]["J"]
+    # identify reads the axis as the CLI does.
+    cli = piezo("identify", "--log", str(group_run / "run.h5"), "--axis", "phi", "--params",
+                "F_N", "--json")
+    fit = model.identify(phi, free=["F_N"])
+    assert fit.parameters["F_N"] == cli["parameters"]["F_N"] and fit.samples == cli["samples"]
+
+
 def foreign_file(path, matlab):
     """A run as another tool would save it: our simulation, its own names;
     MATLAB v7.3 keeps vectors as 1 x n matrices after a 512-byte user block."""

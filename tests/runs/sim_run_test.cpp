@@ -644,7 +644,8 @@ TEST(SimRun, AFailedLogKeepsTheLiveRowsComingToTheRunsEnd) {
         if (!status.log_error.empty()) log_error = status.log_error;
       },
       nullptr,
-      [&](const log_schema::LogRows& rows) {
+      [&](const log_schema::AxesRows& axes) {
+        const log_schema::LogRows& rows = axes.front();
         if (rows.drive.t.empty()) return;
         last_drive_t = rows.drive.t.back();
         last_drive_phase = rows.drive.phase.back();

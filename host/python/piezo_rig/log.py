@@ -9,6 +9,9 @@
 >>> type(run.attrs["drive_latency_s"])        # attributes in their types
 <class 'float'>
 
+A group move's log keeps each axis apart; ``open_run(path, axis="phi")``
+reads one (``RunLog.axes`` names them all).
+
 Another tool's HDF5 file, or a MATLAB v7.3 .mat (which is HDF5), is read the
 way ``piezo identify`` reads it, by naming its datasets:
 ``open_run("bench.mat", t="/data/t", V="/data/u", theta="/data/phi")``.
@@ -43,7 +46,10 @@ class RunLog:
     ``incomplete``) and ``stop_cause``, ``attrs`` every root attribute in
     its type (numbers as int or float, JSON maps and lists parsed, other
     text as str), ``path`` the file, ``layout`` the dataset or column
-    names another tool's file was read with ({} for a ``piezo`` log)."""
+    names another tool's file was read with ({} for a ``piezo`` log; a
+    group move's: its ``axis``). ``axes`` names a group move's axes (empty
+    for a log of one axis), ``axis`` the one read: its frames, summary,
+    stop cause and parameters are that axis's own."""
 
     path: str
     drive: pd.DataFrame
@@ -55,6 +61,8 @@ class RunLog:
     stop_cause: str = ""
     attrs: dict[str, Any] = field(default_factory=dict[str, Any])
     layout: dict[str, Any] = field(default_factory=dict[str, Any])
+    axes: list[str] = field(default_factory=list[str])
+    axis: str = ""
 
     @property
     def model_parameters(self) -> dict[str, Any]:
@@ -172,14 +180,16 @@ def _paired(path: str, role: str, times: tuple[Any, ...], values: tuple[Any, ...
 
 def open_run(path: Union[str, os.PathLike[str]], *, t: Optional[str] = None,
              V: Optional[str] = None, theta: Optional[str] = None,
-             theta_t: Optional[str] = None) -> RunLog:
+             theta_t: Optional[str] = None, axis: Optional[str] = None) -> RunLog:
     """Reads a ``piezo`` run (its directory or ``run.h5``) whole. With
     dataset names (``t``, ``V``, ``theta``, and ``theta_t`` when the angle
     has its own time), reads another tool's HDF5 or MATLAB v7.3 file
     instead: ``drive`` gets t and V, ``sensor`` t and theta. A CSV has the
     columns t, V and theta (or the names given). Every file ``piezo
-    identify`` accepts. Raises ``FileNotFoundError``, or ``KeyError``
-    naming a missing dataset or column."""
+    identify`` accepts. A group move's log holds several axes: ``axis``
+    names the one to read (required there). Raises ``FileNotFoundError``,
+    or ``KeyError`` naming a missing dataset or column, or an axis the log
+    lacks (listing those it holds)."""
     path = os.fspath(path)
     if os.path.isdir(path):
         path = os.path.join(path, "run.h5")
@@ -200,7 +210,12 @@ def open_run(path: Union[str, os.PathLike[str]], *, t: Optional[str] = None,
                                           (theta, _dataset(f, theta, path)), own_times))
             layout = {"t": t, "V": V, "theta": theta, "theta_t": theta_t or ""}
             return RunLog(path, drive, sensor, pd.DataFrame(), attrs=attrs, layout=layout)
-        drive, sensor, observer = (_group(f, g) for g in GROUPS)
+        axes = [a for a in _text(f.attrs.get("axes", "")).split(",") if a]
+        prefix = _axis_group(path, axes, _text(f.attrs.get("axis", "")), axis)
+        if prefix:
+            # The axis's own attributes over the log's.
+            attrs.update({k: _typed(v) for k, v in f[prefix].attrs.items()})
+        drive, sensor, observer = (_group(f, prefix + g) for g in GROUPS)
     config = {}
     if isinstance(attrs.get("config"), str):
         import tomllib
@@ -212,4 +227,21 @@ def open_run(path: Union[str, os.PathLike[str]], *, t: Optional[str] = None,
     return RunLog(path, drive, sensor, observer, config=config,
                   summary=summary if isinstance(summary, dict) else {},
                   status=str(attrs.get("status", "")), stop_cause=str(attrs.get("stop_cause", "")),
-                  attrs=attrs)
+                  attrs=attrs, layout={"axis": axis} if prefix else {}, axes=axes,
+                  axis=axis or _text(attrs.get("axis", "")))
+
+
+def _axis_group(path: str, axes: list[str], own: str, axis: Optional[str]) -> str:
+    """The group ``axis`` is kept under: "" (the root) in a log of one
+    axis, "axes/NAME/" in a group move's (docs/run-logs.md)."""
+    if len(axes) > 1:
+        if axis in axes:
+            return f"axes/{axis}/"
+        held = ", ".join(axes)
+        raise KeyError(f"{path}: axis: " + (f"{axis!r} is not an axis of the log (it holds {held})"
+                                            if axis else
+                                            f"required: the log holds several axes ({held})"))
+    if axis and axis != own:
+        raise KeyError(f"{path}: axis: {axis!r}: the log holds one axis, "
+                       + (own or "unnamed (drop axis=)"))
+    return ""

@@ -365,15 +365,16 @@ class Fit:
 
 
 def load_fit_data(log: Union[str, os.PathLike[str]], *, t: str = "", V: str = "", theta: str = "",
-                  theta_t: str = "") -> tuple[Any, ...]:
+                  theta_t: str = "", axis: str = "") -> tuple[Any, ...]:
     """(FitData, Parameters) of a log as ``identify`` reads it: a ``piezo``
-    run.h5 (or its directory), a CSV with t, V, theta columns, or another
-    tool's HDF5 / MATLAB v7.3 file with the datasets named by ``t``, ``V``,
-    ``theta`` (and ``theta_t`` if the angle has its own time)."""
+    run.h5 (or its directory; ``axis``: the axis of a group move's log), a
+    CSV with t, V, theta columns, or another tool's HDF5 / MATLAB v7.3 file
+    with the datasets named by ``t``, ``V``, ``theta`` (and ``theta_t`` if
+    the angle has its own time)."""
     path = os.fspath(log)
     if os.path.isdir(path):
         path = os.path.join(path, "run.h5")
-    return _model.load_run(path, LogLayout(t, V, theta, theta_t))
+    return _model.load_run(path, LogLayout(t, V, theta, theta_t, axis))
 
 
 def fit_data(drive_t: Any, drive_V: Any, t: Any, theta: Any, *,

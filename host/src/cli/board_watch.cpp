@@ -47,7 +47,8 @@ void BoardWatch::follow_run(std::uint64_t run) {
   }
   collector_ = std::make_unique<SampleCollector>(t0, hello_.sensor.r2_m, observer_.get());
   follower_.follow(
-      *collector_, [] { return std::numeric_limits<double>::quiet_NaN(); }, false);
+      std::vector<SampleCollector*>(std::max<std::size_t>(1, hello_.axes.size()), collector_.get()),
+      [] { return std::numeric_limits<double>::quiet_NaN(); }, false);
 }
 
 void BoardWatch::on_state(const protocol::StateEvent& state) {

@@ -134,6 +134,8 @@ void add_log_layout_options(CLI::App& cmd, LogLayout& layout) {
   cmd.add_option("--V", layout.V, "...the drive voltage's [V]");
   cmd.add_option("--theta", layout.theta, "...the measured angle's [rad]");
   cmd.add_option("--theta-t", layout.theta_t, "...the angle's own time, if not --t's [s]");
+  cmd.add_option("--axis", layout.axis,
+                 "A log of several axes (a group move): the axis to read (its group /axes/AXIS)");
 }
 
 }  // namespace piezo::host

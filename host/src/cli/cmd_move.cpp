@@ -1,9 +1,11 @@
 // `piezo move`: a closed-loop move to an angle from the board's zero,
 // logged as a run. Its options are the declared fields of a move's request
-// (firmware::kMoveFields), one each.
+// (firmware::kMoveFields), one each; its target, `--to`, takes AXIS=RAD
+// once per axis for a group move of several axes.
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cctype>
 #include <variant>
 
@@ -11,6 +13,7 @@
 #include "piezo/config/config_error.hpp"
 #include "piezo/firmware/move_request.hpp"
 #include "piezo/firmware/request_limits.hpp"
+#include "piezo/firmware/wire_keys.hpp"
 #include "piezo/overload.hpp"
 #include "piezo/protocol/wire_fields.hpp"
 #include "run_command.hpp"
@@ -21,9 +24,11 @@ namespace {
 /// and the run it was, in one object.
 struct MoveResult {
   protocol::MoveAccount move;  ///< the board's (a move that never began: its run's end)
-  double time_s = 0.0;         ///< to on target, else the whole run
+  double time_s = 0.0;         ///< to on target (a group: its last axis), else the whole run
   std::string run_dir, log;
   nlohmann::json run;  ///< the run's own JSON summary
+  /// A group move's: every axis's account, in the log's order (the first is `move`).
+  std::optional<std::vector<protocol::MoveAccount>> moves;
 };
 
 }  // namespace
@@ -33,8 +38,9 @@ template <>
 struct piezo::protocol::wire::Fields<piezo::host::MoveResult> {
   using T = piezo::host::MoveResult;
   static constexpr auto list =
-      std::tuple{inline_fields(&T::move), field("time_s", &T::time_s),
-                 field("run_dir", &T::run_dir), field("log", &T::log), field("run", &T::run)};
+      std::tuple{inline_fields(&T::move),       field("time_s", &T::time_s),
+                 field("run_dir", &T::run_dir), field("log", &T::log),
+                 field("run", &T::run),         field(piezo::wire_key::moves, &T::moves)};
 };
 
 namespace piezo::host {
@@ -49,7 +55,12 @@ void to_json(nlohmann::json& j, const MoveResult& m) {
 struct MoveOptions {
   firmware::MoveRequest request;
   std::vector<std::pair<const firmware::MoveField*, const CLI::Option*>> given;
+  std::vector<std::string> to;  ///< --to as given: RAD, or AXIS=RAD for each axis of a group
 };
+
+bool is_target(const firmware::MoveField& field) {
+  return field.name == wire_key::target_rad;
+}
 
 std::vector<std::string> approach_names() {
   std::vector<std::string> out;
@@ -67,6 +78,13 @@ void add_move_options(CLI::App& cmd, MoveOptions& o) {
     if (!field.required) {
       doc += " (default: [move] " + std::string(field.name) + ", else " +
              firmware::default_text(field) + ")";
+    }
+    if (is_target(field)) {
+      // RAD on one axis, or AXIS=RAD once per axis of a group move.
+      cmd.add_option("--to", o.to,
+                     doc + "; AXIS=RAD (repeated) moves several axes in one group move")
+          ->required();
+      continue;
     }
     CLI::Option* added =
         std::visit(Overload{
@@ -105,6 +123,42 @@ void add_move_options(CLI::App& cmd, MoveOptions& o) {
 /// it, else from the config's [move]. The board refuses the same (one
 /// rule); checked here first so that a refused move leaves no run
 /// directory behind.
+/// A number that is all of `text`, else nullopt.
+std::optional<double> whole_number(const std::string& text) {
+  std::size_t used = 0;
+  try {
+    const double value = std::stod(text, &used);
+    if (used == text.size()) return value;
+  } catch (const std::exception&) {
+  }
+  return std::nullopt;
+}
+
+/// --to's targets into `move`: one RAD (target_rad), or AXIS=RAD each.
+void read_targets(const std::vector<std::string>& to, const RunOptions& o, asked::Move& move) {
+  if (to.size() == 1 && to.front().find('=') == std::string::npos) {
+    const auto value = whole_number(to.front());
+    if (!value) throw config::ConfigError("--to", to.front(), "not a number of radians");
+    move.target_rad = *value;
+    return;
+  }
+  for (const std::string& text : to) {
+    const std::size_t eq = text.find('=');
+    const auto value = eq == std::string::npos ? std::nullopt : whole_number(text.substr(eq + 1));
+    if (!value || eq == 0) {
+      throw config::ConfigError("--to", text,
+                                "a group move gives AXIS=RAD for each axis, e.g. --to theta=0.01 "
+                                "--to phi=-0.02");
+    }
+    if (!move.targets.emplace(text.substr(0, eq), *value).second) {
+      throw config::ConfigError("--to", text, "names its axis twice");
+    }
+  }
+  if (!o.axis.empty()) {
+    throw config::ConfigError("--axis", o.axis, "a group move names its axes in --to AXIS=RAD");
+  }
+}
+
 asked::Move move_request(const MoveOptions& m, const RunOptions& o,
                          const firmware::MoveRequest& defaults) {
   asked::Move move;
@@ -113,26 +167,64 @@ asked::Move move_request(const MoveOptions& m, const RunOptions& o,
     if (option->count() == 0) continue;
     std::visit([&](auto member) { move.*member = m.request.*member; }, field->member);
   }
-  if (const auto breach = firmware::check_move(move)) {
-    const firmware::MoveField* field = firmware::find_move_field(breach->key);
-    throw config::ConfigError(field ? std::string(field->option) : "piezo move", breach->key,
-                              breach->message);
+  read_targets(m.to, o, move);
+  // A group's targets are checked each as its axis's move, named as the
+  // board names them (`targets.AXIS`).
+  const auto checked = [](const firmware::MoveRequest& request, const std::string& target_key) {
+    if (const auto breach = firmware::check_move(request)) {
+      const firmware::MoveField* field = firmware::find_move_field(breach->key);
+      const bool target = field != nullptr && is_target(*field);
+      throw config::ConfigError(field ? std::string(field->option) : "piezo move",
+                                target ? target_key : breach->key, breach->message);
+    }
+  };
+  checked(move, std::string(wire_key::target_rad));
+  for (const auto& [axis, target] : move.targets) {
+    firmware::MoveRequest one = move;
+    one.target_rad = target;
+    checked(one, fmt::format("{}.{}", wire_key::targets, axis));
   }
   move.V0 = o.V0;
   move.f = o.f;
   return move;
 }
 
+/// An axis's account, with its end in words when the board gave none (a
+/// move that never began: its run's end).
+protocol::MoveAccount ended(protocol::MoveAccount move, firmware::StopCause cause) {
+  if (!move.stop_cause) move.stop_cause = firmware::move_end(move.on_target, cause);
+  return move;
+}
+
 MoveResult move_result(const FinishedRun& run) {
   const RunSummary& s = run.summary;
   MoveResult r;
-  r.move = s.board.move.value_or(protocol::MoveAccount{});
-  if (!r.move.stop_cause) r.move.stop_cause = firmware::move_end(r.move.on_target, s.board.cause);
+  r.move = ended(s.board.move.value_or(protocol::MoveAccount{}), s.board.cause);
   r.time_s = r.move.on_target ? r.move.on_target_at_s.value_or(s.t_end_s) : s.t_end_s;
+  if (s.board.axes.size() > 1) {
+    r.moves.emplace();
+    bool all_on_target = true;
+    double last_on_target = 0.0;
+    for (const auto& axis : s.board.axes) {
+      protocol::MoveAccount none;
+      none.axis = axis.name;
+      r.moves->push_back(ended(axis.move.value_or(none), axis.cause));
+      all_on_target = all_on_target && r.moves->back().on_target;
+      last_on_target = std::max(last_on_target, r.moves->back().on_target_at_s.value_or(s.t_end_s));
+    }
+    r.move = r.moves->front();
+    r.time_s = all_on_target ? last_on_target : s.t_end_s;
+  }
   r.run_dir = run.dir.string();
   r.log = run.log.string();
   r.run = run.result;
   return r;
+}
+
+bool on_target(const MoveResult& r) {
+  if (!r.moves) return r.move.on_target;
+  return std::all_of(r.moves->begin(), r.moves->end(),
+                     [](const protocol::MoveAccount& m) { return m.on_target; });
 }
 
 std::string move_text(const MoveResult& r) {
@@ -142,11 +234,24 @@ std::string move_text(const MoveResult& r) {
   const auto urad = [](std::optional<double> v) {
     return v ? fmt::format("{:.1f} urad", 1e6 * *v) : std::string("-");
   };
-  const auto& m = r.move;
-  return fmt::format("move {} ({}): position {} for target {}, error {}, {} steps, {:.3f} s\n",
-                     m.on_target ? "on target" : "NOT on target",
-                     firmware::kMoveEndNames.name(*m.stop_cause), mrad(m.position_rad),
-                     mrad(m.target_rad), urad(m.error_rad), m.steps, r.time_s);
+  const auto line = [&](const protocol::MoveAccount& m, const std::string& what) {
+    return fmt::format("{} ({}): position {} for target {}, error {}, {} steps", what,
+                       firmware::kMoveEndNames.name(*m.stop_cause), mrad(m.position_rad),
+                       mrad(m.target_rad), urad(m.error_rad), m.steps);
+  };
+  if (!r.moves) {
+    const auto& m = r.move;
+    return line(m, m.on_target ? "move on target" : "move NOT on target") +
+           fmt::format(", {:.3f} s\n", r.time_s);
+  }
+  std::string out =
+      fmt::format("group move {} ({} axes), {:.3f} s\n",
+                  on_target(r) ? "on target" : "NOT on target", r.moves->size(), r.time_s);
+  for (const auto& m : *r.moves)
+    out += "  " +
+           line(m, fmt::format("{:<8}{}", m.axis, m.on_target ? "on target" : "NOT on target")) +
+           "\n";
+  return out;
 }
 
 }  // namespace
@@ -180,7 +285,7 @@ void add_move_command(CLI::App& app, Commands& commands) {
                          write_out(stderr, "piezo: " + output_line(run.summary) + "\n");
                        }
                        if (exit_code(run.summary) != 0) return exit_code(run.summary);
-                       return move.move.on_target ? 0 : kExitFailed;
+                       return on_target(move) ? 0 : kExitFailed;
                      }};
   commands.add(cmd, run_command(cmd, o, std::move(program)));
 }

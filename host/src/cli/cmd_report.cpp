@@ -130,9 +130,12 @@ int run(const ReportOptions& o) {
   const auto predicted = model::predict(run.parameters, run.data, model::FrictionModel::lugre);
   const double error_rad = rmse(run.data.theta, predicted);
 
-  const fs::path out = !o.out.empty() ? fs::path(o.out)
-                       : run_dir      ? fs::path(o.input) / "report"
-                                 : log_path.parent_path() / (log_path.stem().string() + "-report");
+  // One axis of a group move's log: its own plots beside the others'.
+  const std::string suffix = o.layout.axis.empty() ? "" : "-" + o.layout.axis;
+  const fs::path out =
+      !o.out.empty() ? fs::path(o.out)
+      : run_dir      ? fs::path(o.input) / ("report" + suffix)
+                     : log_path.parent_path() / (log_path.stem().string() + "-report" + suffix);
   fs::create_directories(out);
   const std::string angle_csv = (out / "angle.csv").string();
   write_csv(angle_csv, {{"t", run.data.t},
@@ -142,7 +145,9 @@ int run(const ReportOptions& o) {
   write_csv(drive_csv, {{"t", run.data.drive_t}, {"V", run.data.drive_V}});
   const std::string name = run_dir ? fs::absolute(o.input).lexically_normal().filename().string()
                                    : log_path.filename().string();
-  const std::string title = fmt::format("{} ({})", name.empty() ? o.input : name, status);
+  const std::string title =
+      fmt::format("{}{} ({})", name.empty() ? o.input : name,
+                  o.layout.axis.empty() ? "" : ", axis " + o.layout.axis, status);
   plot_angle(out, title, angle_csv);
   plot_zoom(out, title, run, drive_csv, angle_csv);
   const std::string timing_png = plot_timing(out, title, log);
@@ -176,7 +181,8 @@ void add_report_command(CLI::App& app, Commands& commands) {
   add_log_layout_options(*cmd, o->layout);
   add_config_option(*cmd, o->config, "Model parameters (TOML); default: the log's, or Table 1")
       ->check(CLI::ExistingFile);
-  add_out_option(*cmd, o->out, "Folder for the plots (default RUN_DIR/report)");
+  add_out_option(*cmd, o->out,
+                 "Folder for the plots (default RUN_DIR/report, RUN_DIR/report-AXIS with --axis)");
   add_json_flag(*cmd, o->json);
   commands.add(cmd, [o] { return run(*o); });
 }

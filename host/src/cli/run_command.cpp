@@ -5,8 +5,10 @@
 #include "run_command.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <ctime>
@@ -21,6 +23,7 @@
 #include "io/parameters_json.hpp"
 #include "io/run_log.hpp"
 #include "piezo/config/config_error.hpp"
+#include "piezo/firmware/output_state.hpp"
 #include "piezo/firmware/wire_keys.hpp"
 #include "run/board_run.hpp"
 #include "run/local_board.hpp"
@@ -75,8 +78,11 @@ std::string summary_text(const RunSummary& s, const fs::path& log, const std::st
   }
   if (!s.host_error.empty()) out += fmt::format("  error      {}\n", s.host_error);
   out += fmt::format("  output     {}\n", output_line(s));
-  out += fmt::format("  angle      {:.4f} mrad at t = {:.3f} s, mean velocity {:.4f} mrad/s\n",
-                     1e3 * s.theta_end_rad, s.t_end_s, 1e3 * s.mean_velocity_rad_s);
+  for (const AxisMeasured& m : s.axes.size() > 1 ? s.axes : std::vector<AxisMeasured>{s}) {
+    out += fmt::format("  angle      {}{:.4f} mrad at t = {:.3f} s, mean velocity {:.4f} mrad/s\n",
+                       s.axes.size() > 1 ? fmt::format("{:<7}", m.name) : std::string(),
+                       1e3 * m.theta_end_rad, m.t_end_s, 1e3 * m.mean_velocity_rad_s);
+  }
   for (const auto& [name, l] :
        {std::pair{"drive", &s.board.drive}, std::pair{"sensor", &s.board.sensor}}) {
     const auto timing = l->timing.value_or(protocol::LoopHealth::Timing{});
@@ -210,30 +216,57 @@ nlohmann::json output_json(const RunSummary& s) {
           {"zero_writes", o.zero_writes}};
 }
 
+nlohmann::json observer_json(const std::optional<ObserverSummary>& o) {
+  if (!o) return nullptr;
+  return {{"samples", o->samples},
+          {"residual_rms_rad", o->residual_rms_rad},
+          {"open_loop_rms_rad", o->open_loop_rms_rad},
+          {"outliers", o->outliers},
+          {"restarts", o->restarts}};
+}
+
+/// Each axis of a run of several: how it ended (the board's account) and
+/// what the host measured of it, in the log's order.
+nlohmann::json axes_json(const RunSummary& s) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const AxisMeasured& m : s.axes) {
+    nlohmann::json a = {
+        {"name", m.name},
+        {"theta_end_rad", m.theta_end_rad},
+        {"t_end_s", m.t_end_s},
+        {"mean_velocity_rad_s", m.mean_velocity_rad_s},
+        {"errors_by_class", {{"drive", m.drive_errors}, {"sensor", m.sensor_errors}}},
+        {"observer", observer_json(m.observer)}};
+    for (const auto& b : s.board.axes) {
+      if (b.name != m.name) continue;
+      a["stop_cause"] = axis_end(b);
+      a["output"] = firmware::kOutputStateNames.name(b.output.state);
+      a["move"] = b.move ? nlohmann::json(*b.move) : nlohmann::json(nullptr);
+    }
+    out.push_back(std::move(a));
+  }
+  return out;
+}
+
 nlohmann::json summary_json(const RunSummary& s, const fs::path& dir, const fs::path& log,
                             const std::string& signal) {
-  nlohmann::json observer = nullptr;
-  if (s.observer) {
-    observer = {{"samples", s.observer->samples},
-                {"residual_rms_rad", s.observer->residual_rms_rad},
-                {"open_loop_rms_rad", s.observer->open_loop_rms_rad},
-                {"outliers", s.observer->outliers},
-                {"restarts", s.observer->restarts}};
-  }
-  return {{"status", s.status()},
-          {"observer", observer},
-          {"stop_cause", s.stop_cause()},
-          {"stop_signal", signal.empty() ? nlohmann::json(nullptr) : nlohmann::json(signal)},
-          {"error", s.host_error.empty() ? nlohmann::json(nullptr) : nlohmann::json(s.host_error)},
-          {"output", output_json(s)},
-          {"run_dir", dir.string()},
-          {"log", log.string()},
-          {"drive", loop_json(s.board.drive, s.drive_errors)},
-          {"sensor", loop_json(s.board.sensor, s.sensor_errors)},
-          {"theta_end_rad", s.theta_end_rad},
-          {"t_end_s", s.t_end_s},
-          {"mean_velocity_rad_s", s.mean_velocity_rad_s},
-          {"realtime", s.board.realtime}};
+  nlohmann::json out = {
+      {"status", s.status()},
+      {"observer", observer_json(s.observer)},
+      {"stop_cause", s.stop_cause()},
+      {"stop_signal", signal.empty() ? nlohmann::json(nullptr) : nlohmann::json(signal)},
+      {"error", s.host_error.empty() ? nlohmann::json(nullptr) : nlohmann::json(s.host_error)},
+      {"output", output_json(s)},
+      {"run_dir", dir.string()},
+      {"log", log.string()},
+      {"drive", loop_json(s.board.drive, s.drive_errors)},
+      {"sensor", loop_json(s.board.sensor, s.sensor_errors)},
+      {"theta_end_rad", s.theta_end_rad},
+      {"t_end_s", s.t_end_s},
+      {"mean_velocity_rad_s", s.mean_velocity_rad_s},
+      {"realtime", s.board.realtime}};
+  if (s.axes.size() > 1) out["axes"] = axes_json(s);
+  return out;
 }
 
 void append_catalogue(const fs::path& run_dir, const std::string& utc_start,
@@ -282,6 +315,14 @@ void finish_log(RunLog& log, RunSummary& summary, const nlohmann::json& result) 
                       fmt::format("{}", fmt::join(summary.board.realtime, "; ")));
     log.set_attribute(log_schema::kStopCause, summary.stop_cause());
     log.set_attribute(log_schema::kOutput, summary.output_state());
+    if (log.axes().size() > 1 && result.contains("axes")) {
+      // Each axis's own account on its group.
+      for (std::size_t i = 0; i < log.axes().size(); ++i) {
+        const nlohmann::json& axis = result["axes"].at(i);
+        log.set_axis_attribute(i, log_schema::kSummary, axis.dump());
+        log.set_axis_attribute(i, log_schema::kStopCause, axis.value("stop_cause", "unknown"));
+      }
+    }
     log.close(summary.status());
   } catch (const std::exception& e) {
     if (summary.host_error.empty()) summary.host_error = e.what();
@@ -315,7 +356,56 @@ struct Board {
   nlohmann::json dictionary;            ///< the board's `describe`: its commands and limits
   std::optional<BoardRequest> request;  ///< what this run asks of it, checked and prepared
   std::string geometry_note;            ///< the board's sensor radius differed from the config's
+  /// A group move's axes in the board's order (the log keeps each under its
+  /// group); empty: a run of one axis.
+  std::vector<std::string> group;
 };
+
+/// A group move's axes in the board's order; each must be the board's.
+std::vector<std::string> group_axes(const RunAsked& asked, const protocol::Hello& hello,
+                                    const std::string& address) {
+  const auto* move = std::get_if<asked::Move>(&asked);
+  if (move == nullptr || move->targets.empty()) return {};
+  std::vector<std::string> names, out;
+  for (const auto& a : hello.axes) names.push_back(a.name);
+  for (const auto& [axis, target] : move->targets) {
+    if (std::find(names.begin(), names.end(), axis) == names.end()) {
+      throw config::ConfigError("piezod at " + address,
+                                fmt::format("{}.{}", wire_key::targets, axis),
+                                fmt::format("\"{}\" is not an axis of the board (allowed: {})",
+                                            axis, fmt::join(names, ", ")));
+    }
+  }
+  for (const std::string& name : names)
+    if (move->targets.contains(name)) out.push_back(name);
+  return out;
+}
+
+/// Refuses a move's target beyond its axis's travel window as the board
+/// declares it (hello), before anything is created: the board would refuse
+/// it too, after the run's directory was made.
+void check_travel(const RunAsked& asked, const protocol::Hello& hello, const std::string& axis,
+                  const std::string& address) {
+  const auto* move = std::get_if<asked::Move>(&asked);
+  if (move == nullptr) return;
+  std::map<std::string, double> targets = move->targets;
+  if (targets.empty()) targets[axis] = move->target_rad;
+  for (const auto& [name, target] : targets) {
+    for (const protocol::AxisInfo& a : hello.axes) {
+      if (a.name != name && !(name.empty() && hello.axes.size() == 1)) continue;
+      const double lo = a.travel_min_rad.value_or(-INFINITY);
+      const double hi = a.travel_max_rad.value_or(INFINITY);
+      if (target >= lo && target <= hi) continue;
+      throw config::ConfigError(
+          "piezod at " + address,
+          move->targets.empty() ? std::string(wire_key::target_rad)
+                                : fmt::format("{}.{}", wire_key::targets, name),
+          fmt::format("{:g} rad is outside axis {}'s travel window [{:g}, {:g}] rad (the board's "
+                      "safety.travel_min_rad, travel_max_rad; nothing was sent)",
+                      target, a.name, lo, hi));
+    }
+  }
+}
 
 void connect(Board& board, const config::ConfigFile& config, const RunAsked& asked) {
   if (config.host.board.address.empty()) {
@@ -325,7 +415,11 @@ void connect(Board& board, const config::ConfigFile& config, const RunAsked& ask
   } else {
     board.client.emplace(config.host.board);
   }
-  board.hello = axis_view(board.client->hello(), config.host.board.axis, board.client->address());
+  const protocol::Hello hello = board.client->hello();
+  board.group = group_axes(asked, hello, board.client->address());
+  board.hello = axis_view(hello, board.group.empty() ? config.host.board.axis : board.group.front(),
+                          board.client->address());
+  check_travel(asked, hello, config.host.board.axis, board.client->address());
   if (const std::string note = sensor_geometry_note(config, board.hello); !note.empty()) {
     write_out(stderr, "piezo: " + note + "\n");
     board.geometry_note = note;
@@ -385,9 +479,27 @@ RunLog create_log(const fs::path& dir, const config::ConfigFile& config, const B
        {log_schema::kTheta,
         fmt::format("(displacement - first good displacement) / sensor.r2_m, "
                     "r2_m = {:.9g} m{}",
-                    board.hello.sensor.r2_m, remote ? " (the board's, from its hello)" : "")}});
+                    board.hello.sensor.r2_m, remote ? " (the board's, from its hello)" : "")}},
+      board.group);
   if (!board.geometry_note.empty())
     log.set_attribute(log_schema::kSensorGeometryNote, board.geometry_note);
+  if (board.group.empty() && board.hello.axes.size() > 1) {
+    log.set_attribute(log_schema::kAxis, config.host.board.axis);
+  }
+  // A group's axes: each its own model and radius, on its group.
+  for (std::size_t i = 0; board.group.size() > 1 && i < board.group.size(); ++i) {
+    const protocol::Hello view = axis_view(board.hello, board.group[i], board.client->address());
+    log.set_axis_attribute(
+        i, log_schema::kTheta,
+        fmt::format("(displacement - the board's zero) / sensor.r2_m, r2_m = {:.9g} m (the "
+                    "board's, from its hello)",
+                    view.sensor.r2_m));
+    if (const config::AxisConfig* own = config.board.find_axis(board.group[i])) {
+      log.set_axis_attribute(i, log_schema::kModelParameters, to_json(own->model).dump());
+      log.set_axis_attribute(i, log_schema::kPlantParameters,
+                             to_json(model::Parameters{own->model.drive, own->plant}).dump());
+    }
+  }
   return log;
 }
 
@@ -421,8 +533,9 @@ RunSummary drive(Board& board, const config::ConfigFile& config, RunLog& log,
   try {
     // The live view takes the collector's rows, not the log's: a log that
     // fails leaves the view going to the run's end.
-    std::function<void(const log_schema::LogRows&)> to_view;
-    if (live != nullptr) to_view = [live](const log_schema::LogRows& rows) { live->add(rows); };
+    std::function<void(const log_schema::AxesRows&)> to_view;
+    if (live != nullptr)
+      to_view = [live](const log_schema::AxesRows& rows) { live->add(rows.front()); };
     RunSummary summary = run_on_board(config, *board.client, board.hello, log, signals.flag(),
                                       status_line, *board.request, &estop_requested, to_view);
     if (board.local && !log.broken()) {

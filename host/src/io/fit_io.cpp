@@ -86,15 +86,25 @@ LoadedRun load_foreign_h5(const std::string& path, const LogLayout& layout) {
   return run;
 }
 
-LoadedRun load_h5(const std::string& path) {
+/// An attribute of an axis: its group's, else the log's (a log of one axis
+/// keeps every attribute at its root).
+std::optional<std::string> axis_attribute(const H5File& log, const std::string& group,
+                                          const char* name) {
+  if (!group.empty() && log.has_attribute(group, name)) return log.attribute(group, name);
+  if (log.has_attribute("/", name)) return log.attribute("/", name);
+  return std::nullopt;
+}
+
+LoadedRun load_h5(const std::string& path, const std::string& axis) {
   recover_if_needed(path);  // a crashed run: rebuilt from its journal first
   const H5File log = H5File::open(path);
+  const std::string group = axis_group_of(log, path, axis);
   using log_schema::DriveRows;
   using log_schema::SensorRows;
-  const std::string drive_t_path = log_schema::path(&DriveRows::t);
-  const std::string drive_V_path = log_schema::path(&DriveRows::V);
-  const std::string sensor_t_path = log_schema::path(&SensorRows::t);
-  const std::string theta_path = log_schema::path(&SensorRows::theta);
+  const std::string drive_t_path = group + log_schema::path(&DriveRows::t);
+  const std::string drive_V_path = group + log_schema::path(&DriveRows::V);
+  const std::string sensor_t_path = group + log_schema::path(&SensorRows::t);
+  const std::string theta_path = group + log_schema::path(&SensorRows::theta);
   for (const auto& name : {drive_t_path, drive_V_path, sensor_t_path, theta_path}) {
     if (!log.exists(name)) {
       throw config::ConfigError(path, name,
@@ -112,10 +122,9 @@ LoadedRun load_h5(const std::string& path) {
   add_drive(run.data, drive_t, log.read(drive_V_path));
   add_measurements(run.data, log.read(sensor_t_path), log.read(theta_path));
   // A log without its parameters (written by another program) starts from Table 1.
-  if (log.has_attribute("/", log_schema::kModelParameters)) {
+  if (const auto parameters = axis_attribute(log, group, log_schema::kModelParameters)) {
     try {
-      run.parameters = parameters_from_json(
-          nlohmann::json::parse(log.attribute("/", log_schema::kModelParameters)));
+      run.parameters = parameters_from_json(nlohmann::json::parse(*parameters));
     } catch (const std::exception& e) {  // found by fuzzing: a damaged attribute
       throw config::ConfigError(
           path, log_schema::kModelParameters,
@@ -300,11 +309,38 @@ std::vector<std::string> checked_free_parameters(
   return *free;
 }
 
+std::string axis_group_of(const H5File& log, const std::string& path, const std::string& axis) {
+  const auto attribute = [&](const char* name) {
+    return log.has_attribute("/", name) ? log.attribute("/", name) : std::string();
+  };
+  const std::vector<std::string> axes = log_schema::split_axes(attribute(log_schema::kAxes));
+  if (axes.size() > 1) {
+    const auto it = std::find(axes.begin(), axes.end(), axis);
+    if (it != axes.end()) {
+      return log_schema::axis_group(axes, static_cast<std::size_t>(it - axes.begin()));
+    }
+    throw config::ConfigError(
+        path, "--axis",
+        axis.empty()
+            ? fmt::format("required: the log holds several axes ({})", fmt::join(axes, ", "))
+            : fmt::format("\"{}\" is not an axis of the log (it holds {})", axis,
+                          fmt::join(axes, ", ")));
+  }
+  // A log of one axis: at the root, whichever board axis it drove.
+  const std::string own = attribute(log_schema::kAxis);
+  if (!axis.empty() && axis != own) {
+    throw config::ConfigError(path, "--axis",
+                              fmt::format("\"{}\": the log holds one axis, {}", axis,
+                                          own.empty() ? "unnamed (drop --axis)" : own));
+  }
+  return {};
+}
+
 LoadedRun load_run_for_fit(const std::string& path, const LogLayout& layout) {
   const bool hdf5 = ends_with(path, ".h5") || ends_with(path, ".hdf5") || ends_with(path, ".mat");
   LoadedRun run = !hdf5            ? load_csv(path, layout)
                   : layout.given() ? load_foreign_h5(path, layout)
-                                   : load_h5(path);
+                                   : load_h5(path, layout.axis);
   if (run.data.drive_t.size() < 2)
     throw config::ConfigError(path, "drive", "fewer than two drive samples");
   if (run.data.t.size() < 10)

@@ -13,6 +13,8 @@
 
 namespace piezo::host {
 
+class H5File;
+
 struct LoadedRun {
   model::FitData data;
   model::Parameters parameters;  ///< the log's [model] (Table 1 for a CSV)
@@ -26,6 +28,8 @@ struct LogLayout {
   std::string V;        ///< amplifier output [V]
   std::string theta;    ///< measured angle [rad]
   std::string theta_t;  ///< the angle's own time [s], if it has one
+  /// A `piezo` log of several axes: the axis to read (required there).
+  std::string axis;
   [[nodiscard]] bool given() const { return !t.empty() || !V.empty() || !theta.empty(); }
 };
 
@@ -34,6 +38,13 @@ struct LogLayout {
 /// Table 1 (the caller's --config overrides either).
 /// Throws ConfigError naming the file and what is missing.
 [[nodiscard]] LoadedRun load_run_for_fit(const std::string& path, const LogLayout& layout = {});
+
+/// The group of `axis` in the `piezo` log `log` (read from `path`): "" (the
+/// root) in a log of one axis, "/axes/AXIS" in a log of several. Throws
+/// ConfigError (key --axis) for an axis missing where the log has several,
+/// or one the log does not hold, naming those it does.
+[[nodiscard]] std::string axis_group_of(const H5File& log, const std::string& path,
+                                        const std::string& axis);
 
 /// Writes [drive] and [model] with every parameter: a config for simulate,
 /// and an overlay (`--config rig.toml --config FITTED.toml`) for run.

@@ -21,6 +21,12 @@
 //   (measured minus predicted, before correction), theta_open (open loop)
 //   /timing/drive_period_error_us, /timing/acquire_period_error_us (histogram
 //   counts, 1 us bins), written whole at the end.
+//
+// A run of several axes (a group move) keeps each axis's /drive, /sensor
+// and /observer under the axis's group, /axes/NAME (/axes/theta/drive/V),
+// with that axis's own attributes on the group; the root attribute "axes"
+// names them in the run's order. A run of one axis keeps them at the root,
+// as above, whichever board axis it drove.
 
 #include <array>
 #include <string>
@@ -48,6 +54,26 @@ struct LogRows {
   SensorRows sensor;
   ObserverRows observer;
 };
+
+/// One LogRows per axis of a run, in the run's order (a run of one axis: one).
+using AxesRows = std::vector<LogRows>;
+
+/// The group an axis's datasets are under: "" (the root) in a log of one
+/// axis, "/axes/NAME" in a log of several.
+inline std::string axis_group(const std::vector<std::string>& axes, std::size_t i) {
+  return axes.size() <= 1 ? std::string() : "/axes/" + axes[i];
+}
+
+/// Splits the root attribute "axes" ("theta,phi") into names; none: one axis.
+inline std::vector<std::string> split_axes(std::string_view list) {
+  std::vector<std::string> out;
+  while (!list.empty()) {
+    const std::size_t comma = list.find(',');
+    out.emplace_back(list.substr(0, comma));
+    list = comma == std::string_view::npos ? std::string_view() : list.substr(comma + 1);
+  }
+  return out;
+}
 
 /// How a dataset is stored in the file (its buffer column is double).
 enum class Storage { float64, uint8 };
@@ -104,12 +130,12 @@ std::string path(Column Rows::*column) {
   return {};
 }
 
-/// How the dataset at `path` is stored.
+/// How the dataset at `path` is stored (an axis's group before it or not).
 inline Storage storage(std::string_view path) {
   for (const auto& d : kDrive)
-    if (d.path == path) return d.storage;
+    if (path.ends_with(d.path)) return d.storage;
   for (const auto& d : kSensor)
-    if (d.path == path) return d.storage;
+    if (path.ends_with(d.path)) return d.storage;
   return Storage::float64;
 }
 
@@ -119,6 +145,18 @@ void for_each_column(LogRows& rows, F&& f) {
   for (const auto& d : kDrive) f(d.path, rows.drive.*d.column);
   for (const auto& d : kSensor) f(d.path, rows.sensor.*d.column);
   for (const auto& d : kObserver) f(d.path, rows.observer.*d.column);
+}
+
+/// Calls f(path, column) for every dataset of every axis of `rows`, each
+/// path under its axis's group (axis_group).
+template <class F>
+void for_each_column(AxesRows& rows, const std::vector<std::string>& axes, F&& f) {
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const std::string group = axis_group(axes, i);
+    for_each_column(rows[i], [&](std::string_view path, Column& column) {
+      f(std::string_view(group + std::string(path)), column);
+    });
+  }
 }
 
 // Written whole at the end of a run.
@@ -155,5 +193,9 @@ inline constexpr const char* kRig = "rig";
 inline constexpr const char* kThetaZero = "theta_zero_m";
 inline constexpr const char* kBoardEvents = "board_events";
 inline constexpr const char* kRecoveredFrom = "recovered_from";
+/// A log of several axes: their names in the run's order, comma-separated.
+inline constexpr const char* kAxes = "axes";
+/// The board's axis a log of one axis drove (on a board of several).
+inline constexpr const char* kAxis = "axis";
 
 }  // namespace piezo::host::log_schema

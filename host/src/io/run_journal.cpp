@@ -131,9 +131,9 @@ std::size_t RunJournal::bound(std::size_t values) {
   return kBlockHeader + compressBound(static_cast<uLong>(values * sizeof(double) + 4096));
 }
 
-void RunJournal::append(log_schema::LogRows& rows) {
+void RunJournal::append(log_schema::AxesRows& rows, const std::vector<std::string>& axes) {
   std::string plain;
-  log_schema::for_each_column(rows, [&](std::string_view path, const log_schema::Column& c) {
+  log_schema::for_each_column(rows, axes, [&](std::string_view path, const log_schema::Column& c) {
     put_string(plain, path);
     put(plain, static_cast<std::uint64_t>(c.size()));
     plain.append(reinterpret_cast<const char*>(c.data()), c.size() * sizeof(double));
@@ -187,10 +187,17 @@ JournalContents read_journal(const std::string& path) {
   if (!in) throw config::ConfigError(path, "file", "cannot be read");
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   JournalContents out;
+  // Found by their paths, which the header's axes decide (a log of several
+  // keeps each axis's under its group).
   std::map<std::string, log_schema::Column*, std::less<>> columns;
-  log_schema::for_each_column(out.rows, [&](std::string_view name, log_schema::Column& c) {
-    columns.emplace(std::string(name), &c);
-  });
+  const auto find_columns = [&] {
+    columns.clear();
+    log_schema::for_each_column(out.rows, out.axes,
+                                [&](std::string_view name, log_schema::Column& c) {
+                                  columns.emplace(std::string(name), &c);
+                                });
+  };
+  find_columns();
   // A journal torn inside its first block still starts with the magic.
   const std::string magic("PZJ1");
   if (bytes.compare(0, std::min(bytes.size(), magic.size()), magic, 0,
@@ -218,6 +225,12 @@ JournalContents read_journal(const std::string& path) {
     }
     if (kind == kHeader) {
       read_key_values(plain, out.header);
+      if (const auto axes = out.header.find(log_schema::kAxes); axes != out.header.end()) {
+        out.axes = log_schema::split_axes(axes->second);
+        if (out.axes.empty()) out.axes = {""};
+        out.rows.assign(out.axes.size(), log_schema::LogRows{});
+        find_columns();
+      }
     } else if (kind == kAttribute) {
       read_key_values(plain, out.attributes);
     } else if (kind == kRows) {

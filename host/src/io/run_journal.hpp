@@ -13,12 +13,14 @@
 // all little-endian. A block whose header or CRC does not check, and all
 // after it, is the torn tail of a write the crash interrupted.
 // Kinds: header (the log's opening attributes), rows (one flush: for each
-// dataset its path and values), attribute (one set later in the run).
+// dataset its path and values), attribute (one set later in the run; an
+// axis's under its group's path, "/axes/theta/summary").
 
 #include <cstddef>
 #include <cstdint>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "log_schema.hpp"
 
@@ -39,7 +41,8 @@ class RunJournal {
   /// Appends one flush interval's rows and waits for the disk. Throws
   /// naming the file when the write fails (the journal then ends with at
   /// most a torn block, which readers skip).
-  void append(log_schema::LogRows& rows);
+  /// `axes`: the log's (log_schema::axis_group), one LogRows each.
+  void append(log_schema::AxesRows& rows, const std::vector<std::string>& axes);
   void set_attribute(const std::string& name, const std::string& value);
   /// The bytes a block holding `values` doubles would take at most.
   [[nodiscard]] static std::size_t bound(std::size_t values);
@@ -57,7 +60,10 @@ class RunJournal {
 struct JournalContents {
   std::map<std::string, std::string> header;
   std::map<std::string, std::string> attributes;
-  log_schema::LogRows rows;
+  /// The log's axes (its header's "axes"; one unnamed: a log of one), and
+  /// one LogRows for each.
+  std::vector<std::string> axes{""};
+  log_schema::AxesRows rows = log_schema::AxesRows(1);
   std::size_t blocks = 0;         ///< whole blocks read
   std::uintmax_t torn_bytes = 0;  ///< bytes after the last whole block
 };

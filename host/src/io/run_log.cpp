@@ -1,6 +1,7 @@
 #include "run_log.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <sys/resource.h>
 #include <sys/statvfs.h>
 
@@ -10,11 +11,14 @@
 
 namespace piezo::host {
 
-RunLog RunLog::create(const std::string& path, const std::map<std::string, std::string>& header) {
+RunLog RunLog::create(const std::string& path, std::map<std::string, std::string> header,
+                      const std::vector<std::string>& axes) {
+  if (axes.size() > 1) header[log_schema::kAxes] = fmt::format("{}", fmt::join(axes, ","));
   RunJournal journal = RunJournal::create(journal_path(path), header);
-  RunLog log(H5File::create_log(path), std::move(journal));
-  LogRows none;
-  log_schema::for_each_column(none, [&](std::string_view dataset, const auto&) {
+  RunLog log(H5File::create_log(path), std::move(journal),
+             axes.empty() ? std::vector<std::string>{""} : axes);
+  AxesRows none(log.axes_.size());
+  log_schema::for_each_column(none, log.axes_, [&](std::string_view dataset, const auto&) {
     log.file_.create_growing(std::string(dataset),
                              log_schema::storage(dataset) == log_schema::Storage::uint8);
   });
@@ -63,12 +67,24 @@ void RunLog::check_room(const std::string& path, std::uintmax_t bytes) const {
 }
 
 void RunLog::append(LogRows& rows) {
+  AxesRows one(1);
+  std::swap(one[0], rows);
+  try {
+    append(one);
+  } catch (...) {
+    std::swap(one[0], rows);  // what was not written stays in the caller's buffer
+    throw;
+  }
+  std::swap(one[0], rows);
+}
+
+void RunLog::append(AxesRows& rows) {
   // Written in slices, each checked for room first, so a log that meets a
   // full disk or a file-size limit keeps every slice that fitted instead of
   // losing the whole flush interval.
   constexpr std::size_t kSliceBytes = 512u << 10;
   std::vector<std::pair<std::string, log_schema::Column*>> buffer;
-  log_schema::for_each_column(rows, [&](std::string_view path, log_schema::Column& column) {
+  log_schema::for_each_column(rows, axes_, [&](std::string_view path, log_schema::Column& column) {
     buffer.emplace_back(path, &column);
   });
   std::size_t total = 0;
@@ -84,9 +100,9 @@ void RunLog::append(LogRows& rows) {
   try {
     for (; written < slices; ++written) {
       // The slice goes to the journal (and the disk) first, then to the file.
-      LogRows slice;
+      AxesRows slice(rows.size());
       std::size_t column = 0, values_in_slice = 0;
-      log_schema::for_each_column(slice, [&](std::string_view, log_schema::Column& part) {
+      log_schema::for_each_column(slice, axes_, [&](std::string_view, log_schema::Column& part) {
         const log_schema::Column& values = *buffer[column++].second;
         const auto begin = values.begin() +
                            static_cast<std::ptrdiff_t>(slice_begin(values.size(), slices, written));
@@ -95,7 +111,7 @@ void RunLog::append(LogRows& rows) {
         values_in_slice += part.size();
       });
       check_room(journal_.path(), RunJournal::bound(values_in_slice));
-      journal_.append(slice);
+      journal_.append(slice, axes_);
       check_room(file_.path(), values_in_slice * sizeof(double));
       for (auto& [name, values] : buffer) {
         file_.append(name, std::span<const double>(*values).subspan(
@@ -127,6 +143,22 @@ void RunLog::set_attribute(const std::string& name, const std::string& value) {
     // hold the rows.
   }
   file_.set_attribute("/", name, value);
+}
+
+void RunLog::set_axis_attribute(std::size_t axis, const std::string& name,
+                                const std::string& value) {
+  const std::string group = log_schema::axis_group(axes_, axis);
+  if (group.empty()) {
+    set_attribute(name, value);
+    return;
+  }
+  try {
+    // Kept in the journal under the attribute's path (recovery puts it back).
+    journal_.set_attribute(group + "/" + name, value);
+  } catch (const std::exception&) {
+    // As set_attribute: the journal only has to hold the rows.
+  }
+  file_.set_attribute(group, name, value);
 }
 
 void RunLog::close(const std::string& status) {

@@ -24,6 +24,7 @@
 
 namespace piezo::host {
 
+using log_schema::AxesRows;
 using log_schema::LogRows;
 
 /// The log refused a write for want of room; the file is still whole.
@@ -35,21 +36,31 @@ class RoomError : public std::runtime_error {
 class RunLog {
  public:
   /// Creates the file, its datasets and the header attributes, and flushes.
-  static RunLog create(const std::string& path, const std::map<std::string, std::string>& header);
+  /// `axes`: the run's axes (several: each under its group, log_schema.hpp,
+  /// and the header's "axes" names them; one or none: at the root).
+  static RunLog create(const std::string& path, std::map<std::string, std::string> header,
+                       const std::vector<std::string>& axes = {});
 
-  /// Appends the buffered columns, clears them and flushes the file, in
-  /// slices. Refuses a slice (throws RoomError, the file still whole and
-  /// closable, the slices before it written and removed from the buffer)
-  /// when the device or the file-size limit leaves too little room for it
-  /// plus a reserve for the close: a log that runs out of space half-way
-  /// through a flush is left inconsistent by HDF5. Any other failure marks
-  /// the log broken.
+  /// The run's axes as create() took them.
+  [[nodiscard]] const std::vector<std::string>& axes() const { return axes_; }
+
+  /// Appends the buffered columns (one LogRows per axis, in axes() order),
+  /// clears them and flushes the file, in slices. Refuses a slice (throws RoomError, the file still
+  /// whole and closable, the slices before it written and removed from the buffer) when the device
+  /// or the file-size limit leaves too little room for it plus a reserve for the close: a log that
+  /// runs out of space half-way through a flush is left inconsistent by HDF5. Any other failure
+  /// marks the log broken.
+  void append(AxesRows& rows);
+  /// The same for a log of one axis.
   void append(LogRows& rows);
   /// True once a write failed half-way: the file must not be written again.
   [[nodiscard]] bool broken() const { return broken_; }
   /// Writes a dataset whole (e.g. a timing histogram).
   void write(const std::string& name, std::span<const double> values);
   void set_attribute(const std::string& name, const std::string& value);
+  /// Sets an attribute of axis `axis` (its group's in a log of several;
+  /// the root's in a log of one).
+  void set_axis_attribute(std::size_t axis, const std::string& name, const std::string& value);
   /// Marks the log with its final status and closes it; throws when that
   /// fails (the file is closed either way).
   void close(const std::string& status);
@@ -58,10 +69,12 @@ class RunLog {
   void abandon() noexcept;
 
  private:
-  RunLog(H5File file, RunJournal journal) : file_(std::move(file)), journal_(std::move(journal)) {}
+  RunLog(H5File file, RunJournal journal, std::vector<std::string> axes)
+      : file_(std::move(file)), journal_(std::move(journal)), axes_(std::move(axes)) {}
   void check_room(const std::string& path, std::uintmax_t bytes) const;
   H5File file_;
   RunJournal journal_;
+  std::vector<std::string> axes_;
   bool broken_ = false;
   bool refused_ = false;  ///< rows the file refused are only in the journal
 };

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <sys/file.h>
 #include <unistd.h>
 
@@ -15,9 +16,9 @@
 #include <utility>
 
 #include "catalogue.hpp"
-#include "piezo/config/config_error.hpp"
 #include "h5_file.hpp"
 #include "log_schema.hpp"
+#include "piezo/config/config_error.hpp"
 #include "run_journal.hpp"
 
 namespace piezo::host {
@@ -38,6 +39,7 @@ struct LogCopy {
   std::map<std::string, std::size_t, std::less<>> claimed;          ///< declared lengths
   std::map<std::string, std::vector<double>> timing;                ///< written whole at the end
   std::vector<std::string> problems;
+  std::vector<std::string> axes{""};  ///< its "axes" (log_schema::axis_group)
 };
 
 const std::vector<double>& column_of(const LogCopy& copy, std::string_view path) {
@@ -46,16 +48,25 @@ const std::vector<double>& column_of(const LogCopy& copy, std::string_view path)
   return it == copy.columns.end() ? kNone : it->second;
 }
 
-template <class Rows>
-bool group_is_even(const LogCopy& copy) {
-  const auto& sets = log_schema::datasets(static_cast<const Rows*>(nullptr));
-  const std::size_t rows = column_of(copy, sets[0].path).size();
-  return std::all_of(sets.begin(), sets.end(),
-                     [&](const auto& d) { return column_of(copy, d.path).size() == rows; });
+/// A dataset's path under an axis's group.
+std::string in_group(std::string_view group, std::string_view path) {
+  return std::string(group) + std::string(path);
 }
 
-LogCopy read_log_copy(const fs::path& log) {
+template <class Rows>
+bool group_is_even(const LogCopy& copy, std::string_view group) {
+  const auto& sets = log_schema::datasets(static_cast<const Rows*>(nullptr));
+  const std::size_t rows = column_of(copy, in_group(group, sets[0].path)).size();
+  return std::all_of(sets.begin(), sets.end(), [&](const auto& d) {
+    return column_of(copy, in_group(group, d.path)).size() == rows;
+  });
+}
+
+/// Reads what run.h5 holds; `axes`: the journal's, for a log whose own
+/// "axes" attribute cannot be read.
+LogCopy read_log_copy(const fs::path& log, const std::vector<std::string>& axes) {
   LogCopy copy;
+  copy.axes = axes;
   if (!fs::exists(log)) return copy;
   std::optional<H5File> file;
   try {
@@ -78,22 +89,38 @@ LogCopy read_log_copy(const fs::path& log) {
   }
   const auto status = copy.attributes.find(log_schema::kStatus);
   copy.status = status == copy.attributes.end() ? "incomplete" : status->second;
-  log_schema::LogRows none;
-  log_schema::for_each_column(none, [&](std::string_view name, const log_schema::Column&) {
-    const std::string path(name);
-    std::size_t& claimed = copy.claimed[path];
-    std::vector<double>& values = copy.columns[path];
+  if (const auto listed = copy.attributes.find(log_schema::kAxes);
+      listed != copy.attributes.end() && !log_schema::split_axes(listed->second).empty()) {
+    copy.axes = log_schema::split_axes(listed->second);
+  }
+  for (std::size_t i = 0; i < copy.axes.size(); ++i) {
+    // An axis's own attributes, kept as the journal keeps them: under their path.
+    const std::string group = log_schema::axis_group(copy.axes, i);
+    if (group.empty() || !file->exists(group)) continue;
     try {
-      claimed = file->extent(path);
-      values = file->read_prefix(path);
-      if (values.size() < claimed) {
-        copy.problems.push_back(
-            fmt::format("{}: {} of its {} values can be read", path, values.size(), claimed));
-      }
+      for (const std::string& name : file->attribute_names(group))
+        copy.attributes[group + "/" + name] = file->attribute(group, name);
     } catch (const std::exception& e) {
-      copy.problems.push_back(fmt::format("{}: {}", path, e.what()));
+      copy.problems.push_back(e.what());
     }
-  });
+  }
+  log_schema::AxesRows none(copy.axes.size());
+  log_schema::for_each_column(
+      none, copy.axes, [&](std::string_view name, const log_schema::Column&) {
+        const std::string path(name);
+        std::size_t& claimed = copy.claimed[path];
+        std::vector<double>& values = copy.columns[path];
+        try {
+          claimed = file->extent(path);
+          values = file->read_prefix(path);
+          if (values.size() < claimed) {
+            copy.problems.push_back(
+                fmt::format("{}: {} of its {} values can be read", path, values.size(), claimed));
+          }
+        } catch (const std::exception& e) {
+          copy.problems.push_back(fmt::format("{}: {}", path, e.what()));
+        }
+      });
   for (const char* path : {log_schema::kDrivePeriodErrorUs, log_schema::kAcquirePeriodErrorUs}) {
     if (!file->exists(path)) continue;
     try {
@@ -102,9 +129,13 @@ LogCopy read_log_copy(const fs::path& log) {
       copy.problems.push_back(fmt::format("{}: {}", path, e.what()));
     }
   }
-  const bool even = group_is_even<log_schema::DriveRows>(copy) &&
-                    group_is_even<log_schema::SensorRows>(copy) &&
-                    group_is_even<log_schema::ObserverRows>(copy);
+  bool even = true;
+  for (std::size_t i = 0; i < copy.axes.size(); ++i) {
+    const std::string group = log_schema::axis_group(copy.axes, i);
+    even = even && group_is_even<log_schema::DriveRows>(copy, group) &&
+           group_is_even<log_schema::SensorRows>(copy, group) &&
+           group_is_even<log_schema::ObserverRows>(copy, group);
+  }
   if (!even) copy.problems.emplace_back("its datasets of one group differ in length");
   copy.whole = copy.problems.empty();
   return copy;
@@ -119,18 +150,20 @@ LogCopy read_log_copy(const fs::path& log) {
 /// used alone. Returns the rows kept; adds to `losses`.
 template <class Rows>
 std::size_t merge_group(const LogCopy& log, const Rows& journal, bool same_run, Rows& into,
-                        std::string_view group, std::vector<std::string>& losses) {
+                        std::string_view prefix, std::string_view group,
+                        std::vector<std::string>& losses) {
   const auto& sets = log_schema::datasets(static_cast<const Rows*>(nullptr));
-  const std::size_t log_rows = column_of(log, sets[0].path).size();
+  const std::size_t log_rows = column_of(log, in_group(prefix, sets[0].path)).size();
   const std::size_t journal_rows = (journal.*sets[0].column).size();
   const bool use_log = same_run || log_rows >= journal_rows;
   const bool use_journal = same_run || !use_log;
   const std::size_t rows = std::max(use_log ? log_rows : 0, use_journal ? journal_rows : 0);
   std::size_t found = journal_rows;
   for (const auto& d : sets) {
-    const auto claimed = log.claimed.find(d.path);
+    const std::string path = in_group(prefix, d.path);
+    const auto claimed = log.claimed.find(path);
     if (claimed != log.claimed.end()) found = std::max(found, claimed->second);
-    const std::vector<double>& from_log = column_of(log, d.path);
+    const std::vector<double>& from_log = column_of(log, path);
     const std::vector<double>& from_journal = journal.*d.column;
     log_schema::Column& out = into.*d.column;
     out.resize(rows);
@@ -147,12 +180,13 @@ std::size_t merge_group(const LogCopy& log, const Rows& journal, bool same_run, 
     }
     if (lost > 0) {
       losses.push_back(fmt::format("{}: {} of {} values lost in damaged chunks (written as {})",
-                                   d.path, lost, rows,
+                                   path, lost, rows,
                                    d.storage == log_schema::Storage::uint8 ? "255" : "NaN"));
     }
   }
   if (rows < found) {
-    losses.push_back(fmt::format("{}: kept {} of the {} rows a copy claimed", group, rows, found));
+    losses.push_back(
+        fmt::format("{}{}: kept {} of the {} rows a copy claimed", prefix, group, rows, found));
   }
   return rows;
 }
@@ -174,9 +208,9 @@ bool same_run(const LogCopy& log, const JournalContents& journal) {
 }
 
 template <class Rows>
-bool journal_has_more(const LogCopy& log, const Rows& journal) {
+bool journal_has_more(const LogCopy& log, const Rows& journal, std::string_view group) {
   const auto& sets = log_schema::datasets(static_cast<const Rows*>(nullptr));
-  return (journal.*sets[0].column).size() > column_of(log, sets[0].path).size();
+  return (journal.*sets[0].column).size() > column_of(log, in_group(group, sets[0].path)).size();
 }
 
 /// True when a running `piezo run` still holds the journal.
@@ -194,16 +228,25 @@ double last_finite(const log_schema::Column& c) {
   return std::nan("");
 }
 
-void write_log(const fs::path& out, log_schema::LogRows& rows,
+void write_log(const fs::path& out, log_schema::AxesRows& rows,
+               const std::vector<std::string>& axes,
                const std::map<std::string, std::string>& attributes, const LogCopy& log) {
   H5File f = H5File::create_log(out.string());
-  log_schema::for_each_column(rows, [&](std::string_view name, log_schema::Column& c) {
+  log_schema::for_each_column(rows, axes, [&](std::string_view name, log_schema::Column& c) {
     const std::string path(name);
     f.create_growing(path, log_schema::storage(name) == log_schema::Storage::uint8);
     f.append(path, c);
   });
   for (const auto& [path, values] : log.timing) f.write(path, values);
-  for (const auto& [key, value] : attributes) f.set_attribute("/", key, value);
+  for (const auto& [key, value] : attributes) {
+    // An axis's attribute is kept under its path ("/axes/theta/summary").
+    const std::size_t slash = key.rfind('/');
+    if (key.starts_with('/') && slash > 0 && f.exists(key.substr(0, slash))) {
+      f.set_attribute(key.substr(0, slash), key.substr(slash + 1), value);
+    } else {
+      f.set_attribute("/", key, value);
+    }
+  }
   f.close();
 }
 
@@ -231,17 +274,30 @@ Recovery recover_run(const std::string& run_dir) {
     throw config::ConfigError(run_dir, "run.journal",
                               "still held by a running piezo run; recover after it ends");
   }
-  const LogCopy copy = read_log_copy(log);
+  JournalContents j;
+  if (has_journal) j = read_journal(journal.string());
+  const LogCopy copy = read_log_copy(log, j.axes);
   if (!has_journal && !copy.opened) {
     throw config::ConfigError(run_dir, fs::exists(log) ? "run.h5" : "run.journal",
                               fs::exists(log) ? "unreadable, and no run.journal to rebuild it from"
                                               : "no run log or journal in this directory");
   }
-  JournalContents j;
-  if (has_journal) j = read_journal(journal.string());
-  const bool journal_adds = journal_has_more(copy, j.rows.drive) ||
-                            journal_has_more(copy, j.rows.sensor) ||
-                            journal_has_more(copy, j.rows.observer);
+  if (!has_journal) {
+    j.axes = copy.axes;  // no journal: nothing to add to any axis
+    j.rows.assign(copy.axes.size(), log_schema::LogRows{});
+  }
+  if (j.axes != copy.axes) {
+    throw config::ConfigError(run_dir, "run.journal",
+                              fmt::format("names the axes \"{}\", run.h5 \"{}\": not one run's",
+                                          fmt::join(j.axes, ","), fmt::join(copy.axes, ",")));
+  }
+  bool journal_adds = false;
+  for (std::size_t i = 0; i < copy.axes.size(); ++i) {
+    const std::string group = log_schema::axis_group(copy.axes, i);
+    journal_adds = journal_adds || journal_has_more(copy, j.rows[i].drive, group) ||
+                   journal_has_more(copy, j.rows[i].sensor, group) ||
+                   journal_has_more(copy, j.rows[i].observer, group);
+  }
   // Whole and final (or whole, still "incomplete", with no journal to add
   // to it: readable up to its last flush): nothing to do.
   if (copy.whole && !journal_adds && (copy.status != "incomplete" || !has_journal)) {
@@ -250,12 +306,17 @@ Recovery recover_run(const std::string& run_dir) {
     return r;
   }
 
-  log_schema::LogRows rows;
+  log_schema::AxesRows rows(copy.axes.size());
   const bool one_run = same_run(copy, j);
-  r.drive_rows = merge_group(copy, j.rows.drive, one_run, rows.drive, "drive", r.losses);
-  r.sensor_rows = merge_group(copy, j.rows.sensor, one_run, rows.sensor, "sensor", r.losses);
-  r.observer_rows =
-      merge_group(copy, j.rows.observer, one_run, rows.observer, "observer", r.losses);
+  for (std::size_t i = 0; i < copy.axes.size(); ++i) {
+    const std::string group = log_schema::axis_group(copy.axes, i);
+    const auto& from = j.rows[i];
+    r.drive_rows += merge_group(copy, from.drive, one_run, rows[i].drive, group, "drive", r.losses);
+    r.sensor_rows +=
+        merge_group(copy, from.sensor, one_run, rows[i].sensor, group, "sensor", r.losses);
+    r.observer_rows +=
+        merge_group(copy, from.observer, one_run, rows[i].observer, group, "observer", r.losses);
+  }
   r.blocks = j.blocks;
   r.torn_bytes = j.torn_bytes;
   // The journal's attributes first; run.h5's, where readable, are as new.
@@ -277,7 +338,7 @@ Recovery recover_run(const std::string& run_dir) {
 
   // Written aside and renamed: a crash during recovery leaves both copies.
   const fs::path fresh = dir / "run.h5.recovering";
-  write_log(fresh, rows, attributes, copy);
+  write_log(fresh, rows, copy.axes, attributes, copy);
   if (fs::exists(log)) {
     r.damaged = (dir / "run.h5.damaged").string();
     fs::rename(log, r.damaged);
@@ -286,7 +347,7 @@ Recovery recover_run(const std::string& run_dir) {
   if (has_journal) fs::remove(journal);
   r.rebuilt = true;
   r.status = "recovered";
-  add_to_catalogue(dir, attributes, rows);
+  add_to_catalogue(dir, attributes, rows.front());
   return r;
 }
 

@@ -30,6 +30,15 @@ std::vector<std::pair<std::string, json>> wire_requests(const BoardRequest& requ
           },
       },
       request.command);
+  if (!request.targets.empty()) {
+    // A group move: its targets name the axes.
+    for (auto& [cmd, args] : sent) {
+      if (cmd != "move_to") continue;
+      args.erase(std::string(wire_key::target_rad));
+      args[wire_key::targets] = request.targets;
+    }
+    return sent;
+  }
   // The axis goes with each command but `start`, which runs what `configure` set.
   if (request.axis) {
     for (auto& [cmd, args] : sent)
@@ -67,7 +76,9 @@ BoardRequest board_request(const config::HostConfig& host, const RunAsked& asked
                                         },
                                     },
                                     asked);
-  return {std::move(command), axis};
+  const auto* move = std::get_if<asked::Move>(&asked);
+  if (move != nullptr && !move->targets.empty()) return {std::move(command), {}, move->targets};
+  return {std::move(command), axis, {}};
 }
 
 void check_request(const BoardRequest& request, const json& dictionary,

@@ -5,6 +5,7 @@
 // calibration experiment (`calibrate`). Checked against the board's own
 // dictionary before anything is sent, and sent once.
 
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -29,6 +30,9 @@ using BoardCommand = std::variant<TimedRun, protocol::StepRequest, protocol::Mov
 struct BoardRequest {
   BoardCommand command;
   std::optional<std::string> axis;  ///< [rig] axis; none: the board's one axis
+  /// A group move's targets, {axis: target_rad} (its `move_to` names no
+  /// `axis` nor `target_rad`); empty: one axis's command.
+  std::map<std::string, double> targets;
 };
 
 /// What a run command asks for, beside the host's config (none of it is a
@@ -42,6 +46,8 @@ struct Move : firmware::MoveRequest {  ///< `piezo move`
   /// The coarse steps' waveform when the user named it; else the board
   /// chooses (its calibration's fastest frequency, or its [drive]).
   std::optional<double> V0 = std::nullopt, f = std::nullopt;
+  /// A group move's targets, {axis: target_rad}; empty: target_rad on [rig] axis.
+  std::map<std::string, double> targets = {};
 };
 struct Calibration {  ///< `piezo calibrate`, at V0 when the user named it; else the board's
   std::optional<double> V0 = std::nullopt;

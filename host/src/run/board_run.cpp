@@ -3,7 +3,9 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <algorithm>
 #include <chrono>
+#include <deque>
 #include <optional>
 #include <zmq_addon.hpp>
 
@@ -34,13 +36,15 @@ std::int64_t host_ns() {
       .count();
 }
 
-/// The observer's model: the config's, with the parameters the board's
-/// calibration fitted (its `model`) in their place; the log says which.
-model::MotorParameters observer_model(const config::ConfigFile& c, const protocol::Hello& hello,
-                                      RunLog& log) {
-  model::Parameters p{c.host.model.drive, c.host.model.motor};
-  if (!hello.calibration || !hello.calibration->model.is_object()) return p.motor;
-  const protocol::CalibrationRecord& cal = *hello.calibration;
+/// The observer's model of one axis: the config's (that axis's own in a
+/// config of several), with the parameters the board's calibration of the
+/// axis fitted (its `model`) in their place; the log says which.
+model::MotorParameters observer_model(const config::ConfigFile& c, const protocol::Hello& view,
+                                      const std::string& axis, RunLog& log, std::size_t log_axis) {
+  const config::AxisConfig* own = c.board.axes.size() > 1 ? c.board.find_axis(axis) : nullptr;
+  model::Parameters p = own != nullptr ? own->model : c.host.model;
+  if (!view.calibration || !view.calibration->model.is_object()) return p.motor;
+  const protocol::CalibrationRecord& cal = *view.calibration;
   std::vector<std::string> used;
   // The fitted model as the host wrote it (calibration_report.cpp): its parameters' values.
   const json parameters = cal.model.value("parameters", json::object());
@@ -54,10 +58,68 @@ model::MotorParameters observer_model(const config::ConfigFile& c, const protoco
     used.push_back(fmt::format("{} = {:.6g}", name, value.get<double>()));
   }
   if (!used.empty()) {
-    log.set_attribute(log_schema::kObserverModel, fmt::format("the board's calibration of {}: {}",
-                                                              cal.created, fmt::join(used, ", ")));
+    log.set_axis_attribute(
+        log_axis, log_schema::kObserverModel,
+        fmt::format("the board's calibration of {}: {}", cal.created, fmt::join(used, ", ")));
   }
   return p.motor;
+}
+
+/// One axis of a run as the host follows it: its samples into its own
+/// collector (its sensor's radius, its zero) and observer.
+struct FollowedAxis {
+  FollowedAxis(std::string axis_name, std::size_t index, hal::TimeNs t0, double r2,
+               std::optional<ObserverStage> stage, double zero_m)
+      : name(std::move(axis_name)),
+        board_index(index),
+        observer(std::move(stage)),
+        collector(t0, r2, observer ? &*observer : nullptr, zero_m) {}
+  // The collector points at this axis's observer: never copied or moved.
+  FollowedAxis(const FollowedAxis&) = delete;
+  FollowedAxis& operator=(const FollowedAxis&) = delete;
+  std::string name;
+  std::size_t board_index;
+  std::optional<ObserverStage> observer;
+  SampleCollector collector;
+};
+
+/// The axes a started run drives, in the log's order: a group move's
+/// (`moves`), else the one the request named, else the board's one.
+struct RunAxisStart {
+  std::string name;
+  std::optional<double> zero_m;  ///< a move's: the board's zero its target is from
+};
+
+std::vector<RunAxisStart> run_axes(const protocol::StartReply& started, const BoardRequest& request,
+                                   const protocol::Hello& hello, const RunLog& log) {
+  std::vector<RunAxisStart> out;
+  if (started.moves) {
+    for (const auto& m : *started.moves) out.push_back({m.axis, m.zero_displacement_m});
+  } else if (started.move) {
+    out.push_back({started.move->axis, started.move->zero_displacement_m});
+  } else {
+    out.push_back({request.axis.value_or(hello.axes.empty() ? "" : hello.axes.front().name), {}});
+  }
+  // The log was made for the axes asked for: the board must have run those.
+  if (log.axes().size() > 1) {
+    std::vector<RunAxisStart> ordered;
+    for (const std::string& name : log.axes()) {
+      const auto it =
+          std::find_if(out.begin(), out.end(), [&](const auto& a) { return a.name == name; });
+      if (it == out.end()) {
+        throw std::runtime_error(fmt::format("the board started no move of axis {}", name));
+      }
+      ordered.push_back(*it);
+    }
+    return ordered;
+  }
+  return out;
+}
+
+std::size_t board_index(const protocol::Hello& hello, const std::string& axis) {
+  for (std::size_t i = 0; i < hello.axes.size(); ++i)
+    if (hello.axes[i].name == axis) return i;
+  return 0;
 }
 
 }  // namespace
@@ -85,7 +147,8 @@ class FollowedRun {
  public:
   FollowedRun(const config::ConfigFile& c, BoardClient& client, const protocol::Hello& hello,
               RunLog& log, const protocol::StartReply& started, const ClockMapping& clock,
-              ObserverStage* observer, std::function<void(const log_schema::LogRows&)> on_rows)
+              std::deque<FollowedAxis>& axes,
+              std::function<void(const log_schema::AxesRows&)> on_rows)
       : c_(c),
         client_(client),
         log_(log),
@@ -95,15 +158,16 @@ class FollowedRun {
         lease_s_(started.lease_s),
         clock_(clock),
         virtual_clock_(hello.clock == "virtual"),
-        observer_(observer),
-        collector_(t0_, hello.sensor.r2_m, observer, zero_of(started)),
+        axes_(axes),
         follower_(client,
                   [board = &client](const std::string& cmd, const json& args) {
                     return board->call(cmd, args, 5s);
                   }),
         writer_(log),
         on_rows_(std::move(on_rows)) {
-    follower_.follow(collector_, [this] {
+    std::vector<SampleCollector*> by_axis(std::max<std::size_t>(1, hello.axes.size()));
+    for (FollowedAxis& a : axes_) by_axis.at(a.board_index) = &a.collector;
+    follower_.follow(std::move(by_axis), [this] {
       return virtual_clock_ ? 1e-9 * static_cast<double>(host_ns() - host_start_)
                             : hal::to_seconds(host_ns() + clock_.offset_ns - t0_);
     });
@@ -120,15 +184,14 @@ class FollowedRun {
   void report(const std::function<void(const LiveStatus&)>& on_status, bool at_once = false);
 
  private:
-  static double zero_of(const protocol::StartReply& started) {
-    // A move's angles are from the board's zero (the frame of its target and
-    // of every position it reports); a run's from its first good reading.
-    const auto zero = started.move ? started.move->zero_displacement_m : std::nullopt;
-    return zero.value_or(std::numeric_limits<double>::quiet_NaN());
+  /// Run time of the newest drive sample of any axis [s].
+  [[nodiscard]] double last_t() const {
+    double t = 0.0;
+    for (const FollowedAxis& a : axes_) t = std::max(t, a.collector.last_t());
+    return t;
   }
   [[nodiscard]] double board_run_s() const {
-    return virtual_clock_ ? collector_.last_t()
-                          : hal::to_seconds(host_ns() + clock_.offset_ns - t0_);
+    return virtual_clock_ ? last_t() : hal::to_seconds(host_ns() + clock_.offset_ns - t0_);
   }
   void request_stops(const std::atomic<bool>& stop, const std::atomic<bool>* estop);
   void drain(std::optional<protocol::RunSummary>& end);
@@ -148,13 +211,12 @@ class FollowedRun {
   double lease_s_;
   ClockMapping clock_;
   bool virtual_clock_;
-  ObserverStage* observer_;
+  std::deque<FollowedAxis>& axes_;  ///< in the log's order
   std::int64_t host_start_ = host_ns();
-  SampleCollector collector_;
   StreamFollower follower_;
   // From here until writer_.finish() only the writer's thread touches the log.
   LogWriter writer_;
-  std::function<void(const log_schema::LogRows&)> on_rows_;
+  std::function<void(const log_schema::AxesRows&)> on_rows_;
   RunSummary summary_;
   bool log_ok_ = true, stop_sent_ = false, estop_sent_ = false;
   SteadyClock::time_point last_lease_ = SteadyClock::now(), last_flush_ = last_lease_,
@@ -241,8 +303,11 @@ void FollowedRun::renew_lease() {
   // failed log logs nothing more: everything received is acknowledged, so
   // a virtual-clock board does not wait on it.
   const std::uint64_t received = follower_.drive_next();
-  const std::uint64_t unlogged =
-      log_ok_ ? writer_.pending_drive_rows() + collector_.rows().drive.t.size() : 0;
+  std::uint64_t unlogged = 0;
+  if (log_ok_) {
+    unlogged = writer_.pending_drive_rows();
+    for (FollowedAxis& a : axes_) unlogged += a.collector.rows().drive.t.size();
+  }
   client_.send("lease", protocol::LeaseRequest{received - std::min(received, unlogged)});
   last_lease_ = now;
 }
@@ -278,12 +343,10 @@ void FollowedRun::ask_when_quiet(std::optional<protocol::RunSummary>& end) {
 }
 
 void FollowedRun::append_log() {
-  log_schema::LogRows& rows = collector_.rows();
+  log_schema::AxesRows rows;
+  for (FollowedAxis& a : axes_) rows.push_back(std::exchange(a.collector.rows(), {}));
   if (on_rows_) on_rows_(rows);
-  if (!log_ok_) {
-    rows = log_schema::LogRows{};  // a failed log takes nothing more; the view had them
-    return;
-  }
+  if (!log_ok_) return;  // a failed log takes nothing more; the view had them
   writer_.submit(rows);
   if (std::string e = writer_.error(); !e.empty()) {
     log_ok_ = false;
@@ -292,7 +355,8 @@ void FollowedRun::append_log() {
 }
 
 void FollowedRun::finish_writing() {
-  if (observer_) observer_->finish(collector_.rows().observer);
+  for (FollowedAxis& a : axes_)
+    if (a.observer) a.observer->finish(a.collector.rows().observer);
   append_log();
   if (std::string e = writer_.finish(); !e.empty() && log_ok_) {
     log_ok_ = false;
@@ -304,12 +368,13 @@ void FollowedRun::report(const std::function<void(const LiveStatus&)>& on_status
   const auto now = SteadyClock::now();
   if (!on_status || (!at_once && now - last_status_ < kStatusPeriod)) return;
   const auto& health = follower_.health();
-  on_status({collector_.last_t(), started_.duration_s, collector_.last_V(), collector_.last_theta(),
-             observer_ ? observer_->summary().last_residual_rad : 0.0, follower_.sensor_next(),
-             health.sensor ? health.sensor->errors : 0, health.drive ? health.drive->overruns : 0,
-             health,
-             json{{wire_key::drive, collector_.drive_errors()},
-                  {wire_key::sensor, collector_.sensor_errors()}},
+  const FollowedAxis& first = axes_.front();
+  on_status({last_t(), started_.duration_s, first.collector.last_V(), first.collector.last_theta(),
+             first.observer ? first.observer->summary().last_residual_rad : 0.0,
+             follower_.sensor_next(), health.sensor ? health.sensor->errors : 0,
+             health.drive ? health.drive->overruns : 0, health,
+             json{{wire_key::drive, first.collector.drive_errors()},
+                  {wire_key::sensor, first.collector.sensor_errors()}},
              lease_s_, log_ok_ ? std::string() : summary_.host_error});
   last_status_ = now;
 }
@@ -327,8 +392,18 @@ RunSummary FollowedRun::finish(const std::optional<protocol::RunSummary>& end) {
   log_.set_attribute(log_schema::kLinkOutages,
                      outages_.empty() ? "none" : fmt::format("{}", fmt::join(outages_, "; ")));
   RunSummary& summary = summary_;
-  summary.theta_end_rad = collector_.last_theta();
-  summary.t_end_s = collector_.last_good_t();
+  for (const FollowedAxis& a : axes_) {
+    AxisMeasured m;
+    m.name = a.name;
+    m.theta_end_rad = a.collector.last_theta();
+    m.t_end_s = a.collector.last_good_t();
+    m.drive_errors = a.collector.drive_errors();
+    m.sensor_errors = a.collector.sensor_errors();
+    if (a.observer) m.observer = a.observer->summary();
+    m.mean_velocity_rad_s = m.t_end_s > 0.0 ? m.theta_end_rad / m.t_end_s : 0.0;
+    summary.axes.push_back(std::move(m));
+  }
+  static_cast<AxisMeasured&>(summary) = summary.axes.front();
   if (!end) {
     summary.board.cause = firmware::StopCause::link_lost;
     summary.board_gone = true;
@@ -342,11 +417,6 @@ RunSummary FollowedRun::finish(const std::optional<protocol::RunSummary>& end) {
   log_.set_attribute(log_schema::kStreamGapsFetched,
                      gaps.empty() ? "none" : fmt::format("{}", fmt::join(gaps, "; ")));
   summary.board = *end;
-  summary.drive_errors = collector_.drive_errors();
-  summary.sensor_errors = collector_.sensor_errors();
-  if (observer_) summary.observer = observer_->summary();
-  summary.mean_velocity_rad_s =
-      summary.t_end_s > 0.0 ? summary.theta_end_rad / summary.t_end_s : 0.0;
   if (!client_.address().starts_with("inproc://")) {
     summary.board.realtime.push_back("board " + client_.address());
   }
@@ -359,7 +429,7 @@ RunSummary run_on_board(const config::ConfigFile& c, BoardClient& client,
                         const protocol::Hello& hello, RunLog& log, const std::atomic<bool>& stop,
                         const std::function<void(const LiveStatus&)>& on_status,
                         const BoardRequest& request, const std::atomic<bool>* estop,
-                        const std::function<void(const log_schema::LogRows&)>& on_rows) {
+                        const std::function<void(const log_schema::AxesRows&)>& on_rows) {
   if (stop.load()) {
     // Stopped during set-up: the drive is never started.
     RunSummary summary;
@@ -371,20 +441,33 @@ RunSummary run_on_board(const config::ConfigFile& c, BoardClient& client,
   const ClockMapping clock = estimate_clock_offset(client);
   log.set_attribute(log_schema::kBoardClockOffset, std::to_string(clock.offset_ns));
   log.set_attribute(log_schema::kBoardClockRoundTrip, std::to_string(clock.round_trip_ns));
-  std::optional<ObserverStage> observer;
-  if (c.host.observer.enabled) {
-    observer.emplace(observer_model(c, hello, log), c.host.observer.gains,
-                     1.0 / hello.drive_rate_hz, hello.output_latency_s);
-  }
   // Subscribed before the start, so that the run's first samples come.
   StreamFollower::subscribe(client);
   const auto started = protocol::decode<protocol::StartReply>(start_request(request, client));
   log.set_attribute(log_schema::kBoardT0, std::to_string(started.t0_ns));
   log.set_attribute(log_schema::kRig, client.address());
-  if (const auto zero = started.move ? started.move->zero_displacement_m : std::nullopt) {
-    log.set_attribute(log_schema::kThetaZero, fmt::format("{:.12g} (the board's zero)", *zero));
+  std::deque<FollowedAxis> axes;
+  const auto asked = run_axes(started, request, hello, log);
+  for (std::size_t i = 0; i < asked.size(); ++i) {
+    const RunAxisStart& a = asked[i];
+    const protocol::Hello view =
+        hello.axes.empty() ? hello : axis_view(hello, a.name, client.address());
+    std::optional<ObserverStage> observer;
+    if (c.host.observer.enabled) {
+      observer.emplace(observer_model(c, view, a.name, log, i), c.host.observer.gains,
+                       1.0 / view.drive_rate_hz, view.output_latency_s);
+    }
+    if (a.zero_m) {
+      log.set_axis_attribute(i, log_schema::kThetaZero,
+                             fmt::format("{:.12g} (the board's zero)", *a.zero_m));
+    }
+    // A move's angles are from the board's zero (the frame of its target and
+    // of every position it reports); a run's from its first good reading.
+    axes.emplace_back(a.name, board_index(hello, a.name), started.t0_ns, view.sensor.r2_m,
+                      std::move(observer),
+                      a.zero_m.value_or(std::numeric_limits<double>::quiet_NaN()));
   }
-  FollowedRun run(c, client, hello, log, started, clock, observer ? &*observer : nullptr, on_rows);
+  FollowedRun run(c, client, hello, log, started, clock, axes, on_rows);
   const auto end = run.follow(stop, estop, on_status);
   RunSummary summary = run.finish(end);
   run.report(on_status, true);  // the end, and a log failed in its last flush, shown

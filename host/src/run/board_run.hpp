@@ -30,9 +30,10 @@ struct ClockMapping {
 /// rows as the collector made them, whether or not the log takes them (the
 /// live view goes on when the log fails).
 [[nodiscard]] RunSummary run_on_board(
-    const config::ConfigFile& config, BoardClient& client, const protocol::Hello& hello, RunLog& log,
-    const std::atomic<bool>& stop, const std::function<void(const LiveStatus&)>& on_status,
-    const BoardRequest& request, const std::atomic<bool>* estop = nullptr,
-    const std::function<void(const log_schema::LogRows&)>& on_rows = {});
+    const config::ConfigFile& config, BoardClient& client, const protocol::Hello& hello,
+    RunLog& log, const std::atomic<bool>& stop,
+    const std::function<void(const LiveStatus&)>& on_status, const BoardRequest& request,
+    const std::atomic<bool>* estop = nullptr,
+    const std::function<void(const log_schema::AxesRows&)>& on_rows = {});
 
 }  // namespace piezo::host

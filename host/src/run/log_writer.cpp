@@ -10,13 +10,21 @@ LogWriter::~LogWriter() {
   (void)finish();
 }
 
-void LogWriter::submit(log_schema::LogRows& rows) {
+namespace {
+std::size_t drive_rows(const log_schema::AxesRows& rows) {
+  std::size_t n = 0;
+  for (const auto& axis : rows) n += axis.drive.t.size();
+  return n;
+}
+}  // namespace
+
+void LogWriter::submit(log_schema::AxesRows& rows) {
   {
     const std::lock_guard lock(mutex_);
     // After a failure nothing more is written; the loop sees error().
     if (!error_.empty()) return;
-    pending_drive_rows_ += rows.drive.t.size();
-    queue_.emplace_back(std::exchange(rows, log_schema::LogRows{}));
+    pending_drive_rows_ += drive_rows(rows);
+    queue_.emplace_back(std::exchange(rows, log_schema::AxesRows(rows.size())));
   }
   wake_.notify_one();
 }
@@ -43,7 +51,7 @@ std::string LogWriter::finish() {
 
 void LogWriter::run() {
   for (;;) {
-    log_schema::LogRows batch;
+    log_schema::AxesRows batch;
     {
       std::unique_lock lock(mutex_);
       wake_.wait(lock, [this] { return !queue_.empty() || stopping_; });
@@ -51,7 +59,7 @@ void LogWriter::run() {
       batch = std::move(queue_.front());
       queue_.pop_front();
     }
-    const std::size_t drive_rows = batch.drive.t.size();
+    const std::size_t batch_drive_rows = drive_rows(batch);
     std::string failure;
     try {
       log_.append(batch);
@@ -59,7 +67,7 @@ void LogWriter::run() {
       failure = e.what();
     }
     const std::lock_guard lock(mutex_);
-    pending_drive_rows_ -= drive_rows;
+    pending_drive_rows_ -= batch_drive_rows;
     if (!failure.empty()) {
       error_ = failure;
       queue_.clear();

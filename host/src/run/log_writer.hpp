@@ -23,8 +23,9 @@ class LogWriter {
   LogWriter(const LogWriter&) = delete;
   LogWriter& operator=(const LogWriter&) = delete;
 
-  /// Takes the rows (leaving `rows` empty) to be appended in order.
-  void submit(log_schema::LogRows& rows);
+  /// Takes the rows (one LogRows per axis of the log, each left empty) to
+  /// be appended in order.
+  void submit(log_schema::AxesRows& rows);
   /// The first write's failure, empty while all is well.
   [[nodiscard]] std::string error() const;
   /// Drive rows handed over and not yet written: the loop acknowledges to
@@ -39,7 +40,7 @@ class LogWriter {
   RunLog& log_;
   mutable std::mutex mutex_;
   std::condition_variable wake_;
-  std::deque<log_schema::LogRows> queue_;
+  std::deque<log_schema::AxesRows> queue_;
   std::string error_;
   std::size_t pending_drive_rows_ = 0;
   bool stopping_ = false;

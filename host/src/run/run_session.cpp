@@ -1,5 +1,7 @@
 #include "run_session.hpp"
 
+#include <algorithm>
+
 #include "board_client.hpp"
 #include "board_run.hpp"
 #include "io/log_schema.hpp"
@@ -7,9 +9,31 @@
 
 namespace piezo::host {
 
+std::string axis_end(const protocol::RunSummary::Axis& a) {
+  if (a.cause == firmware::StopCause::completed && a.move && a.move->stop_cause) {
+    return std::string(firmware::kMoveEndNames.name(*a.move->stop_cause));
+  }
+  return std::string(firmware::to_string(a.cause));
+}
+
+namespace {
+
+bool arrived(const protocol::RunSummary::Axis& a) {
+  return a.cause == firmware::StopCause::completed && a.move &&
+         a.move->stop_cause == firmware::MoveEnd::on_target;
+}
+
+}  // namespace
+
 std::string RunSummary::stop_cause() const {
   if (board_gone) return "board_gone";
   if (!host_error.empty()) return "log_failed";
+  // A group move: the first axis that did not arrive says how it ended.
+  if (board.axes.size() > 1) {
+    for (const auto& a : board.axes)
+      if (!arrived(a)) return axis_end(a);
+    return axis_end(board.axes.front());
+  }
   // A move that ended by itself says how: on_target, or timeout (the board's
   // cause is `completed` for both).
   if (board.cause == firmware::StopCause::completed && board.move && board.move->stop_cause) {
@@ -31,6 +55,10 @@ std::string RunSummary::output_state() const {
 
 std::string RunSummary::status() const {
   if (!host_error.empty()) return "failed";
+  if (board.axes.size() > 1) {
+    if (std::all_of(board.axes.begin(), board.axes.end(), arrived)) return "completed";
+    return board.cause == firmware::StopCause::interrupted ? "interrupted" : "failed";
+  }
   switch (board.cause) {
     case firmware::StopCause::completed:
       return stop_cause() == "timeout" || stop_cause() == "calibration_unusable" ? "failed"
@@ -46,7 +74,7 @@ RunSummary execute_run(const config::ConfigFile& c, const RunAsked& asked, confi
                        RunLog& log, const std::atomic<bool>& stop,
                        const std::function<void(const LiveStatus&)>& on_status,
                        const std::atomic<bool>* estop,
-                       const std::function<void(const log_schema::LogRows&)>& on_rows) {
+                       const std::function<void(const log_schema::AxesRows&)>& on_rows) {
   // Declared first, destroyed last: the client's sockets close before the
   // daemon's context ends.
   LocalBoard board(c, std::move(rig));

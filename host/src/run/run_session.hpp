@@ -22,19 +22,26 @@
 
 namespace piezo::host {
 
-/// A run's account: the board's own, as it sent it (cause, how the output
-/// was left, both loops' health, the real-time notes, a move's or a
-/// calibration's result), and what only the host knows.
-struct RunSummary {
-  protocol::RunSummary board;
+/// What the host measured of one axis of a run.
+struct AxisMeasured {
+  std::string name;  ///< the board's axis ("" on a board that names none)
   /// Failed samples by HAL status, as the host counted them in the stream.
   std::map<std::string, std::uint64_t> drive_errors, sensor_errors;
   double theta_end_rad = 0.0;  ///< last good measured angle
   double t_end_s = 0.0;        ///< when it was measured
   double mean_velocity_rad_s = 0.0;
   std::optional<ObserverSummary> observer;  ///< when [observer] is enabled
-  std::string host_error;                   ///< why the host side failed (the log), if it did
-  bool board_gone = false;                  ///< the board fell silent for good; its end is unknown
+};
+
+/// A run's account: the board's own, as it sent it (cause, how the output
+/// was left, both loops' health, the real-time notes, a move's or a
+/// calibration's result), and what only the host knows.
+struct RunSummary : AxisMeasured {  ///< its own fields: the run's first axis's
+  protocol::RunSummary board;
+  /// Every axis of the run in the log's order (the first is the summary's own).
+  std::vector<AxisMeasured> axes;
+  std::string host_error;   ///< why the host side failed (the log), if it did
+  bool board_gone = false;  ///< the board fell silent for good; its end is unknown
 
   /// "completed", "interrupted" or "failed" (a host failure fails the run).
   [[nodiscard]] std::string status() const;
@@ -56,6 +63,10 @@ struct LiveStatus {
   std::string log_error;  ///< why the log failed (the run then stops), empty while it is well
 };
 
+/// How one axis's part of a run ended: a move's end (on_target, timeout,
+/// ...) when it ended by itself, else the board's cause.
+[[nodiscard]] std::string axis_end(const protocol::RunSummary::Axis& a);
+
 /// The one-machine default: serves `rig` by an in-process piezod and runs
 /// what was `asked` through the protocol as a remote run does (run_on_board), until
 /// the duration elapses, `stop` is set, the supervisor trips or the log
@@ -65,6 +76,6 @@ struct LiveStatus {
     const config::ConfigFile& config, const RunAsked& asked, config::Rig rig, RunLog& log,
     const std::atomic<bool>& stop, const std::function<void(const LiveStatus&)>& on_status,
     const std::atomic<bool>* estop = nullptr,
-    const std::function<void(const log_schema::LogRows&)>& on_rows = {});
+    const std::function<void(const log_schema::AxesRows&)>& on_rows = {});
 
 }  // namespace piezo::host

@@ -32,9 +32,9 @@ void StreamFollower::subscribe(BoardClient& client) {
   }
 }
 
-void StreamFollower::follow(SampleCollector& collector, std::function<double()> received_s,
-                            bool from_sample_zero) {
-  collector_ = &collector;
+void StreamFollower::follow(std::vector<SampleCollector*> by_axis,
+                            std::function<double()> received_s, bool from_sample_zero) {
+  collectors_ = std::move(by_axis);
   received_s_ = std::move(received_s);
   from_sample_zero_ = from_sample_zero;
   drive_started_ = sensor_started_ = false;
@@ -62,7 +62,7 @@ void StreamFollower::drain(std::chrono::milliseconds wait, int max_messages,
     } else if (topic == wire_key::state) {
       const auto state = protocol::decode<protocol::StateEvent>(protocol::decode_map(body));
       if (handlers.on_state) handlers.on_state(state);
-    } else if (collector_ != nullptr) {
+    } else if (!collectors_.empty()) {
       on_frame(body, handlers);
     }
   }
@@ -86,7 +86,7 @@ void StreamFollower::on_frame(std::string_view frame, const Handlers& handlers) 
 }
 
 void StreamFollower::fetch(protocol::Stream stream, std::uint64_t end) {
-  if (collector_ == nullptr) return;
+  if (collectors_.empty()) return;
   std::uint64_t& next = stream == protocol::Stream::drive ? drive_next_ : sensor_next_;
   if (next < end) {
     gaps_.push_back(fmt::format("{} [{}, {})", protocol::to_string(stream), next, end));
@@ -114,13 +114,18 @@ void StreamFollower::add(std::string_view frame, const protocol::FrameHeader& h)
   std::uint64_t& next = h.stream == protocol::Stream::drive ? drive_next_ : sensor_next_;
   if (h.first_seq > next || h.first_seq + h.count <= next) return;  // a gap left, or a repeat
   const std::size_t skip = next - h.first_seq;
-  collector_->set_received(received_s_());
+  const double received = received_s_();
+  for (SampleCollector* c : collectors_)
+    if (c != nullptr) c->set_received(received);
+  const auto add_all = [&](const auto& samples) {
+    for (std::size_t i = skip; i < samples.size(); ++i) {
+      if (SampleCollector* c = collector(samples[i].axis)) c->add(samples[i]);
+    }
+  };
   if (h.stream == protocol::Stream::drive) {
-    const auto samples = protocol::decode_drive(frame);
-    for (std::size_t i = skip; i < samples.size(); ++i) collector_->add(samples[i]);
+    add_all(protocol::decode_drive(frame));
   } else {
-    const auto samples = protocol::decode_sensor(frame);
-    for (std::size_t i = skip; i < samples.size(); ++i) collector_->add(samples[i]);
+    add_all(protocol::decode_sensor(frame));
   }
   next = h.first_seq + h.count;
 }

@@ -33,12 +33,14 @@ class StreamFollower {
   /// start, so that its first samples come).
   static void subscribe(BoardClient& client);
 
-  /// Follows a new run: its samples go to `collector` (which must outlive
-  /// the follower's use of it), stamped with `received_s()`. The run's
+  /// Follows a new run: each sample goes to its axis's collector,
+  /// `by_axis[sample.axis]` (the board's axis index; a null or missing one:
+  /// dropped), each of which must outlive the follower's use of it, stamped
+  /// with `received_s()`. The run's
   /// controller follows it from sample 0; a watcher that joins a run under
   /// way (`from_sample_zero` false) from the first frame it sees, and skips
   /// (and notes) a gap the board will not serve it (its fetch budget).
-  void follow(SampleCollector& collector, std::function<double()> received_s,
+  void follow(std::vector<SampleCollector*> by_axis, std::function<double()> received_s,
               bool from_sample_zero = true);
 
   /// What drain() tells its caller; each may be left empty.
@@ -75,7 +77,10 @@ class StreamFollower {
 
   BoardClient& client_;
   Call call_;
-  SampleCollector* collector_ = nullptr;
+  [[nodiscard]] SampleCollector* collector(std::uint8_t axis) const {
+    return axis < collectors_.size() ? collectors_[axis] : nullptr;
+  }
+  std::vector<SampleCollector*> collectors_;  ///< by the board's axis index
   std::function<double()> received_s_;
   bool from_sample_zero_ = true;
   bool drive_started_ = false, sensor_started_ = false;  ///< a frame of each stream was seen
