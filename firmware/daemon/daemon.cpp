@@ -284,6 +284,15 @@ protocol::ArgumentSpec Daemon::axis_spec() const {
   return s;
 }
 
+protocol::ArgumentSpec Daemon::stop_axis_spec() const {
+  protocol::ArgumentSpec axis = axis_spec();
+  axis.required = false;
+  axis.default_value = nullptr;
+  axis.default_text = "every axis of the run";
+  axis.doc = "stop this axis of the run alone (`hello.axes`); the others go on";
+  return axis;
+}
+
 std::vector<protocol::ArgumentSpec> Daemon::move_to_specs() const {
   std::vector<protocol::ArgumentSpec> args = protocol::move_to_specs();
   // A group move names its axes and targets in `targets` instead.
@@ -359,7 +368,7 @@ CommandTable Daemon::command_table() {
                                    "a calibration (docs/protocol.md, \"Calibration\"), or nil"}}),
        [this](Who c, Args a) { return set_calibration(c, a); }},
       {"zero", C::controller, on_axis({}), [this](Who c, Args a) { return set_zero(c, a); }},
-      {"stop", C::controller, {}, [this](Who, Args) { return stop_run(); }},
+      {"stop", C::controller, {stop_axis_spec()}, [this](Who, Args a) { return stop_run(a); }},
       // Anyone may press it: it only ever makes the rig safer.
       {"estop", C::anyone, {}, [this](Who c, Args) { return estop(c); }},
       // Refused to everyone during a run; between runs nobody controls the rig.

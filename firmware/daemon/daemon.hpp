@@ -101,6 +101,8 @@ class Daemon {
   nlohmann::json configure(const nlohmann::json& args);
   /// The axis a request names (`axis`), or the board's one axis; throws
   /// bad_argument naming the axes there are.
+  /// `stop`'s optional axis.
+  [[nodiscard]] protocol::ArgumentSpec stop_axis_spec() const;
   [[nodiscard]] ServedAxis& axis_of(const nlohmann::json& args, std::string_view cmd);
   [[nodiscard]] std::string axis_names() const;  ///< "theta, phi, chi"
   /// Checks and keeps a waveform for `axis`; `cmd` names the command in refusals.
@@ -113,7 +115,8 @@ class Daemon {
   /// The loop runner for the program, over the run's own parts.
   void build_runner(Run& run, const Program& program);
   nlohmann::json step(const std::string& client, const nlohmann::json& args);
-  nlohmann::json stop_run();
+  /// Stops the run, or (`axis`) one axis of it while the others go on.
+  nlohmann::json stop_run(const nlohmann::json& args);
   nlohmann::json estop(const std::string& client);
   nlohmann::json reset_fault();
   nlohmann::json renew_lease(const nlohmann::json& args);

@@ -216,10 +216,29 @@ json Daemon::step(const std::string& client, const json& args) {
   return started;
 }
 
-json Daemon::stop_run() {
+json Daemon::stop_run(const json& args) {
+  const auto named = args.find(wire_key::axis);
+  if (named == args.end() || named->is_null()) {
+    if (running()) {
+      run_->runner->request_stop();
+      log_event(fmt::format("run {}: stop requested", run_->id));
+    }
+    return protocol::StateReply{run_state_.state()};
+  }
+  ServedAxis& axis = axis_of(args, "stop");
   if (running()) {
-    run_->runner->request_stop();
-    log_event(fmt::format("run {}: stop requested", run_->id));
+    std::string in_run;
+    for (std::size_t i = 0; i < run_->parts.size(); ++i) {
+      if (&run_->parts[i]->axis == &axis) {
+        run_->runner->request_stop(i);
+        log_event(fmt::format("run {}: stop of axis {} requested", run_->id, axis.name()));
+        return protocol::StateReply{run_state_.state()};
+      }
+      in_run += (in_run.empty() ? "" : ", ") + run_->parts[i]->axis.name();
+    }
+    throw ProtocolError(
+        code::bad_argument, wire_key::axis,
+        fmt::format("stop: axis: {} is not in the run (its axes: {})", axis.name(), in_run));
   }
   return protocol::StateReply{run_state_.state()};
 }

@@ -127,7 +127,10 @@ SafetyAction DriveLoop::check(Axis& axis, hal::TimeNs now, double t, const hal::
   if (const StopCause fault = program.fault(); fault != StopCause::none) {
     axis.io.supervisor->report_program_fault(fault);
   }
-  return axis.io.supervisor->check(now, estop, io_.stop_requested.load(std::memory_order_relaxed),
+  const bool stop = io_.stop_requested.load(std::memory_order_relaxed) ||
+                    (axis.io.stop_requested != nullptr &&
+                     axis.io.stop_requested->load(std::memory_order_relaxed));
+  return axis.io.supervisor->check(now, estop, stop,
                                    t >= settings_.duration_s || program.finished());
 }
 

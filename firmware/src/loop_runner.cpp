@@ -32,7 +32,7 @@ LoopRunner::LoopRunner(const LoopRunnerSettings& settings, std::vector<RunAxis> 
       parts.supervisor.set_travel_feed(axis.feed, axis.zero_m, axis.r2_m);
     }
     drive_axes.push_back({axis.limits, axis.period_s, &axis.program, &parts.supervisor, &axis.drive,
-                          &parts.drive_ring, axis.index});
+                          &parts.drive_ring, axis.index, &parts.stop});
     acquire_axes.push_back(
         {&axis.sensor, &parts.health, &parts.sensor_ring, axis.feed, axis.index});
   }

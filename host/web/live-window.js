@@ -2,7 +2,8 @@
 // The live page's window of the run, kept from the view's stream: the first
 // event holds the whole window ("reset"), the next ones only the columns
 // completed since, which are appended and the window trimmed to its length;
-// the zoom and the loop histograms are kept until new ones come.
+// the zoom and the loop histograms are kept until new ones come. A run of
+// several axes keeps each axis's series under "axes", one object per axis.
 // Loaded by the shared worker (one stream for all tabs of a browser) and by
 // the page itself where a browser has no shared workers.
 const LIVE_SERIES = ["drive", "measured", "observer", "open_loop", "residual"];
@@ -22,18 +23,25 @@ class LiveWindow {
       if (!e.histograms && held) this.d.histograms = held;
     } else {
       const from = e.t_end - e.window_s;
-      for (const name of LIVE_SERIES) {
-        const held = this.d[name], added = e[name];
-        let keep = 0;
-        while (keep < held.t.length && held.t[keep] < from) keep += 1;
-        held.t = held.t.slice(keep).concat(added.t);
-        held.y = held.y.slice(keep).concat(added.y);
-      }
+      if (e.axes) e.axes.forEach((axis, i) => LiveWindow.merge(this.d.axes[i], axis, from));
+      else LiveWindow.merge(this.d, e, from);
       for (const key of ["t_end", "window_s", "column_s", "status", "pages"]) this.d[key] = e[key];
-      if (e.zoom) this.d.zoom = e.zoom;
       if (e.histograms) this.d.histograms = e.histograms;
     }
-    if (this.d.zoom && !this.d.zoom.t) this.d.zoom = { t: LiveWindow.zoomTimes(this.d.zoom), y: this.d.zoom.y };
+    for (const axis of this.d.axes || [this.d]) {
+      if (axis.zoom && !axis.zoom.t) axis.zoom = { t: LiveWindow.zoomTimes(axis.zoom), y: axis.zoom.y };
+    }
     return this.d;
+  }
+
+  // One axis's new columns appended to what it holds, trimmed to the window.
+  static merge(held, added, from) {
+    for (const name of LIVE_SERIES) {
+      let keep = 0;
+      while (keep < held[name].t.length && held[name].t[keep] < from) keep += 1;
+      held[name].t = held[name].t.slice(keep).concat(added[name].t);
+      held[name].y = held[name].y.slice(keep).concat(added[name].y);
+    }
+    if (added.zoom) held.zoom = added.zoom;
   }
 }

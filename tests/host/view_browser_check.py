@@ -6,6 +6,8 @@ and one from another site, are refused; after the run the catalogue lists it
 and its page draws its plots. Saves screenshots of both pages. The Move
 button of `piezo view --rig` runs a move shown in its panel; ten tabs share
 one stream, show what /api/live.json shows, and the E-stop in the tenth acts.
+A group move of three axes draws a block of plots per axis, and the Stop of
+one axis ends that axis alone.
 
 Usage: view_browser_check.py PIEZO SCREENSHOT_DIR   (exit 77: no browser here)
 """
@@ -225,6 +227,7 @@ def main():
             view.wait(timeout=10)
         say("ok", len(rows), "run listed; screenshots in", shots)
         move_from_the_page(driver, piezo, piezod, work)
+        group_move_on_the_page(driver, piezo, work, shots)
         ten_tabs(driver, piezo, work)
     finally:
         if driver:
@@ -232,6 +235,46 @@ def main():
         if run.poll() is None:
             run.kill()
         shutil.rmtree(work, ignore_errors=True)
+
+
+def group_move_on_the_page(driver, piezo, work, shots):
+    """`piezo move` of three axes with --view --control, in real time: the
+    page shows each axis's own plots (four each) advancing, and its Stop
+    button for phi ends phi alone (interrupted) while theta and chi arrive."""
+    port = free_port()
+    err = os.path.join(work, "group.err")
+    run = peers.spawn(
+        [piezo, "move", "--config", os.path.join(SOURCE, "configs", "three-axes.toml"), "--set",
+         "run.clock=realtime", "--to", "theta=0.004", "--to", "phi=-0.3", "--to", "chi=0.004",
+         "--timeout", str(RUN_S), "--view", f"127.0.0.1:{port}", "--control", "--json", "--out",
+         os.path.join(work, "group")],
+        stdout=subprocess.PIPE, stderr=open(err, "w"), text=True)
+    try:
+        url, token = wait_for_banner(err, time.time() + 60)
+        driver.get(f"{url}?token={token}")
+
+        def axes():
+            return driver.execute_script("return window.piezoView.axes") or []
+
+        wait_until(lambda: [a["name"] for a in axes()] == ["theta", "phi", "chi"] and
+                   all(a["points"] > 10 for a in axes()), "a plot per axis, each with points")
+        first = {a["name"]: a["last"] for a in axes()}
+        wait_until(lambda: next(a["last"] for a in axes() if a["name"] == "phi") < first["phi"] - 0.002,
+                   "phi's angle advances on its own plot")
+        check(len(driver.find_elements("css selector", "#axes .uplot")) == 12, "four plots per axis")
+        driver.save_screenshot(os.path.join(shots, "view_group.png"))
+        driver.find_element("id", "stop-phi").click()
+        wait_until(lambda: driver.find_element("id", "control-result").text == "stop sent",
+                   "the page's Stop of phi answered")
+        out, _ = run.communicate(timeout=120)
+        moves = {m["axis"]: m for m in json.loads(out)["moves"]}
+        check(moves["phi"]["stop_cause"] == "interrupted", f"phi stopped from the page: {moves['phi']}")
+        check(moves["theta"]["on_target"] and moves["chi"]["on_target"],
+              f"the others arrived: {moves['theta']} {moves['chi']}")
+        say("group move on the page: phi stopped at", moves["phi"]["position_rad"], "rad")
+    finally:
+        if run.poll() is None:
+            run.kill()
 
 
 def ten_tabs(driver, piezo, work):

@@ -247,6 +247,38 @@ TEST(LiveFeed, ANewRunSendsTheWindowAgain) {
   EXPECT_LT(e.at("t_end").get<double>(), 0.6);
 }
 
+// A group move: each axis's series apart, under its name; an axis whose
+// drive ended keeps its plot while the others' window moves on; what a
+// page is sent as changes is what a snapshot shows.
+TEST(LiveFeed, AGroupMoveShowsEachAxisApart) {
+  LiveFeed feed(1.5, 0.3, 150);  // columns of 10 ms from the start
+  feed.set_axes({"theta", "phi"});
+  LiveCursor cursor;
+  const auto scaled = [](log_schema::LogRows rows, double k) {
+    for (double& v : rows.sensor.theta) v *= k;
+    return rows;
+  };
+  feed.add(log_schema::AxesRows{rig_rows(0.0, 1.0), scaled(rig_rows(0.0, 1.0), -2.0)});
+  const auto first = feed.changes(cursor);
+  EXPECT_TRUE(first.at("reset").get<bool>());
+  EXPECT_FALSE(first.contains("measured")) << "a group's series go per axis";
+  ASSERT_EQ(first.at("axes").size(), 2u);
+  EXPECT_EQ(first.at("axes")[1].at("name"), "phi");
+  // theta's drive has ended; phi goes on for a second more.
+  log_schema::LogRows theta_done;
+  feed.add(log_schema::AxesRows{theta_done, scaled(rig_rows(1.0, 1.0), -2.0)});
+  const auto later = feed.changes(cursor);
+  EXPECT_FALSE(later.at("reset").get<bool>());
+  EXPECT_NEAR(later.at("t_end").get<double>(), 1.9999, 1e-9);
+  const auto& phi = later.at("axes")[1].at("measured").at("y");
+  ASSERT_FALSE(phi.empty());
+  EXPECT_LT(phi.back().get<double>(), 0.0) << "phi's own angle";
+  EXPECT_TRUE(later.at("axes")[0].at("measured").at("y").empty()) << "nothing new for theta";
+  const auto snap = feed.snapshot();
+  EXPECT_GT(snap.at("axes")[0].at("measured").at("t").size(), 50u) << "theta's plot stays";
+  EXPECT_GT(snap.at("axes")[0].at("zoom").at("y").size(), 2000u) << "its last periods";
+}
+
 TEST(RunCatalogue, OnlyPlainRunNamesInsideTheDirectory) {
   const auto dir = std::filesystem::temp_directory_path() / "piezo-view-test-runs";
   std::filesystem::create_directories(dir / "r1");

@@ -153,6 +153,33 @@ def test_a_board_e_stop_in_a_group_move_stops_every_axis(board_address):
         assert watcher.reset_fault() == "idle"
 
 
+def test_stop_of_one_axis_ends_it_alone(board_address):
+    with Board(board_address) as mover:
+        for axis in mover.axes.values():
+            axis.zero()
+        args = mover.checked("move_to", {"targets": {"theta": 0.002, "phi": -0.3, "chi": 0.002}})
+        with Run(mover, "move_to", args, True, raise_on_fault=False) as run:
+            for block in run:
+                if block.first > 1000:
+                    assert mover.axes["phi"].stop() == "running"
+                    break
+            run.wait()
+        with pytest.raises(errors.BadArgument, match="psi"):
+            mover.call("stop", axis="psi")
+        summary = mover.status()["run"]["summary"]
+        ends = {a["name"]: a for a in summary["axes"]}
+        assert ends["phi"]["cause"] == "interrupted", ends["phi"]
+        assert ends["phi"]["output"]["state"] == "confirmed"
+        assert ends["phi"]["move"]["stop_cause"] == "interrupted"
+        for name in ("theta", "chi"):
+            assert ends[name]["move"]["stop_cause"] == "on_target", ends[name]
+        # On the drive's records: phi stopped at 0 V well before its target.
+        drive = mover.fetch("drive", 0, summary["samples"]["drive"])
+        phi = drive[drive["axis"] == 1]
+        assert phi["V"][-1] == 0.0 and phi["phase"][-1] == 2
+        assert abs(ends["phi"]["move"]["position_rad"]) < 0.25
+
+
 GROUP_MOVER = """
 import sys
 from piezo_rig.board import Board, Run

@@ -327,9 +327,11 @@ class Board:
         hello = self._hello or self.hello()
         return {a["name"]: Axis(self, a["name"]) for a in hello.get("axes", [])}
 
-    def stop(self) -> str:
-        """Ramps the drive to 0 V and ends the run (the controller only)."""
-        return str(self.call("stop")["state"])
+    def stop(self, axis: Optional[str] = None) -> str:
+        """Ramps the drive to 0 V and ends the run (the controller only);
+        with ``axis``, that axis of the run alone (its cause
+        ``interrupted``) while the others go on."""
+        return str(self.call("stop", **({} if axis is None else {"axis": axis}))["state"])
 
     def estop(self) -> str:
         """Disables the amplifier at once; any client may. Latches the fault
@@ -539,6 +541,10 @@ class Axis:
     def zero(self) -> dict[str, Any]:
         """``Board.zero`` on this axis."""
         return self.board.zero(self.name)
+
+    def stop(self) -> str:
+        """``Board.stop`` of this axis alone: it ramps to 0 V, the run's others go on."""
+        return self.board.stop(self.name)
 
 
 class Run:

@@ -2,8 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <limits>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 #include <zmq_addon.hpp>
 
@@ -39,16 +41,34 @@ void BoardWatch::follow_run(std::uint64_t run) {
   last_summary_ = nullptr;
   health_.erase(wire_key::summary);
   const hal::TimeNs t0 = status.run->t0_ns;
-  observer_.reset();
-  if (config_.host.observer.enabled) {
-    observer_ =
-        std::make_unique<ObserverStage>(config_.host.model.motor, config_.host.observer.gains,
-                                        1.0 / hello_.drive_rate_hz, hello_.output_latency_s);
+  // The run's axes: a group move's each, else the one it drives.
+  std::vector<std::string> names;
+  if (status.run->moves) {
+    for (const auto& m : *status.run->moves) names.push_back(m.axis);
+  } else {
+    names.push_back(status.run->axis);
   }
-  collector_ = std::make_unique<SampleCollector>(t0, hello_.sensor.r2_m, observer_.get());
+  axes_.clear();
+  std::vector<SampleCollector*> by_axis(std::max<std::size_t>(1, hello_.axes.size()));
+  for (const std::string& name : names) {
+    std::size_t index = 0;
+    while (index < hello_.axes.size() && hello_.axes[index].name != name) ++index;
+    if (index == hello_.axes.size()) index = 0;  // a board that names no axes
+    const double r2 = hello_.axes.empty() ? hello_.sensor.r2_m : hello_.axes[index].r2_m;
+    std::unique_ptr<ObserverStage> observer;
+    if (config_.host.observer.enabled) {
+      // The config's own axis of that name, where it describes several.
+      const config::AxisConfig* own =
+          config_.board.axes.size() > 1 ? config_.board.find_axis(name) : nullptr;
+      observer = std::make_unique<ObserverStage>(
+          own != nullptr ? own->model.motor : config_.host.model.motor, config_.host.observer.gains,
+          1.0 / hello_.drive_rate_hz, hello_.output_latency_s);
+    }
+    by_axis.at(index) = &axes_.emplace_back(name, t0, r2, std::move(observer)).collector;
+  }
+  feed_.set_axes(names.size() > 1 ? names : std::vector<std::string>{});
   follower_.follow(
-      std::vector<SampleCollector*>(std::max<std::size_t>(1, hello_.axes.size()), collector_.get()),
-      [] { return std::numeric_limits<double>::quiet_NaN(); }, false);
+      std::move(by_axis), [] { return std::numeric_limits<double>::quiet_NaN(); }, false);
 }
 
 void BoardWatch::on_state(const protocol::StateEvent& state) {
@@ -91,21 +111,29 @@ void BoardWatch::poll(std::chrono::milliseconds wait) {
       last_lease_ = std::chrono::steady_clock::now();
     }
   }
-  if (collector_) {
-    feed_.add(collector_->rows());
-    collector_->rows() = {};
-    feed_.set_status({{"t_s", collector_->last_t()},
-                      {"V", collector_->last_V()},
-                      {"theta_rad", collector_->last_theta()},
-                      {"residual_rad", observer_ ? observer_->summary().last_residual_rad : 0.0},
-                      {"sensor_samples", follower_.sensor_next()},
-                      {"sensor_errors",
-                       health_.value(wire_key::sensor, json::object()).value(wire_key::errors, 0)},
-                      {"board", health_},
-                      {"errors_by_class",
-                       {{wire_key::drive, collector_->drive_errors()},
-                        {wire_key::sensor, collector_->sensor_errors()}}},
-                      {wire_key::lease_s, lease_json()}});
+  if (!axes_.empty()) {
+    log_schema::AxesRows rows;
+    double t = 0.0;
+    for (WatchedAxis& a : axes_) {
+      rows.push_back(std::exchange(a.collector.rows(), {}));
+      t = std::max(t, a.collector.last_t());
+    }
+    feed_.add(rows);
+    // The readout's: the run's first axis (a group's others have their plots).
+    const WatchedAxis& first = axes_.front();
+    feed_.set_status(
+        {{"t_s", t},
+         {"V", first.collector.last_V()},
+         {"theta_rad", first.collector.last_theta()},
+         {"residual_rad", first.observer ? first.observer->summary().last_residual_rad : 0.0},
+         {"sensor_samples", follower_.sensor_next()},
+         {"sensor_errors",
+          health_.value(wire_key::sensor, json::object()).value(wire_key::errors, 0)},
+         {"board", health_},
+         {"errors_by_class",
+          {{wire_key::drive, first.collector.drive_errors()},
+           {wire_key::sensor, first.collector.sensor_errors()}}},
+         {wire_key::lease_s, lease_json()}});
   } else {
     feed_.set_status({{"board", health_}});
   }
@@ -125,12 +153,16 @@ bool BoardWatch::controlling() {
   return controlled_run_.has_value();
 }
 
-json BoardWatch::stop() {
+json BoardWatch::stop(const json& args) {
   if (!controlling()) {
     throw std::runtime_error(
         "stop: only the client that started the run may stop it (e-stop works for anyone)");
   }
-  return call("stop");
+  // {"axis": NAME}: that axis alone (the board says when it is not in the run).
+  json request = json::object();
+  if (args.is_object() && args.contains(wire_key::axis))
+    request[wire_key::axis] = args[wire_key::axis];
+  return call("stop", request);
 }
 
 json BoardWatch::move_to(const json& args) {

@@ -6,17 +6,18 @@
 // client may), and move-to, whose lease it then keeps, and stop of that move.
 
 #include <chrono>
+#include <deque>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
 
-#include "run/board_client.hpp"
-#include "view/live_feed.hpp"
-#include "run/observer_stage.hpp"
 #include "config/config_file.hpp"
+#include "run/board_client.hpp"
+#include "run/observer_stage.hpp"
 #include "run/sample_collector.hpp"
 #include "run/stream_follower.hpp"
+#include "view/live_feed.hpp"
 
 namespace piezo::host {
 
@@ -32,7 +33,8 @@ class BoardWatch {
 
   // From the web server's threads; each returns the board's reply or throws.
   nlohmann::json estop();
-  nlohmann::json stop();
+  /// The run's stop, or (`args` {"axis": NAME}) one axis's of it.
+  nlohmann::json stop(const nlohmann::json& args);
   nlohmann::json move_to(const nlohmann::json& args);
   /// The board's dictionary (`describe`), asked once when the watch began.
   [[nodiscard]] const nlohmann::json& dictionary() const { return dictionary_; }
@@ -52,11 +54,21 @@ class BoardWatch {
   std::mutex commands_;  ///< the command socket, shared by the watch and the page
   nlohmann::json dictionary_;
 
+  /// One axis of the run watched: its angle (its own radius) and observer.
+  struct WatchedAxis {
+    WatchedAxis(std::string axis_name, hal::TimeNs t0, double r2,
+                std::unique_ptr<ObserverStage> stage)
+        : name(std::move(axis_name)),
+          observer(std::move(stage)),
+          collector(t0, r2, observer.get()) {}
+    std::string name;
+    std::unique_ptr<ObserverStage> observer;
+    SampleCollector collector;
+  };
   std::optional<std::uint64_t> run_;
-  std::unique_ptr<ObserverStage> observer_;
-  std::unique_ptr<SampleCollector> collector_;
-  StreamFollower follower_;      ///< after commands_: its fetches go through call()
-  nlohmann::json last_summary_;  ///< the last run's end, kept across health updates
+  std::deque<WatchedAxis> axes_;  ///< the run's, in its order (never moved: collectors point in)
+  StreamFollower follower_;       ///< after commands_: its fetches go through call()
+  nlohmann::json last_summary_;   ///< the last run's end, kept across health updates
   nlohmann::json health_ = nlohmann::json::object();
 
   // Under commands_: the page's threads start a move, the watch renews it.

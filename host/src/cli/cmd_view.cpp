@@ -53,7 +53,7 @@ int serve(const ViewCliOptions& o) {
   BoardWatch watch(config, client, hello, feed);
   const view::ViewServer server(
       o.server, &feed,
-      {[&watch](const nlohmann::json&) { return watch.stop(); },
+      {[&watch](const nlohmann::json& body) { return watch.stop(body); },
        [&watch](const nlohmann::json&) { return watch.estop(); },
        [&watch](const nlohmann::json& body) { return watch.move_to(body); },
        [&watch](const nlohmann::json&) { return watch.dictionary(); }});

@@ -433,13 +433,27 @@ void connect(Board& board, const config::ConfigFile& config, const RunAsked& ask
 /// The live view, bound before anything is created: a busy port is bad input.
 std::unique_ptr<view::ViewServer> open_view(const RunOptions& o, const fs::path& dir,
                                             view::LiveFeed& live, const StopOnSignals& signals,
-                                            std::atomic<bool>& estop_requested) {
+                                            std::atomic<bool>& estop_requested,
+                                            const std::vector<std::string>& group,
+                                            AxisStops& axis_stops) {
   auto server = std::make_unique<view::ViewServer>(
       view::ViewOptions{o.view_listen.empty() ? "127.0.0.1:8080" : o.view_listen,
                         fs::absolute(dir).parent_path().string(), o.control, o.allow_hosts},
       &live,
-      view::ViewControls{[&signals](const nlohmann::json&) {
-                           signals.request_stop();
+      view::ViewControls{[&signals, &group, &axis_stops](const nlohmann::json& body) {
+                           // {"axis": NAME}: one axis of a group move; else the run.
+                           const auto axis =
+                               body.is_object() ? body.find(wire_key::axis) : body.end();
+                           if (axis == body.end() || axis->is_null()) {
+                             signals.request_stop();
+                           } else if (axis->is_string() &&
+                                      std::find(group.begin(), group.end(), *axis) != group.end()) {
+                             axis_stops.request(axis->get<std::string>());
+                           } else {
+                             throw std::invalid_argument(fmt::format(
+                                 "stop: axis: {} is not an axis of this group move (its axes: {})",
+                                 axis->dump(), fmt::join(group, ", ")));
+                           }
                            return nlohmann::json::object();
                          },
                          [&estop_requested](const nlohmann::json&) {
@@ -529,15 +543,19 @@ std::function<void(const LiveStatus&)> status_reporter(const RunOptions& o, view
 RunSummary drive(Board& board, const config::ConfigFile& config, RunLog& log,
                  const StopOnSignals& signals,
                  const std::function<void(const LiveStatus&)>& status_line,
-                 const std::atomic<bool>& estop_requested, view::LiveFeed* live) {
+                 const std::atomic<bool>& estop_requested, view::LiveFeed* live,
+                 AxisStops& axis_stops) {
   try {
     // The live view takes the collector's rows, not the log's: a log that
     // fails leaves the view going to the run's end.
     std::function<void(const log_schema::AxesRows&)> to_view;
-    if (live != nullptr)
-      to_view = [live](const log_schema::AxesRows& rows) { live->add(rows.front()); };
-    RunSummary summary = run_on_board(config, *board.client, board.hello, log, signals.flag(),
-                                      status_line, *board.request, &estop_requested, to_view);
+    if (live != nullptr) {
+      live->set_axes(board.group);
+      to_view = [live](const log_schema::AxesRows& rows) { live->add(rows); };
+    }
+    RunSummary summary =
+        run_on_board(config, *board.client, board.hello, log, signals.flag(), status_line,
+                     *board.request, &estop_requested, to_view, &axis_stops);
     if (board.local && !log.broken()) {
       log.set_attribute(log_schema::kBoardEvents, board.local->events());
     }
@@ -568,16 +586,17 @@ int run(const RunOptions& o, const RunProgram& program) {
   std::optional<view::LiveFeed> live;
   std::unique_ptr<view::ViewServer> server;
   std::atomic<bool> estop_requested{false};
+  AxisStops axis_stops;
   if (o.view) {
     live.emplace(20.0, 3.0 / config.host.model.drive.f);
-    server = open_view(o, dir, *live, signals, estop_requested);
+    server = open_view(o, dir, *live, signals, estop_requested, board.group, axis_stops);
   }
   const std::string utc_start = utc_stamp("%Y-%m-%dT%H:%M:%SZ");
   const fs::path log_path = dir / "run.h5";
   RunLog log = create_log(dir, config, board, utc_start);
   RunSummary summary =
       drive(board, config, log, signals, status_reporter(o, live ? &*live : nullptr),
-            estop_requested, live ? &*live : nullptr);
+            estop_requested, live ? &*live : nullptr, axis_stops);
   if (!o.json && isatty(STDERR_FILENO)) write_out(stderr, "\n");
   // The run's JSON, with the move's account (target, controller's result).
   const auto result_json = [&] {

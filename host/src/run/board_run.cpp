@@ -177,7 +177,7 @@ class FollowedRun {
   /// board is gone (nullopt).
   std::optional<protocol::RunSummary> follow(
       const std::atomic<bool>& stop, const std::atomic<bool>* estop,
-      const std::function<void(const LiveStatus&)>& on_status);
+      const std::function<void(const LiveStatus&)>& on_status, AxisStops* axis_stops);
   /// The run's account from the board's summary; with none, a board gone.
   RunSummary finish(const std::optional<protocol::RunSummary>& board);
   /// The live status, every kStatusPeriod (`at_once`: now, the run's last).
@@ -193,7 +193,8 @@ class FollowedRun {
   [[nodiscard]] double board_run_s() const {
     return virtual_clock_ ? last_t() : hal::to_seconds(host_ns() + clock_.offset_ns - t0_);
   }
-  void request_stops(const std::atomic<bool>& stop, const std::atomic<bool>* estop);
+  void request_stops(const std::atomic<bool>& stop, const std::atomic<bool>* estop,
+                     AxisStops* axis_stops);
   void drain(std::optional<protocol::RunSummary>& end);
   void renew_lease_if_due();
   void renew_lease();
@@ -228,11 +229,11 @@ class FollowedRun {
 
 std::optional<protocol::RunSummary> FollowedRun::follow(
     const std::atomic<bool>& stop, const std::atomic<bool>* estop,
-    const std::function<void(const LiveStatus&)>& on_status) {
+    const std::function<void(const LiveStatus&)>& on_status, AxisStops* axis_stops) {
   std::optional<protocol::RunSummary> end;
   while (!end) {
     if (SteadyClock::now() - last_contact_ >= kBoardGone) break;
-    request_stops(stop, estop);
+    request_stops(stop, estop, axis_stops);
     drain(end);
     renew_lease_if_due();
     ask_when_quiet(end);
@@ -246,7 +247,17 @@ std::optional<protocol::RunSummary> FollowedRun::follow(
   return end;
 }
 
-void FollowedRun::request_stops(const std::atomic<bool>& stop, const std::atomic<bool>* estop) {
+void FollowedRun::request_stops(const std::atomic<bool>& stop, const std::atomic<bool>* estop,
+                                AxisStops* axis_stops) {
+  // One axis's stop: that axis ramps down, the others go on. Sent once; a
+  // lost one is the operator's to press again (the run's Stop and E-stop
+  // stay).
+  for (const std::string& axis : axis_stops ? axis_stops->take() : std::vector<std::string>{}) {
+    try {
+      (void)client_.call("stop", json{{wire_key::axis, axis}}, 1s);
+    } catch (const std::exception&) {
+    }
+  }
   if ((stop.load() || !log_ok_) && !stop_sent_) {
     try {
       (void)client_.call("stop", json::object(), 1s);
@@ -429,7 +440,8 @@ RunSummary run_on_board(const config::ConfigFile& c, BoardClient& client,
                         const protocol::Hello& hello, RunLog& log, const std::atomic<bool>& stop,
                         const std::function<void(const LiveStatus&)>& on_status,
                         const BoardRequest& request, const std::atomic<bool>* estop,
-                        const std::function<void(const log_schema::AxesRows&)>& on_rows) {
+                        const std::function<void(const log_schema::AxesRows&)>& on_rows,
+                        AxisStops* axis_stops) {
   if (stop.load()) {
     // Stopped during set-up: the drive is never started.
     RunSummary summary;
@@ -468,7 +480,7 @@ RunSummary run_on_board(const config::ConfigFile& c, BoardClient& client,
                       a.zero_m.value_or(std::numeric_limits<double>::quiet_NaN()));
   }
   FollowedRun run(c, client, hello, log, started, clock, axes, on_rows);
-  const auto end = run.follow(stop, estop, on_status);
+  const auto end = run.follow(stop, estop, on_status, axis_stops);
   RunSummary summary = run.finish(end);
   run.report(on_status, true);  // the end, and a log failed in its last flush, shown
   return summary;

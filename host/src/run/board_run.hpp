@@ -6,8 +6,12 @@
 
 #include <atomic>
 #include <functional>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "board_client.hpp"
 #include "board_request.hpp"
@@ -16,6 +20,24 @@
 #include "run_session.hpp"
 
 namespace piezo::host {
+
+/// Stops of single axes asked for during a run (the live page's Stop of
+/// one axis), from any thread; the run's loop sends each to the board.
+class AxisStops {
+ public:
+  void request(std::string axis) {
+    const std::lock_guard lock(mutex_);
+    names_.push_back(std::move(axis));
+  }
+  [[nodiscard]] std::vector<std::string> take() {
+    const std::lock_guard lock(mutex_);
+    return std::exchange(names_, {});
+  }
+
+ private:
+  std::mutex mutex_;
+  std::vector<std::string> names_;
+};
 
 /// The board's clock against the host's, from the fastest `clock` round trip.
 struct ClockMapping {
@@ -34,6 +56,7 @@ struct ClockMapping {
     RunLog& log, const std::atomic<bool>& stop,
     const std::function<void(const LiveStatus&)>& on_status, const BoardRequest& request,
     const std::atomic<bool>* estop = nullptr,
-    const std::function<void(const log_schema::AxesRows&)>& on_rows = {});
+    const std::function<void(const log_schema::AxesRows&)>& on_rows = {},
+    AxisStops* axis_stops = nullptr);
 
 }  // namespace piezo::host

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "decimate.hpp"
 #include "piezo/firmware/wire_keys.hpp"
@@ -64,40 +65,65 @@ nlohmann::json to_json(const Series& s) {
 
 }  // namespace
 
-void LiveFeed::add(const log_schema::LogRows& rows) {
+void LiveFeed::set_axes(std::vector<std::string> names) {
   const std::lock_guard lock(mutex_);
-  if (!rows.drive.t.empty() && !columns_[kDrive].t.empty() &&
-      rows.drive.t.front() < columns_[kDrive].t.back()) {
+  if (names.empty()) names = {""};
+  if (names == names_) return;
+  names_ = std::move(names);
+  restart();
+}
+
+void LiveFeed::add(const log_schema::AxesRows& rows) {
+  const std::lock_guard lock(mutex_);
+  // A batch of another count of axes, or whose drive starts before the
+  // feed's end: a new run.
+  double first = std::numeric_limits<double>::infinity();
+  for (const auto& r : rows)
+    if (!r.drive.t.empty()) first = std::min(first, r.drive.t.front());
+  if (rows.size() != axes_.size() || (std::isfinite(first) && first < t_end())) {
+    if (rows.size() != axes_.size()) {
+      names_.assign(rows.size(), "");
+      axes_.assign(rows.size(), AxisColumns{});
+    }
     restart();
   }
-  append(columns_[kDrive].t, rows.drive.t);
-  append(columns_[kDrive].y, rows.drive.V);
-  append(columns_[kMeasured].t, rows.sensor.t);
-  append(columns_[kMeasured].y, rows.sensor.theta);
-  for (std::size_t s : {kObserver, kOpenLoop, kResidual}) append(columns_[s].t, rows.observer.t);
-  append(columns_[kObserver].y, rows.observer.theta_hat);
-  append(columns_[kOpenLoop].y, rows.observer.theta_open);
-  append(columns_[kResidual].y, rows.observer.residual);
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const log_schema::LogRows& r = rows[i];
+    AxisColumns& c = axes_[i];
+    append(c[kDrive].t, r.drive.t);
+    append(c[kDrive].y, r.drive.V);
+    append(c[kMeasured].t, r.sensor.t);
+    append(c[kMeasured].y, r.sensor.theta);
+    for (std::size_t s : {kObserver, kOpenLoop, kResidual}) append(c[s].t, r.observer.t);
+    append(c[kObserver].y, r.observer.theta_hat);
+    append(c[kOpenLoop].y, r.observer.theta_open);
+    append(c[kResidual].y, r.observer.residual);
+  }
   trim(t_end());
 }
 
 void LiveFeed::restart() {
-  for (Column& c : columns_) c = {};
+  axes_.assign(names_.size(), AxisColumns{});
   ++epoch_;
 }
 
 double LiveFeed::t_end() const {
-  const auto& drive = columns_[kDrive].t;
-  return drive.empty() ? 0.0 : drive.back();
+  // The latest drive sample of any axis: a group's axes end each on its own.
+  double end = 0.0;
+  for (const AxisColumns& c : axes_)
+    if (!c[kDrive].t.empty()) end = std::max(end, c[kDrive].t.back());
+  return end;
 }
 
 void LiveFeed::trim(double t_end) {
   // Dropped in bulk once twice the window is held: amortised, not per sample.
-  for (Column& c : columns_) {
-    if (c.t.empty() || c.t.front() > t_end - 2.0 * window_s_) continue;
-    const auto keep = std::lower_bound(c.t.begin(), c.t.end(), t_end - window_s_) - c.t.begin();
-    c.t.erase(c.t.begin(), c.t.begin() + keep);
-    c.y.erase(c.y.begin(), c.y.begin() + keep);
+  for (AxisColumns& axis : axes_) {
+    for (Column& c : axis) {
+      if (c.t.empty() || c.t.front() > t_end - 2.0 * window_s_) continue;
+      const auto keep = std::lower_bound(c.t.begin(), c.t.end(), t_end - window_s_) - c.t.begin();
+      c.t.erase(c.t.begin(), c.t.begin() + keep);
+      c.y.erase(c.y.begin(), c.y.begin() + keep);
+    }
   }
 }
 
@@ -129,24 +155,45 @@ double LiveFeed::width_now() const {
   return w;
 }
 
-nlohmann::json LiveFeed::event(LiveCursor& cursor, bool reset) const {
+void LiveFeed::add_series(nlohmann::json& out, std::size_t axis, LiveCursor& cursor, bool reset,
+                          bool with_zoom) const {
   const double end = t_end(), width = width_now();
-  nlohmann::json out{
-      {"reset", reset}, {"t_end", short_time(end)}, {"window_s", window_s_}, {"column_s", width}};
   // The window's first whole column, and per series its last complete one:
   // a column is complete once a later sample has come.
   const long long window_start = column_of(end - window_s_, width) + 1;
   for (std::size_t s = 0; s < kSeries; ++s) {
-    const Column& c = columns_[s];
+    const Column& c = axes_[axis][s];
     const long long done = c.t.empty() ? window_start : column_of(c.t.back(), width);
-    const long long from = reset ? window_start : std::max(cursor.next[s], window_start);
+    const long long from = reset ? window_start : std::max(cursor.next[axis][s], window_start);
     out[kNames[s]] = to_json(min_max_columns(c.t, c.y, width, from, done));
-    cursor.next[s] = std::max(from, done);
+    cursor.next[axis][s] = std::max(from, done);
   }
-  const bool periodic = cursor.events % kZoomEvery == 0;
-  if (reset || periodic) out["zoom"] = zoom();
+  if (with_zoom) out["zoom"] = zoom(axes_[axis]);
+}
+
+nlohmann::json LiveFeed::event(LiveCursor& cursor, bool reset) const {
+  const double end = t_end(), width = width_now();
+  nlohmann::json out{
+      {"reset", reset}, {"t_end", short_time(end)}, {"window_s", window_s_}, {"column_s", width}};
+  if (cursor.next.size() != axes_.size()) {
+    cursor.next.assign(axes_.size(), {});
+    reset = true;
+    out["reset"] = true;
+  }
+  const bool with_zoom = reset || cursor.events % kZoomEvery == 0;
+  if (axes_.size() == 1) {
+    add_series(out, 0, cursor, reset, with_zoom);
+  } else {
+    nlohmann::json axes = nlohmann::json::array();
+    for (std::size_t i = 0; i < axes_.size(); ++i) {
+      nlohmann::json axis{{"name", names_[i]}};
+      add_series(axis, i, cursor, reset, with_zoom);
+      axes.push_back(std::move(axis));
+    }
+    out["axes"] = std::move(axes);
+  }
   out["status"] = status_;
-  if (cursor.histograms != histograms_version_ && (reset || periodic)) {
+  if (cursor.histograms != histograms_version_ && with_zoom) {
     out["histograms"] = histograms_;
     cursor.histograms = histograms_version_;
   }
@@ -156,13 +203,14 @@ nlohmann::json LiveFeed::event(LiveCursor& cursor, bool reset) const {
   return out;
 }
 
-nlohmann::json LiveFeed::zoom() const {
+nlohmann::json LiveFeed::zoom(const AxisColumns& axis) const {
   // The last few drive periods, every sample. The drive's clock is a grid:
   // its times go as a start and a step when they are (they are, unless a
   // missed cycle left a gap).
-  const Column& d = columns_[kDrive];
+  const Column& d = axis[kDrive];
   const auto from = static_cast<std::size_t>(
-      std::lower_bound(d.t.begin(), d.t.end(), t_end() - zoom_s_) - d.t.begin());
+      std::lower_bound(d.t.begin(), d.t.end(), (d.t.empty() ? 0.0 : d.t.back()) - zoom_s_) -
+      d.t.begin());
   const std::size_t n = d.t.size() - from;
   nlohmann::json y = nlohmann::json::array();
   for (std::size_t i = from; i < d.t.size(); ++i) y.push_back(short_value(d.y[i]));

@@ -11,13 +11,16 @@
 // window the columns are narrower (halved while the run fits in half of
 // them), so a short move shows in detail; each widening resends the window.
 // The board's loop histograms go as "histograms" {drive, sensor}, apart from
-// the status, when they changed and at most every fourth event.
+// the status, when they changed and at most every fourth event. A run of
+// several axes (a group move) sends each axis's series under "axes" ([{name,
+// drive, measured, ...}]) instead of at the top level: a plot per axis.
 
 #include <array>
 #include <cstddef>
 #include <cstdint>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <string>
 #include <vector>
 
 #include "io/log_schema.hpp"
@@ -27,9 +30,9 @@ namespace piezo::host::view {
 /// What one page has been sent: the run it follows and, per series, the
 /// first column it has not.
 struct LiveCursor {
-  std::uint64_t epoch = 0;  ///< 0: nothing sent yet
-  double width = 0.0;       ///< the columns' width it was sent
-  std::array<long long, 5> next{};
+  std::uint64_t epoch = 0;                     ///< 0: nothing sent yet
+  double width = 0.0;                          ///< the columns' width it was sent
+  std::vector<std::array<long long, 5>> next;  ///< per axis
   std::uint64_t events = 0;
   std::uint64_t histograms = 0;  ///< the version of the loop histograms it holds
 };
@@ -41,9 +44,14 @@ class LiveFeed {
   LiveFeed(double window_s, double zoom_s, std::size_t columns = 800)
       : window_s_(window_s), zoom_s_(zoom_s), width_(window_s / static_cast<double>(columns)) {}
 
-  /// Appends a batch; a batch that starts before the feed's end is a new
-  /// run (its clock restarted): the window starts again.
-  void add(const log_schema::LogRows& rows);
+  /// Names the run's axes, in the order add() gives their rows (one
+  /// unnamed axis until told); a change starts the window again.
+  void set_axes(std::vector<std::string> names);
+  /// Appends a batch, one LogRows per axis; a batch that starts before the
+  /// feed's end is a new run (its clock restarted): the window starts again.
+  void add(const log_schema::AxesRows& rows);
+  /// The same for a run of one axis.
+  void add(const log_schema::LogRows& rows) { add(log_schema::AxesRows{rows}); }
   void set_status(nlohmann::json status);
 
   /// The whole window, the zoom and the status ("reset": true).
@@ -60,8 +68,13 @@ class LiveFeed {
     std::vector<double> t, y;
   };
   static constexpr std::size_t kSeries = 5;
+  /// drive, measured, observer, open_loop, residual (kNames' order)
+  using AxisColumns = std::array<Column, kSeries>;
   [[nodiscard]] nlohmann::json event(LiveCursor& cursor, bool reset) const;
-  [[nodiscard]] nlohmann::json zoom() const;
+  /// One axis's series (and its zoom when `with_zoom`) into `out`.
+  void add_series(nlohmann::json& out, std::size_t axis, LiveCursor& cursor, bool reset,
+                  bool with_zoom) const;
+  [[nodiscard]] nlohmann::json zoom(const AxisColumns& axis) const;
   [[nodiscard]] double t_end() const;
   [[nodiscard]] double width_now() const;
   void trim(double t_end);
@@ -70,8 +83,8 @@ class LiveFeed {
   mutable std::mutex mutex_;
   double window_s_, zoom_s_, width_;
   std::uint64_t epoch_ = 1;
-  /// drive, measured, observer, open_loop, residual (kNames' order)
-  std::array<Column, kSeries> columns_;
+  std::vector<std::string> names_{""};
+  std::vector<AxisColumns> axes_ = std::vector<AxisColumns>(1);
   /// The status without the loop histograms, which go apart (histograms_):
   /// at some 10 KB each they would be most of every event.
   nlohmann::json status_ = nlohmann::json::object();

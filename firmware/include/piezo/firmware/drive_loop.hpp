@@ -52,6 +52,9 @@ struct DriveAxis {
   hal::Drive* drive = nullptr;
   SpscRing<DriveSample>* ring = nullptr;
   std::uint8_t index = 0;  ///< the board's axis, written on its records
+  /// An operator's stop of this axis alone (null: none): it ramps down as
+  /// at a stop of the run, while the other axes go on.
+  const std::atomic<bool>* stop_requested = nullptr;
 };
 
 /// The board's devices and channels; all outlive the loop.

@@ -80,6 +80,8 @@ class LoopRunner {
 
   /// Asks every axis to ramp down and stop (an operator stop).
   void request_stop() { stop_.store(true); }
+  /// Asks one axis (its place in the run) to ramp down and stop; the others go on.
+  void request_stop(std::size_t axis) { axes_.at(axis)->stop.store(true); }
   /// Both loops have returned.
   [[nodiscard]] bool finished() const { return acquire_done_.load(std::memory_order_acquire); }
   /// Waits for both threads; idempotent.
@@ -117,6 +119,7 @@ class LoopRunner {
     SpscRing<SensorSample> sensor_ring;
     SensorHealth health;
     SafetySupervisor supervisor;
+    std::atomic<bool> stop{false};  ///< an operator's stop of this axis alone
   };
 
   void set_up_thread(int priority, std::string& note) const;
