@@ -120,6 +120,47 @@ TEST_F(ModbusHil, RunCompletesAgainstRigSim) {
   EXPECT_GT(j.at("theta_end_rad").get<double>(), 1e-3) << "the drive moved rig-sim's plant";
 }
 
+// Two axes on one simulated Modbus device (configs/two-axes-modbus.toml):
+// one group move through the real backends over TCP, each axis's output on
+// its own holding register and its rotor read by mbpoll from its own
+// sensor registers; a config whose axes share a register is refused.
+TEST_F(ModbusHil, AGroupMoveOfTwoAxesOverModbus) {
+  const std::string config = std::string(build_paths::source_dir) + "/configs/two-axes-modbus.toml";
+  const std::string at_port = " --set sensor.modbus.port=" + std::to_string(port) +
+                              " --set drive.modbus-ao.port=" + std::to_string(port);
+  Spawned rig({kPiezo, "rig-sim", "--config", config, "--set",
+               "sensor.modbus.port=" + std::to_string(port)},
+              (dir / "rig-sim.txt").string());
+  ASSERT_TRUE(wait_for_tcp(port));
+  const auto r = run_command(kPiezo + " move --config " + config + at_port +
+                             " --to theta=0.002 --to phi=-0.003 --json --out " +
+                             (dir / "group").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j.at("moves").size(), 2u);
+  // The device's own registers (mbpoll, 0-based): each laser reads its own
+  // rotor [mm], 70 mm at zero, r2 = 62 mm.
+  const auto laser_mm = [&](int address) {
+    const auto read = run_command("mbpoll -m tcp -0 -a 1 -t 3:float -r " + std::to_string(address) +
+                                  " -c 1 -1 -p " + std::to_string(port) + " 127.0.0.1");
+    const auto at = read.out.find("[" + std::to_string(address) + "]:");
+    return at == std::string::npos ? NAN : std::stod(read.out.substr(at + 6));
+  };
+  for (const auto& m : j.at("moves")) EXPECT_TRUE(m.at("on_target").get<bool>()) << m.dump();
+  EXPECT_NEAR(laser_mm(202), 70.0 + 62.0 * 0.002, 0.01);
+  EXPECT_NEAR(laser_mm(212), 70.0 - 62.0 * 0.003, 0.01);
+  EXPECT_EQ(read_ao_register(), 0) << "theta's output left at 0 V";
+
+  const auto shared = run_command(kPiezo + " rig-sim --config " + config +
+                                  " --set axes.phi.drive.modbus-ao.address=0 --tcp 127.0.0.1:" +
+                                  std::to_string(free_port()));
+  EXPECT_EQ(shared.exit_code, 2);
+  EXPECT_NE(shared.err.find("axes.phi.drive.modbus-ao.address: holding register 0 is also "
+                            "axes.theta.drive.modbus-ao.address's"),
+            std::string::npos)
+      << shared.err;
+}
+
 // The link comes back by itself: reads fail as `disconnected` while rig-sim is
 // away, and succeed again once it returns. A read that had waited on the dead
 // link would be classed `timeout`; the class, not a stopwatch, shows it did not

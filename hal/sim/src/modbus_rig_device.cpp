@@ -27,11 +27,19 @@ ModbusRigDevice::ModbusRigDevice(const ModbusRigDeviceSettings& settings)
     : settings_(settings),
       t_start_(clock_.now()),
       fault_origin_(settings.faults.times_from_drive ? kNoOrigin : t_start_),
-      plant_(settings.plant, settings.amplifier, t_start_),
-      sensor_(instant_sensor(settings.sensor), plant_, clock_, t_start_),
       registers_(modbus_mapping_new(0, 0, 65536, 65536)) {
   if (registers_ == nullptr) throw std::runtime_error("rig-sim: cannot allocate registers");
-  plant_.set_enabled(t_start_, true);
+  for (const ModbusRigAxis& a : settings.axes) {
+    AxisState& axis = axes_.emplace_back(a, instant_sensor(a.sensor), clock_, t_start_);
+    axis.plant.set_enabled(t_start_, true);
+  }
+  // Each axis's stator takes its share of every other axis's stroke.
+  for (std::size_t i = 0; i < axes_.size(); ++i) {
+    if (settings.axes[i].coupling == 0.0) continue;
+    for (std::size_t j = 0; j < axes_.size(); ++j) {
+      if (j != i) axes_[j].plant.couple_to(axes_[i].plant, settings.axes[i].coupling);
+    }
+  }
   watchdog_restarted_ = t_start_;
 }
 
@@ -40,13 +48,18 @@ ModbusRigDevice::~ModbusRigDevice() {
 }
 
 std::string ModbusRigDevice::describe() const {
-  const auto& m = settings_.sensor_map;
-  return fmt::format(
-      "sensor: {} register {} ({} words, unit {}), scale {:g} m per unit; analog output: holding "
-      "register {} at {:g} counts/V",
-      m.function == modbus::Function::input ? "input" : "holding", m.address,
-      modbus::word_count(m.type), m.unit_id, m.scale, settings_.ao_address,
-      settings_.ao_counts_per_V);
+  std::string out;
+  for (std::size_t i = 0; i < settings_.axes.size(); ++i) {
+    const ModbusRigAxis& a = settings_.axes[i];
+    const auto& m = a.sensor_map;
+    out += fmt::format(
+        "{}sensor: {} register {} ({} words, unit {}), scale {:g} m per unit; analog output: "
+        "holding register {} at {:g} counts/V",
+        settings_.axes.size() == 1 ? "" : fmt::format("{}axis {}: ", i == 0 ? "" : "; ", a.name),
+        m.function == modbus::Function::input ? "input" : "holding", m.address,
+        modbus::word_count(m.type), m.unit_id, m.scale, a.ao_address, a.ao_counts_per_V);
+  }
+  return out;
 }
 
 double ModbusRigDevice::fault_time_s() const {
@@ -68,7 +81,7 @@ bool ModbusRigDevice::hanging() const {
 void ModbusRigDevice::run_watchdog_locked(TimeNs now) {
   const std::uint16_t tenths = registers_->tab_registers[settings_.faults.watchdog_time_address];
   if (tenths == 0 || now - watchdog_restarted_ < from_seconds(0.1 * tenths)) return;
-  registers_->tab_registers[settings_.ao_address] = 0;
+  for (const ModbusRigAxis& a : settings_.axes) registers_->tab_registers[a.ao_address] = 0;
   after_reply_locked();
 }
 
@@ -79,15 +92,19 @@ ModbusRigDevice::Fault ModbusRigDevice::prepare_reply_locked(int function) {
   if (function >= 1 && function <= 16 && (mask >> (function - 1) & 1U) != 0) {
     watchdog_restarted_ = now;
   }
-  plant_.set_input(now, last_ao_counts_ / settings_.ao_counts_per_V);
-  const DisplacementReading r = sensor_.read();
-  const auto& m = settings_.sensor_map;
-  std::uint16_t* table = m.function == modbus::Function::input ? registers_->tab_input_registers
-                                                               : registers_->tab_registers;
-  // The caller keeps address + words within the table.
-  modbus::encode(m.type, m.order, (r.displacement_m - m.offset) / m.scale,
-                 std::span<std::uint16_t>(table + m.address,
-                                          static_cast<std::size_t>(modbus::word_count(m.type))));
+  for (std::size_t i = 0; i < axes_.size(); ++i) {
+    AxisState& axis = axes_[i];
+    const ModbusRigAxis& a = settings_.axes[i];
+    axis.plant.set_input(now, axis.last_ao_counts / a.ao_counts_per_V);
+    const DisplacementReading r = axis.sensor.read();
+    const auto& m = a.sensor_map;
+    std::uint16_t* table = m.function == modbus::Function::input ? registers_->tab_input_registers
+                                                                 : registers_->tab_registers;
+    // The caller keeps address + words within the table.
+    modbus::encode(m.type, m.order, (r.displacement_m - m.offset) / m.scale,
+                   std::span<std::uint16_t>(table + m.address,
+                                            static_cast<std::size_t>(modbus::word_count(m.type))));
+  }
   const auto& f = settings_.faults;
   const double u = uniform_(random_);
   if (u < f.drop_probability) return Fault::drop;
@@ -96,11 +113,14 @@ ModbusRigDevice::Fault ModbusRigDevice::prepare_reply_locked(int function) {
 }
 
 void ModbusRigDevice::after_reply_locked() {
-  const std::uint16_t counts = registers_->tab_registers[settings_.ao_address];
-  if (counts != last_ao_counts_) {
-    last_ao_counts_ = counts;
+  for (std::size_t i = 0; i < axes_.size(); ++i) {
+    AxisState& axis = axes_[i];
+    const ModbusRigAxis& a = settings_.axes[i];
+    const std::uint16_t counts = registers_->tab_registers[a.ao_address];
+    if (counts == axis.last_ao_counts) continue;
+    axis.last_ao_counts = counts;
     if (counts != 0 && fault_origin_.load() == kNoOrigin) fault_origin_.store(clock_.now());
-    plant_.set_input(clock_.now(), counts / settings_.ao_counts_per_V);
+    axis.plant.set_input(clock_.now(), counts / a.ao_counts_per_V);
   }
 }
 
@@ -138,7 +158,8 @@ void ModbusRigDevice::serve_rtu(const std::string& device) {
   const auto& link = settings_.serial;
   modbus_t* ctx =
       modbus_new_rtu(device.c_str(), link.baud, link.parity, link.data_bits, link.stop_bits);
-  if (ctx == nullptr || modbus_set_slave(ctx, settings_.sensor_map.unit_id) != 0 ||
+  // One unit on the line: the axes' registers are its (rig-sim's config check).
+  if (ctx == nullptr || modbus_set_slave(ctx, settings_.axes.front().sensor_map.unit_id) != 0 ||
       modbus_connect(ctx) != 0) {
     throw std::runtime_error(
         fmt::format("rig-sim: cannot open {}: {}", device, modbus_strerror(errno)));

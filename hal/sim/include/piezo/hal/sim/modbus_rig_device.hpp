@@ -2,7 +2,11 @@
 // The simulated rig as a Modbus device: the plant advances in real time,
 // the sensor's registers report its rotor (the config's register map, by
 // default the Baumer OM30 one), and a holding register takes the drive
-// voltage the way an analog-output module would. Serves several TCP clients
+// voltage the way an analog-output module would. A rig of several axes is
+// one register space: each axis its own plant, its sensor's registers and
+// its analog-output register, as a multi-channel module and sensors at
+// their own addresses would be; their plants may shake each other
+// (crosstalk, Plant::couple_to). Serves several TCP clients
 // at once and/or RTU on a serial device or pseudo-terminal, with the faults
 // of ModbusDeviceFaults injected. Like an I/O module, it has a communication
 // watchdog (WAGO 750-352 style registers): armed, it sets the analog output
@@ -11,6 +15,7 @@
 #include <modbus.h>
 
 #include <atomic>
+#include <deque>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -60,16 +65,24 @@ struct TcpLimits {
   double frame_timeout_s = 0.5;
 };
 
-struct ModbusRigDeviceSettings {
+/// One axis of the device: its plant and the registers that reach it.
+struct ModbusRigAxis {
+  std::string name;  ///< for messages
   model::MotorParameters plant;
   AmplifierSettings amplifier;
   /// The sensor behind the registers; its latency, dropouts and stalls are
   /// off here: the link and the faults supply them.
   SimSensorSettings sensor;
   modbus::RegisterMap sensor_map;
-  modbus::LinkSettings serial;  ///< RTU: baud, parity, data and stop bits
-  int ao_address = 0;           ///< the analog output's holding register
+  int ao_address = 0;  ///< the analog output's holding register
   double ao_counts_per_V = 1.0;
+  /// The share of every other axis's stator stroke this axis's stator takes.
+  double coupling = 0.0;
+};
+
+struct ModbusRigDeviceSettings {
+  std::vector<ModbusRigAxis> axes = std::vector<ModbusRigAxis>(1);  ///< at least one
+  modbus::LinkSettings serial;  ///< RTU: baud, parity, data and stop bits
   ModbusDeviceFaults faults;
   TcpLimits tcp;
 };
@@ -94,7 +107,7 @@ class ModbusRigDevice {
   enum class Fault { none, drop, exception };
   /// Brings the registers up to now and decides this request's fault.
   Fault prepare_reply_locked(int function);
-  /// Applies a changed analog-output register to the plant.
+  /// Applies a changed analog-output register to its axis's plant.
   void after_reply_locked();
   /// Zeroes the output once the armed watchdog has expired.
   void run_watchdog_locked(TimeNs now);
@@ -112,10 +125,16 @@ class ModbusRigDevice {
   posix::MonotonicClock clock_;
   TimeNs t_start_;
   std::atomic<TimeNs> fault_origin_;  ///< kNoOrigin until the first drive write, if it counts
-  Plant plant_;
-  SimSensor sensor_;
+  /// An axis as it runs: its plant, its sensor on it, its output's last counts.
+  struct AxisState {
+    AxisState(const ModbusRigAxis& axis, const SimSensorSettings& reading, Clock& clock, TimeNs t0)
+        : plant(axis.plant, axis.amplifier, t0), sensor(reading, plant, clock, t0) {}
+    Plant plant;
+    SimSensor sensor;  ///< reads `plant`: never copied or moved (a deque holds them)
+    std::uint16_t last_ao_counts = 0;
+  };
+  std::deque<AxisState> axes_;
   modbus_mapping_t* registers_;
-  std::uint16_t last_ao_counts_ = 0;
   TimeNs watchdog_restarted_ = 0;
   bool late_reply_done_ = false;
   struct {
