@@ -101,6 +101,8 @@ class Daemon {
   nlohmann::json configure(const nlohmann::json& args);
   /// The axis a request names (`axis`), or the board's one axis; throws
   /// bad_argument naming the axes there are.
+  /// Refuses (fault_latched) a run on an axis whose own fault is latched.
+  void require_no_axis_fault(const ServedAxis& axis, const char* cmd) const;
   /// `stop`'s optional axis.
   [[nodiscard]] protocol::ArgumentSpec stop_axis_spec() const;
   [[nodiscard]] ServedAxis& axis_of(const nlohmann::json& args, std::string_view cmd);

@@ -60,6 +60,7 @@ json Daemon::move_to(const std::string& client, const json& args) {
   std::optional<double> lease_s;
   for (auto& [axis, one] : requests) {
     try {
+      require_no_axis_fault(*axis, "move_to");
       const auto request = protocol::decode<protocol::MoveToRequest>(one);
       if (const auto breach = firmware::check_move(request.move, board_.daemon.duration_max_s)) {
         throw out_of_limits(breach->key, breach->message);

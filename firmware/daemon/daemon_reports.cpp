@@ -97,7 +97,9 @@ protocol::Status Daemon::status(const std::string& client) const {
   s.position = position_of(*axes_.front());
   s.calibration = axes_.front()->calibration;
   for (const auto& axis : axes_) {
-    s.axes.push_back({axis->name(), position_of(*axis), axis->calibration.has_value()});
+    s.axes.push_back(
+        {axis->name(), position_of(*axis), axis->calibration.has_value(),
+         axis->fault == firmware::StopCause::none ? std::nullopt : std::optional(axis->fault)});
   }
   s.configured = configured_;
   if (run_) {

@@ -62,6 +62,13 @@ protocol::ConfigureRequest Daemon::apply_configuration(ServedAxis& axis,
   return r;
 }
 
+void Daemon::require_no_axis_fault(const ServedAxis& axis, const char* cmd) const {
+  if (axis.fault == firmware::StopCause::none) return;
+  throw ProtocolError(code::fault_latched, std::string(wire_key::axis),
+                      fmt::format("{}: axis {}: its fault {} is latched; send reset_fault first",
+                                  cmd, axis.name(), firmware::to_string(axis.fault)));
+}
+
 protocol::StartReply Daemon::start(const std::string& client,
                                    std::optional<double> requested_lease_s, const Program& program,
                                    const char* cmd) {
@@ -80,6 +87,7 @@ protocol::StartReply Daemon::start(const std::string& client,
   std::vector<ServedAxis*> axes;
   for (const Program::Move& m : program.moves) axes.push_back(m.axis);
   if (axes.empty()) axes.push_back(configured_axis_);
+  for (const ServedAxis* axis : axes) require_no_axis_fault(*axis, cmd);
   auto run = std::make_unique<Run>(*configured_, axes);
   run->id = ++run_count_;
   run->lease_s = lease_s;
@@ -267,10 +275,19 @@ json Daemon::reset_fault() {
                         "reset_fault: the e-stop button is still pressed (or its line cannot be "
                         "read); release it first");
   }
-  if (const auto cleared = run_state_.reset(); cleared != firmware::StopCause::none) {
-    log_event(fmt::format("fault {} reset", firmware::to_string(cleared)));
-    publish_state();
+  const auto cleared = run_state_.reset();
+  bool axis_cleared = false;
+  for (const auto& axis : axes_) {
+    if (axis->fault == firmware::StopCause::none) continue;
+    log_event(
+        fmt::format("axis {}: fault {} reset", axis->name(), firmware::to_string(axis->fault)));
+    axis->fault = firmware::StopCause::none;
+    axis_cleared = true;
   }
+  if (cleared != firmware::StopCause::none) {
+    log_event(fmt::format("fault {} reset", firmware::to_string(cleared)));
+  }
+  if (cleared != firmware::StopCause::none || axis_cleared) publish_state();
   return protocol::StateReply{run_state_.state()};
 }
 
@@ -345,7 +362,27 @@ void Daemon::finish_run() {
     }
   }
   if (run.calibration) take_calibration(run);
-  run_state_.ended(cause, run.summary.output.state == firmware::OutputState::confirmed);
+  const bool confirmed = run.summary.output.state == firmware::OutputState::confirmed;
+  if (axes_.size() == 1) {
+    run_state_.ended(cause, confirmed);
+  } else {
+    // A board of several: an axis's own fault latches on that axis, the
+    // others may run on; the board's own (an e-stop, a lapsed lease, a fault
+    // that stopped every axis, an output not confirmed at 0 V) on the board.
+    bool board_fault = false;
+    for (std::size_t i = 0; i < run.parts.size(); ++i) {
+      const auto c = run.runner->cause(i);
+      if (c == firmware::StopCause::estop || c == firmware::StopCause::link_lost ||
+          c == firmware::StopCause::other_axis_fault) {
+        board_fault = true;
+      } else if (RunState::latches(c)) {
+        run.parts[i]->axis.fault = c;
+        log_event(fmt::format("axis {}: fault {} latched", run.parts[i]->axis.name(),
+                              firmware::to_string(c)));
+      }
+    }
+    run_state_.ended(board_fault ? cause : firmware::StopCause::completed, confirmed);
+  }
   log_event(fmt::format(
       "run {} ended: {}, output {}{}", run.id, firmware::to_string(cause),
       firmware::to_string(run.summary.output.state),

@@ -35,6 +35,9 @@ struct ServedAxis {
   /// The angle's zero: set by `zero` or a move, else the first good reading
   /// since the daemon started.
   firmware::AngleZero zero;
+  /// Its own latched fault on a board of several (none: it may run):
+  /// set by a run that ended with this axis's own fault, cleared by reset_fault.
+  firmware::StopCause fault = firmware::StopCause::none;
   /// The installed calibration (docs/protocol.md, "Calibration"), if any.
   std::optional<protocol::CalibrationRecord> calibration;
   std::deque<double> recent_readings;  ///< the last good readings of any run

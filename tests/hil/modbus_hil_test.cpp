@@ -132,9 +132,9 @@ TEST_F(ModbusHil, AGroupMoveOfTwoAxesOverModbus) {
                "sensor.modbus.port=" + std::to_string(port)},
               (dir / "rig-sim.txt").string());
   ASSERT_TRUE(wait_for_tcp(port));
-  const auto r = run_command(kPiezo + " move --config " + config + at_port +
-                             " --to theta=0.002 --to phi=-0.003 --json --out " +
-                             (dir / "group").string());
+  const auto r =
+      run_command(kPiezo + " move --config " + config + at_port +
+                  " --to theta=0.002 --to phi=-0.003 --json --out " + (dir / "group").string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   ASSERT_EQ(j.at("moves").size(), 2u);
@@ -151,9 +151,9 @@ TEST_F(ModbusHil, AGroupMoveOfTwoAxesOverModbus) {
   EXPECT_NEAR(laser_mm(212), 70.0 - 62.0 * 0.003, 0.01);
   EXPECT_EQ(read_ao_register(), 0) << "theta's output left at 0 V";
 
-  const auto shared = run_command(kPiezo + " rig-sim --config " + config +
-                                  " --set axes.phi.drive.modbus-ao.address=0 --tcp 127.0.0.1:" +
-                                  std::to_string(free_port()));
+  const auto shared = run_command(
+      kPiezo + " rig-sim --config " + config +
+      " --set axes.phi.drive.modbus-ao.address=0 --tcp 127.0.0.1:" + std::to_string(free_port()));
   EXPECT_EQ(shared.exit_code, 2);
   EXPECT_NE(shared.err.find("axes.phi.drive.modbus-ao.address: holding register 0 is also "
                             "axes.theta.drive.modbus-ao.address's"),

@@ -62,7 +62,7 @@ def frame_header(body):
 
 
 hello = call("hello")["result"]
-check(hello["protocol"] == 2, "protocol version")
+check(hello["protocol"] == 3, "protocol version")
 check(hello["sensor"]["r2_m"] > 0, "hello names the sensor's radius: " + str(hello))
 limits = hello["limits"]
 drive_period_ns = round(1e9 / hello["drive_rate_hz"])

@@ -253,7 +253,19 @@ def test_a_stalled_sensor_in_a_group_move_stops_its_axis_alone(tmp_path, source)
                 mine = drive[drive["axis"] == a]
                 assert np.all(np.diff(mine["t_ns"]) == 100_000), a
                 assert mine["V"][-1] == 0.0 and mine["phase"][-1] == 2, a
-            board.reset_fault()
+            # phi's fault is latched on phi alone: the board is idle, theta
+            # moves on, phi is refused until reset_fault clears it.
+            status = board.status()
+            assert status["state"] == "idle"
+            faults = {a["name"]: a.get("fault") for a in status["axes"]}
+            assert faults == {"theta": None, "phi": "sensor_fault", "chi": None}
+            with pytest.raises(errors.FaultLatched, match="axis phi: its fault sensor_fault"):
+                board.axes["phi"].step(1, 40, 10)
+            with pytest.raises(errors.FaultLatched, match="phi"):
+                board.move_to({"theta": 0.0, "phi": 0.0})
+            assert board.axes["theta"].step(1, 40, 10).wait()["cause"] == "completed"
+            assert board.reset_fault() == "idle"
+            assert all(a.get("fault") is None for a in board.status()["axes"])
     finally:
         process.terminate()
         process.wait(10)

@@ -305,7 +305,8 @@ struct Fields<Status::Axis> {
   using T = Status::Axis;
   static constexpr auto list =
       std::tuple{field(wire_key::name, &T::name), field(wire_key::position, &T::position),
-                 field(wire_key::calibrated, &T::calibrated)};
+                 field(wire_key::calibrated, &T::calibrated),
+                 field(wire_key::fault, &T::fault, may_be_missing)};
 };
 template <>
 struct Fields<Status> {

@@ -1,5 +1,5 @@
 """A client of ``piezod``, the board's daemon, written against
-docs/protocol.md (protocol 2) on python3-zmq and python3-msgpack.
+docs/protocol.md (protocol 3) on python3-zmq and python3-msgpack.
 
 >>> from piezo_rig.board import Board
 >>> with Board("tcp://127.0.0.1:5555") as board:
@@ -38,7 +38,7 @@ from . import frames
 from .errors import (BadArgument, BoardError, ClientClosed, NoReply, OutOfLimits, RunEnded,
                      UnknownCommand, board_error)
 
-PROTOCOL = 2
+PROTOCOL = 3
 LOOPBACK = ("tcp://127.0.0.1:", "tcp://localhost:", "tcp://[::1]:")
 # Causes that are the end a caller asked for: the run ran its course, or
 # this client stopped it.

@@ -186,11 +186,11 @@ nlohmann::json LiveFeed::event(LiveCursor& cursor, bool reset) const {
   } else {
     nlohmann::json axes = nlohmann::json::array();
     for (std::size_t i = 0; i < axes_.size(); ++i) {
-      nlohmann::json axis{{"name", names_[i]}};
+      nlohmann::json axis{{wire_key::name, names_[i]}};
       add_series(axis, i, cursor, reset, with_zoom);
       axes.push_back(std::move(axis));
     }
-    out["axes"] = std::move(axes);
+    out[wire_key::axes] = std::move(axes);
   }
   out["status"] = status_;
   if (cursor.histograms != histograms_version_ && with_zoom) {

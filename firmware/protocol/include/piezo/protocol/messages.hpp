@@ -358,6 +358,9 @@ struct Status {
     std::string name;
     Position position;
     bool calibrated = false;
+    /// Its own latched fault (a board of several: an axis's fault latches on
+    /// it alone, the others run on; `reset_fault` clears it), nil: none.
+    std::optional<firmware::StopCause> fault;
   };
   std::vector<Axis> axes;
   /// `requests`: how many of each command the board has had since it
