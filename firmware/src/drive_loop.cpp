@@ -195,6 +195,17 @@ bool DriveLoop::drive_axis(Axis& axis, hal::TimeNs deadline, hal::TimeNs now, do
   return true;
 }
 
+void DriveLoop::tell_neighbours_stepping(double t) {
+  if (axes_.size() < 2) return;
+  int stepping = 0;
+  for (const Axis& a : axes_) stepping += !a.stopped && a.io.program->stepping() ? 1 : 0;
+  for (Axis& a : axes_) {
+    if (a.stopped) continue;
+    const int own = a.io.program->stepping() ? 1 : 0;
+    a.io.program->set_neighbours_stepping(stepping - own > 0, t);
+  }
+}
+
 void DriveLoop::spread_faults() {
   if (!settings_.fault_stops_all || axes_.size() < 2) return;
   for (const Axis& a : axes_) {
@@ -260,6 +271,7 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
     const double t = hal::to_seconds(deadline - t0);
     const hal::EstopState estop = io_.lines.poll_estop();  // once per tick, for every axis
     bool cycle = false;
+    tell_neighbours_stepping(t);
     for (Axis& axis : axes_) {
       if (!axis.stopped) cycle |= drive_axis(axis, deadline, now, t, dt, estop);
     }

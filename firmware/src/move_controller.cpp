@@ -156,6 +156,24 @@ void MoveController::on_reading(double t, double displacement_m) {
     step_high_ = std::max(step_high_, theta);
   }
   const double error = s_.target_rad - theta_f_;
+  if (masked()) {
+    // A neighbour's steps shake this rotor: no correction for them, and a
+    // settle starts again (its mean would hold the shake).
+    switch (state()) {
+      case MoveState::settle:
+        within_since_ = -1.0;
+        settle_.start(settle_readings());
+        return;
+      case MoveState::holding:
+        hold_.record(error);  // the hold's account says what the shake did
+        return;
+      case MoveState::fine:
+        steady_ = 0;
+        return;
+      default:
+        break;
+    }
+  }
   switch (state()) {
     case MoveState::coarse:
       if (in_step_) return;

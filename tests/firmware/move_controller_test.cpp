@@ -145,6 +145,45 @@ TEST(MoveController, AHoldKeepsTheServoOnThenSettlesAgain) {
   EXPECT_NEAR(plant.theta, 0.003, 1.5 * s.tolerance_rad);
 }
 
+/// A hold while a neighbour on the same frame steps: its readings shake
+/// (crosstalk). Told the neighbour steps, the servo holds its output
+/// instead of chasing each shake; not told, it chases them. Either way the
+/// move ends on target once the shaking is over.
+double held_output_swing(bool told) {
+  TestPlant plant;
+  PositionFeed feed;
+  MoveSettings s = settings(0.003);
+  s.hold_s = 1.5;
+  MoveController m(s, feed);
+  double t = 0.0, V_min = INFINITY, V_max = -INFINITY, shaken_from = -1.0;
+  for (long tick = 0; t < 30.0; ++tick, t += kDt) {
+    // 0.4 s of a neighbour's 20 Hz steps, from 0.1 s into the hold.
+    const bool shaking = shaken_from >= 0.0 && t >= shaken_from && t < shaken_from + 0.4;
+    if (shaken_from < 0.0 && m.state() == MoveState::holding) shaken_from = t + 0.1;
+    if (told) m.set_neighbours_stepping(shaking, t);
+    if (tick % kTicksPerReading == 0) {
+      const double shake = shaking ? 2e-6 * std::sin(2.0 * M_PI * 20.0 * t) : 0.0;
+      feed.publish(plant.read() + shake);
+    }
+    const double V = m.next_voltage(t, kDt);
+    plant.drive(V);
+    if (shaking && t > shaken_from + 0.05) {
+      V_min = std::min(V_min, V);
+      V_max = std::max(V_max, V);
+    }
+    if (m.finished() || m.fault() != StopCause::none) break;
+  }
+  EXPECT_EQ(m.state(), MoveState::on_target) << to_string(m.state());
+  EXPECT_NEAR(plant.theta, 0.003, 1.5 * s.tolerance_rad);
+  EXPECT_GT(shaken_from, 0.0) << "it held";
+  return V_max - V_min;
+}
+
+TEST(MoveController, AHoldDoesNotChaseANeighboursShake) {
+  EXPECT_EQ(held_output_swing(true), 0.0) << "told: the servo holds still";
+  EXPECT_GT(held_output_swing(false), 0.05) << "not told: it chases the shake";
+}
+
 /// Twenty moves in a row on one rotor, to targets that alternate between
 /// two angles (each move's target is behind the rotor every other time),
 /// with the given approach: how each move's last change of the rotor's

@@ -30,6 +30,18 @@ class AtZero final : public DriveProgram {
   [[nodiscard]] double end_voltage(double) const override { return 0.0; }
 };
 
+/// An axis held at 0 V that notes, tick by tick, whether it was told a
+/// neighbour steps.
+class Listener final : public DriveProgram {
+ public:
+  double next_voltage(double, double) override { return 0.0; }
+  [[nodiscard]] double end_voltage(double) const override { return 0.0; }
+  void set_neighbours_stepping(bool stepping, double t) override {
+    (stepping ? told_stepping : told_quiet).push_back(t);
+  }
+  std::vector<double> told_stepping, told_quiet;
+};
+
 /// Three simulated axes, each driven by its own sawtooth, on the virtual
 /// clock; what each axis's loops recorded, kept for the checks.
 class ThreeAxes : public ::testing::Test {
@@ -52,7 +64,10 @@ class ThreeAxes : public ::testing::Test {
     std::vector<std::unique_ptr<DriveProgram>> programs;
     std::vector<RunAxis> run_axes;
     for (std::size_t i = 0; i < kAxes; ++i) {
-      if (idle[i]) {
+      if (listener[i] != nullptr) {
+        programs.push_back(std::move(listener[i]));
+        listening[i] = static_cast<Listener*>(programs.back().get());
+      } else if (idle[i]) {
         programs.push_back(std::make_unique<AtZero>());
       } else {
         programs.push_back(std::make_unique<WaveformProgram>(waveforms[i]));
@@ -97,6 +112,9 @@ class ThreeAxes : public ::testing::Test {
   hal::sim::SimLinesSettings lines;
   std::vector<model::Sawtooth> waveforms;
   std::vector<bool> idle = std::vector<bool>(kAxes, false);  ///< held at 0 V
+  /// A Listener in place of an axis's program (it outlives the run, in `listening`).
+  std::vector<std::unique_ptr<Listener>> listener = std::vector<std::unique_ptr<Listener>>(kAxes);
+  std::vector<Listener*> listening = std::vector<Listener*>(kAxes, nullptr);
   SafetySettings safety;
   bool fault_stops_all = false;
   std::unique_ptr<hal::sim::SimRig> rig;
@@ -215,6 +233,24 @@ TEST_F(ThreeAxes, ACoupledRotorAtRestCreepsWhenItsNeighboursStep) {
   EXPECT_LT(std::abs(crept), std::abs(alone)) << "less than a driven axis travels";
   EXPECT_GT(std::abs(sensor[1].back().displacement_m - sensor[1].front().displacement_m), 1e-8)
       << "and its sensor saw it";
+}
+
+// Every tick, each axis is told whether another steps: a sawtooth steps
+// throughout; once both stepping axes have stopped, nothing steps.
+TEST_F(ThreeAxes, EachAxisIsToldWhileAnotherSteps) {
+  listener[1] = std::make_unique<Listener>();
+  run(0.3);
+  const Listener& heard = *listening[1];
+  ASSERT_GT(heard.told_stepping.size(), 2000u) << "told on every tick the others drove";
+  EXPECT_TRUE(heard.told_quiet.empty()) << "the two sawtooths stepped to the end";
+  // Two listeners and one sawtooth: each listener hears it; it hears none.
+  listener[0] = std::make_unique<Listener>();
+  listener[1] = std::make_unique<Listener>();
+  causes.clear();
+  outcomes.clear();
+  run(0.3);
+  EXPECT_TRUE(listening[0]->told_quiet.empty());
+  EXPECT_GT(listening[0]->told_stepping.size(), 2000u);
 }
 
 }  // namespace

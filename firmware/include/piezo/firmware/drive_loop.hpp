@@ -133,6 +133,8 @@ class DriveLoop {
   /// 0 V written on every axis and the e-stop looked at, then the amplifier
   /// enabled; false when the supervisors stop the run before that.
   bool enable();
+  /// Tells each axis's program whether another axis is stepping at t (crosstalk).
+  void tell_neighbours_stepping(double t);
   /// An axis's supervisor's verdict for the cycle at t [s from the time origin].
   SafetyAction check(Axis& axis, hal::TimeNs now, double t, const hal::EstopState& estop);
   /// One axis's cycle; false when it only stopped on its own end (a

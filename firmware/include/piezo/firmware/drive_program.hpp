@@ -31,6 +31,13 @@ class DriveProgram {
   [[nodiscard]] virtual StopCause fault() const { return StopCause::none; }
   /// A code for the drive record (0: no controller; see MoveState).
   [[nodiscard]] virtual std::uint8_t state_code() const { return 0; }
+  /// True while its output steps the rotor (stick-slip): on a frame shared
+  /// with other axes, each slip shakes them (crosstalk).
+  [[nodiscard]] virtual bool stepping() const { return false; }
+  /// Told every drive tick, before next_voltage, whether another axis of
+  /// the run is stepping at t [s]: a controller holding its rotor may mask
+  /// the shake instead of correcting it.
+  virtual void set_neighbours_stepping(bool /*stepping*/, double /*t*/) {}
 };
 
 /// A fixed waveform as a program.
@@ -38,6 +45,7 @@ class WaveformProgram final : public DriveProgram {
  public:
   explicit WaveformProgram(const model::Excitation& waveform) : waveform_(waveform) {}
   double next_voltage(double t, double) override { return waveform_.voltage(t); }
+  [[nodiscard]] bool stepping() const override { return true; }  // the sawtooth steps throughout
   [[nodiscard]] double end_voltage(double duration_s) const override {
     return waveform_.voltage(duration_s);
   }

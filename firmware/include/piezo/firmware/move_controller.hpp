@@ -114,6 +114,16 @@ class MoveController final : public DriveProgram {
   [[nodiscard]] std::uint8_t state_code() const override {
     return static_cast<std::uint8_t>(state());
   }
+  /// Its coarse steps slip the rotor; the fine servo and a hold do not.
+  [[nodiscard]] bool stepping() const override { return state() == MoveState::coarse && in_step_; }
+  /// While another axis steps, and for settle_s after, this axis's readings
+  /// are shaken by it (crosstalk): the fine servo, a hold and the settle do
+  /// not correct for them (each correction would chase a disturbance that
+  /// passes); the settle starts again once it is quiet.
+  void set_neighbours_stepping(bool stepping, double t) override {
+    if (stepping) masked_until_ = t + s_.settle_s;
+    now_ = t;
+  }
 
   // Readable from any thread while the move runs.
   [[nodiscard]] MoveState state() const { return state_.load(std::memory_order_relaxed); }
@@ -165,8 +175,12 @@ class MoveController final : public DriveProgram {
   /// +1 forward, -1 reverse: the side every arrival must come from (0: either).
   [[nodiscard]] double approach_side() const;
 
+  /// True while a neighbour's steps shake this rotor (see set_neighbours_stepping).
+  [[nodiscard]] bool masked() const { return now_ < masked_until_; }
+
   MoveSettings s_;
   const PositionFeed& feed_;
+  double masked_until_ = -1.0, now_ = 0.0;  ///< the drive thread's alone
   std::uint64_t seen_ = 0;
   ReadingWindow window_;
   double theta_f_ = 0.0;
