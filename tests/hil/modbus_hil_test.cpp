@@ -87,6 +87,38 @@ TEST_F(ModbusRtu, OurClientReadsRigSimOverRtu) {
   }
 }
 
+// Two sensors on one RTU line (one pty, each at its own registers) share
+// the board's one connection to it, read in turn each acquire tick; the
+// outputs go over TCP to the same rig-sim. A group move ends on target on
+// both; a second sensor that asks the line at another baud is refused.
+TEST_F(ModbusRtu, TwoSensorsShareOneRtuLine) {
+  const std::string config = std::string(build_paths::source_dir) + "/configs/two-axes-modbus.toml";
+  Spawned rig({kPiezo, "rig-sim", "--config", config, "--tcp", "127.0.0.1:" + std::to_string(port),
+               "--rtu", (dir / "ptyA").string()},
+              (dir / "rig-sim.txt").string());
+  ASSERT_TRUE(wait_for_tcp(port));
+  // 57600 baud: a read takes some 4 ms each way; a loaded machine may add
+  // tens of ms, so the timeouts are wider than the configured 50 ms.
+  const std::string sets =
+      " --set drive.modbus-ao.port=" + std::to_string(port) +
+      " --set sensor.backend=modbus-rtu --set sensor.modbus.device=" + (dir / "ptyB").string() +
+      " --set sensor.rate_hz=100 --set sensor.modbus.response_timeout_s=0.2"
+      " --set safety.sensor_stale_s=0.5";
+  const auto r =
+      run_command(kPiezo + " move --config " + config + sets +
+                  " --to theta=0.002 --to phi=-0.003 --json --out " + (dir / "group").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  for (const auto& m : j.at("moves")) EXPECT_EQ(m.at("stop_cause"), "on_target") << m.dump();
+
+  const auto other_baud = run_command(
+      kPiezo + " move --config " + config + sets + " --set axes.phi.sensor.modbus.baud=19200" +
+      " --to theta=0.001 --to phi=-0.001 --out " + (dir / "refused").string());
+  EXPECT_NE(other_baud.exit_code, 0);
+  EXPECT_NE(other_baud.err.find("one line has one set of settings"), std::string::npos)
+      << other_baud.err;
+}
+
 TEST_F(ModbusRtu, PymodbusSensorOverRtuIsDecodedRight) {
   // pyserial cannot set parity on a pseudo-terminal twice (EINVAL): 8N1 here.
   Spawned sensor({"/usr/bin/python3", kPymodbusSensor, "rtu", (dir / "ptyA").string(), "N"},

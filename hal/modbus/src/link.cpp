@@ -1,7 +1,6 @@
 #include "piezo/hal/modbus/link.hpp"
 
-#include "piezo/hal/modbus/mbap.hpp"
-
+#include <fmt/format.h>
 #include <poll.h>
 #include <sys/select.h>
 #include <sys/socket.h>
@@ -13,8 +12,13 @@
 #include <chrono>
 #include <cmath>
 #include <ctime>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <stdexcept>
 #include <system_error>
+
+#include "piezo/hal/modbus/mbap.hpp"
 
 namespace piezo::hal::modbus {
 namespace {
@@ -26,6 +30,24 @@ void set_timeout(modbus_t* ctx, double seconds, int (*setter)(modbus_t*, uint32_
 }
 
 }  // namespace
+
+std::shared_ptr<Link> Link::on_serial_line(const LinkSettings& settings) {
+  // Opened once per line; the last user's release closes it.
+  static std::mutex lines_mutex;
+  static std::map<std::string, std::weak_ptr<Link>> lines;
+  const std::lock_guard lock(lines_mutex);
+  if (const auto open = lines[settings.device].lock()) {
+    if (open->settings_.describe() != settings.describe()) {
+      throw std::runtime_error(fmt::format(
+          "modbus: {} is open as {}; a sensor asks it as {}: one line has one set of settings",
+          settings.device, open->settings_.describe(), settings.describe()));
+    }
+    return open;
+  }
+  auto link = std::make_shared<Link>(settings);
+  lines[settings.device] = link;
+  return link;
+}
 
 std::string LinkSettings::describe() const {
   if (transport == Transport::tcp) return "tcp " + host + ":" + std::to_string(port);
@@ -207,10 +229,13 @@ Status Link::transact_tcp(int unit_id, std::span<const std::uint8_t> request,
   const std::uint16_t tid = ++transaction_;
   std::array<std::uint8_t, kMaxTcpFrame> frame{};
   const auto length = static_cast<std::uint16_t>(1 + request.size());
-  const std::array<std::uint8_t, kMbapBytes> head{
-      static_cast<std::uint8_t>(tid >> 8), static_cast<std::uint8_t>(tid & 0xff), 0, 0,
-      static_cast<std::uint8_t>(length >> 8), static_cast<std::uint8_t>(length & 0xff),
-      static_cast<std::uint8_t>(unit_id)};
+  const std::array<std::uint8_t, kMbapBytes> head{static_cast<std::uint8_t>(tid >> 8),
+                                                  static_cast<std::uint8_t>(tid & 0xff),
+                                                  0,
+                                                  0,
+                                                  static_cast<std::uint8_t>(length >> 8),
+                                                  static_cast<std::uint8_t>(length & 0xff),
+                                                  static_cast<std::uint8_t>(unit_id)};
   std::copy(head.begin(), head.end(), frame.begin());
   std::copy(request.begin(), request.end(), frame.begin() + kMbapBytes);
   const std::size_t frame_bytes = kMbapBytes + request.size();
@@ -218,9 +243,9 @@ Status Link::transact_tcp(int unit_id, std::span<const std::uint8_t> request,
     return failed(classify(errno));
   }
   const auto now = std::chrono::steady_clock::now();
-  const auto response_deadline = now + std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                           std::chrono::duration<double>(
-                                               settings_.response_timeout_s));
+  const auto response_deadline =
+      now + std::chrono::duration_cast<std::chrono::nanoseconds>(
+                std::chrono::duration<double>(settings_.response_timeout_s));
   std::array<std::uint8_t, kMaxTcpFrame> in{};
   if (!read_exactly(fd, in.data(), kMbapBytes, response_deadline)) return failed(classify(errno));
   const Mbap h = read_mbap(in);

@@ -6,7 +6,10 @@
 namespace piezo::hal::modbus {
 
 ModbusSensor::ModbusSensor(const LinkSettings& link, const RegisterMap& map, const Clock& clock)
-    : link_(link), map_(map), clock_(clock) {}
+    : link_(link.transport == LinkSettings::Transport::rtu ? Link::on_serial_line(link)
+                                                           : std::make_shared<Link>(link)),
+      map_(map),
+      clock_(clock) {}
 
 DisplacementReading ModbusSensor::read() {
   std::array<std::uint16_t, 2>& words = last_words_;
@@ -14,7 +17,7 @@ DisplacementReading ModbusSensor::read() {
   DisplacementReading r;
   r.t_request = clock_.now();
   r.status =
-      link_.read(map_.function, map_.unit_id, map_.address, word_count(map_.type), words.data());
+      link_->read(map_.function, map_.unit_id, map_.address, word_count(map_.type), words.data());
   r.t_response = clock_.now();
   if (r.status == Status::ok) {
     r.displacement_m = to_metres(map_, words);

@@ -20,6 +20,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <memory>
 #include <mutex>
 #include <span>
 #include <string>
@@ -49,6 +50,14 @@ struct LinkSettings {
 
 class Link {
  public:
+  /// The one Link of this process on a serial line (an RTU bus): every
+  /// sensor on `settings.device` shares it, each at its own unit id, as
+  /// sensors on one RS-485 bus do (one port cannot be opened twice). All
+  /// of its users must call it from one thread (the acquire loop). Throws
+  /// std::runtime_error when the line is already open with other settings
+  /// (naming both). Not for TCP: each TCP user keeps its own connection.
+  static std::shared_ptr<Link> on_serial_line(const LinkSettings& settings);
+
   /// Builds the context and connects. Throws std::runtime_error naming the
   /// link when the settings are invalid or the first connection fails.
   explicit Link(const LinkSettings& settings);

@@ -16,9 +16,9 @@
 
 namespace piezo::hal::modbus {
 
-inline constexpr std::size_t kMbapBytes = 7;       ///< header including the unit id
-inline constexpr std::size_t kMaxTcpFrame = 260;   ///< the largest ADU Modbus TCP allows
-inline constexpr int kMaxMbapLength = 254;         ///< unit id + the largest PDU (253)
+inline constexpr std::size_t kMbapBytes = 7;      ///< header including the unit id
+inline constexpr std::size_t kMaxTcpFrame = 260;  ///< the largest ADU Modbus TCP allows
+inline constexpr int kMaxMbapLength = 254;        ///< unit id + the largest PDU (253)
 
 struct Mbap {
   std::uint16_t transaction = 0;
@@ -36,8 +36,8 @@ struct Mbap {
 /// Where a server's receive buffer stands.
 struct RequestFrame {
   enum class State { incomplete, complete, malformed } state = State::incomplete;
-  std::size_t bytes = 0;    ///< the whole frame's length, when complete
-  std::string_view why;     ///< when malformed
+  std::size_t bytes = 0;  ///< the whole frame's length, when complete
+  std::string_view why;   ///< when malformed
 };
 
 /// Looks at the start of a server's receive buffer: a whole request (its

@@ -26,7 +26,8 @@ class ModbusSensor final : public DisplacementSensor {
 
  private:
   std::array<std::uint16_t, 2> last_words_{};
-  Link link_;
+  /// Its own on TCP; on RTU the line's, shared with the other sensors on it.
+  std::shared_ptr<Link> link_;
   RegisterMap map_;
   const Clock& clock_;
 };
