@@ -240,12 +240,15 @@ def main():
 def group_move_on_the_page(driver, piezo, work, shots):
     """`piezo move` of three axes with --view --control, in real time: the
     page shows each axis's own plots (four each) advancing, and its Stop
-    button for phi ends phi alone (interrupted) while theta and chi arrive."""
+    button for phi ends phi alone (interrupted) while theta and chi arrive.
+    phi's target is far (some two minutes of steps): a loaded machine's
+    browser may take tens of seconds to show the page, and phi must still
+    be moving then."""
     port = free_port()
     err = os.path.join(work, "group.err")
     run = peers.spawn(
         [piezo, "move", "--config", os.path.join(SOURCE, "configs", "three-axes.toml"), "--set",
-         "run.clock=realtime", "--to", "theta=0.004", "--to", "phi=-0.3", "--to", "chi=0.004",
+         "run.clock=realtime", "--to", "theta=0.004", "--to", "phi=-1.0", "--to", "chi=0.004",
          "--timeout", str(RUN_S), "--view", f"127.0.0.1:{port}", "--control", "--json", "--out",
          os.path.join(work, "group")],
         stdout=subprocess.PIPE, stderr=open(err, "w"), text=True)

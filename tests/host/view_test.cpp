@@ -264,9 +264,20 @@ TEST(LiveFeed, AGroupMoveShowsEachAxisApart) {
   EXPECT_FALSE(first.contains("measured")) << "a group's series go per axis";
   ASSERT_EQ(first.at("axes").size(), 2u);
   EXPECT_EQ(first.at("axes")[1].at("name"), "phi");
+  // The board's frames hold a span of one axis's records, then the next
+  // axis's for the same span: a batch may end between them, and the next
+  // start with phi's records from before theta's last. The same run, not
+  // a new one (the window is not started again).
+  {
+    log_schema::AxesRows split{rig_rows(1.0, 0.1), log_schema::LogRows{}};
+    feed.add(split);
+    log_schema::AxesRows rest{log_schema::LogRows{}, scaled(rig_rows(1.0, 0.1), -2.0)};
+    feed.add(rest);
+    EXPECT_FALSE(feed.changes(cursor).at("reset").get<bool>()) << "one span split across batches";
+  }
   // theta's drive has ended; phi goes on for a second more.
   log_schema::LogRows theta_done;
-  feed.add(log_schema::AxesRows{theta_done, scaled(rig_rows(1.0, 1.0), -2.0)});
+  feed.add(log_schema::AxesRows{theta_done, scaled(rig_rows(1.1, 0.9), -2.0)});
   const auto later = feed.changes(cursor);
   EXPECT_FALSE(later.at("reset").get<bool>());
   EXPECT_NEAR(later.at("t_end").get<double>(), 1.9999, 1e-9);

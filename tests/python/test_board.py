@@ -273,9 +273,17 @@ with Board({board_address!r}) as board:
 """
     rng = np.random.default_rng(7)
     for _ in range(12):
+        # The last child's run may still be ramping down on a loaded machine:
+        # the next starts once the board is idle again.
+        with Board(board_address) as watcher:
+            deadline = time.time() + 30
+            while watcher.status()["state"] != "idle" and time.time() < deadline:
+                time.sleep(0.05)
         child = peers.spawn([sys.executable, "-c", script], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
-        assert child.stdout.readline() == "streaming\n"
+        line = child.stdout.readline()
+        if line != "streaming\n":
+            assert False, child.communicate(timeout=30)[1]
         time.sleep(rng.uniform(0.05, 0.4))
         child.send_signal(signal.SIGINT)
         out, err = child.communicate(timeout=30)

@@ -463,7 +463,7 @@ TEST(SimRun, TwentyMovesWithAForwardApproachAllArriveFromBelow) {
 // the zero) ends a run or a move that would leave it, at 0 V with the
 // amplifier disabled, the rotor within a step of the limit (before, both
 // drove on: the run to its end at about 28 mrad, the move to its target).
-TEST(SimRun, ARunOrAMoveThatWouldLeaveTheTravelWindowStopsAtItsEdge) {
+TEST(SimRun, ARunThatWouldLeaveTheTravelWindowStopsAtItsEdgeAndAMoveBeyondItIsRefused) {
   const double full_step = 1.4e-3;
   const Outcome run = run_virtual({"safety.travel_max_rad=0.005", "run.duration_s=2"});
   EXPECT_EQ(run.summary.stop_cause(), "travel_limit");
@@ -479,17 +479,20 @@ TEST(SimRun, ARunOrAMoveThatWouldLeaveTheTravelWindowStopsAtItsEdge) {
   EXPECT_LT(highest, 0.005 + full_step);
   EXPECT_LT(run.rotor_theta_at_end, 0.005);
   EXPECT_LT(run.drive_t.back(), 1.0) << "the run would have driven 2 s";
+  // A move to a target outside the window is refused before anything drives.
   asked::Move far{{.target_rad = 0.05, .tolerance_rad = 25e-6, .settle_s = 0.1, .timeout_s = 10.0}};
-  const Outcome move = run_virtual({"safety.travel_min_rad=-0.01", "safety.travel_max_rad=0.01"},
-                                   -1.0, "hil-move-travel", 0, far);
-  EXPECT_EQ(move_of(move).at("stop_cause"), "travel_limit");
-  EXPECT_FALSE(move.amplifier_enabled_at_end);
-  EXPECT_DOUBLE_EQ(move.drive_V.back(), 0.0);
-  EXPECT_LT(move.rotor_theta_at_end, 0.01 + full_step);
+  try {
+    (void)run_virtual({"safety.travel_min_rad=-0.01", "safety.travel_max_rad=0.01"}, -1.0,
+                      "hil-move-travel", 0, far);
+    ADD_FAILURE() << "a move to a target beyond the travel window ran";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("outside the axis's travel window [-0.01, 0.01]"),
+              std::string::npos)
+        << e.what();
+  }
   std::cout << "travel window: the run stopped at " << run.drive_t.back() << " s, the rotor at "
             << run.rotor_theta_at_end * 1e3 << " mrad, its highest reading " << highest * 1e3
-            << " mrad (limit 5); the move at " << move.rotor_theta_at_end * 1e3
-            << " mrad (limit 10)\n";
+            << " mrad (limit 5)\n";
 }
 
 // A plant that differs from the model: the open-loop prediction drifts

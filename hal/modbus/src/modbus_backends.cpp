@@ -42,8 +42,14 @@ std::string_view ModbusSensorBackend::name() const {
 }
 
 std::vector<Claim> ModbusSensorBackend::claims() const {
-  return {{register_resource(link_, map_.unit_id, kFunctionNames.name(map_.function), map_.address),
-           "sensor.modbus.address"}};
+  // Every register the reading takes (an f32 two): a sensor at 203 overlaps one at 202.
+  std::vector<Claim> out;
+  for (int word = 0; word < word_count(map_.type); ++word) {
+    out.push_back({register_resource(link_, map_.unit_id, kFunctionNames.name(map_.function),
+                                     map_.address + word),
+                   "sensor.modbus.address"});
+  }
+  return out;
 }
 
 std::vector<MovedKey> ModbusSensorBackend::moved_keys() const {

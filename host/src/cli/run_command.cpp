@@ -583,10 +583,12 @@ int run(const RunOptions& o, const RunProgram& program) {
   const fs::path dir = choose_run_dir(o.out);
   Board board;
   connect(board, config, asked);
-  std::optional<view::LiveFeed> live;
-  std::unique_ptr<view::ViewServer> server;
+  // What the view's controls reach, declared before the server: it stops
+  // (its threads joined) before they go.
   std::atomic<bool> estop_requested{false};
   AxisStops axis_stops;
+  std::optional<view::LiveFeed> live;
+  std::unique_ptr<view::ViewServer> server;
   if (o.view) {
     live.emplace(20.0, 3.0 / config.host.model.drive.f);
     server = open_view(o, dir, *live, signals, estop_requested, board.group, axis_stops);

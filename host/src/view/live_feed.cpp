@@ -75,12 +75,16 @@ void LiveFeed::set_axes(std::vector<std::string> names) {
 
 void LiveFeed::add(const log_schema::AxesRows& rows) {
   const std::lock_guard lock(mutex_);
-  // A batch of another count of axes, or whose drive starts before the
-  // feed's end: a new run.
-  double first = std::numeric_limits<double>::infinity();
-  for (const auto& r : rows)
-    if (!r.drive.t.empty()) first = std::min(first, r.drive.t.front());
-  if (rows.size() != axes_.size() || (std::isfinite(first) && first < t_end())) {
+  // A batch of another count of axes, or one whose drive starts before
+  // its axis's last: a new run (its clock restarted). Each axis against its
+  // own: a batch may end between two axes' records of one tick.
+  bool restarted = rows.size() != axes_.size();
+  for (std::size_t i = 0; i < rows.size() && !restarted; ++i) {
+    const Column& drive = axes_[i][kDrive];
+    restarted =
+        !rows[i].drive.t.empty() && !drive.t.empty() && rows[i].drive.t.front() < drive.t.back();
+  }
+  if (restarted) {
     if (rows.size() != axes_.size()) {
       names_.assign(rows.size(), "");
       axes_.assign(rows.size(), AxisColumns{});

@@ -133,13 +133,26 @@ TEST_F(AxesConfig, TwoAxesOnOneOutputAreRefusedNamingBoth) {
   EXPECT_NE(e.find("theta"), std::string::npos) << e;
   EXPECT_NE(e.find("register 3"), std::string::npos) << e;
   // Each its own register: accepted.
-  EXPECT_EQ(refusal(kModbusAxes + sensors_apart + "[axes.phi.drive.modbus-ao]\naddress = 4\n"),
-            "");
+  EXPECT_EQ(refusal(kModbusAxes + sensors_apart + "[axes.phi.drive.modbus-ao]\naddress = 4\n"), "");
 }
 
 TEST_F(AxesConfig, TwoAxesOnOneInputAreRefused) {
   const std::string e = refusal(kModbusAxes + "[axes.phi.drive.modbus-ao]\naddress = 9\n");
   EXPECT_NE(e.find("sensor.modbus.address (axis phi)"), std::string::npos) << e;
+}
+
+// A reading of two words (f32) takes both registers: a sensor whose first
+// register is the other's second overlaps it; one past it does not.
+TEST_F(AxesConfig, TwoInputsThatOverlapAreRefused) {
+  const std::string outputs_apart =
+      "[axes.phi.drive.modbus-ao]\naddress = 9\n[axes.theta.sensor.modbus]\ntype = \"f32\"\n"
+      "address = 0\n";
+  const std::string e =
+      refusal(kModbusAxes + outputs_apart + "[axes.phi.sensor.modbus]\naddress = 1\n");
+  EXPECT_NE(e.find("input register 1 is also axes.theta.sensor.modbus.address's"),
+            std::string::npos)
+      << e;
+  EXPECT_EQ(refusal(kModbusAxes + outputs_apart + "[axes.phi.sensor.modbus]\naddress = 2\n"), "");
 }
 
 TEST_F(AxesConfig, AKeyOfAnAxisIsNamedUnderItsAxis) {
