@@ -61,7 +61,7 @@ class ThreeAxes : public ::testing::Test {
   /// Runs the board for duration_s (unless something stops it first).
   void run(double duration_s, const RemoteControl* remote = nullptr) {
     rig = std::make_unique<hal::sim::SimRig>(axes, lines, clock, clock.now());
-    std::vector<std::unique_ptr<DriveProgram>> programs;
+    programs.clear();
     std::vector<RunAxis> run_axes;
     for (std::size_t i = 0; i < kAxes; ++i) {
       if (listener[i] != nullptr) {
@@ -112,9 +112,12 @@ class ThreeAxes : public ::testing::Test {
   hal::sim::SimLinesSettings lines;
   std::vector<model::Sawtooth> waveforms;
   std::vector<bool> idle = std::vector<bool>(kAxes, false);  ///< held at 0 V
-  /// A Listener in place of an axis's program (it outlives the run, in `listening`).
+  /// A Listener in place of an axis's program; `listening` points at it
+  /// in `programs` after the run.
   std::vector<std::unique_ptr<Listener>> listener = std::vector<std::unique_ptr<Listener>>(kAxes);
   std::vector<Listener*> listening = std::vector<Listener*>(kAxes, nullptr);
+  /// The last run's programs, kept until the next run.
+  std::vector<std::unique_ptr<DriveProgram>> programs;
   SafetySettings safety;
   bool fault_stops_all = false;
   std::unique_ptr<hal::sim::SimRig> rig;
