@@ -35,6 +35,13 @@ class FetchBudget {
     return (samples - b.tokens) / rate_;
   }
 
+  /// Charges `client` `samples` more after the fact (the bucket may go
+  /// below empty: the client then waits until it has refilled).
+  void charge(const std::string& client, double samples, Clock::time_point now = Clock::now()) {
+    Bucket& b = bucket(client, now);
+    b.tokens -= samples;
+  }
+
   [[nodiscard]] double samples_per_s() const { return rate_; }
 
  private:

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <vector>
 #include <zmq_addon.hpp>
 
@@ -95,6 +96,26 @@ json SampleHub::fetch(const std::string& client, const json& args, bool budgeted
                                     "retry in {:.3f} s",
                                     budget_.samples_per_s(), wait_s));
   }
+  // And by the network thread's time it takes: where serving is slower than
+  // the budget assumes (a slow board, a sanitizer build), a watcher could
+  // keep the thread busy within its samples, and the controller's lease
+  // would wait behind it. A watcher's fetches may take a quarter of it.
+  constexpr double kWatcherShare = 0.25;
+  const auto served_from = std::chrono::steady_clock::now();
+  struct ChargeTime {
+    ~ChargeTime() {
+      if (!budgeted) return;
+      const double took_s =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - from).count();
+      const double as_samples = took_s * hub.budget_.samples_per_s() / kWatcherShare;
+      if (as_samples > asked) hub.budget_.charge(client, as_samples - asked);
+    }
+    SampleHub& hub;
+    const std::string& client;
+    bool budgeted;
+    std::chrono::steady_clock::time_point from;
+    double asked;
+  } charge_time{*this, client, budgeted, served_from, static_cast<double>(count)};
   const bool drive = stream == protocol::Stream::drive;
   const std::uint64_t held_first = drive ? drive_.first() : sensor_.first();
   const std::uint64_t held_next = drive ? drive_.next() : sensor_.next();
