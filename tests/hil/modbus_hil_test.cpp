@@ -104,9 +104,12 @@ TEST_F(ModbusRtu, TwoSensorsShareOneRtuLine) {
       " --set sensor.backend=modbus-rtu --set sensor.modbus.device=" + (dir / "ptyB").string() +
       " --set sensor.rate_hz=100 --set sensor.modbus.response_timeout_s=0.2"
       " --set safety.sensor_stale_s=0.5";
-  const auto r =
-      run_command(kPiezo + " move --config " + config + sets +
-                  " --to theta=0.002 --to phi=-0.003 --json --out " + (dir / "group").string());
+  // What is checked is the shared line, not the controller's finish: a
+  // tolerance and a time that a sanitizer build on a loaded machine meets.
+  const auto r = run_command(kPiezo + " move --config " + config + sets +
+                             " --to theta=0.002 --to phi=-0.003 --tolerance 2e-4 --timeout 60"
+                             " --json --out " +
+                             (dir / "group").string());
   ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
   const auto j = nlohmann::json::parse(r.out);
   for (const auto& m : j.at("moves")) EXPECT_EQ(m.at("stop_cause"), "on_target") << m.dump();
