@@ -59,14 +59,31 @@ void plot_angle(const fs::path& out, const std::string& title, const std::string
       gnuplot_quote(angle_csv)));
 }
 
-/// A few drive periods from the middle of the logged drive (a recovered log
-/// may have lost part of it: the window must hold drive samples, or gnuplot
-/// finds nothing to plot).
+/// The logged sample nearest `t` (`times` sorted, not empty).
+double nearest_sample(const std::vector<double>& times, double t) {
+  const auto after = std::lower_bound(times.begin(), times.end(), t);
+  if (after == times.end()) return times.back();
+  if (after == times.begin()) return *after;
+  return t - *(after - 1) < *after - t ? *(after - 1) : *after;
+}
+
+/// A few drive periods around the middle of the time both the drive and the
+/// angle were logged. The window must hold samples of both, or gnuplot finds
+/// nothing to plot: a loaded machine's log has gaps where samples were
+/// dropped, a run that fell behind logs its drive ahead of its sensor, and a
+/// recovered log may have lost the end of either.
 void plot_zoom(const fs::path& out, const std::string& title, const LoadedRun& run,
                const std::string& drive_csv, const std::string& angle_csv) {
   const auto& drive_t = run.data.drive_t;
-  const double t_from = std::min(drive_t[drive_t.size() / 2], run.data.t.back());
-  const double t_to = t_from + 3.0 / run.parameters.drive.f;
+  const auto& t = run.data.t;
+  const double both_from = std::max(drive_t.front(), t.front());
+  const double both_to = std::min(drive_t.back(), t.back());
+  const double middle = both_from <= both_to ? 0.5 * (both_from + both_to) : t[t.size() / 2];
+  const double angle_at = nearest_sample(t, middle);
+  const double drive_at = nearest_sample(drive_t, angle_at);
+  const double half_span = 1.5 / run.parameters.drive.f;
+  const double t_from = std::min(angle_at - half_span, drive_at);
+  const double t_to = std::max(angle_at + half_span, drive_at);
   run_gnuplot(fmt::format(
       "set terminal pngcairo size 1000,600 noenhanced\nset output {}\n"
       "set title {}\nset xlabel 't [s]'\nset ylabel 'V [V]'\nset y2label 'theta [mrad]'\n"
