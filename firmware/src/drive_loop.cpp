@@ -102,8 +102,22 @@ void DriveLoop::stop_all(hal::TimeNs t) {
   }
 }
 
+void DriveLoop::end_tick(bool starting) {
+  for (Axis& a : axes_) {
+    if (a.stopped) continue;
+    const hal::Status sent = a.io.drive->end_tick();
+    if (sent == hal::Status::ok) continue;
+    if (starting) {
+      a.io.supervisor->report_start(sent);
+    } else {
+      a.io.supervisor->report_drive_write(sent);
+    }
+  }
+}
+
 bool DriveLoop::enable() {
   for (Axis& a : axes_) a.io.supervisor->report_start(a.io.drive->write(0.0));
+  end_tick(true);
   const hal::EstopState estop = io_.lines.poll_estop();
   const bool stop = io_.stop_requested.load(std::memory_order_relaxed);
   bool refused = false;
@@ -275,6 +289,7 @@ StopCause DriveLoop::run(hal::TimeNs t0) {
     for (Axis& axis : axes_) {
       if (!axis.stopped) cycle |= drive_axis(axis, deadline, now, t, dt, estop);
     }
+    end_tick(false);
     if (cycle) health_.count(health_.cycles);
     if (all_stopped()) return run_cause();
     spread_faults();

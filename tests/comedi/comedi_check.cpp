@@ -431,6 +431,75 @@ void check_closed_under_run(OutputProbe& probe) {
                     outcome.zero_read_back ? " on the read-back input" : "", 1e3 * zero_after_s));
 }
 
+/// Two axes on one card's clocked output (a card runs one command per
+/// subdevice): one command scans both channels, each following its own
+/// axis's waveform. One axis stopped mid-run reads 0 V at the card while
+/// the other's channel goes on to the end of its run.
+void check_two_axes_one_scan(OutputProbe& probe) {
+  hal::posix::MonotonicClock clock;
+  const auto on_channel = [](int channel) {
+    comedi::AnalogOutputSettings s = output_settings();
+    s.output.channel = channel;
+    s.readback.channel = channel;  // the card's loopback of this channel
+    return s;
+  };
+  comedi::ComediAnalogOutput theta(on_channel(0)), phi(on_channel(1));
+  hal::sim::NullSensor theta_sensor(clock), phi_sensor(clock);
+  hal::posix::NoLines lines;
+  // 80 V and 40 V at the amplifier: 4 V and 2 V at the card.
+  const model::Sawtooth theta_saw(80.0, 20.0, 0.75), phi_saw(40.0, 20.0, 0.75);
+  firmware::WaveformProgram theta_program(theta_saw), phi_program(phi_saw);
+  std::vector<firmware::RunAxis> axes = one_axis(theta, theta_sensor, theta_program);
+  axes.push_back(one_axis(phi, phi_sensor, phi_program).front());
+  axes.back().index = 1;
+  firmware::LoopRunner runner(run_settings(3.0), std::move(axes), clock, lines);
+  (void)runner.start({});
+  const auto watch = [&](double seconds, double (&lowest)[2], double (&highest)[2]) {
+    lowest[0] = lowest[1] = INFINITY;
+    highest[0] = highest[1] = -INFINITY;
+    const hal::TimeNs until = clock.now() + hal::from_seconds(seconds);
+    while (clock.now() < until) {
+      for (unsigned c = 0; c < 2; ++c) {
+        const double v = probe.volts(c);
+        lowest[c] = std::min(lowest[c], v);
+        highest[c] = std::max(highest[c], v);
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+  };
+  double low[2], high[2];
+  watch(0.8, low, high);
+  check(high[0] > 0.8 * 4.0 && high[0] < 4.05 && high[1] > 0.8 * 2.0 && high[1] < 2.05,
+        fmt::format("one scan drives two axes' channels, each its own waveform: peaks read back "
+                    "{:.2f} V on channel 0 (80 V / gain 20) and {:.2f} V on channel 1 (40 V)",
+                    high[0], high[1]));
+  runner.request_stop(0);
+  const hal::TimeNs asked = clock.now();
+  double zero_after_s = NAN;
+  while (clock.now() < asked + hal::from_seconds(5.0)) {
+    if (std::abs(probe.volts(0)) < 0.01) {
+      zero_after_s = hal::to_seconds(clock.now() - asked);
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::microseconds(500));
+  }
+  watch(0.5, low, high);
+  const double theta_held_V = std::max(std::abs(low[0]), std::abs(high[0]));
+  const double phi_swing_V = high[1] - low[1];
+  runner.join();
+  runner.drain(
+      0, [](const firmware::DriveSample&) {}, [](const firmware::SensorSample&) {});
+  check(std::isfinite(zero_after_s) && theta_held_V < 0.01 && phi_swing_V > 1.0 &&
+            runner.cause(0) == firmware::StopCause::interrupted &&
+            runner.cause(1) == firmware::StopCause::completed &&
+            std::abs(probe.volts(0)) < 0.01 && std::abs(probe.volts(1)) < 0.01,
+        fmt::format("one axis of the scan stopped: its channel read 0 V {:.1f} ms later and "
+                    "held there (within {:.4f} V) while the other's swung {:.2f} V; causes {} "
+                    "and {}; both end at 0 V",
+                    1e3 * zero_after_s, theta_held_V, phi_swing_V,
+                    firmware::to_string(runner.cause(0)), firmware::to_string(runner.cause(1))));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -449,6 +518,7 @@ int main(int argc, char** argv) {
     check_stop(probe, true);
     check_stop(probe, false);
     check_closed_under_run(probe);
+    check_two_axes_one_scan(probe);
   } catch (const std::exception& e) {
     check(false, std::string("exception: ") + e.what());
   }

@@ -133,6 +133,10 @@ class DriveLoop {
   /// 0 V written on every axis and the e-stop looked at, then the amplifier
   /// enabled; false when the supervisors stop the run before that.
   bool enable();
+  /// Every axis has written the tick's value: drives that take all axes'
+  /// values at once send them; a failure counts as each axis's failed write
+  /// (at the start: a drive that does not take 0 V).
+  void end_tick(bool starting);
   /// Tells each axis's program whether another axis is stepping at t (crosstalk).
   void tell_neighbours_stepping(double t);
   /// An axis's supervisor's verdict for the cycle at t [s from the time origin].

@@ -22,6 +22,10 @@ class Drive {
 
   /// Commands the amplifier output voltage [V]. Called every drive cycle: must be fast.
   virtual Status write(double volts) = 0;
+  /// Ends a tick of the drive loop: every axis has written its value. A
+  /// device that takes every axis's value at once (a scan of one card's
+  /// channels) sends them here, with the status of that; others are done.
+  virtual Status end_tick() { return Status::ok; }
   /// Puts `volts` out at once, ahead of anything the drive queued: a stop's
   /// 0 V. A drive without a queue writes as usual.
   virtual Status write_now(double volts) { return write(volts); }
