@@ -71,6 +71,8 @@ set(CPACK_DEBIAN_PYTHON_PACKAGE_NAME python3-piezo-rig)
 set(CPACK_DEBIAN_PYTHON_PACKAGE_SECTION python)
 set(CPACK_DEBIAN_PYTHON_DESCRIPTION
     "piezo-rig from Python: the motor model, a piezod client and the run logs (piezo_rig)")
+# piezo-tango, the Tango bridge, needs PyTango; the rest of the package not.
+set(CPACK_DEBIAN_PYTHON_PACKAGE_RECOMMENDS "python3-tango")
 set(CPACK_DEBIAN_PYTHON_PACKAGE_CONTROL_EXTRA ${PROJECT_SOURCE_DIR}/host/python/debian/prerm)
 set(CPACK_DEBIAN_PYTHON_PACKAGE_CONTROL_STRICT_PERMISSION ON)
 set(CPACK_DEBIAN_PYTHON_PACKAGE_DEPENDS

@@ -1,0 +1,568 @@
+"""``piezo-tango``: a board's ``piezod`` as Tango devices (PyTango's
+high-level server), so a lab's control system (Tango clients, Sardana's
+scans, Taurus panels) drives its motors as it drives any other.
+
+One ``PiezoAxis`` device per axis of the board, with the names motor
+interfaces use (``Position``, ``Stop``, ``Abort``, ``DefinePosition``,
+``Limit_switches``), and one ``PiezoBoard`` device (e-stop, reset, health,
+a group move). The bridge is an ordinary client of the board
+(``piezo_rig.board``): the board's limits, lease and refusals hold for it
+as for any client, and a bridge that dies mid-move leaves the board to stop
+the motor when the lease lapses. ``Position`` and ``State`` change events
+are pushed as the board's stream brings each reading (``tango_link``).
+
+docs/tango.md says how to start it, with a Tango database or without."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import threading
+import time
+from typing import Any, Callable, Optional
+
+import tango
+from tango import AttrQuality, AttrWriteType, DevState
+from tango.server import Device, attribute, command, device_property, run
+
+from .errors import BoardError, NoReply, RunEnded
+from .tango_link import AxisView, BoardLink
+
+#: Position change events: pushed when the angle moved by this much since
+#: the last one pushed (Tango's ``abs_change``; an attribute property a
+#: client may change).
+POSITION_ABS_CHANGE_RAD = 1e-6
+
+
+def _keys(text: str) -> Optional[tuple[str, str]]:
+    """``SERVER_PUBLIC,CLIENT_SECRET`` key files, or none."""
+    if not text:
+        return None
+    server, _, client = text.partition(",")
+    return server.strip(), client.strip()
+
+
+def _raise(what: str, error: BaseException) -> None:
+    """The board's refusal (its code, key and message) as a Tango DevFailed."""
+    reason = type(error).__name__
+    if isinstance(error, BoardError):
+        reason = f"{error.code}" + (f" ({error.key})" if getattr(error, "key", None) else "")
+    tango.Except.throw_exception(reason, f"{what}: {error}", what)
+
+
+def _omni_thread(work: Callable[[], None]) -> Callable[[], None]:
+    """A thread's work that pushes Tango events: omniORB must know the thread."""
+    def known() -> None:
+        with tango.EnsureOmniThread():
+            work()
+    return known
+
+
+class _OnBoard(Device):
+    """What both devices share: the board's address and keys, its link."""
+
+    board_address = device_property(
+        dtype=str, default_value=os.environ.get("PIEZO_TANGO_BOARD", "tcp://127.0.0.1:5555"),
+        doc="the board's piezod command address (its stream is on port + 1)")
+    board_keys = device_property(
+        dtype=str, default_value=os.environ.get("PIEZO_TANGO_KEYS", ""),
+        doc="CURVE key files, SERVER_PUBLIC,CLIENT_SECRET (piezod keygen); needed on any "
+            "board address but loopback")
+
+    link: BoardLink
+
+    def _open_link(self) -> None:
+        try:
+            self.link = BoardLink.of(self.board_address, _keys(self.board_keys))
+        except (ValueError, TypeError, OSError) as e:
+            _raise(f"board_address {self.board_address!r}", e)
+
+    def _board_state(self) -> tuple[DevState, str]:
+        link = self.link
+        if not link.reachable:
+            return DevState.UNKNOWN, f"The board at {link.address} is unreachable: {link.problem}"
+        if link.state == "fault":
+            return DevState.FAULT, (f"The board latched the fault {link.fault}: ResetFault "
+                                    "clears it once the cause is looked at")
+        if link.state in ("running", "ramping_down"):
+            return DevState.MOVING, f"The board is {link.state.replace('_', ' ')}"
+        return DevState.ON, f"The board is {link.state}"
+
+
+class PiezoAxis(_OnBoard):
+    """One axis (motor) of a piezo-rig board."""
+
+    axis = device_property(dtype=str, default_value="",
+                           doc="the board's axis (hello.axes); empty: its first")
+    allow_retarget = device_property(
+        dtype=bool, default_value=False,
+        doc="a Position write while MOVING stops the move and starts one to the new target "
+            "(Tango's convention, the default, refuses it)")
+
+    def init_device(self) -> None:
+        super().init_device()
+        self._open_link()
+        self._moving = False  # a move or calibration of this device's is under way
+        self._move_error = ""
+        self._last: tuple[Optional[float], Optional[DevState]] = (None, None)
+        self._tolerance_rad = float("nan")
+        self._f_hz = float("nan")
+        self._V0 = float("nan")
+        self.set_change_event("Position", True, True)
+        self.set_change_event("State", True, False)
+        if self.link.wait_until_heard(3.0):
+            self._take_defaults()
+        self.link.listen(self._changed)
+
+    def delete_device(self) -> None:
+        self.link.forget(self._changed)
+
+    # -- what the board says ------------------------------------------------
+    @property
+    def _view(self) -> Optional[AxisView]:
+        axes = self.link.axes
+        if not axes:
+            return None
+        return axes.get(self.axis) if self.axis else next(iter(axes.values()))
+
+    @property
+    def _name(self) -> str:
+        view = self._view
+        return view.name if view else str(self.axis)
+
+    def _take_defaults(self) -> None:
+        """The move's defaults as the board declares them (its dictionary)."""
+        try:
+            args = {a["name"]: a for a in self.link.control.arguments("move_to")}
+        except (BoardError, NoReply):
+            return
+
+        def default(name: str) -> float:
+            # NaN: the board picks it per move (its calibration's, say).
+            value = args.get(name, {}).get("default")
+            return float(value) if isinstance(value, (int, float)) else float("nan")
+
+        if self._tolerance_rad != self._tolerance_rad:
+            self._tolerance_rad = default("tolerance_rad")
+            self._f_hz = default("f")
+            self._V0 = default("V0")
+
+    def _state(self) -> tuple[DevState, str]:
+        state, status = self._board_state()
+        view = self._view
+        if state == DevState.UNKNOWN or view is None:
+            return (DevState.UNKNOWN,
+                    status if state == DevState.UNKNOWN else f"The board has no axis {self.axis!r}")
+        moving = self._moving or view.in_run
+        where = ("at an unknown position" if view.position_rad is None
+                 else f"at {view.position_rad:.6g} rad")
+        if view.fault:
+            return DevState.FAULT, (f"Axis {view.name} latched the fault {view.fault}: "
+                                    "ResetFault on the board clears it")
+        if state == DevState.FAULT:
+            return state, status
+        if moving:
+            target = view.move.get("target_rad")
+            return DevState.MOVING, (f"Axis {view.name} is moving" +
+                                     (f" to {target:.6g} rad" if target is not None else "") +
+                                     f", {where}")
+        ends = self._ends(view)
+        if any(ends):
+            return DevState.ALARM, (f"Axis {view.name} is at the {'upper' if ends[0] else 'lower'} "
+                                    f"end of its travel window, {where}")
+        ended = f" The last move: {self._move_error}." if self._move_error else ""
+        return DevState.ON, f"Axis {view.name} is idle, {where}.{ended}"
+
+    @staticmethod
+    def _ends(view: AxisView) -> tuple[bool, bool]:
+        """(upper, lower): at or past the travel window's ends."""
+        p = view.position_rad
+        if p is None:
+            return False, False
+        return (view.travel_max_rad is not None and p >= view.travel_max_rad,
+                view.travel_min_rad is not None and p <= view.travel_min_rad)
+
+    def _changed(self, link: BoardLink) -> None:
+        """From the follower: pushes what changed."""
+        state, status = self._state()
+        self.set_state(state)
+        self.set_status(status)
+        view = self._view
+        position = view.position_rad if view else None
+        if position is not None and position != self._last[0]:
+            self.push_change_event("Position", position)
+        if state != self._last[1]:
+            self.push_change_event("State", state)
+        self._last = (position, state)
+
+    # -- Tango's own state ---------------------------------------------------
+    def dev_state(self) -> DevState:
+        state, status = self._state()
+        self.set_state(state)
+        self.set_status(status)
+        return state
+
+    def dev_status(self) -> str:
+        return self._state()[1]
+
+    # -- attributes ------------------------------------------------------------
+    @attribute(dtype=float, unit="rad", format="%.7f", access=AttrWriteType.READ_WRITE,
+               abs_change=str(POSITION_ABS_CHANGE_RAD),
+               doc="the rotor's angle from the board's zero, as its sensor measures it; a write "
+                   "moves there in closed loop (the board's move controller)")
+    def Position(self) -> tuple[float, float, AttrQuality]:
+        view = self._view
+        if view is None or view.position_rad is None or not self.link.reachable:
+            return float("nan"), 0.0, AttrQuality.ATTR_INVALID
+        quality = AttrQuality.ATTR_CHANGING if view.in_run else AttrQuality.ATTR_VALID
+        return view.position_rad, time.time(), quality
+
+    @Position.write  # type: ignore[no-redef]
+    def Position(self, target_rad: float) -> None:
+        if self._state()[0] == DevState.MOVING:
+            if not self.allow_retarget:
+                tango.Except.throw_exception(
+                    "moving", f"Position: axis {self._name} is moving; Stop it first (or set "
+                              "the device property allow_retarget)", "Position")
+            self.Stop()
+            deadline = time.monotonic() + 10
+            while self._moving and time.monotonic() < deadline:
+                time.sleep(0.02)
+        options = {"axis": self._name, "tolerance_rad": self._tolerance_rad, "f": self._f_hz,
+                   "V0": self._V0}
+        options = {k: v for k, v in options.items() if v == v}  # NaN: the board's default
+        try:
+            # Checked against the board's dictionary before anything is sent,
+            # then sent: the board refuses what is beyond its limits.
+            self.link.control.checked("move_to", {"target_rad": target_rad, **options})
+        except BoardError as e:
+            _raise("Position", e)
+        started = threading.Event()
+        failure: list[BaseException] = []
+        self._move_error = ""
+
+        @_omni_thread
+        def move() -> None:
+            try:
+                from .board import Run
+                args = self.link.control.checked("move_to", {"target_rad": target_rad, **options})
+                with Run(self.link.control, "move_to", args, True, raise_on_fault=False) as r:
+                    started.set()
+                    summary = r.wait()
+                end = (summary.get("move") or {}).get("stop_cause") or summary.get("cause")
+                if end != "on_target":
+                    self._move_error = f"ended {end}"
+            except BaseException as e:  # noqa: B036 -- told to the writer, or kept for Status
+                failure.append(e)
+                self._move_error = str(e)
+            finally:
+                self._moving = False
+                started.set()
+                self._changed(self.link)
+
+        self._moving = True
+        threading.Thread(target=move, name=f"move {self._name}", daemon=True).start()
+        started.wait(10)
+        if failure:
+            _raise("Position", failure[0])
+        self.set_state(DevState.MOVING)
+        self.push_change_event("State", DevState.MOVING)
+        self._last = (self._last[0], DevState.MOVING)
+
+    @attribute(dtype=float, unit="rad", access=AttrWriteType.READ_WRITE, format="%.3g",
+               doc="a move is on target within this (the board's default at start)")
+    def Tolerance(self) -> float:
+        return self._tolerance_rad
+
+    @Tolerance.write  # type: ignore[no-redef]
+    def Tolerance(self, value: float) -> None:
+        try:
+            self.link.control.checked("move_to", {"target_rad": 0.0, "tolerance_rad": value})
+        except BoardError as e:
+            _raise("Tolerance", e)
+        self._tolerance_rad = value
+
+    @attribute(dtype=float, unit="Hz", access=AttrWriteType.READ_WRITE,
+               doc="the coarse steps' sawtooth frequency (the board's default at start)")
+    def Frequency(self) -> float:
+        return self._f_hz
+
+    @Frequency.write  # type: ignore[no-redef]
+    def Frequency(self, value: float) -> None:
+        try:
+            self.link.control.checked("move_to", {"target_rad": 0.0, "f": value})
+        except BoardError as e:
+            _raise("Frequency", e)
+        self._f_hz = value
+
+    @attribute(dtype=float, unit="V", access=AttrWriteType.READ_WRITE,
+               doc="the coarse steps' amplitude V0 (the board's default at start)")
+    def Amplitude(self) -> float:
+        return self._V0
+
+    @Amplitude.write  # type: ignore[no-redef]
+    def Amplitude(self, value: float) -> None:
+        try:
+            self.link.control.checked("move_to", {"target_rad": 0.0, "V0": value,
+                                                  "axis": self._name})
+        except BoardError as e:
+            _raise("Amplitude", e)
+        self._V0 = value
+
+    @attribute(dtype=float, unit="V", doc="the axis's highest drive voltage, as the board declares it")
+    def Amplitude_max(self) -> float:
+        view = self._view
+        return view.V_max if view else float("nan")
+
+    @attribute(dtype=float, unit="rad", doc="the travel window's lower end (NaN: none)")
+    def Travel_min(self) -> float:
+        view = self._view
+        return float("nan") if view is None or view.travel_min_rad is None else view.travel_min_rad
+
+    @attribute(dtype=float, unit="rad", doc="the travel window's upper end (NaN: none)")
+    def Travel_max(self) -> float:
+        view = self._view
+        return float("nan") if view is None or view.travel_max_rad is None else view.travel_max_rad
+
+    @attribute(dtype=(bool,), max_dim_x=3,
+               doc="Sardana's [home, upper, lower]: no home switch; upper and lower are the "
+                   "travel window's ends (the rotor at or past them)")
+    def Limit_switches(self) -> list[bool]:
+        view = self._view
+        upper, lower = self._ends(view) if view else (False, False)
+        return [False, upper, lower]
+
+    @attribute(dtype=bool, doc="whether the board holds a calibration for this axis")
+    def Calibrated(self) -> bool:
+        view = self._view
+        return bool(view and view.calibrated)
+
+    # -- commands --------------------------------------------------------------
+    @command(doc_in="ramps the axis's drive to 0 V (its cause: interrupted)")
+    def Stop(self) -> None:
+        try:
+            self.link.control.stop(self._name)
+        except BoardError as e:
+            if e.code not in ("bad_state",):  # nothing to stop
+                _raise("Stop", e)
+        except NoReply as e:
+            _raise("Stop", e)
+
+    @command(doc_in="0 V at once: the board's e-stop (every axis; latches estop until "
+                    "ResetFault on the board)")
+    def Abort(self) -> None:
+        try:
+            self.link.control.estop()
+        except (BoardError, NoReply) as e:
+            _raise("Abort", e)
+
+    @command(dtype_in=float, doc_in="the rotor's position now is this angle [rad]: the board "
+                                    "keeps one zero, so only 0 is taken")
+    def DefinePosition(self, value: float) -> None:
+        if value != 0.0:
+            tango.Except.throw_exception(
+                "out_of_limits", f"DefinePosition: {value} rad; the board's zero is where the "
+                                 "rotor is now, so only 0 is taken", "DefinePosition")
+        try:
+            position = self.link.control.zero(self._name)
+        except (BoardError, NoReply) as e:
+            _raise("DefinePosition", e)
+        view = self._view
+        if view is not None:
+            view.zero_m = position.get("zero_displacement_m")
+            view.position_rad = position.get("position_rad")
+        self._changed(self.link)
+
+    @command(doc_in="runs the board's calibration experiment for this axis (about 14 s); "
+                    "State MOVING meanwhile")
+    def Calibrate(self) -> None:
+        if self._state()[0] == DevState.MOVING:
+            tango.Except.throw_exception("moving", f"Calibrate: axis {self._name} is moving",
+                                         "Calibrate")
+
+        @_omni_thread
+        def calibrate() -> None:
+            try:
+                self.link.control.calibrate(axis=self._name, progress=False)
+                self._move_error = ""
+            except (BoardError, NoReply, RunEnded) as e:
+                self._move_error = f"calibration: {e}"
+            finally:
+                self._moving = False
+                self._changed(self.link)
+
+        self._moving = True
+        threading.Thread(target=calibrate, name=f"calibrate {self._name}", daemon=True).start()
+
+
+class PiezoBoard(_OnBoard):
+    """The board itself: its e-stop, its faults, its loops' health, group moves."""
+
+    def init_device(self) -> None:
+        super().init_device()
+        self._open_link()
+        self._last_state: Optional[DevState] = None
+        self.set_change_event("State", True, False)
+        self.link.listen(self._changed)
+
+    def delete_device(self) -> None:
+        self.link.forget(self._changed)
+
+    def _changed(self, link: BoardLink) -> None:
+        state, status = self._board_state()
+        self.set_state(state)
+        self.set_status(status)
+        if state != self._last_state:
+            self.push_change_event("State", state)
+            self._last_state = state
+
+    def dev_state(self) -> DevState:
+        state, status = self._board_state()
+        self.set_state(state)
+        self.set_status(status)
+        return state
+
+    def dev_status(self) -> str:
+        return self._board_state()[1]
+
+    @attribute(dtype=(str,), max_dim_x=64, doc="the board's axes, in its order")
+    def Axes(self) -> list[str]:
+        return list(self.link.axes)
+
+    @attribute(dtype=int, doc="the drive loop's overruns in the current or last run")
+    def Drive_overruns(self) -> int:
+        return int((self.link.health.get("drive") or {}).get("overruns", 0))
+
+    @attribute(dtype=int, doc="the drive loop's deadlines missed in the current or last run")
+    def Drive_missed_cycles(self) -> int:
+        return int((self.link.health.get("drive") or {}).get("missed_cycles", 0))
+
+    @attribute(dtype=int, doc="sensor reads that failed in the current or last run")
+    def Sensor_errors(self) -> int:
+        return int((self.link.health.get("sensor") or {}).get("errors", 0))
+
+    @attribute(dtype=str, doc="how the last run ended (its cause), empty before any")
+    def Last_cause(self) -> str:
+        return str(self.link.last_summary.get("cause", ""))
+
+    @command(doc_in="disables the amplifier at once, every axis (any client may)")
+    def Estop(self) -> None:
+        try:
+            self.link.control.estop()
+        except (BoardError, NoReply) as e:
+            _raise("Estop", e)
+
+    @command(doc_in="clears a latched fault, the board's and every axis's (not during a run)")
+    def ResetFault(self) -> None:
+        try:
+            self.link.control.reset_fault()
+        except (BoardError, NoReply) as e:
+            _raise("ResetFault", e)
+
+    @command(dtype_in=tango.DevVarDoubleStringArray,
+             doc_in="a group move: [[targets in rad], [axis names]], every axis started on one "
+                    "tick; returns once the board took it")
+    def MoveGroup(self, argin: Any) -> None:
+        targets, names = argin
+        if len(targets) != len(names) or not names:
+            tango.Except.throw_exception(
+                "bad_argument", f"MoveGroup: {len(targets)} targets for {len(names)} axes",
+                "MoveGroup")
+        group = {str(n): float(t) for n, t in zip(names, targets)}
+        try:
+            args = self.link.control.checked("move_to", {"targets": group})
+        except BoardError as e:
+            _raise("MoveGroup", e)
+        started = threading.Event()
+        failure: list[BaseException] = []
+
+        @_omni_thread
+        def move() -> None:
+            try:
+                from .board import Run
+                with Run(self.link.control, "move_to", args, True, raise_on_fault=False) as r:
+                    started.set()
+                    r.wait()
+            except BaseException as e:  # noqa: B036
+                failure.append(e)
+            finally:
+                started.set()
+
+        threading.Thread(target=move, name="group move", daemon=True).start()
+        started.wait(10)
+        if failure:
+            _raise("MoveGroup", failure[0])
+
+
+def _file_database(instance: str, address: str, keys: str, axes: list[str]) -> str:
+    """A Tango file database (``-file=``) naming one device per axis and the
+    board's: what a server without a database serves."""
+    server = f"piezo-tango/{instance}"
+    lines = [f"{server}/DEVICE/PiezoBoard: piezo/{instance}/board",
+             f"{server}/DEVICE/PiezoAxis: " + ", ".join(f"piezo/{instance}/{a}" for a in axes)]
+    for device in [f"piezo/{instance}/board"] + [f"piezo/{instance}/{a}" for a in axes]:
+        lines.append(f'{device}->board_address: "{address}"')
+        if keys:
+            lines.append(f'{device}->board_keys: "{keys}"')
+    for a in axes:
+        lines.append(f'piezo/{instance}/{a}->axis: "{a}"')
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: Optional[list[str]] = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="piezo-tango",
+        description="A piezo-rig board as Tango devices: PiezoAxis per axis, PiezoBoard. "
+                    "Listens on loopback only unless --listen says otherwise.",
+        epilog="Arguments after INSTANCE that this program does not take go to Tango "
+               "(-v4, ...). docs/tango.md has a worked session.")
+    parser.add_argument("instance", help="the server's instance name (piezo-tango/INSTANCE)")
+    parser.add_argument("--board", default="tcp://127.0.0.1:5555",
+                        help="the board's piezod address (without a database; with one, the "
+                             "devices' board_address property)")
+    parser.add_argument("--keys", default="",
+                        help="SERVER_PUBLIC,CLIENT_SECRET key files for a board on a network")
+    parser.add_argument("--nodb", action="store_true",
+                        help="without a Tango database: one device per axis of the board, "
+                             "named piezo/INSTANCE/AXIS, and piezo/INSTANCE/board")
+    parser.add_argument("--port", type=int, default=0,
+                        help="the port Tango listens on (0: any; give one with --nodb, so "
+                             "clients know where: tango://HOST:PORT/piezo/INSTANCE/AXIS#dbase=no)")
+    parser.add_argument("--listen", default="127.0.0.1",
+                        help="the address Tango listens on: 127.0.0.1 (the default) is this "
+                             "machine only; 0.0.0.0 every interface, so anyone who reaches it "
+                             "may move the motor (docs/tango.md, 'Listening on a network')")
+    options, tango_args = parser.parse_known_args(argv)
+    os.environ["PIEZO_TANGO_BOARD"] = options.board
+    os.environ["PIEZO_TANGO_KEYS"] = options.keys
+    args = ["piezo-tango", options.instance, *tango_args]
+    endpoint = f"giop:tcp:{options.listen}:{options.port or ''}"
+    args += ["-ORBendPoint", endpoint]
+    if options.nodb:
+        # The board names its axes: ask it, and refuse a wrong address now.
+        from .board import Board
+        try:
+            with Board(options.board, keys=_keys(options.keys), timeout=3.0) as board:
+                axes = [a["name"] for a in board.hello().get("axes", [])]
+        except (BoardError, NoReply, ValueError) as e:
+            print(f"piezo-tango: --board {options.board}: {e}", file=sys.stderr)
+            return 2
+        database = tempfile.NamedTemporaryFile("w", prefix="piezo-tango-", suffix=".db",
+                                               delete=False)
+        database.write(_file_database(options.instance, options.board, options.keys, axes))
+        database.close()
+        args += [f"-file={database.name}"]
+        print(f"piezo-tango: devices piezo/{options.instance}/board and "
+              + ", ".join(f"piezo/{options.instance}/{a}" for a in axes), file=sys.stderr)
+    where = ("this machine only (loopback)" if options.listen.startswith("127.")
+             else f"{options.listen}: anyone who reaches it may move the motor")
+    print(f"piezo-tango: listening on {where}, port {options.port or 'any'}; board "
+          f"{options.board}", file=sys.stderr, flush=True)
+    run((PiezoAxis, PiezoBoard), args=args)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

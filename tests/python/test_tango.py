@@ -1,0 +1,322 @@
+"""piezo-tango as a lab's control system sees it: Tango clients
+(``tango.DeviceProxy``) of the bridge's devices, served in their own
+process (PyTango's MultiDeviceTestContext with process=True, or the
+``piezo-tango`` program itself), against a real piezod on the simulated
+rig. What the board did is read from the board (its status and the run's
+summary, through an independent piezo_rig client), never only from what
+the bridge says."""
+
+import contextlib
+import os
+import re
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+import pytest
+
+tango = pytest.importorskip("tango")
+from tango import DevState  # noqa: E402
+from tango.test_context import MultiDeviceTestContext  # noqa: E402
+
+from conftest import start_board  # noqa: E402
+import peers  # noqa: E402
+from piezo_rig.board import Board  # noqa: E402
+from piezo_rig.tango_server import PiezoAxis, PiezoBoard  # noqa: E402
+
+SERVER = [sys.executable, "-m", "piezo_rig.tango_server"]
+
+
+def devices(address):
+    return [{"class": PiezoAxis, "devices": [
+                {"name": "piezo/test/rotor", "properties": {"board_address": address}}]},
+            {"class": PiezoBoard, "devices": [
+                {"name": "piezo/test/board", "properties": {"board_address": address}}]}]
+
+
+@contextlib.contextmanager
+def serving(address):
+    """The bridge's devices for the board at ``address``, in a process of
+    their own (a second thread-mode context in one process crashes cppTango)."""
+    context = MultiDeviceTestContext(devices(address), process=True, host="127.0.0.1",
+                                     port=peers.free_port(), timeout=30)
+    try:
+        with context:
+            yield context
+    finally:
+        if context.thread.is_alive():  # a server that does not end on Kill
+            context.thread.kill()
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory):
+    """A board, and the bridge's devices for it."""
+    process, address = start_board(tmp_path_factory.mktemp("tango-board"))
+    with serving(address) as context:
+        yield address, context
+    process.terminate()
+    process.wait(10)
+
+
+@pytest.fixture
+def axis(served):
+    address, context = served
+    proxy = tango.DeviceProxy(context.get_device_access("piezo/test/rotor"))
+    board = tango.DeviceProxy(context.get_device_access("piezo/test/board"))
+    wait_for(lambda: proxy.state() != DevState.UNKNOWN, 10, "the device hears its board")
+    if board.state() == DevState.FAULT:
+        board.ResetFault()
+    wait_for(lambda: proxy.state() == DevState.ON, 10, "the axis idle")
+    return proxy
+
+
+@pytest.fixture
+def board_device(served):
+    return tango.DeviceProxy(served[1].get_device_access("piezo/test/board"))
+
+
+@pytest.fixture
+def watcher(served):
+    """An independent client of the board: what the board itself says."""
+    with Board(served[0]) as b:
+        yield b
+
+
+def wait_for(condition, seconds, what):
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if condition():
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"{what}: not within {seconds} s")
+
+
+def far(proxy):
+    """A target a minute of steps away (from 0 on a board that has not run)."""
+    return (proxy.Position or 0.0) + 0.05
+
+
+def last_summary(board):
+    return (board.status().get("run") or {}).get("summary") or {}
+
+
+def subscribe(proxy, name, into):
+    def got(event):
+        if not event.err and event.attr_value is not None:
+            into.append((time.monotonic(), event.attr_value.value))
+    return proxy.subscribe_event(name, tango.EventType.CHANGE_EVENT, got)
+
+
+def test_a_move_is_seen_as_it_happens(axis, watcher):
+    states, positions = [], []
+    ids = [subscribe(axis, "State", states), subscribe(axis, "Position", positions)]
+    try:
+        axis.Position = 0.002
+        wait_for(lambda: axis.state() == DevState.ON, 60, "the move's end")
+        wait_for(lambda: states and states[-1][1] == DevState.ON, 5, "State ON pushed")
+    finally:
+        for i in ids:
+            axis.unsubscribe_event(i)
+    seen = [s for _, s in states]
+    assert DevState.MOVING in seen and seen.index(DevState.MOVING) < len(seen) - 1, seen
+    moving_from = next(t for t, s in states if s == DevState.MOVING)
+    during = [p for t, p in positions if t >= moving_from and p is not None]
+    assert len(during) >= 3, positions
+    move = last_summary(watcher)["move"]
+    assert move["stop_cause"] == "on_target", move
+    assert abs(axis.Position - 0.002) <= axis.Tolerance, (axis.Position, move)
+    assert abs(axis.Position - move["position_rad"]) < 5 * axis.Tolerance
+
+
+def test_stop_mid_move_ends_interrupted_at_zero_volts(axis, watcher):
+    axis.Position = far(axis)  # a minute of steps
+    wait_for(lambda: axis.state() == DevState.MOVING, 10, "moving")
+    time.sleep(0.5)
+    axis.Stop()
+    wait_for(lambda: axis.state() == DevState.ON, 20, "stopped")
+    summary = last_summary(watcher)
+    assert summary["cause"] == "interrupted", summary
+    assert summary["output"]["zero_confirmed"], summary["output"]
+
+
+def test_abort_is_the_boards_estop_and_reset_fault_returns_it(axis, board_device, watcher):
+    axis.Position = far(axis)
+    wait_for(lambda: axis.state() == DevState.MOVING, 10, "moving")
+    axis.Abort()
+    wait_for(lambda: axis.state() == DevState.FAULT, 10, "FAULT")
+    assert "estop" in axis.status(), axis.status()
+    summary = last_summary(watcher)
+    assert summary["cause"] == "estop" and summary["output"]["zero_confirmed"], summary
+    board_device.ResetFault()
+    wait_for(lambda: axis.state() == DevState.ON, 10, "ON after ResetFault")
+
+
+def test_define_position_zero_rezeroes(axis, watcher):
+    axis.Position = 0.003
+    wait_for(lambda: axis.state() == DevState.ON, 60, "arrived")
+    assert abs(axis.Position - 0.003) < 1e-4
+    axis.DefinePosition(0.0)
+    assert abs(axis.Position) < 2e-5, axis.Position
+    zero = watcher.status()["axes"][0]["position"]
+    assert abs(zero["position_rad"]) < 2e-5, zero
+    with pytest.raises(tango.DevFailed, match="only 0"):
+        axis.DefinePosition(0.5)
+
+
+def test_an_estop_from_another_client_turns_the_device_fault(axis, board_device, watcher):
+    axis.Position = far(axis)
+    wait_for(lambda: axis.state() == DevState.MOVING, 10, "moving")
+    watcher.estop()
+    wait_for(lambda: axis.state() == DevState.FAULT, 10, "FAULT")
+    assert "estop" in axis.status()
+    assert board_device.state() == DevState.FAULT and "estop" in board_device.status()
+    board_device.ResetFault()
+    wait_for(lambda: axis.state() == DevState.ON, 10, "ON")
+
+
+def test_refused_writes_move_nothing(axis, watcher):
+    before = (watcher.status().get("run") or {}).get("id")
+    with pytest.raises(tango.DevFailed, match=r"out_of_limits \(target_rad\)"):
+        axis.Position = 20.0
+    with pytest.raises(tango.DevFailed, match="V0"):
+        axis.Amplitude = 1e4
+    with pytest.raises(tango.DevFailed, match="tolerance_rad"):
+        axis.Tolerance = -1.0
+    assert (watcher.status().get("run") or {}).get("id") == before
+    assert axis.state() == DevState.ON
+    # A write while MOVING: Tango's convention refuses it.
+    axis.Position = far(axis)
+    wait_for(lambda: axis.state() == DevState.MOVING, 10, "moving")
+    run = watcher.status()["run"]["id"]
+    with pytest.raises(tango.DevFailed, match="is moving"):
+        axis.Position = 0.0
+    assert watcher.status()["run"]["id"] == run
+    axis.Stop()
+    wait_for(lambda: axis.state() == DevState.ON, 20, "stopped")
+
+
+def test_the_device_follows_its_board_going_and_coming_back(tmp_path):
+    port = peers.free_port(2)
+    config = tmp_path / "piezod.toml"
+    with open(os.path.join(os.environ["PIEZO_SOURCE_DIR"], "configs", "piezod-sim.toml")) as f:
+        config.write_text(f.read())
+    address = f"tcp://127.0.0.1:{port}"
+
+    def piezod():
+        p = peers.spawn([os.environ["PIEZOD_BINARY"], "--config", str(config), "--listen",
+                         address], stderr=open(tmp_path / "piezod.err", "a"))
+        assert peers.wait_for_tcp(port), "piezod listens"
+        return p
+
+    board = piezod()
+    with serving(address) as context:
+        proxy = tango.DeviceProxy(context.get_device_access("piezo/test/rotor"))
+        wait_for(lambda: proxy.state() == DevState.ON, 10, "ON")
+        board.kill()
+        board.wait()
+        gone = time.monotonic()
+        wait_for(lambda: proxy.state() == DevState.UNKNOWN, 10, "UNKNOWN")
+        print(f"UNKNOWN {time.monotonic() - gone:.1f} s after piezod was killed")
+        assert "unreachable" in proxy.status(), proxy.status()
+        board = piezod()
+        wait_for(lambda: proxy.state() == DevState.ON, 15, "ON again, the server not restarted")
+        board.terminate()
+        board.wait()
+
+
+def start_server(tmp_path, address, *extra):
+    port = peers.free_port()
+    log = open(tmp_path / "tango.err", "w")
+    server = peers.spawn([*SERVER, "lab", "--nodb", "--port", str(port), "--board", address,
+                          *extra], stderr=log, stdout=log)
+    deadline = time.monotonic() + 60
+    while "Ready to accept request" not in (tmp_path / "tango.err").read_text():
+        assert server.poll() is None and time.monotonic() < deadline, \
+            (tmp_path / "tango.err").read_text()
+        time.sleep(0.1)
+    return server, port
+
+
+def test_a_killed_server_leaves_the_board_to_stop_the_motor(served, watcher, tmp_path):
+    address, _ = served
+    if watcher.status()["state"] == "fault":
+        watcher.reset_fault()
+    server, port = start_server(tmp_path, address)
+    try:
+        proxy = tango.DeviceProxy(f"tango://127.0.0.1:{port}/piezo/lab/rotor#dbase=no")
+        wait_for(lambda: proxy.state() == DevState.ON, 10, "ON")
+        proxy.Position = far(proxy)
+        wait_for(lambda: watcher.status()["state"] == "running", 10, "the board runs")
+        server.send_signal(signal.SIGKILL)
+        server.wait()
+        wait_for(lambda: watcher.status()["state"] in ("idle", "fault"), 10, "the board stops")
+        status = watcher.status()
+        summary = status["run"]["summary"]
+        assert status["fault"] == "link_lost" and summary["cause"] == "link_lost", status
+        assert summary["output"]["zero_confirmed"], summary["output"]
+    finally:
+        server.kill()
+        server.wait()
+        watcher.reset_fault()
+
+
+def test_a_wrong_board_address_is_refused_at_start(tmp_path):
+    nobody = f"tcp://127.0.0.1:{peers.free_port(2)}"
+    out = subprocess.run([*SERVER, "lab", "--nodb", "--port", str(peers.free_port()),
+                          "--board", nobody], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2 and nobody in out.stderr and "no reply" in out.stderr, out.stderr
+    out = subprocess.run([*SERVER, "lab", "--nodb", "--board", "tcp://10.1.2.3:5555"],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2 and "CURVE keys" in out.stderr, out.stderr
+
+
+def listening_addresses(pid):
+    """The local addresses the process ``pid`` listens on (its sockets'
+    inodes in /proc/net/tcp and tcp6): its CORBA port and its events'."""
+    inodes = set()
+    for fd in os.listdir(f"/proc/{pid}/fd"):
+        target = os.readlink(f"/proc/{pid}/fd/{fd}")
+        if target.startswith("socket:["):
+            inodes.add(target[len("socket:["):-1])
+    found = []
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        with open(table) as f:
+            for line in f.readlines()[1:]:
+                fields = line.split()
+                if fields[3] == "0A" and fields[9] in inodes:  # LISTEN
+                    host, port = fields[1].split(":")
+                    found.append((host, int(port, 16)))
+    return found
+
+
+def non_loopback_address():
+    """This machine's address on its default route, if it has one."""
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            s.connect(("192.0.2.1", 9))  # no packet is sent
+            address = s.getsockname()[0]
+    except OSError:
+        return None
+    return None if address.startswith("127.") else address
+
+
+def test_by_default_the_server_listens_on_loopback_only(served, tmp_path):
+    server, port = start_server(tmp_path, served[0])
+    try:
+        # Its command port, and once a client subscribes, its event ports.
+        proxy = tango.DeviceProxy(f"tango://127.0.0.1:{port}/piezo/lab/rotor#dbase=no")
+        proxy.subscribe_event("State", tango.EventType.CHANGE_EVENT, lambda event: None)
+        listening = listening_addresses(server.pid)
+        assert len(listening) >= 2 and all(host == "0100007F" for host, _ in listening), listening
+        other = non_loopback_address()
+        if other is not None:
+            for _, p in listening:
+                with socket.socket() as s:
+                    assert s.connect_ex((other, p)) != 0, f"{other}:{p} accepted"
+        with open(tmp_path / "tango.err") as f:
+            assert re.search(r"listening on this machine only \(loopback\)", f.read())
+    finally:
+        server.kill()
+        server.wait()
