@@ -320,3 +320,69 @@ def test_by_default_the_server_listens_on_loopback_only(served, tmp_path):
     finally:
         server.kill()
         server.wait()
+
+
+def test_every_axis_is_a_device_and_the_board_moves_a_group(tmp_path, source):
+    """A board of three axes: the server makes a device of each (nothing
+    else added), each moves on its own, and PiezoBoard moves a group."""
+    process, address = peers.start_piezod(
+        os.environ["PIEZOD_BINARY"], os.path.join(source, "configs", "three-axes.toml"),
+        str(tmp_path / "piezod.err"), sets=["run.clock=realtime"])
+    server, port = start_server(tmp_path, address)
+    try:
+        def device(name):
+            return tango.DeviceProxy(f"tango://127.0.0.1:{port}/piezo/lab/{name}#dbase=no")
+
+        board = device("board")
+        theta, phi, chi = device("theta"), device("phi"), device("chi")
+        wait_for(lambda: all(d.state() == DevState.ON for d in (theta, phi, chi)), 10, "ON")
+        assert list(board.Axes) == ["theta", "phi", "chi"]
+        assert chi.Travel_max == 0.5 and chi.Amplitude_max == 60.0 and phi.Amplitude_max == 80.0
+        with pytest.raises(tango.DevFailed, match="travel window"):
+            chi.Position = 0.6
+        phi.Position = -0.003
+        wait_for(lambda: phi.state() == DevState.ON, 60, "phi arrived")
+        assert abs(phi.Position + 0.003) <= phi.Tolerance
+        with Board(address) as watcher:
+            assert watcher.status()["run"]["axis"] == "phi"
+            board.MoveGroup([[0.002, 0.001], ["theta", "chi"]])
+            wait_for(lambda: theta.state() == DevState.MOVING or watcher.status()["state"] != "idle",
+                     10, "the group started")
+            wait_for(lambda: board.state() == DevState.ON and theta.state() == DevState.ON
+                     and chi.state() == DevState.ON, 60, "the group's end")
+            ends = {a["name"]: a["move"]["stop_cause"]
+                    for a in last_summary(watcher)["axes"]}
+        assert ends == {"theta": "on_target", "chi": "on_target"}, ends
+        assert abs(theta.Position - 0.002) <= theta.Tolerance
+        assert abs(chi.Position - 0.001) <= chi.Tolerance
+        assert board.Last_cause == "completed"
+    finally:
+        server.kill()
+        server.wait()
+        process.terminate()
+        process.wait(10)
+
+
+def test_the_pages_session_scans_through_the_bridge(served, watcher, tmp_path, source):
+    """docs/tango.md's session, run as a reader runs it, against a bridge
+    started as the page starts it."""
+    if watcher.status()["state"] == "fault":
+        watcher.reset_fault()
+    with open(os.path.join(source, "docs", "tango.md")) as f:
+        block = re.search(r"```python\n(.*?)```", f.read(), re.S).group(1)
+    server, port = start_server(tmp_path, served[0])
+    try:
+        script = tmp_path / "session.py"
+        script.write_text(block.replace("127.0.0.1:10000", f"127.0.0.1:{port}"))
+        out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                             timeout=240)
+        assert out.returncode == 0, out.stderr
+        print(out.stdout)
+        tolerance = float(re.search(r"tolerance (\S+) rad", out.stdout).group(1))
+        scanned = re.findall(r"target (\S+) rad: at (\S+) rad, ON", out.stdout)
+        assert len(scanned) == 4, out.stdout
+        assert all(abs(float(t) - float(at)) <= tolerance for t, at in scanned), scanned
+        assert int(re.search(r"(\d+) position events", out.stdout).group(1)) >= 4
+    finally:
+        server.kill()
+        server.wait()
