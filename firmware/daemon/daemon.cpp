@@ -284,13 +284,18 @@ protocol::ArgumentSpec Daemon::axis_spec() const {
   return s;
 }
 
-protocol::ArgumentSpec Daemon::stop_axis_spec() const {
+std::vector<protocol::ArgumentSpec> Daemon::stop_specs() const {
   protocol::ArgumentSpec axis = axis_spec();
   axis.required = false;
   axis.default_value = nullptr;
   axis.default_text = "every axis of the run";
   axis.doc = "stop this axis of the run alone (`hello.axes`); the others go on";
-  return axis;
+  protocol::ArgumentSpec now;
+  now.name = wire_key::now;
+  now.type = firmware::ArgumentType::flag;
+  now.default_value = false;
+  now.doc = "0 V on the next drive deadline instead of the ramp (an abort; nothing latches)";
+  return {axis, now};
 }
 
 std::vector<protocol::ArgumentSpec> Daemon::move_to_specs() const {
@@ -368,7 +373,7 @@ CommandTable Daemon::command_table() {
                                    "a calibration (docs/protocol.md, \"Calibration\"), or nil"}}),
        [this](Who c, Args a) { return set_calibration(c, a); }},
       {"zero", C::controller, on_axis({}), [this](Who c, Args a) { return set_zero(c, a); }},
-      {"stop", C::controller, {stop_axis_spec()}, [this](Who, Args a) { return stop_run(a); }},
+      {"stop", C::controller, stop_specs(), [this](Who, Args a) { return stop_run(a); }},
       // Anyone may press it: it only ever makes the rig safer.
       {"estop", C::anyone, {}, [this](Who c, Args) { return estop(c); }},
       // Refused to everyone during a run; between runs nobody controls the rig.

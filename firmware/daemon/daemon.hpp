@@ -104,7 +104,7 @@ class Daemon {
   /// Refuses (fault_latched) a run on an axis whose own fault is latched.
   void require_no_axis_fault(const ServedAxis& axis, const char* cmd) const;
   /// `stop`'s optional axis.
-  [[nodiscard]] protocol::ArgumentSpec stop_axis_spec() const;
+  [[nodiscard]] std::vector<protocol::ArgumentSpec> stop_specs() const;
   [[nodiscard]] ServedAxis& axis_of(const nlohmann::json& args, std::string_view cmd);
   [[nodiscard]] std::string axis_names() const;  ///< "theta, phi, chi"
   /// Checks and keeps a waveform for `axis`; `cmd` names the command in refusals.

@@ -225,11 +225,13 @@ json Daemon::step(const std::string& client, const json& args) {
 }
 
 json Daemon::stop_run(const json& args) {
+  const bool at_once = args.value(wire_key::now, false);
+  const char* how = at_once ? " at once" : "";
   const auto named = args.find(wire_key::axis);
   if (named == args.end() || named->is_null()) {
     if (running()) {
-      run_->runner->request_stop();
-      log_event(fmt::format("run {}: stop requested", run_->id));
+      run_->runner->request_stop(at_once);
+      log_event(fmt::format("run {}: stop{} requested", run_->id, how));
     }
     return protocol::StateReply{run_state_.state()};
   }
@@ -238,8 +240,8 @@ json Daemon::stop_run(const json& args) {
     std::string in_run;
     for (std::size_t i = 0; i < run_->parts.size(); ++i) {
       if (&run_->parts[i]->axis == &axis) {
-        run_->runner->request_stop(i);
-        log_event(fmt::format("run {}: stop of axis {} requested", run_->id, axis.name()));
+        run_->runner->request_axis_stop(i, at_once);
+        log_event(fmt::format("run {}: stop{} of axis {} requested", run_->id, how, axis.name()));
         return protocol::StateReply{run_state_.state()};
       }
       in_run += (in_run.empty() ? "" : ", ") + run_->parts[i]->axis.name();

@@ -141,11 +141,14 @@ SafetyAction DriveLoop::check(Axis& axis, hal::TimeNs now, double t, const hal::
   if (const StopCause fault = program.fault(); fault != StopCause::none) {
     axis.io.supervisor->report_program_fault(fault);
   }
-  const bool stop = io_.stop_requested.load(std::memory_order_relaxed) ||
-                    (axis.io.stop_requested != nullptr &&
-                     axis.io.stop_requested->load(std::memory_order_relaxed));
-  return axis.io.supervisor->check(now, estop, stop,
-                                   t >= settings_.duration_s || program.finished());
+  const auto requested = [](const std::atomic<bool>& board, const std::atomic<bool>* own) {
+    return board.load(std::memory_order_relaxed) ||
+           (own != nullptr && own->load(std::memory_order_relaxed));
+  };
+  const bool stop = requested(io_.stop_requested, axis.io.stop_requested);
+  const bool at_once = requested(io_.stop_now_requested, axis.io.stop_now_requested);
+  return axis.io.supervisor->check(now, estop, stop || at_once,
+                                   t >= settings_.duration_s || program.finished(), at_once);
 }
 
 void DriveLoop::begin_ramp(Axis& axis) {

@@ -32,11 +32,12 @@ LoopRunner::LoopRunner(const LoopRunnerSettings& settings, std::vector<RunAxis> 
       parts.supervisor.set_travel_feed(axis.feed, axis.zero_m, axis.r2_m);
     }
     drive_axes.push_back({axis.limits, axis.period_s, &axis.program, &parts.supervisor, &axis.drive,
-                          &parts.drive_ring, axis.index, &parts.stop});
+                          &parts.drive_ring, axis.index, &parts.stop,
+                          &parts.stop_now});
     acquire_axes.push_back(
         {&axis.sensor, &parts.health, &parts.sensor_ring, axis.feed, axis.index});
   }
-  drive_loop_.emplace(settings.drive, std::move(drive_axes), DriveLoopIo{clock, lines, stop_});
+  drive_loop_.emplace(settings.drive, std::move(drive_axes), DriveLoopIo{clock, lines, stop_, stop_now_});
   acquire_loop_.emplace(clock, std::move(acquire_axes), settings.sensor_rate_hz);
 }
 

@@ -473,7 +473,7 @@ void check_two_axes_one_scan(OutputProbe& probe) {
         fmt::format("one scan drives two axes' channels, each its own waveform: peaks read back "
                     "{:.2f} V on channel 0 (80 V / gain 20) and {:.2f} V on channel 1 (40 V)",
                     high[0], high[1]));
-  runner.request_stop(0);
+  runner.request_axis_stop(0);
   const hal::TimeNs asked = clock.now();
   double zero_after_s = NAN;
   while (clock.now() < asked + hal::from_seconds(5.0)) {

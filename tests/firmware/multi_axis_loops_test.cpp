@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -89,8 +90,14 @@ class ThreeAxes : public ::testing::Test {
             [&](const SensorSample& s) { sensor[i].push_back(s); });
       }
     };
+    bool stop_sent = false;
     while (!runner.finished()) {
       take();
+      if (stop_at_once.has_value() && !stop_sent &&
+          clock.now() >= t0 + hal::from_seconds(stop_at_once->second)) {
+        runner.request_axis_stop(stop_at_once->first, true);
+        stop_sent = true;
+      }
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
     runner.join();
@@ -120,6 +127,9 @@ class ThreeAxes : public ::testing::Test {
   std::vector<std::unique_ptr<DriveProgram>> programs;
   SafetySettings safety;
   bool fault_stops_all = false;
+  /// An operator's stop at once of one axis, once the run's time passes
+  /// the second (the test's loop looks every millisecond of real time).
+  std::optional<std::pair<std::size_t, double>> stop_at_once;
   std::unique_ptr<hal::sim::SimRig> rig;
   hal::TimeNs t0 = 0;
   std::vector<std::vector<DriveSample>> drive;
@@ -200,6 +210,26 @@ TEST_F(ThreeAxes, TheEstopStopsEveryAxisAtOnce) {
     EXPECT_FALSE(rig->plant(i).enabled()) << "the board's enable dropped";
     EXPECT_EQ(rig->drive(i).last_code(), 0u) << "the DAC holds 0 V";
   }
+}
+
+TEST_F(ThreeAxes, AStopAtOnceTakesOneAxisToZeroVoltsWithoutARamp) {
+  safety.ramp_down_V_per_s = 100.0;  // a ramp from the sawtooth's top would take 0.8 s
+  stop_at_once = {{1, 0.2}};
+  run(1.5);
+  EXPECT_EQ(causes[1], StopCause::interrupted);
+  EXPECT_EQ(causes[0], StopCause::completed);
+  EXPECT_EQ(causes[2], StopCause::completed);
+  const auto& stopped = drive[1];
+  ASSERT_GE(stopped.size(), 2u);
+  for (const DriveSample& s : stopped) EXPECT_NE(s.phase, DrivePhase::ramping_down);
+  EXPECT_EQ(stopped.back().phase, DrivePhase::stopped);
+  EXPECT_EQ(stopped.back().V, 0.0);
+  EXPECT_LT(stopped_at(1), 1.0) << "well before the run's end";
+  EXPECT_EQ(stopped.back().t - stopped[stopped.size() - 2].t, 100'000)
+      << "0 V on the deadline after the last driven value";
+  EXPECT_TRUE(outcomes[1].zero_confirmed);
+  EXPECT_GE(stopped_at(0), 1.5) << "the others go on";
+  for (std::size_t i = 0; i < kAxes; ++i) EXPECT_EQ(rig->drive(i).last_code(), 0u);
 }
 
 TEST_F(ThreeAxes, ALapsedLeaseStopsEveryAxis) {

@@ -192,7 +192,7 @@ TEST(GpioDigitalLines, AnEstopEdgeDropsTheEnableLineWithinOneDrivePeriod) {
   firmware::WaveformProgram program(saw);
   firmware::DriveLoop loop({10'000.0, 10.0},
                            {{0.0, 80.0, 20'000.0}, 0.1, &program, &supervisor, &drive, &ring},
-                           {clock, lines, stop});
+                           {clock, lines, stop, stop});
   const TimeNs press_at = t0 + 500'000'000 + 37'000;  // between two drive deadlines
   SleeperScope loop_scope(clock), presser_scope(clock);
   std::thread presser([&, scope = std::move(presser_scope)]() mutable {
@@ -263,7 +263,7 @@ TEST(GpioDigitalLines, AnEstopDropsTheEnableLineWhileTheDriveWriteBlocks) {
   firmware::WaveformProgram program(saw);
   firmware::DriveLoop loop({1000.0, 10.0},
                            {{0.0, 80.0, 1e6}, 0.1, &program, &supervisor, &drive, &ring},
-                           {clock, lines, stop});
+                           {clock, lines, stop, stop});
   std::thread driver([&] { (void)loop.run(t0); });
   // The first write (0 V before enabling) and the enable, then the loop's
   // first cycle blocks in its write for 300 ms: press in the middle of it.

@@ -327,11 +327,15 @@ class Board:
         hello = self._hello or self.hello()
         return {a["name"]: Axis(self, a["name"]) for a in hello.get("axes", [])}
 
-    def stop(self, axis: Optional[str] = None) -> str:
+    def stop(self, axis: Optional[str] = None, now: bool = False) -> str:
         """Ramps the drive to 0 V and ends the run (the controller only);
         with ``axis``, that axis of the run alone (its cause
-        ``interrupted``) while the others go on."""
-        return str(self.call("stop", **({} if axis is None else {"axis": axis}))["state"])
+        ``interrupted``) while the others go on. ``now``: 0 V on the next
+        drive deadline instead of the ramp (an abort that latches nothing)."""
+        args: dict[str, Any] = {} if axis is None else {"axis": axis}
+        if now:
+            args["now"] = True
+        return str(self.call("stop", **args)["state"])
 
     def estop(self) -> str:
         """Disables the amplifier at once; any client may. Latches the fault

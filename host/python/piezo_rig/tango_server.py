@@ -350,12 +350,21 @@ class PiezoAxis(_OnBoard):
         except NoReply as e:
             _raise("Stop", e)
 
-    @command(doc_in="0 V at once: the board's e-stop (every axis; latches estop until "
-                    "ResetFault on the board)")
+    @command(doc_in="0 V at once on this axis, without the ramp (the board's stop with now; "
+                    "cause interrupted); a run another client controls: the board's e-stop")
     def Abort(self) -> None:
         try:
-            self.link.control.estop()
-        except (BoardError, NoReply) as e:
+            self.link.control.stop(self._name, now=True)
+        except BoardError as e:
+            if e.code == "bad_state":
+                return  # nothing runs
+            if e.code != "not_controller":
+                _raise("Abort", e)
+            try:  # not this bridge's run: the one stop any client may send
+                self.link.control.estop()
+            except (BoardError, NoReply) as again:
+                _raise("Abort", again)
+        except NoReply as e:
             _raise("Abort", e)
 
     @command(dtype_in=float, doc_in="the rotor's position now is this angle [rad]: the board "

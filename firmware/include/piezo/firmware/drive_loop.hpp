@@ -55,6 +55,8 @@ struct DriveAxis {
   /// An operator's stop of this axis alone (null: none): it ramps down as
   /// at a stop of the run, while the other axes go on.
   const std::atomic<bool>* stop_requested = nullptr;
+  /// The same stop, at once: 0 V on the next deadline instead of a ramp.
+  const std::atomic<bool>* stop_now_requested = nullptr;
 };
 
 /// The board's devices and channels; all outlive the loop.
@@ -62,6 +64,7 @@ struct DriveLoopIo {
   hal::Clock& clock;
   hal::DigitalLines& lines;
   const std::atomic<bool>& stop_requested;
+  const std::atomic<bool>& stop_now_requested;  ///< every axis's stop, at once
 };
 
 /// How an axis's drive was left when it stopped: what the device

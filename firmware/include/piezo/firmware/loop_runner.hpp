@@ -78,10 +78,17 @@ class LoopRunner {
   hal::TimeNs start(const std::function<void(hal::TimeNs)>& on_time_origin,
                     std::function<bool()> lagging = {});
 
-  /// Asks every axis to ramp down and stop (an operator stop).
-  void request_stop() { stop_.store(true); }
-  /// Asks one axis (its place in the run) to ramp down and stop; the others go on.
-  void request_stop(std::size_t axis) { axes_.at(axis)->stop.store(true); }
+  /// Asks every axis to ramp down and stop (an operator stop); `at_once`:
+  /// 0 V on the next deadline, without the ramp.
+  void request_stop(bool at_once = false) {
+    if (at_once) stop_now_.store(true);
+    stop_.store(true);
+  }
+  /// Asks one axis (its place in the run) to stop so; the others go on.
+  void request_axis_stop(std::size_t axis, bool at_once = false) {
+    if (at_once) axes_.at(axis)->stop_now.store(true);
+    axes_.at(axis)->stop.store(true);
+  }
   /// Both loops have returned.
   [[nodiscard]] bool finished() const { return acquire_done_.load(std::memory_order_acquire); }
   /// Waits for both threads; idempotent.
@@ -119,7 +126,8 @@ class LoopRunner {
     SpscRing<SensorSample> sensor_ring;
     SensorHealth health;
     SafetySupervisor supervisor;
-    std::atomic<bool> stop{false};  ///< an operator's stop of this axis alone
+    std::atomic<bool> stop{false};      ///< an operator's stop of this axis alone
+    std::atomic<bool> stop_now{false};  ///< ... at once, without the ramp
   };
 
   void set_up_thread(int priority, std::string& note) const;
@@ -130,7 +138,7 @@ class LoopRunner {
   const RemoteControl* remote_;  ///< may be null
   std::optional<CpuLatencyRequest> cpu_latency_;
   std::string memory_note_, cpu_note_, drive_note_, acquire_note_;
-  std::atomic<bool> stop_{false}, consumer_failed_{false};
+  std::atomic<bool> stop_{false}, stop_now_{false}, consumer_failed_{false};
   std::atomic<bool> drive_done_{false}, acquire_done_{false};
   std::vector<std::unique_ptr<AxisParts>> axes_;
   std::optional<DriveLoop> drive_loop_;

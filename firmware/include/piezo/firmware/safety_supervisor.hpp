@@ -58,7 +58,8 @@ class SafetySupervisor {
   /// One check per drive cycle. The first cause found sticks; an e-stop or a
   /// failing drive overrides a ramp already under way.
   [[nodiscard]] SafetyAction check(hal::TimeNs now, const hal::EstopState& estop,
-                                   bool stop_requested, bool duration_elapsed) {
+                                   bool stop_requested, bool duration_elapsed,
+                                   bool stop_at_once = false) {
     if (estop.pressed || estop.edge_seen || estop.status != hal::Status::ok ||
         (remote_ != nullptr && remote_->estop.load(std::memory_order_relaxed))) {
       cause_ = StopCause::estop;
@@ -66,8 +67,11 @@ class SafetySupervisor {
     }
     watch_travel();
     if (cause_ == StopCause::none) cause_ = find_cause(now, stop_requested, duration_elapsed);
-    // A drive that does not take writes cannot ramp, whatever stopped it.
-    if (drive_failing()) return SafetyAction::disable_now;
+    // A drive that does not take writes cannot ramp, whatever stopped it;
+    // an operator's stop at once skips the ramp (its cause stays its own).
+    if (drive_failing() || (stop_at_once && cause_ == StopCause::interrupted)) {
+      return SafetyAction::disable_now;
+    }
     return cause_ == StopCause::none ? SafetyAction::run : SafetyAction::ramp_down;
   }
 

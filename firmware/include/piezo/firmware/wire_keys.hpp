@@ -47,6 +47,7 @@ inline constexpr std::string_view move = "move";
 inline constexpr std::string_view moves = "moves";
 inline constexpr std::string_view name = "name";
 inline constexpr std::string_view noise_m = "noise_m";
+inline constexpr std::string_view now = "now";
 inline constexpr std::string_view output = "output";
 inline constexpr std::string_view position = "position";
 inline constexpr std::string_view position_rad = "position_rad";
