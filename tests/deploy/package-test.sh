@@ -90,6 +90,12 @@ cli = json.loads(subprocess.run(["piezo", "simulate", "--json", "--set", "V0=60"
 assert sim.theta_end_rad == cli["theta_end_rad"], (sim.theta_end_rad, cli["theta_end_rad"])
 print("theta_end", sim.theta_end_rad, "rad")' || fail "python3-piezo-rig: simulate against piezo simulate --json"
 echo "PASS import piezo_rig from python3-piezo-rig: simulate matches piezo simulate --json"
+# The Tango bridge ships in the package; PyTango is only recommended, and
+# without it the program says what to install.
+[ -x "$root/usr/bin/piezo-tango" ] || fail "/usr/bin/piezo-tango not installed"
+tango_said=$(in_root piezo-tango lab 2>&1) && fail "piezo-tango ran without PyTango"
+case "$tango_said" in *"apt-get install python3-tango"*) ;; *) fail "piezo-tango without PyTango: $tango_said" ;; esac
+echo "PASS /usr/bin/piezo-tango installed; without python3-tango it says: $tango_said"
 # The installed unit, verified by this machine's systemd (a minimal root has
 # none); its ExecStart pointed at the installed binary inside the root.
 mkdir -p "$work/unit"
@@ -111,9 +117,9 @@ done
 [ "$state" = idle ] || { cat "$work/piezod.log"; fail "piezo status against the packaged piezod: '$state'"; }
 echo "PASS the packaged piezod, run as piezod, answers the packaged piezo status: $state"
 in_root python3 -c "
-from piezo_rig.board import Board
+from piezo_rig.board import Board, PROTOCOL
 with Board('tcp://127.0.0.1:$port') as b:
-    assert b.hello()['protocol'] == 2 and b.status()['state'] == 'idle'
+    assert b.hello()['protocol'] == PROTOCOL and b.status()['state'] == 'idle'
 " || fail "piezo_rig.board against the packaged piezod"
 echo "PASS piezo_rig.board talks to the packaged piezod"
 kill -TERM "$daemon_pid"; wait "$daemon_pid" || fail "piezod exit on SIGTERM"
