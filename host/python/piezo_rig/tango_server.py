@@ -271,6 +271,16 @@ class PiezoAxis(_OnBoard):
         self.push_change_event("State", DevState.MOVING)
         self._last = (self._last[0], DevState.MOVING)
 
+    def _move_option(self, attribute: str, key: str, value: float) -> float:
+        """A move's option as written, once the board's dictionary takes it
+        for this axis (DevFailed naming the key and the limit otherwise)."""
+        try:
+            self.link.control.checked("move_to", {"target_rad": 0.0, key: value,
+                                                  "axis": self._name})
+        except BoardError as e:
+            _raise(attribute, e)
+        return value
+
     @attribute(dtype=float, unit="rad", access=AttrWriteType.READ_WRITE, format="%.3g",
                doc="a move is on target within this (the board's default at start)")
     def Tolerance(self) -> float:
@@ -278,11 +288,7 @@ class PiezoAxis(_OnBoard):
 
     @Tolerance.write  # type: ignore[no-redef]
     def Tolerance(self, value: float) -> None:
-        try:
-            self.link.control.checked("move_to", {"target_rad": 0.0, "tolerance_rad": value})
-        except BoardError as e:
-            _raise("Tolerance", e)
-        self._tolerance_rad = value
+        self._tolerance_rad = self._move_option("Tolerance", "tolerance_rad", value)
 
     @attribute(dtype=float, unit="Hz", access=AttrWriteType.READ_WRITE,
                doc="the coarse steps' sawtooth frequency (the board's default at start)")
@@ -291,11 +297,7 @@ class PiezoAxis(_OnBoard):
 
     @Frequency.write  # type: ignore[no-redef]
     def Frequency(self, value: float) -> None:
-        try:
-            self.link.control.checked("move_to", {"target_rad": 0.0, "f": value})
-        except BoardError as e:
-            _raise("Frequency", e)
-        self._f_hz = value
+        self._f_hz = self._move_option("Frequency", "f", value)
 
     @attribute(dtype=float, unit="V", access=AttrWriteType.READ_WRITE,
                doc="the coarse steps' amplitude V0 (the board's default at start)")
@@ -304,12 +306,7 @@ class PiezoAxis(_OnBoard):
 
     @Amplitude.write  # type: ignore[no-redef]
     def Amplitude(self, value: float) -> None:
-        try:
-            self.link.control.checked("move_to", {"target_rad": 0.0, "V0": value,
-                                                  "axis": self._name})
-        except BoardError as e:
-            _raise("Amplitude", e)
-        self._V0 = value
+        self._V0 = self._move_option("Amplitude", "V0", value)
 
     @attribute(dtype=float, unit="V", doc="the axis's highest drive voltage, as the board declares it")
     def Amplitude_max(self) -> float:
