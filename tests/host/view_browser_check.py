@@ -228,7 +228,7 @@ def main():
         say("ok", len(rows), "run listed; screenshots in", shots)
         move_from_the_page(driver, piezo, piezod, work)
         group_move_on_the_page(driver, piezo, work, shots)
-        ten_tabs(driver, piezo, work)
+        many_tabs(driver, piezo, work)
     finally:
         if driver:
             driver.quit()
@@ -281,35 +281,40 @@ def group_move_on_the_page(driver, piezo, work, shots):
             run.kill()
 
 
-def ten_tabs(driver, piezo, work):
+def many_tabs(driver, piezo, work):
     """Ten live tabs in one browser share one stream (a browser keeps six
     connections to a host: a stream per tab left none for the E-stop), each
     plot shows what /api/live.json shows, and the E-stop in the last tab
-    ends the run at once."""
+    ends the run at once. Under a sanitizer build (PIEZO_BROWSER_TABS), seven:
+    still more than the browser's six connections, and ten tabs of a
+    sanitized server took six minutes to show their updates."""
+    tabs_wanted = int(os.environ.get("PIEZO_BROWSER_TABS", "10"))
     port = free_port()
     err = os.path.join(work, "tabs.err")
+    # The rig's own stall checks are not what this watches: a machine busy
+    # with many tabs must not end the run by a late sensor reading.
     run = peers.spawn(
         [piezo, "run", "--config", os.path.join(SOURCE, "configs", "sim.toml"), "--duration",
-         str(RUN_S), "--view", f"127.0.0.1:{port}", "--control", "--json", "--out",
-         os.path.join(work, "tabs")],
+         str(RUN_S), "--set", "safety.sensor_stale_s=5", "--view", f"127.0.0.1:{port}",
+         "--control", "--json", "--out", os.path.join(work, "tabs")],
         stdout=subprocess.PIPE, stderr=open(err, "w"), text=True)
     try:
         url, token = wait_for_banner(err, time.time() + 60)
         tabs = []
-        for i in range(10):
+        for i in range(tabs_wanted):
             if i:
                 driver.switch_to.new_window("tab")
             driver.get(f"{url}?token={token}")
             tabs.append(driver.current_window_handle)
-        say("ten tabs opened")
+        say(f"{tabs_wanted} tabs opened")
         took = wait_for_updates(driver, tabs, 2)
-        say(f"ten tabs showed two updates each within {took:.1f} s")
+        say(f"{tabs_wanted} tabs showed two updates each within {took:.1f} s")
         if run.poll() is not None:
             with open(err) as f:
                 check(False, f"the run is still running: it exited {run.returncode}: "
-                             f"{f.read()[-2000:]}")
+                             f"{f.read()[-2000:]} {run.stdout.read()[-2000:]}")
         pages = driver.execute_script("return window.piezoView.pages")
-        check(pages == 1, f"ten tabs, one stream: the view serves {pages}")
+        check(pages == 1, f"{tabs_wanted} tabs, one stream: the view serves {pages}")
         # The plot's points, sent as what changed, are the snapshot's. While
         # the run is short its columns widen now and then (and the window is
         # sent again): compared at one width.
@@ -335,11 +340,11 @@ def ten_tabs(driver, piezo, work):
             result = driver.find_element("id", "control-result").text
             time.sleep(0.05)
         took = time.time() - start
-        check(result == "estop sent", f"the E-stop in the tenth tab answered: {result!r}")
+        check(result == "estop sent", f"the E-stop in the last tab answered: {result!r}")
         out, _ = run.communicate(timeout=120)
         summary = json.loads(out)
         check("estop" in summary["stop_cause"], f"the run ended by the e-stop: {summary}")
-        say(f"ten tabs, one stream; e-stop from the tenth answered in {took:.2f} s; run "
+        say(f"{tabs_wanted} tabs, one stream; e-stop from the last answered in {took:.2f} s; run "
               f"{summary['status']} ({summary['stop_cause']}); {len(shown)} points as the snapshot's")
         for tab in tabs[1:]:
             driver.switch_to.window(tab)

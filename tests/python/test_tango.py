@@ -387,3 +387,40 @@ def test_the_pages_session_scans_through_the_bridge(served, watcher, tmp_path, s
     finally:
         server.kill()
         server.wait()
+
+
+def test_a_board_that_needs_keys_is_reached_with_the_bridges_own(tmp_path, source):
+    """Towards the board the bridge is a client like any other: on a board
+    with CURVE it brings its own keys (--keys), and without them gets no reply."""
+    piezod = os.environ["PIEZOD_BINARY"]
+    keys = tmp_path / "keys"
+    keys.mkdir()
+    for name in ("board", "bridge"):
+        subprocess.run([piezod, "keygen", "--out", str(keys), "--name", name], check=True,
+                       capture_output=True)
+    (keys / "authorized_keys").write_text((keys / "bridge.pub").read_text())
+    config = tmp_path / "curve.toml"
+    with open(os.path.join(source, "configs", "piezod-sim.toml")) as f:
+        config.write_text(f.read().replace(
+            "[piezod]\n", f'[piezod]\nsecret_key_file = "{keys}/board.key"\n'
+                          f'authorized_keys_file = "{keys}/authorized_keys"\n', 1))
+    process, address = peers.start_piezod(piezod, str(config), str(tmp_path / "piezod.err"))
+    try:
+        refused = subprocess.run([*SERVER, "lab", "--nodb", "--port", str(peers.free_port()),
+                                  "--board", address], capture_output=True, text=True,
+                                 timeout=60)
+        assert refused.returncode == 2 and "no reply" in refused.stderr, refused.stderr
+        server, port = start_server(tmp_path, address, "--keys",
+                                    f"{keys}/board.pub,{keys}/bridge.key")
+        try:
+            axis = tango.DeviceProxy(f"tango://127.0.0.1:{port}/piezo/lab/rotor#dbase=no")
+            wait_for(lambda: axis.state() == DevState.ON, 10, "ON")
+            axis.Position = 0.001
+            wait_for(lambda: axis.state() == DevState.ON, 60, "arrived")
+            assert abs(axis.Position - 0.001) <= axis.Tolerance
+        finally:
+            server.kill()
+            server.wait()
+    finally:
+        process.terminate()
+        process.wait(10)

@@ -16,7 +16,6 @@ docs/tango.md says how to start it, with a Tango database or without."""
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import tempfile
 import threading
@@ -64,10 +63,10 @@ class _OnBoard(Device):
     """What both devices share: the board's address and keys, its link."""
 
     board_address = device_property(
-        dtype=str, default_value=os.environ.get("PIEZO_TANGO_BOARD", "tcp://127.0.0.1:5555"),
+        dtype=str, default_value="tcp://127.0.0.1:5555",
         doc="the board's piezod command address (its stream is on port + 1)")
     board_keys = device_property(
-        dtype=str, default_value=os.environ.get("PIEZO_TANGO_KEYS", ""),
+        dtype=str, default_value="",
         doc="CURVE key files, SERVER_PUBLIC,CLIENT_SECRET (piezod keygen); needed on any "
             "board address but loopback")
 
@@ -541,8 +540,6 @@ def main(argv: Optional[list[str]] = None) -> int:
                              "machine only; 0.0.0.0 every interface, so anyone who reaches it "
                              "may move the motor (docs/tango.md, 'Listening on a network')")
     options, tango_args = parser.parse_known_args(argv)
-    os.environ["PIEZO_TANGO_BOARD"] = options.board
-    os.environ["PIEZO_TANGO_KEYS"] = options.keys
     args = ["piezo-tango", options.instance, *tango_args]
     endpoint = f"giop:tcp:{options.listen}:{options.port or ''}"
     args += ["-ORBendPoint", endpoint]
