@@ -98,6 +98,14 @@ def far(proxy):
     return (proxy.Position or 0.0) + 0.05
 
 
+def at_rest_near(position, target, tolerance):
+    """A position read at rest after a move on target: the move ended within
+    the tolerance by its own measurement; the board's position at rest is a
+    later mean of 8 readings, which may differ by their noise (the simulated
+    sensor's mean of 8 is a few µrad), so half a tolerance more."""
+    return abs(position - target) <= 1.5 * tolerance
+
+
 def last_summary(board):
     return (board.status().get("run") or {}).get("summary") or {}
 
@@ -126,8 +134,8 @@ def test_a_move_is_seen_as_it_happens(axis, watcher):
     assert len(during) >= 3, positions
     move = last_summary(watcher)["move"]
     assert move["stop_cause"] == "on_target", move
-    assert abs(axis.Position - 0.002) <= axis.Tolerance, (axis.Position, move)
-    assert abs(axis.Position - move["position_rad"]) < 5 * axis.Tolerance
+    assert abs(move["position_rad"] - 0.002) <= axis.Tolerance, move
+    assert at_rest_near(axis.Position, 0.002, axis.Tolerance), (axis.Position, move)
 
 
 def test_stop_mid_move_ends_interrupted_at_zero_volts(axis, watcher):
@@ -343,7 +351,7 @@ def test_every_axis_is_a_device_and_the_board_moves_a_group(tmp_path, source):
             chi.Position = 0.6
         phi.Position = -0.003
         wait_for(lambda: phi.state() == DevState.ON, 60, "phi arrived")
-        assert abs(phi.Position + 0.003) <= phi.Tolerance
+        assert at_rest_near(phi.Position, -0.003, phi.Tolerance)
         with Board(address) as watcher:
             assert watcher.status()["run"]["axis"] == "phi"
             board.MoveGroup([[0.002, 0.001], ["theta", "chi"]])
@@ -354,8 +362,8 @@ def test_every_axis_is_a_device_and_the_board_moves_a_group(tmp_path, source):
             ends = {a["name"]: a["move"]["stop_cause"]
                     for a in last_summary(watcher)["axes"]}
         assert ends == {"theta": "on_target", "chi": "on_target"}, ends
-        assert abs(theta.Position - 0.002) <= theta.Tolerance
-        assert abs(chi.Position - 0.001) <= chi.Tolerance
+        assert at_rest_near(theta.Position, 0.002, theta.Tolerance)
+        assert at_rest_near(chi.Position, 0.001, chi.Tolerance)
         assert board.Last_cause == "completed"
     finally:
         server.kill()
@@ -382,7 +390,7 @@ def test_the_pages_session_scans_through_the_bridge(served, watcher, tmp_path, s
         tolerance = float(re.search(r"tolerance (\S+) rad", out.stdout).group(1))
         scanned = re.findall(r"target (\S+) rad: at (\S+) rad, ON", out.stdout)
         assert len(scanned) == 4, out.stdout
-        assert all(abs(float(t) - float(at)) <= tolerance for t, at in scanned), scanned
+        assert all(at_rest_near(float(at), float(t), tolerance) for t, at in scanned), scanned
         assert int(re.search(r"(\d+) position events", out.stdout).group(1)) >= 4
     finally:
         server.kill()
@@ -417,7 +425,7 @@ def test_a_board_that_needs_keys_is_reached_with_the_bridges_own(tmp_path, sourc
             wait_for(lambda: axis.state() == DevState.ON, 10, "ON")
             axis.Position = 0.001
             wait_for(lambda: axis.state() == DevState.ON, 60, "arrived")
-            assert abs(axis.Position - 0.001) <= axis.Tolerance
+            assert at_rest_near(axis.Position, 0.001, axis.Tolerance)
         finally:
             server.kill()
             server.wait()

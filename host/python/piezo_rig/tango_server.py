@@ -35,12 +35,14 @@ from .tango_link import AxisView, BoardLink
 POSITION_ABS_CHANGE_RAD = 1e-6
 
 
-def _keys(text: str) -> Optional[tuple[str, str]]:
-    """``SERVER_PUBLIC,CLIENT_SECRET`` key files, or none."""
-    if not text:
+def _keys(files: list[str]) -> Optional[tuple[str, str]]:
+    """The board's public key file and the bridge's secret key file, or none."""
+    if not files:
         return None
-    server, _, client = text.partition(",")
-    return server.strip(), client.strip()
+    if len(files) != 2:
+        raise ValueError(f"board_keys: {len(files)} files; give two: the board's public key "
+                         "and this bridge's secret key")
+    return files[0], files[1]
 
 
 def _raise(what: str, error: BaseException) -> None:
@@ -66,15 +68,15 @@ class _OnBoard(Device):
         dtype=str, default_value="tcp://127.0.0.1:5555",
         doc="the board's piezod command address (its stream is on port + 1)")
     board_keys = device_property(
-        dtype=str, default_value="",
-        doc="CURVE key files, SERVER_PUBLIC,CLIENT_SECRET (piezod keygen); needed on any "
-            "board address but loopback")
+        dtype=(str,), default_value=[],
+        doc="CURVE key files (piezod keygen): the board's public key, this bridge's secret "
+            "key; needed on any board address but loopback")
 
     link: BoardLink
 
     def _open_link(self) -> None:
         try:
-            self.link = BoardLink.of(self.board_address, _keys(self.board_keys))
+            self.link = BoardLink.of(self.board_address, _keys(list(self.board_keys or [])))
         except (ValueError, TypeError, OSError) as e:
             _raise(f"board_address {self.board_address!r}", e)
 
@@ -501,7 +503,7 @@ class PiezoBoard(_OnBoard):
             _raise("MoveGroup", failure[0])
 
 
-def _file_database(instance: str, address: str, keys: str, axes: list[str]) -> str:
+def _file_database(instance: str, address: str, keys: list[str], axes: list[str]) -> str:
     """A Tango file database (``-file=``) naming one device per axis and the
     board's: what a server without a database serves."""
     server = f"piezo-tango/{instance}"
@@ -510,7 +512,7 @@ def _file_database(instance: str, address: str, keys: str, axes: list[str]) -> s
     for device in [f"piezo/{instance}/board"] + [f"piezo/{instance}/{a}" for a in axes]:
         lines.append(f'{device}->board_address: "{address}"')
         if keys:
-            lines.append(f'{device}->board_keys: "{keys}"')
+            lines.append(f"{device}->board_keys: " + ", ".join(f'"{k}"' for k in keys))
     for a in axes:
         lines.append(f'piezo/{instance}/{a}->axis: "{a}"')
     return "\n".join(lines) + "\n"
@@ -540,6 +542,7 @@ def main(argv: Optional[list[str]] = None) -> int:
                              "machine only; 0.0.0.0 every interface, so anyone who reaches it "
                              "may move the motor (docs/tango.md, 'Listening on a network')")
     options, tango_args = parser.parse_known_args(argv)
+    keys = [k.strip() for k in options.keys.split(",")] if options.keys else []
     args = ["piezo-tango", options.instance, *tango_args]
     endpoint = f"giop:tcp:{options.listen}:{options.port or ''}"
     args += ["-ORBendPoint", endpoint]
@@ -547,14 +550,14 @@ def main(argv: Optional[list[str]] = None) -> int:
         # The board names its axes: ask it, and refuse a wrong address now.
         from .board import Board
         try:
-            with Board(options.board, keys=_keys(options.keys), timeout=3.0) as board:
+            with Board(options.board, keys=_keys(keys), timeout=3.0) as board:
                 axes = [a["name"] for a in board.hello().get("axes", [])]
-        except (BoardError, NoReply, ValueError) as e:
+        except (BoardError, NoReply, ValueError, OSError) as e:
             print(f"piezo-tango: --board {options.board}: {e}", file=sys.stderr)
             return 2
         database = tempfile.NamedTemporaryFile("w", prefix="piezo-tango-", suffix=".db",
                                                delete=False)
-        database.write(_file_database(options.instance, options.board, options.keys, axes))
+        database.write(_file_database(options.instance, options.board, keys, axes))
         database.close()
         args += [f"-file={database.name}"]
         print(f"piezo-tango: devices piezo/{options.instance}/board and "
