@@ -347,6 +347,8 @@ def test_every_axis_is_a_device_and_the_board_moves_a_group(tmp_path, source):
         wait_for(lambda: all(d.state() == DevState.ON for d in (theta, phi, chi)), 10, "ON")
         assert list(board.Axes) == ["theta", "phi", "chi"]
         assert chi.Travel_max == 0.5 and chi.Amplitude_max == 60.0 and phi.Amplitude_max == 80.0
+        with Board(address) as b:
+            assert theta.Frequency_max == b.hello()["limits"]["f_max_hz"] > 0
         with pytest.raises(tango.DevFailed, match="travel window"):
             chi.Position = 0.6
         phi.Position = -0.003

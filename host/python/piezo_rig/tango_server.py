@@ -314,6 +314,12 @@ class PiezoAxis(_OnBoard):
         view = self._view
         return view.V_max if view else float("nan")
 
+    @attribute(dtype=float, unit="Hz", doc="the highest sawtooth frequency the board takes "
+                                          "(hello.limits.f_max_hz)")
+    def Frequency_max(self) -> float:
+        limits = self.link.hello.get("limits") or {}
+        return float(limits.get("f_max_hz", float("nan")))
+
     @attribute(dtype=float, unit="rad", doc="the travel window's lower end (NaN: none)")
     def Travel_min(self) -> float:
         view = self._view
