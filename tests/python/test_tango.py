@@ -17,7 +17,9 @@ import time
 
 import pytest
 
-tango = pytest.importorskip("tango")
+# scripts/setup.sh installs PyTango (python3-tango): without it these tests
+# fail rather than skip, so a set-up that missed it is not green.
+import tango  # noqa: E402
 from tango import DevState  # noqa: E402
 from tango.test_context import MultiDeviceTestContext  # noqa: E402
 
@@ -236,15 +238,26 @@ def test_the_device_follows_its_board_going_and_coming_back(tmp_path):
 
 
 def start_server(tmp_path, address, *extra):
+    """piezo-tango started as a supervisor starts it: output to a file, no
+    variable of the caller's that changes Python's buffering. Ready when its
+    board device answers a ping, as a client would find out; by then its
+    readiness line is in the file (PyTango prints it before serving)."""
     port = peers.free_port()
     log = open(tmp_path / "tango.err", "w")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
     server = peers.spawn([*SERVER, "lab", "--nodb", "--port", str(port), "--board", address,
-                          *extra], stderr=log, stdout=log)
+                          *extra], stderr=log, stdout=log, env=env)
     deadline = time.monotonic() + 60
-    while "Ready to accept request" not in (tmp_path / "tango.err").read_text():
-        assert server.poll() is None and time.monotonic() < deadline, \
-            (tmp_path / "tango.err").read_text()
-        time.sleep(0.1)
+    while True:
+        try:
+            tango.DeviceProxy(f"tango://127.0.0.1:{port}/piezo/lab/board#dbase=no").ping()
+            break
+        except tango.DevFailed:
+            assert server.poll() is None and time.monotonic() < deadline, \
+                (tmp_path / "tango.err").read_text()
+            time.sleep(0.2)
+    assert "Ready to accept request" in (tmp_path / "tango.err").read_text(), \
+        "the readiness line is written when it is printed"
     return server, port
 
 

@@ -16,6 +16,7 @@ docs/tango.md says how to start it, with a Tango database or without."""
 from __future__ import annotations
 
 import argparse
+import io
 import sys
 import tempfile
 import threading
@@ -548,6 +549,12 @@ def main(argv: Optional[list[str]] = None) -> int:
                              "machine only; 0.0.0.0 every interface, so anyone who reaches it "
                              "may move the motor (docs/tango.md, 'Listening on a network')")
     options, tango_args = parser.parse_known_args(argv)
+    # Each line reaches a log file or a supervisor as it is written, whatever
+    # the environment: PyTango prints its "Ready to accept request" on
+    # sys.stdout, which Python block-buffers when stdout is not a terminal.
+    for stream in (sys.stdout, sys.stderr):
+        if isinstance(stream, io.TextIOWrapper):
+            stream.reconfigure(line_buffering=True)
     keys = [k.strip() for k in options.keys.split(",")] if options.keys else []
     args = ["piezo-tango", options.instance, *tango_args]
     endpoint = f"giop:tcp:{options.listen}:{options.port or ''}"

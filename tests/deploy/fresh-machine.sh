@@ -1,0 +1,82 @@
+#!/usr/bin/env bash
+# The README's Quick start on a fresh machine: a bare Debian 12 root
+# (debootstrap --variant=minbase), a clone of this repository's HEAD in it,
+# and the README's two commands run one after the other from a login shell
+# with a plain environment (HOME, PATH, TERM: nothing this machine sets for
+# Python, pip or a compiler cache). Run before a release, not in every CI
+# run: it installs every package and builds everything from nothing (about
+# two hours on two cores; docs/testing.md has the last figures).
+#
+# Needs root (chroot, mounts) and debootstrap. Each command's output goes to
+# WORK_DIR/main-job.log and WORK_DIR/test-all.log; the last lines say how
+# long each took and how it ended. Exit status: 0 when both commands exit 0.
+# Usage: tests/deploy/fresh-machine.sh WORK_DIR
+set -euo pipefail
+work="$(realpath -m "${1:?usage: fresh-machine.sh WORK_DIR}")"
+repo="$(cd "$(dirname "$0")/../.." && pwd)"
+
+[ "$(id -u)" -eq 0 ] || { echo "fresh-machine: needs root (chroot)" >&2; exit 2; }
+command -v debootstrap > /dev/null ||
+  { echo "fresh-machine: needs debootstrap (apt-get install debootstrap)" >&2; exit 2; }
+
+root="$work/root"
+mounts=(proc sys dev dev/pts run tmp)
+unmount() {
+  local m
+  for ((i = ${#mounts[@]} - 1; i >= 0; i--)); do
+    m="$root/${mounts[i]}"
+    mountpoint -q "$m" && umount -l "$m"
+  done
+  return 0
+}
+trap unmount EXIT
+mkdir -p "$work"
+unmount
+rm -rf "$root"
+
+echo "fresh-machine: debootstrap --variant=minbase bookworm"
+debootstrap --variant=minbase bookworm "$root" http://deb.debian.org/debian \
+  > "$work/debootstrap.log" 2>&1 || { tail -20 "$work/debootstrap.log"; exit 1; }
+cp /etc/resolv.conf "$root/etc/resolv.conf"
+mount -t proc proc "$root/proc"
+mount --rbind /sys "$root/sys"
+mount --rbind /dev "$root/dev"
+mount -t devpts -o newinstance devpts "$root/dev/pts" 2> /dev/null || true
+mount -t tmpfs tmpfs "$root/run"
+mount -t tmpfs -o mode=1777 tmpfs "$root/tmp"
+
+# The clone sits where a user would have it, with the shared folder that CI
+# lays beside the repository when this machine has one.
+git clone -q --no-hardlinks "$repo" "$root/root/piezo-rig"
+[ -d "$repo/../shared" ] && cp -r "$repo/../shared" "$root/root/shared"
+
+# A registry reached through this machine's own certificate authority needs
+# its bundle inside the root too (Node.js reads no system store of its own).
+pass=()
+if [ -n "${NODE_EXTRA_CA_CERTS:-}" ] && [ -f "$NODE_EXTRA_CA_CERTS" ]; then
+  cp "$NODE_EXTRA_CA_CERTS" "$root/etc/registry-ca.crt"
+  pass+=(NODE_EXTRA_CA_CERTS=/etc/registry-ca.crt)
+fi
+
+# in_root COMMAND: the README's command in the clone, from a login shell.
+in_root() {
+  chroot "$root" /usr/bin/env -i HOME=/root TERM=dumb \
+    PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin "${pass[@]}" \
+    /bin/bash -lc "cd /root/piezo-rig && $1"
+}
+
+results=()
+status=0
+for command in scripts/main-job.sh scripts/test-all.sh; do
+  name=$(basename "$command" .sh)
+  echo "fresh-machine: $command (output in $work/$name.log)"
+  start=$SECONDS
+  rc=0
+  in_root "$command" > "$work/$name.log" 2>&1 < /dev/null || rc=$?
+  results+=("$(printf '%-22s exit %d after %dm%02ds' "$command" "$rc" \
+    $(((SECONDS - start) / 60)) $(((SECONDS - start) % 60)))")
+  ((rc == 0)) || { status=1; tail -30 "$work/$name.log"; }
+done
+echo "fresh-machine: Debian $(cat "$root/etc/debian_version"), $(git -C "$repo" rev-parse --short HEAD)"
+printf 'fresh-machine: %s\n' "${results[@]}"
+exit $status
