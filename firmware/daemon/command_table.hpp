@@ -33,8 +33,11 @@ struct Command {
 
 class CommandTable {
  public:
-  explicit CommandTable(std::vector<Command> commands) : commands_(std::move(commands)) {}
-  /// Runs `cmd` for `client`; throws ProtocolError for what it refuses.
+  /// `board_id`: this board start's identity; the commands that name the
+  /// board (protocol::names_board) take it as their optional `board`.
+  CommandTable(std::vector<Command> commands, std::string board_id);
+  /// Runs `cmd` for `client`; throws ProtocolError for what it refuses (a
+  /// request naming another board start: `stale_board`, before anything else).
   [[nodiscard]] nlohmann::json dispatch(const std::string& client, const std::string& cmd,
                                         const nlohmann::json& args, const RunState& state) const;
   /// The commands' names, comma-separated, in the table's order.
@@ -47,6 +50,7 @@ class CommandTable {
 
  private:
   std::vector<Command> commands_;
+  std::string board_id_;
   mutable std::vector<std::uint64_t> counts_ = std::vector<std::uint64_t>(commands_.size() + 1);
 };
 

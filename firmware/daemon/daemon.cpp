@@ -4,6 +4,7 @@
 
 #include <cerrno>
 #include <filesystem>
+#include <random>
 #include <zmq_addon.hpp>
 
 #include "calibration.hpp"
@@ -28,6 +29,14 @@ constexpr auto kHealthPeriod = std::chrono::milliseconds(250);
 
 namespace {
 
+/// A board start's identity: 64 random bits as hex, unlike any earlier
+/// start's (a restart on the same port is told apart from the board before).
+std::string new_board_id() {
+  std::random_device entropy;
+  const std::uint64_t bits = (std::uint64_t{entropy()} << 32U) | entropy();
+  return fmt::format("{:016x}", bits);
+}
+
 /// Where an axis keeps its calibration: the board's file, or on a board of
 /// several axes that file with the axis's name before its extension
 /// ("calibration.json": "calibration.theta.json").
@@ -46,6 +55,7 @@ Daemon::Daemon(const config::BoardConfig& board, zmq::context_t& context, const 
 Daemon::Daemon(const config::BoardConfig& board, config::Rig rig, zmq::context_t& context,
                const std::string& listen, std::ostream& log)
     : board_(board),
+      board_id_(new_board_id()),
       log_(log),
       rig_(std::move(rig)),
       context_(context),
@@ -85,8 +95,9 @@ Daemon::Daemon(const config::BoardConfig& board, config::Rig rig, zmq::context_t
                            axes_.size() > 1 ? "axis " + axis->name() + ": " : "",
                            axis->config.drive.backend(), axis->config.sensor.backend());
   }
-  log_event(fmt::format("listening: commands {}, stream {}; {}; lines {}", command_endpoint_,
-                        stream_endpoint_, devices, board_.lines.backend()));
+  log_event(fmt::format("listening: commands {}, stream {}; {}; lines {}; board id {}",
+                        command_endpoint_, stream_endpoint_, devices, board_.lines.backend(),
+                        board_id_));
 }
 
 Daemon::~Daemon() = default;
@@ -120,6 +131,10 @@ void Daemon::bind_sockets() {
     log_event("WARNING: --insecure: plain text on a network address, any peer may connect");
   }
   commands_.set(zmq::sockopt::router_mandatory, 0);
+  // A client that gave up on a request closes its socket (so the request
+  // never leaves it) and opens another under the same routing id: the new
+  // connection takes the old one's place, and a controller stays one.
+  commands_.set(zmq::sockopt::router_handover, 1);
   // Larger than the largest command, so an oversized one is read and
   // answered too_large instead of costing its sender its connection and
   // the replies in flight on it.
@@ -385,7 +400,7 @@ CommandTable Daemon::command_table() {
        [this](Who c, Args a) {
          return samples_.fetch(c, a, running() && !run_state_.is_controller(c));
        }},
-  });
+  }, board_id_);
 }
 
 }  // namespace piezo::daemon

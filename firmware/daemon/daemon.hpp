@@ -157,6 +157,9 @@ class Daemon {
   void publish_health();
 
   config::BoardConfig board_;
+  /// This start's identity (hello's board_id): new at every start, so no
+  /// client takes a restarted board for the one it knew.
+  const std::string board_id_;
   std::ostream& log_;
   config::Rig rig_;
   zmq::context_t& context_;

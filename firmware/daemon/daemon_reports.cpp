@@ -42,6 +42,7 @@ protocol::Hello Daemon::hello() const {
   const auto& lim = c.drive.limits;
   protocol::Hello h;
   h.protocol = protocol::kProtocolVersion;
+  h.board_id = board_id_;
   h.frame_version = protocol::kFrameVersion;
   h.daemon = PIEZO_VERSION;
   h.stream = stream_endpoint_;
@@ -86,6 +87,7 @@ protocol::Status::Position Daemon::position_of(const ServedAxis& axis) const {
 
 protocol::Status Daemon::status(const std::string& client) const {
   protocol::Status s;
+  s.board_id = board_id_;
   s.state = run_state_.state();
   s.board_ns = rig_.clock->now();
   s.controller = run_state_.is_controller(client);
@@ -216,6 +218,7 @@ void Daemon::publish_state() {
 
 void Daemon::publish_health() {
   protocol::HealthEvent e;
+  e.board_id = board_id_;
   e.state = run_state_.state();
   e.board_ns = rig_.clock->now();
   if (running()) {

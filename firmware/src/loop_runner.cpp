@@ -2,6 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
+#include <utility>
+
+#include <fmt/format.h>
 
 namespace piezo::firmware {
 namespace {
@@ -20,7 +24,9 @@ LoopRunner::LoopRunner(const LoopRunnerSettings& settings, std::vector<RunAxis> 
                        hal::Clock& clock, hal::DigitalLines& lines, const RemoteControl* remote)
     : settings_(settings), clock_(clock), remote_(remote) {
   std::vector<DriveAxis> drive_axes;
-  std::vector<AcquireAxis> acquire_axes;
+  // Each sensor line's axes, in the board's order: a sensor of its own is a
+  // line of its own.
+  std::vector<std::pair<std::string, std::vector<AcquireAxis>>> lines_of_sensors;
   for (const RunAxis& axis : axes) {
     auto& parts = *axes_.emplace_back(std::make_unique<AxisParts>(
         ring_capacity(settings.drive.rate_hz, settings.ring_s),
@@ -34,11 +40,24 @@ LoopRunner::LoopRunner(const LoopRunnerSettings& settings, std::vector<RunAxis> 
     drive_axes.push_back({axis.limits, axis.period_s, &axis.program, &parts.supervisor, &axis.drive,
                           &parts.drive_ring, axis.index, &parts.stop,
                           &parts.stop_now});
-    acquire_axes.push_back(
-        {&axis.sensor, &parts.health, &parts.sensor_ring, axis.feed, axis.index});
+    const AcquireAxis reading{&axis.sensor, &parts.health, &parts.sensor_ring, axis.feed,
+                              axis.index};
+    const std::string line = axis.sensor.shared_line();
+    const auto shared = std::find_if(lines_of_sensors.begin(), lines_of_sensors.end(),
+                                     [&](const auto& l) { return !line.empty() && l.first == line; });
+    if (shared != lines_of_sensors.end()) {
+      shared->second.push_back(reading);
+    } else {
+      lines_of_sensors.push_back({line, {reading}});
+    }
   }
   drive_loop_.emplace(settings.drive, std::move(drive_axes), DriveLoopIo{clock, lines, stop_, stop_now_});
-  acquire_loop_.emplace(clock, std::move(acquire_axes), settings.sensor_rate_hz);
+  for (auto& [line, readings] : lines_of_sensors) {
+    acquire_loops_.push_back(std::make_unique<AcquireLoop>(clock, std::move(readings),
+                                                           settings.sensor_rate_hz, sensor_health_));
+  }
+  threads_ready_.emplace(static_cast<std::ptrdiff_t>(1 + acquire_loops_.size()));
+  acquire_running_.store(acquire_loops_.size(), std::memory_order_release);
 }
 
 LoopRunner::~LoopRunner() {
@@ -78,24 +97,29 @@ hal::TimeNs LoopRunner::start(const std::function<void(hal::TimeNs)>& on_time_or
   });
   clock_hooked_ = true;
 
-  hal::SleeperScope drive_scope(clock), acquire_scope(clock);
+  hal::SleeperScope drive_scope(clock);
   drive_thread_ = std::thread([&, scope = std::move(drive_scope)]() mutable {
     const hal::SleeperScope mine(std::move(scope));
     set_up_thread(settings_.priority, drive_note_);
-    threads_ready_.count_down();
+    threads_ready_->count_down();
     time_origin_fixed_.wait();
     cause_ = drive_loop_->run(t0_);
     drive_done_.store(true, std::memory_order_release);
   });
-  acquire_thread_ = std::thread([&, scope = std::move(acquire_scope)]() mutable {
-    const hal::SleeperScope mine(std::move(scope));
-    set_up_thread(std::max(0, settings_.priority - 1), acquire_note_);
-    threads_ready_.count_down();
-    time_origin_fixed_.wait();
-    acquire_loop_->run(t0_, drive_done_);
-    acquire_done_.store(true, std::memory_order_release);
-  });
-  threads_ready_.wait();
+  for (std::size_t i = 0; i < acquire_loops_.size(); ++i) {
+    hal::SleeperScope acquire_scope(clock);
+    acquire_threads_.emplace_back([&, i, scope = std::move(acquire_scope)]() mutable {
+      const hal::SleeperScope mine(std::move(scope));
+      std::string note;
+      set_up_thread(std::max(0, settings_.priority - 1), note);
+      if (i == 0) acquire_note_ = std::move(note);  // every line's thread is set up alike
+      threads_ready_->count_down();
+      time_origin_fixed_.wait();
+      acquire_loops_[i]->run(t0_, drive_done_);
+      acquire_running_.fetch_sub(1, std::memory_order_acq_rel);
+    });
+  }
+  threads_ready_->wait();
   t0_ = clock.now() + hal::from_seconds(kStartLead_s);
   for (const auto& a : axes_) {
     a->supervisor.set_time_origin(t0_);
@@ -108,7 +132,9 @@ hal::TimeNs LoopRunner::start(const std::function<void(hal::TimeNs)>& on_time_or
 
 void LoopRunner::join() {
   if (drive_thread_.joinable()) drive_thread_.join();
-  if (acquire_thread_.joinable()) acquire_thread_.join();
+  for (std::thread& t : acquire_threads_) {
+    if (t.joinable()) t.join();
+  }
   if (clock_hooked_) {
     clock_.set_backpressure({});
     clock_hooked_ = false;
@@ -122,7 +148,11 @@ std::vector<std::string> LoopRunner::realtime_notes() const {
   if (settings_.lock_memory) notes.push_back(memory_note_);
   notes.push_back(cpu_note_);
   notes.push_back("drive loop: " + drive_note_);
-  notes.push_back("acquire loop: " + acquire_note_);
+  notes.push_back(fmt::format("acquire loop{}: {}",
+                              acquire_loops_.size() > 1
+                                  ? fmt::format("s (one per sensor line, {})", acquire_loops_.size())
+                                  : std::string(),
+                              acquire_note_));
   return notes;
 }
 

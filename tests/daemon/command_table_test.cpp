@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
 
 #include "piezo/protocol/error.hpp"
@@ -37,7 +38,14 @@ struct Table {
          last_args = a;
          return json("changed");
        }},
-  }};
+      {"estop",
+       Caller::anyone,
+       {},
+       [this](const std::string&, const json&) {
+         ++handled;
+         return json("stopped");
+       }},
+  }, "b0a4d"};
 };
 
 /// "code key" of the ProtocolError `f` throws, or "" when it throws none.
@@ -60,7 +68,8 @@ TEST(CommandTable, AnUnknownCommandIsRefusedListingThemAll) {
   } catch (const protocol::ProtocolError& e) {
     EXPECT_EQ(e.code(), "unknown_command");
     EXPECT_EQ(e.key(), "cmd");
-    EXPECT_NE(std::string(e.what()).find("allowed: watch, change"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("allowed: watch, change, estop"), std::string::npos)
+        << e.what();
   }
   EXPECT_EQ(t.handled, 0);
 }
@@ -86,6 +95,36 @@ TEST(CommandTable, DuringAnotherClientsRunOnlyAnyonesCommandsAreServed) {
   EXPECT_EQ(t.table.dispatch("b", "watch", json::object(), s), "watched");
   EXPECT_EQ(t.table.dispatch("a", "change", json::object(), s), "changed");
   EXPECT_EQ(t.handled, 2);
+}
+
+TEST(CommandTable, ARequestNamingAnotherBoardStartIsRefusedBeforeAnythingElse) {
+  Table t;
+  RunState s;
+  s.started("a");
+  // Even the controller's own request, and before its caller is judged.
+  EXPECT_EQ(refusal([&] { (void)t.table.dispatch("a", "change", {{"board", "0ld"}}, s); }),
+            "stale_board board");
+  EXPECT_EQ(refusal([&] { (void)t.table.dispatch("b", "watch", {{"board", "0ld"}}, s); }),
+            "stale_board board");
+  EXPECT_EQ(refusal([&] { (void)t.table.dispatch("a", "change", {{"board", 7}}, s); }),
+            "bad_argument board");
+  EXPECT_EQ(t.handled, 0);
+  EXPECT_EQ(t.table.dispatch("a", "change", {{"board", "b0a4d"}, {"V0", 1}}, s), "changed");
+  EXPECT_EQ(t.table.dispatch("a", "change", {{"V0", 1}}, s), "changed") << "board is optional";
+}
+
+TEST(CommandTable, AnEstopNamesNoBoardStartAndIsNeverRefusedForOne) {
+  Table t;
+  RunState s;
+  EXPECT_EQ(t.table.dispatch("b", "estop", json::object(), s), "stopped");
+  EXPECT_EQ(refusal([&] { (void)t.table.dispatch("b", "estop", {{"board", "0ld"}}, s); }),
+            "bad_argument board")
+      << "estop takes no board: an e-stop is honoured whoever sent it";
+  for (const auto& spec : t.table.specs()) {
+    const bool takes_board = std::any_of(spec.args.begin(), spec.args.end(),
+                                         [](const auto& a) { return a.name == "board"; });
+    EXPECT_EQ(takes_board, spec.name != "estop") << spec.name;
+  }
 }
 
 }  // namespace

@@ -257,10 +257,10 @@ TEST(Messages, EventsAndSummariesRoundTrip) {
   EXPECT_TRUE(json(idle).at("run").is_null()) << "nil, as documented";
 
   HealthEvent h{BoardState::running, 99,  a_health(true), a_health(true), a_move(false),
-                std::nullopt,        0.25};
+                std::nullopt,        0.25,           "5eed"};
   EXPECT_EQ(json(over_the_wire(h)), json(h));
   HealthEvent quiet{BoardState::idle, 1,           std::nullopt, std::nullopt, std::nullopt,
-                    std::nullopt,     std::nullopt};
+                    std::nullopt,     std::nullopt, "5eed"};
   EXPECT_EQ(json(over_the_wire(quiet)), json(quiet));
 }
 
@@ -306,7 +306,7 @@ TEST(Messages, TheWiresEnumsBecomeTheirNamesInJson) {
   EXPECT_EQ(json(BoardState::ramping_down), "ramping_down");
   EXPECT_EQ(json(firmware::StopCause::link_lost), "link_lost");
   EXPECT_EQ(json(firmware::OutputState::enable_unconfirmed), "enable_unconfirmed");
-  const json health = HealthEvent{BoardState::running, 1, {}, {}, {}, {}, {}};
+  const json health = HealthEvent{BoardState::running, 1, {}, {}, {}, {}, {}, "a1b2"};
   EXPECT_EQ(health.at("state"), "running");
 }
 

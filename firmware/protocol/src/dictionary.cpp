@@ -32,6 +32,8 @@ constexpr std::string_view type_name(ArgumentType t) {
       return "flag";
     case ArgumentType::map:
       return "map";
+    case ArgumentType::text:
+      return "text";
     case ArgumentType::number:
       break;
   }
@@ -249,6 +251,13 @@ std::optional<ArgumentBreach> check_arguments(const json& dictionary, std::strin
     if (type == "map") {
       if (!value.is_object()) {
         return ArgumentBreach{code::bad_argument, key, "expected a map or nil"};
+      }
+      continue;
+    }
+    if (type == "text") {
+      if (!value.is_string()) {
+        return ArgumentBreach{code::bad_argument, key,
+                              fmt::format("expected text; got {}", wire::shown(value))};
       }
       continue;
     }

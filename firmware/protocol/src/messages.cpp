@@ -115,6 +115,7 @@ template <>
 struct Fields<Hello> {
   using T = Hello;
   static constexpr auto list = std::tuple{field(wire_key::protocol, &T::protocol),
+                                          field(wire_key::board_id, &T::board_id, may_be_missing),
                                           field("frame_version", &T::frame_version),
                                           field("daemon", &T::daemon),
                                           field(wire_key::stream, &T::stream),
@@ -256,6 +257,7 @@ template <>
 struct Fields<HealthEvent> {
   using T = HealthEvent;
   static constexpr auto list = std::tuple{
+      field(wire_key::board_id, &T::board_id, may_be_missing),
       field(wire_key::state, &T::state),
       field(wire_key::board_ns, &T::board_ns),
       field(wire_key::drive, &T::drive, omitted_when_absent),
@@ -311,7 +313,8 @@ struct Fields<Status::Axis> {
 template <>
 struct Fields<Status> {
   using T = Status;
-  static constexpr auto list = std::tuple{field(wire_key::state, &T::state),
+  static constexpr auto list = std::tuple{field(wire_key::board_id, &T::board_id, may_be_missing),
+                                          field(wire_key::state, &T::state),
                                           field(wire_key::board_ns, &T::board_ns),
                                           field(wire_key::controller, &T::controller),
                                           field("controlled", &T::controlled),

@@ -8,6 +8,8 @@ namespace piezo::hal::modbus {
 ModbusSensor::ModbusSensor(const LinkSettings& link, const RegisterMap& map, const Clock& clock)
     : link_(link.transport == LinkSettings::Transport::rtu ? Link::on_serial_line(link)
                                                            : std::make_shared<Link>(link)),
+      shared_line_(link.transport == LinkSettings::Transport::rtu ? "modbus " + link.describe()
+                                                                  : std::string()),
       map_(map),
       clock_(clock) {}
 

@@ -36,7 +36,7 @@ import zmq
 
 from . import frames
 from .errors import (BadArgument, BoardError, ClientClosed, NoReply, OutOfLimits, RunEnded,
-                     UnknownCommand, board_error)
+                     StaleBoard, UnknownCommand, board_error)
 
 PROTOCOL = 3
 LOOPBACK = ("tcp://127.0.0.1:", "tcp://localhost:", "tcp://[::1]:")
@@ -98,6 +98,10 @@ def _check_argument(command: str, a: dict[str, Any], value: Any) -> None:
     if kind == "map":
         if not isinstance(value, dict):
             raise BadArgument(command, key, "expected a map or None", "bad_argument")
+        return
+    if kind == "text":
+        if not isinstance(value, str):
+            raise BadArgument(command, key, f"expected text; got {value!r}", "bad_argument")
         return
     if kind == "choice":
         if value not in a["choices"]:
@@ -183,9 +187,14 @@ class Board:
             self._curve = (_read_key(server_file, "public-key"),
                            _read_key(client_file, "public-key"),
                            _read_key(client_file, "secret-key"))
-        self._socket = self._socket_for(zmq.DEALER)
-        self._socket.connect(address)
+        # The board hands a connection under this id over to its new socket
+        # (a controller stays one); random, so no other client guesses it.
+        self._routing_id = b"piezo_rig-" + os.urandom(8).hex().encode()
+        self._socket = self._command_socket()
         self._lock = threading.Lock()
+        #: The board start this client knows (``hello()["board_id"]``); None
+        #: before ``hello`` and after the board was seen to restart.
+        self.board_id: Optional[str] = None
         self._ids = itertools.count(1)
         self._hello: Optional[dict[str, Any]] = None
         self._dictionary: Optional[dict[str, Any]] = None
@@ -201,6 +210,16 @@ class Board:
         if self._curve is not None:
             s.curve_serverkey, s.curve_publickey, s.curve_secretkey = self._curve
         return s
+
+    def _command_socket(self) -> zmq.Socket[bytes]:
+        s = self._socket_for(zmq.DEALER)
+        s.setsockopt(zmq.ROUTING_ID, self._routing_id)
+        s.connect(self.address)
+        return s
+
+    def _forget_board(self) -> None:
+        """Drops what this client knew of the board: a new start is read anew."""
+        self.board_id, self._hello, self._dictionary, self._layout = None, None, None, None
 
     def close(self) -> None:
         """Ends this client: a run of it still going is stopped (ramp to
@@ -224,19 +243,31 @@ class Board:
     def call(self, command: str, **args: Any) -> dict[str, Any]:
         """Sends one request and returns its ``result`` map; raises the
         error code's exception (``piezo_rig.errors``) when refused, and
-        ``NoReply`` after ``timeout`` seconds. Thread-safe."""
+        ``NoReply`` after ``timeout`` seconds. Thread-safe. Every request
+        that may name the board start names the one this client knows (asking
+        ``hello`` first when it knows none): one the board restarted since
+        raises ``StaleBoard`` and does nothing."""
+        if self.board_id is None and command != "hello" and self._names_board(command):
+            self.hello()
         with self._lock:
             if self._closed:
                 raise ClientClosed(f"{command}: this Board was closed")
             request_id = next(self._ids)
             request = {"id": request_id, "cmd": command}
-            if args:
-                request["args"] = {key: _wire(command, key, value) for key, value in args.items()}
+            wire_args = {key: _wire(command, key, value) for key, value in args.items()}
+            if self.board_id is not None and self._names_board(command):
+                wire_args["board"] = self.board_id
+            if wire_args:
+                request["args"] = wire_args
             self._socket.send(msgpack.packb(request))
             deadline = time.monotonic() + self.timeout
             while True:
                 left = deadline - time.monotonic()
                 if left <= 0 or not self._socket.poll(int(left * 1000) + 1):
+                    # The request must not leave later: it goes with the
+                    # socket that holds it (LINGER 0), and another is opened.
+                    self._socket.close()
+                    self._socket = self._command_socket()
                     raise NoReply(f"{command}: no reply from {self.address} in {self.timeout:g} s")
                 reply = msgpack.unpackb(self._socket.recv(), raw=False)
                 # An earlier request's late reply is dropped; a refusal with
@@ -245,9 +276,20 @@ class Board:
                 if reply.get("id") == request_id or reply.get("id") is None:
                     break
         if not reply["ok"]:
-            raise board_error(command, reply["error"])
+            error = board_error(command, reply["error"])
+            if isinstance(error, StaleBoard):
+                self._forget_board()
+            raise error
         result: dict[str, Any] = reply["result"]
         return result
+
+    def _names_board(self, command: str) -> bool:
+        """Whether ``command`` takes ``board`` on this board (its dictionary
+        says; before it is read, every command but the two that never do)."""
+        if self._dictionary is None:
+            return command not in ("hello", "estop")
+        return any(a["name"] == "board" for a in
+                   self._dictionary["commands"].get(command, {}).get("args", []))
 
     def hello(self) -> dict[str, Any]:
         """The board: protocol, limits, sensor radius (``sensor.r2_m``) and
@@ -258,7 +300,9 @@ class Board:
             raise BoardError("hello", "protocol",
                              f"the board speaks protocol {hello.get('protocol')}, "
                              f"this client {PROTOCOL}")
-        self._hello = hello
+        if self.board_id is not None and hello.get("board_id") != self.board_id:
+            self._forget_board()  # a new start: nothing known of the old one holds
+        self._hello, self.board_id = hello, hello.get("board_id")
         return hello
 
     def describe(self) -> dict[str, Any]:

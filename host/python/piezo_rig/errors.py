@@ -79,9 +79,17 @@ class Internal(BoardError):
     code = "internal"
 
 
+class StaleBoard(BoardError):
+    """The request named a board start that is gone: the board restarted
+    since this client asked ``hello``, and did nothing. The ``Board`` has
+    dropped what it knew of the old one (limits, axes, zero, dictionary);
+    its next request reads them again."""
+    code = "stale_board"
+
+
 ERRORS = {cls.code: cls for cls in (Malformed, TooLarge, UnknownCommand, BadArgument, OutOfLimits,
                                     BadState, FaultLatched, NotController, NotAvailable,
-                                    RateLimited, Internal)}
+                                    RateLimited, Internal, StaleBoard)}
 
 
 def board_error(command: str, error: dict[str, Any]) -> BoardError:
@@ -93,7 +101,9 @@ def board_error(command: str, error: dict[str, Any]) -> BoardError:
 
 
 class NoReply(TimeoutError):
-    """The board did not answer in time (it is down, or the link is)."""
+    """The board did not answer in time (it is down, or the link is). The
+    request was discarded with the socket that held it: it never reaches
+    the board later."""
 
 
 class ClientClosed(RuntimeError):

@@ -72,6 +72,12 @@ class BoardLink:
         self.control = Board(address, keys=keys, timeout=3.0)
         self._watch = Board(address, keys=keys, timeout=1.0)
         self.hello: dict[str, Any] = {}
+        #: The board start the views are of (``hello``'s ``board_id``); a new
+        #: one (the board restarted) replaces everything known of the old.
+        self.board_id: Optional[str] = None
+        #: Counts the board starts seen: a device drops its own words of the
+        #: last one (its last move's end) when this changes.
+        self.generation = 0
         self.axes: dict[str, AxisView] = {}
         self.reachable = False
         self.problem = "not yet heard from"
@@ -137,12 +143,21 @@ class BoardLink:
             self._tell()
 
     def _introduce(self) -> None:
-        """hello and the frame layout, once per (re)connection."""
+        """hello and the frame layout, once per (re)connection. A board that
+        restarted is a new board: nothing known of the old start is kept
+        (positions, zero, windows, the last run), and the client that moves
+        the motor learns the new start before it sends anything."""
         self.hello = self._watch.hello()
         self._layout = self._watch.frame_layout
+        same = self.hello.get("board_id") == self.board_id
+        if not same:
+            self.control.hello()
+            self.board_id = self.hello.get("board_id")
+            self.generation += 1
+            self.last_summary, self.health = {}, {}
         views = {}
         for index, a in enumerate(self.hello.get("axes", [])):
-            old = self.axes.get(a["name"])
+            old = self.axes.get(a["name"]) if same else None
             views[a["name"]] = AxisView(
                 name=a["name"], index=index, r2_m=float(a["r2_m"]),
                 travel_min_rad=a.get("travel_min_rad"), travel_max_rad=a.get("travel_max_rad"),
@@ -176,7 +191,11 @@ class BoardLink:
         try:
             if not self.hello:
                 self._introduce()
-            self._take_status(self._watch.status())
+            status = self._watch.status()
+            if status.get("board_id") != self.board_id:  # restarted since hello
+                self._introduce()
+                status = self._watch.status()
+            self._take_status(status)
         except NoReply as e:
             self.hello = {}
             self._lost(f"no reply from the board at {self.address}: {e}")
@@ -237,7 +256,10 @@ class BoardLink:
                 self._tell()
             elif topic in (b"state", b"health"):
                 event = msgpack.unpackb(body, raw=False)
-                changed = event.get("state") != self.state or "summary" in event
+                if event.get("board_id", self.board_id) != self.board_id:
+                    self.hello = {}  # a new board start: introduced afresh below
+                changed = (event.get("state") != self.state or "summary" in event
+                           or not self.hello)
                 if "summary" in event:
                     self.last_summary = event["summary"]
                 if topic == b"health":

@@ -108,6 +108,7 @@ class PiezoAxis(_OnBoard):
         self._open_link()
         self._moving = False  # a move or calibration of this device's is under way
         self._move_error = ""
+        self._generation = self.link.generation  # the board start _move_error is of
         self._last: tuple[Optional[float], Optional[DevState]] = (None, None)
         self._tolerance_rad = float("nan")
         self._f_hz = float("nan")
@@ -188,6 +189,8 @@ class PiezoAxis(_OnBoard):
 
     def _changed(self, link: BoardLink) -> None:
         """From the follower: pushes what changed."""
+        if link.generation != self._generation:  # a new board start
+            self._generation, self._move_error = link.generation, ""
         state, status = self._state()
         self.set_state(state)
         self.set_status(status)

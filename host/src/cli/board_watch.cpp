@@ -129,13 +129,13 @@ void BoardWatch::poll(std::chrono::milliseconds wait) {
          {"sensor_samples", follower_.sensor_next()},
          {"sensor_errors",
           health_.value(wire_key::sensor, json::object()).value(wire_key::errors, 0)},
-         {"board", health_},
+         {wire_key::board, health_},
          {"errors_by_class",
           {{wire_key::drive, first.collector.drive_errors()},
            {wire_key::sensor, first.collector.sensor_errors()}}},
          {wire_key::lease_s, lease_json()}});
   } else {
-    feed_.set_status({{"board", health_}});
+    feed_.set_status({{wire_key::board, health_}});
   }
 }
 

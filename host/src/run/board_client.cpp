@@ -3,11 +3,13 @@
 #include <fmt/format.h>
 
 #include <cerrno>
+#include <random>
 #include <zmq_addon.hpp>
 
 #include "daemon/client_authentication.hpp"
 #include "piezo/config/config_error.hpp"
 #include "piezo/firmware/wire_keys.hpp"
+#include "piezo/protocol/board_identity.hpp"
 #include "piezo/protocol/endpoints.hpp"
 #include "piezo/protocol/message.hpp"
 
@@ -20,39 +22,50 @@ BoardClient::BoardClient(const config::BoardAddress& rig, zmq::context_t& shared
     : BoardClient(rig, std::shared_ptr<zmq::context_t>(&shared, [](zmq::context_t*) {})) {}
 
 BoardClient::BoardClient(const config::BoardAddress& rig, std::shared_ptr<zmq::context_t> context)
-    : address_(rig.address),
-      context_(std::move(context)),
-      commands_(*context_, zmq::socket_type::dealer),
-      stream_(*context_, zmq::socket_type::sub) {
-  const std::string stream_address = protocol::stream_endpoint(address_);
+    : address_(rig.address), context_(std::move(context)) {
   if (!rig.server_public_key_file.empty() || !rig.client_secret_key_file.empty()) {
     if (rig.server_public_key_file.empty() || rig.client_secret_key_file.empty()) {
       throw std::runtime_error(
           "rig: CURVE needs both server_public_key_file and "
           "client_secret_key_file");
     }
-    const std::string server = daemon::read_key(rig.server_public_key_file, "public-key");
-    const std::string mine = daemon::read_key(rig.client_secret_key_file, "public-key");
-    const std::string secret = daemon::read_key(rig.client_secret_key_file, "secret-key");
-    for (auto* s : {&commands_, &stream_}) {
-      s->set(zmq::sockopt::curve_serverkey, server);
-      s->set(zmq::sockopt::curve_publickey, mine);
-      s->set(zmq::sockopt::curve_secretkey, secret);
-    }
+    curve_ = Curve{daemon::read_key(rig.server_public_key_file, "public-key"),
+                   daemon::read_key(rig.client_secret_key_file, "public-key"),
+                   daemon::read_key(rig.client_secret_key_file, "secret-key")};
   }
-  for (auto* s : {&commands_, &stream_}) {
-    s->set(zmq::sockopt::linger, 0);
-    s->set(zmq::sockopt::reconnect_ivl, 100);
-    s->set(zmq::sockopt::reconnect_ivl_max, 2000);  // back-off after an outage
-  }
+  // A routing id of the client's own (ZeroMQ reserves a leading zero byte
+  // for the ids it makes up), random so that no other client guesses it.
+  std::random_device entropy;
+  routing_id_ = fmt::format("piezo-{:08x}{:08x}", entropy(), entropy());
+  stream_ = open_socket(zmq::socket_type::sub);
   stream_.set(zmq::sockopt::rcvhwm, 100'000);
-  if (protocol::is_ipv6_endpoint(address_)) {
-    commands_.set(zmq::sockopt::ipv6, 1);
-    stream_.set(zmq::sockopt::ipv6, 1);
+  try {
+    stream_.connect(protocol::loopback_literal(protocol::stream_endpoint(address_)));
+  } catch (const zmq::error_t& e) {
+    throw std::runtime_error(fmt::format("rig address \"{}\": {}", address_, e.what()));
   }
+  open_commands();
+}
+
+zmq::socket_t BoardClient::open_socket(zmq::socket_type type) const {
+  zmq::socket_t s(*context_, type);
+  if (curve_) {
+    s.set(zmq::sockopt::curve_serverkey, curve_->server_public);
+    s.set(zmq::sockopt::curve_publickey, curve_->public_key);
+    s.set(zmq::sockopt::curve_secretkey, curve_->secret_key);
+  }
+  s.set(zmq::sockopt::linger, 0);  // closing drops what was not sent
+  s.set(zmq::sockopt::reconnect_ivl, 100);
+  s.set(zmq::sockopt::reconnect_ivl_max, 2000);  // back-off after an outage
+  if (protocol::is_ipv6_endpoint(address_)) s.set(zmq::sockopt::ipv6, 1);
+  return s;
+}
+
+void BoardClient::open_commands() {
+  commands_ = open_socket(zmq::socket_type::dealer);
+  commands_.set(zmq::sockopt::routing_id, routing_id_);
   try {
     commands_.connect(protocol::loopback_literal(address_));
-    stream_.connect(protocol::loopback_literal(stream_address));
   } catch (const zmq::error_t& e) {
     throw std::runtime_error(fmt::format("rig address \"{}\": {}", address_, e.what()));
   }
@@ -70,7 +83,9 @@ bool poll_in(zmq::socket_t& socket, std::chrono::milliseconds timeout) {
 }
 
 void BoardClient::send(const std::string& cmd, const nlohmann::json& args) {
-  const std::string body = protocol::encode_request({next_id_++, cmd, args});
+  nlohmann::json named = args;
+  if (!board_id_.empty() && protocol::names_board(cmd)) named[wire_key::board] = board_id_;
+  const std::string body = protocol::encode_request({next_id_++, cmd, named});
   (void)commands_.send(zmq::buffer(body), zmq::send_flags::dontwait);
 }
 
@@ -83,6 +98,7 @@ nlohmann::json BoardClient::call(const std::string& cmd, const nlohmann::json& a
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
         give_up - std::chrono::steady_clock::now());
     if (left.count() <= 0) {
+      open_commands();  // the request, if still queued here, goes with the old socket
       throw LinkTimeout(fmt::format("{}: no reply from piezod at {} within {} ms", cmd, address_,
                                     timeout.count()));
     }
@@ -109,7 +125,9 @@ protocol::Hello BoardClient::hello() {
         "piezod at {} speaks protocol version {}, this piezo version {}: update one of them",
         address_, version, protocol::kProtocolVersion));
   }
-  return protocol::decode<protocol::Hello>(hello);
+  auto typed = protocol::decode<protocol::Hello>(hello);
+  board_id_ = typed.board_id;
+  return typed;
 }
 
 protocol::Hello axis_view(const protocol::Hello& hello, const std::string& axis,

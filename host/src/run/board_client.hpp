@@ -43,6 +43,12 @@ class BoardClient {
 
   /// Sends a command and waits for its reply; replies to earlier commands
   /// that arrive meanwhile are dropped. Throws RemoteError or LinkTimeout.
+  /// A request given up on never reaches the board later: at the timeout
+  /// the command socket, with what it still holds, is closed and another
+  /// opened under the same routing id (the board hands the connection over,
+  /// so a controller stays one). Once `hello` has named the board start,
+  /// every request that may name it does (docs/protocol.md, "A board's
+  /// identity"): a board that restarted since refuses it (`stale_board`).
   nlohmann::json call(const std::string& cmd, const nlohmann::json& args = nlohmann::json::object(),
                       std::chrono::milliseconds timeout = std::chrono::milliseconds(2000));
   /// The board's `hello`, typed. Throws (naming the board's address and
@@ -53,6 +59,8 @@ class BoardClient {
   /// Sends a command without waiting (lease renewals); its reply is dropped.
   void send(const std::string& cmd, const nlohmann::json& args = nlohmann::json::object());
 
+  /// The board start `hello` named (empty before it).
+  [[nodiscard]] const std::string& board_id() const { return board_id_; }
   /// Subscribes the stream to the given topics ("drive", "sensor", "state", "health").
   void subscribe(std::initializer_list<const char*> topics);
   [[nodiscard]] zmq::socket_t& stream() { return stream_; }
@@ -60,8 +68,18 @@ class BoardClient {
 
  private:
   BoardClient(const config::BoardAddress& rig, std::shared_ptr<zmq::context_t> context);
+  /// A socket of `type` with this client's keys and reconnection options.
+  [[nodiscard]] zmq::socket_t open_socket(zmq::socket_type type) const;
+  /// A new command socket under this client's routing id, connected.
+  void open_commands();
 
+  struct Curve {
+    std::string server_public, public_key, secret_key;
+  };
   std::string address_;
+  std::optional<Curve> curve_;
+  std::string routing_id_;  ///< this client's, kept across reopened command sockets
+  std::string board_id_;    ///< the board start hello named
   std::shared_ptr<zmq::context_t> context_;  ///< its own, or a shared one (not owned)
   zmq::socket_t commands_, stream_;
   std::uint64_t next_id_ = 1;

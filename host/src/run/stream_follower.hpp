@@ -90,7 +90,8 @@ class StreamFollower {
                                 std::nullopt,
                                 std::nullopt,
                                 std::nullopt,
-                                std::nullopt};
+                                std::nullopt,
+                                {}};
   std::uint64_t drive_next_ = 0, sensor_next_ = 0;
   SteadyClock::time_point last_heard_ = SteadyClock::now();
   std::vector<std::string> gaps_;

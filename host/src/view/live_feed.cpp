@@ -22,7 +22,7 @@ constexpr std::uint64_t kZoomEvery = 4;
 /// health and its summary; returns the health's, by loop.
 nlohmann::json take_histograms(nlohmann::json& status) {
   nlohmann::json taken = nlohmann::json::object();
-  auto board = status.find("board");
+  auto board = status.find(wire_key::board);
   if (board == status.end() || !board->is_object()) return taken;
   for (const std::string_view loop : {wire_key::drive, wire_key::sensor}) {
     auto health = board->find(loop);

@@ -1,11 +1,15 @@
 #pragma once
 /// @file
-/// The acquire loop: at its configured rate it issues one blocking read per
-/// axis's sensor, one after the other in the same tick, reports each
+/// An acquire loop: at its configured rate it issues one blocking read per
+/// sensor of one line, one after the other in the same tick, reports each
 /// outcome to that axis's safety supervisor (through its SensorHealth) and
-/// pushes a timestamped SensorSample to the axis's ring. Same rules as the
-/// drive loop: no allocation, locks, exceptions or I/O beyond the HAL
-/// inside it.
+/// pushes a timestamped SensorSample to the axis's ring. A run has one such
+/// loop, on a thread of its own, per sensor line (a sensor of its own, or
+/// the sensors sharing a bus or a card: hal::DisplacementSensor::shared_line),
+/// so a sensor that stalls slows only the axes on its line. The loops share
+/// one LoopHealth (its counters and histogram take several writers). Same
+/// rules as the drive loop: no allocation, locks, exceptions or I/O beyond
+/// the HAL inside it.
 
 #include <atomic>
 #include <vector>
@@ -31,13 +35,13 @@ struct AcquireAxis {
 
 class AcquireLoop {
  public:
-  /// `axes` holds at least one axis.
-  AcquireLoop(hal::Clock& clock, std::vector<AcquireAxis> axes, double rate_hz);
+  /// `axes` holds at least one axis; `health` outlives the loop.
+  AcquireLoop(hal::Clock& clock, std::vector<AcquireAxis> axes, double rate_hz,
+              LoopHealth& health);
 
   /// Samples from t0 until `stop` is set (the drive loop has finished).
   void run(hal::TimeNs t0, const std::atomic<bool>& stop);
 
-  [[nodiscard]] LoopHealth& health() { return health_; }
   [[nodiscard]] const LoopHealth& health() const { return health_; }
 
  private:
@@ -46,7 +50,7 @@ class AcquireLoop {
   hal::Clock& clock_;
   std::vector<AcquireAxis> axes_;
   hal::TimeNs period_;
-  LoopHealth health_;
+  LoopHealth& health_;
 };
 
 }  // namespace piezo::firmware

@@ -1,8 +1,10 @@
 #pragma once
 /// @file
 /// One run of the real-time part: each axis's rings, sensor health and
-/// safety supervisor, the drive and acquire loops (one tick for every
-/// axis), their threads and real-time set-up, and the virtual clock's
+/// safety supervisor, the drive loop (one tick for every axis) and an
+/// acquire loop per sensor line (every line on the same deadlines, each on
+/// its own thread: one stalled sensor costs only its line's axes their
+/// readings), their threads and real-time set-up, and the virtual clock's
 /// backpressure. piezod, the tests and the benchmarks start runs through
 /// it; whoever owns it drains the rings.
 
@@ -70,7 +72,7 @@ class LoopRunner {
   LoopRunner(const LoopRunner&) = delete;
   LoopRunner& operator=(const LoopRunner&) = delete;
 
-  /// Starts both loop threads, waits until they are set up, then fixes the
+  /// Starts the loops' threads, waits until they are set up, then fixes the
   /// time origin a little ahead (so the first deadline is not already
   /// late), tells `on_time_origin` and lets the loops go. `lagging`, on the
   /// virtual clock, holds time back while the consumer is behind (the rings
@@ -89,9 +91,11 @@ class LoopRunner {
     if (at_once) axes_.at(axis)->stop_now.store(true);
     axes_.at(axis)->stop.store(true);
   }
-  /// Both loops have returned.
-  [[nodiscard]] bool finished() const { return acquire_done_.load(std::memory_order_acquire); }
-  /// Waits for both threads; idempotent.
+  /// Every loop has returned.
+  [[nodiscard]] bool finished() const {
+    return acquire_running_.load(std::memory_order_acquire) == 0;
+  }
+  /// Waits for every thread; idempotent.
   void join();
 
   /// Hands every queued sample of one axis to the callbacks (one consumer thread).
@@ -104,7 +108,10 @@ class LoopRunner {
   [[nodiscard]] std::size_t axis_count() const { return axes_.size(); }
   [[nodiscard]] hal::TimeNs time_origin() const { return t0_; }
   [[nodiscard]] const LoopHealth& drive_health() const { return drive_loop_->health(); }
-  [[nodiscard]] const LoopHealth& sensor_health() const { return acquire_loop_->health(); }
+  /// Every sensor line's loop counts here (cycles: each line's ticks, summed).
+  [[nodiscard]] const LoopHealth& sensor_health() const { return sensor_health_; }
+  /// How many acquire loops (sensor lines) the run has.
+  [[nodiscard]] std::size_t sensor_lines() const { return acquire_loops_.size(); }
   /// Valid after join(): how the run ended (DriveLoop::run), and each axis.
   [[nodiscard]] StopCause cause() const { return cause_; }
   [[nodiscard]] StopCause cause(std::size_t axis) const { return drive_loop_->cause(axis); }
@@ -139,14 +146,18 @@ class LoopRunner {
   std::optional<CpuLatencyRequest> cpu_latency_;
   std::string memory_note_, cpu_note_, drive_note_, acquire_note_;
   std::atomic<bool> stop_{false}, stop_now_{false}, consumer_failed_{false};
-  std::atomic<bool> drive_done_{false}, acquire_done_{false};
+  std::atomic<bool> drive_done_{false};
   std::vector<std::unique_ptr<AxisParts>> axes_;
   std::optional<DriveLoop> drive_loop_;
-  std::optional<AcquireLoop> acquire_loop_;
+  LoopHealth sensor_health_;
+  std::vector<std::unique_ptr<AcquireLoop>> acquire_loops_;  ///< one per sensor line
+  std::atomic<std::size_t> acquire_running_{0};  ///< acquire loops not yet returned
   hal::TimeNs t0_ = 0;
   StopCause cause_ = StopCause::none;
-  std::latch threads_ready_{2}, time_origin_fixed_{1};
-  std::thread drive_thread_, acquire_thread_;
+  std::optional<std::latch> threads_ready_;  ///< the drive thread and each acquire thread
+  std::latch time_origin_fixed_{1};
+  std::thread drive_thread_;
+  std::vector<std::thread> acquire_threads_;
   bool clock_hooked_ = false;
 };
 

@@ -1,9 +1,9 @@
 #pragma once
 /// @file
 /// Distribution of a loop's period error (wake-up lateness) with fixed
-/// 1 us bins: recorded in the loop without allocation or lock. One writer
-/// (the loop); any thread may read it while the loop runs (the live view):
-/// every counter is a relaxed atomic the writer alone increments.
+/// 1 us bins: recorded in the loop without allocation or lock. Writers: the
+/// loop, or the acquire loops of a run (one per sensor line); any thread may
+/// read it while they run (the live view): every counter is a relaxed atomic.
 
 #include <algorithm>
 #include <array>
@@ -23,8 +23,8 @@ class PeriodHistogram {
     const auto bin = std::min<hal::TimeNs>(clamped / 1000, kBins - 1);
     bump(bins_[static_cast<std::size_t>(bin)], std::uint64_t{1});
     bump(count_, std::uint64_t{1});
-    if (clamped > max_ns_.load(std::memory_order_relaxed)) {
-      max_ns_.store(clamped, std::memory_order_relaxed);
+    hal::TimeNs max = max_ns_.load(std::memory_order_relaxed);
+    while (clamped > max && !max_ns_.compare_exchange_weak(max, clamped, std::memory_order_relaxed)) {
     }
     bump(sum_ns_, clamped);
   }
@@ -59,10 +59,9 @@ class PeriodHistogram {
   }
 
  private:
-  /// The one writer's increment: no read-modify-write instruction needed.
   template <class T>
   static void bump(std::atomic<T>& counter, T by) {
-    counter.store(counter.load(std::memory_order_relaxed) + by, std::memory_order_relaxed);
+    counter.fetch_add(by, std::memory_order_relaxed);
   }
 
   std::array<std::atomic<std::uint64_t>, kBins> bins_{};

@@ -26,6 +26,7 @@ enum class ArgumentType : std::uint8_t {
   choice,   ///< one of `choices`' names
   flag,     ///< true or false
   map,      ///< a map (a calibration record), or nil
+  text,     ///< any text (an identity such as `board`)
 };
 
 struct Argument {

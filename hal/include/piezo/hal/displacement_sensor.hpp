@@ -2,6 +2,8 @@
 /// @file
 /// The displacement sensor (a laser triangulation sensor on the rig).
 
+#include <string>
+
 #include "piezo/hal/clock.hpp"
 #include "piezo/hal/status.hpp"
 
@@ -24,6 +26,13 @@ class DisplacementSensor {
   /// One blocking read, bounded by the backend's timeout. Called from the
   /// acquire loop: no allocation, no exceptions.
   [[nodiscard]] virtual DisplacementReading read() = 0;
+
+  /// The line its reads go over when other sensors share it and must be
+  /// read one after another, from one thread (an RS-485 bus, one card's
+  /// input): those sensors are read in one loop, in turn. Empty: a line of
+  /// its own, read on its own clock, so a sensor that stalls costs no
+  /// other axis its readings.
+  [[nodiscard]] virtual std::string shared_line() const { return {}; }
 };
 
 }  // namespace piezo::hal

@@ -23,6 +23,7 @@ class RangeCheckedSensor final : public DisplacementSensor {
     }
     return r;
   }
+  [[nodiscard]] std::string shared_line() const override { return inner_.shared_line(); }
 
  private:
   DisplacementSensor& inner_;

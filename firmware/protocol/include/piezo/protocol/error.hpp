@@ -24,10 +24,14 @@ inline constexpr const char* rate_limited = "rate_limited";    ///< over a clien
 inline constexpr const char* not_available = "not_available";  ///< samples no longer recorded
 inline constexpr const char* bad_frame = "bad_frame";  ///< a sample frame that does not decode
 inline constexpr const char* internal = "internal";    ///< the daemon failed; it goes on
+/// A request naming another board start than this one: sent to a board
+/// that has restarted since its client last asked `hello`.
+inline constexpr const char* stale_board = "stale_board";
 /// Every code, in the docs' order (the board's dictionary lists them).
-inline constexpr std::array<const char*, 12> kAll{
-    malformed,     too_large,      unknown_command, bad_argument,  out_of_limits, bad_state,
-    fault_latched, not_controller, rate_limited,    not_available, bad_frame,     internal};
+inline constexpr std::array<const char*, 13> kAll{
+    malformed,      too_large,    unknown_command, bad_argument, out_of_limits,
+    bad_state,      fault_latched, not_controller, rate_limited, not_available,
+    bad_frame,      internal,     stale_board};
 }  // namespace code
 
 class ProtocolError : public std::runtime_error {

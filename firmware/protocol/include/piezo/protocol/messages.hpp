@@ -81,6 +81,10 @@ struct AxisInfo {
 /// the first axis's; `axes` lists every axis.
 struct Hello {
   std::uint32_t protocol = 0;
+  /// This start of the board, new at each: a request naming another one is
+  /// refused (`stale_board`), so nothing sent to a board before it
+  /// restarted acts on the new one.
+  std::string board_id;
   std::uint32_t frame_version = 0;
   std::string daemon;  ///< piezod's version
   std::string stream;  ///< the PUB endpoint
@@ -334,6 +338,7 @@ inline constexpr const char* kUnknownCommands = "(unknown)";
 
 /// `status`'s reply: the board's full snapshot.
 struct Status {
+  std::string board_id;  ///< as in hello
   BoardState state = BoardState::idle;
   std::int64_t board_ns = 0;
   bool controller = false;  ///< the caller controls the rig
@@ -409,6 +414,7 @@ struct HealthEvent {
   std::optional<MoveAccount> move;          ///< a move's progress (a group's: its first axis's)
   std::optional<std::vector<MoveAccount>> moves;  ///< a group move's, one per axis
   std::optional<double> calibration_progress;
+  std::string board_id;  ///< as in hello: a follower sees a restart here
 };
 
 void to_json(nlohmann::json& j, const Hello& m);

@@ -35,6 +35,8 @@ class ComediAnalogInput final : public DisplacementSensor {
   /// The newest sample the card took (older ones the loop did not ask for
   /// are skipped), as a displacement.
   [[nodiscard]] DisplacementReading read() override;
+  /// The card: its inputs are read in turn (one acquisition per subdevice).
+  [[nodiscard]] std::string shared_line() const override { return "comedi " + settings_.input.device; }
 
   /// The newest sample's volts at the card's input, for the wiring check.
   [[nodiscard]] double last_volts() const { return last_volts_; }

@@ -19,6 +19,9 @@ class ModbusSensor final : public DisplacementSensor {
   ModbusSensor(const LinkSettings& link, const RegisterMap& map, const Clock& clock);
 
   [[nodiscard]] DisplacementReading read() override;
+  /// An RTU bus (every sensor on it shares one Link); a TCP sensor has a
+  /// connection of its own.
+  [[nodiscard]] std::string shared_line() const override { return shared_line_; }
   /// The registers of the last read, as they came (for `piezo sensor
   /// read`'s word-order check).
   [[nodiscard]] const std::array<std::uint16_t, 2>& last_words() const { return last_words_; }
@@ -28,6 +31,7 @@ class ModbusSensor final : public DisplacementSensor {
   std::array<std::uint16_t, 2> last_words_{};
   /// Its own on TCP; on RTU the line's, shared with the other sensors on it.
   std::shared_ptr<Link> link_;
+  std::string shared_line_;
   RegisterMap map_;
   const Clock& clock_;
 };
