@@ -152,6 +152,41 @@ def test_no_reply_is_a_timeout(tmp_path):
             nobody.hello()
 
 
+def test_a_request_given_up_on_never_runs_on_the_board_that_comes_back(tmp_path):
+    """A move sent while the board is down fails on the client, and is not
+    run by the board when it comes back on its port; the client's next
+    request names the board start it knew and is refused, nothing moving."""
+    process, address = start_board(tmp_path)
+    client = Board(address, timeout=1.0)
+    first = client.hello()["board_id"]
+    process.kill()
+    process.wait()
+    with pytest.raises(errors.NoReply):
+        client.axes["rotor"].move_to(0.005)
+    back = peers.restart_piezod(os.environ["PIEZOD_BINARY"], str(tmp_path / "piezod.toml"),
+                                str(tmp_path / "piezod.err"), address)
+    try:
+        time.sleep(5)  # ZeroMQ's reconnection, at most 2 s apart
+        with Board(address) as watcher:
+            status = watcher.status()
+            assert status["board_id"] != first, "a restarted board is a new board"
+            assert "run" not in status and status["state"] == "idle", status
+            assert status["requests"]["move_to"] == 0, status["requests"]
+            with pytest.raises(errors.StaleBoard) as stale:
+                client.axes["rotor"].move_to(0.005)
+            assert stale.value.key == "board" and first in stale.value.message
+            after = watcher.status()
+            assert "run" not in after, after
+            assert after["requests"]["move_to"] == 0, "refused at its first request"
+            # The client dropped what it knew: asked again, it is served.
+            assert client.board_id is None
+            assert client.hello()["board_id"] == status["board_id"]
+    finally:
+        client.close()
+        back.terminate()
+        back.wait(10)
+
+
 def test_curve_keys(tmp_path):
     piezod = os.environ["PIEZOD_BINARY"]
     keys = tmp_path / "keys"

@@ -91,3 +91,17 @@ def start_piezod(piezod, config, err_path, tries=5, sets=()):
         board.wait()
     with open(err_path) as f:
         raise RuntimeError("piezod never listened: " + f.read())
+
+
+def restart_piezod(piezod, config, err_path, address, sets=()):
+    """Starts piezod again on ``address`` (a board that comes back on its
+    port, as after a reboot) and waits until it listens."""
+    port = int(address.rpartition(":")[2])
+    overrides = [arg for key in sets for arg in ("--set", key)]
+    board = spawn([piezod, "--config", config, "--listen", address, *overrides],
+                  stderr=open(err_path, "a"))
+    if not wait_for_tcp(port, 30):
+        board.kill()
+        with open(err_path) as f:
+            raise RuntimeError(f"piezod did not come back on {address}: " + f.read())
+    return board
