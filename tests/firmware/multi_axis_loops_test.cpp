@@ -183,6 +183,27 @@ TEST_F(ThreeAxes, AStalledSensorStopsItsOwnAxisWhileTheOthersGoOn) {
   for (std::size_t i = 0; i < kAxes; ++i) EXPECT_EQ(rig->drive(i).last_code(), 0u);
 }
 
+TEST_F(ThreeAxes, AStalledSensorCostsOnlyItsOwnAxisItsReadings) {
+  // Each sensor is read on its own clock: a read that waits out its
+  // timeout (50 ms) holds up its own axis alone. On one clock for all, the
+  // others got one reading per timeout (20 a second instead of 1000).
+  axes[1].sensor.stall_at_s = 0.1;
+  run(0.5);
+  const auto readings_per_s = [&](std::size_t i, double from_s, double to_s) {
+    std::size_t n = 0;
+    for (const SensorSample& s : sensor[i]) {
+      const double t = hal::to_seconds(s.t_request - t0);
+      if (t >= from_s && t < to_s && s.status == hal::Status::ok) ++n;
+    }
+    return static_cast<double>(n) / (to_s - from_s);
+  };
+  for (std::size_t i : {0u, 2u}) {
+    SCOPED_TRACE(i);
+    EXPECT_GE(readings_per_s(i, 0.15, 0.45), 0.9 * 1000.0) << "its own rate, 1000 a second";
+  }
+  EXPECT_LT(readings_per_s(1, 0.15, 0.45), 25.0) << "the stalled one: a reading per timeout";
+}
+
 TEST_F(ThreeAxes, WhenTheBoardSaysSoAnAxisFaultStopsEveryAxis) {
   fault_stops_all = true;
   axes[1].sensor.stall_at_s = 0.1;

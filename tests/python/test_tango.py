@@ -237,6 +237,91 @@ def test_the_device_follows_its_board_going_and_coming_back(tmp_path):
         board.wait()
 
 
+class BoardOnAPort:
+    """piezod on a port of its own, killed and started again on it (a board
+    that reboots), with `sets` (SECTION.KEY=VALUE) for each start."""
+
+    def __init__(self, tmp_path):
+        self.config = str(tmp_path / "piezod.toml")
+        with open(os.path.join(os.environ["PIEZO_SOURCE_DIR"], "configs", "piezod-sim.toml")) as f:
+            (tmp_path / "piezod.toml").write_text(f.read())
+        self.err = str(tmp_path / "piezod.err")
+        self.address = f"tcp://127.0.0.1:{peers.free_port(2)}"
+        self.process = None
+
+    def start(self, *sets):
+        self.process = peers.restart_piezod(os.environ["PIEZOD_BINARY"], self.config, self.err,
+                                            self.address, sets)
+
+    def kill(self):
+        self.process.kill()
+        self.process.wait()
+
+    def stop(self):
+        if self.process is not None and self.process.poll() is None:
+            self.process.terminate()
+            self.process.wait(10)
+
+
+def test_a_write_the_client_gave_up_on_never_moves_the_board_that_comes_back(tmp_path):
+    board = BoardOnAPort(tmp_path)
+    board.start()
+    try:
+        with serving(board.address) as context:
+            proxy = tango.DeviceProxy(context.get_device_access("piezo/test/rotor"))
+            wait_for(lambda: proxy.state() == DevState.ON, 10, "ON")
+            board.kill()
+            # Long enough to hear the bridge give up on its board (3 s).
+            proxy.set_timeout_millis(20000)
+            with pytest.raises(tango.DevFailed, match="no reply"):
+                proxy.Position = 0.01
+            board.start()
+            time.sleep(5)  # ZeroMQ's reconnection, at most 2 s apart
+            with Board(board.address) as watcher:
+                status = watcher.status()
+                assert "run" not in status and status["state"] == "idle", status
+                assert status["requests"]["move_to"] == 0, status["requests"]
+    finally:
+        board.stop()
+
+
+def test_a_restarted_board_is_a_new_board_to_the_devices(tmp_path):
+    board = BoardOnAPort(tmp_path)
+    board.start("safety.travel_min_rad=-0.5", "safety.travel_max_rad=0.5")
+    try:
+        with serving(board.address) as context:
+            proxy = tango.DeviceProxy(context.get_device_access("piezo/test/rotor"))
+            proxy.set_timeout_millis(15000)
+            wait_for(lambda: proxy.state() == DevState.ON, 10, "ON")
+            proxy.Position = 0.003
+            wait_for(lambda: proxy.state() == DevState.ON, 60, "on target")
+            assert abs(proxy.Position - 0.003) < 1e-4
+            assert proxy.Travel_max == 0.5
+            board.kill()
+            wait_for(lambda: proxy.state() == DevState.UNKNOWN, 10, "UNKNOWN")
+            # Back with another window; the sensor sees the rotor from
+            # further away: another zero.
+            board.start("safety.travel_min_rad=-0.004", "safety.travel_max_rad=0.004",
+                        "sensor.sim.target_distance_m=0.0705")
+            wait_for(lambda: proxy.state() == DevState.ON, 15, "ON again")
+            assert proxy.Travel_max == 0.004 and proxy.Travel_min == -0.004
+            position = proxy.read_attribute("Position")
+            assert position.quality == tango.AttrQuality.ATTR_INVALID, position
+            assert "last move" not in proxy.status(), proxy.status()
+            proxy.Position = 0.001
+            wait_for(lambda: proxy.state() == DevState.ON, 60, "on target")
+            with Board(board.address) as watcher:
+                summary = last_summary(watcher)
+                assert summary["move"]["stop_cause"] == "on_target", summary
+                at_rest = watcher.status()["position"]["position_rad"]
+            assert at_rest_near(at_rest, 0.001, 2.5e-5), at_rest
+            position = proxy.read_attribute("Position")
+            assert position.quality == tango.AttrQuality.ATTR_VALID
+            assert abs(position.value - 0.001) < 1e-4, position.value
+    finally:
+        board.stop()
+
+
 def start_server(tmp_path, address, *extra):
     """piezo-tango started as a supervisor starts it: output to a file, no
     variable of the caller's that changes Python's buffering. Ready when its
