@@ -72,6 +72,7 @@ class Daemon {
     struct Move {
       ServedAxis* axis = nullptr;
       firmware::MoveSettings settings;
+      firmware::TravelHeading heading;  ///< towards the target from where the axis is
     };
     std::vector<Move> moves;
     std::optional<firmware::CalibrationPlan> calibration;
@@ -103,6 +104,14 @@ class Daemon {
   /// bad_argument naming the axes there are.
   /// Refuses (fault_latched) a run on an axis whose own fault is latched.
   void require_no_axis_fault(const ServedAxis& axis, const char* cmd) const;
+  /// Where a run of `axis` in `direction` (+1/-1) heads, for its travel
+  /// window: from the axis's position at rest, with a stick stroke at V0
+  /// as the most its first periods carry it the other way.
+  [[nodiscard]] firmware::TravelHeading heading(const ServedAxis& axis, int direction,
+                                                double V0) const;
+  /// Refuses (out_of_limits, key `direction`) a run that would take an axis
+  /// standing at or past an end of its travel window further out.
+  void require_inward(const ServedAxis& axis, model::Direction towards) const;
   /// `stop`'s optional axis.
   [[nodiscard]] std::vector<protocol::ArgumentSpec> stop_specs() const;
   [[nodiscard]] ServedAxis& axis_of(const nlohmann::json& args, std::string_view cmd);

@@ -77,6 +77,12 @@ json Daemon::move_to(const std::string& client, const json& args) {
       }
       bool calibrated = false;
       const firmware::MoveSettings m = plan_move(*axis, request, calibrated);
+      // Towards the target from where the axis stands (its readings at
+      // rest): a move back inside from an end of the window is judged so.
+      const std::optional<double> at = position_of(*axis).position_rad;
+      const firmware::TravelHeading towards =
+          at ? heading(*axis, request.move.target_rad >= *at ? 1 : -1, m.V0)
+             : firmware::TravelHeading{};
       // Known now unless the readings at rest failed: then the move takes
       // its own, and the axis keeps it afterwards.
       const bool zero_before = axis->zero.known();
@@ -91,7 +97,7 @@ json Daemon::move_to(const std::string& client, const json& args) {
       taken.push_back({axis->name(), calibrated,
                        zero_before ? std::optional(m.zero_displacement_m) : std::nullopt,
                        as_taken});
-      program.moves.push_back({axis, m});
+      program.moves.push_back({axis, m, towards});
       lease_s = request.lease_s;
     } catch (const ProtocolError& e) {
       if (requests.size() == 1) throw;

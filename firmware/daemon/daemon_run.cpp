@@ -82,6 +82,9 @@ protocol::StartReply Daemon::start(const std::string& client,
     throw out_of_limits(wire_key::lease_s,
                         fmt::format("{:g} s; allowed: {} s", lease_s, allowed.text()));
   }
+  if (program.moves.empty() && !program.calibration) {
+    require_inward(*configured_axis_, configured_->drive.direction);
+  }
   run_.reset();  // the last run's runner (joined) goes; its samples are overwritten below
   // A move's axes (a group's several), or the axis `configure` set.
   std::vector<ServedAxis*> axes;
@@ -145,14 +148,15 @@ void Daemon::build_runner(Run& run, const Program& program) {
       board_.run.lock_memory};
   // Each part's axis: its devices, limits, safety, geometry and zero.
   const auto run_axis = [&](Run::Part& part, firmware::DriveProgram& program_to_follow,
-                            double period_s) {
+                            double period_s, firmware::TravelHeading heading) {
     const ServedAxis& axis = part.axis;
     const config::AxisConfig& c = axis.config;
     return firmware::RunAxis{*axis.rig.drive,   *axis.rig.sensor,
                              program_to_follow, c.drive.limits,
                              period_s,          c.safety,
                              c.sensor.r2_m,     axis.zero.displacement_m(),
-                             &part.feed,        static_cast<std::uint8_t>(axis.index)};
+                             &part.feed,        static_cast<std::uint8_t>(axis.index),
+                             heading};
   };
   const auto start_loops = [&](std::vector<firmware::RunAxis> axes) {
     run.runner = std::make_unique<firmware::LoopRunner>(settings, std::move(axes), *rig_.clock,
@@ -164,7 +168,7 @@ void Daemon::build_runner(Run& run, const Program& program) {
       Run::Part& part = *run.parts[i];
       const firmware::MoveSettings& m = program.moves[i].settings;
       part.move = std::make_unique<firmware::MoveController>(m, part.feed);
-      axes.push_back(run_axis(part, *part.move, 1.0 / m.f));
+      axes.push_back(run_axis(part, *part.move, 1.0 / m.f, program.moves[i].heading));
     }
     start_loops(std::move(axes));
     return;
@@ -173,10 +177,13 @@ void Daemon::build_runner(Run& run, const Program& program) {
   ServedAxis& axis = part.axis;
   const config::AxisConfig& c = axis.config;
   const double period_s = 1.0 / run.request.drive.f;
+  const firmware::TravelHeading waveform_heading = heading(
+      axis, run.request.drive.direction == model::Direction::forward ? 1 : -1, run.request.drive.V0);
   if (program.calibration) {
     run.calibration =
         std::make_unique<firmware::CalibrationProgram>(*program.calibration, part.feed);
-    start_loops({run_axis(part, *run.calibration, period_s)});
+    // Both ways in turn: no end is behind it.
+    start_loops({run_axis(part, *run.calibration, period_s, {})});
   } else if (c.safety.protect_runs) {
     firmware::RunGuardSettings g;
     g.periods = c.safety.stall_periods;
@@ -192,10 +199,34 @@ void Daemon::build_runner(Run& run, const Program& program) {
     g.noise_m = std::max(rest.good >= 4 ? rest.stddev_m : 0.0,
                          axis.calibration ? axis.calibration->noise_m : 0.0);
     run.guard = std::make_unique<firmware::RunGuard>(run.waveform, g, part.feed);
-    start_loops({run_axis(part, *run.guard, period_s)});
+    start_loops({run_axis(part, *run.guard, period_s, waveform_heading)});
   } else {
-    start_loops({run_axis(part, run.waveform_program, period_s)});
+    start_loops({run_axis(part, run.waveform_program, period_s, waveform_heading)});
   }
+}
+
+firmware::TravelHeading Daemon::heading(const ServedAxis& axis, int direction, double V0) const {
+  const config::AxisConfig& c = axis.config;
+  const double rad_per_V =
+      axis.calibration ? axis.calibration->rad_per_V : c.model.motor.d_e / c.model.motor.r;
+  return {direction, rad_per_V * V0};
+}
+
+void Daemon::require_inward(const ServedAxis& axis, model::Direction towards) const {
+  const int direction = towards == model::Direction::forward ? 1 : -1;
+  const std::optional<double> at = position_of(axis).position_rad;
+  const firmware::SafetySettings& s = axis.config.safety;
+  if (!at) return;  // nowhere known yet: the run's own readings judge it
+  const bool past_upper = direction > 0 && *at >= s.travel_max_rad;
+  const bool past_lower = direction < 0 && *at <= s.travel_min_rad;
+  if (!past_upper && !past_lower) return;
+  throw out_of_limits(
+      firmware::arguments::direction.name,
+      fmt::format("axis {} is at {:.6g} rad, at or past the {} end of its travel window "
+                  "[{:g}, {:g}] rad (safety.travel_min_rad, safety.travel_max_rad): only a run "
+                  "back inside ({}) is taken",
+                  axis.name(), *at, past_upper ? "upper" : "lower", s.travel_min_rad,
+                  s.travel_max_rad, past_upper ? "reverse" : "forward"));
 }
 
 json Daemon::step(const std::string& client, const json& args) {
@@ -205,6 +236,7 @@ json Daemon::step(const std::string& client, const json& args) {
   run_state_.require_can_start(client, "step");  // before configure: a refused step changes nothing
   ServedAxis& axis = axis_of(args, "step");
   const auto request = protocol::decode<protocol::StepRequest>(args);
+  require_inward(axis, request.drive.direction);
   const double f = request.drive.f;
   // At most the board's longest run of whole periods.
   const Interval allowed =

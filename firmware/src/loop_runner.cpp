@@ -35,7 +35,7 @@ LoopRunner::LoopRunner(const LoopRunnerSettings& settings, std::vector<RunAxis> 
     const bool travel_window =
         std::isfinite(axis.safety.travel_min_rad) || std::isfinite(axis.safety.travel_max_rad);
     if (travel_window && axis.feed != nullptr) {
-      parts.supervisor.set_travel_feed(axis.feed, axis.zero_m, axis.r2_m);
+      parts.supervisor.set_travel_feed(axis.feed, axis.zero_m, axis.r2_m, axis.heading);
     }
     drive_axes.push_back({axis.limits, axis.period_s, &axis.program, &parts.supervisor, &axis.drive,
                           &parts.drive_ring, axis.index, &parts.stop,

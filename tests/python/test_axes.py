@@ -283,3 +283,44 @@ def test_a_stalled_sensor_in_a_group_move_stops_its_axis_alone(tmp_path, source)
     finally:
         process.terminate()
         process.wait(10)
+
+
+def test_an_axis_stopped_past_its_window_comes_back_inside_with_a_plain_move(tmp_path, source):
+    """chi's window ends at 4 mrad: a run forward stops there with
+    travel_limit, just past the end. A step further out is refused before
+    anything moves; a plain move back to 0 at the defaults arrives, although
+    its first periods carry the rotor forward (a stick stroke) before the
+    slips take it back."""
+    process, address = peers.start_piezod(
+        os.environ["PIEZOD_BINARY"], os.path.join(source, "configs", "three-axes.toml"),
+        str(tmp_path / "piezod.err"), sets=["axes.chi.safety.travel_max_rad=0.004"])
+    try:
+        with Board(address) as board:
+            chi = board.axes["chi"]
+            with pytest.raises(errors.RunEnded) as ended:
+                with chi.run(60, 80, 10) as run:
+                    run.wait()
+            assert ended.value.cause == "travel_limit"
+            status = board.status()
+            at = next(a for a in status["axes"] if a["name"] == "chi")
+            assert at["fault"] == "travel_limit" and at["position"]["position_rad"] >= 0.004, at
+            board.reset_fault()
+            run_id = (board.status().get("run") or {}).get("id")
+            with pytest.raises(errors.OutOfLimits, match="upper end of its travel window") as out:
+                chi.step(5, 60, 80)
+            assert out.value.key == "direction"
+            assert (board.status().get("run") or {}).get("id") == run_id, "nothing started"
+            move = chi.move_to(0.0)
+            assert move["stop_cause"] == "on_target", move
+            summary = board.status()["run"]["summary"]
+            assert summary["cause"] == "completed", summary
+            # The first periods carried it further past the end, as measured:
+            # the window's own end would have stopped this move.
+            peak = float(np.max(board.last_run.theta()))
+            print(f"chi back from {at['position']['position_rad'] * 1e3:.3f} mrad to "
+                  f"{move['position_rad'] * 1e3:.4f} mrad in {move['steps']} steps, "
+                  f"{peak * 1e3:.3f} mrad at most")
+            assert peak > 0.004
+    finally:
+        process.terminate()
+        process.wait(10)

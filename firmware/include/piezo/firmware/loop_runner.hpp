@@ -59,6 +59,7 @@ struct RunAxis {
   double zero_m = std::numeric_limits<double>::quiet_NaN();
   PositionFeed* feed = nullptr;  ///< filled by the acquire loop (may be null)
   std::uint8_t index = 0;        ///< the board's axis (hello.axes), written on its records
+  TravelHeading heading = {};    ///< where the run heads, for the travel window
 };
 
 class LoopRunner {

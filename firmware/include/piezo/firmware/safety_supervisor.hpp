@@ -39,6 +39,18 @@ struct SafetySettings {
   int stall_periods = 2;
 };
 
+/// Where a run heads, for the travel window: a run that starts at or past
+/// an end of the window and heads back inside must not trip that end on
+/// the rotor's first periods, which carry it up to a stick stroke the other
+/// way (a reverse sawtooth's slow rise turns the rotor forward before the
+/// slip takes it back). The end behind the run is held at the start's angle
+/// plus that stroke when that is further out; the end ahead stays where it
+/// is, so a run heading further out is stopped as before.
+struct TravelHeading {
+  int direction = 0;          ///< +1 towards larger angles, -1 smaller, 0 unknown (no allowance)
+  double excursion_rad = 0.0;  ///< the most a period carries the rotor backwards (a stick stroke)
+};
+
 /// What a remote client may do to a running drive, set from the daemon's
 /// network thread and read by the drive loop every cycle (lock-free).
 struct RemoteControl {
@@ -100,11 +112,15 @@ class SafetySupervisor {
   /// Watches the travel window on the readings of `feed`: the angle from
   /// the zero (AngleZero's rule: a NaN zero takes the first reading). Three
   /// readings in a row outside the window stop the run (one wild reading
-  /// does not).
-  void set_travel_feed(const PositionFeed* feed, double zero_m, double r2_m) {
+  /// does not); `heading` widens the end behind the run (TravelHeading).
+  void set_travel_feed(const PositionFeed* feed, double zero_m, double r2_m,
+                       TravelHeading heading = {}) {
     feed_ = feed;
     travel_zero_ = AngleZero(zero_m);
     r2_m_ = r2_m;
+    heading_ = heading;
+    travel_min_ = settings_.travel_min_rad;
+    travel_max_ = settings_.travel_max_rad;
     seen_ = feed != nullptr ? feed->count() : 0;
   }
 
@@ -151,7 +167,12 @@ class SafetySupervisor {
     const double d = feed_->displacement_m();
     travel_zero_.offer(d);
     const double theta = travel_zero_.angle_rad(d, r2_m_);
-    const bool inside = theta >= settings_.travel_min_rad && theta <= settings_.travel_max_rad;
+    if (!heading_taken_) {  // the run's first reading: where it starts from
+      heading_taken_ = true;
+      if (heading_.direction < 0) travel_max_ = std::max(travel_max_, theta + heading_.excursion_rad);
+      if (heading_.direction > 0) travel_min_ = std::min(travel_min_, theta - heading_.excursion_rad);
+    }
+    const bool inside = theta >= travel_min_ && theta <= travel_max_;
     outside_ = inside ? 0 : outside_ + 1;
   }
 
@@ -167,6 +188,10 @@ class SafetySupervisor {
   std::uint64_t seen_ = 0;
   AngleZero travel_zero_{0.0};
   double r2_m_ = 1.0;
+  TravelHeading heading_;
+  bool heading_taken_ = false;
+  double travel_min_ = -std::numeric_limits<double>::infinity();  ///< this run's window
+  double travel_max_ = std::numeric_limits<double>::infinity();
   int outside_ = 0;  ///< readings in a row outside the travel window
   StopCause cause_ = StopCause::none;
   std::uint32_t drive_errors_ = 0;
