@@ -20,7 +20,9 @@ command -v debootstrap > /dev/null ||
   { echo "fresh-machine: needs debootstrap (apt-get install debootstrap)" >&2; exit 2; }
 
 root="$work/root"
-mounts=(proc sys dev dev/pts run tmp)
+# The root bound on itself first: `ip netns exec` (the link-cut test) needs
+# the root to be a mount point, as an installed system's is.
+mounts=("" proc sys dev dev/pts run tmp)
 unmount() {
   local m
   for ((i = ${#mounts[@]} - 1; i >= 0; i--)); do
@@ -32,12 +34,18 @@ unmount() {
 trap unmount EXIT
 mkdir -p "$work"
 unmount
-rm -rf "$root"
+# Never remove through a mount (a bound /dev is the machine's own).
+if grep -q " $root[/ ]" /proc/mounts; then
+  echo "fresh-machine: $root still has mounts; unmount them first" >&2
+  exit 1
+fi
+rm -rf --one-file-system "$root"
 
 echo "fresh-machine: debootstrap --variant=minbase bookworm"
 debootstrap --variant=minbase bookworm "$root" http://deb.debian.org/debian \
   > "$work/debootstrap.log" 2>&1 || { tail -20 "$work/debootstrap.log"; exit 1; }
 cp /etc/resolv.conf "$root/etc/resolv.conf"
+mount --bind "$root" "$root"
 mount -t proc proc "$root/proc"
 mount --rbind /sys "$root/sys"
 mount --rbind /dev "$root/dev"
