@@ -2,7 +2,9 @@
 """`piezo view --rig` against a real piezod on loopback: the live feed
 follows the board's run, a move-to from the page (with the token) runs on the
 board until on target and keeps its lease, a request without the token is
-refused, and e-stop from the page latches the board's fault.
+refused, and e-stop from the page latches the board's fault. Then the board
+restarts on its port: the view takes it for a new board (its moves are
+taken, not refused for the old board's identity).
 
 Usage: view_rig_check.py PIEZOD PIEZO
 """
@@ -113,6 +115,20 @@ def main():
                                           capture_output=True, text=True).stdout)
         check(state["fault"] == "estop", f"the board latched the e-stop: {state['fault']}")
         check(abs(state["position"]["position_rad"] - 0.002) < 30e-6, f"position: {state['position']}")
+        # The board restarts on its port: a new board, which the view meets
+        # (hello and dictionary again) and moves.
+        board.kill()
+        board.wait()
+        board = peers.restart_piezod(piezod, os.path.join(SOURCE, "configs", "piezod-sim.toml"),
+                                     os.path.join(work, "piezod.log"), address)
+
+        def moved_on_new_board():
+            status, body = post(url + "api/move", {"target_rad": -0.001}, {"X-Piezo-Token": token})
+            return status == 200 and body["ok"] and body
+        wait_for(moved_on_new_board, 20, "a move from the page on the restarted board")
+        again = wait_for(on_target, 30, "the move on the restarted board ends")
+        check(again.get("on_target") and again["target_rad"] == -0.001,
+              f"on target on the new board: {again}")
         print("ok", move["steps"], move["on_target_at_s"], move["error_rad"])
     except SystemExit:
         # What the board and the view said, for whoever reads a failure.

@@ -29,6 +29,20 @@ BoardWatch::BoardWatch(const config::ConfigFile& config, BoardClient& client,
   StreamFollower::subscribe(client_);
 }
 
+json BoardWatch::dictionary() {
+  const std::lock_guard lock(commands_);
+  return dictionary_;
+}
+
+void BoardWatch::meet_new_board() {
+  const std::lock_guard lock(commands_);
+  hello_ = client_.hello();
+  dictionary_ = client_.call("describe");
+  controlled_run_.reset();  // its lease is the old board's: nothing to renew
+  run_.reset();
+  last_summary_ = nullptr;
+}
+
 json BoardWatch::call(const std::string& cmd, const json& args) {
   const std::lock_guard lock(commands_);
   return client_.call(cmd, args);
@@ -90,6 +104,7 @@ void BoardWatch::on_state(const protocol::StateEvent& state) {
 void BoardWatch::poll(std::chrono::milliseconds wait) {
   StreamFollower::Handlers handlers;
   handlers.on_health = [this](const protocol::HealthEvent& health) {
+    if (!health.board_id.empty() && health.board_id != hello_.board_id) meet_new_board();
     // The periodic health replaces the last; the end of the last run (its
     // summary, from the state event) stays until the next starts.
     health_ = health;
@@ -173,10 +188,10 @@ json BoardWatch::move_to(const json& args) {
   if (!request.contains(wire_key::lease_s) && config_.host.board.lease_s > 0.0) {
     request[wire_key::lease_s] = config_.host.board.lease_s;
   }
+  const std::lock_guard lock(commands_);
   if (const auto breach = protocol::check_arguments(dictionary_, "move_to", request)) {
     throw std::invalid_argument(fmt::format("{}: {}", breach->key, breach->message));
   }
-  const std::lock_guard lock(commands_);
   const json reply = client_.call("move_to", request);
   const auto started = protocol::decode<protocol::StartReply>(reply);
   lease_s_ = started.lease_s;

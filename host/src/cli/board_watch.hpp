@@ -36,10 +36,15 @@ class BoardWatch {
   /// The run's stop, or (`args` {"axis": NAME}) one axis's of it.
   nlohmann::json stop(const nlohmann::json& args);
   nlohmann::json move_to(const nlohmann::json& args);
-  /// The board's dictionary (`describe`), asked once when the watch began.
-  [[nodiscard]] const nlohmann::json& dictionary() const { return dictionary_; }
+  /// The board's dictionary (`describe`), asked when the watch began and
+  /// again when the board restarted.
+  [[nodiscard]] nlohmann::json dictionary();
 
  private:
+  /// A restarted board (its health names another board_id) is a new board:
+  /// its hello and dictionary are read again, and nothing of the old one's
+  /// runs is followed, renewed or shown as current.
+  void meet_new_board();
   void follow_run(std::uint64_t run);
   [[nodiscard]] bool controlling();
   [[nodiscard]] nlohmann::json lease_json();  ///< the lease of a move this watch started, or null
@@ -52,7 +57,7 @@ class BoardWatch {
   protocol::Hello hello_;
   view::LiveFeed& feed_;
   std::mutex commands_;  ///< the command socket, shared by the watch and the page
-  nlohmann::json dictionary_;
+  nlohmann::json dictionary_;  ///< under commands_
 
   /// One axis of the run watched: its angle (its own radius) and observer.
   struct WatchedAxis {
