@@ -324,3 +324,20 @@ def test_an_axis_stopped_past_its_window_comes_back_inside_with_a_plain_move(tmp
     finally:
         process.terminate()
         process.wait(10)
+
+
+def test_a_group_runs_arrays_are_each_axiss_own(board):
+    """fit_arrays of a group move, axis by axis: each axis's drive and
+    sensor records, its angles over its own radius; an axis the board lacks
+    is refused naming the board's axes."""
+    board.move_to({"theta": 0.002, "phi": -0.002}, tolerance_rad=5e-5)
+    run = board.last_run
+    for name, target in (("theta", 0.002), ("phi", -0.002)):
+        drive_t, drive_V, t, theta = run.fit_arrays(axis=name)
+        index = list(board.axes).index(name)
+        assert len(drive_t) == len(drive_V) == np.count_nonzero(run.drive["axis"] == index)
+        mine = run.sensor[run.sensor["axis"] == index]
+        assert len(t) == len(theta) == np.count_nonzero(mine["status"] == 0)
+        assert abs(float(np.mean(theta[-8:])) - target) < 1e-4, (name, theta[-8:])
+    with pytest.raises(ValueError, match="theta, phi, chi"):
+        run.fit_arrays(axis="psi")

@@ -839,9 +839,13 @@ class Run:
         """The records of ``axis`` among ``records`` (a group move's
         records carry their axis; None: the run's axis)."""
         names = [a["name"] for a in self.hello.get("axes") or []]
-        if "axis" not in (records.dtype.names or ()) or (axis or self.axis) not in names:
+        axis = axis or self.axis
+        if names and axis not in names:
+            raise ValueError(f"axis {axis!r}: not an axis of this board (its axes: "
+                             f"{', '.join(names)})")
+        if "axis" not in (records.dtype.names or ()) or not names:
             return records
-        index = names.index(axis or self.axis)
+        index = names.index(axis)
         mine: np.ndarray[Any, Any] = records[records["axis"] == index]
         return mine
 
@@ -867,16 +871,20 @@ class Run:
         theta = (records["displacement_m"] - (zero or 0.0)) / r2_m
         return np.where(records["status"] == 0, theta, np.nan)
 
-    def fit_arrays(self) -> tuple[np.ndarray[Any, Any], np.ndarray[Any, Any], np.ndarray[Any, Any], np.ndarray[Any, Any]]:
-        """(drive_t, drive_V, t, theta) of this run for
-        ``piezo_rig.model.identify``, as ``piezo run`` logs them: the drive's
-        times shifted by the board's output latency (``hello``'s
-        ``output_latency_s``: the amplifier follows a command that much
-        later), the failed readings (NaN angle) left out."""
-        drive_t = self.t(self.drive) + float(self.hello.get("output_latency_s", 0.0))
-        t, theta = self.t(), self.theta()
+    def fit_arrays(self, axis: Optional[str] = None) -> tuple[
+            np.ndarray[Any, Any], np.ndarray[Any, Any], np.ndarray[Any, Any], np.ndarray[Any, Any]]:
+        """(drive_t, drive_V, t, theta) of ``axis`` in this run (None: the
+        run's axis; any axis of a group move) for ``piezo_rig.model.identify``,
+        as ``piezo run`` logs them: the drive's times shifted by the board's
+        output latency (``hello``'s ``output_latency_s``: the amplifier
+        follows a command that much later), the failed readings (NaN angle)
+        left out. An axis the board lacks raises ValueError naming its axes."""
+        drive = self.records_of(axis, self.drive)
+        sensor = self.records_of(axis, self.sensor)
+        drive_t = self.t(drive) + float(self.hello.get("output_latency_s", 0.0))
+        t, theta = self.t(sensor), self.theta(sensor, axis)
         good = ~np.isnan(theta)
-        return drive_t, self.drive["V"].astype(float), t[good], theta[good]
+        return drive_t, drive["V"].astype(float), t[good], theta[good]
 
 
 def _joined(blocks: list[Any], dtype: np.dtype[Any]) -> np.ndarray[Any, Any]:
