@@ -397,26 +397,25 @@ void Daemon::finish_run() {
   }
   if (run.calibration) take_calibration(run);
   const bool confirmed = run.summary.output.state == firmware::OutputState::confirmed;
-  if (axes_.size() == 1) {
-    run_state_.ended(cause, confirmed);
-  } else {
-    // A board of several: an axis's own fault latches on that axis, the
-    // others may run on; the board's own (an e-stop, a lapsed lease, a fault
-    // that stopped every axis, an output not confirmed at 0 V) on the board.
-    bool board_fault = false;
-    for (std::size_t i = 0; i < run.parts.size(); ++i) {
-      const auto c = run.runner->cause(i);
-      if (c == firmware::StopCause::estop || c == firmware::StopCause::link_lost ||
-          c == firmware::StopCause::other_axis_fault) {
+  // Each axis's end latches where its cause's scope says (RunState::latch_of);
+  // an output not confirmed at 0 V latches on the board (RunState::ended).
+  bool board_fault = false;
+  for (std::size_t i = 0; i < run.parts.size(); ++i) {
+    const auto c = run.runner->cause(i);
+    switch (RunState::latch_of(c, axes_.size())) {
+      case RunState::Latch::on_board:
         board_fault = true;
-      } else if (RunState::latches(c)) {
+        break;
+      case RunState::Latch::on_axis:
         run.parts[i]->axis.fault = c;
         log_event(fmt::format("axis {}: fault {} latched", run.parts[i]->axis.name(),
                               firmware::to_string(c)));
-      }
+        break;
+      case RunState::Latch::nowhere:
+        break;
     }
-    run_state_.ended(board_fault ? cause : firmware::StopCause::completed, confirmed);
   }
+  run_state_.ended(board_fault ? cause : firmware::StopCause::completed, confirmed);
   log_event(fmt::format(
       "run {} ended: {}, output {}{}", run.id, firmware::to_string(cause),
       firmware::to_string(run.summary.output.state),

@@ -42,9 +42,9 @@ bool RunState::ramping() {
 }
 
 void RunState::ended(firmware::StopCause cause, bool output_confirmed) {
-  if (latches(cause) || !output_confirmed) {
+  if (firmware::latches(cause) || !output_confirmed) {
     state_ = State::fault;
-    fault_ = latches(cause) ? cause : firmware::StopCause::drive_fault;
+    fault_ = firmware::latches(cause) ? cause : firmware::StopCause::drive_fault;
   } else {
     state_ = State::idle;
   }
@@ -64,9 +64,16 @@ firmware::StopCause RunState::reset() {
   return cleared;
 }
 
-bool RunState::latches(firmware::StopCause c) {
-  return c != firmware::StopCause::completed && c != firmware::StopCause::interrupted &&
-         c != firmware::StopCause::none;
+RunState::Latch RunState::latch_of(firmware::StopCause c, std::size_t board_axes) {
+  switch (firmware::scope_of(c)) {
+    case firmware::CauseScope::end:
+      return Latch::nowhere;
+    case firmware::CauseScope::axis:
+      return board_axes > 1 ? Latch::on_axis : Latch::on_board;
+    case firmware::CauseScope::board:
+      break;
+  }
+  return Latch::on_board;
 }
 
 }  // namespace piezo::daemon

@@ -4,6 +4,7 @@
 // whether a run is under way, and what a run's end leaves behind. Refusals
 // are ProtocolErrors, so the daemon answers them as they come.
 
+#include <cstddef>
 #include <string>
 
 #include "piezo/firmware/safety_supervisor.hpp"
@@ -51,8 +52,12 @@ class RunState {
   /// cleared, StopCause::none when there was none.
   firmware::StopCause reset();
 
-  /// Whether a run ending with `cause` latches a fault.
-  [[nodiscard]] static bool latches(firmware::StopCause cause);
+  /// Where an axis's end with `cause` latches, on a board of `board_axes`
+  /// axes: nowhere (an end), on the axis (an axis's own fault on a board of
+  /// several: the others run on), or on the board (the board's causes, and
+  /// on a board of one its axis's own).
+  enum class Latch { nowhere, on_axis, on_board };
+  [[nodiscard]] static Latch latch_of(firmware::StopCause cause, std::size_t board_axes);
 
  private:
   State state_ = State::idle;

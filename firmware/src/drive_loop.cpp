@@ -11,18 +11,7 @@ namespace {
 constexpr double kOnZero_V = 1e-6;
 
 /// A cause that is an axis's own fault, which fault_stops_all spreads.
-[[nodiscard]] bool is_axis_fault(StopCause c) {
-  switch (c) {
-    case StopCause::sensor_fault:
-    case StopCause::drive_fault:
-    case StopCause::stalled:
-    case StopCause::sensor_implausible:
-    case StopCause::travel_limit:
-      return true;
-    default:
-      return false;
-  }
-}
+[[nodiscard]] bool is_axis_fault(StopCause c) { return scope_of(c) == CauseScope::axis; }
 }  // namespace
 
 DriveLoop::DriveLoop(const DriveLoopSettings& settings, std::vector<DriveAxis> axes, DriveLoopIo io)

@@ -79,7 +79,7 @@ TEST(RunState, EveryOtherCauseLatchesUntilReset) {
   for (auto c = static_cast<int>(StopCause::estop); c <= static_cast<int>(firmware::kLastStopCause);
        ++c) {
     const auto cause = static_cast<StopCause>(c);
-    EXPECT_TRUE(RunState::latches(cause)) << firmware::to_string(cause);
+    EXPECT_TRUE(firmware::latches(cause)) << firmware::to_string(cause);
     RunState s;
     s.started("a");
     s.ended(cause, true);
@@ -91,7 +91,7 @@ TEST(RunState, EveryOtherCauseLatchesUntilReset) {
     EXPECT_EQ(s.state(), State::idle);
     EXPECT_EQ(refusal([&] { s.require_can_start("b", "move_to"); }), "");
   }
-  EXPECT_FALSE(RunState::latches(StopCause::none));
+  EXPECT_FALSE(firmware::latches(StopCause::none));
 }
 
 TEST(RunState, AnOutputNotConfirmedAtZeroLatchesADriveFaultWhateverTheCause) {
@@ -146,9 +146,58 @@ TEST(RunState, TheCausesThatLatchAreTheOnesProtocolMdNames) {
   documented.erase("fault");
   std::set<std::string> latching;
   for (const auto& [cause, cause_name] : firmware::kStopCauseNames.entries()) {
-    if (RunState::latches(cause)) latching.emplace(cause_name);
+    if (firmware::latches(cause)) latching.emplace(cause_name);
   }
   EXPECT_EQ(documented, latching);
+}
+
+// Every cause through a board of one axis and of three: where an axis's end
+// with it latches follows its declared scope alone (stop_cause.hpp).
+TEST(RunState, EveryCauseLatchesWhereItsScopeSaysOnABoardOfOneAndOfThree) {
+  using Latch = RunState::Latch;
+  for (const auto& [cause, cause_name] : firmware::kStopCauseNames.entries()) {
+    SCOPED_TRACE(std::string(cause_name));
+    const firmware::CauseScope scope = firmware::scope_of(cause);
+    const Latch one = RunState::latch_of(cause, 1), three = RunState::latch_of(cause, 3);
+    switch (scope) {
+      case firmware::CauseScope::end:
+        EXPECT_EQ(one, Latch::nowhere);
+        EXPECT_EQ(three, Latch::nowhere);
+        break;
+      case firmware::CauseScope::axis:
+        EXPECT_EQ(one, Latch::on_board) << "a board of one: its axis's fault is the board's";
+        EXPECT_EQ(three, Latch::on_axis) << "the others run on";
+        break;
+      case firmware::CauseScope::board:
+        EXPECT_EQ(one, Latch::on_board);
+        EXPECT_EQ(three, Latch::on_board);
+        break;
+    }
+    // A run that ended so, on the board: latched exactly when it latches anywhere.
+    RunState s;
+    s.started("a");
+    s.ended(three == Latch::on_board ? cause : StopCause::completed, true);
+    EXPECT_EQ(s.state() == State::fault, three == Latch::on_board);
+  }
+  // The causes docs/protocol.md calls an axis's own ("Faults on a board of
+  // several") are the ones declared so.
+  std::ifstream in(std::string(build_paths::source_dir) + "/docs/protocol.md");
+  std::stringstream page;
+  page << in.rdbuf();
+  const std::string text = page.str();
+  const auto from = text.find("**Faults on a board of several.** An axis's own fault (");
+  ASSERT_NE(from, std::string::npos);
+  const std::string list = text.substr(from, text.find(')', from) - from);
+  std::set<std::string> documented, own;
+  const std::regex name("`([a-z_]+)`");
+  for (auto it = std::sregex_iterator(list.begin(), list.end(), name); it != std::sregex_iterator();
+       ++it) {
+    documented.insert((*it)[1]);
+  }
+  for (const auto& [cause, cause_name] : firmware::kStopCauseNames.entries()) {
+    if (firmware::scope_of(cause) == firmware::CauseScope::axis) own.emplace(cause_name);
+  }
+  EXPECT_EQ(own, documented);
 }
 
 }  // namespace

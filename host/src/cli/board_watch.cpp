@@ -67,7 +67,10 @@ void BoardWatch::follow_run(std::uint64_t run) {
   for (const std::string& name : names) {
     std::size_t index = 0;
     while (index < hello_.axes.size() && hello_.axes[index].name != name) ++index;
-    if (index == hello_.axes.size()) index = 0;  // a board that names no axes
+    if (index == hello_.axes.size()) {
+      if (!hello_.axes.empty()) continue;  // an axis its hello lacks: nothing to show for it
+      index = 0;                           // a board that names no axes: its one
+    }
     const double r2 = hello_.axes.empty() ? hello_.sensor.r2_m : hello_.axes[index].r2_m;
     std::unique_ptr<ObserverStage> observer;
     if (config_.host.observer.enabled) {

@@ -116,10 +116,20 @@ std::vector<RunAxisStart> run_axes(const protocol::StartReply& started, const Bo
   return out;
 }
 
+/// The board's index of the axis its run names; never another axis's for
+/// a name its hello does not list.
 std::size_t board_index(const protocol::Hello& hello, const std::string& axis) {
-  for (std::size_t i = 0; i < hello.axes.size(); ++i)
+  if (hello.axes.empty()) return 0;  // a board that names no axes: its one
+  std::string names;
+  for (std::size_t i = 0; i < hello.axes.size(); ++i) {
     if (hello.axes[i].name == axis) return i;
-  return 0;
+    names += (names.empty() ? "" : ", ") + hello.axes[i].name;
+  }
+  throw protocol::ProtocolError(
+      protocol::code::malformed, wire_key::axis,
+      fmt::format("the board's run names axis \"{}\", which its hello does not list (its "
+                  "axes: {})",
+                  axis, names));
 }
 
 }  // namespace

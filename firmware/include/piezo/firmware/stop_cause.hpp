@@ -4,7 +4,9 @@
 /// reports give each cause. Apart from the supervisor that decides it, so
 /// that the protocol's codecs need no real-time header.
 
+#include <cstddef>
 #include <cstdint>
+#include <iterator>
 #include <string_view>
 
 #include "piezo/name_table.hpp"
@@ -45,5 +47,37 @@ inline constexpr auto kStopCauseNames =
 [[nodiscard]] constexpr std::string_view to_string(StopCause c) {
   return kStopCauseNames.name(c);
 }
+
+/// Whose a stop cause is: the one declaration the drive loop (which causes
+/// `fault_stops_all` spreads), the daemon (where a fault latches) and the
+/// state machine (whether it latches) read.
+enum class CauseScope : std::uint8_t {
+  end,    ///< not a fault: the run's own end, or an operator's stop; nothing latches
+  axis,   ///< an axis's own fault: that axis stops (every axis with fault_stops_all)
+  board,  ///< the board's: it reaches every axis, and latches on the board
+};
+
+/// Each cause's scope, by its value (none first).
+inline constexpr CauseScope kCauseScopes[] = {
+    CauseScope::end,    // none
+    CauseScope::end,    // completed
+    CauseScope::end,    // interrupted
+    CauseScope::board,  // estop
+    CauseScope::axis,   // sensor_fault
+    CauseScope::axis,   // drive_fault
+    CauseScope::board,  // link_lost
+    CauseScope::axis,   // stalled
+    CauseScope::axis,   // sensor_implausible
+    CauseScope::axis,   // travel_limit
+    CauseScope::board,  // other_axis_fault
+};
+static_assert(std::size(kCauseScopes) == static_cast<std::size_t>(kLastStopCause) + 1,
+              "every stop cause declares its scope");
+
+[[nodiscard]] constexpr CauseScope scope_of(StopCause c) {
+  return kCauseScopes[static_cast<std::size_t>(c)];
+}
+/// Whether a run (or an axis of it) that ended with `c` latches a fault.
+[[nodiscard]] constexpr bool latches(StopCause c) { return scope_of(c) != CauseScope::end; }
 
 }  // namespace piezo::firmware
