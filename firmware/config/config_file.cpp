@@ -612,6 +612,18 @@ const AxisConfig* BoardConfig::find_axis(std::string_view name) const {
   return nullptr;
 }
 
+std::size_t BoardConfig::axis_index(std::string_view name, const std::string& where) const {
+  std::string names;
+  for (std::size_t i = 0; i < axes.size(); ++i) {
+    if (axes[i].name == name || (name.empty() && axes.size() == 1)) return i;
+    names += (names.empty() ? "" : ", ") + axes[i].name;
+  }
+  throw ConfigError(where, "axis",
+                    name.empty() ? fmt::format("required: {} has several axes ({})", source, names)
+                                 : fmt::format("\"{}\" is not an axis of {} (allowed: {})", name,
+                                               source, names));
+}
+
 std::string_view name(RunClock c) {
   return kRunClockNames.name(c);
 }

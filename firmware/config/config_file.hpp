@@ -181,6 +181,11 @@ struct BoardConfig {
   [[nodiscard]] AxisConfig& axis(std::size_t i = 0) { return axes.at(i); }
   /// The axis named `name`, or null.
   [[nodiscard]] const AxisConfig* find_axis(std::string_view name) const;
+  /// The index of the axis `name` names, as an edge (a command line, a
+  /// request) gives it: empty takes a config's one axis; an unknown name, or
+  /// none on a config of several, throws ConfigError (`where`, key `axis`)
+  /// listing the config's axes. Never another axis for a name it lacks.
+  [[nodiscard]] std::size_t axis_index(std::string_view name, const std::string& where) const;
   [[nodiscard]] bool virtual_clock() const { return run.clock == RunClock::virtual_time; }
   /// What an axis's drive backends take from its [drive] (and whether [lines] has an enable line).
   [[nodiscard]] hal::DriveCommon drive_common(std::size_t axis = 0) const {

@@ -323,6 +323,39 @@ TEST(Cli, SensorReadChecksOnlyTheSensorsSections) {
   std::filesystem::remove_all(dir);
 }
 
+// `piezo sensor read --axis` reads that axis's own sensor (phi's here sees
+// its rotor from 75 mm, theta's from 70 mm); a name the config lacks, or
+// none on a config of several, is refused listing its axes; a config of one
+// needs none.
+TEST(Cli, SensorReadReadsTheNamedAxissSensor) {
+  const std::string three = " sensor read --config " + kConfigs +
+                            "/three-axes.toml --set axes.phi.sensor.sim.target_distance_m=0.075 "
+                            "--count 2 --json --axis ";
+  const auto mean_mm = [](const CommandResult& r) {
+    const auto j = nlohmann::json::parse(r.out);
+    double sum = 0.0;
+    for (const auto& reading : j.at("readings")) sum += reading.at("displacement_m").get<double>();
+    return 1e3 * sum / static_cast<double>(j.at("readings").size());
+  };
+  const auto phi = run_command(kPiezo + three + "phi");
+  ASSERT_EQ(phi.exit_code, 0) << phi.err;
+  EXPECT_NEAR(mean_mm(phi), 75.0, 0.01);
+  const auto theta = run_command(kPiezo + three + "theta");
+  ASSERT_EQ(theta.exit_code, 0) << theta.err;
+  EXPECT_NEAR(mean_mm(theta), 70.0, 0.01);
+  const auto psi = run_command(kPiezo + three + "psi");
+  EXPECT_EQ(psi.exit_code, 2);
+  EXPECT_NE(psi.err.find("\"psi\" is not an axis"), std::string::npos) << psi.err;
+  EXPECT_NE(psi.err.find("allowed: theta, phi, chi"), std::string::npos) << psi.err;
+  const auto none = run_command(kPiezo + " sensor read --config " + kConfigs +
+                                "/three-axes.toml --count 1");
+  EXPECT_EQ(none.exit_code, 2);
+  EXPECT_NE(none.err.find("required"), std::string::npos) << none.err;
+  const auto one = run_command(kPiezo + " sensor read --config " + kConfigs + "/sim.toml --count 1");
+  EXPECT_EQ(one.exit_code, 0) << one.err;
+  EXPECT_NE(one.out.find("axis rotor"), std::string::npos) << one.out;
+}
+
 }  // namespace
 }  // namespace piezo::testing
 

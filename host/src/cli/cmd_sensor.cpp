@@ -1,5 +1,5 @@
-// `piezo sensor read`: polls the configured displacement sensor — the first
-// thing to run when wiring a new sensor; `piezo sensor list`: what the
+// `piezo sensor read`: polls an axis's configured displacement sensor — the
+// first thing to run when wiring a new sensor; `piezo sensor list`: what the
 // configured devices offer (a DAQ card's subdevices, channels and ranges).
 
 #include <fmt/format.h>
@@ -62,6 +62,7 @@ std::string word_order_hint(const hal::modbus::ModbusSensor& sensor,
 
 struct SensorReadOptions {
   std::string config;
+  std::string axis;
   std::vector<std::string> sets;
   int count = 10;
   bool json = false;
@@ -70,9 +71,11 @@ struct SensorReadOptions {
 int run(const SensorReadOptions& o) {
   const config::ConfigFile config =
       config::load_config_file(o.config, o.sets, config::ConfigScope::sensor);
-  config::SensorRig rig = config::build_sensor(config.board);
+  const std::size_t axis = config.board.axis_index(o.axis, "--axis");
+  const config::SensorSettings& settings = config.board.axis(axis).sensor;
+  config::SensorRig rig = config::build_sensor(config.board, axis);
   hal::Clock& clock = *rig.clock;
-  const auto period = hal::from_seconds(1.0 / config.board.axis().sensor.rate_hz);
+  const auto period = hal::from_seconds(1.0 / settings.rate_hz);
   const hal::TimeNs t0 = clock.now();
   nlohmann::json readings = nlohmann::json::array();
   int errors = 0;
@@ -87,7 +90,7 @@ int run(const SensorReadOptions& o) {
     if (modbus != nullptr && warning.empty() &&
         (r.status == hal::Status::ok || r.status == hal::Status::out_of_range ||
          r.status == hal::Status::invalid_reading)) {
-      warning = word_order_hint(*modbus, config.board.axis().sensor);
+      warning = word_order_hint(*modbus, settings);
       if (!warning.empty()) std::cerr << "piezo sensor read: warning: " << warning << "\n";
     }
     const double t = hal::to_seconds(r.t_request - t0);
@@ -109,9 +112,9 @@ int run(const SensorReadOptions& o) {
     if (!warning.empty()) j["warning"] = warning;
     std::cout << j.dump() << "\n";
   } else {
-    fmt::print("{} readings, {} errors ({} sensor, {})\n", o.count, errors,
-               config.board.axis().sensor.backend(),
-               config.board.axis().sensor.backends.chosen().describe());
+    fmt::print("{} readings, {} errors (axis {}: {} sensor, {})\n", o.count, errors,
+               config.board.axis(axis).name, settings.backend(),
+               settings.backends.chosen().describe());
   }
   return errors == o.count ? 1 : 0;
 }
@@ -134,6 +137,9 @@ void add_sensor_command(CLI::App& app, Commands& commands) {
       ->required()
       ->check(CLI::ExistingFile);
   read->add_option("--set", o->sets, "Override a config key: sensor.KEY=VALUE");
+  read->add_option("--axis", o->axis,
+                   "The axis whose sensor to read, by name (required when the config has "
+                   "several axes)");
   read->add_option("--count", o->count, "Readings to take")->check(CLI::Range(1, 1'000'000));
   add_json_flag(*read, o->json);
   CLI::App* list_devices = sensor->add_subcommand(
