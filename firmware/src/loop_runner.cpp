@@ -148,10 +148,7 @@ std::vector<std::string> LoopRunner::realtime_notes() const {
   if (settings_.lock_memory) notes.push_back(memory_note_);
   notes.push_back(cpu_note_);
   notes.push_back("drive loop: " + drive_note_);
-  notes.push_back(fmt::format("acquire loop{}: {}",
-                              acquire_loops_.size() > 1
-                                  ? fmt::format("s (one per sensor line, {})", acquire_loops_.size())
-                                  : std::string(),
+  notes.push_back(fmt::format("acquire loops, one per sensor line ({}): {}", acquire_loops_.size(),
                               acquire_note_));
   return notes;
 }
