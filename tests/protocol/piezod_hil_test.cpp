@@ -340,8 +340,16 @@ TEST_F(Piezod, KillNineOfTheHostMidMoveEndsTheMoveAtZeroVoltsWithLinkLost) {
   Spawned host({kPiezo, "move", "--to", "0.2", "--timeout", "60", "--config", kSimConfig, "--rig",
                 address_, "--set", "rig.lease_s=2", "--out", (dir_ / "killed-move").string()},
                (dir_ / "host.log").string());
-  std::this_thread::sleep_for(1500ms);
-  ASSERT_EQ(status().at("state"), "running") << read_all(dir_ / "host.log");
+  // Mid-move: a few coarse steps taken (however long a loaded machine takes
+  // to start the host and the move).
+  ASSERT_TRUE(poll_until(
+      [&] {
+        const auto now = status();
+        return now.at("state") == "running" && now.at("run").contains("move") &&
+               now.at("run").at("move").value("steps", 0) > 3;
+      },
+      30000ms, 50ms))
+      << read_all(dir_ / "host.log");
   host.signal(SIGKILL);
   EXPECT_EQ(host.wait_exit(), 128 + SIGKILL);
   // The lease, then the ramp to 0 V: the fault and the run's summary.
