@@ -17,6 +17,9 @@
 #include <string>
 #include <vector>
 
+#include <filesystem>
+#include <toml++/toml.h>
+
 #include "build_paths.hpp"
 #include "config/config_file.hpp"
 
@@ -187,6 +190,41 @@ TEST(ConfigReference, EveryKeyHasItsRowWithTheDeclaredUnitRangeAndDefault) {
   }
   for (const auto& [key, row] : rows) {
     ADD_FAILURE() << key << " is documented but no reader accepts it";
+  }
+}
+
+// The shipped configs' table names every file in configs/, and its clock
+// column says what each file's [run] clock is: "virtual", "real time" (the
+// default, for a rig), or "–" for a file with no rig (the model alone).
+TEST(ConfigReference, TheShippedConfigsTableSaysEachFilesClock) {
+  const std::string source = build_paths::source_dir;
+  std::ifstream in(source + "/docs/configuration.md");
+  std::stringstream page;
+  page << in.rdbuf();
+  const std::string text = page.str();
+  const auto from = text.find("Configs shipped in `configs/`:");
+  ASSERT_NE(from, std::string::npos);
+  const std::string table = text.substr(from, text.find("\n\n", text.find("|---", from)) - from);
+  std::map<std::string, std::string> documented;
+  const std::regex row(R"(\| `([a-z0-9-]+\.toml)` \|[^\n]*\| ([^|\n]+) \|)");
+  for (auto it = std::sregex_iterator(table.begin(), table.end(), row);
+       it != std::sregex_iterator(); ++it) {
+    documented[(*it)[1]] = trim((*it)[2]);
+  }
+  std::set<std::string> files;
+  for (const auto& entry : std::filesystem::directory_iterator(source + "/configs")) {
+    if (entry.path().extension() != ".toml") continue;
+    const std::string name = entry.path().filename().string();
+    files.insert(name);
+    const toml::table config = toml::parse_file(entry.path().string());
+    const auto clock = config["run"]["clock"].value<std::string>();
+    const bool rig = config.contains("sensor");
+    const std::string expected = clock == "virtual" ? "virtual" : rig ? "real time" : "–";
+    ASSERT_TRUE(documented.count(name)) << name << " has no row in the shipped configs' table";
+    EXPECT_EQ(documented[name].substr(0, expected.size()), expected) << name;
+  }
+  for (const auto& [name, clock] : documented) {
+    EXPECT_TRUE(files.count(name)) << name << " is in the table but not in configs/";
   }
 }
 
