@@ -510,6 +510,41 @@ TEST_F(Piezod, ANetworkAddressNeedsCurveAndRefusesUnknownClients) {
 // The board's diagnostics: what its configured devices offer, listed
 // without starting the daemon (nothing listens, nothing is driven); a bad
 // config is refused as it would be at start.
+// `piezo status` reads a board of one axis as a board with one axis: the
+// same lines, one per axis, whatever the count; a group run's summary says
+// how each of its axes ended.
+TEST(PiezodStatus, EveryAxisHasItsLineOnABoardOfOneAndOfThree) {
+  for (const std::string config : {"piezod-sim.toml", "three-axes.toml"}) {
+    SCOPED_TRACE(config);
+    const fs::path dir = fresh_temp_dir("status-shape");
+    const int port = free_port(2);
+    const std::string address = "tcp://127.0.0.1:" + std::to_string(port);
+    Spawned board({kPiezod, "--config", kSource + "/configs/" + config, "--listen", address},
+                  (dir / "piezod.log").string());
+    ASSERT_TRUE(wait_for_tcp(port));
+    const bool three = config == "three-axes.toml";
+    const std::string move = three ? " --to theta=0.002 --to phi=-0.001" : " --to 0.002";
+    const auto moved = run_command(kPiezo + " move --rig " + address + move + " --out " +
+                                   (dir / "move").string());
+    ASSERT_EQ(moved.exit_code, 0) << moved.err;
+    const auto status = run_command(kPiezo + " status --rig " + address);
+    ASSERT_EQ(status.exit_code, 0) << status.err;
+    const std::vector<std::string> axes =
+        three ? std::vector<std::string>{"theta", "phi", "chi"} : std::vector<std::string>{"rotor"};
+    for (const std::string& axis : axes) {
+      EXPECT_TRUE(std::regex_search(status.out, std::regex("\\naxis " + axis + " +")))
+          << status.out;
+    }
+    for (const std::string& moved_axis :
+         three ? std::vector<std::string>{"theta", "phi"} : std::vector<std::string>{"rotor"}) {
+      EXPECT_TRUE(std::regex_search(
+          status.out, std::regex("  axis " + moved_axis + " +completed, move on_target")))
+          << status.out;
+    }
+    EXPECT_EQ(status.out.find("position   "), std::string::npos) << "no first-axis mirror";
+  }
+}
+
 TEST(PiezodDevices, ListsTheConfiguredDevicesAndExits) {
   const std::string config = kSource + "/configs/piezod-sim.toml";
   const auto r = run_command(kPiezod + " devices --config " + config);

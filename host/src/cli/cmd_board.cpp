@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
@@ -20,51 +21,55 @@ struct BoardOptions {
   bool json = false;
 };
 
-/// `status`'s reply as a person reads it, from the protocol's own type
+/// A calibration as a person reads it.
+std::string calibration_text(const std::optional<protocol::CalibrationRecord>& cal) {
+  if (!cal) return "not calibrated (piezo calibrate --rig ADDRESS)";
+  return fmt::format(
+      "calibrated {}: steps fastest at {}, noise {:.3g} m, smallest tolerance {:.3g} rad{}",
+      cal->created,
+      cal->fastest_f_hz ? fmt::format("{:g} Hz", *cal->fastest_f_hz)
+                        : std::string("(none reliable)"),
+      cal->noise_m, cal->smallest_tolerance_rad.value_or(0.0),
+      cal->model.is_object() ? ", model fitted" : "");
+}
+
+/// `status`'s reply as a person reads it, from the protocol's own types
 /// (what the board sends is decoded once, by the codec that piezod's
-/// replies are tested against).
-std::string status_text(const protocol::Status& s) {
+/// replies are tested against): the board, the last run with how each of
+/// its axes ended, then every axis (its position, fault and calibration,
+/// from `hello`), a board of one as a board of several.
+std::string status_text(const protocol::Status& s, const protocol::Hello& hello) {
   std::string out = fmt::format("state      {}", protocol::to_string(s.state));
   if (s.fault) out += fmt::format(" (fault: {})", firmware::to_string(*s.fault));
-  out += "\n";
+  out += fmt::format("\ncontrolled {}\n", s.controlled ? "yes" : "no");
   if (s.run) {
     const protocol::RunStatus& r = *s.run;
-    out += fmt::format("run        {} ({:g} s, lease {:g} s){}{}\n", r.id, r.duration_s, r.lease_s,
-                       r.finished ? ", finished" : "",
-                       s.axes.size() > 1 ? ", axis " + r.axis : std::string());
+    out += fmt::format("run        {} ({:g} s, lease {:g} s){}\n", r.id, r.duration_s, r.lease_s,
+                       r.finished ? ", finished" : "");
     if (r.summary) {
       out += fmt::format("stop cause {}\noutput     {}\n", firmware::to_string(r.summary->cause),
                          firmware::to_string(r.summary->output.state));
+      for (const auto& a : r.summary->axes) {
+        out += fmt::format("  axis {:<6} {}{}\n", a.name, firmware::to_string(a.cause),
+                           a.move && a.move->stop_cause
+                               ? fmt::format(", move {}", firmware::kMoveEndNames.name(*a.move->stop_cause))
+                               : std::string());
+      }
     }
-    out += fmt::format("samples    drive {}, sensor {}\n", r.drive.cycles, r.sensor.cycles);
+    out += fmt::format("cycles     drive {}, sensor {} (every sensor line's)\n", r.drive.cycles,
+                       r.sensor.cycles);
   }
-  if (s.axes.size() > 1) {
-    // A board of several axes: each axis's position and calibration.
-    for (const protocol::Status::Axis& a : s.axes) {
-      out += fmt::format("axis {:<6}{}, {}\n", a.name,
-                         a.position.position_rad ? fmt::format("{:.4f} mrad from its zero",
-                                                               1e3 * *a.position.position_rad)
-                                                 : std::string("no reading yet"),
-                         a.calibrated ? "calibrated" : "not calibrated");
-    }
-    out += fmt::format("controlled {}\n", s.controlled ? "yes" : "no");
-    return out;
-  }
-  if (s.position.position_rad) {
-    out += fmt::format("position   {:.4f} mrad from the zero\n", 1e3 * *s.position.position_rad);
-  }
-  out += fmt::format("controlled {}\n", s.controlled ? "yes" : "no");
-  if (const auto& cal = s.calibration) {
+  for (const protocol::Status::Axis& a : s.axes) {
+    const auto info = std::find_if(hello.axes.begin(), hello.axes.end(),
+                                   [&](const protocol::AxisInfo& i) { return i.name == a.name; });
     out += fmt::format(
-        "calibrated {}: steps fastest at {}, noise {:.3g} m, smallest tolerance "
-        "{:.3g} rad{}\n",
-        cal->created,
-        cal->fastest_f_hz ? fmt::format("{:g} Hz", *cal->fastest_f_hz)
-                          : std::string("(none reliable)"),
-        cal->noise_m, cal->smallest_tolerance_rad.value_or(0.0),
-        cal->model.is_object() ? ", model fitted" : "");
-  } else {
-    out += "calibrated no (piezo calibrate --rig ADDRESS)\n";
+        "axis {:<6} {}{}; {}\n", a.name,
+        a.position.position_rad
+            ? fmt::format("{:.4f} mrad from its zero", 1e3 * *a.position.position_rad)
+            : std::string("no reading yet"),
+        a.fault ? fmt::format(" (fault: {})", firmware::to_string(*a.fault)) : std::string(),
+        info != hello.axes.end() ? calibration_text(info->calibration)
+                                 : std::string(a.calibrated ? "calibrated" : "not calibrated"));
   }
   return out;
 }
@@ -77,7 +82,7 @@ int call(const BoardOptions& o, const std::string& cmd) {
   if (o.json) {
     std::cout << result.dump() << "\n";
   } else if (cmd == "status") {
-    std::cout << status_text(result.get<protocol::Status>());
+    std::cout << status_text(result.get<protocol::Status>(), client.hello());
   } else if (cmd == "zero") {
     std::cout << "zero: set at the last reading; position 0 rad\n";
   } else {
