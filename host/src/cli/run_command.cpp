@@ -78,10 +78,9 @@ std::string summary_text(const RunSummary& s, const fs::path& log, const std::st
   }
   if (!s.host_error.empty()) out += fmt::format("  error      {}\n", s.host_error);
   out += fmt::format("  output     {}\n", output_line(s));
-  for (const AxisMeasured& m : s.axes.size() > 1 ? s.axes : std::vector<AxisMeasured>{s}) {
-    out += fmt::format("  angle      {}{:.4f} mrad at t = {:.3f} s, mean velocity {:.4f} mrad/s\n",
-                       s.axes.size() > 1 ? fmt::format("{:<7}", m.name) : std::string(),
-                       1e3 * m.theta_end_rad, m.t_end_s, 1e3 * m.mean_velocity_rad_s);
+  for (const AxisMeasured& m : s.axes) {
+    out += fmt::format("  angle      {:<7}{:.4f} mrad at t = {:.3f} s, mean velocity {:.4f} mrad/s\n",
+                       m.name, 1e3 * m.theta_end_rad, m.t_end_s, 1e3 * m.mean_velocity_rad_s);
   }
   for (const auto& [name, l] :
        {std::pair{"drive", &s.board.drive}, std::pair{"sensor", &s.board.sensor}}) {
@@ -265,7 +264,7 @@ nlohmann::json summary_json(const RunSummary& s, const fs::path& dir, const fs::
       {"t_end_s", s.t_end_s},
       {"mean_velocity_rad_s", s.mean_velocity_rad_s},
       {"realtime", s.board.realtime}};
-  if (s.axes.size() > 1) out["axes"] = axes_json(s);
+  out["axes"] = axes_json(s);  // every axis of the run, one as several
   return out;
 }
 
