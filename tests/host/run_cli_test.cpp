@@ -46,6 +46,11 @@ TEST(RunCli, VirtualRunWritesALogH5pyReadsAndAReport) {
   EXPECT_EQ(j.at("sensor").at("dropped").get<int>(), 0);
   EXPECT_GT(j.at("theta_end_rad").get<double>(), 0.0);
   EXPECT_GT(j.at("mean_velocity_rad_s").get<double>(), 0.0);
+  // Every axis of the run, a board of one as of several.
+  ASSERT_EQ(j.at("axes").size(), 1u) << j.dump();
+  EXPECT_EQ(j.at("axes")[0].at("name"), "rotor");
+  EXPECT_EQ(j.at("axes")[0].at("theta_end_rad"), j.at("theta_end_rad"));
+  EXPECT_EQ(j.at("axes")[0].at("stop_cause"), "completed");
 
   const auto check = h5py_check(out / "run.h5", R"(
 for name in ['drive/t', 'drive/V', 'sensor/t', 'sensor/theta']:
