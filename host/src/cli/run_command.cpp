@@ -270,12 +270,14 @@ nlohmann::json summary_json(const RunSummary& s, const fs::path& dir, const fs::
 
 void append_catalogue(const fs::path& run_dir, const std::string& utc_start,
                       const config::ConfigFile& config, const RunSummary& s) {
-  append_to_catalogue(run_dir, {.utc_start = utc_start,
-                                .status = s.status(),
-                                .stop_cause = s.stop_cause(),
-                                .config = config.source,
-                                .t_end_s = s.t_end_s,
-                                .theta_end_rad = s.theta_end_rad});
+  CatalogueEntry entry{.utc_start = utc_start,
+                       .status = s.status(),
+                       .stop_cause = s.stop_cause(),
+                       .config = config.source,
+                       .t_end_s = s.t_end_s,
+                       .axes = {}};
+  for (const AxisMeasured& a : s.axes) entry.axes.push_back({a.name, a.theta_end_rad});
+  append_to_catalogue(run_dir, entry);
 }
 
 void show_status(const LiveStatus& st) {

@@ -251,17 +251,21 @@ void write_log(const fs::path& out, log_schema::AxesRows& rows,
 }
 
 void add_to_catalogue(const fs::path& dir, const std::map<std::string, std::string>& attributes,
-                      const log_schema::LogRows& rows) {
+                      const std::vector<std::string>& axes, const log_schema::AxesRows& rows) {
   const auto get = [&](const char* key) {
     const auto it = attributes.find(key);
     return it == attributes.end() ? std::string() : it->second;
   };
-  append_to_catalogue(dir, {.utc_start = get(log_schema::kUtcStart),
-                            .status = "recovered",
-                            .stop_cause = "unknown",
-                            .config = get(log_schema::kConfigSource),
-                            .t_end_s = last_finite(rows.drive.t),
-                            .theta_end_rad = last_finite(rows.sensor.theta)});
+  CatalogueEntry entry{.utc_start = get(log_schema::kUtcStart),
+                       .status = "recovered",
+                       .stop_cause = "unknown",
+                       .config = get(log_schema::kConfigSource),
+                       .t_end_s = last_finite(rows.front().drive.t),
+                       .axes = {}};
+  for (std::size_t i = 0; i < axes.size(); ++i) {
+    entry.axes.push_back({axes[i], last_finite(rows[i].sensor.theta)});
+  }
+  append_to_catalogue(dir, entry);
 }
 
 }  // namespace
@@ -347,7 +351,7 @@ Recovery recover_run(const std::string& run_dir) {
   if (has_journal) fs::remove(journal);
   r.rebuilt = true;
   r.status = "recovered";
-  add_to_catalogue(dir, attributes, rows.front());
+  add_to_catalogue(dir, attributes, copy.axes, rows);
   return r;
 }
 
