@@ -285,7 +285,7 @@ void show_status(const LiveStatus& st) {
   static auto last_line = std::chrono::steady_clock::time_point{};
   const double progress = st.board.value(wire_key::calibration_progress, -1.0);
   const std::string line = fmt::format(
-      "{}t {:6.2f}/{:.2f} s  V {:5.1f} V  theta {:8.4f} mrad  residual {:6.1f} urad  sensor {} "
+      "{}t {:6.2f}/{:.2f} s  V {:5.1f} V  angle {:8.4f} mrad  residual {:6.1f} urad  sensor {} "
       "({} errors)  overruns {}",
       progress >= 0.0 ? fmt::format("calibrating {:3.0f} %  ", 100.0 * progress) : std::string(),
       st.t_s, st.duration_s, st.V, 1e3 * st.theta_rad, 1e6 * st.residual_rad, st.sensor_samples,
