@@ -177,6 +177,11 @@ struct BoardConfig {
   bool fault_stops_all = false;
   DaemonSettings daemon;
 
+  /// The board's loop rates: one tick drives every axis and one sensor
+  /// clock reads them, so every axis's [drive] and [sensor] rate_hz is the
+  /// same (the reader refuses an axis that names another).
+  [[nodiscard]] double drive_rate_hz() const { return axes.front().drive.rate_hz; }
+  [[nodiscard]] double sensor_rate_hz() const { return axes.front().sensor.rate_hz; }
   [[nodiscard]] const AxisConfig& axis(std::size_t i = 0) const { return axes.at(i); }
   [[nodiscard]] AxisConfig& axis(std::size_t i = 0) { return axes.at(i); }
   /// The axis named `name`, or null.

@@ -16,11 +16,11 @@ std::string effective_config_toml(const ConfigFile& file) {
     (spec.section == "drive" ? drive : motor).insert(std::string(spec.name), v);
   }
   drive.insert("direction", std::string(model::name(h.model.drive.direction)));
-  drive.insert("rate_hz", a.drive.rate_hz);
+  drive.insert("rate_hz", c.drive_rate_hz());
   drive.insert("V_min", a.drive.limits.V_min);
   drive.insert("V_max", a.drive.limits.V_max);
   drive.insert("slew_V_per_s", a.drive.limits.slew_V_per_s);
-  const toml::table sensor{{"r2_m", a.sensor.r2_m}, {"rate_hz", a.sensor.rate_hz}};
+  const toml::table sensor{{"r2_m", a.sensor.r2_m}, {"rate_hz", c.sensor_rate_hz()}};
   const toml::table run{{"duration_s", h.run.duration_s},
                         {"clock", std::string(name(c.run.clock))}};
   const toml::table observer{{"enabled", h.observer.enabled},

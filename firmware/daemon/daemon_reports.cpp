@@ -59,8 +59,8 @@ protocol::Hello Daemon::hello() const {
               board_.daemon.lease_max_s};
   h.sensor.r2_m = c.sensor.r2_m;
   h.sensor.zero_displacement_m = first.zero.value();
-  h.drive_rate_hz = c.drive.rate_hz;
-  h.sensor_rate_hz = c.sensor.rate_hz;
+  h.drive_rate_hz = board_.drive_rate_hz();
+  h.sensor_rate_hz = board_.sensor_rate_hz();
   h.output_latency_s = first.rig.drive->output_latency_s();
   h.lease_s = board_.daemon.lease_s;
   h.recorder_s = board_.daemon.recorder_s;

@@ -104,7 +104,7 @@ protocol::StartReply Daemon::start(const std::string& client,
     Run* r = run.get();
     const auto window = static_cast<std::uint64_t>(
         std::min(kVirtualAckWindow * static_cast<double>(samples_.drive_capacity()),
-                 kVirtualAckWindow_s * board_.axis().drive.rate_hz));
+                 kVirtualAckWindow_s * board_.drive_rate_hz()));
     const auto lease_ns = static_cast<std::int64_t>(lease_s * 1e9);
     lagging = [r, window, lease_ns] {
       return wall_ns() - r->lease_renewed_ns.load() < lease_ns &&
@@ -139,10 +139,9 @@ protocol::StartReply Daemon::start(const std::string& client,
 
 void Daemon::build_runner(Run& run, const Program& program) {
   // The rates are the board's (one tick for every axis).
-  const config::AxisConfig& board_axis = board_.axis();
   firmware::LoopRunnerSettings settings{
-      {board_axis.drive.rate_hz, run.request.duration_s, board_.fault_stops_all},
-      board_axis.sensor.rate_hz,
+      {board_.drive_rate_hz(), run.request.duration_s, board_.fault_stops_all},
+      board_.sensor_rate_hz(),
       !board_.virtual_clock(),
       board_.run.priority,
       board_.run.lock_memory};
