@@ -165,6 +165,7 @@ def test_a_request_given_up_on_never_runs_on_the_board_that_comes_back(tmp_path)
         client.axes["rotor"].move_to(0.005)
     back = peers.restart_piezod(os.environ["PIEZOD_BINARY"], str(tmp_path / "piezod.toml"),
                                 str(tmp_path / "piezod.err"), address)
+    client.timeout = 10.0  # the board is back: a loaded machine may be slow to answer
     try:
         time.sleep(5)  # ZeroMQ's reconnection, at most 2 s apart
         with Board(address) as watcher:

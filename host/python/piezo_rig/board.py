@@ -247,7 +247,7 @@ class Board:
         that may name the board start names the one this client knows (asking
         ``hello`` first when it knows none): one the board restarted since
         raises ``StaleBoard`` and does nothing."""
-        if self.board_id is None and command != "hello" and self._names_board(command):
+        if self._hello is None and command != "hello" and self._names_board(command):
             self.hello()
         with self._lock:
             if self._closed:
