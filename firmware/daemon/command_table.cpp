@@ -45,8 +45,9 @@ nlohmann::json CommandTable::dispatch(const std::string& client, const std::stri
       board != args.end() && protocol::names_board(it->name) &&
       !(board->is_string() && board->get<std::string>() == board_id_)) {
     if (!board->is_string()) {
-      throw protocol::ProtocolError(protocol::code::bad_argument, wire_key::board,
-                                    fmt::format("{}: board: expected text (hello's board_id)", cmd));
+      throw protocol::ProtocolError(
+          protocol::code::bad_argument, wire_key::board,
+          fmt::format("{}: board: expected text (hello's board_id)", cmd));
     }
     throw protocol::ProtocolError(
         protocol::code::stale_board, wire_key::board,

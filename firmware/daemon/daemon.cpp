@@ -347,60 +347,65 @@ CommandTable Daemon::command_table() {
     args.push_back(axis_spec());
     return args;
   };
-  return CommandTable({
-      {"hello", C::anyone, {}, [this](Who, Args) { return json(hello()); }},
-      {"describe",
-       C::anyone,
-       {},
-       [this](Who, Args) { return protocol::describe(command_table_.specs(), hello().limits); }},
-      {"status", C::anyone, {}, [this](Who c, Args) { return json(status(c)); }},
-      {wire_key::clock,
-       C::anyone,
-       {},
-       [this](Who, Args) { return json(protocol::ClockReply{rig_.clock->now()}); }},
-      {protocol::ConfigureRequest::kCommand, C::controller,
-       on_axis(protocol::specs_of<protocol::ConfigureRequest>()),
-       [this](Who, Args a) { return configure(a); }},
-      {protocol::StartRequest::kCommand, C::controller,
-       protocol::specs_of<protocol::StartRequest>(),
-       [this](Who c, Args a) {
-         return start(c, protocol::decode<protocol::StartRequest>(a).lease_s);
-       }},
-      {protocol::StepRequest::kCommand, C::controller,
-       on_axis(protocol::specs_of<protocol::StepRequest>()),
-       [this](Who c, Args a) { return step(c, a); }},
-      {protocol::MoveToRequest::kCommand, C::controller, move_to_specs(),
-       [this](Who c, Args a) { return move_to(c, a); }},
-      {protocol::CalibrateRequest::kCommand, C::controller,
-       on_axis(protocol::specs_of<protocol::CalibrateRequest>()),
-       [this](Who c, Args a) { return calibrate(c, a); }},
-      {"set_calibration", C::controller,
-       on_axis(
-           {protocol::ArgumentSpec{std::string(wire_key::calibration),
-                                   firmware::ArgumentType::map,
-                                   "",
-                                   {},
-                                   "",
-                                   {},
-                                   true,
-                                   nullptr,
-                                   "required",
-                                   "a calibration (docs/protocol.md, \"Calibration\"), or nil"}}),
-       [this](Who c, Args a) { return set_calibration(c, a); }},
-      {"zero", C::controller, on_axis({}), [this](Who c, Args a) { return set_zero(c, a); }},
-      {"stop", C::controller, stop_specs(), [this](Who, Args a) { return stop_run(a); }},
-      // Anyone may press it: it only ever makes the rig safer.
-      {"estop", C::anyone, {}, [this](Who c, Args) { return estop(c); }},
-      // Refused to everyone during a run; between runs nobody controls the rig.
-      {"reset_fault", C::anyone, {}, [this](Who, Args) { return reset_fault(); }},
-      {protocol::LeaseRequest::kCommand, C::controller,
-       protocol::specs_of<protocol::LeaseRequest>(),
-       [this](Who, Args a) { return renew_lease(a); }},
-      {protocol::FetchRequest::kCommand, C::anyone, protocol::specs_of<protocol::FetchRequest>(),
-       [this](Who c, Args a) {
-         return samples_.fetch(c, a, running() && !run_state_.is_controller(c));
-       }},
-  }, board_id_);
+  return CommandTable(
+      {
+          {"hello", C::anyone, {}, [this](Who, Args) { return json(hello()); }},
+          {"describe",
+           C::anyone,
+           {},
+           [this](Who, Args) {
+             return protocol::describe(command_table_.specs(), hello().limits);
+           }},
+          {"status", C::anyone, {}, [this](Who c, Args) { return json(status(c)); }},
+          {wire_key::clock,
+           C::anyone,
+           {},
+           [this](Who, Args) { return json(protocol::ClockReply{rig_.clock->now()}); }},
+          {protocol::ConfigureRequest::kCommand, C::controller,
+           on_axis(protocol::specs_of<protocol::ConfigureRequest>()),
+           [this](Who, Args a) { return configure(a); }},
+          {protocol::StartRequest::kCommand, C::controller,
+           protocol::specs_of<protocol::StartRequest>(),
+           [this](Who c, Args a) {
+             return start(c, protocol::decode<protocol::StartRequest>(a).lease_s);
+           }},
+          {protocol::StepRequest::kCommand, C::controller,
+           on_axis(protocol::specs_of<protocol::StepRequest>()),
+           [this](Who c, Args a) { return step(c, a); }},
+          {protocol::MoveToRequest::kCommand, C::controller, move_to_specs(),
+           [this](Who c, Args a) { return move_to(c, a); }},
+          {protocol::CalibrateRequest::kCommand, C::controller,
+           on_axis(protocol::specs_of<protocol::CalibrateRequest>()),
+           [this](Who c, Args a) { return calibrate(c, a); }},
+          {"set_calibration", C::controller,
+           on_axis({protocol::ArgumentSpec{
+               std::string(wire_key::calibration),
+               firmware::ArgumentType::map,
+               "",
+               {},
+               "",
+               {},
+               true,
+               nullptr,
+               "required",
+               "a calibration (docs/protocol.md, \"Calibration\"), or nil"}}),
+           [this](Who c, Args a) { return set_calibration(c, a); }},
+          {"zero", C::controller, on_axis({}), [this](Who c, Args a) { return set_zero(c, a); }},
+          {"stop", C::controller, stop_specs(), [this](Who, Args a) { return stop_run(a); }},
+          // Anyone may press it: it only ever makes the rig safer.
+          {"estop", C::anyone, {}, [this](Who c, Args) { return estop(c); }},
+          // Refused to everyone during a run; between runs nobody controls the rig.
+          {"reset_fault", C::anyone, {}, [this](Who, Args) { return reset_fault(); }},
+          {protocol::LeaseRequest::kCommand, C::controller,
+           protocol::specs_of<protocol::LeaseRequest>(),
+           [this](Who, Args a) { return renew_lease(a); }},
+          {protocol::FetchRequest::kCommand, C::anyone,
+           protocol::specs_of<protocol::FetchRequest>(),
+           [this](Who c, Args a) {
+             return samples_.fetch(c, a, running() && !run_state_.is_controller(c));
+           }},
+      },
+      board_id_);
 }
 
 }  // namespace piezo::daemon

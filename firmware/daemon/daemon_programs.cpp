@@ -110,8 +110,7 @@ json Daemon::move_to(const std::string& client, const json& args) {
   for (std::size_t i = 0; i < taken.size(); ++i) {
     run_->parts[i]->move_takes_its_zero = !taken[i].zero_displacement_m;
   }
-  started.move = taken.front();
-  if (taken.size() > 1) started.moves = std::move(taken);
+  started.moves = std::move(taken);
   return started;
 }
 

@@ -3,8 +3,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <zmq_addon.hpp>
 
 #include "daemon_run.hpp"
@@ -36,10 +38,6 @@ protocol::LoopHealth health_of(const firmware::LoopHealth& h, bool with_timing) 
 }  // namespace
 
 protocol::Hello Daemon::hello() const {
-  // The top-level fields are the first axis's (a board of one: its axis).
-  const ServedAxis& first = *axes_.front();
-  const config::AxisConfig& c = first.config;
-  const auto& lim = c.drive.limits;
   protocol::Hello h;
   h.protocol = protocol::kProtocolVersion;
   h.board_id = board_id_;
@@ -47,27 +45,30 @@ protocol::Hello Daemon::hello() const {
   h.daemon = PIEZO_VERSION;
   h.stream = stream_endpoint_;
   h.clock = config::name(board_.run.clock);
-  h.backends = {std::string(c.drive.backend()), std::string(c.sensor.backend()),
-                std::string(board_.lines.backend())};
-  h.limits = {lim.V_min,
-              lim.V_max,
-              lim.slew_V_per_s,
-              c.safety.ramp_down_V_per_s,
-              c.safety.sensor_stale_s,
-              firmware::max_drive_frequency(c.drive.rate_hz),
-              board_.daemon.duration_max_s,
-              board_.daemon.lease_max_s};
-  h.sensor.r2_m = c.sensor.r2_m;
-  h.sensor.zero_displacement_m = first.zero.value();
+  h.backends = {std::string(board_.lines.backend())};
   h.drive_rate_hz = board_.drive_rate_hz();
   h.sensor_rate_hz = board_.sensor_rate_hz();
-  h.output_latency_s = first.rig.drive->output_latency_s();
   h.lease_s = board_.daemon.lease_s;
   h.recorder_s = board_.daemon.recorder_s;
-  h.calibration = first.calibration;
+  // The board's limits: its own, and the widest of its axes' (each axis
+  // checks its own; these bound what the dictionary describes).
+  h.limits = {std::numeric_limits<double>::infinity(),
+              -std::numeric_limits<double>::infinity(),
+              0.0,
+              std::numeric_limits<double>::infinity(),
+              std::numeric_limits<double>::infinity(),
+              firmware::max_drive_frequency(board_.drive_rate_hz()),
+              board_.daemon.duration_max_s,
+              board_.daemon.lease_max_s};
   const auto end = [](double v) { return std::isfinite(v) ? std::optional(v) : std::nullopt; };
   for (const auto& axis : axes_) {
     const config::AxisConfig& a = axis->config;
+    h.limits.V_min = std::min(h.limits.V_min, a.drive.limits.V_min);
+    h.limits.V_max = std::max(h.limits.V_max, a.drive.limits.V_max);
+    h.limits.slew_V_per_s = std::max(h.limits.slew_V_per_s, a.drive.limits.slew_V_per_s);
+    h.limits.ramp_down_V_per_s = std::min(h.limits.ramp_down_V_per_s, a.safety.ramp_down_V_per_s);
+    h.limits.sensor_stale_s = std::min(h.limits.sensor_stale_s, a.safety.sensor_stale_s);
+    h.output_latency_s = std::max(h.output_latency_s, axis->rig.drive->output_latency_s());
     h.axes.push_back({a.name, a.sensor.r2_m, a.drive.limits.V_min, a.drive.limits.V_max,
                       a.drive.limits.slew_V_per_s, end(a.safety.travel_min_rad),
                       end(a.safety.travel_max_rad), std::string(a.drive.backend()),
@@ -96,8 +97,6 @@ protocol::Status Daemon::status(const std::string& client) const {
   if (run_state_.state() == State::fault) s.fault = run_state_.fault();
   s.recorder = {{samples_.drive_first(), samples_.drive_recorded()},
                 {samples_.sensor_first(), samples_.sensor_recorded()}};
-  s.position = position_of(*axes_.front());
-  s.calibration = axes_.front()->calibration;
   for (const auto& axis : axes_) {
     s.axes.push_back(
         {axis->name(), position_of(*axis), axis->calibration.has_value(),
@@ -107,7 +106,7 @@ protocol::Status Daemon::status(const std::string& client) const {
   if (run_) {
     protocol::RunStatus r;
     r.id = run_->id;
-    r.axis = run_->first().axis.name();
+    for (const auto& part : run_->parts) r.axes.push_back(part->axis.name());
     r.t0_ns = run_->t0;
     r.duration_s = run_->request.duration_s;
     r.lease_s = run_->lease_s;
@@ -115,9 +114,7 @@ protocol::Status Daemon::status(const std::string& client) const {
     r.drive = health_of(run_->runner->drive_health(), false);
     r.sensor = health_of(run_->runner->sensor_health(), false);
     if (run_->finished) r.summary = run_->summary;
-    const auto moves = move_accounts(*run_);
-    if (!moves.empty()) r.move = moves.front();
-    if (moves.size() > 1) r.moves = moves;  // a move of one axis: `move` says it
+    if (run_->is_move()) r.moves = move_accounts(*run_);
     if (run_->calibration) r.calibration_progress = run_->calibration->progress();
     s.run = r;
   }
@@ -159,11 +156,8 @@ protocol::MoveAccount Daemon::move_account(const Run& run, std::size_t part) con
                                          finite(m.hold_max_error_rad())};
   }
   // Once the loops have ended (their causes are theirs until then): each
-  // axis of a group ends on its own, a move of one axis as its run.
-  if (run.finished) {
-    a.stop_cause = firmware::move_end(
-        on_target, run.parts.size() > 1 ? run.runner->cause(part) : run.runner->cause());
-  }
+  // axis ends on its own.
+  if (run.finished) a.stop_cause = firmware::move_end(on_target, run.runner->cause(part));
   return a;
 }
 
@@ -196,7 +190,6 @@ protocol::RunSummary Daemon::summary(const Run& run) const {
     if (run.is_move()) axis.move = move_account(run, i);
     s.axes.push_back(std::move(axis));
   }
-  if (run.is_move()) s.move = s.axes.front().move;
   s.drive = health_of(run.runner->drive_health(), true);
   s.sensor = health_of(run.runner->sensor_health(), true);
   s.realtime = run.runner->realtime_notes();
@@ -224,9 +217,7 @@ void Daemon::publish_health() {
   if (running()) {
     e.drive = health_of(run_->runner->drive_health(), true);
     e.sensor = health_of(run_->runner->sensor_health(), true);
-    const auto moves = move_accounts(*run_);
-    if (!moves.empty()) e.move = moves.front();
-    if (moves.size() > 1) e.moves = moves;
+    if (run_->is_move()) e.moves = move_accounts(*run_);
     if (run_->calibration) e.calibration_progress = run_->calibration->progress();
   }
   const std::string body = protocol::encode_map(e);

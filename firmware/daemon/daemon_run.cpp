@@ -150,11 +150,16 @@ void Daemon::build_runner(Run& run, const Program& program) {
                             double period_s, firmware::TravelHeading heading) {
     const ServedAxis& axis = part.axis;
     const config::AxisConfig& c = axis.config;
-    return firmware::RunAxis{*axis.rig.drive,   *axis.rig.sensor,
-                             program_to_follow, c.drive.limits,
-                             period_s,          c.safety,
-                             c.sensor.r2_m,     axis.zero.displacement_m(),
-                             &part.feed,        static_cast<std::uint8_t>(axis.index),
+    return firmware::RunAxis{*axis.rig.drive,
+                             *axis.rig.sensor,
+                             program_to_follow,
+                             c.drive.limits,
+                             period_s,
+                             c.safety,
+                             c.sensor.r2_m,
+                             axis.zero.displacement_m(),
+                             &part.feed,
+                             static_cast<std::uint8_t>(axis.index),
                              heading};
   };
   const auto start_loops = [&](std::vector<firmware::RunAxis> axes) {
@@ -176,8 +181,9 @@ void Daemon::build_runner(Run& run, const Program& program) {
   ServedAxis& axis = part.axis;
   const config::AxisConfig& c = axis.config;
   const double period_s = 1.0 / run.request.drive.f;
-  const firmware::TravelHeading waveform_heading = heading(
-      axis, run.request.drive.direction == model::Direction::forward ? 1 : -1, run.request.drive.V0);
+  const firmware::TravelHeading waveform_heading =
+      heading(axis, run.request.drive.direction == model::Direction::forward ? 1 : -1,
+              run.request.drive.V0);
   if (program.calibration) {
     run.calibration =
         std::make_unique<firmware::CalibrationProgram>(*program.calibration, part.feed);
@@ -401,7 +407,7 @@ void Daemon::finish_run() {
   bool board_fault = false;
   for (std::size_t i = 0; i < run.parts.size(); ++i) {
     const auto c = run.runner->cause(i);
-    switch (RunState::latch_of(c, axes_.size())) {
+    switch (RunState::latch_of(c)) {
       case RunState::Latch::on_board:
         board_fault = true;
         break;

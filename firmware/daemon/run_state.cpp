@@ -64,12 +64,12 @@ firmware::StopCause RunState::reset() {
   return cleared;
 }
 
-RunState::Latch RunState::latch_of(firmware::StopCause c, std::size_t board_axes) {
+RunState::Latch RunState::latch_of(firmware::StopCause c) {
   switch (firmware::scope_of(c)) {
     case firmware::CauseScope::end:
       return Latch::nowhere;
     case firmware::CauseScope::axis:
-      return board_axes > 1 ? Latch::on_axis : Latch::on_board;
+      return Latch::on_axis;
     case firmware::CauseScope::board:
       break;
   }

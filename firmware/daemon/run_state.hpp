@@ -52,12 +52,11 @@ class RunState {
   /// cleared, StopCause::none when there was none.
   firmware::StopCause reset();
 
-  /// Where an axis's end with `cause` latches, on a board of `board_axes`
-  /// axes: nowhere (an end), on the axis (an axis's own fault on a board of
-  /// several: the others run on), or on the board (the board's causes, and
-  /// on a board of one its axis's own).
+  /// Where an axis's end with `cause` latches, whatever the board's count of
+  /// axes (its scope, stop_cause.hpp): nowhere (an end), on the axis (its
+  /// own fault: the other axes run on), or on the board (the board's causes).
   enum class Latch { nowhere, on_axis, on_board };
-  [[nodiscard]] static Latch latch_of(firmware::StopCause cause, std::size_t board_axes);
+  [[nodiscard]] static Latch latch_of(firmware::StopCause cause);
 
  private:
   State state_ = State::idle;

@@ -151,33 +151,29 @@ TEST(RunState, TheCausesThatLatchAreTheOnesProtocolMdNames) {
   EXPECT_EQ(documented, latching);
 }
 
-// Every cause through a board of one axis and of three: where an axis's end
-// with it latches follows its declared scope alone (stop_cause.hpp).
-TEST(RunState, EveryCauseLatchesWhereItsScopeSaysOnABoardOfOneAndOfThree) {
+// Every cause: where an axis's end with it latches follows its declared
+// scope alone (stop_cause.hpp), the same on a board of one axis as of three.
+TEST(RunState, EveryCauseLatchesWhereItsScopeSays) {
   using Latch = RunState::Latch;
   for (const auto& [cause, cause_name] : firmware::kStopCauseNames.entries()) {
     SCOPED_TRACE(std::string(cause_name));
-    const firmware::CauseScope scope = firmware::scope_of(cause);
-    const Latch one = RunState::latch_of(cause, 1), three = RunState::latch_of(cause, 3);
-    switch (scope) {
+    const Latch latch = RunState::latch_of(cause);
+    switch (firmware::scope_of(cause)) {
       case firmware::CauseScope::end:
-        EXPECT_EQ(one, Latch::nowhere);
-        EXPECT_EQ(three, Latch::nowhere);
+        EXPECT_EQ(latch, Latch::nowhere);
         break;
       case firmware::CauseScope::axis:
-        EXPECT_EQ(one, Latch::on_board) << "a board of one: its axis's fault is the board's";
-        EXPECT_EQ(three, Latch::on_axis) << "the others run on";
+        EXPECT_EQ(latch, Latch::on_axis) << "the other axes run on";
         break;
       case firmware::CauseScope::board:
-        EXPECT_EQ(one, Latch::on_board);
-        EXPECT_EQ(three, Latch::on_board);
+        EXPECT_EQ(latch, Latch::on_board);
         break;
     }
-    // A run that ended so, on the board: latched exactly when it latches anywhere.
+    // A run that ended so, on the board: latched exactly when it latches there.
     RunState s;
     s.started("a");
-    s.ended(three == Latch::on_board ? cause : StopCause::completed, true);
-    EXPECT_EQ(s.state() == State::fault, three == Latch::on_board);
+    s.ended(latch == Latch::on_board ? cause : StopCause::completed, true);
+    EXPECT_EQ(s.state() == State::fault, latch == Latch::on_board);
   }
   // The causes docs/protocol.md calls an axis's own ("Faults on a board of
   // several") are the ones declared so.
@@ -185,7 +181,7 @@ TEST(RunState, EveryCauseLatchesWhereItsScopeSaysOnABoardOfOneAndOfThree) {
   std::stringstream page;
   page << in.rdbuf();
   const std::string text = page.str();
-  const auto from = text.find("**Faults on a board of several.** An axis's own fault (");
+  const auto from = text.find("**Faults.** An axis's own fault (");
   ASSERT_NE(from, std::string::npos);
   const std::string list = text.substr(from, text.find(')', from) - from);
   std::set<std::string> documented, own;

@@ -72,8 +72,8 @@ TEST(CalibrateCli, AfterCalibrationMovesOnAStifferPlantArriveBothWays) {
     EXPECT_EQ(r.exit_code, 0) << r.err;
     const auto m = json_of(r);
     EXPECT_EQ(m.at("stop_cause"), "on_target");
-    EXPECT_NEAR(m.at("position_rad").get<double>(), target, 25e-6);
-    EXPECT_EQ(m.at("run").at("move").at("f_hz"), 40.0);
+    EXPECT_NEAR(m.at("moves").at(0).at("position_rad").get<double>(), target, 25e-6);
+    EXPECT_EQ(m.at("run").at("axes").at(0).at("move").at("f_hz"), 40.0);
     EXPECT_LT(m.at("time_s").get<double>(), 5.0);
   }
 }
@@ -111,11 +111,11 @@ TEST(CalibrateCli, AnActiveHoldReportsItsErrorAndEndsAtZeroVolts) {
   EXPECT_EQ(r.exit_code, 0) << r.err;
   const auto m = json_of(r);
   EXPECT_EQ(m.at("stop_cause"), "on_target");
-  const auto& move = m.at("run").at("move");
+  const auto& move = m.at("run").at("axes").at(0).at("move");
   EXPECT_EQ(move.at("hold_s"), 0.5);
   EXPECT_LT(move.at("hold_rms_error_rad").get<double>(), 25e-6);
   EXPECT_GT(move.at("on_target_at_s").get<double>(), 0.5) << "after the hold";
-  EXPECT_NEAR(m.at("position_rad").get<double>(), 0.0008, 25e-6);
+  EXPECT_NEAR(m.at("moves").at(0).at("position_rad").get<double>(), 0.0008, 25e-6);
   EXPECT_EQ(m.at("run").at("output").at("state"), "confirmed");
 }
 

@@ -245,13 +245,23 @@ TEST(RunCli, MovePrintsItsResultAndRefusesBadArgumentsByName) {
                              " --set run.clock=virtual --json --out " + (dir / "move").string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
-  for (const char* key : {"position_rad", "error_rad", "on_target", "time_s", "steps", "stop_cause",
-                          "target_rad", "run_dir", "log"}) {
+  for (const char* key : {"on_target", "time_s", "stop_cause", "run_dir", "log", "run", "moves"}) {
     EXPECT_TRUE(j.contains(key)) << key;
   }
+  // One shape for one axis as for several: the move's account is in `moves`.
+  ASSERT_EQ(j.at("moves").size(), 1u);
+  const auto& m = j.at("moves").at(0);
+  for (const char* key : {"axis", "position_rad", "error_rad", "on_target", "steps", "stop_cause",
+                          "target_rad"}) {
+    EXPECT_TRUE(m.contains(key)) << key;
+    EXPECT_FALSE(j.contains(key) && std::string(key) != "on_target" &&
+                 std::string(key) != "stop_cause")
+        << key << ": no top-level copy of the first axis";
+  }
+  EXPECT_EQ(m.at("axis"), "rotor");
   EXPECT_TRUE(j.at("on_target").get<bool>());
   EXPECT_EQ(j.at("stop_cause"), "on_target");
-  EXPECT_NEAR(j.at("position_rad").get<double>(), -0.002, 25e-6);
+  EXPECT_NEAR(m.at("position_rad").get<double>(), -0.002, 25e-6);
   // The log holds the move's account and the controller's state per drive cycle.
   const auto logged =
       run_command("/usr/bin/python3 -c \"import h5py, json; f = h5py.File('" +

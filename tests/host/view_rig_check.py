@@ -98,7 +98,7 @@ def main():
             live = get(url + "api/live.json")
             board_status = live["status"].get("board", {})
             summary = board_status.get("summary", {})
-            return summary.get("move")
+            return next((a.get("move") for a in summary.get("axes", [])), None)
         move = wait_for(on_target, 30, "the move ends (its lease kept by the view)")
         check(move.get("on_target"), f"the move came on target: {move}")
         live = get(url + "api/live.json")
@@ -114,7 +114,8 @@ def main():
         state = json.loads(subprocess.run([piezo, "status", "--rig", address, "--json"],
                                           capture_output=True, text=True).stdout)
         check(state["fault"] == "estop", f"the board latched the e-stop: {state['fault']}")
-        check(abs(state["position"]["position_rad"] - 0.002) < 30e-6, f"position: {state['position']}")
+        position = state["axes"][0]["position"]
+        check(abs(position["position_rad"] - 0.002) < 30e-6, f"position: {position}")
         # The board restarts on its port: a new board, which the view meets
         # (hello and dictionary again) and moves.
         board.kill()

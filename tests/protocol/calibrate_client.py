@@ -92,7 +92,9 @@ check(progress > 0.0, f"progress was published: {progress}")
 for key in ("noise_m", "rad_per_V", "fastest_f_hz", "smallest_tolerance_rad", "frequencies"):
     check(key in cal, f"the calibration has {key}")
 status = call("status")["result"]
-check(status["calibration"] == cal, "status reports the installed calibration")
+check(status["axes"][0]["calibrated"], "status says the axis is calibrated")
+check(call("hello")["result"]["axes"][0]["calibration"] == cal,
+      "hello reports the installed calibration")
 
 # Installing it back as a client would (after adding a fitted model): the
 # board recomputes what it derives and keeps the model.
@@ -109,13 +111,14 @@ too_fine = call("move_to", target_rad=1e-3, tolerance_rad=cal["smallest_toleranc
 check(too_fine["error"]["code"] == "out_of_limits" and
       too_fine["error"]["key"] == "tolerance_rad", "a tolerance below the noise: " + str(too_fine))
 
-position = call("status")["result"]["position"]["position_rad"] or 0.0
+position = call("status")["result"]["axes"][0]["position"]["position_rad"] or 0.0
 target = position - 20e-3
 moved = call("move_to", target_rad=target, timeout_s=20.0, lease_s=2.0)
-check(moved["ok"] and moved["result"]["calibrated"] is True, "move_to: " + str(moved))
-check(moved["result"]["f"] == cal["fastest_f_hz"], "the move steps at the fastest frequency")
+check(moved["ok"] and moved["result"]["moves"][0]["calibrated"] is True, "move_to: " + str(moved))
+check(moved["result"]["moves"][0]["f"] == cal["fastest_f_hz"],
+      "the move steps at the fastest frequency")
 summary, _ = follow_run(moved["result"]["run"])
-move = summary["move"]
+move = summary["axes"][0]["move"]
 check(move["stop_cause"] == "on_target" and abs(move["error_rad"]) <= 25e-6,
       "on target: " + str(move))
 print("ok", cal["fastest_f_hz"], cal["noise_m"], move["steps"], move["on_target_at_s"])

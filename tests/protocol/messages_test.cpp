@@ -55,20 +55,21 @@ CalibrationRecord a_calibration() {
 
 Hello a_hello() {
   Hello h;
-  h.protocol = 2;
+  h.protocol = 4;
   h.frame_version = 1;
   h.daemon = "0.9.0";
   h.stream = "tcp://127.0.0.1:5556";
   h.clock = "virtual";
-  h.backends = {"sim", "modbus-tcp", "none"};
+  h.backends = {"none"};
   h.limits = {0.0, 80.0, 20000.0, 1000.0, 0.1, 500.0, 86400.0, 10.0};
-  h.sensor = {0.05, 0.0701};
   h.drive_rate_hz = 10000.0;
   h.sensor_rate_hz = 1000.0;
   h.output_latency_s = 1e-4;
   h.lease_s = 0.5;
   h.recorder_s = 120.0;
-  h.calibration = a_calibration();
+  h.axes.push_back(
+      {"rotor", 0.05, 0.0, 80.0, 20000.0, std::nullopt, 0.5, "sim", "modbus-tcp", 0.0701,
+       a_calibration()});
   return h;
 }
 
@@ -105,23 +106,29 @@ RunSummary a_summary() {
   s.sensor = a_health(true);
   s.realtime = {"SCHED_FIFO refused"};
   s.samples = {48000, 4800};
-  s.move = a_move(true);
+  s.axes.push_back({"rotor", firmware::StopCause::link_lost, s.output, a_move(true)});
   s.calibration.present = true;  // a calibration run that installed none
   s.calibration_error = "the experiment ended link_lost before it was complete";
   return s;
 }
 
-TEST(Messages, HelloRoundTripsWithTheSensorRadius) {
+TEST(Messages, HelloRoundTripsWithEachAxisSensorRadius) {
   const Hello h = a_hello();
   const Hello back = over_the_wire(h);
   EXPECT_EQ(json(back), json(h));
-  EXPECT_EQ(back.sensor.r2_m, 0.05);
-  EXPECT_EQ(json(h).at("sensor").at("r2_m"), 0.05) << "the documented place: sensor.r2_m";
-  EXPECT_EQ(back.sensor.zero_displacement_m, 0.0701);
+  EXPECT_EQ(back.axes.at(0).r2_m, 0.05);
+  EXPECT_EQ(json(h).at("axes")[0].at("r2_m"), 0.05) << "the documented place: axes[].r2_m";
+  EXPECT_EQ(back.axes.at(0).zero_displacement_m, 0.0701);
+  // Protocol 4: nothing of an axis at the top level, for one axis as for several.
+  for (const char* mirror : {"sensor", "calibration"}) EXPECT_FALSE(json(h).contains(mirror));
+  EXPECT_EQ(json(h).at("backends").size(), 1u) << "the lines' alone";
   Hello none = h;
-  none.sensor.zero_displacement_m.reset();
-  EXPECT_TRUE(json(none).at("sensor").at("zero_displacement_m").is_null());
-  EXPECT_FALSE(over_the_wire(none).sensor.zero_displacement_m.has_value());
+  none.axes[0].zero_displacement_m.reset();
+  EXPECT_TRUE(json(none).at("axes")[0].at("zero_displacement_m").is_null());
+  EXPECT_FALSE(over_the_wire(none).axes[0].zero_displacement_m.has_value());
+  json without_axes = h;
+  without_axes.erase("axes");
+  EXPECT_EQ(refusal_key<Hello>(without_axes), "malformed axes");
 }
 
 TEST(Messages, LoopHealthRoundTripsWithAndWithoutTiming) {
@@ -243,7 +250,7 @@ TEST(Messages, EventsAndSummariesRoundTrip) {
   const RunSummary s = a_summary();
   EXPECT_EQ(json(over_the_wire(s)), json(s));
   RunSummary plain = a_summary();
-  plain.move.reset();
+  plain.axes[0].move.reset();
   plain.calibration = {};
   plain.calibration_error.reset();
   plain.output.acknowledged_V.reset();
@@ -256,11 +263,12 @@ TEST(Messages, EventsAndSummariesRoundTrip) {
   EXPECT_EQ(json(over_the_wire(idle)), json(idle));
   EXPECT_TRUE(json(idle).at("run").is_null()) << "nil, as documented";
 
-  HealthEvent h{BoardState::running, 99,  a_health(true), a_health(true), a_move(false),
-                std::nullopt,        0.25,           "5eed"};
+  HealthEvent h{BoardState::running, 99, a_health(true), a_health(true), std::vector{a_move(false)},
+                0.25, "5eed"};
   EXPECT_EQ(json(over_the_wire(h)), json(h));
-  HealthEvent quiet{BoardState::idle, 1,           std::nullopt, std::nullopt, std::nullopt,
-                    std::nullopt,     std::nullopt, "5eed"};
+  EXPECT_FALSE(json(h).contains("move")) << "a move of one axis is in `moves` too";
+  HealthEvent quiet{BoardState::idle, 1, std::nullopt, std::nullopt, std::nullopt, std::nullopt,
+                    "5eed"};
   EXPECT_EQ(json(over_the_wire(quiet)), json(quiet));
 }
 
@@ -269,9 +277,10 @@ TEST(Messages, StatusRoundTripsIdleAndDuringARun) {
   idle.state = BoardState::idle;
   idle.board_ns = 42;
   idle.recorder.drive = {0, 0};
-  idle.calibration.reset();
+  idle.axes.push_back({"rotor", {}, false, std::nullopt});
   EXPECT_EQ(json(over_the_wire(idle)), json(idle));
-  EXPECT_TRUE(json(idle).at("position").at("position_rad").is_null());
+  EXPECT_TRUE(json(idle).at("axes")[0].at("position").at("position_rad").is_null());
+  for (const char* mirror : {"position", "calibration"}) EXPECT_FALSE(json(idle).contains(mirror));
   EXPECT_FALSE(json(idle).contains("run"));
 
   Status busy = idle;
@@ -280,12 +289,12 @@ TEST(Messages, StatusRoundTripsIdleAndDuringARun) {
   busy.controlled = true;
   busy.fault = firmware::StopCause::link_lost;
   busy.recorder = {{100, 48000}, {10, 4800}};
-  busy.position = {0.0123, 0.07};
+  busy.axes[0] = {"rotor", {0.0123, 0.07}, true, firmware::StopCause::sensor_fault};
   busy.requests = {{"status", 3}, {"move_to", 1}};
-  busy.calibration = a_calibration();
   busy.configured = ConfigureRequest{{80.0, 10.0, 0.95, 0.789, model::Direction::forward}, 4.8};
   RunStatus r;
   r.id = 3;
+  r.axes = {"rotor"};
   r.t0_ns = 1'000'000;
   r.duration_s = 4.8;
   r.lease_s = 0.5;
@@ -293,7 +302,7 @@ TEST(Messages, StatusRoundTripsIdleAndDuringARun) {
   r.drive = a_health(false);
   r.sensor = a_health(false);
   r.summary = a_summary();
-  r.move = a_move(true);
+  r.moves = std::vector{a_move(true)};
   r.calibration_progress = 1.0;
   busy.run = r;
   EXPECT_EQ(json(over_the_wire(busy)), json(busy));
@@ -306,13 +315,13 @@ TEST(Messages, TheWiresEnumsBecomeTheirNamesInJson) {
   EXPECT_EQ(json(BoardState::ramping_down), "ramping_down");
   EXPECT_EQ(json(firmware::StopCause::link_lost), "link_lost");
   EXPECT_EQ(json(firmware::OutputState::enable_unconfirmed), "enable_unconfirmed");
-  const json health = HealthEvent{BoardState::running, 1, {}, {}, {}, {}, {}, "a1b2"};
+  const json health = HealthEvent{BoardState::running, 1, {}, {}, {}, {}, "a1b2"};
   EXPECT_EQ(health.at("state"), "running");
 }
 
 TEST(Messages, AReplyOrEventMissingAFieldIsMalformedNamingIt) {
   json hello = a_hello();
-  hello.at("sensor").erase("r2_m");
+  hello.at("axes")[0].erase("r2_m");
   EXPECT_EQ(refusal_key<Hello>(hello), "malformed r2_m");
   json summary = a_summary();
   summary.at("output").erase("zero_confirmed");
@@ -373,8 +382,7 @@ TEST(Messages, AMovesAccountAndAStartsReplyRoundTrip) {
   EXPECT_EQ(json(a_move(true)).at("stop_cause"), "on_target");
   EXPECT_EQ(json(a_move(true)).at("state"), "on_target");
 
-  StartReply plain{
-      7, 1'000, 0.5, 4.8, std::nullopt, std::nullopt, std::nullopt, std::nullopt, std::nullopt};
+  StartReply plain{7, 1'000, 0.5, 4.8, std::nullopt, std::nullopt, std::nullopt, std::nullopt};
   EXPECT_EQ(json(over_the_wire(plain)), json(plain));
   EXPECT_EQ(json(plain).size(), 4u) << json(plain).dump();
   StartReply step = plain;
@@ -387,14 +395,14 @@ TEST(Messages, AMovesAccountAndAStartsReplyRoundTrip) {
   taken.move.target_rad = 0.002;
   taken.V0 = 60.0;
   taken.f = 10.0;
-  move.move = StartReply::Move{"", true, 0.07, taken};
-  EXPECT_EQ(json(move).at("target_rad"), 0.002);
-  EXPECT_EQ(json(move).at("approach"), "either");
+  move.moves = std::vector{StartReply::Move{"rotor", true, 0.07, taken}};
+  EXPECT_EQ(json(move).at("moves")[0].at("target_rad"), 0.002);
+  EXPECT_EQ(json(move).at("moves")[0].at("approach"), "either");
   EXPECT_EQ(json(over_the_wire(move)), json(move));
   StartReply calibration = plain;
   calibration.calibration = StartReply::Calibration{8, 60.0, {10.0, 20.0}};
   EXPECT_EQ(json(over_the_wire(calibration)), json(calibration));
-  EXPECT_FALSE(over_the_wire(calibration).move.has_value());
+  EXPECT_FALSE(over_the_wire(calibration).moves.has_value());
 }
 
 // A calibration travels as its fields; its declared ranges name the key

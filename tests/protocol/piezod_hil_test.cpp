@@ -121,11 +121,17 @@ TEST_F(Piezod, AnIndependentClientCalibratesThenMovesAndTheBoardKeepsIt) {
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err << log();
   EXPECT_EQ(r.out.substr(0, 3), "ok ") << r.out;
   ASSERT_TRUE(fs::exists(kept));
-  const nlohmann::json before = status().at("calibration");
+  const auto calibration = [&] {
+    const auto said = run_command(kPiezo + " hello --json --rig " + address_);
+    EXPECT_EQ(said.exit_code, 0) << said.err;
+    return nlohmann::json::parse(said.out).at("axes").at(0).at("calibration");
+  };
+  const nlohmann::json before = calibration();
   ASSERT_TRUE(before.is_object());
+  EXPECT_TRUE(status().at("axes").at(0).at("calibrated").get<bool>());
   daemon_.reset();  // the board goes down
   start(keep, {"--set", "run.clock=virtual"});
-  EXPECT_EQ(status().at("calibration"), before);
+  EXPECT_EQ(calibration(), before);
   const auto text = run_command(kPiezo + " status --rig " + address_);
   EXPECT_NE(text.out.find("calibrated " + before.at("created").get<std::string>()),
             std::string::npos)
@@ -301,12 +307,15 @@ TEST_F(Piezod, MovesAreAbsoluteFromTheBoardsZeroAndStepsNeedNoHostConfig) {
     EXPECT_EQ(r.exit_code, 0) << r.err;
     return nlohmann::json::parse(r.out);
   };
-  const auto position = [&] { return status().at("position").at("position_rad").get<double>(); };
+  const auto position = [&] {
+    return status().at("axes").at(0).at("position").at("position_rad").get<double>();
+  };
   // The move's promise: its own mean at 0 V within the tolerance. The
   // board's position read afterwards is a fresh mean of 8 readings: within
   // the tolerance and four of that mean's standard deviations (the sensor's
   // noise at rest, over the default sensor radius of 62 mm).
-  const auto on_target = [&](const nlohmann::json& m, double target, const char* what) {
+  const auto on_target = [&](const nlohmann::json& reply, double target, const char* what) {
+    const nlohmann::json& m = reply.at("moves").at(0);
     ASSERT_TRUE(m.at("on_target").get<bool>()) << what;
     const double tolerance = m.at("tolerance_rad").get<double>();
     EXPECT_NEAR(m.at("position_rad").get<double>(), target, tolerance) << what;
@@ -345,8 +354,8 @@ TEST_F(Piezod, KillNineOfTheHostMidMoveEndsTheMoveAtZeroVoltsWithLinkLost) {
   ASSERT_TRUE(poll_until(
       [&] {
         const auto now = status();
-        return now.at("state") == "running" && now.at("run").contains("move") &&
-               now.at("run").at("move").value("steps", 0) > 3;
+        return now.at("state") == "running" && now.at("run").contains("moves") &&
+               now.at("run").at("moves").at(0).value("steps", 0) > 3;
       },
       30000ms, 50ms))
       << read_all(dir_ / "host.log");
@@ -362,9 +371,10 @@ TEST_F(Piezod, KillNineOfTheHostMidMoveEndsTheMoveAtZeroVoltsWithLinkLost) {
   const auto s = status();
   EXPECT_EQ(s.at("fault"), "link_lost");
   const auto& summary = s.at("run").at("summary");
-  EXPECT_EQ(summary.at("move").at("stop_cause"), "link_lost");
-  EXPECT_FALSE(summary.at("move").at("on_target").get<bool>());
-  EXPECT_GT(summary.at("move").at("steps").get<int>(), 3);
+  const auto& move = summary.at("axes").at(0).at("move");
+  EXPECT_EQ(move.at("stop_cause"), "link_lost");
+  EXPECT_FALSE(move.at("on_target").get<bool>());
+  EXPECT_GT(move.at("steps").get<int>(), 3);
   EXPECT_EQ(summary.at("output").at("state"), "confirmed");
   const long n = summary.at("samples").at("drive").get<long>();
   const auto last = run_command(

@@ -62,8 +62,11 @@ def frame_header(body):
 
 
 hello = call("hello")["result"]
-check(hello["protocol"] == 3, "protocol version")
-check(hello["sensor"]["r2_m"] > 0, "hello names the sensor's radius: " + str(hello))
+check(hello["protocol"] == 4, "protocol version")
+check(len(hello["axes"]) == 1 and hello["axes"][0]["r2_m"] > 0,
+      "hello names its one axis's sensor radius: " + str(hello))
+check("sensor" not in hello and "calibration" not in hello,
+      "nothing of an axis at hello's top level: " + str(sorted(hello)))
 limits = hello["limits"]
 drive_period_ns = round(1e9 / hello["drive_rate_hz"])
 status = call("status")["result"]
@@ -186,8 +189,7 @@ def follow_run():
                 continue
             if topic == b"health":
                 event = msgpack.unpackb(body, raw=False)
-                if "move" in event:
-                    move_updates.append(event["move"])
+                move_updates.extend(event.get("moves") or [])
                 continue
             if topic not in (b"drive", b"sensor"):
                 continue
@@ -263,10 +265,18 @@ check(len(displacement) > 100 and displacement[-1] < displacement[0] - 5e-6,
 
 # A closed-loop move to 2 mrad beyond where the rotor is (angles are from
 # the board's zero), waited for until the board says it is on target.
-before = call("status")["result"]["position"]["position_rad"]
+def position_now():
+    """The board's one axis's position (status.axes)."""
+    axes = call("status")["result"]["axes"]
+    check(len(axes) == 1 and "position" not in call("status")["result"],
+          "status gives its one axis in axes: " + str(axes))
+    return axes[0]["position"]
+
+
+before = position_now()["position_rad"]
 check(before is not None, "the board knows its position after a run")
 target = before + 2e-3
-zero_before = call("status")["result"]["position"]["zero_displacement_m"]
+zero_before = position_now()["zero_displacement_m"]
 # The protection's arguments, as documented: a bool and 1..16 steps.
 bad_protect = call("move_to", target_rad=target, protect="yes")
 check(not bad_protect["ok"] and bad_protect["error"]["code"] == "bad_argument",
@@ -276,10 +286,14 @@ check(not bad_steps["ok"] and bad_steps["error"]["code"] == "out_of_limits",
       "stall_steps 0 is refused: " + str(bad_steps))
 moved = call("move_to", target_rad=target, tolerance_rad=25e-6, settle_s=0.1, timeout_s=20.0,
              lease_s=1.0, stall_steps=3)
-check(moved["ok"] and moved["result"]["target_rad"] == target, "move_to: " + str(moved))
-check(moved["result"]["protect"] is True and moved["result"]["stall_steps"] == 3,
+check(moved["ok"] and len(moved["result"]["moves"]) == 1 and "move" not in moved["result"],
+      "move_to of one axis: its `moves` has one: " + str(moved))
+taken = moved["result"]["moves"][0]
+check(taken["target_rad"] == target and taken["axis"] == hello["axes"][0]["name"],
+      "move_to: " + str(moved))
+check(taken["protect"] is True and taken["stall_steps"] == 3,
       "the protection as used: " + str(moved))
-check(all(k in moved["result"] for k in ("V0", "f", "C_dr", "e_dr")),
+check(all(k in taken for k in ("V0", "f", "C_dr", "e_dr")),
       "move_to's result carries the arguments: " + str(moved))
 # During the move: zero and step are the controller's, and zero waits for the end.
 theirs = call("zero", socket=other)
@@ -291,12 +305,13 @@ check(their_step["error"]["code"] == "not_controller" and
       their_step["error"]["message"].startswith("step"),
       "a refused step names step: " + str(their_step))
 final, _, last_drive, _ = follow_run()
-move = final["summary"]["move"]
+check("move" not in final["summary"], "a summary keeps each axis's move in axes")
+move = final["summary"]["axes"][0]["move"]
 check(move["on_target"] and move["stop_cause"] == "on_target", "on target: " + str(move))
 check(abs(move["error_rad"]) <= 25e-6, "within the tolerance: " + str(move))
 check(last_drive[1] == 0.0, "the move ends at 0 V")
 check(any(u["target_rad"] == target for u in move_updates), "the stream shows the move")
-position = call("status")["result"]["position"]
+position = position_now()
 after = position["position_rad"]
 check(abs(after - target) < 30e-6, f"status reports the position: {after} for {target}")
 check(position["zero_displacement_m"] == zero_before, "the move kept the zero it started from")

@@ -61,7 +61,7 @@ def test_each_axis_steps_with_its_own_sensor_and_zero(board):
     phi = board.axes["phi"].step(5, 60, 10)
     assert phi.summary["cause"] == "completed"
     assert phi.axis == "phi" and phi.r2_m == 0.08
-    assert board.status()["run"]["axis"] == "phi"
+    assert board.status()["run"]["axes"] == ["phi"]
     theta_phi = phi.theta()
     assert np.nanmax(theta_phi) > 1e-3  # 60 V, 10 Hz, five periods: forward
     positions = {a["name"]: a for a in board.status()["axes"]}

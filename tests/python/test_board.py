@@ -19,7 +19,8 @@ from piezo_rig.board import Board
 
 def test_a_two_second_run_keeps_every_sample(board):
     hello = board.hello()
-    assert hello["protocol"] == 3 and hello["sensor"]["r2_m"] > 0
+    assert hello["protocol"] == 4 and hello["axes"][0]["r2_m"] > 0
+    assert "sensor" not in hello, "protocol 4: each axis's radius is in axes"
     blocks = 0
     with board.run(V0=60, f=10, duration=2) as run:
         for block in run:
@@ -80,14 +81,14 @@ def test_a_move_reaches_its_target(board):
     move = board.move_to(0.01, tolerance_rad=50e-6)
     assert move["on_target"] and move["stop_cause"] == "on_target"
     assert abs(move["position_rad"] - 0.01) < 50e-6
-    position = board.status()["position"]["position_rad"]
+    position = board.axes["rotor"].status()["position"]["position_rad"]
     assert abs(position - 0.01) < 1e-4  # the board's own reading at rest
     back = board.move_to(0.0, tolerance_rad=50e-6)
     assert abs(back["position_rad"]) < 50e-6
 
 
 def test_a_move_with_a_forward_approach_passes_a_target_behind_it(board):
-    start = board.status()["position"]["position_rad"]
+    start = board.axes["rotor"].status()["position"]["position_rad"]
     move = board.move_to(start - 0.002, tolerance_rad=50e-6, approach="forward")
     assert move["on_target"] and abs(move["position_rad"] - (start - 0.002)) < 50e-6
     with pytest.raises(errors.BadArgument) as bad:
@@ -224,9 +225,10 @@ def test_curve_keys(tmp_path):
 def test_calibrate_installs_what_it_measured(board):
     calibration = board.calibrate()
     assert calibration["rad_per_V"] > 0 and calibration["noise_m"] > 0
-    assert board.hello()["calibration"]["created"] == calibration["created"]
+    assert board.axes["rotor"].info["calibration"]["created"] == calibration["created"]
+    assert board.axes["rotor"].status()["calibrated"]
     assert board.set_calibration(None) is None
-    assert board.hello()["calibration"] is None
+    assert board.hello()["axes"][0]["calibration"] is None
 
 
 def test_a_board_that_dies_mid_run_is_reported(tmp_path):

@@ -134,7 +134,7 @@ def test_a_move_is_seen_as_it_happens(axis, watcher):
     moving_from = next(t for t, s in states if s == DevState.MOVING)
     during = [p for t, p in positions if t >= moving_from and p is not None]
     assert len(during) >= 3, positions
-    move = last_summary(watcher)["move"]
+    move = last_summary(watcher)["axes"][0]["move"]
     assert move["stop_cause"] == "on_target", move
     assert abs(move["position_rad"] - 0.002) <= axis.Tolerance, move
     assert at_rest_near(axis.Position, 0.002, axis.Tolerance), (axis.Position, move)
@@ -312,8 +312,8 @@ def test_a_restarted_board_is_a_new_board_to_the_devices(tmp_path):
             wait_for(lambda: proxy.state() == DevState.ON, 60, "on target")
             with Board(board.address) as watcher:
                 summary = last_summary(watcher)
-                assert summary["move"]["stop_cause"] == "on_target", summary
-                at_rest = watcher.status()["position"]["position_rad"]
+                assert summary["axes"][0]["move"]["stop_cause"] == "on_target", summary
+                at_rest = watcher.status()["axes"][0]["position"]["position_rad"]
             assert at_rest_near(at_rest, 0.001, 2.5e-5), at_rest
             position = proxy.read_attribute("Position")
             assert position.quality == tango.AttrQuality.ATTR_VALID
@@ -453,7 +453,7 @@ def test_every_axis_is_a_device_and_the_board_moves_a_group(tmp_path, source):
         wait_for(lambda: phi.state() == DevState.ON, 60, "phi arrived")
         assert at_rest_near(phi.Position, -0.003, phi.Tolerance)
         with Board(address) as watcher:
-            assert watcher.status()["run"]["axis"] == "phi"
+            assert watcher.status()["run"]["axes"] == ["phi"]
             board.MoveGroup([[0.002, 0.001], ["theta", "chi"]])
             wait_for(lambda: theta.state() == DevState.MOVING or watcher.status()["state"] != "idle",
                      10, "the group started")

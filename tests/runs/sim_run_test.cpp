@@ -37,9 +37,10 @@ struct Outcome {
   std::vector<double> drive_t, drive_V, drive_phase, move_state, sensor_t, theta;
 };
 
-/// The board's account of a move as the wire carries it (nil: none).
+/// The board's account of the run's one axis's move as the wire carries it (nil: none).
 nlohmann::json move_of(const Outcome& o) {
-  return o.summary.board.move ? nlohmann::json(*o.summary.board.move) : nlohmann::json();
+  const auto& axes = o.summary.board.axes;
+  return axes.size() == 1 && axes[0].move ? nlohmann::json(*axes[0].move) : nlohmann::json();
 }
 
 /// With `stop_at_s`, the host is asked to stop once the run has reached that

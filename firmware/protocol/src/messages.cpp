@@ -72,9 +72,7 @@ struct Fields<CalibrationRecord> {
 template <>
 struct Fields<Hello::Backends> {
   using T = Hello::Backends;
-  static constexpr auto list =
-      std::tuple{field(wire_key::drive, &T::drive), field(wire_key::sensor, &T::sensor),
-                 field("lines", &T::lines)};
+  static constexpr auto list = std::tuple{field("lines", &T::lines)};
 };
 template <>
 struct Fields<Hello::Limits> {
@@ -87,13 +85,6 @@ struct Fields<Hello::Limits> {
                                           field(wire_key::f_max_hz, &T::f_max_hz),
                                           field(wire_key::duration_max_s, &T::duration_max_s),
                                           field(wire_key::lease_max_s, &T::lease_max_s)};
-};
-template <>
-struct Fields<Hello::Sensor> {
-  using T = Hello::Sensor;
-  static constexpr auto list =
-      std::tuple{field(wire_key::r2_m, &T::r2_m),
-                 field(wire_key::zero_displacement_m, &T::zero_displacement_m)};
 };
 template <>
 struct Fields<AxisInfo> {
@@ -122,14 +113,12 @@ struct Fields<Hello> {
                                           field(wire_key::clock, &T::clock),
                                           field("backends", &T::backends),
                                           field("limits", &T::limits),
-                                          field(wire_key::sensor, &T::sensor),
                                           field("drive_rate_hz", &T::drive_rate_hz),
                                           field("sensor_rate_hz", &T::sensor_rate_hz),
                                           field("output_latency_s", &T::output_latency_s),
                                           field(wire_key::lease_s, &T::lease_s),
                                           field("recorder_s", &T::recorder_s),
-                                          field(wire_key::calibration, &T::calibration),
-                                          field(wire_key::axes, &T::axes, may_be_missing)};
+                                          field(wire_key::axes, &T::axes)};
 };
 template <>
 struct Fields<LoopHealth::Timing> {
@@ -212,8 +201,7 @@ struct Fields<RunSummary> {
                  field(wire_key::sensor, &T::sensor),
                  field("realtime", &T::realtime, may_be_missing),
                  field("samples", &T::samples),
-                 field(wire_key::move, &T::move, omitted_when_absent),
-                 field(wire_key::axes, &T::axes, may_be_missing),
+                 field(wire_key::axes, &T::axes),
                  field(wire_key::calibration, &T::calibration, omitted_when_absent),
                  field("calibration_error", &T::calibration_error, omitted_when_absent)};
 };
@@ -221,7 +209,7 @@ template <>
 struct Fields<StartReply::Move> {
   using T = StartReply::Move;
   static constexpr auto list = std::tuple{
-      field(wire_key::axis, &T::axis, may_be_missing), field(wire_key::calibrated, &T::calibrated),
+      field(wire_key::axis, &T::axis), field(wire_key::calibrated, &T::calibrated),
       field(wire_key::zero_displacement_m, &T::zero_displacement_m), inline_fields(&T::request)};
 };
 template <>
@@ -241,7 +229,6 @@ struct Fields<StartReply> {
                  field(firmware::arguments::duration_s.name, &T::duration_s),
                  field(firmware::arguments::count.name, &T::count, omitted_when_absent),
                  field(firmware::arguments::direction.name, &T::direction, omitted_when_absent),
-                 inline_fields(&T::move),
                  field(wire_key::moves, &T::moves, omitted_when_absent),
                  inline_fields(&T::calibration)};
 };
@@ -262,7 +249,6 @@ struct Fields<HealthEvent> {
       field(wire_key::board_ns, &T::board_ns),
       field(wire_key::drive, &T::drive, omitted_when_absent),
       field(wire_key::sensor, &T::sensor, omitted_when_absent),
-      field(wire_key::move, &T::move, omitted_when_absent),
       field(wire_key::moves, &T::moves, omitted_when_absent),
       field(wire_key::calibration_progress, &T::calibration_progress, omitted_when_absent)};
 };
@@ -271,7 +257,7 @@ struct Fields<RunStatus> {
   using T = RunStatus;
   static constexpr auto list = std::tuple{
       field(wire_key::id, &T::id),
-      field(wire_key::axis, &T::axis, may_be_missing),
+      field(wire_key::axes, &T::axes),
       field(wire_key::t0_ns, &T::t0_ns),
       field(firmware::arguments::duration_s.name, &T::duration_s),
       field(firmware::arguments::lease_s.name, &T::lease_s),
@@ -279,7 +265,6 @@ struct Fields<RunStatus> {
       field(wire_key::drive, &T::drive),
       field(wire_key::sensor, &T::sensor),
       field(wire_key::summary, &T::summary, omitted_when_absent),
-      field(wire_key::move, &T::move, omitted_when_absent),
       field(wire_key::moves, &T::moves, omitted_when_absent),
       field(wire_key::calibration_progress, &T::calibration_progress, omitted_when_absent)};
 };
@@ -320,12 +305,10 @@ struct Fields<Status> {
                                           field("controlled", &T::controlled),
                                           field(wire_key::fault, &T::fault),
                                           field("recorder", &T::recorder),
-                                          field(wire_key::position, &T::position),
-                                          field(wire_key::calibration, &T::calibration),
                                           field("configured", &T::configured, omitted_when_absent),
                                           field(wire_key::run, &T::run, omitted_when_absent),
                                           field("requests", &T::requests, may_be_missing),
-                                          field(wire_key::axes, &T::axes, may_be_missing)};
+                                          field(wire_key::axes, &T::axes)};
 };
 
 template <>

@@ -38,7 +38,7 @@ from . import frames
 from .errors import (BadArgument, BoardError, ClientClosed, NoReply, OutOfLimits, RunEnded,
                      StaleBoard, UnknownCommand, board_error)
 
-PROTOCOL = 3
+PROTOCOL = 4
 LOOPBACK = ("tcp://127.0.0.1:", "tcp://localhost:", "tcp://[::1]:")
 # Causes that are the end a caller asked for: the run ran its course, or
 # this client stopped it.
@@ -291,10 +291,25 @@ class Board:
         return any(a["name"] == "board" for a in
                    self._dictionary["commands"].get(command, {}).get("args", []))
 
+    def _axis_name(self, axis: Optional[str]) -> str:
+        """``axis`` resolved once: a name of the board's (None: its one axis).
+        Raises ``BadArgument`` (key ``axis``, listing the board's axes) for a
+        name it lacks, or for none on a board of several."""
+        hello = self._hello or self.hello()
+        names = [a["name"] for a in hello["axes"]]
+        if axis is None and len(names) == 1:
+            return str(names[0])
+        if axis in names:
+            return str(axis)
+        listed = ", ".join(names)
+        raise BadArgument("axis", "axis",
+                          f"required: the board has several axes ({listed})" if axis is None
+                          else f"{axis!r} is not an axis of the board (its axes: {listed})")
+
     def hello(self) -> dict[str, Any]:
-        """The board: protocol, limits, sensor radius (``sensor.r2_m``) and
-        zero, rates, calibration. Raises ``BoardError`` for a protocol other
-        than 2."""
+        """The board: protocol, rates, limits, and each axis (``axes``: its
+        name, sensor radius ``r2_m``, limits, travel window, zero and
+        calibration). Raises ``BoardError`` for a protocol other than 4."""
         hello = self.call("hello")
         if hello.get("protocol") != PROTOCOL:
             raise BoardError("hello", "protocol",
@@ -348,8 +363,9 @@ class Board:
         return given
 
     def status(self) -> dict[str, Any]:
-        """The board's state now: ``state``, ``fault``, ``position``, ``run``
-        (with its ``summary`` once finished), ``calibration``."""
+        """The board's state now: ``state``, ``fault`` (the board's), ``run``
+        (its ``axes``, a move's ``moves``, its ``summary`` once finished) and
+        ``axes`` (each axis's ``position``, ``calibrated`` and ``fault``)."""
         return self.call("status")
 
     def clock(self) -> int:
@@ -369,7 +385,7 @@ class Board:
         """The board's axes by name, in its order (``hello()["axes"]``):
         ``board.axes["theta"].move_to(0.01)``. A board of one has one."""
         hello = self._hello or self.hello()
-        return {a["name"]: Axis(self, a["name"]) for a in hello.get("axes", [])}
+        return {a["name"]: Axis(self, a["name"]) for a in hello["axes"]}
 
     def stop(self, axis: Optional[str] = None, now: bool = False) -> str:
         """Ramps the drive to 0 V and ends the run (the controller only);
@@ -500,7 +516,7 @@ class Board:
         args = self.checked("move_to", {"target_rad": target_rad, **options})
         with Run(self, "move_to", args, True, raise_on_fault=False) as run:
             summary = run.wait()
-        move = summary.get("move") or {}
+        move = next((a.get("move") or {} for a in summary["axes"] if a["name"] == run.axis), {})
         if move.get("stop_cause") != "on_target":
             raise RunEnded("move_to", str(move.get("stop_cause") or summary.get("cause", "?")),
                            summary)
@@ -510,7 +526,7 @@ class Board:
         args = self.checked("move_to", {"targets": dict(targets), **options})
         with Run(self, "move_to", args, True, raise_on_fault=False) as run:
             summary = run.wait()
-        moves = {a["name"]: a.get("move") or {} for a in summary.get("axes", [])}
+        moves = {a["name"]: a.get("move") or {} for a in summary["axes"]}
         missed = {name: m.get("stop_cause") for name, m in moves.items()
                   if m.get("stop_cause") != "on_target"}
         if missed:
@@ -607,11 +623,11 @@ class Run:
                  raise_on_fault: bool = True, axis: Optional[str] = None):
         self.board = board
         self.hello = board._hello or board.hello()
-        # The axis it drives, and the radius of the sensor that measures it.
-        axes = self.hello.get("axes") or []
-        self.axis: Optional[str] = axis or args.get("axis") or (axes[0]["name"] if axes else None)
-        self.r2_m = next((float(a["r2_m"]) for a in axes if a["name"] == self.axis),
-                         float(self.hello["sensor"]["r2_m"]))
+        # The axis it drives (a group move's first target), resolved once,
+        # and the radius of the sensor that measures it.
+        self.axis: str = board._axis_name(axis or args.get("axis")
+                                          or next(iter(args.get("targets") or {}), None))
+        self.r2_m = next(float(a["r2_m"]) for a in self.hello["axes"] if a["name"] == self.axis)
         self._raise_on_fault = raise_on_fault
         self._sub = board._socket_for(zmq.SUB)
         self._sub.setsockopt(zmq.RCVHWM, board.stream_queue)
@@ -826,8 +842,8 @@ class Run:
     def zero_of(self, axis: Optional[str]) -> Optional[float]:
         """The zero of ``axis``'s angles in this run (None: the run's axis)."""
         axis = axis or self.axis
-        moves = self.started.get("moves") or [self.started]
-        started: dict[str, Any] = next((m for m in moves if m.get("axis", axis) == axis), {})
+        moves = self.started.get("moves") or []
+        started: dict[str, Any] = next((m for m in moves if m["axis"] == axis), {})
         if started.get("zero_displacement_m") is not None:
             return float(started["zero_displacement_m"])
         sensor = self.records_of(axis, self.sensor)
@@ -838,13 +854,11 @@ class Run:
                    records: np.ndarray[Any, Any]) -> np.ndarray[Any, Any]:
         """The records of ``axis`` among ``records`` (a group move's
         records carry their axis; None: the run's axis)."""
-        names = [a["name"] for a in self.hello.get("axes") or []]
+        names = [a["name"] for a in self.hello["axes"]]
         axis = axis or self.axis
-        if names and axis not in names:
+        if axis not in names:
             raise ValueError(f"axis {axis!r}: not an axis of this board (its axes: "
                              f"{', '.join(names)})")
-        if "axis" not in (records.dtype.names or ()) or not names:
-            return records
         index = names.index(axis)
         mine: np.ndarray[Any, Any] = records[records["axis"] == index]
         return mine
@@ -865,8 +879,7 @@ class Run:
         NaN where the reading failed."""
         axis = axis or self.axis
         records = self.records_of(axis, self.sensor if records is None else records)
-        r2_m = next((float(a["r2_m"]) for a in self.hello.get("axes") or []
-                     if a["name"] == axis), self.r2_m)
+        r2_m = next(float(a["r2_m"]) for a in self.hello["axes"] if a["name"] == axis)
         zero = self.zero_of(axis)
         theta = (records["displacement_m"] - (zero or 0.0)) / r2_m
         return np.where(records["status"] == 0, theta, np.nan)

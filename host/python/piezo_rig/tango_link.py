@@ -169,7 +169,7 @@ class BoardLink:
         self.state, self.fault = str(status["state"]), status.get("fault")
         run = status.get("run") or {}
         running = bool(run) and not run.get("finished", False)
-        moving_axes = {m.get("axis") for m in run.get("moves") or []} | {run.get("axis")}
+        moving_axes = set(run.get("axes") or [])
         if run.get("summary"):
             self.last_summary = run["summary"]
         self.health = {"drive": run.get("drive") or {}, "sensor": run.get("sensor") or {}}
@@ -184,8 +184,7 @@ class BoardLink:
             view.in_run = running and view.name in moving_axes
             if not view.in_run and position.get("position_rad") is not None:
                 view.position_rad = float(position["position_rad"])
-            view.move = next((m for m in run.get("moves") or [] if m.get("axis") == view.name),
-                             run.get("move") or {} if view.name == run.get("axis") else {})
+            view.move = next((m for m in run.get("moves") or [] if m["axis"] == view.name), {})
 
     def _ask(self) -> bool:
         try:

@@ -256,7 +256,8 @@ class PiezoAxis(_OnBoard):
                 with Run(self.link.control, "move_to", args, True, raise_on_fault=False) as r:
                     started.set()
                     summary = r.wait()
-                end = (summary.get("move") or {}).get("stop_cause") or summary.get("cause")
+                mine = next((a for a in summary["axes"] if a["name"] == self._name), {})
+                end = (mine.get("move") or {}).get("stop_cause") or mine.get("cause")
                 if end != "on_target":
                     self._move_error = f"ended {end}"
             except BaseException as e:  # noqa: B036 -- told to the writer, or kept for Status

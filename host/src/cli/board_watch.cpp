@@ -55,23 +55,15 @@ void BoardWatch::follow_run(std::uint64_t run) {
   last_summary_ = nullptr;
   health_.erase(wire_key::summary);
   const hal::TimeNs t0 = status.run->t0_ns;
-  // The run's axes: a group move's each, else the one it drives.
-  std::vector<std::string> names;
-  if (status.run->moves) {
-    for (const auto& m : *status.run->moves) names.push_back(m.axis);
-  } else {
-    names.push_back(status.run->axis);
-  }
+  // The run's axes, one or several.
+  const std::vector<std::string>& names = status.run->axes;
   axes_.clear();
-  std::vector<SampleCollector*> by_axis(std::max<std::size_t>(1, hello_.axes.size()));
+  std::vector<SampleCollector*> by_axis(hello_.axes.size());
   for (const std::string& name : names) {
     std::size_t index = 0;
     while (index < hello_.axes.size() && hello_.axes[index].name != name) ++index;
-    if (index == hello_.axes.size()) {
-      if (!hello_.axes.empty()) continue;  // an axis its hello lacks: nothing to show for it
-      index = 0;                           // a board that names no axes: its one
-    }
-    const double r2 = hello_.axes.empty() ? hello_.sensor.r2_m : hello_.axes[index].r2_m;
+    if (index == hello_.axes.size()) continue;  // an axis its hello lacks: nothing to show for it
+    const double r2 = hello_.axes[index].r2_m;
     std::unique_ptr<ObserverStage> observer;
     if (config_.host.observer.enabled) {
       // The config's own axis of that name, where it describes several.

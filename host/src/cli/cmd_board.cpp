@@ -81,6 +81,8 @@ int call(const BoardOptions& o, const std::string& cmd) {
   const nlohmann::json result = client.call(cmd == "reset-fault" ? "reset_fault" : cmd, args);
   if (o.json) {
     std::cout << result.dump() << "\n";
+  } else if (cmd == "hello") {
+    std::cout << result.dump(2) << "\n";
   } else if (cmd == "status") {
     std::cout << status_text(result.get<protocol::Status>(), client.hello());
   } else if (cmd == "zero") {
@@ -96,7 +98,9 @@ int call(const BoardOptions& o, const std::string& cmd) {
 
 void add_board_commands(CLI::App& app, Commands& commands) {
   for (const auto& [name, help] : std::vector<std::pair<std::string, std::string>>{
-           {"status", "Print piezod's state, fault, run and position"},
+           {"hello", "Print the board's hello: its rates, limits and each axis (radius, "
+                     "limits, travel window, zero, calibration)"},
+           {"status", "Print piezod's state, fault, run and each axis's position"},
            {"zero", "Set the position's zero at the last sensor reading (moves are absolute)"},
            {"stop", "Stop the run (ramp to 0 V); the controlling client only"},
            {"estop", "Emergency stop: disable the amplifier at once, latch the fault"},

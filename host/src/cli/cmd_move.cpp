@@ -23,12 +23,14 @@ namespace {
 /// `piezo move`'s result: the board's account of the move, the time it took
 /// and the run it was, in one object.
 struct MoveResult {
-  protocol::MoveAccount move;  ///< the board's (a move that never began: its run's end)
-  double time_s = 0.0;         ///< to on target (a group: its last axis), else the whole run
+  bool on_target = false;  ///< every axis
+  std::string stop_cause;  ///< the run's: the first axis that did not arrive says how it ended
+  double time_s = 0.0;     ///< to on target (its last axis), else the whole run
   std::string run_dir, log;
   nlohmann::json run;  ///< the run's own JSON summary
-  /// A group move's: every axis's account, in the log's order (the first is `move`).
-  std::optional<std::vector<protocol::MoveAccount>> moves;
+  /// Every axis's account, in the log's order, one or several (a move that
+  /// never began: its run's end).
+  std::vector<protocol::MoveAccount> moves;
 };
 
 }  // namespace
@@ -37,10 +39,13 @@ struct MoveResult {
 template <>
 struct piezo::protocol::wire::Fields<piezo::host::MoveResult> {
   using T = piezo::host::MoveResult;
-  static constexpr auto list =
-      std::tuple{inline_fields(&T::move),       field("time_s", &T::time_s),
-                 field("run_dir", &T::run_dir), field("log", &T::log),
-                 field("run", &T::run),         field(piezo::wire_key::moves, &T::moves)};
+  static constexpr auto list = std::tuple{field("on_target", &T::on_target),
+                                          field("stop_cause", &T::stop_cause),
+                                          field("time_s", &T::time_s),
+                                          field("run_dir", &T::run_dir),
+                                          field("log", &T::log),
+                                          field("run", &T::run),
+                                          field(piezo::wire_key::moves, &T::moves)};
 };
 
 namespace piezo::host {
@@ -199,32 +204,25 @@ protocol::MoveAccount ended(protocol::MoveAccount move, firmware::StopCause caus
 MoveResult move_result(const FinishedRun& run) {
   const RunSummary& s = run.summary;
   MoveResult r;
-  r.move = ended(s.board.move.value_or(protocol::MoveAccount{}), s.board.cause);
-  r.time_s = r.move.on_target ? r.move.on_target_at_s.value_or(s.t_end_s) : s.t_end_s;
-  if (s.board.axes.size() > 1) {
-    r.moves.emplace();
-    bool all_on_target = true;
-    double last_on_target = 0.0;
-    for (const auto& axis : s.board.axes) {
-      protocol::MoveAccount none;
-      none.axis = axis.name;
-      r.moves->push_back(ended(axis.move.value_or(none), axis.cause));
-      all_on_target = all_on_target && r.moves->back().on_target;
-      last_on_target = std::max(last_on_target, r.moves->back().on_target_at_s.value_or(s.t_end_s));
-    }
-    r.move = r.moves->front();
-    r.time_s = all_on_target ? last_on_target : s.t_end_s;
+  double last_on_target = 0.0;
+  for (const auto& axis : s.board.axes) {
+    protocol::MoveAccount none;
+    none.axis = axis.name;
+    r.moves.push_back(ended(axis.move.value_or(none), axis.cause));
+    last_on_target = std::max(last_on_target, r.moves.back().on_target_at_s.value_or(s.t_end_s));
   }
+  if (r.moves.empty()) {  // the board fell silent before it said how any axis ended
+    protocol::MoveAccount none;
+    r.moves.push_back(ended(none, s.board.cause));
+  }
+  r.on_target = std::all_of(r.moves.begin(), r.moves.end(),
+                            [](const protocol::MoveAccount& m) { return m.on_target; });
+  r.stop_cause = s.stop_cause();
+  r.time_s = r.on_target ? last_on_target : s.t_end_s;
   r.run_dir = run.dir.string();
   r.log = run.log.string();
   r.run = run.result;
   return r;
-}
-
-bool on_target(const MoveResult& r) {
-  if (!r.moves) return r.move.on_target;
-  return std::all_of(r.moves->begin(), r.moves->end(),
-                     [](const protocol::MoveAccount& m) { return m.on_target; });
 }
 
 std::string move_text(const MoveResult& r) {
@@ -239,15 +237,10 @@ std::string move_text(const MoveResult& r) {
                        firmware::kMoveEndNames.name(*m.stop_cause), mrad(m.position_rad),
                        mrad(m.target_rad), urad(m.error_rad), m.steps);
   };
-  if (!r.moves) {
-    const auto& m = r.move;
-    return line(m, m.on_target ? "move on target" : "move NOT on target") +
-           fmt::format(", {:.3f} s\n", r.time_s);
-  }
-  std::string out =
-      fmt::format("group move {} ({} axes), {:.3f} s\n",
-                  on_target(r) ? "on target" : "NOT on target", r.moves->size(), r.time_s);
-  for (const auto& m : *r.moves)
+  std::string out = fmt::format(
+      "move {} ({}), {:.3f} s\n", r.on_target ? "on target" : "NOT on target",
+      r.moves.size() == 1 ? "1 axis" : fmt::format("{} axes", r.moves.size()), r.time_s);
+  for (const auto& m : r.moves)
     out += "  " +
            line(m, fmt::format("{:<8}{}", m.axis, m.on_target ? "on target" : "NOT on target")) +
            "\n";
@@ -262,10 +255,11 @@ void add_move_command(CLI::App& app, Commands& commands) {
   CLI::App* cmd = app.add_subcommand(
       "move", "Closed-loop move to an angle from the board's zero (logged as a run)");
   add_move_options(*cmd, *m);
-  add_run_options(*cmd, *o, "Rig config (TOML), as for `piezo run` (with --rig: default Table 1)",
-                  "piezod's address (default: [rig] address, or in-process)",
-                  "Print one JSON object: position_rad, error_rad, on_target, time_s, steps, "
-                  "stop_cause, ... and the run");
+  add_run_options(
+      *cmd, *o, "Rig config (TOML), as for `piezo run` (with --rig: default Table 1)",
+      "piezod's address (default: [rig] address, or in-process)",
+      "Print one JSON object: on_target, stop_cause, time_s, moves (each axis's position_rad, "
+      "error_rad, steps, ...) and the run");
   cmd->add_option("--V0", o->V0, "Coarse steps' peak voltage [V] (default: [drive] V0)");
   cmd->add_option("--f", o->f,
                   "Coarse steps' frequency [Hz] (default: the board's calibrated fastest, else "
@@ -285,7 +279,7 @@ void add_move_command(CLI::App& app, Commands& commands) {
                          write_out(stderr, "piezo: " + output_line(run.summary) + "\n");
                        }
                        if (exit_code(run.summary) != 0) return exit_code(run.summary);
-                       return on_target(move) ? 0 : kExitFailed;
+                       return move.on_target ? 0 : kExitFailed;
                      }};
   commands.add(cmd, run_command(cmd, o, std::move(program)));
 }

@@ -46,8 +46,10 @@ int serve(const ViewCliOptions& o) {
   config.host.board.address = o.rig;
   BoardClient client(config.host.board);
   const protocol::Hello hello = client.hello();
-  if (const std::string note = sensor_geometry_note(config, hello); !note.empty()) {
-    std::cerr << "piezo view: " << note << "\n";
+  for (const protocol::AxisInfo& axis : hello.axes) {
+    if (const std::string note = sensor_geometry_note(config, axis); !note.empty()) {
+      std::cerr << "piezo view: axis " << axis.name << ": " << note << "\n";
+    }
   }
   view::LiveFeed feed(20.0, 0.3);
   BoardWatch watch(config, client, hello, feed);

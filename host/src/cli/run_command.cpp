@@ -79,8 +79,9 @@ std::string summary_text(const RunSummary& s, const fs::path& log, const std::st
   if (!s.host_error.empty()) out += fmt::format("  error      {}\n", s.host_error);
   out += fmt::format("  output     {}\n", output_line(s));
   for (const AxisMeasured& m : s.axes) {
-    out += fmt::format("  angle      {:<7}{:.4f} mrad at t = {:.3f} s, mean velocity {:.4f} mrad/s\n",
-                       m.name, 1e3 * m.theta_end_rad, m.t_end_s, 1e3 * m.mean_velocity_rad_s);
+    out +=
+        fmt::format("  angle      {:<7}{:.4f} mrad at t = {:.3f} s, mean velocity {:.4f} mrad/s\n",
+                    m.name, 1e3 * m.theta_end_rad, m.t_end_s, 1e3 * m.mean_velocity_rad_s);
   }
   for (const auto& [name, l] :
        {std::pair{"drive", &s.board.drive}, std::pair{"sensor", &s.board.sensor}}) {
@@ -354,6 +355,7 @@ struct Board {
   std::unique_ptr<LocalBoard> local;  ///< declared first: its context outlives the client
   std::optional<BoardClient> client;
   protocol::Hello hello;
+  protocol::AxisInfo axis;              ///< the axis the run drives (a group's first)
   nlohmann::json dictionary;            ///< the board's `describe`: its commands and limits
   std::optional<BoardRequest> request;  ///< what this run asks of it, checked and prepared
   std::string geometry_note;            ///< the board's sensor radius differed from the config's
@@ -393,7 +395,7 @@ void check_travel(const RunAsked& asked, const protocol::Hello& hello, const std
   if (targets.empty()) targets[axis] = move->target_rad;
   for (const auto& [name, target] : targets) {
     for (const protocol::AxisInfo& a : hello.axes) {
-      if (a.name != name && !(name.empty() && hello.axes.size() == 1)) continue;
+      if (a.name != (name.empty() ? axis_info(hello, name, address).name : name)) continue;
       const double lo = a.travel_min_rad.value_or(-INFINITY);
       const double hi = a.travel_max_rad.value_or(INFINITY);
       if (target >= lo && target <= hi) continue;
@@ -416,12 +418,13 @@ void connect(Board& board, const config::ConfigFile& config, const RunAsked& ask
   } else {
     board.client.emplace(config.host.board);
   }
-  const protocol::Hello hello = board.client->hello();
-  board.group = group_axes(asked, hello, board.client->address());
-  board.hello = axis_view(hello, board.group.empty() ? config.host.board.axis : board.group.front(),
-                          board.client->address());
-  check_travel(asked, hello, config.host.board.axis, board.client->address());
-  if (const std::string note = sensor_geometry_note(config, board.hello); !note.empty()) {
+  board.hello = board.client->hello();
+  board.group = group_axes(asked, board.hello, board.client->address());
+  board.axis =
+      axis_info(board.hello, board.group.empty() ? config.host.board.axis : board.group.front(),
+                board.client->address());
+  check_travel(asked, board.hello, config.host.board.axis, board.client->address());
+  if (const std::string note = sensor_geometry_note(config, board.axis); !note.empty()) {
     write_out(stderr, "piezo: " + note + "\n");
     board.geometry_note = note;
   }
@@ -494,7 +497,7 @@ RunLog create_log(const fs::path& dir, const config::ConfigFile& config, const B
        {log_schema::kTheta,
         fmt::format("(displacement - first good displacement) / sensor.r2_m, "
                     "r2_m = {:.9g} m{}",
-                    board.hello.sensor.r2_m, remote ? " (the board's, from its hello)" : "")}},
+                    board.axis.r2_m, remote ? " (the board's, from its hello)" : "")}},
       board.group);
   if (!board.geometry_note.empty())
     log.set_attribute(log_schema::kSensorGeometryNote, board.geometry_note);
@@ -503,12 +506,13 @@ RunLog create_log(const fs::path& dir, const config::ConfigFile& config, const B
   }
   // A group's axes: each its own model and radius, on its group.
   for (std::size_t i = 0; board.group.size() > 1 && i < board.group.size(); ++i) {
-    const protocol::Hello view = axis_view(board.hello, board.group[i], board.client->address());
+    const protocol::AxisInfo& axis =
+        axis_info(board.hello, board.group[i], board.client->address());
     log.set_axis_attribute(
         i, log_schema::kTheta,
         fmt::format("(displacement - the board's zero) / sensor.r2_m, r2_m = {:.9g} m (the "
                     "board's, from its hello)",
-                    view.sensor.r2_m));
+                    axis.r2_m));
     if (const config::AxisConfig* own = config.board.find_axis(board.group[i])) {
       log.set_axis_attribute(i, log_schema::kModelParameters, to_json(own->model).dump());
       log.set_axis_attribute(i, log_schema::kPlantParameters,
@@ -601,12 +605,8 @@ int run(const RunOptions& o, const RunProgram& program) {
       drive(board, config, log, signals, status_reporter(o, live ? &*live : nullptr),
             estop_requested, live ? &*live : nullptr, axis_stops);
   if (!o.json && isatty(STDERR_FILENO)) write_out(stderr, "\n");
-  // The run's JSON, with the move's account (target, controller's result).
-  const auto result_json = [&] {
-    nlohmann::json j = summary_json(summary, dir, log_path, signals.received());
-    if (summary.board.move) j["move"] = *summary.board.move;
-    return j;
-  };
+  // The run's JSON (a move's account is its axes').
+  const auto result_json = [&] { return summary_json(summary, dir, log_path, signals.received()); };
   nlohmann::json logged = result_json();
   if (summary.board.calibration.present) logged["calibration"] = calibration_result(summary.board);
   finish_log(log, summary, logged);

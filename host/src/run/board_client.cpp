@@ -130,39 +130,30 @@ protocol::Hello BoardClient::hello() {
   return typed;
 }
 
-protocol::Hello axis_view(const protocol::Hello& hello, const std::string& axis,
-                          const std::string& board_address) {
+const protocol::AxisInfo& axis_info(const protocol::Hello& hello, const std::string& axis,
+                                    const std::string& board_address) {
   std::string names;
   for (const auto& a : hello.axes) names += (names.empty() ? "" : ", ") + a.name;
+  // A board of one takes its axis unnamed (docs/protocol.md, "Axes").
+  if (axis.empty() && hello.axes.size() == 1) return hello.axes.front();
   if (axis.empty()) {
-    if (hello.axes.size() <= 1) return hello;
     throw config::ConfigError("piezod at " + board_address, "rig.axis",
                               fmt::format("required: the board has several axes ({}); name "
                                           "one with --axis or [rig] axis",
                                           names));
   }
-  for (const protocol::AxisInfo& a : hello.axes) {
-    if (a.name != axis) continue;
-    protocol::Hello view = hello;
-    view.sensor = {a.r2_m, a.zero_displacement_m};
-    view.limits.V_min = a.V_min;
-    view.limits.V_max = a.V_max;
-    view.limits.slew_V_per_s = a.slew_V_per_s;
-    view.backends.drive = a.drive;
-    view.backends.sensor = a.sensor;
-    view.calibration = a.calibration;
-    return view;
-  }
-  throw config::ConfigError("piezod at " + board_address, "rig.axis",
-                            fmt::format("\"{}\" is not an axis of the board (allowed: {})", axis,
-                                        names.empty() ? "none named: a board of one" : names));
+  for (const protocol::AxisInfo& a : hello.axes)
+    if (a.name == axis) return a;
+  throw config::ConfigError(
+      "piezod at " + board_address, "rig.axis",
+      fmt::format("\"{}\" is not an axis of the board (allowed: {})", axis, names));
 }
 
-std::string sensor_geometry_note(const config::ConfigFile& c, const protocol::Hello& hello) {
+std::string sensor_geometry_note(const config::ConfigFile& c, const protocol::AxisInfo& axis) {
   // The config's axis of the same name (a config of one axis: its own).
-  const config::AxisConfig* own = c.board.find_axis(c.host.board.axis);
+  const config::AxisConfig* own = c.board.find_axis(axis.name);
   const double config_r2 = (own != nullptr ? *own : c.board.axis()).sensor.r2_m;
-  const double board_r2 = hello.sensor.r2_m;
+  const double board_r2 = axis.r2_m;
   if (board_r2 == config_r2) return {};
   return fmt::format(
       "the board's sensor.r2_m is {:g} m, the host's config says {:g} m: angles use the "

@@ -85,17 +85,17 @@ class BoardClient {
   std::uint64_t next_id_ = 1;
 };
 
-/// The board as one of its axes sees it: `hello` with the top-level sensor
-/// (radius, zero), limits, backends and calibration of the axis `axis` names
-/// ([rig] axis; empty: the board's one axis). Throws ConfigError (key
-/// `rig.axis`) for an axis the board lacks, or none on a board of several.
-[[nodiscard]] protocol::Hello axis_view(const protocol::Hello& hello, const std::string& axis,
-                                        const std::string& board_address);
+/// The board's axis `axis` names ([rig] axis, --axis; empty: the board's
+/// one axis), resolved once. Throws ConfigError (key `rig.axis`, listing the
+/// board's axes) for an axis the board lacks, or none on a board of several.
+[[nodiscard]] const protocol::AxisInfo& axis_info(const protocol::Hello& hello,
+                                                  const std::string& axis,
+                                                  const std::string& board_address);
 
-/// The board's sensor measured the samples, so its radius (`hello`'s
-/// `sensor.r2_m`) turns them into angles, whatever the host's config says:
+/// The board's sensor measured the samples, so its radius (the axis's
+/// `r2_m` in hello) turns them into angles, whatever the host's config says:
 /// a note when the host's config says another radius (empty when they agree).
 [[nodiscard]] std::string sensor_geometry_note(const config::ConfigFile& c,
-                                               const protocol::Hello& hello);
+                                               const protocol::AxisInfo& axis);
 
 }  // namespace piezo::host

@@ -39,12 +39,12 @@ std::int64_t host_ns() {
 /// The observer's model of one axis: the config's (that axis's own in a
 /// config of several), with the parameters the board's calibration of the
 /// axis fitted (its `model`) in their place; the log says which.
-model::MotorParameters observer_model(const config::ConfigFile& c, const protocol::Hello& view,
-                                      const std::string& axis, RunLog& log, std::size_t log_axis) {
-  const config::AxisConfig* own = c.board.axes.size() > 1 ? c.board.find_axis(axis) : nullptr;
+model::MotorParameters observer_model(const config::ConfigFile& c, const protocol::AxisInfo& axis,
+                                      RunLog& log, std::size_t log_axis) {
+  const config::AxisConfig* own = c.board.axes.size() > 1 ? c.board.find_axis(axis.name) : nullptr;
   model::Parameters p = own != nullptr ? own->model : c.host.model;
-  if (!view.calibration || !view.calibration->model.is_object()) return p.motor;
-  const protocol::CalibrationRecord& cal = *view.calibration;
+  if (!axis.calibration || !axis.calibration->model.is_object()) return p.motor;
+  const protocol::CalibrationRecord& cal = *axis.calibration;
   std::vector<std::string> used;
   // The fitted model as the host wrote it (calibration_report.cpp): its parameters' values.
   const json parameters = cal.model.value("parameters", json::object());
@@ -95,10 +95,8 @@ std::vector<RunAxisStart> run_axes(const protocol::StartReply& started, const Bo
   std::vector<RunAxisStart> out;
   if (started.moves) {
     for (const auto& m : *started.moves) out.push_back({m.axis, m.zero_displacement_m});
-  } else if (started.move) {
-    out.push_back({started.move->axis, started.move->zero_displacement_m});
   } else {
-    out.push_back({request.axis.value_or(hello.axes.empty() ? "" : hello.axes.front().name), {}});
+    out.push_back({axis_info(hello, request.axis.value_or(""), "the board").name, {}});
   }
   // The log was made for the axes asked for: the board must have run those.
   if (log.axes().size() > 1) {
@@ -114,22 +112,6 @@ std::vector<RunAxisStart> run_axes(const protocol::StartReply& started, const Bo
     return ordered;
   }
   return out;
-}
-
-/// The board's index of the axis its run names; never another axis's for
-/// a name its hello does not list.
-std::size_t board_index(const protocol::Hello& hello, const std::string& axis) {
-  if (hello.axes.empty()) return 0;  // a board that names no axes: its one
-  std::string names;
-  for (std::size_t i = 0; i < hello.axes.size(); ++i) {
-    if (hello.axes[i].name == axis) return i;
-    names += (names.empty() ? "" : ", ") + hello.axes[i].name;
-  }
-  throw protocol::ProtocolError(
-      protocol::code::malformed, wire_key::axis,
-      fmt::format("the board's run names axis \"{}\", which its hello does not list (its "
-                  "axes: {})",
-                  axis, names));
 }
 
 }  // namespace
@@ -175,7 +157,7 @@ class FollowedRun {
                   }),
         writer_(log),
         on_rows_(std::move(on_rows)) {
-    std::vector<SampleCollector*> by_axis(std::max<std::size_t>(1, hello.axes.size()));
+    std::vector<SampleCollector*> by_axis(hello.axes.size());
     for (FollowedAxis& a : axes_) by_axis.at(a.board_index) = &a.collector;
     follower_.follow(std::move(by_axis), [this] {
       return virtual_clock_ ? 1e-9 * static_cast<double>(host_ns() - host_start_)
@@ -472,12 +454,11 @@ RunSummary run_on_board(const config::ConfigFile& c, BoardClient& client,
   const auto asked = run_axes(started, request, hello, log);
   for (std::size_t i = 0; i < asked.size(); ++i) {
     const RunAxisStart& a = asked[i];
-    const protocol::Hello view =
-        hello.axes.empty() ? hello : axis_view(hello, a.name, client.address());
+    const protocol::AxisInfo& axis = axis_info(hello, a.name, client.address());
     std::optional<ObserverStage> observer;
     if (c.host.observer.enabled) {
-      observer.emplace(observer_model(c, view, a.name, log, i), c.host.observer.gains,
-                       1.0 / view.drive_rate_hz, view.output_latency_s);
+      observer.emplace(observer_model(c, axis, log, i), c.host.observer.gains,
+                       1.0 / hello.drive_rate_hz, hello.output_latency_s);
     }
     if (a.zero_m) {
       log.set_axis_attribute(i, log_schema::kThetaZero,
@@ -485,8 +466,9 @@ RunSummary run_on_board(const config::ConfigFile& c, BoardClient& client,
     }
     // A move's angles are from the board's zero (the frame of its target and
     // of every position it reports); a run's from its first good reading.
-    axes.emplace_back(a.name, board_index(hello, a.name), started.t0_ns, view.sensor.r2_m,
-                      std::move(observer),
+    // The board's index of the axis (its records carry it).
+    const auto index = static_cast<std::size_t>(&axis - hello.axes.data());
+    axes.emplace_back(a.name, index, started.t0_ns, axis.r2_m, std::move(observer),
                       a.zero_m.value_or(std::numeric_limits<double>::quiet_NaN()));
   }
   FollowedRun run(c, client, hello, log, started, clock, axes, on_rows);

@@ -12,9 +12,9 @@
 #include <thread>
 #include <zmq.hpp>
 
-#include "daemon/daemon.hpp"
-#include "config/rig.hpp"
 #include "config/config_file.hpp"
+#include "config/rig.hpp"
+#include "daemon/daemon.hpp"
 
 namespace piezo::host {
 

@@ -28,16 +28,12 @@ bool arrived(const protocol::RunSummary::Axis& a) {
 std::string RunSummary::stop_cause() const {
   if (board_gone) return "board_gone";
   if (!host_error.empty()) return "log_failed";
-  // A group move: the first axis that did not arrive says how it ended.
-  if (board.axes.size() > 1) {
+  // A move, of one axis or several: the first axis that did not arrive says
+  // how it ended (on_target, timeout: the board's cause is `completed` for both).
+  if (is_move()) {
     for (const auto& a : board.axes)
       if (!arrived(a)) return axis_end(a);
     return axis_end(board.axes.front());
-  }
-  // A move that ended by itself says how: on_target, or timeout (the board's
-  // cause is `completed` for both).
-  if (board.cause == firmware::StopCause::completed && board.move && board.move->stop_cause) {
-    return std::string(firmware::kMoveEndNames.name(*board.move->stop_cause));
   }
   // A calibration that ran to its end but gave none the board could keep.
   if (board.cause == firmware::StopCause::completed && board.calibration.present &&
@@ -45,6 +41,11 @@ std::string RunSummary::stop_cause() const {
     return "calibration_unusable";
   }
   return std::string(firmware::to_string(board.cause));
+}
+
+bool RunSummary::is_move() const {
+  return std::any_of(board.axes.begin(), board.axes.end(),
+                     [](const protocol::RunSummary::Axis& a) { return a.move.has_value(); });
 }
 
 std::string RunSummary::output_state() const {
@@ -55,14 +56,13 @@ std::string RunSummary::output_state() const {
 
 std::string RunSummary::status() const {
   if (!host_error.empty()) return "failed";
-  if (board.axes.size() > 1) {
+  if (is_move()) {
     if (std::all_of(board.axes.begin(), board.axes.end(), arrived)) return "completed";
     return board.cause == firmware::StopCause::interrupted ? "interrupted" : "failed";
   }
   switch (board.cause) {
     case firmware::StopCause::completed:
-      return stop_cause() == "timeout" || stop_cause() == "calibration_unusable" ? "failed"
-                                                                                 : "completed";
+      return stop_cause() == "calibration_unusable" ? "failed" : "completed";
     case firmware::StopCause::interrupted:
       return "interrupted";
     default:
@@ -81,7 +81,8 @@ RunSummary execute_run(const config::ConfigFile& c, const RunAsked& asked, confi
   RunSummary summary;
   {
     BoardClient client(config::BoardAddress{board.address(), "", "", 0.0, ""}, board.context());
-    const protocol::Hello hello = axis_view(client.hello(), c.host.board.axis, client.address());
+    const protocol::Hello hello = client.hello();
+    (void)axis_info(hello, c.host.board.axis, client.address());  // refused before the run
     const BoardRequest request = board_request(c.host, asked);
     prepare_request(request, client);
     summary = run_on_board(c, client, hello, log, stop, on_status, request, estop, on_rows);

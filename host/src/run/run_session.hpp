@@ -47,6 +47,8 @@ struct RunSummary : AxisMeasured {  ///< its own fields: the run's first axis's
   [[nodiscard]] std::string status() const;
   /// The firmware's stop cause, or "log_failed" when the host failed.
   [[nodiscard]] std::string stop_cause() const;
+  /// A move's run (of one axis or several): each axis has its move's account.
+  [[nodiscard]] bool is_move() const;
   /// The board's output state ("confirmed", "output_unconfirmed",
   /// "enable_unconfirmed"), or "unknown" when it fell silent.
   [[nodiscard]] std::string output_state() const;

@@ -8,10 +8,10 @@
 #include <map>
 #include <string>
 
+#include "io/run_log.hpp"
 #include "observer_stage.hpp"
 #include "piezo/firmware/angle_zero.hpp"
 #include "piezo/firmware/samples.hpp"
-#include "io/run_log.hpp"
 
 namespace piezo::host {
 

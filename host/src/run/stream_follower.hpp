@@ -84,14 +84,11 @@ class StreamFollower {
   std::function<double()> received_s_;
   bool from_sample_zero_ = true;
   bool drive_started_ = false, sensor_started_ = false;  ///< a frame of each stream was seen
-  protocol::HealthEvent health_{protocol::BoardState::running,
-                                0,
-                                std::nullopt,
-                                std::nullopt,
-                                std::nullopt,
-                                std::nullopt,
-                                std::nullopt,
-                                {}};
+  protocol::HealthEvent health_ = [] {
+    protocol::HealthEvent e;
+    e.state = protocol::BoardState::running;
+    return e;
+  }();
   std::uint64_t drive_next_ = 0, sensor_next_ = 0;
   SteadyClock::time_point last_heard_ = SteadyClock::now();
   std::vector<std::string> gaps_;

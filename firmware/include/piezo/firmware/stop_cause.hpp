@@ -50,7 +50,7 @@ inline constexpr auto kStopCauseNames =
 
 /// Whose a stop cause is: the one declaration the drive loop (which causes
 /// `fault_stops_all` spreads), the daemon (where a fault latches) and the
-/// state machine (whether it latches) read.
+/// state machine (whether it latches) read, whatever the count of axes.
 enum class CauseScope : std::uint8_t {
   end,    ///< not a fault: the run's own end, or an operator's stop; nothing latches
   axis,   ///< an axis's own fault: that axis stops (every axis with fault_stops_all)

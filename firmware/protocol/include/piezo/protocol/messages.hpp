@@ -77,8 +77,8 @@ struct AxisInfo {
 };
 
 /// `hello`'s reply: what a client needs before it asks for anything, and to
-/// interpret the samples (the sensor's radius). Its top-level fields are
-/// the first axis's; `axes` lists every axis.
+/// interpret the samples (each axis's sensor radius). Its top-level fields
+/// are the board's; everything of an axis is in `axes`, for one as for ten.
 struct Hello {
   std::uint32_t protocol = 0;
   /// This start of the board, new at each: a request naming another one is
@@ -90,25 +90,20 @@ struct Hello {
   std::string stream;  ///< the PUB endpoint
   std::string clock;   ///< "realtime" or "virtual"
   struct Backends {
-    std::string drive, sensor, lines;
+    std::string lines;  ///< the enable and e-stop lines' (each axis's drive and sensor: `axes`)
   } backends;
+  /// The board's limits. V_min, V_max and slew_V_per_s are the widest of its
+  /// axes' (the dictionary's bounds); each axis's own are in `axes`.
   struct Limits {
     double V_min = 0.0, V_max = 0.0, slew_V_per_s = 0.0, ramp_down_V_per_s = 0.0,
            sensor_stale_s = 0.0, f_max_hz = 0.0, duration_max_s = 0.0, lease_max_s = 0.0;
   } limits;
-  struct Sensor {
-    double r2_m = 0.0;  ///< angles are displacements over it
-    /// The board's zero when asked (nil: none yet); a move's reply and
-    /// `status` say it again as it changes.
-    std::optional<double> zero_displacement_m;
-  } sensor;
   double drive_rate_hz = 0.0;
   double sensor_rate_hz = 0.0;
-  double output_latency_s = 0.0;
+  double output_latency_s = 0.0;  ///< the slowest of the axes' drives
   double lease_s = 0.0;
   double recorder_s = 0.0;
-  std::optional<CalibrationRecord> calibration;  ///< the installed calibration
-  std::vector<AxisInfo> axes;                    ///< in the board's order
+  std::vector<AxisInfo> axes;  ///< in the board's order, one or several
 };
 
 /// A loop's health counters, and its period-error statistics where given
@@ -266,7 +261,6 @@ struct RunSummary {
   struct Samples {
     std::uint64_t drive = 0, sensor = 0;
   } samples;
-  std::optional<MoveAccount> move;  ///< a move's account (a group's: its first axis's)
   /// How each axis of the run ended, in the run's order: its cause, its
   /// output and (a move's) its account. A run of one axis has one.
   struct Axis {
@@ -299,8 +293,7 @@ struct StartReply {
     std::optional<double> zero_displacement_m;
     MoveToRequest request;
   };
-  std::optional<Move> move;
-  std::optional<std::vector<Move>> moves;  ///< a group move's, one per axis (its first is `move`)
+  std::optional<std::vector<Move>> moves;  ///< a move's, one per axis it moves
   /// A calibration's: its V0, the frequencies it steps at, the steps per point.
   struct Calibration {
     std::uint32_t steps_per_point = 0;
@@ -322,14 +315,13 @@ struct StateEvent {
 /// The run in `status`: the one under way, or the last.
 struct RunStatus {
   std::uint64_t id = 0;
-  std::string axis;  ///< the axis it drives (a group move's first; `moves` names each)
+  std::vector<std::string> axes;  ///< the axes it drives, in the run's order
   std::int64_t t0_ns = 0;
   double duration_s = 0.0, lease_s = 0.0;
   bool finished = false;
   LoopHealth drive, sensor;
-  std::optional<RunSummary> summary;  ///< once finished
-  std::optional<MoveAccount> move;    ///< a move's progress (a group's: its first axis's)
-  std::optional<std::vector<MoveAccount>> moves;  ///< a group move's, one per axis
+  std::optional<RunSummary> summary;              ///< once finished
+  std::optional<std::vector<MoveAccount>> moves;  ///< a move's progress, one per axis
   std::optional<double> calibration_progress;
 };
 
@@ -341,9 +333,9 @@ struct Status {
   std::string board_id;  ///< as in hello
   BoardState state = BoardState::idle;
   std::int64_t board_ns = 0;
-  bool controller = false;  ///< the caller controls the rig
-  bool controlled = false;  ///< some client does
-  std::optional<firmware::StopCause> fault;
+  bool controller = false;                   ///< the caller controls the rig
+  bool controlled = false;                   ///< some client does
+  std::optional<firmware::StopCause> fault;  ///< the board's latched fault (an axis's: `axes`)
   struct Span {
     std::uint64_t first = 0, next = 0;
   };
@@ -352,19 +344,18 @@ struct Status {
   } recorder;
   struct Position {
     std::optional<double> position_rad;  ///< the mean of the last good readings from the zero
-    std::optional<double> zero_displacement_m;  ///< the board's zero
-  } position;
-  std::optional<CalibrationRecord> calibration;  ///< as in hello
+    std::optional<double> zero_displacement_m;  ///< the axis's zero
+  };
   std::optional<ConfigureRequest> configured;
   std::optional<RunStatus> run;
-  /// Each axis's position from its zero, and whether it is calibrated, in
-  /// the board's order (`position` and `calibration` above are the first's).
+  /// Each axis's position from its zero, whether it is calibrated and its
+  /// latched fault, in the board's order, one or several.
   struct Axis {
     std::string name;
     Position position;
     bool calibrated = false;
-    /// Its own latched fault (a board of several: an axis's fault latches on
-    /// it alone, the others run on; `reset_fault` clears it), nil: none.
+    /// Its own latched fault (an axis's fault latches on it alone, the
+    /// others run on; `reset_fault` clears it), nil: none.
     std::optional<firmware::StopCause> fault;
   };
   std::vector<Axis> axes;
@@ -410,9 +401,8 @@ struct SetCalibrationReply {
 struct HealthEvent {
   BoardState state = BoardState::idle;
   std::int64_t board_ns = 0;
-  std::optional<LoopHealth> drive, sensor;  ///< while a run is under way
-  std::optional<MoveAccount> move;          ///< a move's progress (a group's: its first axis's)
-  std::optional<std::vector<MoveAccount>> moves;  ///< a group move's, one per axis
+  std::optional<LoopHealth> drive, sensor;        ///< while a run is under way
+  std::optional<std::vector<MoveAccount>> moves;  ///< a move's progress, one per axis
   std::optional<double> calibration_progress;
   std::string board_id;  ///< as in hello: a follower sees a restart here
 };
