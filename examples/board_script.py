@@ -16,8 +16,9 @@ from piezo_rig.errors import RunEnded
 address = sys.argv[1] if len(sys.argv) > 1 else "tcp://127.0.0.1:5555"
 with Board(address) as board:
     hello = board.hello()
+    radii = ", ".join(f"{a['name']} r2 {a['r2_m']} m" for a in hello["axes"])
     print(f"board {hello['daemon']} at {address}: drive {hello['drive_rate_hz']:g} Hz, "
-          f"sensor {hello['sensor_rate_hz']:g} Hz, r2 {hello['sensor']['r2_m']} m")
+          f"sensor {hello['sensor_rate_hz']:g} Hz; axes: {radii}")
     if board.status()["state"] == "fault":
         board.reset_fault()
 

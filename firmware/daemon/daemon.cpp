@@ -91,9 +91,9 @@ Daemon::Daemon(const config::BoardConfig& board, config::Rig rig, zmq::context_t
   last_health_ = Clock::now();
   std::string devices;
   for (const auto& axis : axes_) {
-    devices += fmt::format("{}{}drive {}, sensor {}", devices.empty() ? "" : "; ",
-                           axes_.size() > 1 ? "axis " + axis->name() + ": " : "",
-                           axis->config.drive.backend(), axis->config.sensor.backend());
+    devices +=
+        fmt::format("{}axis {}: drive {}, sensor {}", devices.empty() ? "" : "; ", axis->name(),
+                    axis->config.drive.backend(), axis->config.sensor.backend());
   }
   log_event(fmt::format("listening: commands {}, stream {}; {}; lines {}; board id {}",
                         command_endpoint_, stream_endpoint_, devices, board_.lines.backend(),

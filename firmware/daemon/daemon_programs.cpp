@@ -267,8 +267,8 @@ std::optional<std::string> Daemon::install_calibration(ServedAxis& axis,
     }
   }
   const auto& fastest = axis.calibration->fastest_f_hz;
-  log_event(fmt::format("calibration installed{}: fastest reliable {}, noise {:.3g} m; {}",
-                        axes_.size() > 1 ? " on " + axis.name() : "",
+  log_event(fmt::format("calibration installed on {}: fastest reliable {}, noise {:.3g} m; {}",
+                        axis.name(),
                         fastest ? fmt::format("{:g} Hz", *fastest) : std::string("none"),
                         axis.calibration->noise_m, kept));
   return save_error;
@@ -287,8 +287,7 @@ json Daemon::set_zero(const std::string&, const json& args) {
                         "next run or move until then");
   }
   axis.zero.set(*last);
-  log_event(
-      fmt::format("zero{} set at {:.9g} m", axes_.size() > 1 ? " of " + axis.name() : "", *last));
+  log_event(fmt::format("zero of {} set at {:.9g} m", axis.name(), *last));
   return protocol::ZeroReply{position_of(axis)};
 }
 

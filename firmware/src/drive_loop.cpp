@@ -11,7 +11,9 @@ namespace {
 constexpr double kOnZero_V = 1e-6;
 
 /// A cause that is an axis's own fault, which fault_stops_all spreads.
-[[nodiscard]] bool is_axis_fault(StopCause c) { return scope_of(c) == CauseScope::axis; }
+[[nodiscard]] bool is_axis_fault(StopCause c) {
+  return scope_of(c) == CauseScope::axis;
+}
 }  // namespace
 
 DriveLoop::DriveLoop(const DriveLoopSettings& settings, std::vector<DriveAxis> axes, DriveLoopIo io)
@@ -202,7 +204,6 @@ bool DriveLoop::drive_axis(Axis& axis, hal::TimeNs deadline, hal::TimeNs now, do
 }
 
 void DriveLoop::tell_neighbours_stepping(double t) {
-  if (axes_.size() < 2) return;
   int stepping = 0;
   for (const Axis& a : axes_) stepping += !a.stopped && a.io.program->stepping() ? 1 : 0;
   for (Axis& a : axes_) {
@@ -213,11 +214,12 @@ void DriveLoop::tell_neighbours_stepping(double t) {
 }
 
 void DriveLoop::spread_faults() {
-  if (!settings_.fault_stops_all || axes_.size() < 2) return;
+  if (!settings_.fault_stops_all) return;
   for (const Axis& a : axes_) {
     if (!is_axis_fault(a.io.supervisor->cause())) continue;
-    for (Axis& other : axes_)
-      other.io.supervisor->report_program_fault(StopCause::other_axis_fault);
+    for (Axis& other : axes_) {
+      if (&other != &a) other.io.supervisor->report_program_fault(StopCause::other_axis_fault);
+    }
     return;
   }
 }

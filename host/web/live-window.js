@@ -2,8 +2,8 @@
 // The live page's window of the run, kept from the view's stream: the first
 // event holds the whole window ("reset"), the next ones only the columns
 // completed since, which are appended and the window trimmed to its length;
-// the zoom and the loop histograms are kept until new ones come. A run of
-// several axes keeps each axis's series under "axes", one object per axis.
+// the zoom and the loop histograms are kept until new ones come. Each axis
+// of the run, one or several, keeps its series under "axes", one object each.
 // Loaded by the shared worker (one stream for all tabs of a browser) and by
 // the page itself where a browser has no shared workers.
 const LIVE_SERIES = ["drive", "measured", "observer", "open_loop", "residual"];
@@ -23,12 +23,11 @@ class LiveWindow {
       if (!e.histograms && held) this.d.histograms = held;
     } else {
       const from = e.t_end - e.window_s;
-      if (e.axes) e.axes.forEach((axis, i) => LiveWindow.merge(this.d.axes[i], axis, from));
-      else LiveWindow.merge(this.d, e, from);
+      e.axes.forEach((axis, i) => LiveWindow.merge(this.d.axes[i], axis, from));
       for (const key of ["t_end", "window_s", "column_s", "status", "pages"]) this.d[key] = e[key];
       if (e.histograms) this.d.histograms = e.histograms;
     }
-    for (const axis of this.d.axes || [this.d]) {
+    for (const axis of this.d.axes) {
       if (axis.zoom && !axis.zoom.t) axis.zoom = { t: LiveWindow.zoomTimes(axis.zoom), y: axis.zoom.y };
     }
     return this.d;

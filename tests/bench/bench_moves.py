@@ -48,7 +48,7 @@ def overshoot_rad(log, target):
     """How far the measured angle (averaged over 8 readings, as the
     controller sees it) went past the target (0 if never)."""
     with h5py.File(log) as f:
-        theta = f["sensor/theta"][:]
+        theta = f["axes/rotor/sensor/theta"][:]
     theta = np.convolve(theta[np.isfinite(theta)], np.ones(8) / 8, mode="valid")
     beyond = (theta - target) * math.copysign(1.0, target)
     return max(0.0, float(beyond.max()))
@@ -81,8 +81,8 @@ def model_step(exe, reverse):
 
 def plot_move(log, target, png):
     with h5py.File(log) as f:
-        ts, theta = f["sensor/t"][:], f["sensor/theta"][:]
-        td, V, state = f["drive/t"][:], f["drive/V"][:], f["drive/move_state"][:]
+        ts, theta = f["axes/rotor/sensor/t"][:], f["axes/rotor/sensor/theta"][:]
+        td, V, state = f["axes/rotor/drive/t"][:], f["axes/rotor/drive/V"][:], f["axes/rotor/drive/move_state"][:]
     base = png[:-4]
     np.savetxt(base + "_sensor.dat", np.column_stack([ts, 1e3 * theta]))
     np.savetxt(base + "_drive.dat", np.column_stack([td, V, state]))

@@ -62,7 +62,7 @@ def sets(extra):
 def overshoot_rad(log, target):
     """How far the 8-reading mean went past the target (0 if never)."""
     with h5py.File(log) as f:
-        theta = f["sensor/theta"][:]
+        theta = f["axes/rotor/sensor/theta"][:]
     theta = theta[np.isfinite(theta)]
     if len(theta) < 8:
         return float("nan")

@@ -64,8 +64,8 @@ def run():
     assert guest.returncode == 0, guest.stdout
     summary, log = guest_output(work)
     with h5py.File(io.BytesIO(log)) as f:
-        drive = {name: f["drive"][name][()] for name in f["drive"]}
-        sensor = {name: f["sensor"][name][()] for name in f["sensor"]}
+        drive = {name: f["axes/rotor/drive"][name][()] for name in f["axes/rotor/drive"]}
+        sensor = {name: f["axes/rotor/sensor"][name][()] for name in f["axes/rotor/sensor"]}
         attrs = {name: f.attrs[name].decode() for name in ("status", "stop_cause")}
         # The effective config, as TOML with the --set lines as comments.
         attrs["config"] = tomllib.loads(f.attrs["config"].decode())

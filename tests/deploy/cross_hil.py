@@ -57,7 +57,7 @@ def run(args):
 
 def theta(log):
     with h5py.File(log, "r") as f:
-        return f["sensor/t"][:], f["sensor/theta"][:]
+        return f["axes/rotor/sensor/t"][:], f["axes/rotor/sensor/theta"][:]
 
 
 try:

@@ -112,7 +112,7 @@ try:
     f = h5py.File(os.path.join(out_dir, "run.h5"), "r")
     t0 = int(f.attrs["board_t0_ns"].decode())
     t_cut = (cut_ns - t0) * 1e-9
-    t, V, phase = f["drive/t"][:], f["drive/V"][:], f["drive/phase"][:]
+    t, V, phase = f["axes/rotor/drive/t"][:], f["axes/rotor/drive/V"][:], f["axes/rotor/drive/phase"][:]
     stopped = np.nonzero(phase == 2)[0]
     t_stop = t[stopped[0]] if len(stopped) else float("nan")
     print(f"cut at {t_cut:.3f} s of the run; the drive stopped at {t_stop:.3f} s "
@@ -121,7 +121,7 @@ try:
         failures.append("the drive did not end at 0 V, stopped")
     if not t_stop - t_cut <= LEASE_S + RAMP_S + 0.05:
         failures.append("the drive stopped later than the lease plus the ramp")
-    counts = (len(f["drive/t"]), len(f["sensor/t"]))
+    counts = (len(f["axes/rotor/drive/t"]), len(f["axes/rotor/sensor/t"]))
     print(f"host log: {counts[0]} drive and {counts[1]} sensor samples; board recorded "
           f"{recorded['drive']} and {recorded['sensor']}; outages {f.attrs['link_outages'].decode()[:200]}")
     if counts != (recorded["drive"], recorded["sensor"]):

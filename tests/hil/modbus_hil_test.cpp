@@ -287,11 +287,13 @@ void expect_run_fails_safely(ModbusHil& t, const fs::path& dir, int port,
   // reached. Its last record holds what the module last acknowledged,
   // marked unconfirmed (which may itself be 0 V when the link died at a
   // period's start: the sawtooth is at 0 there).
-  const auto check = run_command(
-      "/usr/bin/python3 -c \"import h5py, json; f = h5py.File('" + (out / "run.h5").string() +
-      "', 'r'); o = json.loads(f.attrs['summary'])['output']; "
-      "print(f.attrs['status'].decode(), f.attrs['output'].decode(), float(f['drive/phase'][-1]), "
-      "f['drive/V'][-1] == o['last_acknowledged_V'], o['last_acknowledged_V'] is not None)\"");
+  const auto check = run_command("/usr/bin/python3 -c \"import h5py, json; f = h5py.File('" +
+                                 (out / "run.h5").string() +
+                                 "', 'r'); o = json.loads(f.attrs['summary'])['output']; "
+                                 "print(f.attrs['status'].decode(), f.attrs['output'].decode(), "
+                                 "float(f['axes/rotor/drive/phase'][-1]), "
+                                 "f['axes/rotor/drive/V'][-1] == o['last_acknowledged_V'], "
+                                 "o['last_acknowledged_V'] is not None)\"");
   EXPECT_EQ(check.out, "failed output_unconfirmed 3.0 True True\n") << check.err;
   (void)t;
 }

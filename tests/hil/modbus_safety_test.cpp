@@ -56,7 +56,7 @@ class ModbusSafety : public ModbusHil {
     const auto r = run_command(
         "/usr/bin/python3 -c \"import h5py; f = h5py.File('" + (dir / "run" / "run.h5").string() +
         "', 'r'); a = f.attrs; print(a['status'].decode(), a['output'].decode() if 'output' in a "
-        "else '-', f['drive/V'][-1], float(f['drive/phase'][-1]))\"");
+        "else '-', f['axes/rotor/drive/V'][-1], float(f['axes/rotor/drive/phase'][-1]))\"");
     EXPECT_EQ(r.exit_code, 0) << r.err;
     return r.out;
   }

@@ -53,7 +53,8 @@ class WildSensor : public ModbusHil {
   std::string logged() const {
     return run_command("/usr/bin/python3 -c \"import h5py, numpy as np; f = h5py.File('" +
                        (dir / "run" / "run.h5").string() +
-                       "'); s = f['sensor/status'][:]; o = f['observer/theta_hat'][:]; "
+                       "'); s = f['axes/rotor/sensor/status'][:]; o = "
+                       "f['axes/rotor/observer/theta_hat'][:]; "
                        "print(int(np.sum(s == 7)), int(np.sum(s == 2)), len(o), "
                        "bool(np.all(np.isfinite(o))), float(np.max(np.abs(o))) if len(o) else 0)\"")
         .out;

@@ -92,9 +92,9 @@ TEST(CalibrateCli, AToleranceBelowTheNoiseFloorIsRefusedUpFront) {
   EXPECT_NE(refused.exit_code, 0);
   EXPECT_NE(refused.err.find("tolerance_rad"), std::string::npos) << refused.err;
   EXPECT_NE(refused.err.find("allowed: at least"), std::string::npos) << refused.err;
-  const auto logged = run_command("/usr/bin/python3 -c \"import h5py; f = h5py.File('" +
-                                  (dir / "fine" / "run.h5").string() +
-                                  "'); print(f.attrs['status'].decode(), len(f['drive/V']))\"");
+  const auto logged = run_command(
+      "/usr/bin/python3 -c \"import h5py; f = h5py.File('" + (dir / "fine" / "run.h5").string() +
+      "'); print(f.attrs['status'].decode(), len(f['axes/rotor/drive/V']))\"");
   EXPECT_EQ(logged.out, "failed 0\n") << logged.err;
   const auto accepted = run_command(move + "/coarse --tolerance 15e-6 --timeout 10");
   EXPECT_EQ(accepted.exit_code, 0) << accepted.err;

@@ -2,7 +2,7 @@
 """kill -9 at random instants, and nothing flushed is lost.
 
 usage: kill_test.py PIEZO PIEZOD SOURCE_DIR WORK_DIR [--kills N] [--daemon-kills M]
-                    [--seed S] [--port P]
+                    [--group-kills G] [--seed S] [--port P]
 
 1. `piezo run` on the virtual clock (deterministic: every run writes the same
    samples), killed with SIGKILL at N instants drawn uniformly over a run's
@@ -15,6 +15,10 @@ usage: kill_test.py PIEZO PIEZOD SOURCE_DIR WORK_DIR [--kills N] [--daemon-kills
    M instants. The host must end the run by itself (the lease) and leave a
    whole log marked failed, with a prefix of its samples; then the host is
    killed during remote runs too, and recovered the same way.
+3. A group move of three axes (configs/three-axes.toml) on the virtual clock,
+   killed at G instants: every log readable after `piezo recover`, and each
+   axis's own columns (under /axes/NAME) equally long and a bit-identical
+   prefix of that axis's in an unkilled group move.
 
 Prints the figures and exits 1 on the first broken promise, with its reason.
 """
@@ -46,14 +50,24 @@ def option(name, default):
 
 kills = option("--kills", 200)
 daemon_kills = option("--daemon-kills", 20)
+group_kills = option("--group-kills", 20)
 rng = random.Random(option("--seed", 1))
 port = option("--port", 5871)
 config = f"{source}/configs/sim.toml"
 virtual = ["--set", "run.clock=virtual", "--set", "run.flush_interval_s=0.02"]
 DURATION = "4"
 STOPPED = 2  # DrivePhase::stopped (firmware/include/piezo/firmware/samples.hpp)
-COLUMNS = ["drive/t", "drive/V", "drive/phase", "sensor/t", "sensor/theta", "observer/t",
-           "observer/theta_hat"]
+# Each axis's columns, under its group (docs/run-logs.md).
+AXIS_COLUMNS = ["drive/t", "drive/V", "drive/phase", "sensor/t", "sensor/theta", "observer/t",
+                "observer/theta_hat"]
+
+
+def columns_of(axes):
+    return [f"axes/{axis}/{c}" for axis in axes for c in AXIS_COLUMNS]
+
+
+COLUMNS = columns_of(["rotor"])
+GROUP_AXES = ["theta", "phi", "chi"]
 
 shutil.rmtree(work, ignore_errors=True)
 os.makedirs(work)
@@ -67,16 +81,16 @@ def fail(message):
     print("FAIL:", message, flush=True)
 
 
-def read(path):
+def read(path, columns=COLUMNS):
     with h5py.File(path, "r") as f:
-        return f.attrs["status"].decode(), {c: f[c][:] for c in COLUMNS}
+        return f.attrs["status"].decode(), {c: f[c][:] for c in columns}
 
 
-def drive_rows(path):
-    """Rows run.h5 holds as it is, or None when h5py cannot read it."""
+def drive_rows(path, axis="rotor"):
+    """Rows of an axis run.h5 holds as it is, or None when h5py cannot read it."""
     try:
         with h5py.File(path, "r") as f:
-            return len(f["drive/t"])
+            return len(f[f"axes/{axis}/drive/t"])
     except Exception:  # noqa: BLE001 - any failure to read is "unreadable"
         return None
 
@@ -85,12 +99,14 @@ def is_prefix(part, whole):
     return len(part) <= len(whole) and np.array_equal(part, whole[: len(part)], equal_nan=True)
 
 
-def check_recovered(run_dir, reference, label):
-    """Recovers run_dir; returns (class, drive rows) or records a failure."""
+def check_recovered(run_dir, reference, label, axes=("rotor",)):
+    """Recovers run_dir; returns (class, the first axis's drive rows) or
+    records a failure. Each axis's columns are checked on their own."""
     log = f"{run_dir}/run.h5"
+    columns = columns_of(axes)
     if not os.path.exists(log) and not os.path.exists(f"{run_dir}/run.journal"):
         return "before the log", 0
-    before = drive_rows(log) if os.path.exists(log) else None
+    before = drive_rows(log, axes[0]) if os.path.exists(log) else None
     r = subprocess.run([piezo, "recover", run_dir, "--json"], capture_output=True, text=True,
                        timeout=60)
     if r.returncode != 0:
@@ -98,19 +114,20 @@ def check_recovered(run_dir, reference, label):
         return "failed", 0
     rec = json.loads(r.stdout)
     try:
-        status, data = read(log)
+        status, data = read(log, columns)
     except Exception as e:  # noqa: BLE001
         fail(f"{label}: run.h5 unreadable after recovery: {e}")
         return "failed", 0
-    for group in ("drive", "sensor", "observer"):
-        lengths = {len(data[c]) for c in COLUMNS if c.startswith(group)}
-        if len(lengths) != 1:
-            fail(f"{label}: {group} columns of unequal length {lengths}")
+    for axis in axes:
+        for group in ("drive", "sensor", "observer"):
+            lengths = {len(data[c]) for c in columns if c.startswith(f"axes/{axis}/{group}/")}
+            if len(lengths) != 1:
+                fail(f"{label}: axis {axis}'s {group} columns of unequal length {lengths}")
     if reference is not None:
-        for c in COLUMNS:
+        for c in columns:
             if not is_prefix(data[c], reference[c]):
                 fail(f"{label}: {c} is not a prefix of the reference run")
-    n = len(data["drive/t"])
+    n = len(data[f"axes/{axes[0]}/drive/t"])
     if before is not None and n < before:
         fail(f"{label}: recovery kept {n} drive rows, run.h5 held {before}")
     if rec["rebuilt"]:
@@ -126,7 +143,7 @@ subprocess.run([piezo, "run", "--config", config, *virtual, "--duration", DURATI
                 "--out", f"{work}/reference"], check=True, capture_output=True, timeout=300)
 wall = time.monotonic() - start
 _, reference = read(f"{work}/reference/run.h5")
-print(f"reference: {len(reference['drive/t'])} drive samples in {wall:.2f} s wall", flush=True)
+print(f"reference: {len(reference['axes/rotor/drive/t'])} drive samples in {wall:.2f} s wall", flush=True)
 
 # 1. The host, killed.
 classes = {}
@@ -145,11 +162,38 @@ for i in range(kills):
     else:
         cls, n = check_recovered(run_dir, reference, f"host kill {i}")
     classes[cls] = classes.get(cls, 0) + 1
-    fractions.append(n / len(reference["drive/t"]))
+    fractions.append(n / len(reference["axes/rotor/drive/t"]))
 print(f"host: {kills} kills in {time.monotonic() - t0:.1f} s", flush=True)
 for cls, count in sorted(classes.items()):
     print(f"  {count:4d}  {cls}")
 print(f"  drive samples kept: {min(fractions):.3f} to {max(fractions):.3f} of the run", flush=True)
+
+
+# 3. A group move of three axes, killed.
+group_config = f"{source}/configs/three-axes.toml"
+group_move = [piezo, "move", "--config", group_config, *virtual, "--to", "theta=0.004",
+              "--to", "phi=-0.006", "--to", "chi=0.003", "--timeout", "20", "--json"]
+start = time.monotonic()
+subprocess.run([*group_move, "--out", f"{work}/group-reference"], check=True,
+               capture_output=True, timeout=300)
+group_wall = time.monotonic() - start
+_, group_reference = read(f"{work}/group-reference/run.h5", columns_of(GROUP_AXES))
+print(f"group reference: {[len(group_reference[f'axes/{a}/drive/t']) for a in GROUP_AXES]} "
+      f"drive samples of {', '.join(GROUP_AXES)} in {group_wall:.2f} s wall", flush=True)
+group_classes = {}
+for i in range(group_kills):
+    run_dir = f"{work}/group-{i:03d}"
+    p = peers.spawn([*group_move, "--out", run_dir], stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL)
+    time.sleep(rng.uniform(0.0, 1.1 * group_wall))
+    p.send_signal(signal.SIGKILL)
+    p.wait()
+    cls, _ = check_recovered(run_dir, group_reference, f"group kill {i}", GROUP_AXES) \
+        if os.path.isdir(run_dir) else ("before the run directory", 0)
+    group_classes[cls] = group_classes.get(cls, 0) + 1
+print(f"group moves: {group_kills} kills", flush=True)
+for cls, count in sorted(group_classes.items()):
+    print(f"  {count:4d}  {cls}")
 
 
 # 2. The board, killed; then the host during remote runs.
@@ -223,11 +267,11 @@ for i in range(daemon_kills):
         else:
             spilled = json.loads(r.stdout)["drive_samples"]
             with h5py.File(f"{run_dir}/run.h5", "r") as f:
-                host_rows = len(f["drive/t"])
+                host_rows = len(f["axes/rotor/drive/t"])
             with h5py.File(f"{run_dir}-board/run.h5", "r") as f:
                 # The stop record (phase stopped or output_unconfirmed) is
                 # stamped when the output stopped, off the cycle grid.
-                cycles = f["drive/t"][:][f["drive/phase"][:] < STOPPED]
+                cycles = f["axes/rotor/drive/t"][:][f["axes/rotor/drive/phase"][:] < STOPPED]
                 steps = np.diff(cycles)
             if spilled < host_rows - 1:  # the host's log may end with the stop record
                 fail(f"board kill {i}: the spill holds {spilled} drive samples, the host {host_rows}")

@@ -37,7 +37,7 @@ try:
         if isinstance(obj, h5py.Dataset):
             obj[:]
     f.visititems(read_all)
-    print(len(f['drive/t']), len(f['sensor/t']))
+    print(len(f['axes/rotor/drive/t']), len(f['axes/rotor/sensor/t']))
 except Exception as e:
     print(-1, -1)
 )");
@@ -196,13 +196,13 @@ with h5py.File(src, 'r') as f, h5py.File(dst, 'w') as g:
         if not isinstance(obj, h5py.Dataset):
             return
         data = obj[:]
-        if name == 'observer/t':
+        if name == 'axes/rotor/observer/t':
             data[-1] = 0.0
-        elif name.startswith('observer/'):
+        elif name.startswith('axes/rotor/observer/'):
             data = data[:0]
         g.create_dataset(name, data=data, maxshape=(None,), chunks=(4096,))
     f.visititems(copy)
-    print(len(f['observer/t']))
+    print(len(f['axes/rotor/observer/t']))
 )");
   // The torn copy is made from a killed log that reads whole (killed_run).
   const fs::path run = killed_run(dir, 1001);
@@ -221,8 +221,8 @@ with h5py.File(src, 'r') as f, h5py.File(dst, 'w') as g:
   const fs::path check = dir / "check.py";
   write_file(check, R"(import h5py, sys, numpy as np
 with h5py.File(sys.argv[1], 'r') as f:
-    t = f['observer/t'][:]
-    bad = int(np.sum(~np.isfinite(f['observer/x_hat'][:])))
+    t = f['axes/rotor/observer/t'][:]
+    bad = int(np.sum(~np.isfinite(f['axes/rotor/observer/x_hat'][:])))
     print(len(t), bool(np.all(np.diff(t) > 0)), bad)
 )");
   const auto r =

@@ -53,15 +53,15 @@ TEST(RunCli, VirtualRunWritesALogH5pyReadsAndAReport) {
   EXPECT_EQ(j.at("axes")[0].at("stop_cause"), "completed");
 
   const auto check = h5py_check(out / "run.h5", R"(
-for name in ['drive/t', 'drive/V', 'sensor/t', 'sensor/theta']:
+for name in ['axes/rotor/drive/t', 'axes/rotor/drive/V', 'axes/rotor/sensor/t', 'axes/rotor/sensor/theta']:
     d = f[name]
     assert d.dtype == 'float64' and d.ndim == 1, name
-assert len(f['drive/t']) == len(f['drive/V']) > 10000
-assert len(f['sensor/t']) == len(f['sensor/theta']) >= 1000
+assert len(f['axes/rotor/drive/t']) == len(f['axes/rotor/drive/V']) > 10000
+assert len(f['axes/rotor/sensor/t']) == len(f['axes/rotor/sensor/theta']) >= 1000
 assert f.attrs['status'].decode() == 'completed'
 assert '[drive]' in f.attrs['config'].decode()
-assert abs(f['sensor/theta'][-1] - float(sys.argv[2] if len(sys.argv) > 2 else f['sensor/theta'][-1])) < 1e-12
-assert max(f['drive/V']) <= 80.0
+assert abs(f['axes/rotor/sensor/theta'][-1] - float(sys.argv[2] if len(sys.argv) > 2 else f['axes/rotor/sensor/theta'][-1])) < 1e-12
+assert max(f['axes/rotor/drive/V']) <= 80.0
 print('ok')
 )");
   EXPECT_EQ(check.exit_code, 0) << check.err;
@@ -95,7 +95,7 @@ def keep(group, rows):
         kept = column[:][rows]
         column.resize((len(kept),))
         column[:] = kept
-drive_t, sensor_t = f['drive/t'][:], f['sensor/t'][:]
+drive_t, sensor_t = f['axes/rotor/drive/t'][:], f['axes/rotor/sensor/t'][:]
 keep('drive', drive_t < 0.95)
 # the sensor's samples lost for five drive periods around the drive's middle,
 # and its last 0.1 s
@@ -251,8 +251,8 @@ TEST(RunCli, MovePrintsItsResultAndRefusesBadArgumentsByName) {
   // One shape for one axis as for several: the move's account is in `moves`.
   ASSERT_EQ(j.at("moves").size(), 1u);
   const auto& m = j.at("moves").at(0);
-  for (const char* key : {"axis", "position_rad", "error_rad", "on_target", "steps", "stop_cause",
-                          "target_rad"}) {
+  for (const char* key :
+       {"axis", "position_rad", "error_rad", "on_target", "steps", "stop_cause", "target_rad"}) {
     EXPECT_TRUE(m.contains(key)) << key;
     EXPECT_FALSE(j.contains(key) && std::string(key) != "on_target" &&
                  std::string(key) != "stop_cause")
@@ -266,7 +266,8 @@ TEST(RunCli, MovePrintsItsResultAndRefusesBadArgumentsByName) {
   const auto logged =
       run_command("/usr/bin/python3 -c \"import h5py, json; f = h5py.File('" +
                   (dir / "move" / "run.h5").string() +
-                  "'); m = json.loads(f.attrs['summary'])['move']; s = f['drive/move_state'][:]; "
+                  "'); m = json.loads(f['axes/rotor'].attrs['summary'])['move']; s = "
+                  "f['axes/rotor/drive/move_state'][:]; "
                   "print(m['target_rad'], m['stop_cause'], int(s.max()), int(s[0]))\"");
   EXPECT_EQ(logged.out, "-0.002 on_target 5 1\n") << logged.err;
 
@@ -317,8 +318,9 @@ TEST(RunCli, TheLogStoresCodesAsBytesAndCompressesEveryColumn) {
       "/usr/bin/python3 -c \"import h5py; f = h5py.File('" + (dir / "r" / "run.h5").string() +
       "'); d = []; f.visititems(lambda n, o: d.append(o) if isinstance(o, h5py.Dataset) and "
       "o.chunks else None); print(len(d), all(o.compression == 'gzip' and o.shuffle for o in d), "
-      "f['drive/phase'].dtype, f['sensor/status'].dtype, f['drive/t'].dtype, "
-      "f['drive/V'].dtype)\"");
+      "f['axes/rotor/drive/phase'].dtype, f['axes/rotor/sensor/status'].dtype, "
+      "f['axes/rotor/drive/t'].dtype, "
+      "f['axes/rotor/drive/V'].dtype)\"");
   EXPECT_EQ(check.out, "20 True uint8 uint8 float64 float64\n") << check.err;
 }
 
@@ -348,8 +350,9 @@ TEST(RunCli, AFullDiskOnTheVirtualClockStopsTheRunWithExit1) {
   EXPECT_EQ(j.at("stop_cause"), "log_failed");
   EXPECT_EQ(j.at("output").at("state"), "confirmed");
   EXPECT_LT(j.at("t_end_s").get<double>(), 120.0);
-  const auto check = h5py_check(dir / "run" / "run.h5",
-                                "print(f.attrs['status'].decode(), len(f['drive/V']) > 0)\n");
+  const auto check =
+      h5py_check(dir / "run" / "run.h5",
+                 "print(f.attrs['status'].decode(), len(f['axes/rotor/drive/V']) > 0)\n");
   EXPECT_EQ(check.out, "failed True\n") << check.err;
 }
 
@@ -364,9 +367,9 @@ TEST(RunCli, SigintRampsDownClosesTheLogInterruptedAndExits130) {
   EXPECT_EQ(run.wait_exit(), 130);
   const auto check = h5py_check(out / "run.h5", R"(
 assert f.attrs['status'].decode() == 'interrupted', f.attrs['status']
-assert f['drive/V'][-1] == 0.0
-assert f['drive/phase'][-1] == 2  # stopped
-assert len(f['sensor/theta']) > 100
+assert f['axes/rotor/drive/V'][-1] == 0.0
+assert f['axes/rotor/drive/phase'][-1] == 2  # stopped
+assert len(f['axes/rotor/sensor/theta']) > 100
 print('ok')
 )");
   EXPECT_EQ(check.out, "ok\n") << check.err;
@@ -401,8 +404,8 @@ TEST(RunCli, KillNineLeavesAReadableLogMissingAtMostTheLastSecond) {
   }
   const std::string facts_of_log = R"(
 assert f.attrs['status'].decode() in ('incomplete', 'recovered'), f.attrs['status']
-t = f['drive/t'][:]
-print(len(t), t[-1] if len(t) else -1, len(f['sensor/t'][:]))
+t = f['axes/rotor/drive/t'][:]
+print(len(t), t[-1] if len(t) else -1, len(f['axes/rotor/sensor/t'][:]))
 )";
   auto check = h5py_check(out / "run.h5", facts_of_log);
   if (check.exit_code != 0) {

@@ -133,7 +133,7 @@ TEST_F(RunJournalTest, NotAJournalIsSaidSo) {
 // whole file with every row, marked recovered, and the journal goes.
 TEST_F(RunJournalTest, RecoverRebuildsAnAbandonedLog) {
   {
-    RunLog log = RunLog::create(log_path(), {{"config", "[drive]"}, {"utc_start", "x"}});
+    RunLog log = RunLog::create(log_path(), {{"config", "[drive]"}, {"utc_start", "x"}}, {"rotor"});
     for (int b = 0; b < 3; ++b) {
       log_schema::LogRows rows;
       fill(rows, b);
@@ -153,9 +153,9 @@ TEST_F(RunJournalTest, RecoverRebuildsAnAbandonedLog) {
   EXPECT_EQ(f.attribute("/", "status"), "recovered");
   EXPECT_EQ(f.attribute("/", "config"), "[drive]");
   EXPECT_EQ(f.attribute("/", "board_t0_ns"), "7");
-  EXPECT_EQ(f.read("/drive/t").size(), 300u);
-  EXPECT_EQ(f.read("/drive/phase")[2], 2.0);
-  EXPECT_TRUE(std::isnan(f.read("/sensor/theta")[5]));
+  EXPECT_EQ(f.read("/axes/rotor/drive/t").size(), 300u);
+  EXPECT_EQ(f.read("/axes/rotor/drive/phase")[2], 2.0);
+  EXPECT_TRUE(std::isnan(f.read("/axes/rotor/sensor/theta")[5]));
   // Again: nothing to do.
   EXPECT_FALSE(recover_run((dir_ / "run").string()).rebuilt);
   EXPECT_TRUE(fs::exists(dir_ / "catalogue.csv"));
@@ -188,12 +188,12 @@ TEST_F(RunJournalTest, RecoverRebuildsEachAxisOfAGroupLog) {
   EXPECT_EQ(f.read("/axes/phi/drive/V")[7], -f.read("/axes/theta/drive/V")[7]);
   EXPECT_EQ(f.read("/axes/phi/sensor/theta").size(), 30u);
   EXPECT_EQ(f.attribute("/axes/phi", "theta_zero_m"), "0.5");
-  EXPECT_FALSE(f.exists("/drive/t"));
+  EXPECT_FALSE(f.exists("/drive/t")) << "nothing at the root";
   EXPECT_FALSE(recover_run((dir_ / "run").string()).rebuilt);
 }
 
 TEST_F(RunJournalTest, AClosedLogLeavesNoJournal) {
-  RunLog log = RunLog::create(log_path(), {{"utc_start", "x"}});
+  RunLog log = RunLog::create(log_path(), {{"utc_start", "x"}}, {"rotor"});
   log_schema::LogRows rows;
   fill(rows, 0);
   log.append(rows);
@@ -204,7 +204,7 @@ TEST_F(RunJournalTest, AClosedLogLeavesNoJournal) {
 }
 
 TEST_F(RunJournalTest, ALiveRunIsNotRecoveredUnderItsWriter) {
-  RunLog log = RunLog::create(log_path(), {{"utc_start", "x"}});
+  RunLog log = RunLog::create(log_path(), {{"utc_start", "x"}}, {"rotor"});
   EXPECT_THROW((void)recover_run((dir_ / "run").string()), config::ConfigError);
   recover_if_needed(log_path());  // readers leave it alone too
   EXPECT_TRUE(fs::exists(journal()));

@@ -327,7 +327,7 @@ def many_tabs(driver, piezo, work):
                 break
             time.sleep(0.25)
         check(live["column_s"] == width, f"the page's columns {width} s, the snapshot's {live['column_s']} s")
-        snapshot = live["measured"]
+        snapshot = live["axes"][0]["measured"]
         held = {(t, y) for t, y in zip(measured["t"], measured["y"]) if t >= snapshot["t"][0]}
         shown = {(t, y) for t, y in zip(snapshot["t"], snapshot["y"]) if t <= last[0]}
         check(tuple(last) in shown, f"the plot's last point {last} is in /api/live.json")

@@ -91,7 +91,7 @@ def main():
                  "V0": 70.0, "C_dr": 0.95, "e_dr": 0.789}
         status, body = post(url + "api/move", asked, {"X-Piezo-Token": token})
         check(status == 200 and body["ok"], f"move-to: {status} {body}")
-        sent = {key: body["reply"].get(key) for key in asked}
+        sent = {key: body["reply"]["moves"][0].get(key) for key in asked}
         check(sent == asked, f"the board took every field the page sent: {sent}")
 
         def on_target():
@@ -102,7 +102,7 @@ def main():
         move = wait_for(on_target, 30, "the move ends (its lease kept by the view)")
         check(move.get("on_target"), f"the move came on target: {move}")
         live = get(url + "api/live.json")
-        check(len(live["measured"]["t"]) > 50, "the live feed followed the board's run")
+        check(len(live["axes"][0]["measured"]["t"]) > 50, "the live feed followed the board's run")
         check(abs(move["error_rad"]) <= 30e-6, f"on target: {move}")
         check(requests()["move_to"] == 1 and requests()["configure"] == 0,
               f"one request for the move: {requests()}")

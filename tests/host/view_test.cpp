@@ -59,9 +59,13 @@ TEST(LiveFeed, KeepsTheWindowAndZoomsOnTheLastPeriods) {
   feed.add(rows);
   const auto snap = feed.snapshot();
   EXPECT_NEAR(snap.at("t_end").get<double>(), 9.9999, 1e-9);
-  EXPECT_GE(snap.at("drive").at("t").front().get<double>(), 7.9999 - 1e-9);
-  EXPECT_LE(snap.at("drive").at("t").size(), 200u);
-  const auto& zoom = snap.at("zoom");
+  // One axis as several: its series under `axes`, nothing at the top level.
+  EXPECT_FALSE(snap.contains("drive"));
+  ASSERT_EQ(snap.at("axes").size(), 1u);
+  const auto& axis = snap.at("axes")[0];
+  EXPECT_GE(axis.at("drive").at("t").front().get<double>(), 7.9999 - 1e-9);
+  EXPECT_LE(axis.at("drive").at("t").size(), 200u);
+  const auto& zoom = axis.at("zoom");
   EXPECT_EQ(zoom.at("y").size(), 3001u) << "0.3 s at full rate";
   EXPECT_NEAR(zoom.at("dt").get<double>(), 1e-4, 1e-12) << "a grid goes as start and step";
 }
@@ -125,8 +129,9 @@ struct PageWindow {
       while (keep < t.size() && t[keep] < from) ++keep;
       t.erase(t.begin(), t.begin() + static_cast<std::ptrdiff_t>(keep));
       y.erase(y.begin(), y.begin() + static_cast<std::ptrdiff_t>(keep));
-      for (const auto& v : e.at(name).at("t")) t.push_back(v.get<double>());
-      for (const auto& v : e.at(name).at("y")) y.push_back(v.is_null() ? NAN : v.get<double>());
+      const auto& own = e.at("axes")[0].at(name);  // the run's one axis
+      for (const auto& v : own.at("t")) t.push_back(v.get<double>());
+      for (const auto& v : own.at("y")) y.push_back(v.is_null() ? NAN : v.get<double>());
     }
   }
 };
@@ -183,8 +188,8 @@ TEST(LiveFeed, APageSentWhatChangedShowsTheSnapshotsPictureForLittle) {
             << " and " << static_cast<double>(steady_json) / 30720.0 << " KiB/s\n";
   const auto snap = feed.snapshot();
   for (const char* name : {"drive", "measured", "observer", "open_loop", "residual"}) {
-    const auto& st = snap.at(name).at("t");
-    const auto& sy = snap.at(name).at("y");
+    const auto& st = snap.at("axes")[0].at(name).at("t");
+    const auto& sy = snap.at("axes")[0].at(name).at("y");
     ASSERT_GT(st.size(), 1000u) << name;
     const auto& [pt, py] = page.series[name];
     const auto first =
@@ -261,7 +266,7 @@ TEST(LiveFeed, AGroupMoveShowsEachAxisApart) {
   feed.add(log_schema::AxesRows{rig_rows(0.0, 1.0), scaled(rig_rows(0.0, 1.0), -2.0)});
   const auto first = feed.changes(cursor);
   EXPECT_TRUE(first.at("reset").get<bool>());
-  EXPECT_FALSE(first.contains("measured")) << "a group's series go per axis";
+  EXPECT_FALSE(first.contains("measured")) << "each axis's series go under axes";
   ASSERT_EQ(first.at("axes").size(), 2u);
   EXPECT_EQ(first.at("axes")[1].at("name"), "phi");
   // The board's frames hold a span of one axis's records, then the next

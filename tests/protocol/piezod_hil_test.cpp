@@ -79,7 +79,7 @@ TEST_F(Piezod, RunOverTheProtocolMatchesTheInProcessRun) {
   const auto check =
       run_command("/usr/bin/python3 -c \"import h5py, numpy as np; f = h5py.File('" +
                   (dir_ / "remote" / "run.h5").string() +
-                  "'); t = f['sensor/t'][:]; print(f.attrs['status'].decode(), len(t), "
+                  "'); t = f['axes/rotor/sensor/t'][:]; print(f.attrs['status'].decode(), len(t), "
                   "bool(np.all(np.diff(t) > 0)), 'board_clock_offset_ns' in f.attrs, "
                   "f.attrs['stream_gaps_fetched'].decode(), f.attrs['link_outages'].decode())\"");
   // No gap and no outage on an undisturbed link.
@@ -259,7 +259,7 @@ TEST_F(Piezod, AnglesUseTheRadiusOfTheBoardsSensor) {
   EXPECT_NEAR(theta_r / theta_l, 1.0, 0.03) << theta_r << " vs " << theta_l;
   const auto logged = run_command(
       "/usr/bin/python3 -c \"import h5py; f = h5py.File('" + (dir_ / "remote" / "run.h5").string() +
-      "'); print('sensor_geometry_note' in f.attrs, f['sensor/theta'][-1])\"");
+      "'); print('sensor_geometry_note' in f.attrs, f['axes/rotor/sensor/theta'][-1])\"");
   EXPECT_EQ(logged.out.substr(0, 5), "True ") << logged.out << logged.err;
 }
 
@@ -418,12 +418,13 @@ OutageRun run_through_an_outage(const Piezod& board, int board_port, const fs::p
     if (!line.empty() && line.front() == '{') out.summary = nlohmann::json::parse(line);
   }
   out.log_facts =
-      run_command("/usr/bin/python3 -c \"import h5py, numpy as np; f = h5py.File('" +
-                  (dir / "outage" / "run.h5").string() +
-                  "'); a = f.attrs; t = f['sensor/t'][:]; d = f['drive/t'][:]; "
-                  "print(a['status'].decode(), len(t), len(d), bool(np.all(np.diff(t) > 0)), "
-                  "bool(np.all(np.diff(d) > 0)), a['link_outages'].decode() != 'none', "
-                  "a['stream_gaps_fetched'].decode() != 'none')\"")
+      run_command(
+          "/usr/bin/python3 -c \"import h5py, numpy as np; f = h5py.File('" +
+          (dir / "outage" / "run.h5").string() +
+          "'); a = f.attrs; t = f['axes/rotor/sensor/t'][:]; d = f['axes/rotor/drive/t'][:]; "
+          "print(a['status'].decode(), len(t), len(d), bool(np.all(np.diff(t) > 0)), "
+          "bool(np.all(np.diff(d) > 0)), a['link_outages'].decode() != 'none', "
+          "a['stream_gaps_fetched'].decode() != 'none')\"")
           .out;
   return out;
 }
@@ -534,8 +535,8 @@ TEST(PiezodStatus, EveryAxisHasItsLineOnABoardOfOneAndOfThree) {
     ASSERT_TRUE(wait_for_tcp(port));
     const bool three = config == "three-axes.toml";
     const std::string move = three ? " --to theta=0.002 --to phi=-0.001" : " --to 0.002";
-    const auto moved = run_command(kPiezo + " move --rig " + address + move + " --out " +
-                                   (dir / "move").string());
+    const auto moved =
+        run_command(kPiezo + " move --rig " + address + move + " --out " + (dir / "move").string());
     ASSERT_EQ(moved.exit_code, 0) << moved.err;
     const auto status = run_command(kPiezo + " status --rig " + address);
     ASSERT_EQ(status.exit_code, 0) << status.err;

@@ -206,7 +206,7 @@ def test_curve_keys(tmp_path):
     process, address = peers.start_piezod(piezod, str(config), str(tmp_path / "err"))
     try:
         with Board(address, keys=(str(keys / "board.pub"), str(keys / "host.key"))) as b:
-            assert b.hello()["protocol"] == 3
+            assert b.hello()["protocol"] == 4
             with b.run(V0=40, f=10, duration=0.5) as run:
                 run.wait()
             assert len(run.sensor) == run.summary["samples"]["sensor"]

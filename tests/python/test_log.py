@@ -22,10 +22,13 @@ def logged_run(tmp_path_factory, piezo, source):
 def test_a_piezo_log_reads_whole(logged_run):
     run = log.open_run(logged_run)
     with h5py.File(logged_run / "run.h5") as f:
+        # Its one axis under /axes/NAME, as a group move's each.
+        assert f.attrs["axes"].decode() == "rotor" and run.axes == ["rotor"] and run.axis == "rotor"
         for group, frame in (("drive", run.drive), ("sensor", run.sensor),
                              ("observer", run.observer)):
-            for name in f[group]:
-                np.testing.assert_array_equal(frame[name].to_numpy(), f[group][name][()])
+            for name in f["axes/rotor/" + group]:
+                np.testing.assert_array_equal(frame[name].to_numpy(),
+                                              f["axes/rotor/" + group][name][()])
         assert run.status == f.attrs["status"].decode() == "completed"
         # Attributes in their types: numbers as numbers, JSON maps parsed.
         assert run.attrs["drive_latency_s"] == float(f.attrs["drive_latency_s"].decode())
@@ -37,6 +40,20 @@ def test_a_piezo_log_reads_whole(logged_run):
     assert run.model_parameters["V0"] > 0
     drive_t, drive_V, t, theta = run.fit_arrays()
     assert len(t) == np.count_nonzero(~np.isnan(run.sensor["theta"]))
+
+
+def test_a_log_written_before_axes_reads_as_before(source):
+    """Its one axis at the root (tests/data/logs-before-axes)."""
+    path = os.path.join(source, "tests", "data", "logs-before-axes", "completed")
+    run = log.open_run(path)
+    with h5py.File(os.path.join(path, "run.h5")) as f:
+        assert "axes" not in f and "axes" not in f.attrs
+        np.testing.assert_array_equal(run.drive["V"].to_numpy(), f["drive/V"][()])
+    assert run.axes == [] and run.status == "completed" and len(run.sensor) > 100
+    drive_t, drive_V, t, theta = run.fit_arrays()
+    assert len(drive_t) == len(drive_V) > 1000 and len(t) == len(theta) > 100
+    with pytest.raises(KeyError, match="the log holds one axis"):
+        log.open_run(path, axis="phi")
 
 
 def test_identify_takes_a_log_as_the_cli_does(logged_run, piezo):

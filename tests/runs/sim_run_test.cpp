@@ -65,7 +65,7 @@ Outcome run_virtual(std::vector<std::string> sets, double stop_at_s = -1.0,
   config::Rig rig = config::build_rig(config.board);
   const auto dir = testing::fresh_temp_dir(tag);
   const std::string path = (dir / "run.h5").string();
-  RunLog log = RunLog::create(path, {{"config", config.text}});
+  RunLog log = RunLog::create(path, {{"config", config.text}}, {"rotor"});
   std::atomic<bool> stop{false};
   const auto on_status = [&stop, stop_at_s](const LiveStatus& status) {
     if (stop_at_s >= 0.0 && status.t_s >= stop_at_s) stop.store(true);
@@ -80,12 +80,12 @@ Outcome run_virtual(std::vector<std::string> sets, double stop_at_s = -1.0,
   out.rotor_theta_at_end = device->plant().latest().theta;
   log.close(out.summary.status());
   const H5File file = H5File::open(path);
-  out.drive_t = file.read("/drive/t");
-  out.drive_V = file.read("/drive/V");
-  out.drive_phase = file.read("/drive/phase");
-  out.move_state = file.read("/drive/move_state");
-  out.sensor_t = file.read("/sensor/t");
-  out.theta = file.read("/sensor/theta");
+  out.drive_t = file.read("/axes/rotor/drive/t");
+  out.drive_V = file.read("/axes/rotor/drive/V");
+  out.drive_phase = file.read("/axes/rotor/drive/phase");
+  out.move_state = file.read("/axes/rotor/drive/move_state");
+  out.sensor_t = file.read("/axes/rotor/sensor/t");
+  out.theta = file.read("/axes/rotor/sensor/theta");
   return out;
 }
 
@@ -528,7 +528,7 @@ TEST(SimRun, SlowSetUpBeforeTheStartIsNoSensorFault) {
   config::Rig rig = config::build_rig(config.board);
   std::this_thread::sleep_for(std::chrono::milliseconds(400));
   const auto dir = testing::fresh_temp_dir("hil-slow-setup");
-  RunLog log = RunLog::create((dir / "run.h5").string(), {{"config", config.text}});
+  RunLog log = RunLog::create((dir / "run.h5").string(), {{"config", config.text}}, {"rotor"});
   const std::atomic<bool> never{false};
   const RunSummary s = execute_run(config, asked::Timed{}, std::move(rig), log, never, {});
   EXPECT_EQ(s.board.cause, firmware::StopCause::completed);
@@ -555,7 +555,7 @@ TEST(SimRun, AnEstopActsDuringASlowDriveWrite) {
   config::Rig rig = config::build_rig(config.board);
   const std::shared_ptr<const hal::sim::SimRig> device = rig.sim;
   const auto dir = testing::fresh_temp_dir("hil-slow-write");
-  RunLog log = RunLog::create((dir / "run.h5").string(), {{"config", config.text}});
+  RunLog log = RunLog::create((dir / "run.h5").string(), {{"config", config.text}}, {"rotor"});
   std::atomic<bool> stop{false}, estop{false};
   RunSummary summary;
   std::thread run([&] {
@@ -632,7 +632,7 @@ TEST(SimRun, AFailedLogKeepsTheLiveRowsComingToTheRunsEnd) {
       {"run.clock=virtual", "run.duration_s=60", "run.flush_interval_s=0.25"});
   config::Rig rig = config::build_rig(config.board);
   const auto dir = testing::fresh_temp_dir("hil-log-fails");
-  RunLog log = RunLog::create((dir / "run.h5").string(), {{"config", config.text}});
+  RunLog log = RunLog::create((dir / "run.h5").string(), {{"config", config.text}}, {"rotor"});
   rlimit old{};
   ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
   const auto previous_handler = std::signal(SIGXFSZ, SIG_IGN);  // a write past it fails instead

@@ -177,11 +177,11 @@ def main():
         if os.path.exists(os.path.join(out, "run.h5")):
             with h5py.File(os.path.join(out, "run.h5"), "r") as f:
                 # The log ends with the board's stop record (0 V) beyond the samples.
-                if len(f["drive/t"]) not in (drive.get("samples"), drive.get("samples", 0) + 1):
-                    problems.append(f"the log holds {len(f['drive/t'])} drive samples, "
+                if len(f["axes/rotor/drive/t"]) not in (drive.get("samples"), drive.get("samples", 0) + 1):
+                    problems.append(f"the log holds {len(f['axes/rotor/drive/t'])} drive samples, "
                                     f"the summary counts {drive.get('samples')}")
-                if len(f["sensor/t"]) != sensor.get("samples"):
-                    problems.append(f"the log holds {len(f['sensor/t'])} sensor samples, "
+                if len(f["axes/rotor/sensor/t"]) != sensor.get("samples"):
+                    problems.append(f"the log holds {len(f['axes/rotor/sensor/t'])} sensor samples, "
                                     f"the summary counts {sensor.get('samples')}")
         else:
             problems.append("no run.h5")

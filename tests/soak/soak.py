@@ -110,10 +110,10 @@ check(p.returncode == 0, f"long run exited {p.returncode}")
 summary = json.loads(out)
 with h5py.File(f"{run_dir}/run.h5", "r") as f:
     status = f.attrs["status"].decode()
-    drive_t = f["drive/t"][:]
-    theta = f["sensor/theta"][:]
-    sensor_status = f["sensor/status"][:]
-    observer_n = len(f["observer/t"])
+    drive_t = f["axes/rotor/drive/t"][:]
+    theta = f["axes/rotor/sensor/theta"][:]
+    sensor_status = f["axes/rotor/sensor/status"][:]
+    observer_n = len(f["axes/rotor/observer/t"])
 size = os.path.getsize(f"{run_dir}/run.h5")
 check(status == "completed", f"long run log {status}")
 drive_n, sensor_n = len(drive_t), len(theta)
@@ -193,7 +193,7 @@ for cycle in range(modbus_cycles):
             check(f.attrs["output"].decode() == "output_unconfirmed",
                   f"modbus cycle {cycle}: output {f.attrs['output']}")
         elif f.attrs["output"].decode() == "confirmed":
-            check(float(f["drive/V"][-1]) == 0.0, f"modbus cycle {cycle}: last command not 0 V")
+            check(float(f["axes/rotor/drive/V"][-1]) == 0.0, f"modbus cycle {cycle}: last command not 0 V")
     rig.send_signal(signal.SIGTERM)
     rig.wait(timeout=30)
 print(f"modbus: {modbus_cycles} cycles with exceptions and drops (0.2 % each), a disconnect "
@@ -229,11 +229,11 @@ for i in range(pauses):
         check(state.get("fault") == "link_lost", f"link pause {i}: board fault {state.get('fault')}")
         subprocess.run([piezo, "reset-fault", "--rig", address], capture_output=True, timeout=30)
     with h5py.File(f"{run_dir}/run.h5", "r") as f:
-        n = len(f["drive/t"])
+        n = len(f["axes/rotor/drive/t"])
         check(n == s.get("drive", {}).get("samples", -2) + 1,
               f"link pause {i}: log {n} drive samples, board {s.get('drive', {}).get('samples')}"
               " + the stop record")
-        check(float(f["drive/V"][-1]) == 0.0, f"link pause {i}: last command not 0 V")
+        check(float(f["axes/rotor/drive/V"][-1]) == 0.0, f"link pause {i}: last command not 0 V")
 board.send_signal(signal.SIGTERM)
 board.wait(timeout=30)
 print(f"link: {pauses} host freezes (0.2 s and 1.2 s against a 0.5 s lease); stop causes {link}",

@@ -516,7 +516,8 @@ class Board:
         args = self.checked("move_to", {"target_rad": target_rad, **options})
         with Run(self, "move_to", args, True, raise_on_fault=False) as run:
             summary = run.wait()
-        move = next((a.get("move") or {} for a in summary["axes"] if a["name"] == run.axis), {})
+        move: dict[str, Any] = next(
+            (a.get("move") or {} for a in summary["axes"] if a["name"] == run.axis), {})
         if move.get("stop_cause") != "on_target":
             raise RunEnded("move_to", str(move.get("stop_cause") or summary.get("cause", "?")),
                            summary)
@@ -576,8 +577,9 @@ class Axis:
 
     @property
     def info(self) -> dict[str, Any]:
-        hello = self.board._hello or self.board.hello()
-        entry: dict[str, Any] = next(a for a in hello["axes"] if a["name"] == self.name)
+        """Its entry of ``hello()["axes"]``, asked now (its zero and
+        calibration change)."""
+        entry: dict[str, Any] = next(a for a in self.board.hello()["axes"] if a["name"] == self.name)
         return entry
 
     def status(self) -> dict[str, Any]:

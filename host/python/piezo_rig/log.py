@@ -46,10 +46,11 @@ class RunLog:
     ``incomplete``) and ``stop_cause``, ``attrs`` every root attribute in
     its type (numbers as int or float, JSON maps and lists parsed, other
     text as str), ``path`` the file, ``layout`` the dataset or column
-    names another tool's file was read with ({} for a ``piezo`` log; a
-    group move's: its ``axis``). ``axes`` names a group move's axes (empty
-    for a log of one axis), ``axis`` the one read: its frames, summary,
-    stop cause and parameters are that axis's own."""
+    names another tool's file was read with ({} for a ``piezo`` log written
+    before /axes; else the ``axis`` read). ``axes`` names the run's axes
+    (one or several; empty for a log written before /axes), ``axis`` the
+    one read: its frames, summary, stop cause and parameters are that
+    axis's own."""
 
     path: str
     drive: pd.DataFrame
@@ -227,21 +228,25 @@ def open_run(path: Union[str, os.PathLike[str]], *, t: Optional[str] = None,
     return RunLog(path, drive, sensor, observer, config=config,
                   summary=summary if isinstance(summary, dict) else {},
                   status=str(attrs.get("status", "")), stop_cause=str(attrs.get("stop_cause", "")),
-                  attrs=attrs, layout={"axis": axis} if prefix else {}, axes=axes,
-                  axis=axis or _text(attrs.get("axis", "")))
+                  attrs=attrs, layout={"axis": axis or axes[0]} if prefix else {}, axes=axes,
+                  axis=axis or (axes[0] if axes else _text(attrs.get("axis", ""))))
 
 
 def _axis_group(path: str, axes: list[str], own: str, axis: Optional[str]) -> str:
-    """The group ``axis`` is kept under: "" (the root) in a log of one
-    axis, "axes/NAME/" in a group move's (docs/run-logs.md)."""
-    if len(axes) > 1:
-        if axis in axes:
-            return f"axes/{axis}/"
-        held = ", ".join(axes)
-        raise KeyError(f"{path}: axis: " + (f"{axis!r} is not an axis of the log (it holds {held})"
-                                            if axis else
-                                            f"required: the log holds several axes ({held})"))
-    if axis and axis != own:
-        raise KeyError(f"{path}: axis: {axis!r}: the log holds one axis, "
-                       + (own or "unnamed (drop axis=)"))
-    return ""
+    """The group ``axis`` is kept under: "axes/NAME/", a log of one axis as
+    of several (docs/run-logs.md); None names a log's one axis. A log
+    written before that layout (no ``axes`` attribute) kept its one axis
+    at the root: "" (its ``axis`` attribute, ``own``, names it)."""
+    if not axes:
+        if axis and axis != own:
+            raise KeyError(f"{path}: axis: {axis!r}: the log holds one axis, "
+                           + (own or "unnamed (drop axis=)"))
+        return ""
+    if axis is None and len(axes) == 1:
+        return f"axes/{axes[0]}/"
+    if axis in axes:
+        return f"axes/{axis}/"
+    held = ", ".join(axes)
+    raise KeyError(f"{path}: axis: " + (f"{axis!r} is not an axis of the log (it holds {held})"
+                                        if axis else
+                                        f"required: the log holds several axes ({held})"))

@@ -67,15 +67,14 @@ void BoardWatch::follow_run(std::uint64_t run) {
     std::unique_ptr<ObserverStage> observer;
     if (config_.host.observer.enabled) {
       // The config's own axis of that name, where it describes several.
-      const config::AxisConfig* own =
-          config_.board.axes.size() > 1 ? config_.board.find_axis(name) : nullptr;
+      const config::AxisConfig* own = config_.board.find_axis(name);
       observer = std::make_unique<ObserverStage>(
           own != nullptr ? own->model.motor : config_.host.model.motor, config_.host.observer.gains,
           1.0 / hello_.drive_rate_hz, hello_.output_latency_s);
     }
     by_axis.at(index) = &axes_.emplace_back(name, t0, r2, std::move(observer)).collector;
   }
-  feed_.set_axes(names.size() > 1 ? names : std::vector<std::string>{});
+  feed_.set_axes(names);
   follower_.follow(
       std::move(by_axis), [] { return std::numeric_limits<double>::quiet_NaN(); }, false);
 }

@@ -237,9 +237,8 @@ std::string move_text(const MoveResult& r) {
                        firmware::kMoveEndNames.name(*m.stop_cause), mrad(m.position_rad),
                        mrad(m.target_rad), urad(m.error_rad), m.steps);
   };
-  std::string out = fmt::format(
-      "move {} ({}), {:.3f} s\n", r.on_target ? "on target" : "NOT on target",
-      r.moves.size() == 1 ? "1 axis" : fmt::format("{} axes", r.moves.size()), r.time_s);
+  std::string out =
+      fmt::format("move {}, {:.3f} s\n", r.on_target ? "on target" : "NOT on target", r.time_s);
   for (const auto& m : r.moves)
     out += "  " +
            line(m, fmt::format("{:<8}{}", m.axis, m.on_target ? "on target" : "NOT on target")) +

@@ -5,6 +5,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -41,11 +43,11 @@ int recover_spill(const RecoverOptions& o) {
   if (fs::exists(fs::path(o.run_dir) / "run.h5")) {
     throw config::ConfigError("--out", o.run_dir, "holds a run.h5 already");
   }
-  const double r2 = o.config.empty()
-                        ? config::SensorSettings{}.r2_m
-                        : config::load_config_file(o.config, {}, config::ConfigScope::sensor)
-                              .board.axis()
-                              .sensor.r2_m;
+  // The board's axes, in its order (its records carry the index): the
+  // config's, or the one default axis.
+  const config::BoardConfig board =
+      o.config.empty() ? config::BoardConfig{}
+                       : config::load_config_file(o.config, {}, config::ConfigScope::sensor).board;
   std::ifstream in(o.spill, std::ios::binary);
   if (!in) throw config::ConfigError(o.spill, "file", "cannot be read");
   std::vector<firmware::DriveSample> drive;
@@ -72,17 +74,46 @@ int recover_spill(const RecoverOptions& o) {
   }
   if (drive.empty()) throw config::ConfigError(o.spill, "drive", "no drive samples in the file");
   fs::create_directories(o.run_dir);
-  SampleCollector collector(drive.front().t, r2, nullptr);
-  for (const auto& s : drive) collector.add(s);
-  for (const auto& s : sensor) collector.add(s);
+  // Each axis that has drive records: its own collector, its own group.
+  std::vector<std::string> names;
+  std::vector<std::size_t> board_index;
+  for (std::size_t i = 0; i < board.axes.size(); ++i) {
+    if (std::any_of(drive.begin(), drive.end(), [i](const auto& s) { return s.axis == i; })) {
+      names.push_back(board.axes[i].name);
+      board_index.push_back(i);
+    }
+  }
+  if (names.empty()) {
+    throw config::ConfigError(
+        o.spill, "axis",
+        fmt::format("no drive samples of the config's axes ({} of them)", board.axes.size()));
+  }
+  std::deque<SampleCollector> collectors;
+  for (const std::size_t i : board_index)
+    collectors.emplace_back(drive.front().t, board.axes[i].sensor.r2_m, nullptr);
+  const auto collector_of = [&](std::uint8_t axis) -> SampleCollector* {
+    const auto it = std::find(board_index.begin(), board_index.end(), axis);
+    return it == board_index.end() ? nullptr : &collectors[it - board_index.begin()];
+  };
+  for (const auto& s : drive)
+    if (SampleCollector* c = collector_of(s.axis)) c->add(s);
+  for (const auto& s : sensor)
+    if (SampleCollector* c = collector_of(s.axis)) c->add(s);
   const std::string log_path = (fs::path(o.run_dir) / "run.h5").string();
   RunLog log = RunLog::create(
       log_path,
       {{log_schema::kRecoveredFrom,
         fmt::format("piezod spill file {}: {} frames", o.spill, frames)},
-       {log_schema::kTimeOrigin, "seconds from the first drive sample in the spill file"},
-       {log_schema::kTheta, fmt::format("(displacement - first good displacement) / {} m", r2)}});
-  log.append(collector.rows());
+       {log_schema::kTimeOrigin, "seconds from the first drive sample in the spill file"}},
+      names);
+  log_schema::AxesRows rows;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    log.set_axis_attribute(i, log_schema::kTheta,
+                           fmt::format("(displacement - first good displacement) / {} m",
+                                       board.axes[board_index[i]].sensor.r2_m));
+    rows.push_back(std::move(collectors[i].rows()));
+  }
+  log.append(rows);
   log.close("recovered");
   if (o.json) {
     std::cout << nlohmann::json{{"run_dir", o.run_dir},

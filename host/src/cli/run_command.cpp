@@ -317,13 +317,13 @@ void finish_log(RunLog& log, RunSummary& summary, const nlohmann::json& result) 
                       fmt::format("{}", fmt::join(summary.board.realtime, "; ")));
     log.set_attribute(log_schema::kStopCause, summary.stop_cause());
     log.set_attribute(log_schema::kOutput, summary.output_state());
-    if (log.axes().size() > 1 && result.contains("axes")) {
-      // Each axis's own account on its group.
-      for (std::size_t i = 0; i < log.axes().size(); ++i) {
-        const nlohmann::json& axis = result["axes"].at(i);
-        log.set_axis_attribute(i, log_schema::kSummary, axis.dump());
-        log.set_axis_attribute(i, log_schema::kStopCause, axis.value("stop_cause", "unknown"));
-      }
+    // Each axis's own account on its group (an axis the run never measured has none).
+    for (const nlohmann::json& axis : result.value("axes", nlohmann::json::array())) {
+      const auto i = std::find(log.axes().begin(), log.axes().end(), axis.value("name", ""));
+      if (i == log.axes().end()) continue;
+      const auto index = static_cast<std::size_t>(i - log.axes().begin());
+      log.set_axis_attribute(index, log_schema::kSummary, axis.dump());
+      log.set_axis_attribute(index, log_schema::kStopCause, axis.value("stop_cause", "unknown"));
     }
     log.close(summary.status());
   } catch (const std::exception& e) {
@@ -359,16 +359,18 @@ struct Board {
   nlohmann::json dictionary;            ///< the board's `describe`: its commands and limits
   std::optional<BoardRequest> request;  ///< what this run asks of it, checked and prepared
   std::string geometry_note;            ///< the board's sensor radius differed from the config's
-  /// A group move's axes in the board's order (the log keeps each under its
-  /// group); empty: a run of one axis.
-  std::vector<std::string> group;
+  /// The run's axes in the board's order, one or several (a group move's
+  /// targets, else the one axis it drives): the log keeps each under its
+  /// group, the view plots each.
+  std::vector<std::string> axes;
 };
 
-/// A group move's axes in the board's order; each must be the board's.
-std::vector<std::string> group_axes(const RunAsked& asked, const protocol::Hello& hello,
-                                    const std::string& address) {
+/// The run's axes in the board's order: a group move's targets (each must
+/// be the board's), else the one axis `named` names (resolved once).
+std::vector<std::string> run_axes(const RunAsked& asked, const protocol::Hello& hello,
+                                  const std::string& named, const std::string& address) {
   const auto* move = std::get_if<asked::Move>(&asked);
-  if (move == nullptr || move->targets.empty()) return {};
+  if (move == nullptr || move->targets.empty()) return {axis_info(hello, named, address).name};
   std::vector<std::string> names, out;
   for (const auto& a : hello.axes) names.push_back(a.name);
   for (const auto& [axis, target] : move->targets) {
@@ -419,10 +421,8 @@ void connect(Board& board, const config::ConfigFile& config, const RunAsked& ask
     board.client.emplace(config.host.board);
   }
   board.hello = board.client->hello();
-  board.group = group_axes(asked, board.hello, board.client->address());
-  board.axis =
-      axis_info(board.hello, board.group.empty() ? config.host.board.axis : board.group.front(),
-                board.client->address());
+  board.axes = run_axes(asked, board.hello, config.host.board.axis, board.client->address());
+  board.axis = axis_info(board.hello, board.axes.front(), board.client->address());
   check_travel(asked, board.hello, config.host.board.axis, board.client->address());
   if (const std::string note = sensor_geometry_note(config, board.axis); !note.empty()) {
     write_out(stderr, "piezo: " + note + "\n");
@@ -481,6 +481,7 @@ RunLog create_log(const fs::path& dir, const config::ConfigFile& config, const B
   }
   std::ofstream(dir / "config.toml") << config::run_config_file(config);
   const bool remote = !board.local;
+  const std::vector<std::string>& axes = board.axes;
   RunLog log = RunLog::create(
       (dir / "run.h5").string(),
       {{log_schema::kConfig, config.text},
@@ -493,27 +494,19 @@ RunLog create_log(const fs::path& dir, const config::ConfigFile& config, const B
        {log_schema::kHost, host_name()},
        {log_schema::kClock, remote ? board.hello.clock : std::string(name(config.board.run.clock))},
        {log_schema::kDriveLatency, fmt::format("{:.9g}", board.hello.output_latency_s)},
-       {log_schema::kTimeOrigin, "seconds from the run's start (first drive deadline)"},
-       {log_schema::kTheta,
-        fmt::format("(displacement - first good displacement) / sensor.r2_m, "
-                    "r2_m = {:.9g} m{}",
-                    board.axis.r2_m, remote ? " (the board's, from its hello)" : "")}},
-      board.group);
+       {log_schema::kTimeOrigin, "seconds from the run's start (first drive deadline)"}},
+      axes);
   if (!board.geometry_note.empty())
     log.set_attribute(log_schema::kSensorGeometryNote, board.geometry_note);
-  if (board.group.empty() && board.hello.axes.size() > 1) {
-    log.set_attribute(log_schema::kAxis, config.host.board.axis);
-  }
-  // A group's axes: each its own model and radius, on its group.
-  for (std::size_t i = 0; board.group.size() > 1 && i < board.group.size(); ++i) {
-    const protocol::AxisInfo& axis =
-        axis_info(board.hello, board.group[i], board.client->address());
+  // Each axis its own angle's radius and model, on its group.
+  for (std::size_t i = 0; i < axes.size(); ++i) {
+    const protocol::AxisInfo& axis = axis_info(board.hello, axes[i], board.client->address());
     log.set_axis_attribute(
         i, log_schema::kTheta,
-        fmt::format("(displacement - the board's zero) / sensor.r2_m, r2_m = {:.9g} m (the "
-                    "board's, from its hello)",
-                    axis.r2_m));
-    if (const config::AxisConfig* own = config.board.find_axis(board.group[i])) {
+        fmt::format("(displacement - its zero: theta_zero_m, else its first good reading) / "
+                    "sensor.r2_m, r2_m = {:.9g} m{}",
+                    axis.r2_m, remote ? " (the board's, from its hello)" : ""));
+    if (const config::AxisConfig* own = config.board.find_axis(axes[i])) {
       log.set_axis_attribute(i, log_schema::kModelParameters, to_json(own->model).dump());
       log.set_axis_attribute(i, log_schema::kPlantParameters,
                              to_json(model::Parameters{own->model.drive, own->plant}).dump());
@@ -555,7 +548,7 @@ RunSummary drive(Board& board, const config::ConfigFile& config, RunLog& log,
     // fails leaves the view going to the run's end.
     std::function<void(const log_schema::AxesRows&)> to_view;
     if (live != nullptr) {
-      live->set_axes(board.group);
+      live->set_axes(board.axes);
       to_view = [live](const log_schema::AxesRows& rows) { live->add(rows); };
     }
     RunSummary summary =
@@ -596,7 +589,7 @@ int run(const RunOptions& o, const RunProgram& program) {
   std::unique_ptr<view::ViewServer> server;
   if (o.view) {
     live.emplace(20.0, 3.0 / config.host.model.drive.f);
-    server = open_view(o, dir, *live, signals, estop_requested, board.group, axis_stops);
+    server = open_view(o, dir, *live, signals, estop_requested, board.axes, axis_stops);
   }
   const std::string utc_start = utc_stamp("%Y-%m-%dT%H:%M:%SZ");
   const fs::path log_path = dir / "run.h5";

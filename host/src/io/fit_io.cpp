@@ -86,8 +86,8 @@ LoadedRun load_foreign_h5(const std::string& path, const LogLayout& layout) {
   return run;
 }
 
-/// An attribute of an axis: its group's, else the log's (a log of one axis
-/// keeps every attribute at its root).
+/// An attribute of an axis: its group's, else the log's (a log written
+/// before /axes kept every attribute at its root).
 std::optional<std::string> axis_attribute(const H5File& log, const std::string& group,
                                           const char* name) {
   if (!group.empty() && log.has_attribute(group, name)) return log.attribute(group, name);
@@ -313,27 +313,29 @@ std::string axis_group_of(const H5File& log, const std::string& path, const std:
   const auto attribute = [&](const char* name) {
     return log.has_attribute("/", name) ? log.attribute("/", name) : std::string();
   };
-  const std::vector<std::string> axes = log_schema::split_axes(attribute(log_schema::kAxes));
-  if (axes.size() > 1) {
-    const auto it = std::find(axes.begin(), axes.end(), axis);
-    if (it != axes.end()) {
-      return log_schema::axis_group(axes, static_cast<std::size_t>(it - axes.begin()));
+  std::vector<std::string> axes = log_schema::split_axes(attribute(log_schema::kAxes));
+  if (axes.empty()) {
+    // A log written before /axes: its one axis at the root, named by its
+    // `axis` attribute where the board had several.
+    const std::string own = attribute(log_schema::kAxis);
+    if (!axis.empty() && axis != own) {
+      throw config::ConfigError(path, "--axis",
+                                fmt::format("\"{}\": the log holds one axis, {}", axis,
+                                            own.empty() ? "unnamed (drop --axis)" : own));
     }
-    throw config::ConfigError(
-        path, "--axis",
-        axis.empty()
-            ? fmt::format("required: the log holds several axes ({})", fmt::join(axes, ", "))
-            : fmt::format("\"{}\" is not an axis of the log (it holds {})", axis,
-                          fmt::join(axes, ", ")));
+    return {};
   }
-  // A log of one axis: at the root, whichever board axis it drove.
-  const std::string own = attribute(log_schema::kAxis);
-  if (!axis.empty() && axis != own) {
-    throw config::ConfigError(path, "--axis",
-                              fmt::format("\"{}\": the log holds one axis, {}", axis,
-                                          own.empty() ? "unnamed (drop --axis)" : own));
+  // The axis named, or the log's one axis when none is named.
+  if (axis.empty() && axes.size() == 1) return log_schema::axis_group(axes, 0);
+  const auto it = std::find(axes.begin(), axes.end(), axis);
+  if (it != axes.end()) {
+    return log_schema::axis_group(axes, static_cast<std::size_t>(it - axes.begin()));
   }
-  return {};
+  throw config::ConfigError(
+      path, "--axis",
+      axis.empty() ? fmt::format("required: the log holds several axes ({})", fmt::join(axes, ", "))
+                   : fmt::format("\"{}\" is not an axis of the log (it holds {})", axis,
+                                 fmt::join(axes, ", ")));
 }
 
 LoadedRun load_run_for_fit(const std::string& path, const LogLayout& layout) {

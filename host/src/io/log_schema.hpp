@@ -58,13 +58,21 @@ struct LogRows {
 /// One LogRows per axis of a run, in the run's order (a run of one axis: one).
 using AxesRows = std::vector<LogRows>;
 
-/// The group an axis's datasets are under: "" (the root) in a log of one
-/// axis, "/axes/NAME" in a log of several.
+/// The group an axis's datasets and attributes are under: "/axes/NAME",
+/// for a log of one axis as of several. A log written before this layout
+/// (no root attribute "axes") kept its one axis at the root: its readers
+/// take it as the one unnamed axis "", whose group is "" (the root).
 inline std::string axis_group(const std::vector<std::string>& axes, std::size_t i) {
-  return axes.size() <= 1 ? std::string() : "/axes/" + axes[i];
+  return axes[i].empty() ? std::string() : "/axes/" + axes[i];
 }
 
-/// Splits the root attribute "axes" ("theta,phi") into names; none: one axis.
+/// Whether `axes` is the one unnamed axis of a log written before /axes.
+inline bool at_root(const std::vector<std::string>& axes) {
+  return axes.size() == 1 && axes.front().empty();
+}
+
+/// Splits the root attribute "axes" ("theta,phi") into names; none: a log
+/// written before /axes.
 inline std::vector<std::string> split_axes(std::string_view list) {
   std::vector<std::string> out;
   while (!list.empty()) {
@@ -73,6 +81,14 @@ inline std::vector<std::string> split_axes(std::string_view list) {
     list = comma == std::string_view::npos ? std::string_view() : list.substr(comma + 1);
   }
   return out;
+}
+
+/// A log's axes from its root attribute "axes" (empty: a log written
+/// before /axes, its one unnamed axis "" at the root).
+inline std::vector<std::string> log_axes(std::string_view axes_attribute) {
+  std::vector<std::string> axes = split_axes(axes_attribute);
+  if (axes.empty()) axes.emplace_back();
+  return axes;
 }
 
 /// How a dataset is stored in the file (its buffer column is double).
@@ -193,9 +209,10 @@ inline constexpr const char* kRig = "rig";
 inline constexpr const char* kThetaZero = "theta_zero_m";
 inline constexpr const char* kBoardEvents = "board_events";
 inline constexpr const char* kRecoveredFrom = "recovered_from";
-/// A log of several axes: their names in the run's order, comma-separated.
+/// The run's axes: their names in the run's order, comma-separated.
 inline constexpr const char* kAxes = "axes";
-/// The board's axis a log of one axis drove (on a board of several).
+/// A log written before /axes: the board's axis its one axis was (on a
+/// board of several). Read, never written now.
 inline constexpr const char* kAxis = "axis";
 
 }  // namespace piezo::host::log_schema

@@ -13,10 +13,11 @@ namespace piezo::host {
 
 RunLog RunLog::create(const std::string& path, std::map<std::string, std::string> header,
                       const std::vector<std::string>& axes) {
-  if (axes.size() > 1) header[log_schema::kAxes] = fmt::format("{}", fmt::join(axes, ","));
+  if (axes.empty()) throw std::invalid_argument("a run log needs the run's axes");
+  if (!log_schema::at_root(axes))
+    header[log_schema::kAxes] = fmt::format("{}", fmt::join(axes, ","));
   RunJournal journal = RunJournal::create(journal_path(path), header);
-  RunLog log(H5File::create_log(path), std::move(journal),
-             axes.empty() ? std::vector<std::string>{""} : axes);
+  RunLog log(H5File::create_log(path), std::move(journal), axes);
   AxesRows none(log.axes_.size());
   log_schema::for_each_column(none, log.axes_, [&](std::string_view dataset, const auto&) {
     log.file_.create_growing(std::string(dataset),
@@ -148,7 +149,7 @@ void RunLog::set_attribute(const std::string& name, const std::string& value) {
 void RunLog::set_axis_attribute(std::size_t axis, const std::string& name,
                                 const std::string& value) {
   const std::string group = log_schema::axis_group(axes_, axis);
-  if (group.empty()) {
+  if (group.empty()) {  // a recovered log of the layout before /axes
     set_attribute(name, value);
     return;
   }

@@ -36,10 +36,12 @@ class RoomError : public std::runtime_error {
 class RunLog {
  public:
   /// Creates the file, its datasets and the header attributes, and flushes.
-  /// `axes`: the run's axes (several: each under its group, log_schema.hpp,
-  /// and the header's "axes" names them; one or none: at the root).
+  /// `axes`: the run's axes, at least one, each under its group
+  /// /axes/NAME (log_schema.hpp), the header's "axes" naming them. Only a
+  /// log recovered from one written before this layout has the one unnamed
+  /// axis "" (at the root, as it was).
   static RunLog create(const std::string& path, std::map<std::string, std::string> header,
-                       const std::vector<std::string>& axes = {});
+                       const std::vector<std::string>& axes);
 
   /// The run's axes as create() took them.
   [[nodiscard]] const std::vector<std::string>& axes() const { return axes_; }

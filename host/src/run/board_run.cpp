@@ -41,7 +41,8 @@ std::int64_t host_ns() {
 /// axis fitted (its `model`) in their place; the log says which.
 model::MotorParameters observer_model(const config::ConfigFile& c, const protocol::AxisInfo& axis,
                                       RunLog& log, std::size_t log_axis) {
-  const config::AxisConfig* own = c.board.axes.size() > 1 ? c.board.find_axis(axis.name) : nullptr;
+  // The config's own axis of that name (a config of one axis: its model is [model]'s).
+  const config::AxisConfig* own = c.board.find_axis(axis.name);
   model::Parameters p = own != nullptr ? own->model : c.host.model;
   if (!axis.calibration || !axis.calibration->model.is_object()) return p.motor;
   const protocol::CalibrationRecord& cal = *axis.calibration;
@@ -99,19 +100,16 @@ std::vector<RunAxisStart> run_axes(const protocol::StartReply& started, const Bo
     out.push_back({axis_info(hello, request.axis.value_or(""), "the board").name, {}});
   }
   // The log was made for the axes asked for: the board must have run those.
-  if (log.axes().size() > 1) {
-    std::vector<RunAxisStart> ordered;
-    for (const std::string& name : log.axes()) {
-      const auto it =
-          std::find_if(out.begin(), out.end(), [&](const auto& a) { return a.name == name; });
-      if (it == out.end()) {
-        throw std::runtime_error(fmt::format("the board started no move of axis {}", name));
-      }
-      ordered.push_back(*it);
+  std::vector<RunAxisStart> ordered;
+  for (const std::string& name : log.axes()) {
+    const auto it =
+        std::find_if(out.begin(), out.end(), [&](const auto& a) { return a.name == name; });
+    if (it == out.end()) {
+      throw std::runtime_error(fmt::format("the board started no run of axis {}", name));
     }
-    return ordered;
+    ordered.push_back(*it);
   }
-  return out;
+  return ordered;
 }
 
 }  // namespace

@@ -185,17 +185,13 @@ nlohmann::json LiveFeed::event(LiveCursor& cursor, bool reset) const {
     out["reset"] = true;
   }
   const bool with_zoom = reset || cursor.events % kZoomEvery == 0;
-  if (axes_.size() == 1) {
-    add_series(out, 0, cursor, reset, with_zoom);
-  } else {
-    nlohmann::json axes = nlohmann::json::array();
-    for (std::size_t i = 0; i < axes_.size(); ++i) {
-      nlohmann::json axis{{wire_key::name, names_[i]}};
-      add_series(axis, i, cursor, reset, with_zoom);
-      axes.push_back(std::move(axis));
-    }
-    out[wire_key::axes] = std::move(axes);
+  nlohmann::json axes = nlohmann::json::array();
+  for (std::size_t i = 0; i < axes_.size(); ++i) {
+    nlohmann::json axis{{wire_key::name, names_[i]}};
+    add_series(axis, i, cursor, reset, with_zoom);
+    axes.push_back(std::move(axis));
   }
+  out[wire_key::axes] = std::move(axes);
   out["status"] = status_;
   if (cursor.histograms != histograms_version_ && with_zoom) {
     out["histograms"] = histograms_;

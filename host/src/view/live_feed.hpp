@@ -11,9 +11,9 @@
 // window the columns are narrower (halved while the run fits in half of
 // them), so a short move shows in detail; each widening resends the window.
 // The board's loop histograms go as "histograms" {drive, sensor}, apart from
-// the status, when they changed and at most every fourth event. A run of
-// several axes (a group move) sends each axis's series under "axes" ([{name,
-// drive, measured, ...}]) instead of at the top level: a plot per axis.
+// the status, when they changed and at most every fourth event. Each axis
+// of the run, one or several, sends its series under "axes" ([{name, drive,
+// measured, ...}]): a plot per axis.
 
 #include <array>
 #include <cstddef>

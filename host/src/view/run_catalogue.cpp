@@ -59,28 +59,46 @@ std::optional<fs::path> run_path(const fs::path& runs_dir, const std::string& na
 nlohmann::json run_plots(const fs::path& run_dir, std::size_t columns) {
   const H5File f = H5File::open((run_dir / "run.h5").string());
   using log_schema::DriveRows, log_schema::SensorRows, log_schema::ObserverRows, log_schema::path;
-  const std::vector<double> drive_t = f.read(path(&DriveRows::t));
-  const std::vector<double> drive_V = f.read(path(&DriveRows::V));
-  const std::vector<double> sensor_t = f.read(path(&SensorRows::t));
-  const std::vector<double> theta = f.read(path(&SensorRows::theta));
-  const double t_end =
-      std::max(drive_t.empty() ? 0.0 : drive_t.back(), sensor_t.empty() ? 0.0 : sensor_t.back());
+  const std::vector<std::string> names = log_schema::log_axes(
+      f.has_attribute("/", log_schema::kAxes) ? f.attribute("/", log_schema::kAxes) : "");
+  // Each axis of the run, one or several, its plots on one time axis.
+  std::vector<std::string> groups;
+  double t_end = 0.0;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    groups.push_back(log_schema::axis_group(names, i));
+    for (const std::string_view column : {path(&DriveRows::t), path(&SensorRows::t)}) {
+      const std::vector<double> t = f.read(groups.back() + std::string(column));
+      if (!t.empty()) t_end = std::max(t_end, t.back());
+    }
+  }
   const double t1 = std::max(t_end, 1e-3);
   nlohmann::json out{
       {"status", f.has_attribute("/", "status") ? f.attribute("/", "status") : "unknown"},
       {"t_end", t_end},
-      {"measured", series(min_max_decimate(sensor_t, theta, 0.0, t1, columns))},
-      {wire_key::drive, series(min_max_decimate(drive_t, drive_V, 0.0, t1, columns))}};
-  // The zoom: the first 0.3 s of the drive, every sample.
-  const auto zoom_end = std::upper_bound(drive_t.begin(), drive_t.end(), 0.3) - drive_t.begin();
-  out["zoom"] = {{"t", std::vector<double>(drive_t.begin(), drive_t.begin() + zoom_end)},
-                 {"y", std::vector<double>(drive_V.begin(), drive_V.begin() + zoom_end)}};
-  if (f.exists(path(&ObserverRows::t))) {
-    const std::vector<double> obs_t = f.read(path(&ObserverRows::t));
-    out["observer"] =
-        series(min_max_decimate(obs_t, f.read(path(&ObserverRows::theta_hat)), 0.0, t1, columns));
-    out["open_loop"] =
-        series(min_max_decimate(obs_t, f.read(path(&ObserverRows::theta_open)), 0.0, t1, columns));
+      {wire_key::axes, nlohmann::json::array()}};
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    const auto read = [&](std::string_view column) {
+      return f.read(groups[i] + std::string(column));
+    };
+    const std::vector<double> drive_t = read(path(&DriveRows::t));
+    const std::vector<double> drive_V = read(path(&DriveRows::V));
+    nlohmann::json axis{
+        {wire_key::name, names[i]},
+        {"measured", series(min_max_decimate(read(path(&SensorRows::t)),
+                                             read(path(&SensorRows::theta)), 0.0, t1, columns))},
+        {wire_key::drive, series(min_max_decimate(drive_t, drive_V, 0.0, t1, columns))}};
+    // The zoom: the first 0.3 s of the drive, every sample.
+    const auto zoom_end = std::upper_bound(drive_t.begin(), drive_t.end(), 0.3) - drive_t.begin();
+    axis["zoom"] = {{"t", std::vector<double>(drive_t.begin(), drive_t.begin() + zoom_end)},
+                    {"y", std::vector<double>(drive_V.begin(), drive_V.begin() + zoom_end)}};
+    if (f.exists(groups[i] + std::string(path(&ObserverRows::t)))) {
+      const std::vector<double> obs_t = read(path(&ObserverRows::t));
+      axis["observer"] =
+          series(min_max_decimate(obs_t, read(path(&ObserverRows::theta_hat)), 0.0, t1, columns));
+      axis["open_loop"] =
+          series(min_max_decimate(obs_t, read(path(&ObserverRows::theta_open)), 0.0, t1, columns));
+    }
+    out[wire_key::axes].push_back(std::move(axis));
   }
   for (const auto& [key, dataset] :
        {std::pair{"drive_timing", log_schema::kDrivePeriodErrorUs},
