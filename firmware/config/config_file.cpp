@@ -37,17 +37,23 @@ void choose_backend(SectionReader& r, Backends<Base>& kind) {
   for (const auto& [old_key, now] : moved) r.moved(old_key, now);
 }
 
+/// How a pass of the readers goes: every backend's section (reading a file,
+/// declaring the keys), or the chosen backend's alone (the effective config).
+enum class Backends_read { every, chosen };
+
 /// Every backend's own section ([KIND.SECTION]), read by the backend.
 template <class Base>
-void read_backend_sections(SectionReader& r, Backends<Base>& kind) {
+void read_backend_sections(SectionReader& r, Backends<Base>& kind, Backends_read which) {
   for (const auto& b : kind.all) {
+    if (which == Backends_read::chosen && b.get() != &kind.chosen()) continue;
     SectionReader own = r.subsection(std::string(b->section()));
     b->read(own);
     own.finish();
   }
 }
 
-void read_drive(SectionReader r, DriveSettings& d, model::Parameters& waveform) {
+void read_drive(SectionReader r, DriveSettings& d, model::Parameters& waveform,
+                Backends_read which) {
   choose_backend(r, d.backends);
   read_waveform(r, waveform);
   r.number("rate_hz", d.rate_hz, {100.0, 100'000.0}, "Hz");
@@ -55,23 +61,23 @@ void read_drive(SectionReader r, DriveSettings& d, model::Parameters& waveform) 
   r.number("V_max", d.limits.V_max, {0.0, 1000.0, true}, "V");
   r.number("slew_V_per_s", d.limits.slew_V_per_s, kPositive, "V/s");
   r.number("amplifier_gain", d.amplifier_gain, {0.0, 1000.0, true});
-  read_backend_sections(r, d.backends);
+  read_backend_sections(r, d.backends, which);
   r.finish();
 }
 
-void read_sensor(SectionReader r, SensorSettings& s) {
+void read_sensor(SectionReader r, SensorSettings& s, Backends_read which) {
   choose_backend(r, s.backends);
   r.number("rate_hz", s.rate_hz, {1.0, 100'000.0}, "Hz");
   r.number("r2_m", s.r2_m, {0.0, 10.0, true}, "m");
   r.number("range_min_m", s.range_min_m, {-1e3, 1e3}, "m");
   r.number("range_max_m", s.range_max_m, {-1e3, 1e3}, "m");
-  read_backend_sections(r, s.backends);
+  read_backend_sections(r, s.backends, which);
   r.finish();
 }
 
-void read_lines(SectionReader r, LinesSettings& l) {
+void read_lines(SectionReader r, LinesSettings& l, Backends_read which) {
   choose_backend(r, l.backends);
-  read_backend_sections(r, l.backends);
+  read_backend_sections(r, l.backends, which);
   r.finish();
 }
 
@@ -189,12 +195,13 @@ void read_plant(SectionReader r, model::MotorParameters& plant_keys, AxisConfig&
 /// into the board's first axis. [plant] keys are collected apart: the plant
 /// is [model] overlaid with them. [axes] is read by read_axis_tables.
 void read_tables(const toml::table& t, const std::string& source, ConfigFile& c,
-                 model::MotorParameters& plant_keys, KeyDeclarations* declarations = nullptr) {
+                 model::MotorParameters& plant_keys, KeyDeclarations* declarations = nullptr,
+                 Backends_read which = Backends_read::every) {
   TableReader file(t, source, declarations);
   BoardConfig& board = c.board;
   AxisConfig& axis = board.axis();
   HostConfig& host = c.host;
-  read_drive(file.section("drive"), axis.drive, axis.model);
+  read_drive(file.section("drive"), axis.drive, axis.model, which);
   SectionReader model = file.section("model");
   read_motor(model, axis.model.motor);
   model.finish();
@@ -202,8 +209,8 @@ void read_tables(const toml::table& t, const std::string& source, ConfigFile& c,
   // run asks for: one file says both.
   host.model = axis.model;
   read_plant(file.section("plant"), plant_keys, axis);
-  read_sensor(file.section("sensor"), axis.sensor);
-  read_lines(file.section("lines"), board.lines);
+  read_sensor(file.section("sensor"), axis.sensor, which);
+  read_lines(file.section("lines"), board.lines, which);
   read_run(file.section("run"), host.run, board.run);
   read_move(file.section("move"), host.run.move_defaults);
   SectionReader safety = file.section("safety");
@@ -221,15 +228,16 @@ void read_tables(const toml::table& t, const std::string& source, ConfigFile& c,
 /// [axes.NAME]'s own sections, read over the file's for that axis (the
 /// board's first in `c`): the sections an axis has, under its name.
 void read_axis_tables(const toml::table& t, const std::string& axis, const std::string& source,
-                      ConfigFile& c, model::MotorParameters& plant_keys) {
-  TableReader own(t, source, nullptr, "axes." + axis);
-  AxisConfig& a = c.board.axis();
-  read_drive(own.section("drive"), a.drive, a.model);
+                      AxisConfig& a, model::MotorParameters& plant_keys,
+                      KeyDeclarations* declarations = nullptr,
+                      Backends_read which = Backends_read::every) {
+  TableReader own(t, source, declarations, "axes." + axis);
+  read_drive(own.section("drive"), a.drive, a.model, which);
   SectionReader model = own.section("model");
   read_motor(model, a.model.motor);
   model.finish();
   read_plant(own.section("plant"), plant_keys, a);
-  read_sensor(own.section("sensor"), a.sensor);
+  read_sensor(own.section("sensor"), a.sensor, which);
   SectionReader safety = own.section("safety");
   read_safety(safety, a.safety);
   safety.finish();
@@ -567,7 +575,7 @@ ConfigFile load(const std::vector<std::string>& paths, const std::vector<std::st
       named.axis = axis.name = name;
       for (const Layer& layer : layers) {
         if (const toml::table* own = layer.table["axes"][name].as_table()) {
-          read_axis_tables(layer.table, name, layer.source, c, plant_keys);
+          read_axis_tables(layer.table, name, layer.source, axis, plant_keys);
           named.own.push_back(own);
         }
       }
@@ -618,10 +626,10 @@ std::size_t BoardConfig::axis_index(std::string_view name, const std::string& wh
     if (axes[i].name == name || (name.empty() && axes.size() == 1)) return i;
     names += (names.empty() ? "" : ", ") + axes[i].name;
   }
-  throw ConfigError(where, "axis",
-                    name.empty() ? fmt::format("required: {} has several axes ({})", source, names)
-                                 : fmt::format("\"{}\" is not an axis of {} (allowed: {})", name,
-                                               source, names));
+  throw ConfigError(
+      where, "axis",
+      name.empty() ? fmt::format("required: {} has several axes ({})", source, names)
+                   : fmt::format("\"{}\" is not an axis of {} (allowed: {})", name, source, names));
 }
 
 std::string_view name(RunClock c) {
@@ -636,6 +644,24 @@ model::Parameters load_model_config(const std::string& path) {
   read_tables(parse_config_file(path), path, c, plant_keys);
   require_valid(c.host.model, path);
   return c.host.model;
+}
+
+KeyDeclarations effective_keys(const ConfigFile& c) {
+  // The readers over an empty table leave every value as it is and declare
+  // it: the board's and the host's keys with the first axis's sections as
+  // the base, then every axis's own under [axes.NAME].
+  KeyDeclarations out;
+  ConfigFile base = c;
+  base.board.axes.resize(1);
+  model::MotorParameters plant = base.board.axis().plant;
+  read_tables(toml::table{}, "effective", base, plant, &out, Backends_read::chosen);
+  for (const AxisConfig& a : c.board.axes) {
+    AxisConfig own = a;
+    model::MotorParameters own_plant = a.plant;
+    read_axis_tables(toml::table{}, a.name, "effective", own, own_plant, &out,
+                     Backends_read::chosen);
+  }
+  return out;
 }
 
 KeyDeclarations declared_keys() {

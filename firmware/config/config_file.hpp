@@ -260,6 +260,12 @@ struct DriveOptions {
 /// range or choices, and default): what docs/configuration.md documents.
 [[nodiscard]] KeyDeclarations declared_keys();
 
+/// Every key the readers read, with its value in `c` (a declaration's
+/// default is the value): the board's and the host's sections with the
+/// first axis's as the base, then each axis's own (`axes.NAME.SECTION.KEY`),
+/// each kind's chosen backend's section alone. What effective_config.cpp writes.
+[[nodiscard]] KeyDeclarations effective_keys(const ConfigFile& c);
+
 /// Checks an axis's drive limits against what its built drive hardware can do.
 void check_drive_hardware(const BoardConfig& config, std::size_t axis, double hardware_V_min,
                           double hardware_V_max);

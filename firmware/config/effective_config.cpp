@@ -2,38 +2,70 @@
 
 #include <toml++/toml.h>
 
+#include <cmath>
+#include <cstdint>
 #include <sstream>
+#include <string_view>
 
 namespace piezo::config {
 
+namespace {
+
+/// The table at `path` ("axes.phi.drive"), made as needed.
+toml::table& table_at(toml::table& root, std::string_view path) {
+  toml::table* t = &root;
+  while (!path.empty()) {
+    const std::size_t dot = path.find('.');
+    const std::string part(path.substr(0, dot));
+    if (!t->contains(part)) t->insert(part, toml::table{});
+    t = t->get(part)->as_table();
+    path = dot == std::string_view::npos ? std::string_view() : path.substr(dot + 1);
+  }
+  return *t;
+}
+
+/// A declared key's value in its kind; an unset one (no end, no file) is left out.
+void put(toml::table& t, const std::string& key, const KeyDeclaration& d) {
+  if (d.kind == "number") {
+    if (!std::isfinite(d.default_value)) return;
+    t.insert_or_assign(key, d.default_value);
+  } else if (d.kind == "integer") {
+    t.insert_or_assign(key, static_cast<std::int64_t>(d.default_value));
+  } else if (d.kind == "flag") {
+    t.insert_or_assign(key, d.default_text == "true");
+  } else if (d.kind == "list") {
+    toml::array items;
+    std::istringstream in(d.default_text);
+    for (std::string item; std::getline(in, item, ',');) items.push_back(std::stoll(item));
+    t.insert_or_assign(key, std::move(items));
+  } else {  // choice, text
+    if (d.default_text.empty()) return;
+    t.insert_or_assign(key, d.default_text);
+  }
+}
+
+}  // namespace
+
 std::string effective_config_toml(const ConfigFile& file) {
-  const BoardConfig& c = file.board;
-  const AxisConfig& a = c.axis();  // the host's runs drive the board's first axis
-  const HostConfig& h = file.host;
-  toml::table drive, motor;
-  for (const auto& spec : model::parameter_specs()) {
-    const double v = *model::get_parameter(h.model, spec.name);
-    (spec.section == "drive" ? drive : motor).insert(std::string(spec.name), v);
+  // Written from the readers' own declarations (effective_keys): every key
+  // they read, every axis, never a copy of their keys kept here.
+  toml::table out;
+  for (const KeyDeclaration& d : effective_keys(file)) {
+    const std::size_t dot = d.key.rfind('.');
+    put(table_at(out, std::string_view(d.key).substr(0, dot)), d.key.substr(dot + 1), d);
   }
-  drive.insert("direction", std::string(model::name(h.model.drive.direction)));
-  drive.insert("rate_hz", c.drive_rate_hz());
-  drive.insert("V_min", a.drive.limits.V_min);
-  drive.insert("V_max", a.drive.limits.V_max);
-  drive.insert("slew_V_per_s", a.drive.limits.slew_V_per_s);
-  const toml::table sensor{{"r2_m", a.sensor.r2_m}, {"rate_hz", c.sensor_rate_hz()}};
-  const toml::table run{{"duration_s", h.run.duration_s},
-                        {"clock", std::string(name(c.run.clock))}};
-  const toml::table observer{{"enabled", h.observer.enabled},
-                             {"alpha", h.observer.gains.alpha},
-                             {"beta", h.observer.gains.beta},
-                             {"gate_rad", h.observer.gains.gate_rad}};
-  toml::table out{
-      {"drive", drive}, {"model", motor}, {"sensor", sensor}, {"run", run}, {"observer", observer}};
-  if (!h.board.address.empty()) {
-    out.insert("rig", toml::table{{"address", h.board.address}, {"lease_s", h.board.lease_s}});
-  }
+  // The axes in the board's order (a reader takes them in the file's order;
+  // a TOML table's keys print sorted).
+  toml::table axes;
+  if (toml::table* own = out["axes"].as_table()) axes = std::move(*own);
+  out.erase("axes");
   std::ostringstream text;
   text << out << "\n";
+  for (const AxisConfig& a : file.board.axes) {
+    if (toml::table* one = axes[a.name].as_table()) {
+      text << "\n" << toml::table{{"axes", toml::table{{a.name, std::move(*one)}}}} << "\n";
+    }
+  }
   return text.str();
 }
 

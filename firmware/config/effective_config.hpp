@@ -9,9 +9,10 @@
 
 namespace piezo::config {
 
-/// The host-side values a run uses: [drive] (waveform, direction, rate,
-/// limits), [model], [sensor] r2_m and rate, [run] duration and clock,
-/// [observer], and [rig] address and lease. Loadable by load_config_file.
+/// Every value the config holds, defaults included, as the readers declare
+/// their keys (effective_keys): the board's and the host's sections with the
+/// first axis's as the base, then every axis's own under [axes.NAME], each
+/// kind's chosen backend alone. Loadable by load_config_file.
 [[nodiscard]] std::string effective_config_toml(const ConfigFile& c);
 
 /// The run directory's config.toml: the config's own text (files and

@@ -78,9 +78,10 @@ def move(exe, out, config_sets, target, tag):
         # Refused up front (a tolerance below the noise floor) or failed.
         return {"target": target, "result": "refused: " + err.strip().splitlines()[-1]}
     log = m.get("log")
+    own = m["moves"][0]  # the move's one axis
     return {"target": target, "result": m["stop_cause"], "on_target": m["on_target"],
-            "error": m["error_rad"], "time": m["time_s"], "steps": m["steps"],
-            "f": m["run"].get("move", {}).get("f_hz"),
+            "error": own["error_rad"], "time": m["time_s"], "steps": own["steps"],
+            "f": own.get("f_hz"),
             "overshoot": overshoot_rad(log, target) if log and os.path.exists(log) else None,
             "rotor": None}
 

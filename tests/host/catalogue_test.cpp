@@ -24,8 +24,9 @@ std::string read(const std::filesystem::path& p) {
 
 TEST(Catalogue, OneHeaderThenALinePerAxisOfEachRun) {
   const auto dir = testing::fresh_temp_dir("catalogue");
-  append_to_catalogue(dir / "r1", {"2026-11-26T01:00:00Z", "completed", "duration", "sim.toml",
-                                   4.8, {{"rotor", 0.0709698}}});
+  append_to_catalogue(
+      dir / "r1",
+      {"2026-11-26T01:00:00Z", "completed", "duration", "sim.toml", 4.8, {{"rotor", 0.0709698}}});
   append_to_catalogue((dir / "r2").string() + "/",
                       {"", "recovered", "unknown", "", 1.25, {{"theta", -0.5}, {"phi", 0.25}}});
   append_to_catalogue(dir / "r3", {"", "failed", "log_failed", "sim.toml", 0.0, {}});

@@ -347,11 +347,12 @@ TEST(Cli, SensorReadReadsTheNamedAxissSensor) {
   EXPECT_EQ(psi.exit_code, 2);
   EXPECT_NE(psi.err.find("\"psi\" is not an axis"), std::string::npos) << psi.err;
   EXPECT_NE(psi.err.find("allowed: theta, phi, chi"), std::string::npos) << psi.err;
-  const auto none = run_command(kPiezo + " sensor read --config " + kConfigs +
-                                "/three-axes.toml --count 1");
+  const auto none =
+      run_command(kPiezo + " sensor read --config " + kConfigs + "/three-axes.toml --count 1");
   EXPECT_EQ(none.exit_code, 2);
   EXPECT_NE(none.err.find("required"), std::string::npos) << none.err;
-  const auto one = run_command(kPiezo + " sensor read --config " + kConfigs + "/sim.toml --count 1");
+  const auto one =
+      run_command(kPiezo + " sensor read --config " + kConfigs + "/sim.toml --count 1");
   EXPECT_EQ(one.exit_code, 0) << one.err;
   EXPECT_NE(one.out.find("axis rotor"), std::string::npos) << one.out;
 }

@@ -114,6 +114,10 @@ def check_recovered(run_dir, reference, label, axes=("rotor",)):
         return "failed", 0
     rec = json.loads(r.stdout)
     try:
+        with h5py.File(log, "r") as f:
+            nothing = "axes" not in f.attrs and "axes" not in f and "drive" not in f
+        if nothing:  # killed inside the journal's header: no axis, no row was recorded
+            return "before the journal's header", 0
         status, data = read(log, columns)
     except Exception as e:  # noqa: BLE001
         fail(f"{label}: run.h5 unreadable after recovery: {e}")

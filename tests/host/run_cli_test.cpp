@@ -91,7 +91,7 @@ TEST(ReportCli, ZoomsWhereBothTheDriveAndTheAngleWereLogged) {
 f.close()
 f = h5py.File(sys.argv[1], 'r+')
 def keep(group, rows):
-    for column in f[group].values():
+    for column in f['axes/rotor/' + group].values():
         kept = column[:][rows]
         column.resize((len(kept),))
         column[:] = kept

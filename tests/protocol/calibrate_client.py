@@ -65,7 +65,8 @@ def follow_run(run_id):
 
 
 hello = call("hello")["result"]
-check("calibration" in hello, "hello says whether the board is calibrated")
+check(len(hello["axes"]) == 1 and "calibration" in hello["axes"][0],
+      "hello says whether the board's axis is calibrated")
 time.sleep(0.2)  # the subscription reaches the board first
 
 # A calibration that does not hold together: refused by key, nothing kept.

@@ -243,7 +243,7 @@ TEST_F(Piezod, AnglesUseTheRadiusOfTheBoardsSensor) {
       "c.connect('" +
       address_ +
       "'); c.send(msgpack.packb({'id': 1, 'cmd': 'hello'})); "
-      "print(msgpack.unpackb(c.recv())['result']['sensor']['r2_m'])\"");
+      "print(msgpack.unpackb(c.recv())['result']['axes'][0]['r2_m'])\"");
   EXPECT_EQ(hello.out, "0.05\n") << hello.err;
   const auto remote = run_command(kPiezo + " run --config " + kSimConfig + " --rig " + address_ +
                                   " --duration 1 --json --out " + (dir_ / "remote").string());

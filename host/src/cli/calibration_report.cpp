@@ -217,7 +217,7 @@ std::string summary_text(const Calibration& cal, const std::string& kept) {
 }  // namespace
 
 CalibrationReport finish_calibration(const fs::path& dir, const fs::path& log,
-                                     const Calibration& board_calibration,
+                                     const Calibration& board_calibration, const std::string& axis,
                                      const config::ConfigFile& config, BoardClient& client,
                                      bool local) {
   CalibrationReport report;
@@ -233,7 +233,7 @@ CalibrationReport finish_calibration(const fs::path& dir, const fs::path& log,
   // The board (in this process or at an address) checks it, installs it
   // and says where it keeps it.
   const auto reply = protocol::decode<protocol::SetCalibrationReply>(
-      client.call("set_calibration", {{"calibration", json(cal)}}));
+      client.call("set_calibration", {{"calibration", json(cal)}, {wire_key::axis, axis}}));
   if (!reply.calibration) throw std::runtime_error("the board installed no calibration");
   cal = *reply.calibration;
   if (reply.save_error) {

@@ -47,11 +47,13 @@ struct CalibrationReport {
 };
 
 /// `board_calibration`: what the board measured (its run summary's
-/// "calibration"); `log`: the experiment's run.h5; `client`: the board that
-/// ran it, `local` when it is the one in this process. Progress on stderr.
+/// "calibration"); `axis`: the board's axis it calibrated; `log`: the
+/// experiment's run.h5; `client`: the board that ran it, `local` when it is
+/// the one in this process. Progress on stderr.
 [[nodiscard]] CalibrationReport finish_calibration(const std::filesystem::path& dir,
                                                    const std::filesystem::path& log,
                                                    const Calibration& board_calibration,
+                                                   const std::string& axis,
                                                    const config::ConfigFile& config,
                                                    BoardClient& client, bool local);
 

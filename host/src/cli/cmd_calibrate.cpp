@@ -29,7 +29,8 @@ int report_calibration(const FinishedRun& run) {
     return kExitFailed;
   }
   const CalibrationReport report =
-      finish_calibration(run.dir, run.log, *measured, run.config, run.board, run.local);
+      finish_calibration(run.dir, run.log, *measured, summary.board.axes.at(0).name, run.config,
+                         run.board, run.local);
   result["calibration"] = nlohmann::json(report.calibration);
   result["kept"] = report.kept;
   result["files"] = {

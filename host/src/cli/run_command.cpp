@@ -346,6 +346,11 @@ config::ConfigFile run_config(const RunOptions& o, const RunProgram& program, Ru
   asked = program.request ? program.request(config) : RunAsked{asked::Timed{}};
   if (!o.rig.empty()) config.host.board.address = o.rig;
   if (!o.axis.empty()) config.host.board.axis = o.axis;
+  // The run's axis's own waveform and model, where the config describes it
+  // ([axes.NAME] over the file's sections; the command's options applied).
+  if (const config::AxisConfig* own = config.board.find_axis(config.host.board.axis)) {
+    config.host.model = own->model;
+  }
   return config;
 }
 

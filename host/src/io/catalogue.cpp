@@ -8,7 +8,8 @@
 namespace piezo::host {
 namespace {
 
-constexpr const char* kHeader = "run_dir,utc_start,status,stop_cause,config,t_end_s,axis,angle_end_rad";
+constexpr const char* kHeader =
+    "run_dir,utc_start,status,stop_cause,config,t_end_s,axis,angle_end_rad";
 /// The header before a run's axes had lines of their own.
 constexpr const char* kHeaderBeforeAxes =
     "run_dir,utc_start,status,stop_cause,config,t_end_s,theta_end_rad";
@@ -42,8 +43,8 @@ void append_to_catalogue(const std::filesystem::path& run_dir, const CatalogueEn
   if (!fresh) bring_up_to_date(catalogue);
   std::ofstream out(catalogue, std::ios::app);
   if (fresh) out << kHeader << "\n";
-  const std::string run = fmt::format("{},{},{},{},{},{:.6g}", dir.filename().string(),
-                                      e.utc_start, e.status, e.stop_cause, e.config, e.t_end_s);
+  const std::string run = fmt::format("{},{},{},{},{},{:.6g}", dir.filename().string(), e.utc_start,
+                                      e.status, e.stop_cause, e.config, e.t_end_s);
   if (e.axes.empty()) out << run << ",,\n";  // a run that got no axis going: still listed
   for (const CatalogueEntry::Axis& a : e.axes) {
     out << fmt::format("{},{},{:.9g}\n", run, a.name, a.angle_end_rad);

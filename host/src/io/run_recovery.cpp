@@ -286,8 +286,10 @@ Recovery recover_run(const std::string& run_dir) {
                               fs::exists(log) ? "unreadable, and no run.journal to rebuild it from"
                                               : "no run log or journal in this directory");
   }
-  if (!has_journal) {
-    j.axes = copy.axes;  // no journal: nothing to add to any axis
+  if (!has_journal || j.header.empty()) {
+    // No journal, or one torn inside its header (nothing of it readable):
+    // nothing to add to any axis of the log.
+    j.axes = copy.axes;
     j.rows.assign(copy.axes.size(), log_schema::LogRows{});
   }
   if (j.axes != copy.axes) {

@@ -11,6 +11,7 @@
 #include "../../support/run_command.hpp"
 #include "build_paths.hpp"
 #include "config/config_file.hpp"
+#include "config/effective_config.hpp"
 #include "config/rig.hpp"
 #include "piezo/config/config_error.hpp"
 
@@ -79,6 +80,38 @@ TEST_F(AxesConfig, TheThreeAxisBoardOverlaysEachAxisOnTheFilesSections) {
     EXPECT_EQ(a.drive.rate_hz, 10'000.0) << a.name;
     EXPECT_EQ(a.plant_coupling, 0.02) << a.name << ": crosstalk on";
   }
+}
+
+// The run's written-back config holds every axis, from the readers' own
+// declarations: loaded again, it is the same board, axis for axis.
+TEST_F(AxesConfig, TheEffectiveConfigHoldsEveryAxisAndLoadsAsTheSameBoard) {
+  const ConfigFile three =
+      load_config_file(std::string(build_paths::source_dir) + "/configs/three-axes.toml");
+  const std::string effective = effective_config_toml(three);
+  for (const char* section : {"[axes.theta.drive]", "[axes.phi.sensor]", "[axes.chi.safety]",
+                              "[axes.phi.plant]", "[lines]", "[piezod]"}) {
+    EXPECT_NE(effective.find(section), std::string::npos) << section << "\n" << effective;
+  }
+  EXPECT_EQ(effective.find("[drive.modbus"), std::string::npos) << "the chosen backend's alone";
+  const BoardConfig again = load_config_file(file(effective)).board;
+  ASSERT_EQ(again.axes.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    const AxisConfig &a = again.axes[i], &b = three.board.axes[i];
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_EQ(a.sensor.r2_m, b.sensor.r2_m) << a.name;
+    EXPECT_EQ(a.plant.J, b.plant.J) << a.name;
+    EXPECT_EQ(a.drive.limits.V_max, b.drive.limits.V_max) << a.name;
+    EXPECT_EQ(a.model.drive.V0, b.model.drive.V0) << a.name;
+    EXPECT_EQ(a.safety.travel_max_rad, b.safety.travel_max_rad) << a.name;
+    EXPECT_EQ(a.plant_coupling, b.plant_coupling) << a.name;
+  }
+  // A board of one: the same, with its one axis.
+  const ConfigFile one = load_config_file(file(kBoard), {"sensor.r2_m=0.05"});
+  const ConfigFile one_again = load_config_file(file(effective_config_toml(one)));
+  ASSERT_EQ(one_again.board.axes.size(), 1u);
+  EXPECT_EQ(one_again.board.axis().name, "rotor");
+  EXPECT_EQ(one_again.board.axis().sensor.r2_m, 0.05);
+  EXPECT_EQ(one_again.host.model.motor.F_N, one.host.model.motor.F_N);
 }
 
 TEST_F(AxesConfig, SetReachesOneAxis) {
