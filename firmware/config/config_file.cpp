@@ -16,179 +16,18 @@
 #include "piezo/firmware/request_limits.hpp"
 #include "piezo/model/analysis_limits.hpp"
 #include "piezo/overload.hpp"
+#include "sections.hpp"
 
 namespace piezo::config {
 namespace {
 
 const std::vector<std::string> kRequiredSections{"drive", "sensor", "run"};
 
-/// A kind's `backend` key, and the keys that moved from its section into
-/// the backends' refused naming their new place.
-template <class Base>
-void choose_backend(SectionReader& r, Backends<Base>& kind) {
-  std::vector<std::string> names;
-  std::map<std::string, std::vector<std::string>> moved;
-  for (const auto& b : kind.all) {
-    names.emplace_back(b->name());
-    for (const hal::MovedKey& m : b->moved_keys())
-      moved[std::string(m.old_key)].emplace_back(m.new_key);
-  }
-  r.choice("backend", kind.backend, names);
-  for (const auto& [old_key, now] : moved) r.moved(old_key, now);
-}
-
-/// How a pass of the readers goes: every backend's section (reading a file,
-/// declaring the keys), or the chosen backend's alone (the effective config).
-enum class Backends_read { every, chosen };
-
-/// Every backend's own section ([KIND.SECTION]), read by the backend.
-template <class Base>
-void read_backend_sections(SectionReader& r, Backends<Base>& kind, Backends_read which) {
-  for (const auto& b : kind.all) {
-    if (which == Backends_read::chosen && b.get() != &kind.chosen()) continue;
-    SectionReader own = r.subsection(std::string(b->section()));
-    b->read(own);
-    own.finish();
-  }
-}
-
-void read_drive(SectionReader r, DriveSettings& d, model::Parameters& waveform,
-                Backends_read which) {
-  choose_backend(r, d.backends);
-  read_waveform(r, waveform);
-  r.number("rate_hz", d.rate_hz, {100.0, 100'000.0}, "Hz");
-  r.number("V_min", d.limits.V_min, {0.0, 1000.0}, "V");
-  r.number("V_max", d.limits.V_max, {0.0, 1000.0, true}, "V");
-  r.number("slew_V_per_s", d.limits.slew_V_per_s, kPositive, "V/s");
-  r.number("amplifier_gain", d.amplifier_gain, {0.0, 1000.0, true});
-  read_backend_sections(r, d.backends, which);
-  r.finish();
-}
-
-void read_sensor(SectionReader r, SensorSettings& s, Backends_read which) {
-  choose_backend(r, s.backends);
-  r.number("rate_hz", s.rate_hz, {1.0, 100'000.0}, "Hz");
-  r.number("r2_m", s.r2_m, {0.0, 10.0, true}, "m");
-  r.number("range_min_m", s.range_min_m, {-1e3, 1e3}, "m");
-  r.number("range_max_m", s.range_max_m, {-1e3, 1e3}, "m");
-  read_backend_sections(r, s.backends, which);
-  r.finish();
-}
-
-void read_lines(SectionReader r, LinesSettings& l, Backends_read which) {
-  choose_backend(r, l.backends);
-  read_backend_sections(r, l.backends, which);
-  r.finish();
-}
-
-/// [run]: the host's keys and the board's share the section.
-void read_run(SectionReader r, RunSettings& run, BoardRunSettings& board) {
-  r.number("duration_s", run.duration_s, {0.0, 1e6, true}, "s");
-  r.choice("clock", board.clock, kRunClockNames);
-  r.integer("priority", board.priority, 0, 99);
-  r.flag("lock_memory", board.lock_memory);
-  r.number("flush_interval_s", run.flush_interval_s, {0.01, 1.0}, "s");
-  r.finish();
-}
-
-/// [move]: the defaults of `piezo move`'s options, one key per declared
-/// field of a move's request (all but the target).
-void read_move(SectionReader r, firmware::MoveRequest& m) {
-  for (const firmware::MoveField& field : firmware::kMoveFields) {
-    if (field.required) continue;
-    const std::string key(field.name);
-    std::visit(Overload{
-                   [&](double firmware::MoveRequest::*p) {
-                     r.number(key, m.*p, field.allowed, std::string(field.unit));
-                   },
-                   [&](std::uint64_t firmware::MoveRequest::*p) {
-                     int v = static_cast<int>(m.*p);
-                     r.integer(key, v, static_cast<int>(field.allowed.min),
-                               static_cast<int>(field.allowed.max));
-                     m.*p = static_cast<std::uint64_t>(v);
-                   },
-                   [&](bool firmware::MoveRequest::*p) { r.flag(key, m.*p); },
-                   [&](firmware::Approach firmware::MoveRequest::*p) {
-                     r.choice(key, m.*p, firmware::kApproachNames);
-                   },
-               },
-               field.member);
-  }
-  r.finish();
-}
-
-void read_rig_sim(SectionReader r, hal::sim::ModbusDeviceFaults& f, hal::sim::TcpLimits& tcp) {
-  r.integer("max_clients", tcp.max_clients, 1, 100'000);
-  r.number("frame_timeout_s", tcp.frame_timeout_s, {0.001, 60.0}, "s");
-  r.number("response_delay_s", f.response_delay_s, {0.0, 10.0}, "s");
-  r.number("drop_probability", f.drop_probability, {0.0, 1.0});
-  r.number("exception_probability", f.exception_probability, {0.0, 1.0});
-  r.number("disconnect_at_s", f.disconnect_at_s, kNonNegative, "s");
-  r.number("late_reply_at_s", f.late_reply_at_s, kNonNegative, "s");
-  r.number("late_reply_s", f.late_reply_s, {0.0, 10.0}, "s");
-  r.number("hang_at_s", f.hang_at_s, kNonNegative, "s");
-  r.number("hang_for_s", f.hang_for_s, {0.0, 3600.0}, "s");
-  r.flag("times_from_drive", f.times_from_drive);
-  r.finish();
-}
-
-void read_observer(SectionReader r, ObserverSettings& o) {
-  r.flag("enabled", o.enabled);
-  r.number("alpha", o.gains.alpha, model::limits::kObserverAlpha);
-  r.number("beta", o.gains.beta, model::limits::kObserverBeta);
-  r.number("gate_rad", o.gains.gate_rad, model::limits::kObserverGate_rad, "rad");
-  r.finish();
-}
-
-void read_daemon(SectionReader r, DaemonSettings& d) {
-  r.text("listen", d.listen);
-  r.number("lease_s", d.lease_s, {0.05, 60.0}, "s");
-  r.number("lease_max_s", d.lease_max_s, {0.05, 600.0}, "s");
-  r.number("recorder_s", d.recorder_s, {1.0, 3600.0}, "s");
-  r.text("spill_file", d.spill_file);
-  r.text("calibration_file", d.calibration_file);
-  r.number("duration_max_s", d.duration_max_s, {0.0, 1e7, true}, "s");
-  r.number("fetch_samples_per_s", d.fetch_samples_per_s, {1e3, 1e9}, "samples/s");
-  r.text("secret_key_file", d.secret_key_file);
-  r.text("authorized_keys_file", d.authorized_keys_file);
-  r.flag("insecure", d.insecure);
-  r.finish();
-}
-
-void read_board_address(SectionReader r, BoardAddress& a) {
-  r.text("address", a.address);
-  r.number("lease_s", a.lease_s, {0.0, 600.0}, "s");
-  r.text("server_public_key_file", a.server_public_key_file);
-  r.text("client_secret_key_file", a.client_secret_key_file);
-  r.text("axis", a.axis);
-  r.finish();
-}
-
-/// [safety]'s keys that each axis has (the caller finishes the section).
-void read_safety(SectionReader& r, firmware::SafetySettings& s) {
-  r.number("sensor_stale_s", s.sensor_stale_s, {0.0, 60.0, true}, "s");
-  int sensor_errors = static_cast<int>(s.max_sensor_errors);
-  int drive_errors = static_cast<int>(s.max_drive_errors);
-  r.integer("max_sensor_errors", sensor_errors, 1, 1'000'000);
-  r.integer("max_drive_errors", drive_errors, 1, 1'000'000);
-  s.max_sensor_errors = static_cast<std::uint32_t>(sensor_errors);
-  s.max_drive_errors = static_cast<std::uint32_t>(drive_errors);
-  r.number("ramp_down_V_per_s", s.ramp_down_V_per_s, kPositive, "V/s");
-  r.number("stop_confirm_s", s.stop_confirm_s, {0.01, 30.0}, "s");
-  r.number("travel_min_rad", s.travel_min_rad, {-10.0, 10.0}, "rad");
-  r.flag("protect_runs", s.protect_runs);
-  r.integer("stall_periods", s.stall_periods, 1, 16);
-  r.number("travel_max_rad", s.travel_max_rad, {-10.0, 10.0}, "rad");
-}
-
-/// [plant]: the simulated motor's keys, collected apart (NaN marks absent),
-/// its end stop and its crosstalk from the other axes.
-void read_plant(SectionReader r, model::MotorParameters& plant_keys, AxisConfig& axis) {
-  read_motor(r, plant_keys);
-  r.number("end_stop_rad", axis.plant_end_stop_rad, {-10.0, 10.0}, "rad");
-  r.number("coupling", axis.plant_coupling, {0.0, 0.5});
-  r.finish();
-}
+// Each owner's section readers (sections.hpp).
+using sections::Backends_read, sections::read_drive, sections::read_sensor, sections::read_lines,
+    sections::read_safety, sections::read_daemon, sections::read_run, sections::read_move,
+    sections::read_observer, sections::read_board_address, sections::read_rig_sim,
+    sections::read_plant;
 
 /// Everything one table (the file, or one --set) says, read over `c`: each
 /// section into the part of the process that reads it, the axis's sections

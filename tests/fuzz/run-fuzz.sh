@@ -33,7 +33,7 @@ case "$target" in
     libs=(-lfmt) ;;
   config)
     sources=("$src"/hal/config/src/section_reader.cpp
-             "$src"/firmware/config/{model_config,config_file}.cpp
+             "$src"/firmware/config/{model_config,config_file,board_sections,host_sections,rig_sim_sections}.cpp
              "$src"/firmware/src/{request_limits,request_arguments,move_request}.cpp
              "$src"/hal/{sim,modbus,gpiod,comedi}/src/*_backends.cpp
              "$src"/hal/registry/src/backends.cpp

@@ -60,7 +60,7 @@ def test_a_request_naming_no_axis_or_one_the_board_lacks_is_refused(board):
 def test_each_axis_steps_with_its_own_sensor_and_zero(board):
     phi = board.axes["phi"].step(5, 60, 10)
     assert phi.summary["cause"] == "completed"
-    assert phi.axis == "phi" and phi.r2_m == 0.08
+    assert phi.axis == "phi" and phi.axes == ["phi"] and phi.r2_m == 0.08
     assert board.status()["run"]["axes"] == ["phi"]
     theta_phi = phi.theta()
     assert np.nanmax(theta_phi) > 1e-3  # 60 V, 10 Hz, five periods: forward
@@ -332,6 +332,7 @@ def test_a_group_runs_arrays_are_each_axiss_own(board):
     is refused naming the board's axes."""
     board.move_to({"theta": 0.002, "phi": -0.002}, tolerance_rad=5e-5)
     run = board.last_run
+    assert run.axes == ["theta", "phi"] and run.axis == "theta"
     for name, target in (("theta", 0.002), ("phi", -0.002)):
         drive_t, drive_V, t, theta = run.fit_arrays(axis=name)
         index = list(board.axes).index(name)

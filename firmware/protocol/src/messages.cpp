@@ -164,19 +164,20 @@ struct Fields<MoveAccount::Hold> {
 template <>
 struct Fields<MoveAccount> {
   using T = MoveAccount;
-  static constexpr auto list = std::tuple{field(wire_key::axis, &T::axis, may_be_missing),
-                                          field(wire_key::state, &T::state),
-                                          field(wire_key::target_rad, &T::target_rad),
-                                          field(wire_key::tolerance_rad, &T::tolerance_rad),
-                                          field(wire_key::position_rad, &T::position_rad),
-                                          field("error_rad", &T::error_rad),
-                                          field("on_target", &T::on_target),
-                                          field("on_target_at_s", &T::on_target_at_s),
-                                          field("steps", &T::steps),
-                                          field(wire_key::f_hz, &T::f_hz),
-                                          field(wire_key::noise_m, &T::noise_m),
-                                          inline_fields(&T::hold),
-                                          field("stop_cause", &T::stop_cause, omitted_when_absent)};
+  static constexpr auto list =
+      std::tuple{field(wire_key::axis, &T::axis, may_be_missing),
+                 field(wire_key::state, &T::state),
+                 field(wire_key::target_rad, &T::target_rad),
+                 field(wire_key::tolerance_rad, &T::tolerance_rad),
+                 field(wire_key::position_rad, &T::position_rad),
+                 field("error_rad", &T::error_rad),
+                 field("on_target", &T::on_target),
+                 field("on_target_at_s", &T::on_target_at_s),
+                 field("steps", &T::steps),
+                 field(wire_key::f_hz, &T::f_hz),
+                 field(wire_key::noise_m, &T::noise_m),
+                 inline_fields(&T::hold),
+                 field(wire_key::stop_cause, &T::stop_cause, omitted_when_absent)};
 };
 template <>
 struct Fields<RunSummary::Samples> {

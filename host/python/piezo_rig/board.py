@@ -835,6 +835,13 @@ class Run:
         return _joined(self._blocks[self._sensor], self._layout.records[self._sensor])
 
     @property
+    def axes(self) -> list[str]:
+        """The axes this run drives, in the board's order: one, or a group
+        move's each (``theta(axis=...)``, ``fit_arrays(axis=...)`` take any)."""
+        moves = self.started.get("moves")
+        return [str(m["axis"]) for m in moves] if moves else [self.axis]
+
+    @property
     def zero_displacement_m(self) -> Optional[float]:
         """The angles' zero: the move's (its reply carries it), else the
         run's first good reading (docs/protocol.md, "Angles"); a group

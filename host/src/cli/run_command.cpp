@@ -1,6 +1,7 @@
-// What the run commands share (run_command.hpp): the run directory, the
-// connection to the board (in this process or at an address), the log, the
-// drive with its live status, the log's end and the plain report.
+// What the run commands share (run_command.hpp): their options, the run
+// directory, the live view and status line, the run's JSON and the plain
+// report. The run's session with its board (connect, checks, the log's
+// header and end, the drive) is run/run_setup.cpp's.
 
 #include "run_command.hpp"
 
@@ -27,6 +28,7 @@
 #include "piezo/firmware/wire_keys.hpp"
 #include "run/board_run.hpp"
 #include "run/local_board.hpp"
+#include "run/run_setup.hpp"
 #include "run/signals.hpp"
 #include "view/live_feed.hpp"
 #include "view/view_server.hpp"
@@ -130,12 +132,6 @@ std::string utc_stamp(const char* format) {
   gmtime_r(&now, &tm);
   char buf[64];
   std::strftime(buf, sizeof buf, format, &tm);
-  return buf;
-}
-
-std::string host_name() {
-  char buf[256] = {};
-  gethostname(buf, sizeof buf - 1);
   return buf;
 }
 
@@ -299,39 +295,6 @@ void show_status(const LiveStatus& st) {
   }
 }
 
-/// Writes the end of the log: results, then the final status. A log that
-/// cannot be finished fails the run; what was flushed stays readable.
-void finish_log(RunLog& log, RunSummary& summary, const nlohmann::json& result) {
-  if (log.broken()) {
-    log.abandon();  // a log that failed half-way is not written again
-    return;
-  }
-  try {
-    const auto histogram = [](const protocol::LoopHealth& h) {
-      return h.timing ? h.timing->histogram_us : std::vector<double>{};
-    };
-    log.write(log_schema::kDrivePeriodErrorUs, histogram(summary.board.drive));
-    log.write(log_schema::kAcquirePeriodErrorUs, histogram(summary.board.sensor));
-    log.set_attribute(log_schema::kSummary, result.dump());
-    log.set_attribute(log_schema::kRealtime,
-                      fmt::format("{}", fmt::join(summary.board.realtime, "; ")));
-    log.set_attribute(log_schema::kStopCause, summary.stop_cause());
-    log.set_attribute(log_schema::kOutput, summary.output_state());
-    // Each axis's own account on its group (an axis the run never measured has none).
-    for (const nlohmann::json& axis : result.value("axes", nlohmann::json::array())) {
-      const auto i = std::find(log.axes().begin(), log.axes().end(), axis.value("name", ""));
-      if (i == log.axes().end()) continue;
-      const auto index = static_cast<std::size_t>(i - log.axes().begin());
-      log.set_axis_attribute(index, log_schema::kSummary, axis.dump());
-      log.set_axis_attribute(index, log_schema::kStopCause, axis.value("stop_cause", "unknown"));
-    }
-    log.close(summary.status());
-  } catch (const std::exception& e) {
-    if (summary.host_error.empty()) summary.host_error = e.what();
-    log.abandon();
-  }
-}
-
 /// The run's config: the files and --set (with the drive keys given as
 /// options) and the board's address; `asked`: what the command asks for.
 config::ConfigFile run_config(const RunOptions& o, const RunProgram& program, RunAsked& asked) {
@@ -352,91 +315,6 @@ config::ConfigFile run_config(const RunOptions& o, const RunProgram& program, Ru
     config.host.model = own->model;
   }
   return config;
-}
-
-/// What drives: piezod at an address, or the firmware in this process
-/// (reached through the protocol all the same, until the report is done).
-struct Board {
-  std::unique_ptr<LocalBoard> local;  ///< declared first: its context outlives the client
-  std::optional<BoardClient> client;
-  protocol::Hello hello;
-  protocol::AxisInfo axis;              ///< the axis the run drives (a group's first)
-  nlohmann::json dictionary;            ///< the board's `describe`: its commands and limits
-  std::optional<BoardRequest> request;  ///< what this run asks of it, checked and prepared
-  std::string geometry_note;            ///< the board's sensor radius differed from the config's
-  /// The run's axes in the board's order, one or several (a group move's
-  /// targets, else the one axis it drives): the log keeps each under its
-  /// group, the view plots each.
-  std::vector<std::string> axes;
-};
-
-/// The run's axes in the board's order: a group move's targets (each must
-/// be the board's), else the one axis `named` names (resolved once).
-std::vector<std::string> run_axes(const RunAsked& asked, const protocol::Hello& hello,
-                                  const std::string& named, const std::string& address) {
-  const auto* move = std::get_if<asked::Move>(&asked);
-  if (move == nullptr || move->targets.empty()) return {axis_info(hello, named, address).name};
-  std::vector<std::string> names, out;
-  for (const auto& a : hello.axes) names.push_back(a.name);
-  for (const auto& [axis, target] : move->targets) {
-    if (std::find(names.begin(), names.end(), axis) == names.end()) {
-      throw config::ConfigError("piezod at " + address,
-                                fmt::format("{}.{}", wire_key::targets, axis),
-                                fmt::format("\"{}\" is not an axis of the board (allowed: {})",
-                                            axis, fmt::join(names, ", ")));
-    }
-  }
-  for (const std::string& name : names)
-    if (move->targets.contains(name)) out.push_back(name);
-  return out;
-}
-
-/// Refuses a move's target beyond its axis's travel window as the board
-/// declares it (hello), before anything is created: the board would refuse
-/// it too, after the run's directory was made.
-void check_travel(const RunAsked& asked, const protocol::Hello& hello, const std::string& axis,
-                  const std::string& address) {
-  const auto* move = std::get_if<asked::Move>(&asked);
-  if (move == nullptr) return;
-  std::map<std::string, double> targets = move->targets;
-  if (targets.empty()) targets[axis] = move->target_rad;
-  for (const auto& [name, target] : targets) {
-    for (const protocol::AxisInfo& a : hello.axes) {
-      if (a.name != (name.empty() ? axis_info(hello, name, address).name : name)) continue;
-      const double lo = a.travel_min_rad.value_or(-INFINITY);
-      const double hi = a.travel_max_rad.value_or(INFINITY);
-      if (target >= lo && target <= hi) continue;
-      throw config::ConfigError(
-          "piezod at " + address,
-          move->targets.empty() ? std::string(wire_key::target_rad)
-                                : fmt::format("{}.{}", wire_key::targets, name),
-          fmt::format("{:g} rad is outside axis {}'s travel window [{:g}, {:g}] rad (the board's "
-                      "safety.travel_min_rad, travel_max_rad; nothing was sent)",
-                      target, a.name, lo, hi));
-    }
-  }
-}
-
-void connect(Board& board, const config::ConfigFile& config, const RunAsked& asked) {
-  if (config.host.board.address.empty()) {
-    board.local = std::make_unique<LocalBoard>(config, config::build_rig(config.board));
-    board.client.emplace(config::BoardAddress{board.local->address(), "", "", 0.0, ""},
-                         board.local->context());
-  } else {
-    board.client.emplace(config.host.board);
-  }
-  board.hello = board.client->hello();
-  board.axes = run_axes(asked, board.hello, config.host.board.axis, board.client->address());
-  board.axis = axis_info(board.hello, board.axes.front(), board.client->address());
-  check_travel(asked, board.hello, config.host.board.axis, board.client->address());
-  if (const std::string note = sensor_geometry_note(config, board.axis); !note.empty()) {
-    write_out(stderr, "piezo: " + note + "\n");
-    board.geometry_note = note;
-  }
-  board.dictionary = board.client->call("describe");
-  board.request = board_request(config.host, asked);
-  check_request(*board.request, board.dictionary, board.client->address());
-  prepare_request(*board.request, *board.client);
 }
 
 /// The live view, bound before anything is created: a busy port is bad input.
@@ -475,51 +353,6 @@ std::unique_ptr<view::ViewServer> open_view(const RunOptions& o, const fs::path&
   return server;
 }
 
-/// The run's directory and log, once everything is checked: only now does
-/// the run leave traces.
-RunLog create_log(const fs::path& dir, const config::ConfigFile& config, const Board& board,
-                  const std::string& utc_start) {
-  fs::create_directories(dir);
-  if (!fs::is_empty(dir)) {
-    // Another run took the name between the check and now: never mix two.
-    throw config::ConfigError("--out", dir.string(), "was taken by another run meanwhile");
-  }
-  std::ofstream(dir / "config.toml") << config::run_config_file(config);
-  const bool remote = !board.local;
-  const std::vector<std::string>& axes = board.axes;
-  RunLog log = RunLog::create(
-      (dir / "run.h5").string(),
-      {{log_schema::kConfig, config.text},
-       {log_schema::kConfigSource, config.source},
-       {log_schema::kModelParameters, to_json(config.host.model).dump()},
-       {log_schema::kPlantParameters,
-        to_json(model::Parameters{config.host.model.drive, config.board.axis().plant}).dump()},
-       {log_schema::kVersion, PIEZO_VERSION},
-       {log_schema::kUtcStart, utc_start},
-       {log_schema::kHost, host_name()},
-       {log_schema::kClock, remote ? board.hello.clock : std::string(name(config.board.run.clock))},
-       {log_schema::kDriveLatency, fmt::format("{:.9g}", board.hello.output_latency_s)},
-       {log_schema::kTimeOrigin, "seconds from the run's start (first drive deadline)"}},
-      axes);
-  if (!board.geometry_note.empty())
-    log.set_attribute(log_schema::kSensorGeometryNote, board.geometry_note);
-  // Each axis its own angle's radius and model, on its group.
-  for (std::size_t i = 0; i < axes.size(); ++i) {
-    const protocol::AxisInfo& axis = axis_info(board.hello, axes[i], board.client->address());
-    log.set_axis_attribute(
-        i, log_schema::kTheta,
-        fmt::format("(displacement - its zero: theta_zero_m, else its first good reading) / "
-                    "sensor.r2_m, r2_m = {:.9g} m{}",
-                    axis.r2_m, remote ? " (the board's, from its hello)" : ""));
-    if (const config::AxisConfig* own = config.board.find_axis(axes[i])) {
-      log.set_axis_attribute(i, log_schema::kModelParameters, to_json(own->model).dump());
-      log.set_axis_attribute(i, log_schema::kPlantParameters,
-                             to_json(model::Parameters{own->model.drive, own->plant}).dump());
-    }
-  }
-  return log;
-}
-
 /// The terminal's status line and the live page's status, as a run reports.
 std::function<void(const LiveStatus&)> status_reporter(const RunOptions& o, view::LiveFeed* live) {
   if (o.json && live == nullptr) return {};
@@ -541,42 +374,6 @@ std::function<void(const LiveStatus&)> status_reporter(const RunOptions& o, view
   };
 }
 
-/// Runs it; a failure before the run's end leaves the log marked failed
-/// with the reason (the log keeps what it has) and is thrown on.
-RunSummary drive(Board& board, const config::ConfigFile& config, RunLog& log,
-                 const StopOnSignals& signals,
-                 const std::function<void(const LiveStatus&)>& status_line,
-                 const std::atomic<bool>& estop_requested, view::LiveFeed* live,
-                 AxisStops& axis_stops) {
-  try {
-    // The live view takes the collector's rows, not the log's: a log that
-    // fails leaves the view going to the run's end.
-    std::function<void(const log_schema::AxesRows&)> to_view;
-    if (live != nullptr) {
-      live->set_axes(board.axes);
-      to_view = [live](const log_schema::AxesRows& rows) { live->add(rows); };
-    }
-    RunSummary summary =
-        run_on_board(config, *board.client, board.hello, log, signals.flag(), status_line,
-                     *board.request, &estop_requested, to_view, &axis_stops);
-    if (board.local && !log.broken()) {
-      log.set_attribute(log_schema::kBoardEvents, board.local->events());
-    }
-    return summary;
-  } catch (const std::exception& e) {
-    if (!log.broken()) {
-      try {
-        log.set_attribute(log_schema::kStopCause, "host_error");
-        log.set_attribute(log_schema::kError, e.what());
-        log.close("failed");
-      } catch (const std::exception&) {
-        log.abandon();
-      }
-    }
-    throw;
-  }
-}
-
 int run(const RunOptions& o, const RunProgram& program) {
   // From here on every stopping signal ends the run through the ramp; one
   // that comes during set-up stops it before the amplifier is enabled.
@@ -584,7 +381,7 @@ int run(const RunOptions& o, const RunProgram& program) {
   RunAsked asked;
   config::ConfigFile config = run_config(o, program, asked);
   const fs::path dir = choose_run_dir(o.out);
-  Board board;
+  RunBoard board;
   connect(board, config, asked);
   // What the view's controls reach, declared before the server: it stops
   // (its threads joined) before they go.
@@ -599,9 +396,16 @@ int run(const RunOptions& o, const RunProgram& program) {
   const std::string utc_start = utc_stamp("%Y-%m-%dT%H:%M:%SZ");
   const fs::path log_path = dir / "run.h5";
   RunLog log = create_log(dir, config, board, utc_start);
+  // The live view takes the collector's rows, not the log's: a log that
+  // fails leaves the view going to the run's end.
+  std::function<void(const log_schema::AxesRows&)> to_view;
+  if (live) {
+    live->set_axes(board.axes);
+    to_view = [&live](const log_schema::AxesRows& rows) { live->add(rows); };
+  }
   RunSummary summary =
-      drive(board, config, log, signals, status_reporter(o, live ? &*live : nullptr),
-            estop_requested, live ? &*live : nullptr, axis_stops);
+      drive(board, config, log, signals.flag(), status_reporter(o, live ? &*live : nullptr),
+            estop_requested, to_view, axis_stops);
   if (!o.json && isatty(STDERR_FILENO)) write_out(stderr, "\n");
   // The run's JSON (a move's account is its axes').
   const auto result_json = [&] { return summary_json(summary, dir, log_path, signals.received()); };

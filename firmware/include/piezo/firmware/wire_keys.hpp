@@ -61,6 +61,7 @@ inline constexpr std::string_view slew_V_per_s = "slew_V_per_s";
 inline constexpr std::string_view state = "state";
 inline constexpr std::string_view step_fractions = "step_fractions";
 inline constexpr std::string_view steps_per_point = "steps_per_point";
+inline constexpr std::string_view stop_cause = "stop_cause";
 inline constexpr std::string_view stream = "stream";
 inline constexpr std::string_view summary = "summary";
 inline constexpr std::string_view t0_ns = "t0_ns";
