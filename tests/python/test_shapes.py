@@ -159,3 +159,34 @@ def test_every_cli_command(rig):
         r = piezo(*args, "--axis", "nope")
         assert r.returncode != 0, (args, r.stderr)
         assert "nope" in r.stderr and rig.name in r.stderr, (args, r.stderr)
+
+
+@pytest.mark.parametrize("shape", sorted(BOARDS))
+def test_an_axis_fault_latches_on_its_axis_on_a_board_of_one_as_of_three(shape, tmp_path,
+                                                                         source):
+    """One latch rule whatever the count: a sensor that stops answering
+    ends its axis's run `sensor_fault`, latched on that axis (the board goes
+    back to idle); a run on it is refused until reset_fault. The board's own
+    causes (the e-stop, test_every_protocol_command) latch on the board."""
+    config, axis, names = BOARDS[shape]
+    name = axis or names[0]
+    stall = (f"axes.{axis}.sensor.sim.stall_at_s=0.5" if axis
+             else "sensor.sim.stall_at_s=0.5")
+    process, address = peers.start_piezod(
+        os.environ["PIEZOD_BINARY"], os.path.join(source, "configs", config),
+        str(tmp_path / "piezod.err"), sets=["run.clock=virtual", stall])
+    try:
+        with Board(address) as board:
+            with pytest.raises(errors.RunEnded, match="sensor_fault"):
+                board.axes[name].step(30, 40, 10).wait()
+            status = board.status()
+            assert status["state"] == "idle" and status["fault"] is None, status
+            faults = {a["name"]: a["fault"] for a in status["axes"]}
+            assert faults == {n: ("sensor_fault" if n == name else None) for n in names}
+            with pytest.raises(errors.FaultLatched, match=f"axis {name}"):
+                board.axes[name].step(1, 40, 10)
+            assert board.reset_fault() == "idle"
+            assert all(a["fault"] is None for a in board.status()["axes"])
+    finally:
+        process.terminate()
+        process.wait(10)
