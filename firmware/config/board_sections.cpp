@@ -1,11 +1,14 @@
 // The board's sections: its devices ([drive], [sensor], [lines], each with
 // its chosen backend's own section), [safety] and [piezod] (sections.hpp).
 
+#include <fmt/format.h>
+
 #include <map>
 #include <string>
 #include <vector>
 
 #include "model_config.hpp"
+#include "piezo/config/config_error.hpp"
 #include "sections.hpp"
 
 namespace piezo::config::sections {
@@ -37,13 +40,27 @@ void read_backend_sections(SectionReader& r, Backends<Base>& kind, Backends_read
   }
 }
 
+/// A loop rate: the board's ([drive], [sensor]), or refused in an axis's
+/// own sections (`rate_hz` null), naming where it is set.
+void read_board_rate(SectionReader& r, double* rate_hz, const Range& allowed,
+                     const std::string& section) {
+  if (rate_hz != nullptr) {
+    r.number("rate_hz", *rate_hz, allowed, "Hz");
+  } else if (r.has("rate_hz")) {
+    throw ConfigError(r.source(), r.name("rate_hz"),
+                      fmt::format("the board's loop rate, the same for every axis (one tick "
+                                  "drives and reads them all); allowed: {}.rate_hz alone",
+                                  section));
+  }
+}
+
 }  // namespace
 
-void read_drive(SectionReader r, DriveSettings& d, model::Parameters& waveform,
-                Backends_read which) {
+void read_drive(SectionReader r, DriveSettings& d, model::Parameters& waveform, Backends_read which,
+                double* rate_hz) {
   choose_backend(r, d.backends);
   read_waveform(r, waveform);
-  r.number("rate_hz", d.rate_hz, {100.0, 100'000.0}, "Hz");
+  read_board_rate(r, rate_hz, {100.0, 100'000.0}, "drive");
   r.number("V_min", d.limits.V_min, {0.0, 1000.0}, "V");
   r.number("V_max", d.limits.V_max, {0.0, 1000.0, true}, "V");
   r.number("slew_V_per_s", d.limits.slew_V_per_s, kPositive, "V/s");
@@ -52,9 +69,9 @@ void read_drive(SectionReader r, DriveSettings& d, model::Parameters& waveform,
   r.finish();
 }
 
-void read_sensor(SectionReader r, SensorSettings& s, Backends_read which) {
+void read_sensor(SectionReader r, SensorSettings& s, Backends_read which, double* rate_hz) {
   choose_backend(r, s.backends);
-  r.number("rate_hz", s.rate_hz, {1.0, 100'000.0}, "Hz");
+  read_board_rate(r, rate_hz, {1.0, 100'000.0}, "sensor");
   r.number("r2_m", s.r2_m, {0.0, 10.0, true}, "m");
   r.number("range_min_m", s.range_min_m, {-1e3, 1e3}, "m");
   r.number("range_max_m", s.range_max_m, {-1e3, 1e3}, "m");

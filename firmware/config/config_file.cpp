@@ -40,7 +40,7 @@ void read_tables(const toml::table& t, const std::string& source, ConfigFile& c,
   BoardConfig& board = c.board;
   AxisConfig& axis = board.axis();
   HostConfig& host = c.host;
-  read_drive(file.section("drive"), axis.drive, axis.model, which);
+  read_drive(file.section("drive"), axis.drive, axis.model, which, &board.drive_rate_hz);
   SectionReader model = file.section("model");
   read_motor(model, axis.model.motor);
   model.finish();
@@ -48,7 +48,7 @@ void read_tables(const toml::table& t, const std::string& source, ConfigFile& c,
   // run asks for: one file says both.
   host.model = axis.model;
   read_plant(file.section("plant"), plant_keys, axis);
-  read_sensor(file.section("sensor"), axis.sensor, which);
+  read_sensor(file.section("sensor"), axis.sensor, which, &board.sensor_rate_hz);
   read_lines(file.section("lines"), board.lines, which);
   read_run(file.section("run"), host.run, board.run);
   read_move(file.section("move"), host.run.move_defaults);
@@ -71,12 +71,12 @@ void read_axis_tables(const toml::table& t, const std::string& axis, const std::
                       KeyDeclarations* declarations = nullptr,
                       Backends_read which = Backends_read::every) {
   TableReader own(t, source, declarations, "axes." + axis);
-  read_drive(own.section("drive"), a.drive, a.model, which);
+  read_drive(own.section("drive"), a.drive, a.model, which, nullptr);
   SectionReader model = own.section("model");
   read_motor(model, a.model.motor);
   model.finish();
   read_plant(own.section("plant"), plant_keys, a);
-  read_sensor(own.section("sensor"), a.sensor, which);
+  read_sensor(own.section("sensor"), a.sensor, which, nullptr);
   SectionReader safety = own.section("safety");
   read_safety(safety, a.safety);
   safety.finish();
@@ -200,7 +200,7 @@ void check_backends(const BoardConfig& b, const AxisConfig& a, const KeyNamer& n
                       "run in real time");
   }
   check_each(a.drive.backends,
-             hal::DriveCommon{a.drive.rate_hz, a.drive.amplifier_gain, b.lines.backend() != "none"},
+             hal::DriveCommon{b.drive_rate_hz, a.drive.amplifier_gain, b.lines.backend() != "none"},
              src);
   check_each(b.lines.backends, hal::LinesCommon{}, src);
 }
@@ -229,7 +229,7 @@ void check_whole(const ConfigFile& c, const KeyNamer& named,
   if (const auto issues = model::validate(plant); !issues.empty()) {
     fail("plant." + issues.front().name, issues.front().message);
   }
-  check_each(a.sensor.backends, a.sensor.common(), src);
+  check_each(a.sensor.backends, b.sensor_common(), src);
   // A sensor-only tool (`piezo sensor read`, rig-sim) uses no drive: how the
   // drive would pair with the sensor, or its limits, are not its business.
   if (scope == ConfigScope::sensor) return;
@@ -242,12 +242,13 @@ void check_whole(const ConfigFile& c, const KeyNamer& named,
   // The board checks its requests by the same rule (a run with nothing to
   // drive is a mistake).
   if (const auto breach =
-          firmware::check_drive(a.model.drive, h.run.duration_s, {lim, a.drive.rate_hz})) {
+          firmware::check_drive(a.model.drive, h.run.duration_s, {lim, b.drive_rate_hz})) {
     fail("drive." + breach->key, breach->message);
   }
-  if (a.sensor.rate_hz > a.drive.rate_hz) {
-    fail("sensor.rate_hz", fmt::format("{:g} Hz exceeds drive.rate_hz = {:g} Hz; allowed: <= {:g}",
-                                       a.sensor.rate_hz, a.drive.rate_hz, a.drive.rate_hz));
+  if (b.sensor_rate_hz > b.drive_rate_hz) {
+    throw ConfigError(src("sensor.rate_hz"), "sensor.rate_hz",
+                      fmt::format("{:g} Hz exceeds drive.rate_hz = {:g} Hz; allowed: <= {:g}",
+                                  b.sensor_rate_hz, b.drive_rate_hz, b.drive_rate_hz));
   }
   // A ramp to 0 V that takes longer than this is no stop.
   constexpr double kLongestRamp_s = 2.0;
@@ -258,30 +259,15 @@ void check_whole(const ConfigFile& c, const KeyNamer& named,
                      a.safety.ramp_down_V_per_s, lim.V_max / a.safety.ramp_down_V_per_s, lim.V_max,
                      lim.V_max / kLongestRamp_s, kLongestRamp_s));
   }
-  if (a.safety.sensor_stale_s <= 1.0 / a.sensor.rate_hz) {
+  if (a.safety.sensor_stale_s <= 1.0 / b.sensor_rate_hz) {
     fail("safety.sensor_stale_s", fmt::format("{:g} s must exceed one sensor period ({:g} s)",
-                                              a.safety.sensor_stale_s, 1.0 / a.sensor.rate_hz));
+                                              a.safety.sensor_stale_s, 1.0 / b.sensor_rate_hz));
   }
 }
 
-/// What holds between the axes: one tick (the rates are the board's), and
-/// no device resource taken twice.
+/// What holds between the axes: no device resource taken twice.
 void check_axes(const BoardConfig& b, const std::vector<KeyNamer>& named,
                 const std::string& source) {
-  const AxisConfig& first = b.axis();
-  for (std::size_t i = 0; i < b.axes.size(); ++i) {
-    const AxisConfig& a = b.axes[i];
-    const auto same_rate = [&](const std::string& key, double mine, double board) {
-      if (mine != board) {
-        throw ConfigError(source, named[i](key),
-                          fmt::format("{:g} Hz; allowed: {:g} Hz, the board's (axis {}): one "
-                                      "tick drives and reads every axis",
-                                      mine, board, first.name));
-      }
-    };
-    same_rate("drive.rate_hz", a.drive.rate_hz, first.drive.rate_hz);
-    same_rate("sensor.rate_hz", a.sensor.rate_hz, first.sensor.rate_hz);
-  }
   // Each chosen backend's resources, against every earlier axis's.
   struct Taken {
     std::string key;

@@ -56,9 +56,9 @@ struct Backends {
   }
 };
 
-/// [drive]: the waveform's limits and rate, and the backend that puts it out.
+/// [drive]: the waveform's limits and the backend that puts it out (its
+/// rate is the board's: BoardConfig::drive_rate_hz).
 struct DriveSettings {
-  double rate_hz = 10'000.0;
   firmware::VoltageLimits limits{0.0, 80.0, 20'000.0};
   double amplifier_gain = 20.0;  ///< piezo volts per volt at the backend's output
   Backends<hal::DriveBackend> backends{"sim", hal::drive_backends()};
@@ -66,8 +66,9 @@ struct DriveSettings {
   [[nodiscard]] const std::string& backend() const { return backends.backend; }
 };
 
+/// [sensor]: the sensor's geometry and range, and its backend (its rate is
+/// the board's: BoardConfig::sensor_rate_hz).
 struct SensorSettings {
-  double rate_hz = 1000.0;
   double r2_m = hal::kDefaultSensorRadius_m;  ///< reflector radius: theta = (d - d_tare) / r2
                                               ///< (docs/model.md section 4)
   /// The sensor's measuring range [m]: readings outside are out_of_range.
@@ -78,7 +79,6 @@ struct SensorSettings {
   Backends<hal::SensorBackend> backends{"sim", hal::sensor_backends()};
 
   [[nodiscard]] const std::string& backend() const { return backends.backend; }
-  [[nodiscard]] hal::SensorCommon common() const { return {rate_hz, r2_m}; }
 };
 
 struct LinesSettings {
@@ -168,20 +168,19 @@ struct AxisConfig {
 /// its axes, their devices and limits, its lines, its defaults and its daemon.
 struct BoardConfig {
   std::string source;  ///< the config file, for messages
-  /// At least one; in the file's order. One tick drives them all: their
-  /// drive.rate_hz and sensor.rate_hz are the board's, the same for each.
+  /// At least one; in the file's order. One tick drives them all.
   std::vector<AxisConfig> axes = std::vector<AxisConfig>(1);
+  /// The board's loop rates ([drive] and [sensor] rate_hz; an axis's own
+  /// sections may not name another): one tick drives every axis, and each
+  /// sensor line reads at this rate.
+  double drive_rate_hz = 10'000.0;
+  double sensor_rate_hz = 1'000.0;
   LinesSettings lines;
   BoardRunSettings run;
   /// [safety] fault_stops_all: an axis's own fault stops every axis.
   bool fault_stops_all = false;
   DaemonSettings daemon;
 
-  /// The board's loop rates: one tick drives every axis and one sensor
-  /// clock reads them, so every axis's [drive] and [sensor] rate_hz is the
-  /// same (the reader refuses an axis that names another).
-  [[nodiscard]] double drive_rate_hz() const { return axes.front().drive.rate_hz; }
-  [[nodiscard]] double sensor_rate_hz() const { return axes.front().sensor.rate_hz; }
   [[nodiscard]] const AxisConfig& axis(std::size_t i = 0) const { return axes.at(i); }
   [[nodiscard]] AxisConfig& axis(std::size_t i = 0) { return axes.at(i); }
   /// The axis named `name`, or null.
@@ -195,7 +194,11 @@ struct BoardConfig {
   /// What an axis's drive backends take from its [drive] (and whether [lines] has an enable line).
   [[nodiscard]] hal::DriveCommon drive_common(std::size_t axis = 0) const {
     const DriveSettings& d = axes.at(axis).drive;
-    return {d.rate_hz, d.amplifier_gain, lines.backend() != "none"};
+    return {drive_rate_hz, d.amplifier_gain, lines.backend() != "none"};
+  }
+  /// What an axis's sensor backends take: the board's rate, its radius.
+  [[nodiscard]] hal::SensorCommon sensor_common(std::size_t axis = 0) const {
+    return {sensor_rate_hz, axes.at(axis).sensor.r2_m};
   }
 };
 

@@ -27,9 +27,10 @@ std::shared_ptr<hal::sim::SimRig> make_sim_rig(const BoardConfig& c, hal::Clock&
     const AxisConfig& a = c.axes[i];
     const auto& drive = a.drive.backends.get<hal::sim::SimDriveBackend>();
     const hal::DriveCommon common = c.drive_common(i);
-    axes.push_back({a.plant, drive.amplifier(common), drive.dac(common),
-                    a.sensor.backends.get<hal::sim::SimSensorBackend>().settings(a.sensor.common()),
-                    a.plant_end_stop_rad, a.plant_coupling});
+    axes.push_back(
+        {a.plant, drive.amplifier(common), drive.dac(common),
+         a.sensor.backends.get<hal::sim::SimSensorBackend>().settings(c.sensor_common(i)),
+         a.plant_end_stop_rad, a.plant_coupling});
   }
   return std::make_shared<hal::sim::SimRig>(
       axes, c.lines.backends.get<hal::sim::SimLinesBackend>().settings(), clock, t0);
@@ -55,7 +56,7 @@ Rig build_rig(const BoardConfig& c) {
     context.axis = i;
     RigAxis& axis = rig.axes.emplace_back();
     axis.own_drive = a.drive.backends.chosen().open(c.drive_common(i), context);
-    axis.own_sensor = a.sensor.backends.chosen().open(a.sensor.common(), context);
+    axis.own_sensor = a.sensor.backends.chosen().open(c.sensor_common(i), context);
     axis.drive = axis.own_drive.get();
     axis.checked_sensor = held_to_range(a, *axis.own_sensor);
     axis.sensor = axis.checked_sensor.get();
@@ -74,7 +75,7 @@ SensorRig build_sensor(const BoardConfig& c, std::size_t axis) {
   const auto& backend = a.sensor.backends.chosen();
   hal::OpenContext context{*s.clock, nullptr, axis};
   if (backend.simulated()) context.sim = make_sim_rig(c, *s.clock, s.clock->now());
-  s.own_sensor = backend.open(a.sensor.common(), context);
+  s.own_sensor = backend.open(c.sensor_common(axis), context);
   s.checked_sensor = held_to_range(a, *s.own_sensor);
   s.sensor = s.checked_sensor.get();
   return s;

@@ -15,10 +15,12 @@ namespace piezo::config::sections {
 /// declaring the keys), or the chosen backend's alone (the effective config).
 enum class Backends_read { every, chosen };
 
-// The board's (board_sections.cpp).
-void read_drive(SectionReader r, DriveSettings& d, model::Parameters& waveform,
-                Backends_read which);
-void read_sensor(SectionReader r, SensorSettings& s, Backends_read which);
+// The board's (board_sections.cpp). `rate_hz`: where the board's loop rate
+// goes ([drive] and [sensor]); null in an axis's own sections, which may not
+// name one (one tick drives every axis).
+void read_drive(SectionReader r, DriveSettings& d, model::Parameters& waveform, Backends_read which,
+                double* rate_hz);
+void read_sensor(SectionReader r, SensorSettings& s, Backends_read which, double* rate_hz);
 void read_lines(SectionReader r, LinesSettings& l, Backends_read which);
 /// [safety]'s keys that each axis has (the caller finishes the section).
 void read_safety(SectionReader& r, firmware::SafetySettings& s);

@@ -64,8 +64,8 @@ Daemon::Daemon(const config::BoardConfig& board, config::Rig rig, zmq::context_t
       command_endpoint_(listen.empty() ? board.daemon.listen : listen),
       // recorder_s of a run of every axis: a group move records each axis's samples.
       samples_(board.daemon.recorder_s,
-               board_.drive_rate_hz() * static_cast<double>(board_.axes.size()),
-               board_.sensor_rate_hz() * static_cast<double>(board_.axes.size()),
+               board_.drive_rate_hz * static_cast<double>(board_.axes.size()),
+               board_.sensor_rate_hz * static_cast<double>(board_.axes.size()),
                board.daemon.spill_file, board.daemon.fetch_samples_per_s, stream_),
       command_table_(command_table()) {
   for (std::size_t i = 0; i < board_.axes.size(); ++i) {
@@ -164,8 +164,9 @@ void Daemon::load_calibration_file(ServedAxis& axis) {
   // the model), said in the log; it is replaced by the next calibration.
   const config::DriveSettings& drive = axis.config.drive;
   try {
-    axis.calibration = load_calibration(
-        axis.calibration_file, {drive.limits.V_max, firmware::max_drive_frequency(drive.rate_hz)});
+    axis.calibration =
+        load_calibration(axis.calibration_file,
+                         {drive.limits.V_max, firmware::max_drive_frequency(board_.drive_rate_hz)});
     if (axis.calibration) {
       log_event(fmt::format("calibration of {} loaded from {}", axis.calibration->created,
                             axis.calibration_file));

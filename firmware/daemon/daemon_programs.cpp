@@ -170,10 +170,10 @@ firmware::MoveSettings Daemon::plan_move(ServedAxis& axis, const protocol::MoveT
   // The model's (or a fitted config's) view of the motor; a calibration
   // replaces the step tables with measured ones. Uncalibrated, and with no
   // frequency asked for: the model's tables at 2f and 4f too.
-  axis.planner.plan(m, false, c.drive.rate_hz, c.drive.limits.slew_V_per_s);
+  axis.planner.plan(m, false, board_.drive_rate_hz, c.drive.limits.slew_V_per_s);
   calibrated = calibration && apply_calibration(*calibration, request.f, m);
   if (!calibrated && !request.f) {
-    axis.planner.plan(m, true, c.drive.rate_hz, c.drive.limits.slew_V_per_s);
+    axis.planner.plan(m, true, board_.drive_rate_hz, c.drive.limits.slew_V_per_s);
   }
   return m;
 }
@@ -197,10 +197,10 @@ json Daemon::calibrate(const std::string& client, const json& args) {
   plan.r2_m = c.sensor.r2_m;
   plan.hold_V_max = firmware::kHoldFractionOfVmax * lim.V_max;
   plan.fast_slew_V_per_s = lim.slew_V_per_s;
-  plan.flush_readings = std::max(10, static_cast<int>(std::ceil(0.1 * c.sensor.rate_hz)));
+  plan.flush_readings = std::max(10, static_cast<int>(std::ceil(0.1 * board_.sensor_rate_hz)));
   // The board's frequency, twice and four times it: as many as the board's
   // rate and slew limit allow at V0.
-  const double f_max = std::min(firmware::max_drive_frequency(c.drive.rate_hz),
+  const double f_max = std::min(firmware::max_drive_frequency(board_.drive_rate_hz),
                                 lim.slew_V_per_s * std::min(plan.D, 1.0 - plan.D) / plan.V0);
   plan.frequencies = 0;
   for (const double factor : {1.0, 2.0, 4.0}) {
@@ -217,7 +217,8 @@ json Daemon::calibrate(const std::string& client, const json& args) {
   d.direction = model::Direction::forward;
   d.V0 = plan.V0;
   d.f = plan.f_hz[static_cast<std::size_t>(plan.frequencies - 1)];
-  (void)apply_configuration(axis, {d, 1.5 * plan.duration_s(c.sensor.rate_hz) + 1.0}, "calibrate");
+  (void)apply_configuration(axis, {d, 1.5 * plan.duration_s(board_.sensor_rate_hz) + 1.0},
+                            "calibrate");
   protocol::StartReply started = start(client, request.lease_s, {{}, plan}, "calibrate");
   started.calibration = protocol::StartReply::Calibration{
       static_cast<std::uint32_t>(plan.steps), plan.V0,
@@ -246,7 +247,7 @@ json Daemon::set_calibration(const std::string&, const json& args) {
   const config::DriveSettings& drive = axis.config.drive;
   const std::optional<std::string> save_error = install_calibration(
       axis, checked_calibration(
-                given, {drive.limits.V_max, firmware::max_drive_frequency(drive.rate_hz)}));
+                given, {drive.limits.V_max, firmware::max_drive_frequency(board_.drive_rate_hz)}));
   protocol::SetCalibrationReply reply{axis.calibration, std::nullopt, save_error};
   if (!axis.calibration_file.empty() && !save_error) reply.saved_to = axis.calibration_file;
   return reply;
@@ -294,7 +295,7 @@ json Daemon::set_zero(const std::string&, const json& args) {
 Daemon::AtRest Daemon::read_at_rest(ServedAxis& axis, std::size_t n) {
   hal::Clock& clock = *rig_.clock;
   clock.add_sleeper();  // the virtual clock schedules the threads it knows of
-  const hal::TimeNs period = hal::from_seconds(1.0 / axis.config.sensor.rate_hz);
+  const hal::TimeNs period = hal::from_seconds(1.0 / board_.sensor_rate_hz);
   hal::TimeNs next = clock.now();
   std::vector<double> readings;
   // The first readings after an idle gap may be the sensor's last ones

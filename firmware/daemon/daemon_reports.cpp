@@ -46,8 +46,8 @@ protocol::Hello Daemon::hello() const {
   h.stream = stream_endpoint_;
   h.clock = config::name(board_.run.clock);
   h.backends = {std::string(board_.lines.backend())};
-  h.drive_rate_hz = board_.drive_rate_hz();
-  h.sensor_rate_hz = board_.sensor_rate_hz();
+  h.drive_rate_hz = board_.drive_rate_hz;
+  h.sensor_rate_hz = board_.sensor_rate_hz;
   h.lease_s = board_.daemon.lease_s;
   h.recorder_s = board_.daemon.recorder_s;
   // The board's limits: its own, and the widest of its axes' (each axis
@@ -57,7 +57,7 @@ protocol::Hello Daemon::hello() const {
               0.0,
               std::numeric_limits<double>::infinity(),
               std::numeric_limits<double>::infinity(),
-              firmware::max_drive_frequency(board_.drive_rate_hz()),
+              firmware::max_drive_frequency(board_.drive_rate_hz),
               board_.daemon.duration_max_s,
               board_.daemon.lease_max_s};
   const auto end = [](double v) { return std::isfinite(v) ? std::optional(v) : std::nullopt; };

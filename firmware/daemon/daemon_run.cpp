@@ -54,7 +54,7 @@ protocol::ConfigureRequest Daemon::apply_configuration(ServedAxis& axis,
     throw ProtocolError(code::bad_state, "", fmt::format("{}: a run is under way", cmd));
   if (const auto breach = firmware::check_drive(
           r.drive, r.duration_s,
-          {axis.config.drive.limits, axis.config.drive.rate_hz, board_.daemon.duration_max_s})) {
+          {axis.config.drive.limits, board_.drive_rate_hz, board_.daemon.duration_max_s})) {
     throw out_of_limits(breach->key, breach->message);
   }
   configured_ = r;
@@ -104,7 +104,7 @@ protocol::StartReply Daemon::start(const std::string& client,
     Run* r = run.get();
     const auto window = static_cast<std::uint64_t>(
         std::min(kVirtualAckWindow * static_cast<double>(samples_.drive_capacity()),
-                 kVirtualAckWindow_s * board_.drive_rate_hz()));
+                 kVirtualAckWindow_s * board_.drive_rate_hz));
     const auto lease_ns = static_cast<std::int64_t>(lease_s * 1e9);
     lagging = [r, window, lease_ns] {
       return wall_ns() - r->lease_renewed_ns.load() < lease_ns &&
@@ -140,8 +140,8 @@ protocol::StartReply Daemon::start(const std::string& client,
 void Daemon::build_runner(Run& run, const Program& program) {
   // The rates are the board's (one tick for every axis).
   firmware::LoopRunnerSettings settings{
-      {board_.drive_rate_hz(), run.request.duration_s, board_.fault_stops_all},
-      board_.sensor_rate_hz(),
+      {board_.drive_rate_hz, run.request.duration_s, board_.fault_stops_all},
+      board_.sensor_rate_hz,
       !board_.virtual_clock(),
       board_.run.priority,
       board_.run.lock_memory};
@@ -443,9 +443,9 @@ void Daemon::take_calibration(Run& run) {
     ServedAxis& axis = run.first().axis;
     const config::DriveSettings& drive = axis.config.drive;
     install_calibration(
-        axis,
-        checked_calibration(measured_calibration(run.calibration->plan(), result),
-                            {drive.limits.V_max, firmware::max_drive_frequency(drive.rate_hz)}));
+        axis, checked_calibration(
+                  measured_calibration(run.calibration->plan(), result),
+                  {drive.limits.V_max, firmware::max_drive_frequency(board_.drive_rate_hz)}));
     run.summary.calibration.value = *axis.calibration;
   } catch (const std::exception& e) {
     // Measurements no calibration can hold (no motion, a sensor that saw

@@ -121,8 +121,8 @@ Latencies in_process(double seconds) {
   std::vector<firmware::RunAxis> axes{{*rig.axes.front().drive, *rig.axes.front().sensor, program,
                                        config.board.axis().drive.limits, 0.1,
                                        config.board.axis().safety}};
-  firmware::LoopRunner runner({{config.board.drive_rate_hz(), seconds},
-                               config.board.sensor_rate_hz(),
+  firmware::LoopRunner runner({{config.board.drive_rate_hz, seconds},
+                               config.board.sensor_rate_hz,
                                true,
                                config.board.run.priority,
                                config.board.run.lock_memory},

@@ -222,7 +222,7 @@ CalibrationReport finish_calibration(const fs::path& dir, const fs::path& log,
                                      bool local) {
   CalibrationReport report;
   Calibration cal = board_calibration;
-  const double sensor_rate_hz = config.board.sensor_rate_hz();
+  const double sensor_rate_hz = config.board.sensor_rate_hz;
   try {
     cal.model = json(fit_model(log, cal, sensor_rate_hz));
   } catch (const std::exception& e) {

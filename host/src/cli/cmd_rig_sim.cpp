@@ -45,7 +45,7 @@ hal::sim::ModbusRigAxis axis_device(const config::BoardConfig& board, std::size_
   s.plant = a.plant;
   const hal::DriveCommon drive = board.drive_common(i);
   s.amplifier = a.drive.backends.get<hal::sim::SimDriveBackend>().amplifier(drive);
-  s.sensor = a.sensor.backends.get<hal::sim::SimSensorBackend>().settings(a.sensor.common());
+  s.sensor = a.sensor.backends.get<hal::sim::SimSensorBackend>().settings(board.sensor_common(i));
   s.sensor_map = a.sensor.backends.get<hal::modbus::ModbusSensorBackend>().map();
   const auto ao = a.drive.backends.get<hal::modbus::AnalogOutputBackend>().settings(drive);
   s.ao_address = ao.address;

@@ -75,7 +75,7 @@ int run(const SensorReadOptions& o) {
   const config::SensorSettings& settings = config.board.axis(axis).sensor;
   config::SensorRig rig = config::build_sensor(config.board, axis);
   hal::Clock& clock = *rig.clock;
-  const auto period = hal::from_seconds(1.0 / settings.rate_hz);
+  const auto period = hal::from_seconds(1.0 / config.board.sensor_rate_hz);
   const hal::TimeNs t0 = clock.now();
   nlohmann::json readings = nlohmann::json::array();
   int errors = 0;

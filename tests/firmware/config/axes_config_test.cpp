@@ -76,8 +76,8 @@ TEST_F(AxesConfig, TheThreeAxisBoardOverlaysEachAxisOnTheFilesSections) {
   EXPECT_EQ(board.axes[0].drive.limits.V_max, 80.0);
   EXPECT_EQ(board.axes[2].safety.travel_max_rad, 0.5);
   EXPECT_TRUE(std::isinf(board.axes[0].safety.travel_max_rad));
+  EXPECT_EQ(board.drive_rate_hz, 10'000.0) << "the board's, not an axis's";
   for (const AxisConfig& a : board.axes) {
-    EXPECT_EQ(a.drive.rate_hz, 10'000.0) << a.name;
     EXPECT_EQ(a.plant_coupling, 0.02) << a.name << ": crosstalk on";
   }
 }
@@ -203,6 +203,9 @@ TEST_F(AxesConfig, TheBoardsOwnSectionsAreNotAnAxiss) {
   const std::string rate = refusal(kBoard + "[axes.a]\n[axes.b.drive]\nrate_hz = 5000\n");
   EXPECT_NE(rate.find("axes.b.drive.rate_hz"), std::string::npos) << rate;
   EXPECT_NE(rate.find("one tick"), std::string::npos) << rate;
+  EXPECT_NE(rate.find("allowed: drive.rate_hz alone"), std::string::npos) << rate;
+  const std::string sensor_rate = refusal(kBoard + "[axes.a]\n[axes.b.sensor]\nrate_hz = 500\n");
+  EXPECT_NE(sensor_rate.find("axes.b.sensor.rate_hz"), std::string::npos) << sensor_rate;
   EXPECT_NE(refusal(kBoard + "[axes.a.safety]\nfault_stops_all = true\n")
                 .find("axes.a.safety.fault_stops_all"),
             std::string::npos);
