@@ -153,9 +153,13 @@ def test_every_cli_command(rig):
     ok("recover", str(out / "run"), "--json")
     ok("estop", *rig_args)
     ok("reset-fault", *rig_args)
+    # The sensor of the config's axis, read on this machine (no board).
+    read = ok("sensor", "read", "--config", rig.config, *axis, "--count", "3", "--json")
+    assert '"displacement_m"' in read, read
     # An axis the board (or the log) lacks, refused naming what there is.
     for args in (["step", "1", *rig_args], ["move", "--to", "0.001", *rig_args],
-                 ["zero", *rig_args], ["identify", "--log", log, "--params", "F_N"]):
+                 ["zero", *rig_args], ["identify", "--log", log, "--params", "F_N"],
+                 ["sensor", "read", "--config", rig.config, "--count", "1"]):
         r = piezo(*args, "--axis", "nope")
         assert r.returncode != 0, (args, r.stderr)
         assert "nope" in r.stderr and rig.name in r.stderr, (args, r.stderr)
