@@ -463,6 +463,10 @@ def test_every_axis_is_a_device_and_the_board_moves_a_group(tmp_path, source):
                      10, "the group started")
             wait_for(lambda: board.state() == DevState.ON and theta.state() == DevState.ON
                      and chi.state() == DevState.ON, 60, "the group's end")
+            # The devices may turn ON a poll before the board's status has
+            # the group's summary.
+            wait_for(lambda: [a["name"] for a in last_summary(watcher).get("axes", [])]
+                     == ["theta", "chi"], 10, "the group's summary")
             ends = {a["name"]: a["move"]["stop_cause"]
                     for a in last_summary(watcher)["axes"]}
         assert ends == {"theta": "on_target", "chi": "on_target"}, ends
