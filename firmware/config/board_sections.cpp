@@ -94,6 +94,7 @@ void read_daemon(SectionReader r, DaemonSettings& d) {
   r.text("calibration_file", d.calibration_file);
   r.number("duration_max_s", d.duration_max_s, {0.0, 1e7, true}, "s");
   r.number("fetch_samples_per_s", d.fetch_samples_per_s, {1e3, 1e9}, "samples/s");
+  r.number("idle_rate_hz", d.idle_rate_hz, {0.0, 1000.0}, "Hz");
   r.text("secret_key_file", d.secret_key_file);
   r.text("authorized_keys_file", d.authorized_keys_file);
   r.flag("insecure", d.insecure);

@@ -125,6 +125,9 @@ struct DaemonSettings {
   /// What each client's fetches may take, samples per second (bursts up to
   /// one largest fetch, 100000): a flood of them costs the board this much.
   double fetch_samples_per_s = 1e6;
+  /// Between runs every axis's sensor is read at this rate, the drive at
+  /// 0 V (0: not at all; no position at rest then, no move at rest seen).
+  double idle_rate_hz = 20.0;
   /// Network binds need CURVE: the server's secret key (Z85, from `piezod
   /// keygen`) and the clients' public keys, one per line.
   std::string secret_key_file;

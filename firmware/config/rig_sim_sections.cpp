@@ -18,6 +18,7 @@ void read_rig_sim(SectionReader r, hal::sim::ModbusDeviceFaults& f, hal::sim::Tc
   r.number("hang_at_s", f.hang_at_s, kNonNegative, "s");
   r.number("hang_for_s", f.hang_for_s, {0.0, 3600.0}, "s");
   r.flag("times_from_drive", f.times_from_drive);
+  r.integer("hand_address", f.hand_address, 0, 65535 - 64);
   r.finish();
 }
 

@@ -89,6 +89,9 @@ Daemon::Daemon(const config::BoardConfig& board, config::Rig rig, zmq::context_t
     (void)axis->planner.steps(d0.V0, d0.f, d0.D());
   }
   last_health_ = Clock::now();
+  std::vector<IdleReader::Axis> idle_axes;
+  for (const auto& axis : axes_) idle_axes.push_back({axis->rig.drive, axis->rig.sensor});
+  idle_ = std::make_unique<IdleReader>(*rig_.clock, std::move(idle_axes), board_.daemon.idle_rate_hz);
   std::string devices;
   for (const auto& axis : axes_) {
     devices +=
@@ -253,6 +256,7 @@ void Daemon::poll_once() {
     }
   }
   check_lease_on_wall_clock();
+  take_idle_readings();
   pump_samples();
   if (run_ && !run_->finished && run_->runner->finished()) finish_run();
   if (Clock::now() - last_health_ >= kHealthPeriod) {

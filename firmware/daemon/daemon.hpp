@@ -6,6 +6,7 @@
 //   daemon_run.cpp      a run's life: configure, start, step, stop, lease, its end
 //   daemon_programs.cpp what a run follows besides a waveform: moves, calibration;
 //                       the zero and readings at rest
+//   daemon_rest.cpp     the axes between runs: idle readings, moves at rest
 //   daemon_reports.cpp  what the board says: hello, status, events (typed messages)
 //   run_state.*         the state machine and its latching rules
 //   command_table.*     commands, their arguments and who may send them
@@ -26,6 +27,7 @@
 
 #include "client_authentication.hpp"
 #include "command_table.hpp"
+#include "idle_reader.hpp"
 #include "config/config_file.hpp"
 #include "config/rig.hpp"
 #include "piezo/firmware/angle_zero.hpp"
@@ -153,6 +155,14 @@ class Daemon {
   /// also become the recent ones, so `status` says the same).
   [[nodiscard]] AtRest read_at_rest(ServedAxis& axis, std::size_t n);
 
+  // daemon_rest.cpp
+  /// Takes the idle reader's readings: positions, noise, moves at rest.
+  void take_idle_readings();
+  /// A new rest for every axis (the board's start, a run's end).
+  void begin_rest();
+  /// What the axis's readings at rest say, for status and health.
+  [[nodiscard]] protocol::RestReport rest_of(const ServedAxis& axis) const;
+
   // daemon_reports.cpp
   [[nodiscard]] protocol::Hello hello() const;
   /// An axis's position from its zero and its latest readings.
@@ -185,6 +195,10 @@ class Daemon {
   std::chrono::steady_clock::time_point last_health_;
   std::uint64_t last_drive_cycles_ = 0;
   std::chrono::steady_clock::time_point last_drive_progress_;
+  /// Reads every sensor between runs (its thread uses the rig and axes above).
+  std::unique_ptr<IdleReader> idle_;
+  /// Held from a run's start to its end: the run's loops own the sensors.
+  std::optional<IdleReader::Hold> run_hold_;
   CommandTable command_table_;  ///< last: its handlers use the members above
 };
 

@@ -11,6 +11,7 @@
 #include "calibration.hpp"
 #include "daemon_run.hpp"
 #include "piezo/firmware/request_limits.hpp"
+#include "piezo/firmware/rest_watch.hpp"
 #include "piezo/firmware/wire_keys.hpp"
 #include "piezo/protocol/message.hpp"
 
@@ -293,6 +294,7 @@ json Daemon::set_zero(const std::string&, const json& args) {
 }
 
 Daemon::AtRest Daemon::read_at_rest(ServedAxis& axis, std::size_t n) {
+  const IdleReader::Hold sensors_held = idle_->hold();  // this thread reads them now
   hal::Clock& clock = *rig_.clock;
   clock.add_sleeper();  // the virtual clock schedules the threads it knows of
   const hal::TimeNs period = hal::from_seconds(1.0 / board_.sensor_rate_hz);
@@ -320,19 +322,7 @@ Daemon::AtRest Daemon::read_at_rest(ServedAxis& axis, std::size_t n) {
   double sum = 0.0;
   for (const double d : readings) sum += d;
   r.mean_m = sum / static_cast<double>(readings.size());
-  if (readings.size() > 2) {
-    // The noise from successive differences, by their median: a rotor
-    // still creeping or one odd reading does not pass for noise.
-    std::vector<double> steps;
-    for (std::size_t i = 1; i < readings.size(); ++i) {
-      steps.push_back(std::abs(readings[i] - readings[i - 1]));
-    }
-    std::nth_element(steps.begin(), steps.begin() + static_cast<long>(steps.size() / 2),
-                     steps.end());
-    // For Gaussian noise the difference of two readings has sigma*sqrt(2),
-    // and its absolute value's median is 0.6745 of that.
-    r.stddev_m = steps[steps.size() / 2] / (0.6745 * std::sqrt(2.0));
-  }
+  if (readings.size() > 2) r.stddev_m = firmware::noise_of_readings(readings.data(), readings.size());
   return r;
 }
 

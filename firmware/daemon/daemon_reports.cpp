@@ -100,7 +100,8 @@ protocol::Status Daemon::status(const std::string& client) const {
   for (const auto& axis : axes_) {
     s.axes.push_back(
         {axis->name(), position_of(*axis), axis->calibration.has_value(),
-         axis->fault == firmware::StopCause::none ? std::nullopt : std::optional(axis->fault)});
+         axis->fault == firmware::StopCause::none ? std::nullopt : std::optional(axis->fault),
+         rest_of(*axis)});
   }
   s.configured = configured_;
   if (run_) {
@@ -220,6 +221,7 @@ void Daemon::publish_health() {
     if (run_->is_move()) e.moves = move_accounts(*run_);
     if (run_->calibration) e.calibration_progress = run_->calibration->progress();
   }
+  for (const auto& axis : axes_) e.rest.push_back(rest_of(*axis));
   const std::string body = protocol::encode_map(e);
   std::array<zmq::const_buffer, 2> parts{zmq::str_buffer("health"), zmq::buffer(body)};
   (void)zmq::send_multipart(stream_, parts, zmq::send_flags::dontwait);

@@ -30,11 +30,6 @@ using Clock = std::chrono::steady_clock;
 constexpr double kVirtualAckWindow = 0.5;
 constexpr double kVirtualAckWindow_s = 20.0;
 
-std::int64_t wall_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch())
-      .count();
-}
-
 }  // namespace
 
 // The command table has admitted only the controller to these handlers
@@ -85,6 +80,8 @@ protocol::StartReply Daemon::start(const std::string& client,
   if (program.moves.empty() && !program.calibration) {
     require_inward(*configured_axis_, configured_->drive.direction);
   }
+  // The run's loops own the sensors from here: no idle reading runs.
+  IdleReader::Hold sensors_held = idle_->hold();
   run_.reset();  // the last run's runner (joined) goes; its samples are overwritten below
   // A move's axes (a group's several), or the axis `configure` set.
   std::vector<ServedAxis*> axes;
@@ -97,7 +94,7 @@ protocol::StartReply Daemon::start(const std::string& client,
   samples_.clear();
   build_runner(*run, program);
   const bool virtual_clock = board_.virtual_clock();
-  run->lease_renewed_ns = wall_ns();
+  run->lease_renewed_ns = steady_ns();
   std::function<bool()> lagging;
   if (virtual_clock) {
     // Time waits for a controller that is alive but behind.
@@ -107,7 +104,7 @@ protocol::StartReply Daemon::start(const std::string& client,
                  kVirtualAckWindow_s * board_.drive_rate_hz));
     const auto lease_ns = static_cast<std::int64_t>(lease_s * 1e9);
     lagging = [r, window, lease_ns] {
-      return wall_ns() - r->lease_renewed_ns.load() < lease_ns &&
+      return steady_ns() - r->lease_renewed_ns.load() < lease_ns &&
              r->drive_recorded.load() > r->drive_acked.load() + window;
     };
   }
@@ -119,11 +116,12 @@ protocol::StartReply Daemon::start(const std::string& client,
   run->t0 = run->runner->start(
       [this, starting, virtual_clock, lease_s](hal::TimeNs t0) {
         rig_.start_at(t0);
-        starting->lease_renewed_ns = wall_ns();
+        starting->lease_renewed_ns = steady_ns();
         if (!virtual_clock) starting->remote.lease_deadline = t0 + hal::from_seconds(lease_s);
       },
       lagging);
   run_ = std::move(run);
+  run_hold_.emplace(std::move(sensors_held));
   run_state_.started(client);
   log_event(fmt::format("run {} started: V0 {:g} V, f {:g} Hz, {:g} s, lease {:g} s", run_->id,
                         run_->request.drive.V0, run_->request.drive.f, run_->request.duration_s,
@@ -335,7 +333,7 @@ json Daemon::renew_lease(const json& args) {
   const auto request = protocol::decode<protocol::LeaseRequest>(args);
   if (request.drive_received) run_->drive_acked = *request.drive_received;
   if (board_.virtual_clock()) {
-    run_->lease_renewed_ns = wall_ns();
+    run_->lease_renewed_ns = steady_ns();
   } else {
     run_->remote.lease_deadline = rig_.clock->now() + hal::from_seconds(run_->lease_s);
   }
@@ -344,7 +342,7 @@ json Daemon::renew_lease(const json& args) {
 
 void Daemon::check_lease_on_wall_clock() {
   if (!running() || !board_.virtual_clock()) return;
-  if (static_cast<double>(wall_ns() - run_->lease_renewed_ns.load()) > run_->lease_s * 1e9) {
+  if (static_cast<double>(steady_ns() - run_->lease_renewed_ns.load()) > run_->lease_s * 1e9) {
     // Expire it on the board clock, as of now: the drive loop stops with
     // link_lost (unless the run's duration had already ended by then).
     run_->remote.lease_deadline.store(
@@ -363,6 +361,7 @@ void Daemon::pump_samples() {
       [this](std::uint8_t axis_index, double d) {
         ServedAxis& axis = *axes_.at(axis_index);
         axis.remember_reading(d);
+        axis.last_good_wall_ns = steady_ns();
         axis.zero.offer(d);  // no zero yet: the first good reading
       });
   run.drive_recorded = samples_.drive_recorded();
@@ -425,6 +424,9 @@ void Daemon::finish_run() {
       "run {} ended: {}, output {}{}", run.id, firmware::to_string(cause),
       firmware::to_string(run.summary.output.state),
       run_state_.state() == State::fault ? " (fault latched: reset_fault to go on)" : ""));
+  // A new rest from here: the idle reader reads the sensors again.
+  begin_rest();
+  run_hold_.reset();
   publish_state();
 }
 

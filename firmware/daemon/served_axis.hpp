@@ -12,6 +12,7 @@
 #include "config/rig.hpp"
 #include "piezo/firmware/angle_zero.hpp"
 #include "piezo/firmware/move_planner.hpp"
+#include "piezo/firmware/rest_watch.hpp"
 #include "piezo/protocol/messages.hpp"
 
 namespace piezo::daemon {
@@ -42,6 +43,10 @@ struct ServedAxis {
   std::optional<protocol::CalibrationRecord> calibration;
   std::deque<double> recent_readings;  ///< the last good readings of any run
   firmware::MovePlanner planner;       ///< the model's step tables, per waveform
+  /// Its readings at rest since its last run ended (or the board started).
+  firmware::RestWatch rest;
+  std::int64_t last_good_wall_ns = 0;  ///< steady time of its latest good reading (0: none)
+  std::uint64_t rest_errors = 0;       ///< idle readings that failed in this rest
 
   [[nodiscard]] const std::string& name() const { return config.name; }
   void remember_reading(double displacement_m) {

@@ -112,6 +112,19 @@ RunSummary a_summary() {
   return s;
 }
 
+RestReport a_rest() {
+  RestReport r;
+  r.name = "rotor";
+  r.position_rad = 0.0125;
+  r.noise_m = 0.5e-6;
+  r.noise_rad = 5e-5;
+  r.age_s = 0.04;
+  r.moved_rad = 0.0025;
+  r.moved = true;
+  r.errors = 2;
+  return r;
+}
+
 TEST(Messages, HelloRoundTripsWithEachAxisSensorRadius) {
   const Hello h = a_hello();
   const Hello back = over_the_wire(h);
@@ -264,12 +277,22 @@ TEST(Messages, EventsAndSummariesRoundTrip) {
   EXPECT_TRUE(json(idle).at("run").is_null()) << "nil, as documented";
 
   HealthEvent h{BoardState::running, 99, a_health(true), a_health(true), std::vector{a_move(false)},
-                0.25, "5eed"};
+                0.25, "5eed", std::vector{a_rest()}};
   EXPECT_EQ(json(over_the_wire(h)), json(h));
   EXPECT_FALSE(json(h).contains("move")) << "a move of one axis is in `moves` too";
   HealthEvent quiet{BoardState::idle, 1, std::nullopt, std::nullopt, std::nullopt, std::nullopt,
-                    "5eed"};
+                    "5eed", {}};
   EXPECT_EQ(json(over_the_wire(quiet)), json(quiet));
+}
+
+TEST(Messages, AMoveAtRestRoundTripsWithTheAxisAsItNowIs) {
+  const MovedEvent e{"5eed", 77, "rotor", 25e-6, 0.0025, a_rest()};
+  EXPECT_EQ(json(over_the_wire(e)), json(e));
+  EXPECT_EQ(json(e).at("rest").at("name"), "rotor");
+  RestReport none;
+  none.name = "phi";
+  EXPECT_TRUE(json(none).at("position_rad").is_null()) << "nil before any reading";
+  EXPECT_EQ(json(over_the_wire(none)), json(none));
 }
 
 TEST(Messages, StatusRoundTripsIdleAndDuringARun) {
@@ -277,7 +300,7 @@ TEST(Messages, StatusRoundTripsIdleAndDuringARun) {
   idle.state = BoardState::idle;
   idle.board_ns = 42;
   idle.recorder.drive = {0, 0};
-  idle.axes.push_back({"rotor", {}, false, std::nullopt});
+  idle.axes.push_back({"rotor", {}, false, std::nullopt, {}});
   EXPECT_EQ(json(over_the_wire(idle)), json(idle));
   EXPECT_TRUE(json(idle).at("axes")[0].at("position").at("position_rad").is_null());
   for (const char* mirror : {"position", "calibration"}) EXPECT_FALSE(json(idle).contains(mirror));
@@ -289,7 +312,7 @@ TEST(Messages, StatusRoundTripsIdleAndDuringARun) {
   busy.controlled = true;
   busy.fault = firmware::StopCause::link_lost;
   busy.recorder = {{100, 48000}, {10, 4800}};
-  busy.axes[0] = {"rotor", {0.0123, 0.07}, true, firmware::StopCause::sensor_fault};
+  busy.axes[0] = {"rotor", {0.0123, 0.07}, true, firmware::StopCause::sensor_fault, a_rest()};
   busy.requests = {{"status", 3}, {"move_to", 1}};
   busy.configured = ConfigureRequest{{80.0, 10.0, 0.95, 0.789, model::Direction::forward}, 4.8};
   RunStatus r;
@@ -315,7 +338,7 @@ TEST(Messages, TheWiresEnumsBecomeTheirNamesInJson) {
   EXPECT_EQ(json(BoardState::ramping_down), "ramping_down");
   EXPECT_EQ(json(firmware::StopCause::link_lost), "link_lost");
   EXPECT_EQ(json(firmware::OutputState::enable_unconfirmed), "enable_unconfirmed");
-  const json health = HealthEvent{BoardState::running, 1, {}, {}, {}, {}, "a1b2"};
+  const json health = HealthEvent{BoardState::running, 1, {}, {}, {}, {}, "a1b2", {}};
   EXPECT_EQ(health.at("state"), "running");
 }
 

@@ -234,6 +234,23 @@ struct Fields<StartReply> {
                  inline_fields(&T::calibration)};
 };
 template <>
+struct Fields<RestReport> {
+  using T = RestReport;
+  static constexpr auto list = std::tuple{
+      field(wire_key::name, &T::name),           field(wire_key::position_rad, &T::position_rad),
+      field(wire_key::noise_m, &T::noise_m),     field("noise_rad", &T::noise_rad),
+      field("age_s", &T::age_s),                 field(wire_key::moved_rad, &T::moved_rad),
+      field("moved", &T::moved),                 field("errors", &T::errors)};
+};
+template <>
+struct Fields<MovedEvent> {
+  using T = MovedEvent;
+  static constexpr auto list =
+      std::tuple{field(wire_key::board_id, &T::board_id), field(wire_key::board_ns, &T::board_ns),
+                 field(wire_key::axis, &T::axis),         field("moved_m", &T::moved_m),
+                 field(wire_key::moved_rad, &T::moved_rad), field(wire_key::rest, &T::rest)};
+};
+template <>
 struct Fields<StateEvent> {
   using T = StateEvent;
   static constexpr auto list =
@@ -251,7 +268,8 @@ struct Fields<HealthEvent> {
       field(wire_key::drive, &T::drive, omitted_when_absent),
       field(wire_key::sensor, &T::sensor, omitted_when_absent),
       field(wire_key::moves, &T::moves, omitted_when_absent),
-      field(wire_key::calibration_progress, &T::calibration_progress, omitted_when_absent)};
+      field(wire_key::calibration_progress, &T::calibration_progress, omitted_when_absent),
+      field(wire_key::rest, &T::rest, may_be_missing)};
 };
 template <>
 struct Fields<RunStatus> {
@@ -294,7 +312,8 @@ struct Fields<Status::Axis> {
   static constexpr auto list =
       std::tuple{field(wire_key::name, &T::name), field(wire_key::position, &T::position),
                  field(wire_key::calibrated, &T::calibrated),
-                 field(wire_key::fault, &T::fault, may_be_missing)};
+                 field(wire_key::fault, &T::fault, may_be_missing),
+                 field(wire_key::rest, &T::rest, may_be_missing)};
 };
 template <>
 struct Fields<Status> {
@@ -417,6 +436,8 @@ PIEZO_FIELD_LIST_CODEC(OutputEnd)
 PIEZO_FIELD_LIST_CODEC(MoveAccount)
 PIEZO_FIELD_LIST_CODEC(RunSummary)
 PIEZO_FIELD_LIST_CODEC(StartReply)
+PIEZO_FIELD_LIST_CODEC(RestReport)
+PIEZO_FIELD_LIST_CODEC(MovedEvent)
 PIEZO_FIELD_LIST_CODEC(StateEvent)
 PIEZO_FIELD_LIST_CODEC(HealthEvent)
 PIEZO_FIELD_LIST_CODEC(RunStatus)
@@ -526,6 +547,8 @@ std::vector<std::string_view> reply_keys() {
   wire::for_each_key<MoveAccount>(add);
   wire::for_each_key<RunSummary>(add);
   wire::for_each_key<StartReply>(add);
+  wire::for_each_key<RestReport>(add);
+  wire::for_each_key<MovedEvent>(add);
   wire::for_each_key<StateEvent>(add);
   wire::for_each_key<HealthEvent>(add);
   wire::for_each_key<RunStatus>(add);

@@ -116,6 +116,11 @@ void ModbusRigDevice::after_reply_locked() {
   for (std::size_t i = 0; i < axes_.size(); ++i) {
     AxisState& axis = axes_[i];
     const ModbusRigAxis& a = settings_.axes[i];
+    std::uint16_t& hand = registers_->tab_registers[settings_.faults.hand_address + i];
+    if (hand != 0) {
+      axis.plant.turn_by(clock_.now(), static_cast<std::int16_t>(hand) * 1e-6);
+      hand = 0;
+    }
     const std::uint16_t counts = registers_->tab_registers[a.ao_address];
     if (counts == axis.last_ao_counts) continue;
     axis.last_ao_counts = counts;

@@ -104,6 +104,16 @@ void Plant::set_input(TimeNs t, double V_in) {
   notify_neighbours();
 }
 
+void Plant::turn_by(TimeNs t, double delta_rad) {
+  take_trip();
+  advance_to(t);
+  model::LuGreState y = motor_.state();
+  y[model::kTheta] += delta_rad;
+  motor_.reset(motor_.time(), y);
+  hold_at_end_stop();
+  publish();
+}
+
 void Plant::set_enabled(TimeNs t, bool enabled) {
   take_trip();
   advance_to(t);

@@ -22,6 +22,16 @@ struct BoardOptions {
 };
 
 /// A calibration as a person reads it.
+/// What the axis's readings at rest add: their noise and age, a move at rest.
+std::string rest_text(const protocol::RestReport& r) {
+  std::string out;
+  if (r.noise_rad) out += fmt::format(", noise {:.4f} mrad", 1e3 * *r.noise_rad);
+  if (r.age_s) out += fmt::format(", read {:.2f} s ago", *r.age_s);
+  if (r.moved) out += fmt::format(", MOVED AT REST by {:.4f} mrad", 1e3 * r.moved_rad);
+  if (r.errors > 0) out += fmt::format(", {} failed readings at rest", r.errors);
+  return out;
+}
+
 std::string calibration_text(const std::optional<protocol::CalibrationRecord>& cal) {
   if (!cal) return "not calibrated (piezo calibrate --rig ADDRESS)";
   return fmt::format(
@@ -63,10 +73,11 @@ std::string status_text(const protocol::Status& s, const protocol::Hello& hello)
     const auto info = std::find_if(hello.axes.begin(), hello.axes.end(),
                                    [&](const protocol::AxisInfo& i) { return i.name == a.name; });
     out += fmt::format(
-        "axis {:<6} {}{}; {}\n", a.name,
+        "axis {:<6} {}{}{}; {}\n", a.name,
         a.position.position_rad
             ? fmt::format("{:.4f} mrad from its zero", 1e3 * *a.position.position_rad)
             : std::string("no reading yet"),
+        rest_text(a.rest),
         a.fault ? fmt::format(" (fault: {})", firmware::to_string(*a.fault)) : std::string(),
         info != hello.axes.end() ? calibration_text(info->calibration)
                                  : std::string(a.calibrated ? "calibrated" : "not calibrated"));

@@ -303,6 +303,32 @@ struct StartReply {
   std::optional<Calibration> calibration;
 };
 
+/// An axis at rest as the board's idle reading sees it (docs/protocol.md,
+/// "At rest"): in `status.axes[].rest` and the `health` event's `rest`.
+struct RestReport {
+  std::string name;  ///< the axis
+  /// From its zero: the mean of its latest 8 good readings (nil: none yet).
+  std::optional<double> position_rad;
+  std::optional<double> noise_m;    ///< one reading's noise at rest (nil: too few readings)
+  std::optional<double> noise_rad;  ///< the same over its radius
+  std::optional<double> age_s;      ///< since its latest good reading (nil: none yet)
+  /// How far it moved at rest since this rest began (the board's start or
+  /// its last run's end), and whether a move was reported in it.
+  double moved_rad = 0.0;
+  bool moved = false;
+  std::uint64_t errors = 0;  ///< idle readings that failed in this rest
+};
+
+/// The `moved` event: an axis moved at rest, by more than its noise allows.
+struct MovedEvent {
+  std::string board_id;
+  std::int64_t board_ns = 0;
+  std::string axis;
+  double moved_m = 0.0;    ///< this move, at the sensor
+  double moved_rad = 0.0;  ///< the same over the axis's radius
+  RestReport rest;         ///< the axis as it now is
+};
+
 /// The `state` event: published at every change of state.
 struct StateEvent {
   BoardState state = BoardState::idle;
@@ -357,6 +383,7 @@ struct Status {
     /// Its own latched fault (an axis's fault latches on it alone, the
     /// others run on; `reset_fault` clears it), nil: none.
     std::optional<firmware::StopCause> fault;
+    RestReport rest;  ///< what its readings at rest say
   };
   std::vector<Axis> axes;
   /// `requests`: how many of each command the board has had since it
@@ -405,6 +432,7 @@ struct HealthEvent {
   std::optional<std::vector<MoveAccount>> moves;  ///< a move's progress, one per axis
   std::optional<double> calibration_progress;
   std::string board_id;  ///< as in hello: a follower sees a restart here
+  std::vector<RestReport> rest;  ///< every axis at rest, in the board's order
 };
 
 void to_json(nlohmann::json& j, const Hello& m);
@@ -425,6 +453,10 @@ void to_json(nlohmann::json& j, const RunSummary& m);
 void from_json(const nlohmann::json& j, RunSummary& m);
 void to_json(nlohmann::json& j, const StateEvent& m);
 void from_json(const nlohmann::json& j, StateEvent& m);
+void to_json(nlohmann::json& j, const RestReport& m);
+void from_json(const nlohmann::json& j, RestReport& m);
+void to_json(nlohmann::json& j, const MovedEvent& m);
+void from_json(const nlohmann::json& j, MovedEvent& m);
 void to_json(nlohmann::json& j, const HealthEvent& m);
 void from_json(const nlohmann::json& j, HealthEvent& m);
 void to_json(nlohmann::json& j, const RunStatus& m);

@@ -55,6 +55,10 @@ struct ModbusDeviceFaults {
   /// with the mask of function codes that restart it (bit n-1: function n).
   int watchdog_time_address = 0x1000;
   int watchdog_mask_address = 0x1001;
+  /// A hand on the rotors: holding register hand_address + i turns axis i's
+  /// rotor by its value (a signed 16-bit count of microradians) when
+  /// written, and reads 0 again. For tests of what the board sees at rest.
+  int hand_address = 0x1010;
 };
 
 /// What the TCP side lets clients hold.

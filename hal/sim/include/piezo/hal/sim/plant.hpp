@@ -52,6 +52,10 @@ class Plant {
   /// seen disabled at once, and the motor follows from t when the drive
   /// thread next advances it.
   void trip(TimeNs t);
+  /// A hand (or a knock) turns the rotor by `delta_rad` at time t, the
+  /// stator left as it is: what the sensor sees of a rotor moved at rest.
+  /// Same writer as set_input.
+  void turn_by(TimeNs t, double delta_rad);
   /// Crosstalk: this plant's amplifier output also reaches `neighbour`'s
   /// stator, scaled by `coupling` (the share of this axis's stator stroke
   /// the neighbour's stator takes through the frame they share). Set up
