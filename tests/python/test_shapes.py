@@ -62,7 +62,7 @@ def ended(board, run_id, timeout=60):
 def test_every_protocol_command(rig):
     with Board(rig.address) as board:
         hello = board.call("hello")
-        assert hello["protocol"] == 4
+        assert hello["protocol"] == 5
         assert [a["name"] for a in hello["axes"]] == rig.names
         assert not {"sensor", "calibration"} & set(hello), "nothing of an axis at the top"
         described = board.call("describe")["commands"]

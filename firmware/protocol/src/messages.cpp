@@ -64,7 +64,7 @@ struct Fields<CalibrationRecord> {
       field(wire_key::model, &T::model, may_be_missing),
       field("step_floor_rad", &T::step_floor_rad, may_be_missing),
       field("fastest_f_hz", &T::fastest_f_hz, may_be_missing),
-      field("noise_rad", &T::noise_rad, may_be_missing),
+      field(wire_key::noise_rad, &T::noise_rad, may_be_missing),
       field("resolution_rad", &T::resolution_rad, may_be_missing),
       field("smallest_tolerance_rad", &T::smallest_tolerance_rad, may_be_missing)};
 };
@@ -238,9 +238,9 @@ struct Fields<RestReport> {
   using T = RestReport;
   static constexpr auto list = std::tuple{
       field(wire_key::name, &T::name),           field(wire_key::position_rad, &T::position_rad),
-      field(wire_key::noise_m, &T::noise_m),     field("noise_rad", &T::noise_rad),
+      field(wire_key::noise_m, &T::noise_m),     field(wire_key::noise_rad, &T::noise_rad),
       field("age_s", &T::age_s),                 field(wire_key::moved_rad, &T::moved_rad),
-      field("moved", &T::moved),                 field("errors", &T::errors)};
+      field(wire_key::moved, &T::moved),        field(wire_key::errors, &T::errors)};
 };
 template <>
 struct Fields<MovedEvent> {

@@ -1,5 +1,5 @@
 """A client of ``piezod``, the board's daemon, written against
-docs/protocol.md (protocol 3) on python3-zmq and python3-msgpack.
+docs/protocol.md (protocol 5) on python3-zmq and python3-msgpack.
 
 >>> from piezo_rig.board import Board
 >>> with Board("tcp://127.0.0.1:5555") as board:
@@ -19,6 +19,7 @@ Every refusal raises the exception of its protocol error code
 from __future__ import annotations
 
 import itertools
+import queue
 import math
 import os
 import stat
@@ -35,10 +36,11 @@ import numpy as np
 import zmq
 
 from . import frames
+from .follower import AxisSnapshot, Follower, angle_rad
 from .errors import (BadArgument, BoardError, ClientClosed, NoReply, OutOfLimits, RunEnded,
                      StaleBoard, UnknownCommand, board_error)
 
-PROTOCOL = 4
+PROTOCOL = 5
 LOOPBACK = ("tcp://127.0.0.1:", "tcp://localhost:", "tcp://[::1]:")
 # Causes that are the end a caller asked for: the run ran its course, or
 # this client stopped it.
@@ -177,7 +179,7 @@ class Board:
         if keys is None and not address.startswith(LOOPBACK) and address.startswith("tcp://"):
             raise ValueError(f"{address}: a network address needs CURVE keys "
                              "(keys=(server_public_key_file, client_secret_key_file))")
-        self.address, self.stream_queue = address, stream_queue
+        self.address, self.stream_queue, self.keys = address, stream_queue, keys
         self.timeout = _seconds("timeout", timeout)
         self.silence_s = _seconds("silence_s", silence_s)
         self._context = zmq.Context()
@@ -202,6 +204,8 @@ class Board:
         self._runs: "weakref.WeakSet[Run]" = weakref.WeakSet()
         #: The latest run this client started (``move_to``'s, say), with its records.
         self.last_run: Optional[Run] = None
+        self._follower: Optional[Follower] = None
+        self._follower_lock = threading.Lock()
         self._closed = False
 
     def _socket_for(self, kind: int) -> zmq.Socket[bytes]:
@@ -229,9 +233,25 @@ class Board:
             return
         for run in list(self._runs):
             run.close()
+        with self._follower_lock:
+            follower, self._follower = self._follower, None
+        if follower is not None:
+            follower.close()
         self._closed = True
         self._socket.close()
         self._context.term()
+
+    @property
+    def follower(self) -> Follower:
+        """This connection's one follower of the board's stream (started at
+        the first use): ``follower.snapshot`` is the board and each axis as
+        last heard, ``reachable`` False with the ``problem`` when it is not."""
+        with self._follower_lock:
+            if self._closed:
+                raise ClientClosed("follower: this Board was closed")
+            if self._follower is None:
+                self._follower = Follower(self)
+            return self._follower
 
     def __enter__(self) -> "Board":
         return self
@@ -582,11 +602,17 @@ class Axis:
         entry: dict[str, Any] = next(a for a in self.board.hello()["axes"] if a["name"] == self.name)
         return entry
 
-    def status(self) -> dict[str, Any]:
-        """Its entry of ``status()["axes"]``: ``position`` and ``calibrated``."""
-        entry: dict[str, Any] = next(
-            a for a in self.board.status()["axes"] if a["name"] == self.name)
-        return entry
+    def status(self) -> AxisSnapshot:
+        """The axis as the board's stream last said (``Board.follower``): its
+        ``position_rad`` (a number whenever the board has a reading: in a run
+        from its sensor records, between runs from its readings at rest),
+        ``noise_rad``, ``age_s``, a move at rest (``moved``, ``moved_rad``),
+        ``fault``, ``in_run`` and a move's progress. Raises ``NoReply`` with
+        the reason when the board cannot be heard."""
+        snapshot = self.board.follower.wait_until_heard(self.board.timeout)
+        if not snapshot.reachable:
+            raise NoReply(f"axis {self.name}: {snapshot.problem}")
+        return snapshot.axes[self.name]
 
     def run(self, V0: float, f: float, duration: float, **options: Any) -> "Run":
         """``Board.run`` on this axis."""
@@ -631,16 +657,15 @@ class Run:
                                           or next(iter(args.get("targets") or {}), None))
         self.r2_m = next(float(a["r2_m"]) for a in self.hello["axes"] if a["name"] == self.axis)
         self._raise_on_fault = raise_on_fault
-        self._sub = board._socket_for(zmq.SUB)
-        self._sub.setsockopt(zmq.RCVHWM, board.stream_queue)
-        self._sub.connect(stream_address(board.address))
-        for topic in (b"drive", b"sensor", b"state", b"health"):
-            self._sub.setsockopt(zmq.SUBSCRIBE, topic)
+        # The board's stream through this connection's follower: its
+        # subscription is up before the run starts, so no record is missed.
+        follower = board.follower
+        follower.wait_for_stream(2.0)
+        self._messages = follower.messages()
         try:
-            self._wait_for_subscription()
             self.started = board.call(command, **args)
         except BaseException:
-            self._sub.close()
+            follower.drop(self._messages)
             raise
         self._heard = time.monotonic()
         self._summary: Optional[dict[str, Any]] = None  # the board's, once the run ended
@@ -657,14 +682,6 @@ class Run:
         self._lease.start()
         board._runs.add(self)
         board.last_run = self
-
-    def _wait_for_subscription(self) -> None:
-        # A PUB socket drops what it publishes before a subscription reaches
-        # it: wait for the 250 ms health beat, which shows the link is up.
-        deadline = time.monotonic() + 2.0
-        while time.monotonic() < deadline:
-            if self._sub.poll(100) and self._sub.recv_multipart()[0] == b"health":
-                break
 
     def _renew(self, renew: bool) -> None:
         period = float(self.started["lease_s"]) / 4
@@ -694,7 +711,8 @@ class Run:
             self._stopping.set()
             if self._lease is not threading.current_thread():
                 self._lease.join()
-            self._sub.close()
+            if self.board._follower is not None:
+                self.board._follower.drop(self._messages)
 
     def __enter__(self) -> "Run":
         return self
@@ -744,27 +762,18 @@ class Run:
 
     def _receive(self, seconds: float) -> None:
         try:
-            self._receive_once(seconds)
-        except zmq.ZMQError:
-            # Board.close() from another thread (a notebook's stop button)
-            # closed the stream under this loop: the run was stopped there.
-            if self._closed or self.board._closed:
-                raise ClientClosed("this run's Board was closed while the run was being "
-                                   "received; the run was stopped") from None
-            raise
-
-    def _receive_once(self, seconds: float) -> None:
-        if not self._sub.poll(int(seconds * 1000)):
+            message = self._messages.get(timeout=seconds)
+        except queue.Empty:
             self._check_alive()
             return
-        parts = self._sub.recv_multipart()
+        if message is None or self._closed:
+            # Board.close() from another thread (a notebook's stop button)
+            # ended the follower under this loop: the run was stopped there.
+            raise ClientClosed("this run's Board was closed while the run was being "
+                               "received; the run was stopped")
         self._heard = time.monotonic()
-        if len(parts) != 2:
-            # The rest of a message whose first part was taken by a receive
-            # that a signal (Ctrl-C) interrupted: not a message on its own.
-            return
-        topic, body = parts
-        if topic == b"health":
+        topic, body = message
+        if topic not in (b"drive", b"sensor", b"state"):
             return
         if topic == b"state":
             event = msgpack.unpackb(body, raw=False)
@@ -890,7 +899,7 @@ class Run:
         records = self.records_of(axis, self.sensor if records is None else records)
         r2_m = next(float(a["r2_m"]) for a in self.hello["axes"] if a["name"] == axis)
         zero = self.zero_of(axis)
-        theta = (records["displacement_m"] - (zero or 0.0)) / r2_m
+        theta = angle_rad(records["displacement_m"], zero or 0.0, r2_m)
         return np.where(records["status"] == 0, theta, np.nan)
 
     def fit_arrays(self, axis: Optional[str] = None) -> tuple[
