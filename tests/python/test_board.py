@@ -81,14 +81,14 @@ def test_a_move_reaches_its_target(board):
     move = board.move_to(0.01, tolerance_rad=50e-6)
     assert move["on_target"] and move["stop_cause"] == "on_target"
     assert abs(move["position_rad"] - 0.01) < 50e-6
-    position = board.axes["rotor"].status()["position"]["position_rad"]
+    position = board.axes["rotor"].status().position_rad
     assert abs(position - 0.01) < 1e-4  # the board's own reading at rest
     back = board.move_to(0.0, tolerance_rad=50e-6)
     assert abs(back["position_rad"]) < 50e-6
 
 
 def test_a_move_with_a_forward_approach_passes_a_target_behind_it(board):
-    start = board.axes["rotor"].status()["position"]["position_rad"]
+    start = board.axes["rotor"].status().position_rad
     move = board.move_to(start - 0.002, tolerance_rad=50e-6, approach="forward")
     assert move["on_target"] and abs(move["position_rad"] - (start - 0.002)) < 50e-6
     with pytest.raises(errors.BadArgument) as bad:
@@ -226,7 +226,7 @@ def test_calibrate_installs_what_it_measured(board):
     calibration = board.calibrate()
     assert calibration["rad_per_V"] > 0 and calibration["noise_m"] > 0
     assert board.axes["rotor"].info["calibration"]["created"] == calibration["created"]
-    assert board.axes["rotor"].status()["calibrated"]
+    assert board.axes["rotor"].status().calibrated
     assert board.set_calibration(None) is None
     assert board.hello()["axes"][0]["calibration"] is None
 
@@ -328,31 +328,33 @@ with Board({board_address!r}) as board:
         assert out == "KeyboardInterrupt\n", err
 
 
-def test_an_interrupt_between_a_messages_two_parts_leaves_no_stray_part(board):
-    # The moment a signal can land while a sample frame is being taken:
-    # after its topic, before its body. The rest of that message must not be
-    # read as a message of its own when the run is then stopped.
+def test_an_interrupt_while_a_run_waits_for_its_records_stops_it_and_the_follower_goes_on(board):
+    # Ctrl-C lands in the caller's thread while it waits for the next
+    # records: the run is stopped; the connection's follower, in a thread of
+    # its own, follows on, and the next run gets every record.
     with pytest.raises(KeyboardInterrupt):
         with board.run(V0=40, f=10, duration=30) as run:
-            sub = run._sub
-            socket_class = type(sub)
+            messages = run._messages
+            real_get = messages.get
+            fired = []
 
-            class InterruptedOnce(socket_class):
-                fired = False
-
-                def recv(self, *args, **kwargs):
-                    part = super().recv(*args, **kwargs)
-                    if not InterruptedOnce.fired and part == b"sensor":
-                        InterruptedOnce.fired = True
+            class Interrupting:
+                def get(self, *args, **kwargs):
+                    if not fired and run.sensor.size > 0:
+                        fired.append(True)
                         raise KeyboardInterrupt
-                    return part
+                    return real_get(*args, **kwargs)
 
-            sub.__class__ = InterruptedOnce
+            run._messages = Interrupting()
             for _ in run:
                 pass
-    assert InterruptedOnce.fired
+    assert fired
     status = board.status()
     assert status["state"] == "idle" and status["run"]["summary"]["cause"] == "interrupted"
+    assert board.follower.snapshot.reachable
+    with board.run(V0=40, f=10, duration=0.5) as again:
+        summary = again.wait()
+    assert len(again.sensor) == summary["samples"]["sensor"]
 
 
 def test_refusals_pickle_for_a_worker_process(board):

@@ -45,6 +45,8 @@ LOOPBACK = ("tcp://127.0.0.1:", "tcp://localhost:", "tcp://[::1]:")
 # Causes that are the end a caller asked for: the run ran its course, or
 # this client stopped it.
 EXPECTED_ENDS = ("completed", "interrupted")
+#: Commands after which the follower asks the board's status at once.
+_CHANGES_AN_AXIS = ("zero", "set_calibration", "reset_fault", "estop", "stop")
 
 
 def stream_address(address: str) -> str:
@@ -301,6 +303,8 @@ class Board:
                 self._forget_board()
             raise error
         result: dict[str, Any] = reply["result"]
+        if command in _CHANGES_AN_AXIS and self._follower is not None:
+            self._follower.refresh()  # what this client did shows in its next snapshot
         return result
 
     def _names_board(self, command: str) -> bool:
@@ -825,6 +829,8 @@ class Run:
             if total > self._next[stream]:
                 self._fetch_gap(stream, total)
         self._summary = summary
+        if self.board._follower is not None:
+            self.board._follower.refresh()  # the run's end: its axes' positions, faults
 
     @property
     def summary(self) -> dict[str, Any]:

@@ -62,7 +62,7 @@ class AxisSnapshot:
     calibrated: bool = False
     fault: Optional[str] = None        #: its own latched fault
     in_run: bool = False               #: a run of the board drives it now
-    move: Mapping[str, Any] = _EMPTY   #: the move's progress, while one is under way
+    move: Mapping[str, Any] = field(default_factory=lambda: _EMPTY)  #: the move's progress, while one is under way
 
 
 @dataclass(frozen=True)
@@ -74,9 +74,9 @@ class BoardSnapshot:
     generation: int = 0  #: counts the board starts seen
     state: str = "unknown"
     fault: Optional[str] = None
-    health: Mapping[str, Any] = _EMPTY  #: the live `drive`/`sensor` counters, a move's `moves`
-    last_summary: Mapping[str, Any] = _EMPTY
-    axes: Mapping[str, AxisSnapshot] = _EMPTY  #: in the board's order
+    health: Mapping[str, Any] = field(default_factory=lambda: _EMPTY)  #: the live `drive`/`sensor` counters, a move's `moves`
+    last_summary: Mapping[str, Any] = field(default_factory=lambda: _EMPTY)
+    axes: Mapping[str, AxisSnapshot] = field(default_factory=lambda: _EMPTY)  #: in the board's order
     moved: tuple[Mapping[str, Any], ...] = ()  #: the `moved` events of this board start
     rejected_frames: int = 0  #: malformed or unexpected messages on the stream, dropped
 
