@@ -109,6 +109,11 @@ class Follower:
 
     # -- for its readers ---------------------------------------------------
     @property
+    def hello(self) -> dict[str, Any]:
+        """The board's hello as the follower last read it ({} while unreachable)."""
+        return self._hello
+
+    @property
     def snapshot(self) -> BoardSnapshot:
         with self._lock:
             return self._snapshot

@@ -218,10 +218,13 @@ class PiezoAxis(_OnBoard):
                doc="the rotor's angle from the board's zero, as its sensor measures it; a write "
                    "moves there in closed loop (the board's move controller)")
     def Position(self) -> tuple[float, float, AttrQuality]:
+        # A number whenever the board answers: between runs it reads every
+        # axis at rest. INVALID only when the board (or its sensor) does not.
         view = self._view
         if view is None or view.position_rad is None or not self.link.reachable:
             return float("nan"), 0.0, AttrQuality.ATTR_INVALID
-        quality = AttrQuality.ATTR_CHANGING if view.in_run else AttrQuality.ATTR_VALID
+        quality = (AttrQuality.ATTR_CHANGING if view.in_run or self._moving
+                   else AttrQuality.ATTR_VALID)
         return view.position_rad, time.time(), quality
 
     @Position.write  # type: ignore[no-redef]
@@ -244,35 +247,35 @@ class PiezoAxis(_OnBoard):
             self.link.control.checked("move_to", {"target_rad": target_rad, **options})
         except BoardError as e:
             _raise("Position", e)
-        started = threading.Event()
-        failure: list[BaseException] = []
         self._move_error = ""
+        # The board's reply to the move comes here (a refusal is the
+        # writer's DevFailed); the move is followed in a thread of its own,
+        # so the write returns at once and other clients' reads of this
+        # device go on: progress comes as State and Position events.
+        from .board import Run
+        try:
+            args = self.link.control.checked("move_to", {"target_rad": target_rad, **options})
+            run = Run(self.link.control, "move_to", args, True, raise_on_fault=False)
+        except (BoardError, NoReply) as e:
+            _raise("Position", e)
+        self._moving = True
 
         @_omni_thread
-        def move() -> None:
+        def follow() -> None:
             try:
-                from .board import Run
-                args = self.link.control.checked("move_to", {"target_rad": target_rad, **options})
-                with Run(self.link.control, "move_to", args, True, raise_on_fault=False) as r:
-                    started.set()
-                    summary = r.wait()
+                with run:
+                    summary = run.wait()
                 mine = next((a for a in summary["axes"] if a["name"] == self._name), {})
                 end = (mine.get("move") or {}).get("stop_cause") or mine.get("cause")
                 if end != "on_target":
                     self._move_error = f"ended {end}"
-            except BaseException as e:  # noqa: B036 -- told to the writer, or kept for Status
-                failure.append(e)
+            except BaseException as e:  # noqa: B036 -- kept for Status
                 self._move_error = str(e)
             finally:
                 self._moving = False
-                started.set()
                 self._changed(self.link)
 
-        self._moving = True
-        threading.Thread(target=move, name=f"move {self._name}", daemon=True).start()
-        started.wait(10)
-        if failure:
-            _raise("Position", failure[0])
+        threading.Thread(target=follow, name=f"move {self._name}", daemon=True).start()
         self.set_state(DevState.MOVING)
         self.push_change_event("State", DevState.MOVING)
         self._last = (self._last[0], DevState.MOVING)
@@ -384,13 +387,9 @@ class PiezoAxis(_OnBoard):
                 "out_of_limits", f"DefinePosition: {value} rad; the board's zero is where the "
                                  "rotor is now, so only 0 is taken", "DefinePosition")
         try:
-            position = self.link.control.zero(self._name)
+            self.link.control.zero(self._name)  # its follower reads the new frame at once
         except (BoardError, NoReply) as e:
             _raise("DefinePosition", e)
-        view = self._view
-        if view is not None:
-            view.zero_m = position.get("zero_displacement_m")
-            view.position_rad = position.get("position_rad")
         self._changed(self.link)
 
     @command(doc_in="runs the board's calibration experiment for this axis (about 14 s); "
@@ -493,25 +492,22 @@ class PiezoBoard(_OnBoard):
             args = self.link.control.checked("move_to", {"targets": group})
         except BoardError as e:
             _raise("MoveGroup", e)
-        started = threading.Event()
-        failure: list[BaseException] = []
+        # As Position's write: the board's reply here, the run followed apart.
+        from .board import Run
+        try:
+            run = Run(self.link.control, "move_to", args, True, raise_on_fault=False)
+        except (BoardError, NoReply) as e:
+            _raise("MoveGroup", e)
 
         @_omni_thread
-        def move() -> None:
+        def follow() -> None:
             try:
-                from .board import Run
-                with Run(self.link.control, "move_to", args, True, raise_on_fault=False) as r:
-                    started.set()
-                    r.wait()
-            except BaseException as e:  # noqa: B036
-                failure.append(e)
-            finally:
-                started.set()
+                with run:
+                    run.wait()
+            except BaseException:  # noqa: B036 -- the board's summary says how it ended
+                pass
 
-        threading.Thread(target=move, name="group move", daemon=True).start()
-        started.wait(10)
-        if failure:
-            _raise("MoveGroup", failure[0])
+        threading.Thread(target=follow, name="group move", daemon=True).start()
 
 
 def _file_database(instance: str, address: str, keys: list[str], axes: list[str]) -> str:
