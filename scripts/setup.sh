@@ -36,7 +36,7 @@ packages=(
   libsundials-dev
   libcpp-httplib-dev chromium chromium-driver python3-selenium fonts-dejavu-core
   pybind11-dev python3-dev python3-pandas python3-pytest python3-matplotlib mypy
-  python3-nbclient python3-nbformat python3-ipykernel python3-tango
+  python3-nbclient python3-nbformat python3-ipykernel python3-tango mariadb-server tango-db
 )
 if [ -n "$peers" ]; then packages+=(python3-scipy octave python3-numba); fi
 # The web view's plots (uPlot) come from the npm registry; npm from Debian
