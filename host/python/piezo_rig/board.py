@@ -252,7 +252,9 @@ class Board:
             if self._closed:
                 raise ClientClosed("follower: this Board was closed")
             if self._follower is None:
-                self._follower = Follower(self)
+                watch = Board(self.address, keys=self.keys, timeout=1.0)
+                self._follower = Follower(self.address, stream_address(self.address), watch,
+                                          self.stream_queue, self._forget_board)
             return self._follower
 
     def __enter__(self) -> "Board":

@@ -22,7 +22,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any, Callable, Mapping, Optional
+from typing import Any, Callable, Mapping, Optional, Protocol, TypeVar
 
 import msgpack
 import numpy as np
@@ -30,8 +30,21 @@ import zmq
 
 from .frames import FrameError, Layout
 
-if TYPE_CHECKING:
-    from .board import Board
+
+
+class Client(Protocol):
+    """What the follower asks of its own client of the board (a ``Board``)."""
+
+    def hello(self) -> dict[str, Any]: ...
+
+    def status(self) -> dict[str, Any]: ...
+
+    @property
+    def frame_layout(self) -> Layout: ...
+
+    def _socket_for(self, kind: int) -> zmq.Socket[bytes]: ...
+
+    def close(self) -> None: ...
 
 #: How long the stream may be quiet before the board is asked (its health
 #: beat comes every 250 ms).
@@ -85,14 +98,17 @@ Listener = Callable[[BoardSnapshot], None]
 
 
 class Follower:
-    """Follows ``board``'s stream with a client of its own (a board that
-    does not answer never holds up the caller's stop or e-stop behind a
-    status request). Started by ``Board.follower``; ended by ``Board.close``."""
+    """Follows the board's stream at ``stream`` with ``watch``, a client of
+    its own (a board that does not answer never holds up the caller's stop
+    or e-stop behind a status request); ``new_board()`` is called when it
+    sees the board restarted. Started by ``Board.follower``; ended by
+    ``Board.close``."""
 
-    def __init__(self, board: "Board"):
-        from .board import Board  # the client class; board.py imports this module
-        self._board = board
-        self._watch = Board(board.address, keys=board.keys, timeout=1.0)
+    def __init__(self, address: str, stream: str, watch: Client, stream_queue: int,
+                 new_board: Callable[[], None]):
+        self._address, self._stream, self._queue_size = address, stream, stream_queue
+        self._new_board = new_board
+        self._watch = watch
         self._lock = threading.Lock()
         self._snapshot = BoardSnapshot()
         self._hello: dict[str, Any] = {}
@@ -200,7 +216,7 @@ class Follower:
         s = self.snapshot
         same = hello.get("board_id") == s.board_id
         if not same:
-            self._board._forget_board()  # its next request names the new start
+            self._new_board()  # its next request names the new start
         axes = {}
         for index, a in enumerate(hello["axes"]):
             old = s.axes.get(a["name"]) if same else None
@@ -255,7 +271,7 @@ class Follower:
             self._take_status(status)
             return True
         except Exception as e:  # no reply, or one that is not the protocol's
-            self._lost(f"no good reply from the board at {self._board.address}: "
+            self._lost(f"no good reply from the board at {self._address}: "
                        f"{type(e).__name__}: {e}")
             return False
 
@@ -309,10 +325,9 @@ class Follower:
 
     # -- the thread ----------------------------------------------------------
     def _open(self) -> zmq.Socket[bytes]:
-        from .board import stream_address
         sub = self._watch._socket_for(zmq.SUB)
-        sub.setsockopt(zmq.RCVHWM, self._board.stream_queue)
-        sub.connect(stream_address(self._board.address))
+        sub.setsockopt(zmq.RCVHWM, self._queue_size)
+        sub.connect(self._stream)
         sub.setsockopt(zmq.SUBSCRIBE, b"")
         return sub
 
@@ -386,7 +401,11 @@ class Follower:
             ensure.__exit__(None, None, None)
 
 
-def angle_rad(displacement_m: float, zero_displacement_m: float, r2_m: float) -> float:
+Displacement = TypeVar("Displacement", float, "np.ndarray[Any, Any]")
+
+
+def angle_rad(displacement_m: Displacement, zero_displacement_m: float,
+              r2_m: float) -> Displacement:
     """An angle: a displacement from the zero over the radius of the sensor
     that measured it (docs/protocol.md, "Angles"). The one place it is
     computed; numpy arrays go through it too."""
