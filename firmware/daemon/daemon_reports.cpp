@@ -13,6 +13,7 @@
 #include "piezo/firmware/wire_keys.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "piezo/protocol/message.hpp"
+#include "piezo/protocol/topics.hpp"
 
 namespace piezo::daemon {
 namespace {
@@ -206,7 +207,7 @@ void Daemon::publish_state() {
   if (run_state_.state() == State::fault) e.fault = run_state_.fault();
   if (run_ && run_->finished) e.summary = run_->summary;
   const std::string body = protocol::encode_map(e);
-  std::array<zmq::const_buffer, 2> parts{zmq::buffer(wire_key::state), zmq::buffer(body)};
+  std::array<zmq::const_buffer, 2> parts{zmq::buffer(protocol::topic::state), zmq::buffer(body)};
   (void)zmq::send_multipart(stream_, parts, zmq::send_flags::dontwait);
 }
 
@@ -223,7 +224,7 @@ void Daemon::publish_health() {
   }
   for (const auto& axis : axes_) e.rest.push_back(rest_of(*axis));
   const std::string body = protocol::encode_map(e);
-  std::array<zmq::const_buffer, 2> parts{zmq::str_buffer("health"), zmq::buffer(body)};
+  std::array<zmq::const_buffer, 2> parts{zmq::buffer(protocol::topic::health), zmq::buffer(body)};
   (void)zmq::send_multipart(stream_, parts, zmq::send_flags::dontwait);
 }
 

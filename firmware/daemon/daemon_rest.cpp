@@ -10,6 +10,7 @@
 #include <zmq_addon.hpp>
 
 #include "daemon.hpp"
+#include "piezo/protocol/topics.hpp"
 #include "piezo/firmware/wire_keys.hpp"
 #include "piezo/protocol/message.hpp"
 
@@ -57,7 +58,7 @@ void Daemon::take_idle_readings() {
                           axis.name(), e.moved_rad, move->moved_m * 1e6,
                           move->since_rest_m / r2));
     const std::string body = protocol::encode_map(e);
-    std::array<zmq::const_buffer, 2> parts{zmq::buffer(wire_key::moved), zmq::buffer(body)};
+    std::array<zmq::const_buffer, 2> parts{zmq::buffer(protocol::topic::moved), zmq::buffer(body)};
     (void)zmq::send_multipart(stream_, parts, zmq::send_flags::dontwait);
   }
 }

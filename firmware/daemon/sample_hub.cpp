@@ -1,4 +1,5 @@
 #include "sample_hub.hpp"
+#include "piezo/protocol/topics.hpp"
 
 #include <fmt/format.h>
 
@@ -61,8 +62,8 @@ void SampleHub::take(firmware::LoopRunner& runner,
           if (s.status == hal::Status::ok) on_good_reading(s.axis, s.displacement_m);
         });
   }
-  publish(wire_key::drive, drive_, drive_published_);
-  publish(wire_key::sensor, sensor_, sensor_published_);
+  publish(protocol::topic::drive, drive_, drive_published_);
+  publish(protocol::topic::sensor, sensor_, sensor_published_);
 }
 
 template <class Sample>

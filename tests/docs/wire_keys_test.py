@@ -105,3 +105,50 @@ def test_the_defaults_and_the_rate_rule_are_written_once():
                     for what, pattern in patterns.items():
                         counts[what] += len(re.findall(pattern, text))
     assert counts == {what: 1 for what in patterns}, counts
+
+
+# -- the Python client (host/python/piezo_rig) ---------------------------------
+PYTHON = "host/python/piezo_rig"
+PYTHON_TABLE = f"{PYTHON}/_wire.py"
+# The modules that speak the wire (model.py and log.py do not: the log's
+# HDF5 schema has names of its own).
+PYTHON_WIRE = ("board.py", "follower.py", "errors.py", "frames.py", "tango_link.py",
+               "tango_server.py")
+# Literals that are a wire word by their spelling only.
+NOT_WIRE = {("board.py", "timeout"): "the Board's own parameter, named in its refusal",
+            ("frames.py", "names"): "numpy's dtype spec"}
+
+
+def python_words():
+    """Every word the generated table holds (keys, commands, names, topics)."""
+    return set(re.findall(r'^    \w+ = "(\w+)"$', read(PYTHON_TABLE), re.M))
+
+
+def test_the_python_table_is_what_its_generator_writes_now():
+    import subprocess
+    import sys
+    done = subprocess.run([sys.executable, os.path.join(SOURCE, "scripts", "wire_table.py"),
+                           "--check"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    words = python_words()
+    for word in ("position_rad", "idle", "on_target", "stale_board", "moved", "move_to"):
+        assert word in words, word
+
+
+def test_no_wire_word_is_a_literal_in_the_python_client():
+    import io
+    import tokenize
+    words = python_words()
+    found = []
+    for name in PYTHON_WIRE:
+        path = f"{PYTHON}/{name}"
+        tokens = list(tokenize.generate_tokens(io.StringIO(read(path)).readline))
+        for i, t in enumerate(tokens):
+            m = re.fullmatch(r'b?"(\w+)"', t.string) if t.type == tokenize.STRING else None
+            if not m or m.group(1) not in words or (name, m.group(1)) in NOT_WIRE:
+                continue
+            if i >= 2 and tokens[i - 1].string == "=" and tokens[i - 2].string == "unit":
+                continue  # a Tango attribute's unit
+            found.append(f"{path}:{t.start[0]} {t.string}")
+    assert found == [], ("wire words written as literals (take them from "
+                         f"{PYTHON_TABLE}): {found}")

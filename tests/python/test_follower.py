@@ -232,9 +232,10 @@ def test_malformed_and_unexpected_messages_are_dropped_and_counted(board_address
             link.put(b"sensor", b"PZSB not a frame")
             link.put(b"health", b"\xc1")  # never valid MessagePack
             link.put(b"state", msgpack.packb([1, 2, 3]))
+            link.put(b"health", msgpack.packb({"board_ns": 1}))  # no state: not a health event
             link.put(b"gossip", b"{}")
             link.put(b"three", b"parts", b"here")
-            wait_for(lambda: follower.snapshot.rejected_frames >= before + 5, 5,
+            wait_for(lambda: follower.snapshot.rejected_frames >= before + 6, 5,
                      "every bad message counted")
             assert follower.snapshot.reachable
             with board.run(V0=40, f=10, duration=0.3) as run:

@@ -14,6 +14,7 @@
 #include "piezo/protocol/error.hpp"
 #include "piezo/protocol/frame.hpp"
 #include "piezo/protocol/message.hpp"
+#include "piezo/protocol/topics.hpp"
 #include "piezo/protocol/wire_fields.hpp"
 
 namespace piezo::protocol {
@@ -206,7 +207,9 @@ json describe(const std::vector<CommandSpec>& commands, const Hello::Limits& lim
         {"error_codes", error_codes},
         {"directions", names_of(model::kDirectionNames)},
         {"approaches", names_of(firmware::kApproachNames)},
-        {"streams", names_of(kStreamNames)}}},
+        {"streams", names_of(kStreamNames)},
+        {"topics", topic::kAll}}},
+      {"messages", message_fields()},
       {"frames",
        {{"magic", kFrameMagic},
         {wire_key::version, kFrameVersion},

@@ -556,6 +556,36 @@ std::vector<std::string_view> reply_keys() {
   return keys;
 }
 
+json message_fields() {
+  json out;
+  const auto own = [&]<class T>(std::string_view name, std::type_identity<T>) {
+    json keys = json::array();
+    wire::for_each_own_key<T>([&](std::string_view key, bool always) {
+      keys.push_back({{wire_key::name, key}, {"always", always}});
+    });
+    out[std::string(name)] = std::move(keys);
+  };
+  own("hello", std::type_identity<Hello>{});
+  own("axis_info", std::type_identity<AxisInfo>{});
+  own(wire_key::calibration, std::type_identity<CalibrationRecord>{});
+  own("status", std::type_identity<Status>{});
+  own("status_axis", std::type_identity<Status::Axis>{});
+  own(wire_key::position, std::type_identity<Status::Position>{});
+  own("run_status", std::type_identity<RunStatus>{});
+  own(wire_key::rest, std::type_identity<RestReport>{});
+  own("start", std::type_identity<StartReply>{});
+  own(wire_key::move, std::type_identity<MoveAccount>{});
+  own(wire_key::summary, std::type_identity<RunSummary>{});
+  own("loop_health", std::type_identity<LoopHealth>{});
+  own("state_reply", std::type_identity<StateReply>{});
+  own("zero", std::type_identity<ZeroReply>{});
+  own(wire_key::clock, std::type_identity<ClockReply>{});
+  own(wire_key::state, std::type_identity<StateEvent>{});
+  own("health", std::type_identity<HealthEvent>{});
+  own(wire_key::moved, std::type_identity<MovedEvent>{});
+  return out;
+}
+
 void to_json(json& j, BoardState s) {
   j = to_string(s);
 }

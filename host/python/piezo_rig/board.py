@@ -36,6 +36,7 @@ import numpy as np
 import zmq
 
 from . import frames
+from ._wire import ArgType, Command, ErrorCode, Key, MoveEnd, State, StopCause, Topic
 from .follower import AxisSnapshot, Follower, angle_rad
 from .errors import (BadArgument, BoardError, ClientClosed, NoReply, OutOfLimits, RunEnded,
                      StaleBoard, UnknownCommand, board_error)
@@ -44,9 +45,9 @@ PROTOCOL = 5
 LOOPBACK = ("tcp://127.0.0.1:", "tcp://localhost:", "tcp://[::1]:")
 # Causes that are the end a caller asked for: the run ran its course, or
 # this client stopped it.
-EXPECTED_ENDS = ("completed", "interrupted")
+EXPECTED_ENDS = (StopCause.completed, StopCause.interrupted)
 #: Commands after which the follower asks the board's status at once.
-_CHANGES_AN_AXIS = ("zero", "set_calibration", "reset_fault", "estop", "stop")
+_CHANGES_AN_AXIS = (Command.zero, Command.set_calibration, Command.reset_fault, Command.estop, Command.stop)
 
 
 def stream_address(address: str) -> str:
@@ -94,40 +95,40 @@ def _wire(command: str, key: str, value: Any) -> Any:
 
 def _check_argument(command: str, a: dict[str, Any], value: Any) -> None:
     """One argument against its description in the board's dictionary."""
-    key, kind = a["name"], a["type"]
-    if kind == "flag":
+    key, kind = a[Key.name], a[Key.type]
+    if kind == ArgType.flag:
         if not isinstance(value, bool):
-            raise BadArgument(command, key, "expected True or False", "bad_argument")
+            raise BadArgument(command, key, "expected True or False", ErrorCode.bad_argument)
         return
-    if kind == "map":
+    if kind == ArgType.map:
         if not isinstance(value, dict):
-            raise BadArgument(command, key, "expected a map or None", "bad_argument")
+            raise BadArgument(command, key, "expected a map or None", ErrorCode.bad_argument)
         return
-    if kind == "text":
+    if kind == ArgType.text:
         if not isinstance(value, str):
-            raise BadArgument(command, key, f"expected text; got {value!r}", "bad_argument")
+            raise BadArgument(command, key, f"expected text; got {value!r}", ErrorCode.bad_argument)
         return
-    if kind == "choice":
-        if value not in a["choices"]:
+    if kind == ArgType.choice:
+        if value not in a[Key.choices]:
             raise BadArgument(command, key, f"{value!r}; allowed: {', '.join(a['choices'])}",
-                              "bad_argument")
+                              ErrorCode.bad_argument)
         return
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise BadArgument(command, key, f"expected a number; got {value!r}", "bad_argument")
-    if kind == "integer" and (value < 0 or value != int(value)):
+        raise BadArgument(command, key, f"expected a number; got {value!r}", ErrorCode.bad_argument)
+    if kind == ArgType.integer and (value < 0 or value != int(value)):
         raise BadArgument(command, key, f"expected an unsigned integer; got {value!r}",
-                          "bad_argument")
-    low = -math.inf if a["min"] is None else a["min"]
-    high = math.inf if a["max"] is None else a["max"]
-    above = value > low if a["min_open"] else value >= low
-    below = value < high if a["max_open"] else value <= high
+                          ErrorCode.bad_argument)
+    low = -math.inf if a[Key.min] is None else a[Key.min]
+    high = math.inf if a[Key.max] is None else a[Key.max]
+    above = value > low if a[Key.min_open] else value >= low
+    below = value < high if a[Key.max_open] else value <= high
     if not (above and below):
-        unit = f" {a['unit']}" if a["unit"] else ""
+        unit = f" {a['unit']}" if a[Key.unit] else ""
         interval = (f"{'(' if a['min_open'] else '['}{low:g}, {high:g}"
                     f"{')' if a['max_open'] else ']'}")
-        limit = f" (the board's {a['limit']} is {high:g}{unit})" if a["limit"] else ""
+        limit = f" (the board's {a['limit']} is {high:g}{unit})" if a[Key.limit] else ""
         raise OutOfLimits(command, key, f"{value:g}{unit} is beyond the board's limits; allowed: {interval}{unit}{limit}",
-                          "out_of_limits")
+                          ErrorCode.out_of_limits)
 
 
 def _read_key(path: str, entry: str) -> bytes:
@@ -271,18 +272,18 @@ class Board:
         that may name the board start names the one this client knows (asking
         ``hello`` first when it knows none): one the board restarted since
         raises ``StaleBoard`` and does nothing."""
-        if self._hello is None and command != "hello" and self._names_board(command):
+        if self._hello is None and command != Command.hello and self._names_board(command):
             self.hello()
         with self._lock:
             if self._closed:
                 raise ClientClosed(f"{command}: this Board was closed")
             request_id = next(self._ids)
-            request = {"id": request_id, "cmd": command}
+            request = {Key.id: request_id, Key.cmd: command}
             wire_args = {key: _wire(command, key, value) for key, value in args.items()}
             if self.board_id is not None and self._names_board(command):
-                wire_args["board"] = self.board_id
+                wire_args[Key.board] = self.board_id
             if wire_args:
-                request["args"] = wire_args
+                request[Key.args] = wire_args
             self._socket.send(msgpack.packb(request))
             deadline = time.monotonic() + self.timeout
             while True:
@@ -297,14 +298,14 @@ class Board:
                 # An earlier request's late reply is dropped; a refusal with
                 # no id is the board's answer to a request it could not read
                 # far enough to find one (this one: one request at a time).
-                if reply.get("id") == request_id or reply.get("id") is None:
+                if reply.get(Key.id) == request_id or reply.get(Key.id) is None:
                     break
-        if not reply["ok"]:
-            error = board_error(command, reply["error"])
+        if not reply[Key.ok]:
+            error = board_error(command, reply[Key.error])
             if isinstance(error, StaleBoard):
                 self._forget_board()
             raise error
-        result: dict[str, Any] = reply["result"]
+        result: dict[str, Any] = reply[Key.result]
         if command in _CHANGES_AN_AXIS and self._follower is not None:
             self._follower.refresh()  # what this client did shows in its next snapshot
         return result
@@ -313,22 +314,22 @@ class Board:
         """Whether ``command`` takes ``board`` on this board (its dictionary
         says; before it is read, every command but the two that never do)."""
         if self._dictionary is None:
-            return command not in ("hello", "estop")
-        return any(a["name"] == "board" for a in
-                   self._dictionary["commands"].get(command, {}).get("args", []))
+            return command not in (Command.hello, Command.estop)
+        return any(a[Key.name] == Key.board for a in
+                   self._dictionary[Key.commands].get(command, {}).get(Key.args, []))
 
     def _axis_name(self, axis: Optional[str]) -> str:
         """``axis`` resolved once: a name of the board's (None: its one axis).
         Raises ``BadArgument`` (key ``axis``, listing the board's axes) for a
         name it lacks, or for none on a board of several."""
         hello = self._hello or self.hello()
-        names = [a["name"] for a in hello["axes"]]
+        names = [a[Key.name] for a in hello[Key.axes]]
         if axis is None and len(names) == 1:
             return str(names[0])
         if axis in names:
             return str(axis)
         listed = ", ".join(names)
-        raise BadArgument("axis", "axis",
+        raise BadArgument(Key.axis, Key.axis,
                           f"required: the board has several axes ({listed})" if axis is None
                           else f"{axis!r} is not an axis of the board (its axes: {listed})")
 
@@ -336,14 +337,14 @@ class Board:
         """The board: protocol, rates, limits, and each axis (``axes``: its
         name, sensor radius ``r2_m``, limits, travel window, zero and
         calibration). Raises ``BoardError`` for a protocol other than 4."""
-        hello = self.call("hello")
-        if hello.get("protocol") != PROTOCOL:
-            raise BoardError("hello", "protocol",
+        hello = self.call(Command.hello)
+        if hello.get(Key.protocol) != PROTOCOL:
+            raise BoardError(Key.hello, Key.protocol,
                              f"the board speaks protocol {hello.get('protocol')}, "
                              f"this client {PROTOCOL}")
-        if self.board_id is not None and hello.get("board_id") != self.board_id:
+        if self.board_id is not None and hello.get(Key.board_id) != self.board_id:
             self._forget_board()  # a new start: nothing known of the old one holds
-        self._hello, self.board_id = hello, hello.get("board_id")
+        self._hello, self.board_id = hello, hello.get(Key.board_id)
         return hello
 
     def describe(self) -> dict[str, Any]:
@@ -352,23 +353,23 @@ class Board:
         board's limits, default, doc) and the names the wire carries
         (states, stop causes, move ends, ...). Asked once per ``Board``."""
         if self._dictionary is None:
-            self._dictionary = self.call("describe")
+            self._dictionary = self.call(Command.describe)
         return self._dictionary
 
     @property
     def frame_layout(self) -> frames.Layout:
         """The sample frames' layout, as this board describes it."""
         if self._layout is None:
-            self._layout = frames.Layout(self.describe()["frames"])
+            self._layout = frames.Layout(self.describe()[Key.frames])
         return self._layout
 
     def arguments(self, command: str) -> list[dict[str, Any]]:
         """The arguments ``command`` takes on this board, as it describes them."""
-        commands: dict[str, Any] = self.describe()["commands"]
+        commands: dict[str, Any] = self.describe()[Key.commands]
         if command not in commands:
-            raise UnknownCommand(command, "cmd", f"not a command of this board (its commands: "
-                                 f"{', '.join(commands)})", "unknown_command")
-        described: list[dict[str, Any]] = commands[command]["args"]
+            raise UnknownCommand(command, Key.cmd, f"not a command of this board (its commands: "
+                                 f"{', '.join(commands)})", ErrorCode.unknown_command)
+        described: list[dict[str, Any]] = commands[command][Key.args]
         return described
 
     def checked(self, command: str, args: dict[str, Any]) -> dict[str, Any]:
@@ -376,34 +377,34 @@ class Board:
         checks, done here from its dictionary: an argument it does not take,
         or of the wrong type, raises ``BadArgument``; a value beyond its
         range ``OutOfLimits``, naming the board's limit. Nothing is sent."""
-        described = {a["name"]: a for a in self.arguments(command)}
+        described = {a[Key.name]: a for a in self.arguments(command)}
         given = {k: _wire(command, k, v) for k, v in args.items() if v is not None}
         for key, value in given.items():
             if key not in described:
                 raise BadArgument(command, key, f"not an argument of {command} (it takes: "
-                                  f"{', '.join(described) or 'none'})", "bad_argument")
+                                  f"{', '.join(described) or 'none'})", ErrorCode.bad_argument)
             _check_argument(command, described[key], value)
         for name, a in described.items():
-            if a["required"] and name not in given:
-                raise BadArgument(command, name, "missing", "bad_argument")
+            if a[Key.required] and name not in given:
+                raise BadArgument(command, name, "missing", ErrorCode.bad_argument)
         return given
 
     def status(self) -> dict[str, Any]:
         """The board's state now: ``state``, ``fault`` (the board's), ``run``
         (its ``axes``, a move's ``moves``, its ``summary`` once finished) and
         ``axes`` (each axis's ``position``, ``calibrated`` and ``fault``)."""
-        return self.call("status")
+        return self.call(Command.status)
 
     def clock(self) -> int:
         """The board's CLOCK_MONOTONIC [ns]."""
-        return int(self.call("clock")["board_ns"])
+        return int(self.call(Command.clock)[Key.board_ns])
 
     def zero(self, axis: Optional[str] = None) -> dict[str, Any]:
         """Makes the rotor's position now (the mean of the last 8 good
         readings) the zero; returns ``position``. Between runs only.
         ``axis``: which (required on a board of several axes)."""
-        position: dict[str, Any] = self.call("zero", **self.checked("zero", {"axis": axis}))[
-            "position"]
+        position: dict[str, Any] = self.call(Command.zero, **self.checked(Command.zero, {Key.axis: axis}))[
+            Key.position]
         return position
 
     @property
@@ -411,37 +412,37 @@ class Board:
         """The board's axes by name, in its order (``hello()["axes"]``):
         ``board.axes["theta"].move_to(0.01)``. A board of one has one."""
         hello = self._hello or self.hello()
-        return {a["name"]: Axis(self, a["name"]) for a in hello["axes"]}
+        return {a[Key.name]: Axis(self, a[Key.name]) for a in hello[Key.axes]}
 
     def stop(self, axis: Optional[str] = None, now: bool = False) -> str:
         """Ramps the drive to 0 V and ends the run (the controller only);
         with ``axis``, that axis of the run alone (its cause
         ``interrupted``) while the others go on. ``now``: 0 V on the next
         drive deadline instead of the ramp (an abort that latches nothing)."""
-        args: dict[str, Any] = {} if axis is None else {"axis": axis}
+        args: dict[str, Any] = {} if axis is None else {Key.axis: axis}
         if now:
-            args["now"] = True
-        return str(self.call("stop", **args)["state"])
+            args[Key.now] = True
+        return str(self.call(Command.stop, **args)[Key.state])
 
     def estop(self) -> str:
         """Disables the amplifier at once; any client may. Latches the fault
         ``estop`` when no run is on (``reset_fault`` clears it). Returns the
         board's state as the e-stop left it (``estop``'s ``state`` in
         docs/protocol.md)."""
-        return str(self.call("estop")["state"])
+        return str(self.call(Command.estop)[Key.state])
 
     def reset_fault(self) -> str:
         """Clears a latched fault (not during a run)."""
-        return str(self.call("reset_fault")["state"])
+        return str(self.call(Command.reset_fault)[Key.state])
 
     def set_calibration(self, calibration: Optional[dict[str, Any]],
                         axis: Optional[str] = None) -> Optional[dict[str, Any]]:
         """Installs a calibration (a map as ``calibrate`` measures it, perhaps
         with a fitted ``model``), or clears it with None; ``axis``: whose."""
-        args: dict[str, Any] = {"calibration": calibration}
+        args: dict[str, Any] = {Key.calibration: calibration}
         if axis is not None:
-            args["axis"] = axis
-        installed: Optional[dict[str, Any]] = self.call("set_calibration", **args)["calibration"]
+            args[Key.axis] = axis
+        installed: Optional[dict[str, Any]] = self.call(Command.set_calibration, **args)[Key.calibration]
         return installed
 
     def fetch(self, stream: str, first: int, count: int) -> np.ndarray[Any, Any]:
@@ -450,10 +451,10 @@ class Board:
         Raises ``NotAvailable`` for samples the recorder no longer holds."""
         out = []
         # The most one fetch returns, as the board describes `fetch`'s count.
-        largest = int(next(a["max"] for a in self.arguments("fetch") if a["name"] == "count"))
+        largest = int(next(a[Key.max] for a in self.arguments(Command.fetch) if a[Key.name] == Key.count))
         while count > 0:
-            frame = self.call("fetch", stream=stream, first=first,
-                              count=min(count, largest))["frame"]
+            frame = self.call(Command.fetch, stream=stream, first=first,
+                              count=min(count, largest))[Key.frame]
             _, _, records = self.frame_layout.decode(frame)
             out.append(records)
             if len(records) == 0:
@@ -485,12 +486,12 @@ class Board:
         by this client (a fault, a lease lost) raises ``RunEnded`` at the end
         of the loop. ``renew=False`` never renews the lease: the board then
         stops by itself (``link_lost``), as it would for a dead host."""
-        start_keys = {a["name"] for a in self.arguments("start")}
-        configure = {"V0": V0, "f": f, "duration_s": duration}
+        start_keys = {a[Key.name] for a in self.arguments(Command.start)}
+        configure = {Key.V0: V0, Key.f: f, Key.duration_s: duration}
         configure.update({k: v for k, v in options.items() if k not in start_keys})
         start = {k: v for k, v in options.items() if k in start_keys}
-        self.call("configure", **self.checked("configure", configure))
-        return Run(self, "start", self.checked("start", start), renew, axis=options.get("axis"))
+        self.call(Command.configure, **self.checked(Command.configure, configure))
+        return Run(self, Command.start, self.checked(Command.start, start), renew, axis=options.get(Key.axis))
 
     def step(self, count: int, V0: float, f: float, **options: Any) -> "Run":
         """Exactly ``count`` whole sawtooth periods, ending at 0 V; waits for
@@ -498,8 +499,8 @@ class Board:
         samples and ``theta()``). ``options``: ``step``'s other arguments
         (``board.arguments("step")``: ``direction``, ``C_dr``, ``e_dr``,
         ``lease_s``)."""
-        args = self.checked("step", {"count": count, "V0": V0, "f": f, **options})
-        with Run(self, "step", args, True) as run:
+        args = self.checked(Command.step, {Key.count: count, Key.V0: V0, Key.f: f, **options})
+        with Run(self, Command.step, args, True) as run:
             run.wait()
         return run
 
@@ -539,25 +540,25 @@ class Board:
         calibration's ``smallest_tolerance_rad``)."""
         if isinstance(target_rad, dict):
             return self._move_group(target_rad, options)
-        args = self.checked("move_to", {"target_rad": target_rad, **options})
-        with Run(self, "move_to", args, True, raise_on_fault=False) as run:
+        args = self.checked(Command.move_to, {Key.target_rad: target_rad, **options})
+        with Run(self, Command.move_to, args, True, raise_on_fault=False) as run:
             summary = run.wait()
         move: dict[str, Any] = next(
-            (a.get("move") or {} for a in summary["axes"] if a["name"] == run.axis), {})
-        if move.get("stop_cause") != "on_target":
-            raise RunEnded("move_to", str(move.get("stop_cause") or summary.get("cause", "?")),
+            (a.get(Key.move) or {} for a in summary[Key.axes] if a[Key.name] == run.axis), {})
+        if move.get(Key.stop_cause) != MoveEnd.on_target:
+            raise RunEnded(Command.move_to, str(move.get(Key.stop_cause) or summary.get(Key.cause, "?")),
                            summary)
         return move
 
     def _move_group(self, targets: dict[str, float], options: dict[str, Any]) -> dict[str, Any]:
-        args = self.checked("move_to", {"targets": dict(targets), **options})
-        with Run(self, "move_to", args, True, raise_on_fault=False) as run:
+        args = self.checked(Command.move_to, {Key.targets: dict(targets), **options})
+        with Run(self, Command.move_to, args, True, raise_on_fault=False) as run:
             summary = run.wait()
-        moves = {a["name"]: a.get("move") or {} for a in summary["axes"]}
-        missed = {name: m.get("stop_cause") for name, m in moves.items()
-                  if m.get("stop_cause") != "on_target"}
+        moves = {a[Key.name]: a.get(Key.move) or {} for a in summary[Key.axes]}
+        missed = {name: m.get(Key.stop_cause) for name, m in moves.items()
+                  if m.get(Key.stop_cause) != MoveEnd.on_target}
         if missed:
-            raise RunEnded("move_to", ", ".join(f"{k}: {v}" for k, v in missed.items()), summary)
+            raise RunEnded(Command.move_to, ", ".join(f"{k}: {v}" for k, v in missed.items()), summary)
         return moves
 
     def calibrate(self, V0: Optional[float] = None, *, progress: bool = True,
@@ -569,8 +570,8 @@ class Board:
         arguments (``lease_s``). While it runs, how far it is shows on
         ``sys.stderr`` (under the running cell in a notebook) about once a
         second; ``progress=False`` keeps it quiet."""
-        args = self.checked("calibrate", {"V0": V0, **options})
-        with Run(self, "calibrate", args, True) as run:
+        args = self.checked(Command.calibrate, {Key.V0: V0, **options})
+        with Run(self, Command.calibrate, args, True) as run:
             shown = time.monotonic()
             began = shown
             for _ in run:
@@ -578,14 +579,14 @@ class Board:
                 if progress and now - shown >= 1.0:
                     shown = now
                     # The board knows how far its experiment is (0..1).
-                    fraction = (self.status().get("run") or {}).get("calibration_progress")
+                    fraction = (self.status().get(Key.run) or {}).get(Key.calibration_progress)
                     done = (f"{100 * fraction:.0f} % done after "
                             if isinstance(fraction, (int, float)) and fraction >= 0 else "")
                     print(f"calibrate: {done}{now - began:.0f} s", file=sys.stderr, flush=True)
         summary = run.summary
-        calibration: Optional[dict[str, Any]] = summary.get("calibration")
+        calibration: Optional[dict[str, Any]] = summary.get(Key.calibration)
         if calibration is None:
-            raise RunEnded("calibrate", summary.get("calibration_error", "no calibration"),
+            raise RunEnded(Command.calibrate, summary.get(Key.calibration_error, "no calibration"),
                            summary)
         return calibration
 
@@ -605,7 +606,7 @@ class Axis:
     def info(self) -> dict[str, Any]:
         """Its entry of ``hello()["axes"]``, asked now (its zero and
         calibration change)."""
-        entry: dict[str, Any] = next(a for a in self.board.hello()["axes"] if a["name"] == self.name)
+        entry: dict[str, Any] = next(a for a in self.board.hello()[Key.axes] if a[Key.name] == self.name)
         return entry
 
     def status(self) -> AxisSnapshot:
@@ -659,9 +660,9 @@ class Run:
         self.hello = board._hello or board.hello()
         # The axis it drives (a group move's first target), resolved once,
         # and the radius of the sensor that measures it.
-        self.axis: str = board._axis_name(axis or args.get("axis")
-                                          or next(iter(args.get("targets") or {}), None))
-        self.r2_m = next(float(a["r2_m"]) for a in self.hello["axes"] if a["name"] == self.axis)
+        self.axis: str = board._axis_name(axis or args.get(Key.axis)
+                                          or next(iter(args.get(Key.targets) or {}), None))
+        self.r2_m = next(float(a[Key.r2_m]) for a in self.hello[Key.axes] if a[Key.name] == self.axis)
         self._raise_on_fault = raise_on_fault
         # The board's stream through this connection's follower: its
         # subscription is up before the run starts, so no record is missed.
@@ -677,8 +678,8 @@ class Run:
         self._summary: Optional[dict[str, Any]] = None  # the board's, once the run ended
         self.gaps_fetched = 0
         self._layout = board.frame_layout
-        self._drive = self._layout.ids["drive"]
-        self._sensor = self._layout.ids["sensor"]
+        self._drive = self._layout.ids[Key.drive]
+        self._sensor = self._layout.ids[Key.sensor]
         self._next = {stream: 0 for stream in self._layout.names}
         self._blocks: dict[int, list[np.ndarray[Any, Any]]] = {s: [] for s in self._layout.names}
         self._pending: list[Block] = []
@@ -690,10 +691,10 @@ class Run:
         board.last_run = self
 
     def _renew(self, renew: bool) -> None:
-        period = float(self.started["lease_s"]) / 4
+        period = float(self.started[Key.lease_s]) / 4
         while renew and not self._stopping.wait(period):
             try:
-                self.board.call("lease", drive_received=self._next[self._drive])
+                self.board.call(Command.lease, drive_received=self._next[self._drive])
             except (BoardError, ClientClosed):
                 return  # the run has ended (bad_state / not_controller), or the client
             except NoReply:
@@ -749,8 +750,8 @@ class Run:
                 continue
             self._receive(0.5)
         assert self._summary is not None
-        if self._raise_on_fault and self._summary["cause"] not in EXPECTED_ENDS:
-            raise RunEnded("run", self._summary["cause"], self._summary)
+        if self._raise_on_fault and self._summary[Key.cause] not in EXPECTED_ENDS:
+            raise RunEnded(Key.run, self._summary[Key.cause], self._summary)
 
     def wait(self) -> dict[str, Any]:
         """Receives the run to its end and returns its summary."""
@@ -779,12 +780,12 @@ class Run:
                                "received; the run was stopped")
         self._heard = time.monotonic()
         topic, body = message
-        if topic not in (b"drive", b"sensor", b"state"):
+        if topic not in (Topic.drive, Topic.sensor, Topic.state):
             return
-        if topic == b"state":
+        if topic == Topic.state:
             event = msgpack.unpackb(body, raw=False)
-            if "summary" in event and event.get("state") in ("idle", "fault"):
-                self._finish(event["summary"])
+            if Key.summary in event and event.get(Key.state) in (State.idle, State.fault):
+                self._finish(event[Key.summary])
             return
         stream, first, records = self._layout.decode(body)
         if first > self._next[stream]:
@@ -806,9 +807,9 @@ class Run:
             return
         self._heard = time.monotonic()
 
-        run = status.get("run") or {}
-        if run.get("id") == self.started.get("run") and run.get("summary") is not None:
-            self._finish(run["summary"])
+        run = status.get(Key.run) or {}
+        if run.get(Key.id) == self.started.get(Key.run) and run.get(Key.summary) is not None:
+            self._finish(run[Key.summary])
 
     def _fetch_gap(self, stream: int, until: int) -> None:
         name = self._layout.names[stream]
@@ -827,7 +828,7 @@ class Run:
     def _finish(self, summary: dict[str, Any]) -> None:
         # The tail the stream had not delivered yet is in the recorder.
         for stream, name in self._layout.names.items():
-            total = summary.get("samples", {}).get(name, self._next[stream])
+            total = summary.get(Key.samples, {}).get(name, self._next[stream])
             if total > self._next[stream]:
                 self._fetch_gap(stream, total)
         self._summary = summary
@@ -855,8 +856,8 @@ class Run:
     def axes(self) -> list[str]:
         """The axes this run drives, in the board's order: one, or a group
         move's each (``theta(axis=...)``, ``fit_arrays(axis=...)`` take any)."""
-        moves = self.started.get("moves")
-        return [str(m["axis"]) for m in moves] if moves else [self.axis]
+        moves = self.started.get(Key.moves)
+        return [str(m[Key.axis]) for m in moves] if moves else [self.axis]
 
     @property
     def zero_displacement_m(self) -> Optional[float]:
@@ -868,33 +869,33 @@ class Run:
     def zero_of(self, axis: Optional[str]) -> Optional[float]:
         """The zero of ``axis``'s angles in this run (None: the run's axis)."""
         axis = axis or self.axis
-        moves = self.started.get("moves") or []
-        started: dict[str, Any] = next((m for m in moves if m["axis"] == axis), {})
-        if started.get("zero_displacement_m") is not None:
-            return float(started["zero_displacement_m"])
+        moves = self.started.get(Key.moves) or []
+        started: dict[str, Any] = next((m for m in moves if m[Key.axis] == axis), {})
+        if started.get(Key.zero_displacement_m) is not None:
+            return float(started[Key.zero_displacement_m])
         sensor = self.records_of(axis, self.sensor)
-        good = sensor[sensor["status"] == 0]
-        return float(good["displacement_m"][0]) if len(good) else None
+        good = sensor[sensor[Key.status] == 0]
+        return float(good[Key.displacement_m][0]) if len(good) else None
 
     def records_of(self, axis: Optional[str],
                    records: np.ndarray[Any, Any]) -> np.ndarray[Any, Any]:
         """The records of ``axis`` among ``records`` (a group move's
         records carry their axis; None: the run's axis)."""
-        names = [a["name"] for a in self.hello["axes"]]
+        names = [a[Key.name] for a in self.hello[Key.axes]]
         axis = axis or self.axis
         if axis not in names:
             raise ValueError(f"axis {axis!r}: not an axis of this board (its axes: "
                              f"{', '.join(names)})")
         index = names.index(axis)
-        mine: np.ndarray[Any, Any] = records[records["axis"] == index]
+        mine: np.ndarray[Any, Any] = records[records[Key.axis] == index]
         return mine
 
     def t(self, records: Optional[np.ndarray[Any, Any]] = None) -> np.ndarray[Any, Any]:
         """Times [s] from the run's origin ``t0_ns`` of drive or sensor
         records (sensor: the request's time)."""
         records = self.sensor if records is None else records
-        field = "t_ns" if "t_ns" in records.dtype.names else "t_request_ns"
-        seconds: np.ndarray[Any, Any] = (records[field] - self.started["t0_ns"]) * 1e-9
+        field = Key.t_ns if Key.t_ns in records.dtype.names else Key.t_request_ns
+        seconds: np.ndarray[Any, Any] = (records[field] - self.started[Key.t0_ns]) * 1e-9
         return seconds
 
     def theta(self, records: Optional[np.ndarray[Any, Any]] = None,
@@ -905,10 +906,10 @@ class Run:
         NaN where the reading failed."""
         axis = axis or self.axis
         records = self.records_of(axis, self.sensor if records is None else records)
-        r2_m = next(float(a["r2_m"]) for a in self.hello["axes"] if a["name"] == axis)
+        r2_m = next(float(a[Key.r2_m]) for a in self.hello[Key.axes] if a[Key.name] == axis)
         zero = self.zero_of(axis)
-        theta = angle_rad(records["displacement_m"], zero or 0.0, r2_m)
-        return np.where(records["status"] == 0, theta, np.nan)
+        theta = angle_rad(records[Key.displacement_m], zero or 0.0, r2_m)
+        return np.where(records[Key.status] == 0, theta, np.nan)
 
     def fit_arrays(self, axis: Optional[str] = None) -> tuple[
             np.ndarray[Any, Any], np.ndarray[Any, Any], np.ndarray[Any, Any], np.ndarray[Any, Any]]:
@@ -920,10 +921,10 @@ class Run:
         left out. An axis the board lacks raises ValueError naming its axes."""
         drive = self.records_of(axis, self.drive)
         sensor = self.records_of(axis, self.sensor)
-        drive_t = self.t(drive) + float(self.hello.get("output_latency_s", 0.0))
+        drive_t = self.t(drive) + float(self.hello.get(Key.output_latency_s, 0.0))
         t, theta = self.t(sensor), self.theta(sensor, axis)
         good = ~np.isnan(theta)
-        return drive_t, drive["V"].astype(float), t[good], theta[good]
+        return drive_t, drive[Key.V].astype(float), t[good], theta[good]
 
 
 def _joined(blocks: list[Any], dtype: np.dtype[Any]) -> np.ndarray[Any, Any]:

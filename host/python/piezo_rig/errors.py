@@ -12,6 +12,7 @@ its fields through pickling, so a worker process can send it back:
 
 from __future__ import annotations
 
+from ._wire import ErrorCode, Key
 from typing import Any
 
 
@@ -36,47 +37,47 @@ class BoardError(Exception):
 
 
 class Malformed(BoardError):
-    code = "malformed"
+    code = ErrorCode.malformed
 
 
 class TooLarge(BoardError):
-    code = "too_large"
+    code = ErrorCode.too_large
 
 
 class UnknownCommand(BoardError):
-    code = "unknown_command"
+    code = ErrorCode.unknown_command
 
 
 class BadArgument(BoardError, ValueError):
-    code = "bad_argument"
+    code = ErrorCode.bad_argument
 
 
 class OutOfLimits(BoardError, ValueError):
-    code = "out_of_limits"
+    code = ErrorCode.out_of_limits
 
 
 class BadState(BoardError):
-    code = "bad_state"
+    code = ErrorCode.bad_state
 
 
 class FaultLatched(BoardError):
-    code = "fault_latched"
+    code = ErrorCode.fault_latched
 
 
 class NotController(BoardError):
-    code = "not_controller"
+    code = ErrorCode.not_controller
 
 
 class NotAvailable(BoardError):
-    code = "not_available"
+    code = ErrorCode.not_available
 
 
 class RateLimited(BoardError):
-    code = "rate_limited"
+    code = ErrorCode.rate_limited
 
 
 class Internal(BoardError):
-    code = "internal"
+    code = ErrorCode.internal
 
 
 class StaleBoard(BoardError):
@@ -84,7 +85,7 @@ class StaleBoard(BoardError):
     since this client asked ``hello``, and did nothing. The ``Board`` has
     dropped what it knew of the old one (limits, axes, zero, dictionary);
     its next request reads them again."""
-    code = "stale_board"
+    code = ErrorCode.stale_board
 
 
 ERRORS = {cls.code: cls for cls in (Malformed, TooLarge, UnknownCommand, BadArgument, OutOfLimits,
@@ -95,9 +96,9 @@ ERRORS = {cls.code: cls for cls in (Malformed, TooLarge, UnknownCommand, BadArgu
 def board_error(command: str, error: dict[str, Any]) -> BoardError:
     """The exception for an error reply's ``error`` map (an unknown code, from
     a newer board, is a plain BoardError carrying it)."""
-    code = error.get("code", "")
+    code = error.get(Key.code, "")
     cls = ERRORS.get(code, BoardError)
-    return cls(command, error.get("key", "") or "", error.get("message", ""), code)
+    return cls(command, error.get(Key.key, "") or "", error.get(Key.message, ""), code)
 
 
 class NoReply(TimeoutError):

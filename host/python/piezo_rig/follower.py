@@ -28,6 +28,7 @@ import msgpack
 import numpy as np
 import zmq
 
+from ._wire import Key, Topic
 from .frames import FrameError, Layout
 
 
@@ -36,6 +37,8 @@ class Client(Protocol):
     """What the follower asks of its own client of the board (a ``Board``)."""
 
     def hello(self) -> dict[str, Any]: ...
+
+    def describe(self) -> dict[str, Any]: ...
 
     def status(self) -> dict[str, Any]: ...
 
@@ -113,6 +116,8 @@ class Follower:
         self._snapshot = BoardSnapshot()
         self._hello: dict[str, Any] = {}
         self._layout: Optional[Layout] = None
+        # Each event's keys that every one of it holds (the board's dictionary).
+        self._always: dict[str, frozenset[str]] = {}
         self._listeners: list[Listener] = []
         self._queues: list[queue.SimpleQueue[Any]] = []
         self._sub: Optional[zmq.Socket[bytes]] = None
@@ -199,7 +204,7 @@ class Follower:
         for name, a in self.snapshot.axes.items():
             c = change(a)
             axes[name] = dataclasses.replace(a, **c) if c else a
-        return {"axes": MappingProxyType(axes)}
+        return dict(axes=MappingProxyType(axes))
 
     def _lost(self, why: str) -> None:
         self._hello = {}
@@ -213,51 +218,53 @@ class Follower:
         restarted is a new board: nothing known of the old start is kept."""
         hello = self._watch.hello()
         self._layout = self._watch.frame_layout
+        self._always = {name: frozenset(f[Key.name] for f in fields if f[Key.always])
+                        for name, fields in self._watch.describe()[Key.messages].items()}
         s = self.snapshot
-        same = hello.get("board_id") == s.board_id
+        same = hello.get(Key.board_id) == s.board_id
         if not same:
             self._new_board()  # its next request names the new start
         axes = {}
-        for index, a in enumerate(hello["axes"]):
-            old = s.axes.get(a["name"]) if same else None
-            axes[a["name"]] = AxisSnapshot(
-                name=a["name"], index=index, r2_m=float(a["r2_m"]), V_max=float(a["V_max"]),
-                travel_min_rad=a.get("travel_min_rad"), travel_max_rad=a.get("travel_max_rad"),
+        for index, a in enumerate(hello[Key.axes]):
+            old = s.axes.get(a[Key.name]) if same else None
+            axes[a[Key.name]] = AxisSnapshot(
+                name=a[Key.name], index=index, r2_m=float(a[Key.r2_m]), V_max=float(a[Key.V_max]),
+                travel_min_rad=a.get(Key.travel_min_rad), travel_max_rad=a.get(Key.travel_max_rad),
                 position_rad=old.position_rad if old else None)
         self._hello = hello
-        changes: dict[str, Any] = {"board_id": hello.get("board_id"),
-                                   "axes": MappingProxyType(axes)}
+        changes: dict[str, Any] = dict(board_id=hello.get(Key.board_id),
+                                   axes=MappingProxyType(axes))
         if not same:
             changes.update(generation=s.generation + 1, last_summary=_EMPTY, health=_EMPTY,
                            moved=())
         self._swap(**changes)
 
     def _take_status(self, status: dict[str, Any]) -> None:
-        run = status.get("run") or {}
-        running = bool(run) and not run.get("finished", False)
-        in_run = set(run.get("axes") or []) if running else set()
-        entries = {e["name"]: e for e in status.get("axes", [])}
+        run = status.get(Key.run) or {}
+        running = bool(run) and not run.get(Key.finished, False)
+        in_run = set(run.get(Key.axes) or []) if running else set()
+        entries = {e[Key.name]: e for e in status.get(Key.axes, [])}
 
         def change(a: AxisSnapshot) -> Optional[dict[str, Any]]:
             e = entries.get(a.name)
             if e is None:
                 return None
-            position = e.get("position") or {}
-            c = {"zero_displacement_m": position.get("zero_displacement_m"),
-                 "calibrated": bool(e.get("calibrated")), "fault": e.get("fault"),
-                 "in_run": a.name in in_run,
-                 "move": MappingProxyType(next((m for m in run.get("moves") or []
-                                                if m["axis"] == a.name), {}))}
-            if a.name not in in_run and position.get("position_rad") is not None:
-                c["position_rad"] = float(position["position_rad"])
-            c.update(_rest_fields(e.get("rest")))
+            position = e.get(Key.position) or {}
+            c = dict(zero_displacement_m=position.get(Key.zero_displacement_m),
+                     calibrated=bool(e.get(Key.calibrated)), fault=e.get(Key.fault),
+                     in_run=a.name in in_run,
+                     move=MappingProxyType(next((m for m in run.get(Key.moves) or []
+                                                 if m[Key.axis] == a.name), {})))
+            if a.name not in in_run and position.get(Key.position_rad) is not None:
+                c.update(position_rad=float(position[Key.position_rad]))
+            c.update(_rest_fields(e.get(Key.rest)))
             return c
 
         changes = self._axes(change)
-        changes.update(state=str(status["state"]), fault=status.get("fault"),
+        changes.update(state=str(status[Key.state]), fault=status.get(Key.fault),
                        reachable=True, problem="")
-        if run.get("summary"):
-            changes["last_summary"] = MappingProxyType(run["summary"])
+        if run.get(Key.summary):
+            changes["last_summary"] = MappingProxyType(run[Key.summary])
         self._swap(**changes)
 
     def _ask(self) -> bool:
@@ -265,7 +272,7 @@ class Follower:
             if not self._hello:
                 self._introduce()
             status = self._watch.status()
-            if status.get("board_id") != self.snapshot.board_id:  # restarted since hello
+            if status.get(Key.board_id) != self.snapshot.board_id:  # restarted since hello
                 self._introduce()
                 status = self._watch.status()
             self._take_status(status)
@@ -276,49 +283,49 @@ class Follower:
             return False
 
     def _on_sensor(self, records: np.ndarray[Any, Any]) -> None:
-        good = records[records["status"] == 0]
-        latest = {int(i): float(good[good["axis"] == i]["displacement_m"][-1])
-                  for i in np.unique(good["axis"])}
+        good = records[records[Key.status] == 0]
+        latest = {int(i): float(good[good[Key.axis] == i][Key.displacement_m][-1])
+                  for i in np.unique(good[Key.axis])}
 
         def change(a: AxisSnapshot) -> Optional[dict[str, Any]]:
             d = latest.get(a.index)
             if d is None or a.zero_displacement_m is None:
                 return None
-            return {"position_rad": angle_rad(d, a.zero_displacement_m, a.r2_m)}
+            return dict(position_rad=angle_rad(d, a.zero_displacement_m, a.r2_m))
 
         self._swap(**self._axes(change))
 
-    def _on_event(self, topic: bytes, event: dict[str, Any]) -> None:
+    def _on_event(self, topic: str, event: dict[str, Any]) -> None:
         s = self.snapshot
-        if event.get("board_id", s.board_id) != s.board_id:
+        if event.get(Key.board_id, s.board_id) != s.board_id:
             self._hello = {}  # a new board start: introduced afresh
             self._ask()
             return
-        changed = event.get("state") != s.state or "summary" in event
+        changed = event.get(Key.state) != s.state or Key.summary in event
         changes: dict[str, Any] = {}
-        if "summary" in event:
-            changes["last_summary"] = MappingProxyType(event["summary"])
-        if topic == b"health":
-            changes["health"] = MappingProxyType(
-                {k: event[k] for k in ("drive", "sensor", "moves") if k in event})
-            rests = {r["name"]: r for r in event.get("rest") or []}
+        if Key.summary in event:
+            changes["last_summary"] = MappingProxyType(event[Key.summary])
+        if topic == Topic.health:
+            changes[Key.health] = MappingProxyType(
+                {k: event[k] for k in (Key.drive, Key.sensor, Key.moves) if k in event})
+            rests = {r[Key.name]: r for r in event.get(Key.rest) or []}
 
             def change(a: AxisSnapshot) -> Optional[dict[str, Any]]:
                 r = rests.get(a.name)
                 if r is None:
                     return None
                 c = _rest_fields(r)
-                if not a.in_run and r.get("position_rad") is not None:
-                    c["position_rad"] = float(r["position_rad"])
+                if not a.in_run and r.get(Key.position_rad) is not None:
+                    c.update(position_rad=float(r[Key.position_rad]))
                 return c
 
             changes.update(self._axes(change))
-        if topic == b"moved":
-            changes["moved"] = s.moved + (MappingProxyType(event),)
-            rest = event.get("rest") or {}
+        if topic == Topic.moved:
+            changes[Key.moved] = s.moved + (MappingProxyType(event),)
+            rest = event.get(Key.rest) or {}
             changes.update(self._axes(lambda a: (
-                dict(_rest_fields(rest), position_rad=rest.get("position_rad"))
-                if a.name == event.get("axis") else None)))
+                dict(_rest_fields(rest), position_rad=rest.get(Key.position_rad))
+                if a.name == event.get(Key.axis) else None)))
         self._swap(**changes)
         if changed or not s.reachable:
             self._ask()  # the state, each axis's fault and position, at once
@@ -353,20 +360,23 @@ class Follower:
         if len(parts) != 2:
             self._swap(rejected_frames=self.snapshot.rejected_frames + 1)
             return
-        topic, body = parts
+        topic, body = parts[0].decode(errors="replace"), parts[1]
         with self._lock:
             queues = list(self._queues)
         for q in queues:
             q.put((topic, body))
         try:
-            if topic == b"sensor" and self._layout is not None:
+            if topic == Topic.sensor and self._layout is not None:
                 self._on_sensor(self._layout.decode(body)[2])
-            elif topic in (b"state", b"health", b"moved"):
+            elif topic in (Topic.state, Topic.health, Topic.moved):
                 event = msgpack.unpackb(body, raw=False)
                 if not isinstance(event, dict):
-                    raise ValueError(f"a {topic.decode(errors='replace')} event that is not a map")
+                    raise ValueError(f"a {topic} event that is not a map")
+                lacking = self._always.get(topic, frozenset()) - event.keys()
+                if lacking:
+                    raise ValueError(f"a {topic} event without {', '.join(sorted(lacking))}")
                 self._on_event(topic, event)
-            elif topic != b"drive":
+            elif topic != Topic.drive:
                 raise ValueError(f"unexpected topic {topic[:32]!r}")
         except (FrameError, ValueError, KeyError, TypeError, IndexError,
                 msgpack.exceptions.ExtraData) as e:
@@ -416,5 +426,5 @@ def _rest_fields(rest: Optional[Mapping[str, Any]]) -> dict[str, Any]:
     """An AxisSnapshot's fields from a board's rest report."""
     if not rest:
         return {}
-    return {"noise_rad": rest.get("noise_rad"), "age_s": rest.get("age_s"),
-            "moved_rad": float(rest.get("moved_rad") or 0.0), "moved": bool(rest.get("moved"))}
+    return dict(noise_rad=rest.get(Key.noise_rad), age_s=rest.get(Key.age_s),
+                moved_rad=float(rest.get(Key.moved_rad) or 0.0), moved=bool(rest.get(Key.moved)))

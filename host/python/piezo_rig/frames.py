@@ -5,6 +5,7 @@ and offsets, so no copy of the layout lives here."""
 
 from __future__ import annotations
 
+from ._wire import Key
 from typing import Any
 
 import numpy as np
@@ -16,9 +17,9 @@ class FrameError(ValueError):
 
 def _dtype(fields: list[dict[str, Any]], itemsize: int) -> np.dtype[Any]:
     """A structured type with each described field at its offset."""
-    return np.dtype({"names": [f["name"] for f in fields],
-                     "formats": [f["type"] for f in fields],
-                     "offsets": [int(f["offset"]) for f in fields],
+    return np.dtype({"names": [f[Key.name] for f in fields],  # numpy's spec, not the wire's
+                     "formats": [f[Key.type] for f in fields],
+                     "offsets": [int(f[Key.offset]) for f in fields],
                      "itemsize": itemsize})
 
 
@@ -34,13 +35,13 @@ class Layout:
     """
 
     def __init__(self, described: dict[str, Any]) -> None:
-        self.magic = str(described["magic"]).encode()
-        self.version = int(described["version"])
-        self.header = _dtype(described["header"], int(described["header_bytes"]))
-        streams = described["streams"]
-        self.names = {int(s["id"]): name for name, s in streams.items()}
+        self.magic = str(described[Key.magic]).encode()
+        self.version = int(described[Key.version])
+        self.header = _dtype(described[Key.header], int(described[Key.header_bytes]))
+        streams = described[Key.streams]
+        self.names = {int(s[Key.id]): name for name, s in streams.items()}
         self.ids = {name: stream_id for stream_id, name in self.names.items()}
-        self.records = {int(s["id"]): _dtype(s["fields"], int(s["record_bytes"]))
+        self.records = {int(s[Key.id]): _dtype(s[Key.fields], int(s[Key.record_bytes]))
                         for s in streams.values()}
 
     def record(self, stream: str) -> np.dtype[Any]:
@@ -53,14 +54,14 @@ class Layout:
         if len(body) < self.header.itemsize:
             raise FrameError(f"frame of {len(body)} bytes, shorter than its header")
         header = np.frombuffer(body, self.header, 1)[0]
-        if bytes(header["magic"]) != self.magic or int(header["version"]) != self.version:
+        if bytes(header[Key.magic]) != self.magic or int(header[Key.version]) != self.version:
             raise FrameError(f"frame magic {bytes(header['magic'])!r} version "
                              f"{int(header['version'])}")
-        stream, count, size = int(header["stream"]), int(header["count"]), int(header["record_bytes"])
+        stream, count, size = int(header[Key.stream]), int(header[Key.count]), int(header[Key.record_bytes])
         dtype = self.records.get(stream)
         if dtype is None or size != dtype.itemsize:
             raise FrameError(f"stream {stream} with {size}-byte records")
         if len(body) != self.header.itemsize + count * size:
             raise FrameError(f"frame of {len(body)} bytes for {count} records")
         records = np.frombuffer(body, dtype, count, self.header.itemsize).copy()
-        return stream, int(header["first"]), records
+        return stream, int(header[Key.first]), records

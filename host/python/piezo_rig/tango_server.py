@@ -27,6 +27,7 @@ import tango
 from tango import AttrQuality, AttrWriteType, DevState
 from tango.server import Device, attribute, command, device_property, run
 
+from ._wire import Command, ErrorCode, Key, MoveEnd, State
 from .errors import BoardError, NoReply, RunEnded
 from .tango_link import AxisView, BoardLink
 
@@ -50,7 +51,7 @@ def _raise(what: str, error: BaseException) -> None:
     """The board's refusal (its code, key and message) as a Tango DevFailed."""
     reason = type(error).__name__
     if isinstance(error, BoardError):
-        reason = f"{error.code}" + (f" ({error.key})" if getattr(error, "key", None) else "")
+        reason = f"{error.code}" + (f" ({error.key})" if getattr(error, Key.key, None) else "")
     tango.Except.throw_exception(reason, f"{what}: {error}", what)
 
 
@@ -85,10 +86,10 @@ class _OnBoard(Device):
         link = self.link
         if not link.reachable:
             return DevState.UNKNOWN, f"The board at {link.address} is unreachable: {link.problem}"
-        if link.state == "fault":
+        if link.state == State.fault:
             return DevState.FAULT, (f"The board latched the fault {link.fault}: ResetFault "
                                     "clears it once the cause is looked at")
-        if link.state in ("running", "ramping_down"):
+        if link.state in (State.running, State.ramping_down):
             return DevState.MOVING, f"The board is {link.state.replace('_', ' ')}"
         return DevState.ON, f"The board is {link.state}"
 
@@ -138,19 +139,19 @@ class PiezoAxis(_OnBoard):
     def _take_defaults(self) -> None:
         """The move's defaults as the board declares them (its dictionary)."""
         try:
-            args = {a["name"]: a for a in self.link.control.arguments("move_to")}
+            args = {a[Key.name]: a for a in self.link.control.arguments(Command.move_to)}
         except (BoardError, NoReply):
             return
 
         def default(name: str) -> float:
             # NaN: the board picks it per move (its calibration's, say).
-            value = args.get(name, {}).get("default")
+            value = args.get(name, {}).get(Key.default)
             return float(value) if isinstance(value, (int, float)) else float("nan")
 
         if self._tolerance_rad != self._tolerance_rad:
-            self._tolerance_rad = default("tolerance_rad")
-            self._f_hz = default("f")
-            self._V0 = default("V0")
+            self._tolerance_rad = default(Key.tolerance_rad)
+            self._f_hz = default(Key.f)
+            self._V0 = default(Key.V0)
 
     def _state(self) -> tuple[DevState, str]:
         state, status = self._board_state()
@@ -167,7 +168,7 @@ class PiezoAxis(_OnBoard):
         if state == DevState.FAULT:
             return state, status
         if moving:
-            target = view.move.get("target_rad")
+            target = view.move.get(Key.target_rad)
             return DevState.MOVING, (f"Axis {view.name} is moving" +
                                      (f" to {target:.6g} rad" if target is not None else "") +
                                      f", {where}")
@@ -238,13 +239,13 @@ class PiezoAxis(_OnBoard):
             deadline = time.monotonic() + 10
             while self._moving and time.monotonic() < deadline:
                 time.sleep(0.02)
-        options = {"axis": self._name, "tolerance_rad": self._tolerance_rad, "f": self._f_hz,
-                   "V0": self._V0}
+        options = {Key.axis: self._name, Key.tolerance_rad: self._tolerance_rad, Key.f: self._f_hz,
+                   Key.V0: self._V0}
         options = {k: v for k, v in options.items() if v == v}  # NaN: the board's default
         try:
             # Checked against the board's dictionary before anything is sent,
             # then sent: the board refuses what is beyond its limits.
-            self.link.control.checked("move_to", {"target_rad": target_rad, **options})
+            self.link.control.checked(Command.move_to, {Key.target_rad: target_rad, **options})
         except BoardError as e:
             _raise("Position", e)
         self._move_error = ""
@@ -254,8 +255,8 @@ class PiezoAxis(_OnBoard):
         # device go on: progress comes as State and Position events.
         from .board import Run
         try:
-            args = self.link.control.checked("move_to", {"target_rad": target_rad, **options})
-            run = Run(self.link.control, "move_to", args, True, raise_on_fault=False)
+            args = self.link.control.checked(Command.move_to, {Key.target_rad: target_rad, **options})
+            run = Run(self.link.control, Command.move_to, args, True, raise_on_fault=False)
         except (BoardError, NoReply) as e:
             _raise("Position", e)
         self._moving = True
@@ -265,9 +266,9 @@ class PiezoAxis(_OnBoard):
             try:
                 with run:
                     summary = run.wait()
-                mine = next((a for a in summary["axes"] if a["name"] == self._name), {})
-                end = (mine.get("move") or {}).get("stop_cause") or mine.get("cause")
-                if end != "on_target":
+                mine = next((a for a in summary[Key.axes] if a[Key.name] == self._name), {})
+                end = (mine.get(Key.move) or {}).get(Key.stop_cause) or mine.get(Key.cause)
+                if end != MoveEnd.on_target:
                     self._move_error = f"ended {end}"
             except BaseException as e:  # noqa: B036 -- kept for Status
                 self._move_error = str(e)
@@ -284,8 +285,8 @@ class PiezoAxis(_OnBoard):
         """A move's option as written, once the board's dictionary takes it
         for this axis (DevFailed naming the key and the limit otherwise)."""
         try:
-            self.link.control.checked("move_to", {"target_rad": 0.0, key: value,
-                                                  "axis": self._name})
+            self.link.control.checked(Command.move_to, {Key.target_rad: 0.0, key: value,
+                                                  Key.axis: self._name})
         except BoardError as e:
             _raise(attribute, e)
         return value
@@ -297,7 +298,7 @@ class PiezoAxis(_OnBoard):
 
     @Tolerance.write  # type: ignore[no-redef]
     def Tolerance(self, value: float) -> None:
-        self._tolerance_rad = self._move_option("Tolerance", "tolerance_rad", value)
+        self._tolerance_rad = self._move_option("Tolerance", Key.tolerance_rad, value)
 
     @attribute(dtype=float, unit="Hz", access=AttrWriteType.READ_WRITE,
                doc="the coarse steps' sawtooth frequency (the board's default at start)")
@@ -306,7 +307,7 @@ class PiezoAxis(_OnBoard):
 
     @Frequency.write  # type: ignore[no-redef]
     def Frequency(self, value: float) -> None:
-        self._f_hz = self._move_option("Frequency", "f", value)
+        self._f_hz = self._move_option("Frequency", Key.f, value)
 
     @attribute(dtype=float, unit="V", access=AttrWriteType.READ_WRITE,
                doc="the coarse steps' amplitude V0 (the board's default at start)")
@@ -315,7 +316,7 @@ class PiezoAxis(_OnBoard):
 
     @Amplitude.write  # type: ignore[no-redef]
     def Amplitude(self, value: float) -> None:
-        self._V0 = self._move_option("Amplitude", "V0", value)
+        self._V0 = self._move_option("Amplitude", Key.V0, value)
 
     @attribute(dtype=float, unit="V", doc="the axis's highest drive voltage, as the board declares it")
     def Amplitude_max(self) -> float:
@@ -325,8 +326,8 @@ class PiezoAxis(_OnBoard):
     @attribute(dtype=float, unit="Hz", doc="the highest sawtooth frequency the board takes "
                                           "(hello.limits.f_max_hz)")
     def Frequency_max(self) -> float:
-        limits = self.link.hello.get("limits") or {}
-        return float(limits.get("f_max_hz", float("nan")))
+        limits = self.link.hello.get(Key.limits) or {}
+        return float(limits.get(Key.f_max_hz, float("nan")))
 
     @attribute(dtype=float, unit="rad", doc="the travel window's lower end (NaN: none)")
     def Travel_min(self) -> float:
@@ -357,7 +358,7 @@ class PiezoAxis(_OnBoard):
         try:
             self.link.control.stop(self._name)
         except BoardError as e:
-            if e.code not in ("bad_state",):  # nothing to stop
+            if e.code not in (ErrorCode.bad_state,):  # nothing to stop
                 _raise("Stop", e)
         except NoReply as e:
             _raise("Stop", e)
@@ -368,9 +369,9 @@ class PiezoAxis(_OnBoard):
         try:
             self.link.control.stop(self._name, now=True)
         except BoardError as e:
-            if e.code == "bad_state":
+            if e.code == ErrorCode.bad_state:
                 return  # nothing runs
-            if e.code != "not_controller":
+            if e.code != ErrorCode.not_controller:
                 _raise("Abort", e)
             try:  # not this bridge's run: the one stop any client may send
                 self.link.control.estop()
@@ -384,7 +385,7 @@ class PiezoAxis(_OnBoard):
     def DefinePosition(self, value: float) -> None:
         if value != 0.0:
             tango.Except.throw_exception(
-                "out_of_limits", f"DefinePosition: {value} rad; the board's zero is where the "
+                ErrorCode.out_of_limits, f"DefinePosition: {value} rad; the board's zero is where the "
                                  "rotor is now, so only 0 is taken", "DefinePosition")
         try:
             self.link.control.zero(self._name)  # its follower reads the new frame at once
@@ -450,19 +451,19 @@ class PiezoBoard(_OnBoard):
 
     @attribute(dtype=int, doc="the drive loop's overruns in the current or last run")
     def Drive_overruns(self) -> int:
-        return int((self.link.health.get("drive") or {}).get("overruns", 0))
+        return int((self.link.health.get(Key.drive) or {}).get(Key.overruns, 0))
 
     @attribute(dtype=int, doc="the drive loop's deadlines missed in the current or last run")
     def Drive_missed_cycles(self) -> int:
-        return int((self.link.health.get("drive") or {}).get("missed_cycles", 0))
+        return int((self.link.health.get(Key.drive) or {}).get(Key.missed_cycles, 0))
 
     @attribute(dtype=int, doc="sensor reads that failed in the current or last run")
     def Sensor_errors(self) -> int:
-        return int((self.link.health.get("sensor") or {}).get("errors", 0))
+        return int((self.link.health.get(Key.sensor) or {}).get(Key.errors, 0))
 
     @attribute(dtype=str, doc="how the last run ended (its cause), empty before any")
     def Last_cause(self) -> str:
-        return str(self.link.last_summary.get("cause", ""))
+        return str(self.link.last_summary.get(Key.cause, ""))
 
     @command(doc_in="disables the amplifier at once, every axis (any client may)")
     def Estop(self) -> None:
@@ -485,17 +486,17 @@ class PiezoBoard(_OnBoard):
         targets, names = argin
         if len(targets) != len(names) or not names:
             tango.Except.throw_exception(
-                "bad_argument", f"MoveGroup: {len(targets)} targets for {len(names)} axes",
+                ErrorCode.bad_argument, f"MoveGroup: {len(targets)} targets for {len(names)} axes",
                 "MoveGroup")
         group = {str(n): float(t) for n, t in zip(names, targets)}
         try:
-            args = self.link.control.checked("move_to", {"targets": group})
+            args = self.link.control.checked(Command.move_to, {Key.targets: group})
         except BoardError as e:
             _raise("MoveGroup", e)
         # As Position's write: the board's reply here, the run followed apart.
         from .board import Run
         try:
-            run = Run(self.link.control, "move_to", args, True, raise_on_fault=False)
+            run = Run(self.link.control, Command.move_to, args, True, raise_on_fault=False)
         except (BoardError, NoReply) as e:
             _raise("MoveGroup", e)
 
@@ -564,7 +565,7 @@ def main(argv: Optional[list[str]] = None) -> int:
         from .board import Board
         try:
             with Board(options.board, keys=_keys(keys), timeout=3.0) as board:
-                axes = [a["name"] for a in board.hello().get("axes", [])]
+                axes = [a[Key.name] for a in board.hello().get(Key.axes, [])]
         except (BoardError, NoReply, ValueError, OSError) as e:
             print(f"piezo-tango: --board {options.board}: {e}", file=sys.stderr)
             return 2

@@ -112,8 +112,8 @@ nlohmann::json BoardClient::call(const std::string& cmd, const nlohmann::json& a
   }
 }
 
-void BoardClient::subscribe(std::initializer_list<const char*> topics) {
-  for (const char* t : topics) stream_.set(zmq::sockopt::subscribe, t);
+void BoardClient::subscribe(std::initializer_list<std::string_view> topics) {
+  for (const std::string_view t : topics) stream_.set(zmq::sockopt::subscribe, t);
 }
 
 protocol::Hello BoardClient::hello() {

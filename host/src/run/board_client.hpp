@@ -62,7 +62,7 @@ class BoardClient {
   /// The board start `hello` named (empty before it).
   [[nodiscard]] const std::string& board_id() const { return board_id_; }
   /// Subscribes the stream to the given topics ("drive", "sensor", "state", "health").
-  void subscribe(std::initializer_list<const char*> topics);
+  void subscribe(std::initializer_list<std::string_view> topics);
   [[nodiscard]] zmq::socket_t& stream() { return stream_; }
   [[nodiscard]] const std::string& address() const { return address_; }
 

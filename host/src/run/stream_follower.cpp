@@ -7,6 +7,7 @@
 
 #include "piezo/firmware/wire_keys.hpp"
 #include "piezo/protocol/message.hpp"
+#include "piezo/protocol/topics.hpp"
 
 namespace piezo::host {
 namespace {
@@ -16,7 +17,8 @@ constexpr std::uint64_t kFetchChunk = 50'000;
 }  // namespace
 
 void StreamFollower::subscribe(BoardClient& client) {
-  client.subscribe({"drive", "sensor", "state", "health"});
+  client.subscribe({protocol::topic::drive, protocol::topic::sensor, protocol::topic::state,
+                    protocol::topic::health});
   // A PUB socket drops what it publishes before a subscription reaches it:
   // wait for the board's health beat (every 250 ms), which shows the link
   // is up, for at most 2 s (as piezo_rig.board does).
@@ -26,7 +28,7 @@ void StreamFollower::subscribe(BoardClient& client) {
     std::vector<zmq::message_t> parts;
     if (zmq::recv_multipart(client.stream(), std::back_inserter(parts),
                             zmq::recv_flags::dontwait) &&
-        !parts.empty() && parts[0].to_string_view() == "health") {
+        !parts.empty() && parts[0].to_string_view() == protocol::topic::health) {
       return;
     }
   }
@@ -56,10 +58,10 @@ void StreamFollower::drain(std::chrono::milliseconds wait, int max_messages,
     if (handlers.on_heard) handlers.on_heard();
     const std::string_view topic = parts[0].to_string_view();
     const std::string_view body = parts[1].to_string_view();
-    if (topic == "health") {
+    if (topic == protocol::topic::health) {
       health_ = protocol::decode<protocol::HealthEvent>(protocol::decode_map(body));
       if (handlers.on_health) handlers.on_health(health_);
-    } else if (topic == wire_key::state) {
+    } else if (topic == protocol::topic::state) {
       const auto state = protocol::decode<protocol::StateEvent>(protocol::decode_map(body));
       if (handlers.on_state) handlers.on_state(state);
     } else if (!collectors_.empty()) {

@@ -484,6 +484,10 @@ void from_json(const nlohmann::json& j, StartReply& m);
 
 /// Every key of the replies' and events' field lists (tests count them).
 [[nodiscard]] std::vector<std::string_view> reply_keys();
+/// Each reply's and event's own keys by the message's name, for the
+/// board's dictionary (`describe`'s `messages`: [{name, always}]): a client
+/// builds its checks from them.
+[[nodiscard]] nlohmann::json message_fields();
 
 /// Where a calibration breaks the ranges its field list declares (the
 /// board's V_max and fastest frequency as the named limits), or nullopt.

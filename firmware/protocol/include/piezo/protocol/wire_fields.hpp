@@ -373,6 +373,30 @@ std::optional<RangeBreach> check_ranges(const T& message, const Limit& limit,
   return breach;
 }
 
+/// Calls `visit(key, always)` for each key of T's own map, in the list's
+/// order: its fields and those of the groups inlined in it, not the nested
+/// messages'. `always`: the key is in every such map (nil when absent),
+/// not left out when absent nor missing from an earlier revision's.
+template <class T, class Visit>
+void for_each_own_key(Visit&& visit, bool inlined = false) {
+  std::apply(
+      [&](const auto&... f) {
+        (
+            [&](const auto& one) {
+              if constexpr (requires { one.key; }) {
+                visit(one.key, !inlined && one.travel == plain);
+              } else {
+                using M = std::remove_cvref_t<decltype(std::declval<T>().*(one.member))>;
+                using S = typename std::conditional_t<is_optional<M>::value, M,
+                                                      std::optional<M>>::value_type;
+                if constexpr (has_fields<S>::value) for_each_own_key<S>(visit, true);
+              }
+            }(f),
+            ...);
+      },
+      Fields<T>::list);
+}
+
 /// Calls `visit(key)` for every key of T's list, nested ones included.
 template <class T, class Visit>
 void for_each_key(Visit&& visit) {
