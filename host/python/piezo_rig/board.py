@@ -771,13 +771,15 @@ class Run:
         try:
             message = self._messages.get(timeout=seconds)
         except queue.Empty:
-            self._check_alive()
-            return
-        if message is None or self._closed:
+            message = ()
+        if message is None or self._closed or self.board._closed:
             # Board.close() from another thread (a notebook's stop button)
             # ended the follower under this loop: the run was stopped there.
             raise ClientClosed("this run's Board was closed while the run was being "
                                "received; the run was stopped")
+        if not message:
+            self._check_alive()
+            return
         self._heard = time.monotonic()
         topic, body = message
         if topic not in (Topic.drive, Topic.sensor, Topic.state):
