@@ -91,7 +91,8 @@ Daemon::Daemon(const config::BoardConfig& board, config::Rig rig, zmq::context_t
   last_health_ = Clock::now();
   std::vector<IdleReader::Axis> idle_axes;
   for (const auto& axis : axes_) idle_axes.push_back({axis->rig.drive, axis->rig.sensor});
-  idle_ = std::make_unique<IdleReader>(*rig_.clock, std::move(idle_axes), board_.daemon.idle_rate_hz);
+  idle_ =
+      std::make_unique<IdleReader>(*rig_.clock, std::move(idle_axes), board_.daemon.idle_rate_hz);
   std::string devices;
   for (const auto& axis : axes_) {
     devices +=

@@ -27,9 +27,9 @@
 
 #include "client_authentication.hpp"
 #include "command_table.hpp"
-#include "idle_reader.hpp"
 #include "config/config_file.hpp"
 #include "config/rig.hpp"
+#include "idle_reader.hpp"
 #include "piezo/firmware/angle_zero.hpp"
 #include "piezo/firmware/calibration_program.hpp"
 #include "piezo/firmware/move_controller.hpp"

@@ -322,7 +322,8 @@ Daemon::AtRest Daemon::read_at_rest(ServedAxis& axis, std::size_t n) {
   double sum = 0.0;
   for (const double d : readings) sum += d;
   r.mean_m = sum / static_cast<double>(readings.size());
-  if (readings.size() > 2) r.stddev_m = firmware::noise_of_readings(readings.data(), readings.size());
+  if (readings.size() > 2)
+    r.stddev_m = firmware::noise_of_readings(readings.data(), readings.size());
   return r;
 }
 

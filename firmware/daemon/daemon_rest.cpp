@@ -6,13 +6,12 @@
 
 #include <array>
 #include <cmath>
-
 #include <zmq_addon.hpp>
 
 #include "daemon.hpp"
-#include "piezo/protocol/topics.hpp"
 #include "piezo/firmware/wire_keys.hpp"
 #include "piezo/protocol/message.hpp"
+#include "piezo/protocol/topics.hpp"
 
 namespace piezo::daemon {
 void Daemon::begin_rest() {
@@ -40,9 +39,10 @@ void Daemon::take_idle_readings() {
     // No zero yet: the rest's reference (a mean at rest) is the zero.
     if (!axis.zero.known() && axis.rest.reference_m()) {
       axis.zero.set(*axis.rest.reference_m());
-      log_event(fmt::format("axis {}: zero set at {:.9g} m (the mean of its first {} readings "
-                            "at rest)",
-                            axis.name(), *axis.rest.reference_m(), firmware::RestWatch::kMean));
+      log_event(
+          fmt::format("axis {}: zero set at {:.9g} m (the mean of its first {} readings "
+                      "at rest)",
+                      axis.name(), *axis.rest.reference_m(), firmware::RestWatch::kMean));
     }
     if (!move) continue;
     const double r2 = axis.config.sensor.r2_m;
@@ -53,10 +53,10 @@ void Daemon::take_idle_readings() {
     e.moved_m = move->moved_m;
     e.moved_rad = move->moved_m / r2;
     e.rest = rest_of(axis);
-    log_event(fmt::format("axis {}: moved at rest by {:.6g} rad ({:.4g} um at the sensor; "
-                          "{:.6g} rad since its rest began)",
-                          axis.name(), e.moved_rad, move->moved_m * 1e6,
-                          move->since_rest_m / r2));
+    log_event(
+        fmt::format("axis {}: moved at rest by {:.6g} rad ({:.4g} um at the sensor; "
+                    "{:.6g} rad since its rest began)",
+                    axis.name(), e.moved_rad, move->moved_m * 1e6, move->since_rest_m / r2));
     const std::string body = protocol::encode_map(e);
     std::array<zmq::const_buffer, 2> parts{zmq::buffer(protocol::topic::moved), zmq::buffer(body)};
     (void)zmq::send_multipart(stream_, parts, zmq::send_flags::dontwait);
@@ -70,7 +70,8 @@ protocol::RestReport Daemon::rest_of(const ServedAxis& axis) const {
   r.position_rad = position_of(axis).position_rad;
   r.noise_m = axis.rest.noise_m();
   if (r.noise_m) r.noise_rad = *r.noise_m / r2;
-  if (axis.last_good_wall_ns != 0) r.age_s = 1e-9 * static_cast<double>(steady_ns() - axis.last_good_wall_ns);
+  if (axis.last_good_wall_ns != 0)
+    r.age_s = 1e-9 * static_cast<double>(steady_ns() - axis.last_good_wall_ns);
   r.moved_rad = axis.rest.since_rest_m() / r2;
   r.moved = axis.rest.moved();
   r.errors = axis.rest_errors;

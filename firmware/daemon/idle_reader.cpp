@@ -38,8 +38,8 @@ IdleReader::Hold::~Hold() {
 }
 
 void IdleReader::loop() {
-  const auto period = std::chrono::duration_cast<Steady::duration>(
-      std::chrono::duration<double>(1.0 / rate_hz_));
+  const auto period =
+      std::chrono::duration_cast<Steady::duration>(std::chrono::duration<double>(1.0 / rate_hz_));
   auto deadline = Steady::now();
   while (!stop_.load()) {
     read_all();

@@ -1,5 +1,4 @@
 #include "sample_hub.hpp"
-#include "piezo/protocol/topics.hpp"
 
 #include <fmt/format.h>
 
@@ -14,6 +13,7 @@
 #include "piezo/protocol/frame.hpp"
 #include "piezo/protocol/message.hpp"
 #include "piezo/protocol/messages.hpp"
+#include "piezo/protocol/topics.hpp"
 
 namespace piezo::daemon {
 namespace {

@@ -97,7 +97,8 @@ TEST(RestWatch, ANewRestTakesANewReference) {
   for (int i = 0; i < 40; ++i) (void)w.add(r.next(70e-3));
   w.begin();  // a run moved it
   EXPECT_FALSE(w.position_m());
-  for (int i = 0; i < 40; ++i) EXPECT_FALSE(w.add(r.next(71e-3))) << "the run's move is no move at rest";
+  for (int i = 0; i < 40; ++i)
+    EXPECT_FALSE(w.add(r.next(71e-3))) << "the run's move is no move at rest";
   EXPECT_NEAR(*w.reference_m(), 71e-3, 4 * kNoise_m);
   EXPECT_FALSE(w.moved());
 }

@@ -67,9 +67,8 @@ Hello a_hello() {
   h.output_latency_s = 1e-4;
   h.lease_s = 0.5;
   h.recorder_s = 120.0;
-  h.axes.push_back(
-      {"rotor", 0.05, 0.0, 80.0, 20000.0, std::nullopt, 0.5, "sim", "modbus-tcp", 0.0701,
-       a_calibration()});
+  h.axes.push_back({"rotor", 0.05, 0.0, 80.0, 20000.0, std::nullopt, 0.5, "sim", "modbus-tcp",
+                    0.0701, a_calibration()});
   return h;
 }
 
@@ -276,12 +275,12 @@ TEST(Messages, EventsAndSummariesRoundTrip) {
   EXPECT_EQ(json(over_the_wire(idle)), json(idle));
   EXPECT_TRUE(json(idle).at("run").is_null()) << "nil, as documented";
 
-  HealthEvent h{BoardState::running, 99, a_health(true), a_health(true), std::vector{a_move(false)},
-                0.25, "5eed", std::vector{a_rest()}};
+  HealthEvent h{BoardState::running,        99,   a_health(true), a_health(true),
+                std::vector{a_move(false)}, 0.25, "5eed",         std::vector{a_rest()}};
   EXPECT_EQ(json(over_the_wire(h)), json(h));
   EXPECT_FALSE(json(h).contains("move")) << "a move of one axis is in `moves` too";
   HealthEvent quiet{BoardState::idle, 1, std::nullopt, std::nullopt, std::nullopt, std::nullopt,
-                    "5eed", {}};
+                    "5eed",           {}};
   EXPECT_EQ(json(over_the_wire(quiet)), json(quiet));
 }
 

@@ -236,18 +236,21 @@ struct Fields<StartReply> {
 template <>
 struct Fields<RestReport> {
   using T = RestReport;
-  static constexpr auto list = std::tuple{
-      field(wire_key::name, &T::name),           field(wire_key::position_rad, &T::position_rad),
-      field(wire_key::noise_m, &T::noise_m),     field(wire_key::noise_rad, &T::noise_rad),
-      field("age_s", &T::age_s),                 field(wire_key::moved_rad, &T::moved_rad),
-      field(wire_key::moved, &T::moved),        field(wire_key::errors, &T::errors)};
+  static constexpr auto list = std::tuple{field(wire_key::name, &T::name),
+                                          field(wire_key::position_rad, &T::position_rad),
+                                          field(wire_key::noise_m, &T::noise_m),
+                                          field(wire_key::noise_rad, &T::noise_rad),
+                                          field("age_s", &T::age_s),
+                                          field(wire_key::moved_rad, &T::moved_rad),
+                                          field(wire_key::moved, &T::moved),
+                                          field(wire_key::errors, &T::errors)};
 };
 template <>
 struct Fields<MovedEvent> {
   using T = MovedEvent;
   static constexpr auto list =
-      std::tuple{field(wire_key::board_id, &T::board_id), field(wire_key::board_ns, &T::board_ns),
-                 field(wire_key::axis, &T::axis),         field("moved_m", &T::moved_m),
+      std::tuple{field(wire_key::board_id, &T::board_id),   field(wire_key::board_ns, &T::board_ns),
+                 field(wire_key::axis, &T::axis),           field("moved_m", &T::moved_m),
                  field(wire_key::moved_rad, &T::moved_rad), field(wire_key::rest, &T::rest)};
 };
 template <>

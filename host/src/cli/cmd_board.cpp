@@ -60,10 +60,11 @@ std::string status_text(const protocol::Status& s, const protocol::Hello& hello)
       out += fmt::format("stop cause {}\noutput     {}\n", firmware::to_string(r.summary->cause),
                          firmware::to_string(r.summary->output.state));
       for (const auto& a : r.summary->axes) {
-        out += fmt::format("  axis {:<6} {}{}\n", a.name, firmware::to_string(a.cause),
-                           a.move && a.move->stop_cause
-                               ? fmt::format(", move {}", firmware::kMoveEndNames.name(*a.move->stop_cause))
-                               : std::string());
+        out += fmt::format(
+            "  axis {:<6} {}{}\n", a.name, firmware::to_string(a.cause),
+            a.move && a.move->stop_cause
+                ? fmt::format(", move {}", firmware::kMoveEndNames.name(*a.move->stop_cause))
+                : std::string());
       }
     }
     out += fmt::format("cycles     drive {}, sensor {} (every sensor line's)\n", r.drive.cycles,
@@ -109,8 +110,9 @@ int call(const BoardOptions& o, const std::string& cmd) {
 
 void add_board_commands(CLI::App& app, Commands& commands) {
   for (const auto& [name, help] : std::vector<std::pair<std::string, std::string>>{
-           {"hello", "Print the board's hello: its rates, limits and each axis (radius, "
-                     "limits, travel window, zero, calibration)"},
+           {"hello",
+            "Print the board's hello: its rates, limits and each axis (radius, "
+            "limits, travel window, zero, calibration)"},
            {"status", "Print piezod's state, fault, run and each axis's position"},
            {"zero", "Set the position's zero at the last sensor reading (moves are absolute)"},
            {"stop", "Stop the run (ramp to 0 V); the controlling client only"},

@@ -431,7 +431,7 @@ struct HealthEvent {
   std::optional<LoopHealth> drive, sensor;        ///< while a run is under way
   std::optional<std::vector<MoveAccount>> moves;  ///< a move's progress, one per axis
   std::optional<double> calibration_progress;
-  std::string board_id;  ///< as in hello: a follower sees a restart here
+  std::string board_id;          ///< as in hello: a follower sees a restart here
   std::vector<RestReport> rest;  ///< every axis at rest, in the board's order
 };
 
