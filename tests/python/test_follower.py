@@ -6,6 +6,7 @@ messages, or whose board goes away, says so and follows again when the
 board is back -- never a silent stale view."""
 
 import os
+import re
 import select
 import socket
 import subprocess
@@ -138,6 +139,12 @@ def test_a_fresh_board_has_every_axis_position_within_a_second(tmp_path):
             print(f"a position {took:.2f} s after piezod was started (its listening included)")
             assert abs(rotor.position_rad) < 1e-4 and rotor.noise_rad > 0
             assert rotor.age_s is not None and not rotor.moved
+        # piezo status says the same, with the noise and the age of the reading.
+        shown = subprocess.run([os.environ["PIEZO_BINARY"], "status", "--rig", address],
+                               capture_output=True, text=True, timeout=30)
+        assert shown.returncode == 0, shown.stderr
+        assert re.search(r"axis rotor +-?\d+\.\d+ mrad from its zero, noise \d+\.\d+ mrad, "
+                         r"read \d+\.\d+ s ago", shown.stdout), shown.stdout
     finally:
         process.terminate()
         process.wait(10)

@@ -98,6 +98,9 @@ def lab(tango_host, tmp_path_factory, source):
         if words[0] == "tango_admin":
             run(words, env=env)
         else:  # piezo-tango lab: the project's server, from this build
+            # phi may be re-targeted mid-move (a device property, set as any other).
+            run(["tango_admin", "--add-property", "piezo/lab/phi", "allow_retarget", "true"],
+                env=env)
             started = time.monotonic()
             server = peers.spawn([sys.executable, "-m", "piezo_rig.tango_server", *words[1:]],
                                  env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
@@ -157,3 +160,21 @@ def test_a_write_in_progress_does_not_hold_up_another_clients_reads(lab):
     with Board(lab["address"]) as board:
         status = {a["name"]: a for a in board.status()["axes"]}
         assert status["theta"]["position"]["position_rad"] == pytest.approx(target, abs=1e-3)
+
+
+def test_a_retarget_mid_move_returns_at_once_and_ends_at_the_new_target(lab):
+    phi = device(lab, "piezo/lab/phi")
+    wait_for(lambda: phi.read_attribute("Position").quality == AttrQuality.ATTR_VALID, 10,
+             "phi at rest")
+    wait_for(lambda: phi.state() == DevState.ON, 10, "phi idle")
+    start = phi.read_attribute("Position").value
+    phi.write_attribute("Position", start + 0.05)
+    assert phi.state() == DevState.MOVING
+    began = time.monotonic()
+    phi.write_attribute("Position", start + 0.01)  # allow_retarget: the move is re-targeted
+    print(f"the re-targeting write returned in {(time.monotonic() - began) * 1e3:.0f} ms")
+    wait_for(lambda: phi.state() == DevState.ON, 60, "on the new target")
+    with Board(lab["address"]) as board:
+        status = {a["name"]: a for a in board.status()["axes"]}
+        assert status["phi"]["position"]["position_rad"] == pytest.approx(start + 0.01, abs=1e-3)
+        assert status["theta"]["fault"] is None and status["phi"]["fault"] is None

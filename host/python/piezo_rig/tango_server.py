@@ -108,6 +108,7 @@ class PiezoAxis(_OnBoard):
         super().init_device()
         self._open_link()
         self._moving = False  # a move or calibration of this device's is under way
+        self._retargeted = False  # a move waits for the stopped one to end
         self._move_error = ""
         self._generation = self.link.generation  # the board start _move_error is of
         self._last: tuple[Optional[float], Optional[DevState]] = (None, None)
@@ -159,7 +160,7 @@ class PiezoAxis(_OnBoard):
         if state == DevState.UNKNOWN or view is None:
             return (DevState.UNKNOWN,
                     status if state == DevState.UNKNOWN else f"The board has no axis {self.axis!r}")
-        moving = self._moving or view.in_run
+        moving = self._moving or self._retargeted or view.in_run
         where = ("at an unknown position" if view.position_rad is None
                  else f"at {view.position_rad:.6g} rad")
         if view.fault:
@@ -230,32 +231,38 @@ class PiezoAxis(_OnBoard):
 
     @Position.write  # type: ignore[no-redef]
     def Position(self, target_rad: float) -> None:
-        if self._state()[0] == DevState.MOVING:
-            if not self.allow_retarget:
-                tango.Except.throw_exception(
-                    "moving", f"Position: axis {self._name} is moving; Stop it first (or set "
-                              "the device property allow_retarget)", "Position")
-            self.Stop()
-            deadline = time.monotonic() + 10
-            while self._moving and time.monotonic() < deadline:
-                time.sleep(0.02)
         options = {Key.axis: self._name, Key.tolerance_rad: self._tolerance_rad, Key.f: self._f_hz,
                    Key.V0: self._V0}
         options = {k: v for k, v in options.items() if v == v}  # NaN: the board's default
         try:
             # Checked against the board's dictionary before anything is sent,
             # then sent: the board refuses what is beyond its limits.
-            self.link.control.checked(Command.move_to, {Key.target_rad: target_rad, **options})
+            args = self.link.control.checked(Command.move_to, {Key.target_rad: target_rad, **options})
         except BoardError as e:
             _raise("Position", e)
-        self._move_error = ""
-        # The board's reply to the move comes here (a refusal is the
-        # writer's DevFailed); the move is followed in a thread of its own,
-        # so the write returns at once and other clients' reads of this
-        # device go on: progress comes as State and Position events.
+        if self._state()[0] == DevState.MOVING:
+            if not self.allow_retarget:
+                tango.Except.throw_exception(
+                    "moving", f"Position: axis {self._name} is moving; Stop it first (or set "
+                              "the device property allow_retarget)", "Position")
+            # Re-targeted: the move under way ramps down, and the new one
+            # starts once it has ended, from a thread of its own (a refusal
+            # then shows in Status): the write returns at once.
+            self.Stop()
+            self._retargeted = True
+            threading.Thread(target=_omni_thread(lambda: self._move_after_the_last(args)),
+                             name=f"retarget {self._name}", daemon=True).start()
+            return
+        self._start_move(args)
+
+    def _start_move(self, args: dict[str, Any]) -> None:
+        """The board's reply to the move comes here (a refusal is the
+        writer's DevFailed); the move is followed in a thread of its own,
+        so the write returns at once and other clients' reads of this
+        device go on: progress comes as State and Position events."""
         from .board import Run
+        self._move_error = ""
         try:
-            args = self.link.control.checked(Command.move_to, {Key.target_rad: target_rad, **options})
             run = Run(self.link.control, Command.move_to, args, True, raise_on_fault=False)
         except (BoardError, NoReply) as e:
             _raise("Position", e)
@@ -280,6 +287,19 @@ class PiezoAxis(_OnBoard):
         self.set_state(DevState.MOVING)
         self.push_change_event("State", DevState.MOVING)
         self._last = (self._last[0], DevState.MOVING)
+
+    def _move_after_the_last(self, args: dict[str, Any]) -> None:
+        """A re-target's move, once the stopped one has ended."""
+        deadline = time.monotonic() + 10
+        while self._moving and time.monotonic() < deadline:
+            time.sleep(0.02)
+        try:
+            self._start_move(args)
+        except tango.DevFailed as e:
+            self._move_error = f"the re-targeted move was refused: {e.args[0].desc}"
+        finally:
+            self._retargeted = False
+            self._changed(self.link)
 
     def _move_option(self, attribute: str, key: str, value: float) -> float:
         """A move's option as written, once the board's dictionary takes it
