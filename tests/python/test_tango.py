@@ -540,3 +540,43 @@ def test_a_board_that_needs_keys_is_reached_with_the_bridges_own(tmp_path, sourc
     finally:
         process.terminate()
         process.wait(10)
+
+
+def test_the_bridge_shows_a_cut_link_and_follows_again_past_bad_messages(tmp_path):
+    """The devices read the connection's follower: messages the board never
+    sent are dropped (the devices stay ON, Position a number), a cut link
+    is UNKNOWN with Position INVALID, and the mended link is followed again
+    without restarting the server."""
+    from board_link import Link
+    import msgpack
+    process, address = start_board(tmp_path)
+    link = Link(address)
+    server = None
+    try:
+        server, port = start_server(tmp_path, link.address)
+        axis = tango.DeviceProxy(f"tango://127.0.0.1:{port}/piezo/lab/rotor#dbase=no")
+        wait_for(lambda: axis.state() == DevState.ON, 10, "ON")
+        wait_for(lambda: axis.read_attribute("Position").quality == tango.AttrQuality.ATTR_VALID,
+                 10, "a position at rest")
+        for parts in ([b"sensor", b"PZSB not a frame"], [b"health", b"\xc1"],
+                      [b"state", msgpack.packb([1])], [b"gossip", b"{}"],
+                      [b"health", msgpack.packb({"board_ns": 1})]):
+            link.put(*parts)
+        time.sleep(0.5)
+        assert axis.state() == DevState.ON
+        assert axis.read_attribute("Position").quality == tango.AttrQuality.ATTR_VALID
+        link.down()
+        wait_for(lambda: axis.state() == DevState.UNKNOWN, 15, "UNKNOWN")
+        assert "unreachable" in axis.status(), axis.status()
+        assert axis.read_attribute("Position").quality == tango.AttrQuality.ATTR_INVALID
+        link.up()
+        wait_for(lambda: axis.state() == DevState.ON, 20, "ON again, the server not restarted")
+        wait_for(lambda: axis.read_attribute("Position").quality == tango.AttrQuality.ATTR_VALID,
+                 10, "a number again")
+    finally:
+        if server is not None:
+            server.kill()
+            server.wait()
+        link.close()
+        process.terminate()
+        process.wait(10)
