@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <zmq_addon.hpp>
@@ -14,6 +15,13 @@
 #include "piezo/protocol/topics.hpp"
 
 namespace piezo::daemon {
+namespace {
+
+/// Idle periods without a good reading after which an axis's sensor is
+/// said not to answer (`rest.stale`).
+constexpr double kStaleIdlePeriods = 5.0;
+
+}  // namespace
 void Daemon::begin_rest() {
   for (const auto& axis : axes_) {
     axis->rest.begin();
@@ -29,7 +37,8 @@ void Daemon::take_idle_readings() {
   while (idle_->next(r)) {
     if (running()) continue;
     ServedAxis& axis = *axes_.at(r.axis);
-    if (r.status != hal::Status::ok || !std::isfinite(r.displacement_m)) {
+    axis.last_idle_failed = r.status != hal::Status::ok || !std::isfinite(r.displacement_m);
+    if (axis.last_idle_failed) {
       ++axis.rest_errors;
       continue;
     }
@@ -75,6 +84,13 @@ protocol::RestReport Daemon::rest_of(const ServedAxis& axis) const {
   r.moved_rad = axis.rest.since_rest_m() / r2;
   r.moved = axis.rest.moved();
   r.errors = axis.rest_errors;
+  // Between runs, with the idle reader on: a sensor that does not answer.
+  // (During a run its own readings, or none for an axis the run leaves
+  // alone, as for the board's start before its first reading.)
+  if (!running() && idle_ && idle_->rate_hz() > 0.0) {
+    const double stale_after_s = std::max(1.0, kStaleIdlePeriods / idle_->rate_hz());
+    r.stale = axis.last_idle_failed || !r.age_s || *r.age_s > stale_after_s;
+  }
   return r;
 }
 

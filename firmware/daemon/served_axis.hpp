@@ -47,6 +47,7 @@ struct ServedAxis {
   firmware::RestWatch rest;
   std::int64_t last_good_wall_ns = 0;  ///< steady time of its latest good reading (0: none)
   std::uint64_t rest_errors = 0;       ///< idle readings that failed in this rest
+  bool last_idle_failed = false;       ///< its latest idle reading failed
 
   [[nodiscard]] const std::string& name() const { return config.name; }
   void remember_reading(double displacement_m) {

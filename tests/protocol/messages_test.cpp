@@ -121,6 +121,7 @@ RestReport a_rest() {
   r.moved_rad = 0.0025;
   r.moved = true;
   r.errors = 2;
+  r.stale = true;
   return r;
 }
 

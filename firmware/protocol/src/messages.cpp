@@ -243,7 +243,8 @@ struct Fields<RestReport> {
                                           field("age_s", &T::age_s),
                                           field(wire_key::moved_rad, &T::moved_rad),
                                           field(wire_key::moved, &T::moved),
-                                          field(wire_key::errors, &T::errors)};
+                                          field(wire_key::errors, &T::errors),
+                                          field("stale", &T::stale)};
 };
 template <>
 struct Fields<MovedEvent> {

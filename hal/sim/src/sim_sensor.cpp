@@ -12,6 +12,14 @@ SimSensor::SimSensor(const SimSensorSettings& settings, const Plant& plant, Cloc
       random_(settings.seed),
       noise_(0.0, settings.noise_m) {}
 
+void SimSensor::set_time_origin(TimeNs t0) {
+  t0_ = t0;
+  random_.seed(settings_.seed);
+  noise_.reset();
+  uniform_.reset();
+  blind_theta_ = std::numeric_limits<double>::quiet_NaN();
+}
+
 bool SimSensor::stalled(TimeNs t) const {
   const double since_start = to_seconds(t - t0_);
   return since_start >= settings_.stall_at_s &&

@@ -172,6 +172,7 @@ class Key:
     slew_V_per_s = "slew_V_per_s"
     smallest_tolerance_rad = "smallest_tolerance_rad"
     speed_rad_per_s = "speed_rad_per_s"
+    stale = "stale"
     start = "start"
     state = "state"
     state_reply = "state_reply"

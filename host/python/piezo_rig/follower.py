@@ -75,6 +75,7 @@ class AxisSnapshot:
     age_s: Optional[float] = None      #: of the board's latest reading, as it last said
     moved_rad: float = 0.0             #: moved at rest since its last run ended
     moved: bool = False                #: a move at rest was reported since then
+    stale: bool = False                #: between runs, its sensor does not answer
     calibrated: bool = False
     fault: Optional[str] = None        #: its own latched fault
     in_run: bool = False               #: a run of the board drives it now
@@ -427,4 +428,5 @@ def _rest_fields(rest: Optional[Mapping[str, Any]]) -> dict[str, Any]:
     if not rest:
         return {}
     return dict(noise_rad=rest.get(Key.noise_rad), age_s=rest.get(Key.age_s),
-                moved_rad=float(rest.get(Key.moved_rad) or 0.0), moved=bool(rest.get(Key.moved)))
+                moved_rad=float(rest.get(Key.moved_rad) or 0.0), moved=bool(rest.get(Key.moved)),
+                stale=bool(rest.get(Key.stale)))

@@ -223,7 +223,8 @@ class PiezoAxis(_OnBoard):
         # A number whenever the board answers: between runs it reads every
         # axis at rest. INVALID only when the board (or its sensor) does not.
         view = self._view
-        if view is None or view.position_rad is None or not self.link.reachable:
+        if (view is None or view.position_rad is None or not self.link.reachable
+                or (view.stale and not view.in_run)):
             return float("nan"), 0.0, AttrQuality.ATTR_INVALID
         quality = (AttrQuality.ATTR_CHANGING if view.in_run or self._moving
                    else AttrQuality.ATTR_VALID)
@@ -273,7 +274,8 @@ class PiezoAxis(_OnBoard):
             try:
                 with run:
                     summary = run.wait()
-                mine = next((a for a in summary[Key.axes] if a[Key.name] == self._name), {})
+                mine: dict[str, Any] = next(
+                    (a for a in summary[Key.axes] if a[Key.name] == self._name), {})
                 end = (mine.get(Key.move) or {}).get(Key.stop_cause) or mine.get(Key.cause)
                 if end != MoveEnd.on_target:
                     self._move_error = f"ended {end}"

@@ -317,6 +317,10 @@ struct RestReport {
   double moved_rad = 0.0;
   bool moved = false;
   std::uint64_t errors = 0;  ///< idle readings that failed in this rest
+  /// Between runs, its sensor does not answer: its latest idle reading
+  /// failed, or none came for 5 idle periods (a second at
+  /// least). `position_rad` is then the last one known.
+  bool stale = false;
 };
 
 /// The `moved` event: an axis moved at rest, by more than its noise allows.

@@ -38,8 +38,13 @@ class SimDrive final : public Drive {
 
   /// The DAC code the last write produced.
   [[nodiscard]] unsigned last_code() const { return last_code_; }
-  /// Moves the latch ticks' grid to the run's time origin, before the run starts.
-  void set_time_origin(TimeNs t0) { tick_origin_ = t0; }
+  /// A run's time origin, before the run starts: the DAC's ticks and the injected stall count from
+  /// here (the stall is armed again: each run meets it, whatever the board
+  /// wrote at rest before).
+  void set_time_origin(TimeNs t0) {
+    tick_origin_ = t0;
+    stalled_ = false;
+  }
 
  private:
   DacSettings dac_;

@@ -41,7 +41,10 @@ class SimSensor final : public DisplacementSensor {
   [[nodiscard]] DisplacementReading read() override;
 
   /// Moves the time origin of the settings' times, before the run starts.
-  void set_time_origin(TimeNs t0) { t0_ = t0; }
+  /// A run's time origin: its faults count from here, and its noise starts
+  /// again from the seed, so a run on the virtual clock repeats exactly
+  /// whatever was read before it (the board reads its sensors at rest).
+  void set_time_origin(TimeNs t0);
 
  private:
   [[nodiscard]] bool stalled(TimeNs t) const;
