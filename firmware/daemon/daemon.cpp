@@ -91,8 +91,11 @@ Daemon::Daemon(const config::BoardConfig& board, config::Rig rig, zmq::context_t
   last_health_ = Clock::now();
   std::vector<IdleReader::Axis> idle_axes;
   for (const auto& axis : axes_) idle_axes.push_back({axis->rig.drive, axis->rig.sensor});
-  idle_ =
-      std::make_unique<IdleReader>(*rig_.clock, std::move(idle_axes), board_.daemon.idle_rate_hz);
+  // Not on the simulated rig's virtual clock: its time passes only as the
+  // board reads, so readings at rest would shift every run's time origin by
+  // however many came before it, and its runs repeat exactly.
+  idle_ = std::make_unique<IdleReader>(*rig_.clock, std::move(idle_axes),
+                                       board_.virtual_clock() ? 0.0 : board_.daemon.idle_rate_hz);
   std::string devices;
   for (const auto& axis : axes_) {
     devices +=

@@ -66,26 +66,19 @@ def test_each_axis_steps_with_its_own_sensor_and_zero(board):
     assert np.nanmax(theta_phi) > 1e-3  # 60 V, 10 Hz, five periods: forward
     positions = {a["name"]: a for a in board.status()["axes"]}
     # phi's position is its own sensor's over its own radius, from its zero:
-    # the mean of its last 8 good readings, which the board goes on taking at
-    # rest after the run: within its noise of where the run left it.
+    # the mean of its last 8 good readings, as for a board of one.
     good = theta_phi[~np.isnan(theta_phi)]
     assert positions["phi"]["position"]["position_rad"] == pytest.approx(np.mean(good[-8:]),
-                                                                          abs=2e-5)
-    # theta and chi have not run: read at rest since the board started, at their zeros.
-    deadline = time.monotonic() + 10
-    while (any(positions[n]["position"]["position_rad"] is None for n in ("theta", "chi"))
-           and time.monotonic() < deadline):
-        time.sleep(0.05)  # a board started just now: its first readings at rest
-        positions = {a["name"]: a for a in board.status()["axes"]}
-    for name in ("theta", "chi"):
-        assert positions[name]["position"]["position_rad"] == pytest.approx(0.0, abs=2e-5)
-        assert positions[name]["position"]["zero_displacement_m"] is not None
+                                                                          abs=1e-9)
+    # theta and chi have not run: no readings, no position (the simulated
+    # rig's virtual clock reads nothing at rest: docs/protocol.md, "At rest").
+    assert positions["theta"]["position"]["position_rad"] is None
+    assert positions["chi"]["position"]["zero_displacement_m"] is None
 
     chi = board.axes["chi"].step(3, 50, 10, direction="reverse")
     assert chi.summary["cause"] == "completed" and np.nanmin(chi.theta()) < -5e-4
     after = {a["name"]: a for a in board.status()["axes"]}
-    assert after["phi"]["position"]["position_rad"] == pytest.approx(
-        positions["phi"]["position"]["position_rad"], abs=2e-5), "chi's run left phi's alone"
+    assert after["phi"]["position"] == positions["phi"]["position"], "chi's run left phi's alone"
 
 
 def test_a_move_on_one_axis_ends_on_its_target(board):

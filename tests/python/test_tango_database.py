@@ -88,7 +88,7 @@ def lab(tango_host, tmp_path_factory, source):
     where = tmp_path_factory.mktemp("tango-lab")
     board, address = peers.start_piezod(
         os.environ["PIEZOD_BINARY"], os.path.join(source, "configs", "three-axes.toml"),
-        str(where / "piezod.err"))
+        str(where / "piezod.err"), sets=["run.clock=realtime"])  # read at rest, as a rig is
     env = dict(os.environ, TANGO_HOST=tango_host)
     commands = documented_commands(source)
     assert [c.split()[0] for c in commands].count("tango_admin") >= 4, commands
