@@ -89,13 +89,14 @@ Daemon::Daemon(const config::BoardConfig& board, config::Rig rig, zmq::context_t
     (void)axis->planner.steps(d0.V0, d0.f, d0.D());
   }
   last_health_ = Clock::now();
-  std::vector<IdleReader::Axis> idle_axes;
-  for (const auto& axis : axes_) idle_axes.push_back({axis->rig.drive, axis->rig.sensor});
+  std::vector<hal::DisplacementSensor*> sensors;
+  for (const auto& axis : axes_) sensors.push_back(axis->rig.sensor);
   // Not on the simulated rig's virtual clock: its time passes only as the
   // board reads, so readings at rest would shift every run's time origin by
   // however many came before it, and its runs repeat exactly.
-  idle_ = std::make_unique<IdleReader>(*rig_.clock, std::move(idle_axes),
-                                       board_.virtual_clock() ? 0.0 : board_.daemon.idle_rate_hz);
+  idle_ = std::make_unique<IdleReader>(*rig_.clock, std::move(sensors),
+                                       board_.virtual_clock() ? 0.0 : board_.daemon.idle_rate_hz,
+                                       [this] { advance_simulated_rig(); });
   std::string devices;
   for (const auto& axis : axes_) {
     devices +=

@@ -160,6 +160,9 @@ class Daemon {
   void take_idle_readings();
   /// A new rest for every axis (the board's start, a run's end).
   void begin_rest();
+  /// The simulated rig's plants carried to now (no drive writes at rest):
+  /// what its sensors read at rest is where its rotors are.
+  void advance_simulated_rig();
   /// What the axis's readings at rest say, for status and health.
   [[nodiscard]] protocol::RestReport rest_of(const ServedAxis& axis) const;
 

@@ -306,10 +306,9 @@ Daemon::AtRest Daemon::read_at_rest(ServedAxis& axis, std::size_t n) {
   constexpr std::size_t kSkipped = 2;
   for (std::size_t i = 0; i < n + kSkipped; ++i, next += period) {
     clock.sleep_until(next);
-    // 0 V again (the output holds it anyway, the amplifier is off): a
-    // simulated plant advances only at a write, so the reading sees the
-    // rotor at its time, not extrapolated from the stop.
-    (void)axis.rig.drive->write(0.0);
+    // A simulated plant advances only at a write: carried to now, the
+    // reading sees the rotor at its time, not extrapolated from the stop.
+    advance_simulated_rig();
     const hal::DisplacementReading r = axis.rig.sensor->read();
     if (i < kSkipped || r.status != hal::Status::ok || !std::isfinite(r.displacement_m)) continue;
     readings.push_back(r.displacement_m);

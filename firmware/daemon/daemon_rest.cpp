@@ -29,6 +29,10 @@ void Daemon::begin_rest() {
   }
 }
 
+void Daemon::advance_simulated_rig() {
+  if (rig_.sim) rig_.sim->advance_to(rig_.clock->now());
+}
+
 void Daemon::take_idle_readings() {
   if (!idle_) return;
   IdleReading r;

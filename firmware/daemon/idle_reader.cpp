@@ -15,8 +15,13 @@ constexpr auto kSlice = std::chrono::milliseconds(20);
 
 }  // namespace
 
-IdleReader::IdleReader(hal::Clock& clock, std::vector<Axis> axes, double rate_hz)
-    : clock_(clock), axes_(std::move(axes)), rate_hz_(rate_hz), ring_(1024) {
+IdleReader::IdleReader(hal::Clock& clock, std::vector<hal::DisplacementSensor*> sensors,
+                       double rate_hz, std::function<void()> before_reading)
+    : clock_(clock),
+      sensors_(std::move(sensors)),
+      before_reading_(std::move(before_reading)),
+      rate_hz_(rate_hz),
+      ring_(1024) {
   if (rate_hz_ > 0.0) thread_ = std::thread([this] { loop(); });
 }
 
@@ -58,12 +63,11 @@ void IdleReader::read_all() {
     // The virtual clock schedules the threads it knows of: this one, alone
     // while no run holds the sensors.
     const hal::SleeperScope sleeper(clock_);
-    for (std::size_t i = 0; i < axes_.size() && holds_.load() == 0; ++i) {
-      // 0 V again (the output holds it anyway, the amplifier is off): a
-      // simulated plant advances only at a write, so the reading sees the
-      // rotor at its time.
-      (void)axes_[i].drive->write(0.0);
-      const hal::DisplacementReading r = axes_[i].sensor->read();
+    // Nothing is written to the drives: the run left them at 0 V with the
+    // amplifier off, and a clocked output takes writes only in a run.
+    if (before_reading_) before_reading_();
+    for (std::size_t i = 0; i < sensors_.size() && holds_.load() == 0; ++i) {
+      const hal::DisplacementReading r = sensors_[i]->read();
       const IdleReading reading{r.t_response, steady_ns(), r.displacement_m, r.status,
                                 static_cast<std::uint8_t>(i)};
       if (!ring_.try_push(reading)) dropped_.fetch_add(1);

@@ -1,6 +1,6 @@
 #pragma once
 // Between runs the board goes on reading every axis's sensor at its idle
-// rate ([piezod] idle_rate_hz), the drive held at 0 V, so that a position
+// rate ([piezod] idle_rate_hz), the drive left at 0 V, so that a position
 // is always known and a rotor that moves at rest is seen (docs/protocol.md,
 // "At rest"). One thread of normal priority for every axis; its readings
 // reach the network thread through a ring, as a run's do. Whatever else
@@ -10,13 +10,13 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <thread>
 #include <vector>
 
 #include "piezo/firmware/spsc_ring.hpp"
 #include "piezo/hal/clock.hpp"
 #include "piezo/hal/displacement_sensor.hpp"
-#include "piezo/hal/drive.hpp"
 
 namespace piezo::daemon {
 
@@ -37,12 +37,11 @@ struct IdleReading {
 
 class IdleReader {
  public:
-  struct Axis {
-    hal::Drive* drive;
-    hal::DisplacementSensor* sensor;
-  };
-  /// Starts reading at `rate_hz` (0: never; nothing is read between runs).
-  IdleReader(hal::Clock& clock, std::vector<Axis> axes, double rate_hz);
+  /// Starts reading `sensors` at `rate_hz` (0: never; nothing is read
+  /// between runs). `before_reading` is called before each turn's readings
+  /// (the simulated rig carries its plants to now there), if given.
+  IdleReader(hal::Clock& clock, std::vector<hal::DisplacementSensor*> sensors, double rate_hz,
+             std::function<void()> before_reading = {});
   ~IdleReader();
   IdleReader(const IdleReader&) = delete;
   IdleReader& operator=(const IdleReader&) = delete;
@@ -75,7 +74,8 @@ class IdleReader {
   void read_all();
 
   hal::Clock& clock_;
-  std::vector<Axis> axes_;
+  std::vector<hal::DisplacementSensor*> sensors_;
+  std::function<void()> before_reading_;
   double rate_hz_;
   firmware::SpscRing<IdleReading> ring_;
   std::atomic<int> holds_{0};

@@ -104,6 +104,12 @@ void Plant::set_input(TimeNs t, double V_in) {
   notify_neighbours();
 }
 
+void Plant::advance(TimeNs t) {
+  take_trip();
+  advance_to(std::max(t, t_));
+  publish();
+}
+
 void Plant::turn_by(TimeNs t, double delta_rad) {
   take_trip();
   advance_to(t);

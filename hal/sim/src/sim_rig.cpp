@@ -17,6 +17,10 @@ SimRig::SimRig(const std::vector<SimAxisSettings>& axes, const SimLinesSettings&
   lines_ = std::make_unique<SimLines>(lines, std::move(plants), clock, t0);
 }
 
+void SimRig::advance_to(TimeNs t) {
+  for (const auto& a : axes_) a->plant.advance(t);
+}
+
 void SimRig::set_time_origin(TimeNs t0) {
   for (const auto& a : axes_) {
     a->drive.set_time_origin(t0);

@@ -52,6 +52,9 @@ class Plant {
   /// seen disabled at once, and the motor follows from t when the drive
   /// thread next advances it.
   void trip(TimeNs t);
+  /// Carries the motor to time t under the input it holds (no new input).
+  /// Same writer as set_input.
+  void advance(TimeNs t);
   /// A hand (or a knock) turns the rotor by `delta_rad` at time t, the
   /// stator left as it is: what the sensor sees of a rotor moved at rest.
   /// Same writer as set_input.

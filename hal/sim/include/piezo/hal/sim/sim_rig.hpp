@@ -60,6 +60,10 @@ class SimRig {
   /// Moves the time origin of the DAC ticks, the sensors' faults and the
   /// e-stop schedule, before the run starts.
   void set_time_origin(TimeNs t0);
+  /// Carries every plant to time t under the input it holds: between runs,
+  /// when no drive writes, what the rotors did meanwhile (settled, turned)
+  /// is what the sensors then read. From the thread that holds the rig.
+  void advance_to(TimeNs t);
 
  private:
   struct Axis {
