@@ -14,7 +14,7 @@ void AcquireLoop::read(const AcquireAxis& axis) {
   const bool good = r.status == hal::Status::ok;
   axis.health->report(good, r.t_response);
   if (!good) health_.count(health_.errors);
-  if (good && axis.feed != nullptr) axis.feed->publish(r.displacement_m);
+  if (good && axis.feed != nullptr) axis.feed->publish(r.displacement_m, r.t_response);
   if (!axis.ring->try_push({r.t_request, r.t_response, r.displacement_m, r.status, axis.index})) {
     health_.count(health_.dropped_samples);
   }

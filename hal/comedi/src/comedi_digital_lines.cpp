@@ -113,6 +113,24 @@ std::unique_ptr<DigitalLines> open_digital_lines(const DigitalLinesSettings& s) 
                   "sync_channel");
     channels.push_back(static_cast<unsigned>(s.sync_channel));
   }
+  gpio::GpioLinesSettings lines = s.lines;
+  lines.has_sync = s.sync_channel >= 0;
+  lines.trigger_axes.clear();
+  for (std::size_t axis = 0; axis < s.trigger_channels.size(); ++axis) {
+    const int channel = s.trigger_channels[axis];
+    if (channel < 0) continue;
+    (void)checked(s.device, static_cast<int>(out), channel, kDigitalOutput, "subdevice",
+                  "trigger_channels");
+    for (const unsigned c : channels) {
+      if (c == static_cast<unsigned>(channel)) {
+        throw config::ConfigError(
+            s.device, "lines.comedi.trigger_channels",
+            fmt::format("{} is an output here already; allowed: another channel", c));
+      }
+    }
+    channels.push_back(static_cast<unsigned>(channel));
+    lines.trigger_axes.push_back(axis);
+  }
   std::unique_ptr<InputLine> estop;
   if (s.estop_channel >= 0) {
     const unsigned in = checked(s.device, s.estop_subdevice, s.estop_channel, kDigitalInput,
@@ -129,8 +147,6 @@ std::unique_ptr<DigitalLines> open_digital_lines(const DigitalLinesSettings& s) 
     estop =
         std::make_unique<ComediPolledInput>(s.device, in, static_cast<unsigned>(s.estop_channel));
   }
-  gpio::GpioLinesSettings lines = s.lines;
-  lines.has_sync = s.sync_channel >= 0;
   return std::make_unique<gpio::OwnedDigitalLines>(
       lines,
       std::make_unique<ComediOutputs>(s.device, out, std::move(channels),

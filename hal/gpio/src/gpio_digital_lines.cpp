@@ -19,14 +19,24 @@ int level_of(bool asserted, bool active_low) {
 std::vector<int> GpioDigitalLines::idle_levels(const GpioLinesSettings& s) {
   std::vector<int> levels{level_of(false, s.enable_active_low)};
   if (s.has_sync) levels.push_back(level_of(false, s.sync_active_low));
+  for (std::size_t i = 0; i < s.trigger_axes.size(); ++i) {
+    levels.push_back(level_of(false, s.trigger_active_low));
+  }
   return levels;
 }
 
+
 GpioDigitalLines::GpioDigitalLines(const GpioLinesSettings& settings, OutputLineGroup& outputs,
                                    InputLine* estop)
-    : settings_(settings), outputs_(outputs), estop_(estop) {
-  if (outputs.size() != (settings.has_sync ? 2u : 1u)) {
-    throw std::invalid_argument("digital lines: expected enable and, if configured, sync");
+    : settings_(settings),
+      outputs_(outputs),
+      estop_(estop),
+      triggers_(settings.trigger_axes.size(), false),
+      levels_(idle_levels(settings)),
+      off_(idle_levels(settings)) {
+  if (outputs.size() != levels_.size()) {
+    throw std::invalid_argument(
+        "digital lines: expected enable, sync if configured, and the trigger lines");
   }
   if (estop_ != nullptr) {
     check_estop();  // a press held at start is seen before anything is enabled
@@ -41,9 +51,11 @@ GpioDigitalLines::~GpioDigitalLines() {
 
 Status GpioDigitalLines::apply() {
   const bool enable = enabled_ && !tripped_.load() && !remote_tripped_.load();
-  levels_[0] = level_of(enable, settings_.enable_active_low);
-  levels_[1] = level_of(sync_, settings_.sync_active_low);
-  const Status s = outputs_.set_levels(std::span<const int>(levels_.data(), outputs_.size()));
+  std::size_t i = 0;
+  levels_[i++] = level_of(enable, settings_.enable_active_low);
+  if (settings_.has_sync) levels_[i++] = level_of(sync_, settings_.sync_active_low);
+  for (const bool trigger : triggers_) levels_[i++] = level_of(trigger, settings_.trigger_active_low);
+  const Status s = outputs_.set_levels(std::span<const int>(levels_.data(), levels_.size()));
   // The watcher may have tripped between the check and the write: it wrote
   // enable off before or after ours; writing again settles it off.
   if (enable && (tripped_.load() || remote_tripped_.load())) return apply();
@@ -60,6 +72,21 @@ Status GpioDigitalLines::set_sync(bool high) {
   if (!settings_.has_sync) return Status::ok;
   sync_ = high;
   return apply();
+}
+
+bool GpioDigitalLines::has_trigger(std::size_t axis) const {
+  for (const std::size_t a : settings_.trigger_axes)
+    if (a == axis) return true;
+  return false;
+}
+
+Status GpioDigitalLines::set_trigger(std::size_t axis, bool high) {
+  for (std::size_t i = 0; i < settings_.trigger_axes.size(); ++i) {
+    if (settings_.trigger_axes[i] != axis) continue;
+    triggers_[i] = high;
+    return apply();
+  }
+  return Status::io_error;
 }
 
 void GpioDigitalLines::trip_on_estop() {
@@ -87,11 +114,9 @@ bool GpioDigitalLines::reset_estop() {
 }
 
 void GpioDigitalLines::write_off() {
-  // Enable off, sync idle, written from the caller's thread: the drive loop
-  // may be blocked in a drive write for a long time.
-  std::array<int, 2> off{level_of(false, settings_.enable_active_low),
-                         level_of(false, settings_.sync_active_low)};
-  if (outputs_.set_levels(std::span<const int>(off.data(), outputs_.size())) != Status::ok) {
+  // Enable off, sync and triggers idle, written from the caller's thread:
+  // the drive loop may be blocked in a drive write for a long time.
+  if (outputs_.set_levels(std::span<const int>(off_.data(), off_.size())) != Status::ok) {
     trip_write_failed_.store(true);  // reported by every later poll
   }
 }

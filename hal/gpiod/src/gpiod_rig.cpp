@@ -14,6 +14,9 @@ std::vector<unsigned> dac_offsets(const GpiodDacSettings& s) {
 std::vector<unsigned> output_offsets(const GpiodLinesSettings& s) {
   std::vector<unsigned> out{static_cast<unsigned>(s.enable_offset)};
   if (s.sync_offset >= 0) out.push_back(static_cast<unsigned>(s.sync_offset));
+  for (const std::size_t axis : s.gpio.trigger_axes) {
+    out.push_back(static_cast<unsigned>(s.trigger_offsets[axis]));
+  }
   return out;
 }
 

@@ -6,7 +6,22 @@ namespace piezo::hal::sim {
 
 SimLines::SimLines(const SimLinesSettings& settings, std::vector<Plant*> plants, const Clock& clock,
                    TimeNs t0)
-    : settings_(settings), plants_(std::move(plants)), clock_(clock), t0_(t0) {}
+    : settings_(settings),
+      plants_(std::move(plants)),
+      clock_(clock),
+      t0_(t0),
+      triggers_(std::make_unique<Trigger[]>(plants_.size())) {}
+
+Status SimLines::set_trigger(std::size_t axis, bool high) {
+  if (axis >= plants_.size()) return Status::io_error;
+  Trigger& line = triggers_[axis];
+  if (high && !line.high.load()) {
+    line.last_edge_ns.store(clock_.now());
+    line.edges.fetch_add(1);
+  }
+  line.high.store(high);
+  return Status::ok;
+}
 
 Status SimLines::set_amplifier_enable(bool enabled) {
   const TimeNs now = clock_.now();

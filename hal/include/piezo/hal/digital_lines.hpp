@@ -1,7 +1,11 @@
 #pragma once
 /// @file
 /// The rig's digital lines: amplifier enable (out), a sync pulse per drive
-/// period (out) for a scope or DAQ, and the emergency stop (in, with edge events).
+/// period (out) for a scope or DAQ, the emergency stop (in, with edge
+/// events), and per axis a trigger (out) that a scan pulses at measured
+/// angles (position compare) for a detector.
+
+#include <cstddef>
 
 #include "piezo/hal/status.hpp"
 
@@ -38,6 +42,11 @@ class DigitalLines {
   /// the button is released; false (and the latch kept) while it is still
   /// pressed or its line cannot be read. Not called during a run.
   [[nodiscard]] virtual bool reset_estop() { return true; }
+  /// Whether the board's axis `axis` has a trigger line wired.
+  [[nodiscard]] virtual bool has_trigger(std::size_t /*axis*/) const { return false; }
+  /// Sets axis `axis`'s trigger line (true = asserted). Real-time safe;
+  /// io_error where none is wired.
+  virtual Status set_trigger(std::size_t /*axis*/, bool /*high*/) { return Status::io_error; }
 };
 
 }  // namespace piezo::hal

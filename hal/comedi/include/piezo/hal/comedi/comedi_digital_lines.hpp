@@ -28,6 +28,9 @@ struct DigitalLinesSettings {
   int sync_channel = -1;     ///< -1: not wired
   int estop_subdevice = -1;  ///< -1: the card's first digital input (DI or DIO)
   int estop_channel = -1;    ///< -1: not wired
+  /// Each axis's trigger output on the outputs' subdevice, in the board's
+  /// order (-1 or absent: none).
+  std::vector<int> trigger_channels;
   gpio::GpioLinesSettings lines;
 };
 

@@ -1,8 +1,8 @@
 #pragma once
 /// @file
-/// The rig's digital lines on GPIO: amplifier enable and sync as one output
-/// group, e-stop as an input with edge events, each line's polarity from
-/// config.
+/// The rig's digital lines on GPIO: amplifier enable, sync and the axes'
+/// trigger lines as one output group, e-stop as an input with edge events,
+/// each line's polarity from config.
 ///
 /// The e-stop has a path of its own: a watcher thread blocks on the input's
 /// edge events and drops the enable line itself, however long the drive
@@ -11,7 +11,6 @@
 /// clears the latch (piezod's reset_fault). The protocol's e-stop drops it
 /// the same way (trip()), until the next run enables it.
 
-#include <array>
 #include <atomic>
 #include <thread>
 #include <vector>
@@ -26,15 +25,19 @@ struct GpioLinesSettings {
   bool enable_active_low = false;
   bool sync_active_low = false;
   bool estop_active_low = true;  ///< a normally-closed e-stop pulled up: pressed = low
+  /// The board's axes that have a trigger line, in the order their lines
+  /// follow enable and sync in the output group.
+  std::vector<std::size_t> trigger_axes;
+  bool trigger_active_low = false;
 };
 
 class GpioDigitalLines final : public DigitalLines {
  public:
-  /// The physical levels of the outputs (enable, then sync if any) with
-  /// both inactive: what the lines must be requested at.
+  /// The physical levels of the outputs (enable, sync if any, then the
+  /// triggers) all inactive: what the lines must be requested at.
   [[nodiscard]] static std::vector<int> idle_levels(const GpioLinesSettings& settings);
 
-  /// `outputs`: enable, then sync if any, requested at idle_levels().
+  /// `outputs`: enable, sync if any, then the triggers, requested at idle_levels().
   /// `estop` may be null (no e-stop wired); when given, its watcher starts
   /// here and reads the line once before returning.
   GpioDigitalLines(const GpioLinesSettings& settings, OutputLineGroup& outputs, InputLine* estop);
@@ -47,6 +50,8 @@ class GpioDigitalLines final : public DigitalLines {
   /// The level now, and whether the watcher has tripped since the start.
   [[nodiscard]] EstopState poll_estop() override;
   bool trip() override;
+  [[nodiscard]] bool has_trigger(std::size_t axis) const override;
+  Status set_trigger(std::size_t axis, bool high) override;
   /// Reads the button: released, clears the latch and the edges seen.
   [[nodiscard]] bool reset_estop() override;
 
@@ -64,7 +69,9 @@ class GpioDigitalLines final : public DigitalLines {
   InputLine* estop_;
   bool enabled_ = false;
   bool sync_ = false;
-  std::array<int, 2> levels_{};
+  std::vector<bool> triggers_;  ///< asserted, per entry of trigger_axes
+  std::vector<int> levels_;     ///< the group's, sized once
+  std::vector<int> off_;        ///< the group's with every output inactive
   std::atomic<bool> tripped_{false};         ///< by the e-stop input: until reset_estop()
   std::atomic<bool> remote_tripped_{false};  ///< by trip(): until the next enable
   std::atomic<bool> trip_write_failed_{false};

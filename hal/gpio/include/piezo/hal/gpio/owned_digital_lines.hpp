@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// The rig's digital lines together with the device lines they drive and
-/// read: a device's outputs (enable, sync) and e-stop input, built first and
+/// read: a device's outputs (enable, sync, triggers) and e-stop input, built first and
 /// owned here, under the one logic of GpioDigitalLines that every call goes
 /// to. libgpiod's lines and a DAQ card's digital I/O both come this way.
 
@@ -29,6 +29,12 @@ class OwnedDigitalLines final : public DigitalLines {
   [[nodiscard]] EstopState poll_estop() override { return lines_.poll_estop(); }
   bool trip() override { return lines_.trip(); }
   [[nodiscard]] bool reset_estop() override { return lines_.reset_estop(); }
+  [[nodiscard]] bool has_trigger(std::size_t axis) const override {
+    return lines_.has_trigger(axis);
+  }
+  Status set_trigger(std::size_t axis, bool high) override {
+    return lines_.set_trigger(axis, high);
+  }
 
  private:
   std::unique_ptr<OutputLineGroup> outputs_;

@@ -30,6 +30,8 @@ struct GpiodLinesSettings {
   int enable_offset = -1;
   int sync_offset = -1;   ///< -1: not wired
   int estop_offset = -1;  ///< -1: not wired
+  /// Each axis's trigger line, in the board's order (-1 or absent: none).
+  std::vector<int> trigger_offsets;
   gpio::GpioLinesSettings gpio;
 };
 

@@ -2,12 +2,14 @@
 /// @file
 /// Simulated digital lines: the amplifier enable goes to every plant's
 /// amplifier (one enable for the board's axes),
-/// sync pulses are counted, and the e-stop can be pressed at a set time and
+/// sync pulses are counted, each axis has a trigger line whose history
+/// (its rising edges, and when the latest came) is kept, and the e-stop can be pressed at a set time and
 /// held, as an operator holds the button: the board latches the press, and
 /// its reset is refused until the button is released.
 
 #include <atomic>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include "piezo/hal/clock.hpp"
@@ -38,11 +40,20 @@ class SimLines final : public DigitalLines {
   bool trip() override;
   /// Refused while the button is down (timed and still held, or pressed).
   bool reset_estop() override;
+  [[nodiscard]] bool has_trigger(std::size_t axis) const override { return axis < plants_.size(); }
+  Status set_trigger(std::size_t axis, bool high) override;
 
   /// Presses the e-stop now and for good (any thread): the next poll sees an
   /// edge.
   void press_estop() { estop_pressed_.store(true, std::memory_order_release); }
   [[nodiscard]] long sync_pulses() const { return sync_pulses_.load(); }
+  /// Axis `axis`'s trigger line: its rising edges so far, its level, and
+  /// when its latest rising edge came [clock ns] (any thread).
+  [[nodiscard]] long trigger_edges(std::size_t axis) const { return triggers_[axis].edges.load(); }
+  [[nodiscard]] bool trigger_high(std::size_t axis) const { return triggers_[axis].high.load(); }
+  [[nodiscard]] TimeNs last_trigger_edge_ns(std::size_t axis) const {
+    return triggers_[axis].last_edge_ns.load();
+  }
   /// Moves the time origin of estop_at_s, before the run starts: each run
   /// is pressed at its own estop_at_s.
   void set_time_origin(TimeNs t0) {
@@ -63,6 +74,12 @@ class SimLines final : public DigitalLines {
   bool timed_press_seen_ = false;
   std::atomic<bool> estop_pressed_{false};
   std::atomic<long> sync_pulses_{0};
+  struct Trigger {
+    std::atomic<bool> high{false};
+    std::atomic<long> edges{0};
+    std::atomic<TimeNs> last_edge_ns{0};
+  };
+  std::unique_ptr<Trigger[]> triggers_;  ///< one per plant
 };
 
 }  // namespace piezo::hal::sim
