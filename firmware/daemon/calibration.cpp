@@ -196,6 +196,28 @@ bool apply_calibration(const CalibrationRecord& c, std::optional<double> f,
   return true;
 }
 
+/// The axis's steady velocity against its drive, one way (+1 forward).
+firmware::VelocityBranch velocity_branch(const protocol::CalibrationRecord& c, int direction) {
+  firmware::VelocityBranch b;
+  for (const auto& f : c.frequencies) {
+    firmware::VelocityBranch::Table steps{};
+    const auto& way = direction > 0 ? f.forward_rad : f.reverse_rad;
+    for (std::size_t i = 0; i < steps.size() && i < way.size(); ++i) {
+      steps[i] = std::max(0.0, direction * way[i]);
+    }
+    b.add(f.f_hz, steps, f.reliable.value_or(false));
+  }
+  return b;
+}
+
+VelocityRange velocity_range(const protocol::CalibrationRecord& c) {
+  const firmware::VelocityBranch forward = velocity_branch(c, 1), reverse = velocity_branch(c, -1);
+  if (forward.empty() || reverse.empty()) return {};
+  // What holds both ways.
+  return {std::max(forward.base_rate(), reverse.base_rate()),
+          std::min(forward.top(), reverse.top())};
+}
+
 std::optional<CalibrationRecord> load_calibration(const std::string& path,
                                                   const CalibrationLimits& limits) {
   const auto text = read_file(path);

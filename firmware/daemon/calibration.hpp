@@ -13,6 +13,7 @@
 
 #include "piezo/firmware/calibration_program.hpp"
 #include "piezo/firmware/move_controller.hpp"
+#include "piezo/firmware/velocity_branch.hpp"
 #include "piezo/protocol/messages.hpp"
 
 namespace piezo::daemon {
@@ -48,6 +49,16 @@ struct CalibrationLimits {
 /// at the move's V0 (the model's predictions stay).
 bool apply_calibration(const protocol::CalibrationRecord& c, std::optional<double> f,
                        firmware::MoveSettings& m);
+
+/// The axis's steady velocity against its drive one way (+1 forward), as
+/// the calibration measured it (its reliable frequencies' step tables).
+[[nodiscard]] firmware::VelocityBranch velocity_branch(const protocol::CalibrationRecord& c,
+                                                       int direction);
+/// A scan's velocities that hold both ways [rad/s] (top 0: none).
+struct VelocityRange {
+  double base_rate = 0.0, top = 0.0;
+};
+[[nodiscard]] VelocityRange velocity_range(const protocol::CalibrationRecord& c);
 
 /// The calibration kept in `path` (none when the file does not exist);
 /// throws std::runtime_error naming the file when it cannot be used.

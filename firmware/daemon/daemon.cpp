@@ -384,6 +384,8 @@ CommandTable Daemon::command_table() {
            [this](Who c, Args a) { return step(c, a); }},
           {protocol::MoveToRequest::kCommand, C::controller, move_to_specs(),
            [this](Who c, Args a) { return move_to(c, a); }},
+          {protocol::ScanRequest::kCommand, C::controller, scan_specs(),
+           [this](Who c, Args a) { return scan(c, a); }},
           {protocol::CalibrateRequest::kCommand, C::controller,
            on_axis(protocol::specs_of<protocol::CalibrateRequest>()),
            [this](Who c, Args a) { return calibrate(c, a); }},

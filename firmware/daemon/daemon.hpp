@@ -6,6 +6,7 @@
 //   daemon_run.cpp      a run's life: configure, start, step, stop, lease, its end
 //   daemon_programs.cpp what a run follows besides a waveform: moves, calibration;
 //                       the zero and readings at rest
+//   daemon_scans.cpp    scans: their plan, their trigger pulses, their account
 //   daemon_rest.cpp     the axes between runs: idle readings, moves at rest
 //   daemon_reports.cpp  what the board says: hello, status, events (typed messages)
 //   run_state.*         the state machine and its latching rules
@@ -34,6 +35,7 @@
 #include "piezo/firmware/calibration_program.hpp"
 #include "piezo/firmware/move_controller.hpp"
 #include "piezo/firmware/move_planner.hpp"
+#include "piezo/firmware/scan_controller.hpp"
 #include "piezo/protocol/messages.hpp"
 #include "run_state.hpp"
 #include "sample_hub.hpp"
@@ -78,6 +80,13 @@ class Daemon {
     };
     std::vector<Move> moves;
     std::optional<firmware::CalibrationPlan> calibration;
+    /// A scan's settings on its axis: one, or several for a group.
+    struct Scan {
+      ServedAxis* axis = nullptr;
+      firmware::ScanSettings settings;
+      firmware::TravelHeading heading;  ///< towards the run-up's start from where the axis is
+    };
+    std::vector<Scan> scans;
   };
   struct AtRest {
     double mean_m = 0.0, stddev_m = 0.0;
@@ -154,6 +163,23 @@ class Daemon {
   /// drive at 0 V: the mean of the good readings and their spread (they
   /// also become the recent ones, so `status` says the same).
   [[nodiscard]] AtRest read_at_rest(ServedAxis& axis, std::size_t n);
+
+  // daemon_scans.cpp
+  nlohmann::json scan(const std::string& client, const nlohmann::json& args);
+  /// `scan`'s arguments: one axis's, `axis`, and a group's `scans`.
+  [[nodiscard]] std::vector<protocol::ArgumentSpec> scan_specs() const;
+  /// One axis's scan from its request and calibration (refusals name the
+  /// argument); `account` gets the scan as taken, `duration_s` its longest run.
+  firmware::ScanSettings plan_scan(ServedAxis& axis, const protocol::ScanRequest& request,
+                                   protocol::ScanAccount& account, double& duration_s);
+  /// The pulses the scans fired since the last call: kept and streamed.
+  void take_pulses(Run& run);
+  /// After the loops ended: trigger lines low, the model's velocity beside each span's.
+  void end_scans(Run& run);
+  [[nodiscard]] protocol::ScanAccount scan_account(const Run& run, std::size_t part,
+                                                   bool with_pulses) const;
+  /// Each scanning part's account, without its pulses (empty: no scan).
+  [[nodiscard]] std::vector<protocol::ScanAccount> scan_accounts(const Run& run) const;
 
   // daemon_rest.cpp
   /// Takes the idle reader's readings: positions, noise, moves at rest.

@@ -220,7 +220,7 @@ json Daemon::calibrate(const std::string& client, const json& args) {
   d.f = plan.f_hz[static_cast<std::size_t>(plan.frequencies - 1)];
   (void)apply_configuration(axis, {d, 1.5 * plan.duration_s(board_.sensor_rate_hz) + 1.0},
                             "calibrate");
-  protocol::StartReply started = start(client, request.lease_s, {{}, plan}, "calibrate");
+  protocol::StartReply started = start(client, request.lease_s, {{}, plan, {}}, "calibrate");
   started.calibration = protocol::StartReply::Calibration{
       static_cast<std::uint32_t>(plan.steps), plan.V0,
       std::vector<double>(plan.f_hz.begin(), plan.f_hz.begin() + plan.frequencies)};

@@ -9,6 +9,7 @@
 #include <limits>
 #include <zmq_addon.hpp>
 
+#include "calibration.hpp"
 #include "daemon_run.hpp"
 #include "piezo/firmware/wire_keys.hpp"
 #include "piezo/protocol/frame.hpp"
@@ -73,7 +74,16 @@ protocol::Hello Daemon::hello() const {
     h.axes.push_back({a.name, a.sensor.r2_m, a.drive.limits.V_min, a.drive.limits.V_max,
                       a.drive.limits.slew_V_per_s, end(a.safety.travel_min_rad),
                       end(a.safety.travel_max_rad), std::string(a.drive.backend()),
-                      std::string(a.sensor.backend()), axis->zero.value(), axis->calibration});
+                      std::string(a.sensor.backend()), axis->zero.value(), axis->calibration,
+                      std::nullopt, std::nullopt, false});
+    if (axis->calibration) {
+      const VelocityRange range = velocity_range(*axis->calibration);
+      if (range.top > 0.0) {
+        h.axes.back().velocity_max_rad_per_s = range.top;
+        h.axes.back().base_rate_rad_per_s = range.base_rate;
+      }
+    }
+    h.axes.back().trigger = rig_.lines->has_trigger(axis->index);
   }
   return h;
 }
@@ -117,6 +127,7 @@ protocol::Status Daemon::status(const std::string& client) const {
     r.sensor = health_of(run_->runner->sensor_health(), false);
     if (run_->finished) r.summary = run_->summary;
     if (run_->is_move()) r.moves = move_accounts(*run_);
+    if (run_->is_scan()) r.scans = scan_accounts(*run_);
     if (run_->calibration) r.calibration_progress = run_->calibration->progress();
     s.run = r;
   }
@@ -188,8 +199,9 @@ protocol::RunSummary Daemon::summary(const Run& run) const {
     const protocol::OutputEnd out = output_end(run.runner->outcome(i));
     if (s.output.state == firmware::OutputState::confirmed) s.output = out;
     protocol::RunSummary::Axis axis{run.parts[i]->axis.name(), run.runner->cause(i), out,
-                                    std::nullopt};
+                                    std::nullopt, std::nullopt};
     if (run.is_move()) axis.move = move_account(run, i);
+    if (run.is_scan()) axis.scan = scan_account(run, i, true);
     s.axes.push_back(std::move(axis));
   }
   s.drive = health_of(run.runner->drive_health(), true);
@@ -220,6 +232,7 @@ void Daemon::publish_health() {
     e.drive = health_of(run_->runner->drive_health(), true);
     e.sensor = health_of(run_->runner->sensor_health(), true);
     if (run_->is_move()) e.moves = move_accounts(*run_);
+    if (run_->is_scan()) e.scans = scan_accounts(*run_);
     if (run_->calibration) e.calibration_progress = run_->calibration->progress();
   }
   for (const auto& axis : axes_) e.rest.push_back(rest_of(*axis));

@@ -77,15 +77,16 @@ protocol::StartReply Daemon::start(const std::string& client,
     throw out_of_limits(wire_key::lease_s,
                         fmt::format("{:g} s; allowed: {} s", lease_s, allowed.text()));
   }
-  if (program.moves.empty() && !program.calibration) {
+  if (program.moves.empty() && program.scans.empty() && !program.calibration) {
     require_inward(*configured_axis_, configured_->drive.direction);
   }
   // The run's loops own the sensors from here: no idle reading runs.
   IdleReader::Hold sensors_held = idle_->hold();
   run_.reset();  // the last run's runner (joined) goes; its samples are overwritten below
-  // A move's axes (a group's several), or the axis `configure` set.
+  // A move's or a scan's axes (a group's several), or the axis `configure` set.
   std::vector<ServedAxis*> axes;
   for (const Program::Move& m : program.moves) axes.push_back(m.axis);
+  for (const Program::Scan& s : program.scans) axes.push_back(s.axis);
   if (axes.empty()) axes.push_back(configured_axis_);
   for (const ServedAxis* axis : axes) require_no_axis_fault(*axis, cmd);
   auto run = std::make_unique<Run>(*configured_, axes);
@@ -171,6 +172,17 @@ void Daemon::build_runner(Run& run, const Program& program) {
       const firmware::MoveSettings& m = program.moves[i].settings;
       part.move = std::make_unique<firmware::MoveController>(m, part.feed);
       axes.push_back(run_axis(part, *part.move, 1.0 / m.f, program.moves[i].heading));
+    }
+    start_loops(std::move(axes));
+    return;
+  }
+  if (!program.scans.empty()) {
+    std::vector<firmware::RunAxis> axes;
+    for (std::size_t i = 0; i < program.scans.size(); ++i) {
+      Run::Part& part = *run.parts[i];
+      const firmware::ScanSettings& s = program.scans[i].settings;
+      part.scan = std::make_unique<firmware::ScanController>(s, part.feed);
+      axes.push_back(run_axis(part, *part.scan, 1.0 / s.approach.f, program.scans[i].heading));
     }
     start_loops(std::move(axes));
     return;
@@ -353,6 +365,7 @@ void Daemon::check_lease_on_wall_clock() {
 void Daemon::pump_samples() {
   if (!run_) return;
   Run& run = *run_;
+  take_pulses(run);
   samples_.take(
       *run.runner,
       [&run](const firmware::DriveSample& s) {
@@ -381,12 +394,14 @@ void Daemon::finish_run() {
   auto& run = *run_;
   run.runner->join();
   pump_samples();
-  if (run.is_move() || run.calibration) {
+  if (run.is_move() || run.is_scan() || run.calibration) {
     for (const auto& part : run.parts) {
       const AtRest rest = read_at_rest(part->axis, ServedAxis::kRecentReadings);
       if (rest.good > 0) part->final_displacement_m = rest.mean_m;
     }
   }
+  end_scans(run);
+  take_pulses(run);
   run.finished = true;
   const auto cause = run.runner->cause();
   run.summary = summary(run);

@@ -25,6 +25,10 @@ struct Daemon::Run {
     ServedAxis& axis;
     firmware::PositionFeed feed;                     ///< the acquire loop's readings, for a move
     std::unique_ptr<firmware::MoveController> move;  ///< a closed-loop move's program, if it is one
+    std::unique_ptr<firmware::ScanController> scan;  ///< a scan's program, if it is one
+    protocol::ScanAccount scan_taken;                ///< the scan as the board took it
+    std::vector<protocol::TriggerPulse> pulses;      ///< a scan's, as fired
+    std::optional<double> model_velocity_rad_per_s;  ///< the model's beside the span's
     bool move_takes_its_zero = false;                ///< the axis had no zero when it began
     /// Measured after the run, at 0 V: the position a finished move reports
     /// (the controller's last reading came before the stop's ramp).
@@ -58,6 +62,7 @@ struct Daemon::Run {
   [[nodiscard]] Part& first() { return *parts.front(); }
   [[nodiscard]] const Part& first() const { return *parts.front(); }
   [[nodiscard]] bool is_move() const { return parts.front()->move != nullptr; }
+  [[nodiscard]] bool is_scan() const { return parts.front()->scan != nullptr; }
   /// The part of the board's axis `index`, or null.
   [[nodiscard]] Part* part_of(std::size_t index) {
     for (const auto& p : parts)

@@ -100,7 +100,10 @@ struct Fields<AxisInfo> {
                  field(wire_key::drive, &T::drive),
                  field(wire_key::sensor, &T::sensor),
                  field(wire_key::zero_displacement_m, &T::zero_displacement_m),
-                 field(wire_key::calibration, &T::calibration)};
+                 field(wire_key::calibration, &T::calibration),
+                 field("velocity_max_rad_per_s", &T::velocity_max_rad_per_s, may_be_missing),
+                 field("base_rate_rad_per_s", &T::base_rate_rad_per_s, may_be_missing),
+                 field(wire_key::trigger, &T::trigger, may_be_missing)};
 };
 template <>
 struct Fields<Hello> {
@@ -180,6 +183,53 @@ struct Fields<MoveAccount> {
                  field(wire_key::stop_cause, &T::stop_cause, omitted_when_absent)};
 };
 template <>
+struct Fields<TriggerPulse> {
+  using T = TriggerPulse;
+  static constexpr auto list =
+      std::tuple{field(wire_key::k, &T::k),           field(wire_key::position_rad, &T::position_rad),
+                 field(wire_key::angle_rad, &T::angle_rad), field("reading_s", &T::reading_s),
+                 field("edge_s", &T::edge_s),         field(wire_key::late, &T::late)};
+};
+template <>
+struct Fields<TriggerEvent> {
+  using T = TriggerEvent;
+  static constexpr auto list =
+      std::tuple{field(wire_key::board_id, &T::board_id), field(wire_key::run, &T::run),
+                 field(wire_key::axis, &T::axis), inline_fields(&T::pulse)};
+};
+template <>
+struct Fields<ScanAccount::Triggers> {
+  using T = ScanAccount::Triggers;
+  static constexpr auto list = std::tuple{
+      field("start_rad", &T::start_rad),         field("step_rad", &T::step_rad),
+      field("width_s", &T::width_s),             field("pre_start_rad", &T::pre_start_rad),
+      field("pulses", &T::pulses),               field("fired", &T::fired),
+      field(wire_key::late, &T::late),           field("unreported", &T::unreported)};
+};
+template <>
+struct Fields<ScanAccount> {
+  using T = ScanAccount;
+  static constexpr auto list = std::tuple{
+      field(wire_key::axis, &T::axis),
+      field(wire_key::from_rad, &T::from_rad),
+      field(wire_key::to_rad, &T::to_rad),
+      field(wire_key::velocity_rad_per_s, &T::velocity_rad_per_s),
+      field(firmware::arguments::acceleration_s.name, &T::acceleration_s),
+      field(firmware::arguments::deceleration_s.name, &T::deceleration_s),
+      field("run_up_from_rad", &T::run_up_from_rad),
+      field("phase", &T::phase),
+      field(wire_key::position_rad, &T::position_rad),
+      field("measured_velocity_rad_per_s", &T::measured_velocity_rad_per_s),
+      field("ripple_rad_per_s", &T::ripple_rad_per_s),
+      field("ripple_10_rad_per_s", &T::ripple_10_rad_per_s),
+      field("mean_f_hz", &T::mean_f_hz),
+      field("mean_V", &T::mean_V),
+      field("model_velocity_rad_per_s", &T::model_velocity_rad_per_s),
+      field(wire_key::triggers, &T::triggers),
+      field("pulses", &T::pulses, omitted_when_absent),
+      field(wire_key::stop_cause, &T::stop_cause, omitted_when_absent)};
+};
+template <>
 struct Fields<RunSummary::Samples> {
   using T = RunSummary::Samples;
   static constexpr auto list =
@@ -190,7 +240,8 @@ struct Fields<RunSummary::Axis> {
   using T = RunSummary::Axis;
   static constexpr auto list = std::tuple{
       field(wire_key::name, &T::name), field(wire_key::cause, &T::cause),
-      field(wire_key::output, &T::output), field(wire_key::move, &T::move, omitted_when_absent)};
+      field(wire_key::output, &T::output), field(wire_key::move, &T::move, omitted_when_absent),
+      field(wire_key::scan, &T::scan, omitted_when_absent)};
 };
 template <>
 struct Fields<RunSummary> {
@@ -231,6 +282,7 @@ struct Fields<StartReply> {
                  field(firmware::arguments::count.name, &T::count, omitted_when_absent),
                  field(firmware::arguments::direction.name, &T::direction, omitted_when_absent),
                  field(wire_key::moves, &T::moves, omitted_when_absent),
+                 field(wire_key::scans, &T::scans, omitted_when_absent),
                  inline_fields(&T::calibration)};
 };
 template <>
@@ -272,6 +324,7 @@ struct Fields<HealthEvent> {
       field(wire_key::drive, &T::drive, omitted_when_absent),
       field(wire_key::sensor, &T::sensor, omitted_when_absent),
       field(wire_key::moves, &T::moves, omitted_when_absent),
+      field(wire_key::scans, &T::scans, omitted_when_absent),
       field(wire_key::calibration_progress, &T::calibration_progress, omitted_when_absent),
       field(wire_key::rest, &T::rest, may_be_missing)};
 };
@@ -289,6 +342,7 @@ struct Fields<RunStatus> {
       field(wire_key::sensor, &T::sensor),
       field(wire_key::summary, &T::summary, omitted_when_absent),
       field(wire_key::moves, &T::moves, omitted_when_absent),
+      field(wire_key::scans, &T::scans, omitted_when_absent),
       field(wire_key::calibration_progress, &T::calibration_progress, omitted_when_absent)};
 };
 template <>
@@ -442,6 +496,8 @@ PIEZO_FIELD_LIST_CODEC(RunSummary)
 PIEZO_FIELD_LIST_CODEC(StartReply)
 PIEZO_FIELD_LIST_CODEC(RestReport)
 PIEZO_FIELD_LIST_CODEC(MovedEvent)
+PIEZO_FIELD_LIST_CODEC(ScanAccount)
+PIEZO_FIELD_LIST_CODEC(TriggerEvent)
 PIEZO_FIELD_LIST_CODEC(StateEvent)
 PIEZO_FIELD_LIST_CODEC(HealthEvent)
 PIEZO_FIELD_LIST_CODEC(RunStatus)
@@ -553,6 +609,8 @@ std::vector<std::string_view> reply_keys() {
   wire::for_each_key<StartReply>(add);
   wire::for_each_key<RestReport>(add);
   wire::for_each_key<MovedEvent>(add);
+  wire::for_each_key<ScanAccount>(add);
+  wire::for_each_key<TriggerEvent>(add);
   wire::for_each_key<StateEvent>(add);
   wire::for_each_key<HealthEvent>(add);
   wire::for_each_key<RunStatus>(add);
@@ -587,6 +645,8 @@ json message_fields() {
   own(wire_key::state, std::type_identity<StateEvent>{});
   own("health", std::type_identity<HealthEvent>{});
   own(wire_key::moved, std::type_identity<MovedEvent>{});
+  own(wire_key::scan, std::type_identity<ScanAccount>{});
+  own(wire_key::trigger, std::type_identity<TriggerEvent>{});
   return out;
 }
 

@@ -41,7 +41,7 @@ from .follower import AxisSnapshot, Follower, angle_rad
 from .errors import (BadArgument, BoardError, ClientClosed, NoReply, OutOfLimits, RunEnded,
                      StaleBoard, UnknownCommand, board_error)
 
-PROTOCOL = 5
+PROTOCOL = 6
 LOOPBACK = ("tcp://127.0.0.1:", "tcp://localhost:", "tcp://[::1]:")
 # Causes that are the end a caller asked for: the run ran its course, or
 # this client stopped it.

@@ -17,7 +17,7 @@
 
 namespace piezo::protocol {
 
-inline constexpr std::uint32_t kProtocolVersion = 5;
+inline constexpr std::uint32_t kProtocolVersion = 6;
 /// Larger commands are refused unread (no command needs more); replies
 /// and stream messages are not limited.
 inline constexpr std::size_t kMaxMessageBytes = 64 * 1024;

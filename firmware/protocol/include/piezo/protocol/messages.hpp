@@ -74,6 +74,11 @@ struct AxisInfo {
   std::string drive, sensor;                             ///< its backends
   std::optional<double> zero_displacement_m;
   std::optional<CalibrationRecord> calibration;
+  /// A scan's velocity range, from the calibration's rising branch (nil:
+  /// uncalibrated): the highest steady velocity and the slowest (Sardana's
+  /// base rate) [rad/s].
+  std::optional<double> velocity_max_rad_per_s, base_rate_rad_per_s;
+  bool trigger = false;  ///< a trigger line is wired for its scans
 };
 
 /// `hello`'s reply: what a client needs before it asks for anything, and to
@@ -192,6 +197,34 @@ struct RequestFields<CalibrateRequest> {
       argument_field(firmware::arguments::lease_s, &T::lease_s)};
 };
 
+/// `scan`'s arguments for one axis (a group's: each entry of `scans`).
+struct ScanRequest {
+  static constexpr std::string_view kCommand = "scan";
+  double from_rad = 0.0, to_rad = 0.0, velocity_rad_per_s = 0.0;
+  std::optional<double> acceleration_s, deceleration_s;
+  std::optional<double> trigger_step_rad, trigger_start_rad, trigger_width_s,
+      trigger_pre_start_rad;
+  std::optional<std::uint64_t> trigger_pulses;
+  std::optional<double> lease_s;
+};
+template <>
+struct RequestFields<ScanRequest> {
+  using T = ScanRequest;
+  static constexpr auto list =
+      std::tuple{argument_field(firmware::arguments::from_rad, &T::from_rad),
+                 argument_field(firmware::arguments::to_rad, &T::to_rad),
+                 argument_field(firmware::arguments::velocity_rad_per_s, &T::velocity_rad_per_s),
+                 argument_field(firmware::arguments::acceleration_s, &T::acceleration_s),
+                 argument_field(firmware::arguments::deceleration_s, &T::deceleration_s),
+                 argument_field(firmware::arguments::trigger_step_rad, &T::trigger_step_rad),
+                 argument_field(firmware::arguments::trigger_start_rad, &T::trigger_start_rad),
+                 argument_field(firmware::arguments::trigger_pulses, &T::trigger_pulses),
+                 argument_field(firmware::arguments::trigger_width_s, &T::trigger_width_s),
+                 argument_field(firmware::arguments::trigger_pre_start_rad,
+                                &T::trigger_pre_start_rad),
+                 argument_field(firmware::arguments::lease_s, &T::lease_s)};
+};
+
 /// `lease`'s arguments: the drive samples the controller has logged (its
 /// acknowledgement; a virtual-clock board waits on it).
 struct LeaseRequest {
@@ -252,6 +285,52 @@ struct MoveAccount {
   std::optional<firmware::MoveEnd> stop_cause;  ///< once the move ended
 };
 
+/// A fired trigger: the `trigger` event, and each row of a scan's pulses.
+struct TriggerPulse {
+  std::uint32_t k = 0;
+  double position_rad = 0.0;  ///< start + k·step in the scan's direction
+  double angle_rad = 0.0;     ///< the filtered measured angle that passed it
+  double reading_s = 0.0;     ///< that reading's time [s from the run's t0]
+  double edge_s = 0.0;        ///< the pulse's rising edge [s from the run's t0]
+  bool late = false;  ///< its reading passed more than one position, or it waited for another
+};
+
+/// The `trigger` event: one per pulse, as the board fired it.
+struct TriggerEvent {
+  std::string board_id;
+  std::uint64_t run = 0;
+  std::string axis;
+  TriggerPulse pulse;
+};
+
+/// A scan's account: its request as taken, its progress while it runs and
+/// what it measured once it ended (the run's summary, with every pulse).
+struct ScanAccount {
+  std::string axis;
+  double from_rad = 0.0, to_rad = 0.0, velocity_rad_per_s = 0.0;
+  double acceleration_s = 0.0, deceleration_s = 0.0;
+  double run_up_from_rad = 0.0;  ///< where the approach took it, before A
+  std::string phase;             ///< approach, run_up, span, run_down, done, failed
+  std::optional<double> position_rad;
+  /// Over the span, once passed: (B - A) over the time between the readings
+  /// that crossed A and B, the standard deviation of the velocity per drive
+  /// period and over ten, the mean drive (frequency, amplitude).
+  std::optional<double> measured_velocity_rad_per_s, ripple_rad_per_s, ripple_10_rad_per_s,
+      mean_f_hz, mean_V;
+  /// The LuGre model's mean velocity at the drive the board chose (its
+  /// mean frequency and amplitude over the span), beside the measured one.
+  std::optional<double> model_velocity_rad_per_s;
+  struct Triggers {
+    double start_rad = 0.0, step_rad = 0.0, width_s = 0.0, pre_start_rad = 0.0;
+    std::uint64_t pulses = 0;  ///< asked for
+    std::uint64_t fired = 0, late = 0, unreported = 0;
+  };
+  std::optional<Triggers> triggers;
+  /// Every pulse fired, in k's order (in the run's summary only).
+  std::optional<std::vector<TriggerPulse>> pulses;
+  std::optional<firmware::MoveEnd> stop_cause;  ///< once it ended (on_target: done)
+};
+
 /// A finished run's account (in the `state` event, and in `status`).
 struct RunSummary {
   firmware::StopCause cause = firmware::StopCause::none;
@@ -268,6 +347,7 @@ struct RunSummary {
     firmware::StopCause cause = firmware::StopCause::none;
     OutputEnd output;
     std::optional<MoveAccount> move;
+    std::optional<ScanAccount> scan;
   };
   std::vector<Axis> axes;
   /// A calibration run's result: present in a calibration run's summary,
@@ -294,6 +374,7 @@ struct StartReply {
     MoveToRequest request;
   };
   std::optional<std::vector<Move>> moves;  ///< a move's, one per axis it moves
+  std::optional<std::vector<ScanAccount>> scans;  ///< a scan's, one per axis, as taken
   /// A calibration's: its V0, the frequencies it steps at, the steps per point.
   struct Calibration {
     std::uint32_t steps_per_point = 0;
@@ -352,6 +433,7 @@ struct RunStatus {
   LoopHealth drive, sensor;
   std::optional<RunSummary> summary;              ///< once finished
   std::optional<std::vector<MoveAccount>> moves;  ///< a move's progress, one per axis
+  std::optional<std::vector<ScanAccount>> scans;  ///< a scan's progress, one per axis
   std::optional<double> calibration_progress;
 };
 
@@ -434,6 +516,7 @@ struct HealthEvent {
   std::int64_t board_ns = 0;
   std::optional<LoopHealth> drive, sensor;        ///< while a run is under way
   std::optional<std::vector<MoveAccount>> moves;  ///< a move's progress, one per axis
+  std::optional<std::vector<ScanAccount>> scans;  ///< a scan's progress, one per axis
   std::optional<double> calibration_progress;
   std::string board_id;          ///< as in hello: a follower sees a restart here
   std::vector<RestReport> rest;  ///< every axis at rest, in the board's order
@@ -458,6 +541,10 @@ void from_json(const nlohmann::json& j, RunSummary& m);
 void to_json(nlohmann::json& j, const StateEvent& m);
 void from_json(const nlohmann::json& j, StateEvent& m);
 void to_json(nlohmann::json& j, const RestReport& m);
+void to_json(nlohmann::json& j, const ScanAccount& m);
+void from_json(const nlohmann::json& j, ScanAccount& m);
+void to_json(nlohmann::json& j, const TriggerEvent& m);
+void from_json(const nlohmann::json& j, TriggerEvent& m);
 void from_json(const nlohmann::json& j, RestReport& m);
 void to_json(nlohmann::json& j, const MovedEvent& m);
 void from_json(const nlohmann::json& j, MovedEvent& m);
@@ -509,6 +596,7 @@ template <class T>
 /// The requests whose arguments the docs' tables list, each by its command
 /// (`kCommand`); a new command's request goes here.
 using DocumentedRequests = std::tuple<ConfigureRequest, StartRequest, StepRequest, CalibrateRequest,
+                                      ScanRequest,
                                       LeaseRequest, FetchRequest>;
 
 // The enums the wire carries become their names wherever one is put into a
