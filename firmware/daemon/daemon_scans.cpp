@@ -31,12 +31,13 @@ constexpr double kDefaultWidth_s = 1e-3;
 /// PI's rule for a position trigger: its step at least 5 times the
 /// sensor's peak-to-peak noise, taken as 6 standard deviations of a reading.
 constexpr double kStepOverPeakToPeak = 5.0, kPeakToPeakOverSigma = 6.0;
-/// A scan's approach to its run-up: a move, its tolerance at least this
-/// many times the smallest the sensor allows.
+/// A scan's approach to its run-up: a move, its tolerance a tenth of the
+/// run-up, and at least this many times the smallest the sensor allows.
+constexpr double kApproachShareOfRunUp = 0.1;
 constexpr double kApproachToleranceFactor = 4.0;
 /// The run-up's margin beyond what the acceleration covers: drive periods
 /// at the scan's velocity for the loop to lock on.
-constexpr double kLockPeriods = 4.0;
+constexpr double kLockPeriods = 10.0;
 
 const char* to_string(firmware::ScanPhase p) {
   switch (p) {
@@ -168,6 +169,11 @@ firmware::ScanSettings Daemon::plan_scan(ServedAxis& axis, const protocol::ScanR
                                     axis.name()));
   }
   const protocol::CalibrationRecord& cal = *axis.calibration;
+  for (const auto& [a, value] : {std::pair{args::from_rad, r.from_rad}, std::pair{args::to_rad, r.to_rad}}) {
+    if (!a.allowed.admits(value)) {
+      throw out_of_limits(a.name, fmt::format("{:g} rad; allowed: {} rad", value, a.allowed.text()));
+    }
+  }
   if (r.to_rad == r.from_rad) {
     throw ProtocolError(code::bad_argument, wire_key::to_rad,
                         "scan: to_rad: equal to from_rad; a scan spans an angle");
@@ -226,17 +232,26 @@ firmware::ScanSettings Daemon::plan_scan(ServedAxis& axis, const protocol::ScanR
                     std::min(start, end), std::max(start, end), axis.name(),
                     safety.travel_min_rad, safety.travel_max_rad));
   }
-  // The approach: a move to the run-up's start, from the side the scan leaves.
+  // The approach: a move to the run-up's start, from either side (the
+  // run-up takes up what the arrival left), within a tenth of the run-up.
   protocol::MoveToRequest approach;
   approach.move.target_rad = start;
   approach.move.tolerance_rad =
-      std::max(approach.move.tolerance_rad,
-               kApproachToleranceFactor * smallest_tolerance_rad(cal.noise_m, s.r2_m));
-  approach.move.approach = dir > 0 ? firmware::Approach::forward : firmware::Approach::reverse;
+      std::clamp(kApproachShareOfRunUp * run_up,
+                 std::max(approach.move.tolerance_rad,
+                          kApproachToleranceFactor * smallest_tolerance_rad(cal.noise_m, s.r2_m)),
+                 firmware::find_move_field(wire_key::tolerance_rad)->allowed.max);
   approach.V0 = cal.V0;
   bool calibrated = false;
   s.approach = plan_move(axis, approach, calibrated);
   s.zero_displacement_m = s.approach.zero_displacement_m;
+  if (!std::isfinite(s.zero_displacement_m)) {
+    // The angles of A, B and every trigger position are from the zero.
+    throw ProtocolError(code::bad_state, wire_key::axis,
+                        fmt::format("scan: axis {} has no zero and its sensor gave no reading "
+                                    "at rest to take one from",
+                                    axis.name()));
+  }
   // Triggers: position compare on the filtered angle.
   account.triggers.reset();
   if (r.trigger_step_rad) {
@@ -303,6 +318,7 @@ firmware::ScanSettings Daemon::plan_scan(ServedAxis& axis, const protocol::ScanR
   account.acceleration_s = s.acceleration_s;
   account.deceleration_s = s.deceleration_s;
   account.run_up_from_rad = start;
+  account.zero_displacement_m = s.zero_displacement_m;
   account.phase = to_string(firmware::ScanPhase::approach);
   // Its run: the approach's timeout, then the cruise at the base rate at
   // worst over the run-up, at v (and half as fast again) over the rest.

@@ -10,7 +10,7 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 /// The reference's lag is corrected over this many periods (at least
 /// kCorrectionFloor_s): faster would chase the noise of the filtered angle.
-constexpr double kCorrectionPeriods = 5.0;
+constexpr double kCorrectionPeriods = 3.0;
 constexpr double kCorrectionFloor_s = 0.05;
 /// The branch's prediction is scaled by what was measured, forgetting the
 /// older periods at this rate.
@@ -128,8 +128,6 @@ double ScanController::next_voltage(double t, double dt) {
 
 void ScanController::begin_cruise(double t) {
   t_cruise_ = t;
-  // The approach's frame: the axis's zero, or the one it took at rest.
-  if (std::isnan(s_.zero_displacement_m)) s_.zero_displacement_m = approach_.zero_displacement_m();
   theta_ref_ = have_theta_ ? theta_ : approach_.position_rad();
   if (!std::isfinite(theta_ref_)) theta_ref_ = s_.approach.target_rad;
   period_start_theta_ = theta_ref_;

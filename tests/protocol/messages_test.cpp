@@ -68,7 +68,7 @@ Hello a_hello() {
   h.lease_s = 0.5;
   h.recorder_s = 120.0;
   h.axes.push_back({"rotor", 0.05, 0.0, 80.0, 20000.0, std::nullopt, 0.5, "sim", "modbus-tcp",
-                    0.0701, a_calibration()});
+                    0.0701, a_calibration(), std::nullopt, std::nullopt, false});
   return h;
 }
 
@@ -105,7 +105,7 @@ RunSummary a_summary() {
   s.sensor = a_health(true);
   s.realtime = {"SCHED_FIFO refused"};
   s.samples = {48000, 4800};
-  s.axes.push_back({"rotor", firmware::StopCause::link_lost, s.output, a_move(true)});
+  s.axes.push_back({"rotor", firmware::StopCause::link_lost, s.output, a_move(true), std::nullopt});
   s.calibration.present = true;  // a calibration run that installed none
   s.calibration_error = "the experiment ended link_lost before it was complete";
   return s;
@@ -277,12 +277,37 @@ TEST(Messages, EventsAndSummariesRoundTrip) {
   EXPECT_TRUE(json(idle).at("run").is_null()) << "nil, as documented";
 
   HealthEvent h{BoardState::running,        99,   a_health(true), a_health(true),
-                std::vector{a_move(false)}, 0.25, "5eed",         std::vector{a_rest()}};
+                std::vector{a_move(false)}, std::nullopt, 0.25, "5eed",         std::vector{a_rest()}};
   EXPECT_EQ(json(over_the_wire(h)), json(h));
   EXPECT_FALSE(json(h).contains("move")) << "a move of one axis is in `moves` too";
-  HealthEvent quiet{BoardState::idle, 1, std::nullopt, std::nullopt, std::nullopt, std::nullopt,
-                    "5eed",           {}};
+  HealthEvent quiet{BoardState::idle, 1,      std::nullopt, std::nullopt, std::nullopt,
+                    std::nullopt,     std::nullopt, "5eed",   {}};
   EXPECT_EQ(json(over_the_wire(quiet)), json(quiet));
+}
+
+TEST(Messages, AScanAndItsTriggersRoundTrip) {
+  ScanAccount a;
+  a.axis = "theta";
+  a.from_rad = 0.01;
+  a.to_rad = -0.03;
+  a.velocity_rad_per_s = 0.02;
+  a.phase = "done";
+  a.zero_displacement_m = 0.0701;
+  a.measured_velocity_rad_per_s = 0.0199;
+  a.model_velocity_rad_per_s = 0.021;
+  a.triggers = ScanAccount::Triggers{0.01, 0.002, 1e-3, 0.0, 21, 21, 1, 0};
+  const TriggerPulse p{3, 0.004, 0.00398, 1.25, 1.2501, true};
+  a.pulses = std::vector{p, p};
+  a.stop_cause = firmware::MoveEnd::on_target;
+  EXPECT_EQ(json(over_the_wire(a)), json(a));
+  EXPECT_EQ(json(a).at("pulses").size(), 2u);
+  ScanAccount running = a;
+  running.pulses.reset();
+  running.stop_cause.reset();
+  EXPECT_FALSE(json(running).contains("pulses")) << "only a summary's account lists them";
+  const TriggerEvent e{"5eed", 4, "theta", p};
+  EXPECT_EQ(json(over_the_wire(e)), json(e));
+  EXPECT_EQ(json(e).at("k"), 3) << "the pulse's fields at the event's top level";
 }
 
 TEST(Messages, AMoveAtRestRoundTripsWithTheAxisAsItNowIs) {
@@ -338,7 +363,7 @@ TEST(Messages, TheWiresEnumsBecomeTheirNamesInJson) {
   EXPECT_EQ(json(BoardState::ramping_down), "ramping_down");
   EXPECT_EQ(json(firmware::StopCause::link_lost), "link_lost");
   EXPECT_EQ(json(firmware::OutputState::enable_unconfirmed), "enable_unconfirmed");
-  const json health = HealthEvent{BoardState::running, 1, {}, {}, {}, {}, "a1b2", {}};
+  const json health = HealthEvent{BoardState::running, 1, {}, {}, {}, {}, {}, "a1b2", {}};
   EXPECT_EQ(health.at("state"), "running");
 }
 
@@ -405,7 +430,8 @@ TEST(Messages, AMovesAccountAndAStartsReplyRoundTrip) {
   EXPECT_EQ(json(a_move(true)).at("stop_cause"), "on_target");
   EXPECT_EQ(json(a_move(true)).at("state"), "on_target");
 
-  StartReply plain{7, 1'000, 0.5, 4.8, std::nullopt, std::nullopt, std::nullopt, std::nullopt};
+  StartReply plain{7,           1'000,        0.5,         4.8, std::nullopt,
+                   std::nullopt, std::nullopt, std::nullopt, std::nullopt};
   EXPECT_EQ(json(over_the_wire(plain)), json(plain));
   EXPECT_EQ(json(plain).size(), 4u) << json(plain).dump();
   StartReply step = plain;

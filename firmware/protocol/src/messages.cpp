@@ -217,6 +217,7 @@ struct Fields<ScanAccount> {
       field(firmware::arguments::acceleration_s.name, &T::acceleration_s),
       field(firmware::arguments::deceleration_s.name, &T::deceleration_s),
       field("run_up_from_rad", &T::run_up_from_rad),
+      field(wire_key::zero_displacement_m, &T::zero_displacement_m),
       field("phase", &T::phase),
       field(wire_key::position_rad, &T::position_rad),
       field("measured_velocity_rad_per_s", &T::measured_velocity_rad_per_s),

@@ -131,7 +131,7 @@ void ComediLinesBackend::read(config::SectionReader& r) {
   r.flag("sync_active_low", s.lines.sync_active_low);
   r.flag("estop_active_low", s.lines.estop_active_low);
   r.integer_list("trigger_channels", s.trigger_channels, -1, 31);
-  r.flag("trigger_active_low", s.lines.trigger_active_low);
+  r.flag("trigger_active_low", s.trigger_active_low);
 }
 
 std::shared_ptr<DigitalLines> ComediLinesBackend::open(const LinesCommon&, OpenContext&) const {

@@ -115,7 +115,7 @@ std::unique_ptr<DigitalLines> open_digital_lines(const DigitalLinesSettings& s) 
   }
   gpio::GpioLinesSettings lines = s.lines;
   lines.has_sync = s.sync_channel >= 0;
-  lines.trigger_axes.clear();
+  gpio::GpioTriggerLines triggers{{}, s.trigger_active_low};
   for (std::size_t axis = 0; axis < s.trigger_channels.size(); ++axis) {
     const int channel = s.trigger_channels[axis];
     if (channel < 0) continue;
@@ -129,7 +129,7 @@ std::unique_ptr<DigitalLines> open_digital_lines(const DigitalLinesSettings& s) 
       }
     }
     channels.push_back(static_cast<unsigned>(channel));
-    lines.trigger_axes.push_back(axis);
+    triggers.axes.push_back(axis);
   }
   std::unique_ptr<InputLine> estop;
   if (s.estop_channel >= 0) {
@@ -150,8 +150,8 @@ std::unique_ptr<DigitalLines> open_digital_lines(const DigitalLinesSettings& s) 
   return std::make_unique<gpio::OwnedDigitalLines>(
       lines,
       std::make_unique<ComediOutputs>(s.device, out, std::move(channels),
-                                      gpio::GpioDigitalLines::idle_levels(lines)),
-      std::move(estop));
+                                      gpio::GpioDigitalLines::idle_levels(lines, triggers)),
+      std::move(estop), triggers);
 }
 
 }  // namespace piezo::hal::comedi

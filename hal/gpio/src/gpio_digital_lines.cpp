@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <stdexcept>
+#include <utility>
 
 namespace piezo::hal::gpio {
 namespace {
@@ -16,24 +17,26 @@ int level_of(bool asserted, bool active_low) {
 
 }  // namespace
 
-std::vector<int> GpioDigitalLines::idle_levels(const GpioLinesSettings& s) {
+std::vector<int> GpioDigitalLines::idle_levels(const GpioLinesSettings& s,
+                                               const GpioTriggerLines& triggers) {
   std::vector<int> levels{level_of(false, s.enable_active_low)};
   if (s.has_sync) levels.push_back(level_of(false, s.sync_active_low));
-  for (std::size_t i = 0; i < s.trigger_axes.size(); ++i) {
-    levels.push_back(level_of(false, s.trigger_active_low));
+  for (std::size_t i = 0; i < triggers.axes.size(); ++i) {
+    levels.push_back(level_of(false, triggers.active_low));
   }
   return levels;
 }
 
 
 GpioDigitalLines::GpioDigitalLines(const GpioLinesSettings& settings, OutputLineGroup& outputs,
-                                   InputLine* estop)
+                                   InputLine* estop, GpioTriggerLines triggers)
     : settings_(settings),
+      trigger_lines_(std::move(triggers)),
       outputs_(outputs),
       estop_(estop),
-      triggers_(settings.trigger_axes.size(), false),
-      levels_(idle_levels(settings)),
-      off_(idle_levels(settings)) {
+      triggers_(trigger_lines_.axes.size(), false),
+      levels_(idle_levels(settings, trigger_lines_)),
+      off_(idle_levels(settings, trigger_lines_)) {
   if (outputs.size() != levels_.size()) {
     throw std::invalid_argument(
         "digital lines: expected enable, sync if configured, and the trigger lines");
@@ -54,7 +57,7 @@ Status GpioDigitalLines::apply() {
   std::size_t i = 0;
   levels_[i++] = level_of(enable, settings_.enable_active_low);
   if (settings_.has_sync) levels_[i++] = level_of(sync_, settings_.sync_active_low);
-  for (const bool trigger : triggers_) levels_[i++] = level_of(trigger, settings_.trigger_active_low);
+  for (const bool trigger : triggers_) levels_[i++] = level_of(trigger, trigger_lines_.active_low);
   const Status s = outputs_.set_levels(std::span<const int>(levels_.data(), levels_.size()));
   // The watcher may have tripped between the check and the write: it wrote
   // enable off before or after ours; writing again settles it off.
@@ -75,14 +78,14 @@ Status GpioDigitalLines::set_sync(bool high) {
 }
 
 bool GpioDigitalLines::has_trigger(std::size_t axis) const {
-  for (const std::size_t a : settings_.trigger_axes)
+  for (const std::size_t a : trigger_lines_.axes)
     if (a == axis) return true;
   return false;
 }
 
 Status GpioDigitalLines::set_trigger(std::size_t axis, bool high) {
-  for (std::size_t i = 0; i < settings_.trigger_axes.size(); ++i) {
-    if (settings_.trigger_axes[i] != axis) continue;
+  for (std::size_t i = 0; i < trigger_lines_.axes.size(); ++i) {
+    if (trigger_lines_.axes[i] != axis) continue;
     triggers_[i] = high;
     return apply();
   }

@@ -85,11 +85,11 @@ void RigLinesBackend::read(config::SectionReader& r) {
   r.flag("sync_active_low", g.gpio.sync_active_low);
   r.flag("estop_active_low", g.gpio.estop_active_low);
   r.integer_list("trigger_offsets", g.trigger_offsets, -1, 1023);
-  r.flag("trigger_active_low", g.gpio.trigger_active_low);
+  r.flag("trigger_active_low", g.triggers.active_low);
   g.gpio.has_sync = g.sync_offset >= 0;
-  g.gpio.trigger_axes.clear();
+  g.triggers.axes.clear();
   for (std::size_t axis = 0; axis < g.trigger_offsets.size(); ++axis) {
-    if (g.trigger_offsets[axis] >= 0) g.gpio.trigger_axes.push_back(axis);
+    if (g.trigger_offsets[axis] >= 0) g.triggers.axes.push_back(axis);
   }
 }
 

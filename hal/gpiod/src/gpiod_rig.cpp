@@ -14,7 +14,7 @@ std::vector<unsigned> dac_offsets(const GpiodDacSettings& s) {
 std::vector<unsigned> output_offsets(const GpiodLinesSettings& s) {
   std::vector<unsigned> out{static_cast<unsigned>(s.enable_offset)};
   if (s.sync_offset >= 0) out.push_back(static_cast<unsigned>(s.sync_offset));
-  for (const std::size_t axis : s.gpio.trigger_axes) {
+  for (const std::size_t axis : s.triggers.axes) {
     out.push_back(static_cast<unsigned>(s.trigger_offsets[axis]));
   }
   return out;
@@ -37,9 +37,10 @@ std::unique_ptr<DigitalLines> open_rig_lines(const GpiodLinesSettings& settings,
                                              const std::string& consumer) {
   return std::make_unique<gpio::OwnedDigitalLines>(
       settings.gpio,
-      std::make_unique<GpiodOutputs>(settings.chip, output_offsets(settings),
-                                     gpio::GpioDigitalLines::idle_levels(settings.gpio), consumer),
-      estop_input(settings, consumer));
+      std::make_unique<GpiodOutputs>(
+          settings.chip, output_offsets(settings),
+          gpio::GpioDigitalLines::idle_levels(settings.gpio, settings.triggers), consumer),
+      estop_input(settings, consumer), settings.triggers);
 }
 
 }  // namespace piezo::hal::gpiod

@@ -16,6 +16,7 @@ class Command:
     lease = "lease"
     move_to = "move_to"
     reset_fault = "reset_fault"
+    scan = "scan"
     set_calibration = "set_calibration"
     start = "start"
     status = "status"

@@ -1,5 +1,5 @@
 """A client of ``piezod``, the board's daemon, written against
-docs/protocol.md (protocol 5) on python3-zmq and python3-msgpack.
+docs/protocol.md (protocol 6) on python3-zmq and python3-msgpack.
 
 >>> from piezo_rig.board import Board
 >>> with Board("tcp://127.0.0.1:5555") as board:
@@ -29,7 +29,7 @@ import time
 import tomllib
 import weakref
 from dataclasses import dataclass
-from typing import Any, Iterator, Optional, Union
+from typing import TYPE_CHECKING, Any, Iterator, Optional, Union
 
 import msgpack
 import numpy as np
@@ -40,6 +40,9 @@ from ._wire import ArgType, Command, ErrorCode, Key, MoveEnd, State, StopCause, 
 from .follower import AxisSnapshot, Follower, angle_rad
 from .errors import (BadArgument, BoardError, ClientClosed, NoReply, OutOfLimits, RunEnded,
                      StaleBoard, UnknownCommand, board_error)
+
+if TYPE_CHECKING:
+    from .scan import Scan
 
 PROTOCOL = 6
 LOOPBACK = ("tcp://127.0.0.1:", "tcp://localhost:", "tcp://[::1]:")
@@ -561,6 +564,40 @@ class Board:
             raise RunEnded(Command.move_to, ", ".join(f"{k}: {v}" for k, v in missed.items()), summary)
         return moves
 
+    def scan(self, from_rad: Optional[float] = None, to_rad: Optional[float] = None,
+             velocity_rad_per_s: Optional[float] = None, *,
+             scans: Optional[dict[str, dict[str, Any]]] = None, **options: Any) -> "Scan":
+        """Starts a fly scan and returns it (a ``piezo_rig.scan.Scan``, a
+        ``Run``): the axis turns from ``from_rad`` to ``to_rad`` (from its
+        zero) at the mean velocity ``velocity_rad_per_s`` in closed loop on
+        its measured angle, after an approach and a run-up before A, with a
+        run-down after B. ``scan.triggers()`` yields each trigger pulse as
+        the board fires it; ``scan.wait()`` the summary, raising
+        ``RunEnded`` when an axis did not end its scan.
+
+        ``scans`` scans several axes at once (a group), each with its own
+        arguments: ``{"theta": {"from_rad": 0, "to_rad": 0.05,
+        "velocity_rad_per_s": 0.02, "trigger_step_rad": 0.002}, ...}``.
+
+        ``options``: ``scan``'s other arguments as the board describes them
+        (``board.arguments("scan")``): ``axis``, ``acceleration_s``,
+        ``deceleration_s``, ``trigger_step_rad`` (none: no triggers),
+        ``trigger_start_rad``, ``trigger_pulses``, ``trigger_width_s``,
+        ``trigger_pre_start_rad``, ``lease_s``. A velocity outside the
+        axis's calibrated range (``hello()["axes"][i]["base_rate_rad_per_s"]``
+        .. ``["velocity_max_rad_per_s"]``), an uncalibrated axis, or a
+        trigger step under five times the sensor's peak-to-peak noise is
+        refused with nothing moving."""
+        from .scan import Scan  # a Run of its own module
+        args: dict[str, Any] = dict(options)
+        if scans is not None:
+            args[Key.scans] = {name: dict(own) for name, own in scans.items()}
+        for key, value in ((Key.from_rad, from_rad), (Key.to_rad, to_rad),
+                           (Key.velocity_rad_per_s, velocity_rad_per_s)):
+            if value is not None:
+                args[key] = value
+        return Scan(self, self.checked(Command.scan, args))
+
     def calibrate(self, V0: Optional[float] = None, *, progress: bool = True,
                   **options: Any) -> dict[str, Any]:
         """Runs the board's calibration experiment (about 14 s at 10 Hz) and
@@ -632,6 +669,11 @@ class Axis:
     def move_to(self, target_rad: float, **options: Any) -> dict[str, Any]:
         """``Board.move_to`` on this axis."""
         return self.board.move_to(target_rad, axis=self.name, **options)
+
+    def scan(self, from_rad: float, to_rad: float, velocity_rad_per_s: float,
+             **options: Any) -> "Scan":
+        """``Board.scan`` on this axis."""
+        return self.board.scan(from_rad, to_rad, velocity_rad_per_s, axis=self.name, **options)
 
     def calibrate(self, V0: Optional[float] = None, **options: Any) -> dict[str, Any]:
         """``Board.calibrate`` on this axis."""
@@ -783,6 +825,7 @@ class Run:
         self._heard = time.monotonic()
         topic, body = message
         if topic not in (Topic.drive, Topic.sensor, Topic.state):
+            self._on_other(topic, body)
             return
         if topic == Topic.state:
             event = msgpack.unpackb(body, raw=False)
@@ -794,6 +837,9 @@ class Run:
             self._fetch_gap(stream, first)
         if first + len(records) > self._next[stream]:
             self._accept(stream, records[self._next[stream] - first:])
+
+    def _on_other(self, topic: str, body: bytes) -> None:
+        """A message of another topic (a scan takes its triggers)."""
 
     def _check_alive(self) -> None:
         # Nothing heard: a state event sent while the link was down is not
@@ -858,7 +904,7 @@ class Run:
     def axes(self) -> list[str]:
         """The axes this run drives, in the board's order: one, or a group
         move's each (``theta(axis=...)``, ``fit_arrays(axis=...)`` take any)."""
-        moves = self.started.get(Key.moves)
+        moves = self.started.get(Key.moves) or self.started.get(Key.scans)
         return [str(m[Key.axis]) for m in moves] if moves else [self.axis]
 
     @property
@@ -871,7 +917,7 @@ class Run:
     def zero_of(self, axis: Optional[str]) -> Optional[float]:
         """The zero of ``axis``'s angles in this run (None: the run's axis)."""
         axis = axis or self.axis
-        moves = self.started.get(Key.moves) or []
+        moves = self.started.get(Key.moves) or self.started.get(Key.scans) or []
         started: dict[str, Any] = next((m for m in moves if m[Key.axis] == axis), {})
         if started.get(Key.zero_displacement_m) is not None:
             return float(started[Key.zero_displacement_m])

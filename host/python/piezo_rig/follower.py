@@ -302,6 +302,8 @@ class Follower:
             self._hello = {}  # a new board start: introduced afresh
             self._ask()
             return
+        if topic == Topic.trigger:
+            return  # a scan's pulse: its Run takes it from its queue
         changed = event.get(Key.state) != s.state or Key.summary in event
         changes: dict[str, Any] = {}
         if Key.summary in event:
@@ -369,7 +371,7 @@ class Follower:
         try:
             if topic == Topic.sensor and self._layout is not None:
                 self._on_sensor(self._layout.decode(body)[2])
-            elif topic in (Topic.state, Topic.health, Topic.moved):
+            elif topic in (Topic.state, Topic.health, Topic.moved, Topic.trigger):
                 event = msgpack.unpackb(body, raw=False)
                 if not isinstance(event, dict):
                     raise ValueError(f"a {topic} event that is not a map")

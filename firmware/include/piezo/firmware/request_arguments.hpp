@@ -137,9 +137,9 @@ inline constexpr Argument fetch_count{wire_key::count,
                                       ArgumentType::integer};
 
 // A scan's (`scan`): a constant-velocity move with position-compare triggers.
-inline constexpr Argument from_rad{wire_key::from_rad, "rad", {-kOpen, kOpen}, "", "",
+inline constexpr Argument from_rad{wire_key::from_rad, "rad", {-10.0, 10.0}, "", "",
                                    "required", "A: where the span at constant velocity begins"};
-inline constexpr Argument to_rad{wire_key::to_rad, "rad", {-kOpen, kOpen}, "", "", "required",
+inline constexpr Argument to_rad{wire_key::to_rad, "rad", {-10.0, 10.0}, "", "", "required",
                                  "B: where it ends (either side of A)"};
 inline constexpr Argument velocity_rad_per_s{
     wire_key::velocity_rad_per_s,
@@ -161,10 +161,10 @@ inline constexpr Argument trigger_step_rad{
     "a pulse each time the measured angle passes start + k·step; at least 5 times the "
     "sensor's peak-to-peak noise (6 standard deviations of a reading)"};
 inline constexpr Argument trigger_start_rad{
-    "trigger_start_rad", "rad", {-kOpen, kOpen}, "", "", "`from_rad`",
+    "trigger_start_rad", "rad", {-10.0, 10.0}, "", "", "`from_rad`",
     "the first pulse's position"};
 inline constexpr Argument trigger_pulses{
-    "trigger_pulses", "", {1.0, 1'000'000.0}, "", "", "to `to_rad`: floor(|B - start| / step) + 1",
+    "trigger_pulses", "", {1.0, 1'000'000.0}, "", "", "up to `to_rad`: floor(abs(to_rad − start) / step) + 1",
     "positions k = 0 .. pulses - 1",
     ArgumentType::integer};
 inline constexpr Argument trigger_width_s{

@@ -50,7 +50,7 @@ struct ScanSettings {
   double velocity_rad_per_s = 0.0;      ///< v (> 0) over A..B
   double acceleration_s = 0.0;          ///< from the base rate to v, before A
   double deceleration_s = 0.0;          ///< from v to the base rate, after B
-  double zero_displacement_m = 0.0;
+  double zero_displacement_m = 0.0;  ///< the axis's zero (known: the approach's too)
   double r2_m = 0.062;
   double V0 = 80.0;      ///< the sawtooth's full amplitude [V]
   double D = 0.74955;    ///< forward rise fraction (reverse: 1 - D)

@@ -310,6 +310,8 @@ struct ScanAccount {
   double from_rad = 0.0, to_rad = 0.0, velocity_rad_per_s = 0.0;
   double acceleration_s = 0.0, deceleration_s = 0.0;
   double run_up_from_rad = 0.0;  ///< where the approach took it, before A
+  /// The axis's zero its angles (and its pulses') are from: (d - it) / r2_m.
+  std::optional<double> zero_displacement_m;
   std::string phase;             ///< approach, run_up, span, run_down, done, failed
   std::optional<double> position_rad;
   /// Over the span, once passed: (B - A) over the time between the readings

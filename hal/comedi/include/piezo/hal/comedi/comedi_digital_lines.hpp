@@ -32,6 +32,7 @@ struct DigitalLinesSettings {
   /// order (-1 or absent: none).
   std::vector<int> trigger_channels;
   gpio::GpioLinesSettings lines;
+  bool trigger_active_low = false;
 };
 
 /// Output channels of one subdevice (below 32), set together by one

@@ -25,22 +25,28 @@ struct GpioLinesSettings {
   bool enable_active_low = false;
   bool sync_active_low = false;
   bool estop_active_low = true;  ///< a normally-closed e-stop pulled up: pressed = low
+};
+
+/// The axes' trigger lines among the outputs.
+struct GpioTriggerLines {
   /// The board's axes that have a trigger line, in the order their lines
   /// follow enable and sync in the output group.
-  std::vector<std::size_t> trigger_axes;
-  bool trigger_active_low = false;
+  std::vector<std::size_t> axes;
+  bool active_low = false;
 };
 
 class GpioDigitalLines final : public DigitalLines {
  public:
   /// The physical levels of the outputs (enable, sync if any, then the
   /// triggers) all inactive: what the lines must be requested at.
-  [[nodiscard]] static std::vector<int> idle_levels(const GpioLinesSettings& settings);
+  [[nodiscard]] static std::vector<int> idle_levels(const GpioLinesSettings& settings,
+                                                    const GpioTriggerLines& triggers = {});
 
   /// `outputs`: enable, sync if any, then the triggers, requested at idle_levels().
   /// `estop` may be null (no e-stop wired); when given, its watcher starts
   /// here and reads the line once before returning.
-  GpioDigitalLines(const GpioLinesSettings& settings, OutputLineGroup& outputs, InputLine* estop);
+  GpioDigitalLines(const GpioLinesSettings& settings, OutputLineGroup& outputs, InputLine* estop,
+                   GpioTriggerLines triggers = {});
   ~GpioDigitalLines() override;
   GpioDigitalLines(const GpioDigitalLines&) = delete;
   GpioDigitalLines& operator=(const GpioDigitalLines&) = delete;
@@ -65,6 +71,7 @@ class GpioDigitalLines final : public DigitalLines {
   [[nodiscard]] bool pressed(int level) const { return (level == 0) == settings_.estop_active_low; }
 
   GpioLinesSettings settings_;
+  GpioTriggerLines trigger_lines_;
   OutputLineGroup& outputs_;
   InputLine* estop_;
   bool enabled_ = false;

@@ -17,10 +17,10 @@ class OwnedDigitalLines final : public DigitalLines {
   /// `outputs`: enable, then sync if configured, at idle_levels(); `estop`
   /// may be null (not wired).
   OwnedDigitalLines(const GpioLinesSettings& settings, std::unique_ptr<OutputLineGroup> outputs,
-                    std::unique_ptr<InputLine> estop)
+                    std::unique_ptr<InputLine> estop, GpioTriggerLines triggers = {})
       : outputs_(std::move(outputs)),
         estop_(std::move(estop)),
-        lines_(settings, *outputs_, estop_.get()) {}
+        lines_(settings, *outputs_, estop_.get(), std::move(triggers)) {}
 
   Status set_amplifier_enable(bool enabled) override {
     return lines_.set_amplifier_enable(enabled);

@@ -33,6 +33,7 @@ struct GpiodLinesSettings {
   /// Each axis's trigger line, in the board's order (-1 or absent: none).
   std::vector<int> trigger_offsets;
   gpio::GpioLinesSettings gpio;
+  gpio::GpioTriggerLines triggers;  ///< the axes of trigger_offsets that have one
 };
 
 class GpiodParallelDac final : public Drive {
