@@ -26,6 +26,9 @@ using protocol::ProtocolError;
 namespace code = protocol::code;
 namespace args = firmware::arguments;
 
+/// The command, in requests' refusals.
+constexpr const char* kScan = protocol::ScanRequest::kCommand.data();
+
 constexpr double kDefaultAcceleration_s = 0.2;
 constexpr double kDefaultWidth_s = 1e-3;
 /// PI's rule for a position trigger: its step at least 5 times the
@@ -39,19 +42,19 @@ constexpr double kApproachToleranceFactor = 4.0;
 /// at the scan's velocity for the loop to lock on.
 constexpr double kLockPeriods = 10.0;
 
-const char* to_string(firmware::ScanPhase p) {
+const char* to_string(firmware::ScanStage p) {
   switch (p) {
-    case firmware::ScanPhase::approach:
+    case firmware::ScanStage::approach:
       return "approach";
-    case firmware::ScanPhase::run_up:
+    case firmware::ScanStage::run_up:
       return "run_up";
-    case firmware::ScanPhase::span:
+    case firmware::ScanStage::span:
       return "span";
-    case firmware::ScanPhase::run_down:
+    case firmware::ScanStage::run_down:
       return "run_down";
-    case firmware::ScanPhase::done:
+    case firmware::ScanStage::done:
       return "done";
-    case firmware::ScanPhase::failed:
+    case firmware::ScanStage::failed:
       break;
   }
   return "failed";
@@ -85,7 +88,7 @@ std::vector<protocol::ArgumentSpec> Daemon::scan_specs() const {
 }
 
 json Daemon::scan(const std::string& client, const json& request_args) {
-  run_state_.require_can_start(client, "scan");
+  run_state_.require_can_start(client, kScan);
   std::vector<std::pair<ServedAxis*, json>> requests;
   if (const auto s = request_args.find(wire_key::scans); s != request_args.end() && !s->is_null()) {
     if (request_args.contains(wire_key::axis)) {
@@ -108,12 +111,12 @@ json Daemon::scan(const std::string& client, const json& request_args) {
       one.erase(std::string(wire_key::scans));
       for (const auto& [key, value] : own.items()) one[key] = value;
       one[wire_key::axis] = name;
-      requests.emplace_back(&axis_of(one, "scan"), std::move(one));
+      requests.emplace_back(&axis_of(one, kScan), std::move(one));
     }
     std::sort(requests.begin(), requests.end(),
               [](const auto& a, const auto& b) { return a.first->index < b.first->index; });
   } else {
-    requests.emplace_back(&axis_of(request_args, "scan"), request_args);
+    requests.emplace_back(&axis_of(request_args, kScan), request_args);
   }
   // Every axis's scan planned before any starts: one refused, none moves.
   Program program;
@@ -122,7 +125,7 @@ json Daemon::scan(const std::string& client, const json& request_args) {
   double duration_s = 0.0;
   for (auto& [axis, one] : requests) {
     try {
-      require_no_axis_fault(*axis, "scan");
+      require_no_axis_fault(*axis, kScan);
       const auto request = protocol::decode<protocol::ScanRequest>(one);
       protocol::ScanAccount account;
       double scan_s = 0.0;
@@ -151,8 +154,8 @@ json Daemon::scan(const std::string& client, const json& request_args) {
   }
   model::DriveParameters d = requests.front().first->config.model.drive;
   d.V0 = program.scans.front().settings.V0;
-  (void)apply_configuration(*requests.front().first, {d, duration_s}, "scan");
-  protocol::StartReply started = start(client, lease_s, program, "scan");
+  (void)apply_configuration(*requests.front().first, {d, duration_s}, kScan);
+  protocol::StartReply started = start(client, lease_s, program, kScan);
   for (std::size_t i = 0; i < taken.size(); ++i) run_->parts[i]->scan_taken = taken[i];
   started.scans = std::move(taken);
   return started;
@@ -319,7 +322,7 @@ firmware::ScanSettings Daemon::plan_scan(ServedAxis& axis, const protocol::ScanR
   account.deceleration_s = s.deceleration_s;
   account.run_up_from_rad = start;
   account.zero_displacement_m = s.zero_displacement_m;
-  account.phase = to_string(firmware::ScanPhase::approach);
+  account.stage = to_string(firmware::ScanStage::approach);
   // Its run: the approach's timeout, then the cruise at the base rate at
   // worst over the run-up, at v (and half as fast again) over the rest.
   const double cruise_s = s.acceleration_s + s.deceleration_s +
@@ -360,7 +363,7 @@ protocol::ScanAccount Daemon::scan_account(const Run& run, std::size_t part,
   const firmware::ScanController& scan = *p.scan;
   const firmware::ScanSettings& s = scan.settings();
   protocol::ScanAccount a = p.scan_taken;
-  a.phase = to_string(scan.phase());
+  a.stage = to_string(scan.stage());
   const double position = scan.position_rad();
   const double zero = s.zero_displacement_m;
   if (run.finished && p.final_displacement_m && !std::isnan(zero)) {
@@ -385,7 +388,7 @@ protocol::ScanAccount Daemon::scan_account(const Run& run, std::size_t part,
   if (with_pulses) a.pulses = p.pulses;
   if (run.finished) {
     a.stop_cause =
-        firmware::move_end(scan.phase() == firmware::ScanPhase::done, run.runner->cause(part));
+        firmware::move_end(scan.stage() == firmware::ScanStage::done, run.runner->cause(part));
   }
   return a;
 }

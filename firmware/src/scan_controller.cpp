@@ -41,7 +41,7 @@ ScanController::ScanController(const ScanSettings& settings, const PositionFeed&
 }
 
 double ScanController::position_rad() const {
-  if (phase() == ScanPhase::approach) return approach_.position_rad();
+  if (stage() == ScanStage::approach) return approach_.position_rad();
   return position_.load(std::memory_order_relaxed);
 }
 
@@ -50,12 +50,12 @@ StopCause ScanController::fault() const {
 }
 
 std::uint8_t ScanController::state_code() const {
-  switch (phase()) {
-    case ScanPhase::approach:
+  switch (stage()) {
+    case ScanStage::approach:
       return approach_.state_code();
-    case ScanPhase::done:
+    case ScanStage::done:
       return static_cast<std::uint8_t>(MoveState::on_target);
-    case ScanPhase::failed:
+    case ScanStage::failed:
       return static_cast<std::uint8_t>(fault() == StopCause::stalled
                                             ? MoveState::stalled
                                             : MoveState::sensor_implausible);
@@ -65,15 +65,15 @@ std::uint8_t ScanController::state_code() const {
 }
 
 bool ScanController::stepping() const {
-  const ScanPhase p = phase();
-  if (p == ScanPhase::approach) return approach_.stepping();
-  return p == ScanPhase::run_up || p == ScanPhase::span || p == ScanPhase::run_down;
+  const ScanStage p = stage();
+  if (p == ScanStage::approach) return approach_.stepping();
+  return p == ScanStage::run_up || p == ScanStage::span || p == ScanStage::run_down;
 }
 
 void ScanController::fail(StopCause cause) {
   fault_ = cause;
   fault_seen_.store(cause, std::memory_order_relaxed);
-  phase_.store(ScanPhase::failed, std::memory_order_relaxed);
+  stage_.store(ScanStage::failed, std::memory_order_relaxed);
 }
 
 void ScanController::release_line() {
@@ -85,7 +85,7 @@ void ScanController::release_line() {
 
 double ScanController::next_voltage(double t, double dt) {
   if (fault_ != StopCause::none) return 0.0;
-  if (phase() == ScanPhase::approach) {
+  if (stage() == ScanStage::approach) {
     const double V = approach_.next_voltage(t, dt);
     if (approach_.fault() != StopCause::none) {
       fail(approach_.fault());
@@ -112,7 +112,7 @@ double ScanController::next_voltage(double t, double dt) {
       line_high_ = level;
     }
   }
-  if (fault_ != StopCause::none || phase() == ScanPhase::done) return 0.0;
+  if (fault_ != StopCause::none || stage() == ScanStage::done) return 0.0;
   // The reference trajectory, tick by tick.
   theta_ref_ += dir_ * reference_velocity(t) * dt;
   if (t_decel_ < 0.0 && dir_ * (theta_ref_ - s_.to_rad) >= 0.0) t_decel_ = t;
@@ -120,7 +120,7 @@ double ScanController::next_voltage(double t, double dt) {
   if (cycle_ >= 1.0) {
     cycle_ = 0.0;
     next_period(t);
-    if (phase() == ScanPhase::done || fault_ != StopCause::none) return 0.0;
+    if (stage() == ScanStage::done || fault_ != StopCause::none) return 0.0;
   }
   const double A = drive_.fraction * s_.V0;
   return cycle_ < rise_ ? A * cycle_ / rise_ : A * (1.0 - cycle_) / (1.0 - rise_);
@@ -131,7 +131,7 @@ void ScanController::begin_cruise(double t) {
   theta_ref_ = have_theta_ ? theta_ : approach_.position_rad();
   if (!std::isfinite(theta_ref_)) theta_ref_ = s_.approach.target_rad;
   period_start_theta_ = theta_ref_;
-  phase_.store(ScanPhase::run_up, std::memory_order_relaxed);
+  stage_.store(ScanStage::run_up, std::memory_order_relaxed);
   drive_ = {s_.branch.drive_for(v_base_).f_hz, 0.0};
   cycle_ = 1.0;  // the first period's drive is decided at once
 }
@@ -162,23 +162,23 @@ void ScanController::on_reading(const PositionFeed::Reading& r) {
     const double u = d != 0.0 ? std::clamp((at - last_theta_) / d, 0.0, 1.0) : 1.0;
     return last_ns_ + static_cast<std::int64_t>(u * static_cast<double>(r.t_ns - last_ns_));
   };
-  const ScanPhase p = phase();
-  if (p == ScanPhase::run_up && dir_ * (theta_ - s_.from_rad) >= 0.0) {
+  const ScanStage p = stage();
+  if (p == ScanStage::run_up && dir_ * (theta_ - s_.from_rad) >= 0.0) {
     crossed_a_ns_ = last_ns_ != 0 ? crossing_ns(s_.from_rad) : r.t_ns;
     past_a_ = true;
-    phase_.store(ScanPhase::span, std::memory_order_relaxed);
-  } else if (p == ScanPhase::span && dir_ * (theta_ - s_.to_rad) >= 0.0) {
+    stage_.store(ScanStage::span, std::memory_order_relaxed);
+  } else if (p == ScanStage::span && dir_ * (theta_ - s_.to_rad) >= 0.0) {
     crossed_b_ns_ = crossing_ns(s_.to_rad);
     past_b_ = true;
-    phase_.store(ScanPhase::run_down, std::memory_order_relaxed);
+    stage_.store(ScanStage::run_down, std::memory_order_relaxed);
     finish_span();
   }
   last_ns_ = r.t_ns;
 }
 
 void ScanController::next_period(double t) {
-  const ScanPhase p = phase();
-  if (p == ScanPhase::span) record_period(t);
+  const ScanStage p = stage();
+  if (p == ScanStage::span) record_period(t);
   // What the last period's drive gave, against what the branch predicted.
   if (drive_.fraction > 0.0 && have_theta_) {
     gain_measured_ = kGainMemory * gain_measured_ + dir_ * (theta_ - period_start_theta_);
@@ -187,16 +187,16 @@ void ScanController::next_period(double t) {
   period_start_theta_ = theta_;
   // The run-down has run its course and the rotor is past B: the scan ends
   // here, on the period's 0 V.
-  if (p == ScanPhase::run_down && t_decel_ >= 0.0 && t - t_decel_ >= s_.deceleration_s &&
+  if (p == ScanStage::run_down && t_decel_ >= 0.0 && t - t_decel_ >= s_.deceleration_s &&
       (!s_.triggers || compare_.idle())) {
-    phase_.store(ScanPhase::done, std::memory_order_relaxed);
+    stage_.store(ScanStage::done, std::memory_order_relaxed);
     drive_.fraction = 0.0;
     return;
   }
   const double v_ref = reference_velocity(t);
   // Behind the reference (positive) or ahead, as the filtered angle sees it.
   double lag = have_theta_ ? dir_ * (theta_ref_ - dir_ * v_ref * lag_s_ - theta_) : 0.0;
-  if (p == ScanPhase::run_up && lag < 0.0) {
+  if (p == ScanStage::run_up && lag < 0.0) {
     // Ahead while it runs up (a first step larger than the branch said):
     // the reference moves up to the rotor rather than hold it back, so
     // that the span starts on the reference, not catching up with it.
@@ -214,7 +214,7 @@ void ScanController::next_period(double t) {
                           ? std::clamp(gain_measured_ / gain_predicted_, kGainMin, kGainMax)
                           : 1.0;
   drive_ = s_.branch.drive_for(std::min(wanted / gain, s_.branch.top()));
-  if (p == ScanPhase::span) {
+  if (p == ScanStage::span) {
     f_sum_ += drive_.f_hz;
     fraction_sum_ += drive_.fraction;
   }

@@ -86,7 +86,7 @@ Scanned run(ScanController& c, PositionFeed& feed, TestPlant& plant, EdgeLine& l
       feed.publish(plant.read(), static_cast<std::int64_t>(t * 1e9));
     }
     plant.drive(c.next_voltage(t, kDt));
-    if (c.phase() != ScanPhase::approach) {
+    if (c.stage() != ScanStage::approach) {
       if (std::isnan(out.t_a) && dir * (plant.theta - s.from_rad) >= 0) out.t_a = t;
       if (std::isnan(out.t_b) && dir * (plant.theta - s.to_rad) >= 0) out.t_b = t;
     }
@@ -154,7 +154,7 @@ TEST(ScanController, TheSpanIsAtItsVelocityAndEachPositionFiresOnce) {
     s.lines = &line;
     ScanController c(s, feed);
     const Scanned r = run(c, feed, plant, line);
-    ASSERT_EQ(c.phase(), ScanPhase::done) << from << ".." << to << ": " << to_string(c.fault());
+    ASSERT_EQ(c.stage(), ScanStage::done) << from << ".." << to << ": " << to_string(c.fault());
     EXPECT_EQ(r.V_end, 0.0) << "ends on a period's 0 V";
     // The rotor's own velocity over the span, and what the scan measured.
     const double rotor_v = std::abs(to - from) / (r.t_b - r.t_a);
@@ -191,12 +191,12 @@ TEST(ScanController, ARotorThatStopsFollowingStopsTheScanStalled) {
   double t = 0.0;
   for (long tick = 0; t < 30.0; ++tick, t += kDt) {
     if (tick % kTicksPerReading == 0) feed.publish(plant.read(), static_cast<std::int64_t>(t * 1e9));
-    plant.blocked = c.phase() == ScanPhase::span;
+    plant.blocked = c.stage() == ScanStage::span;
     plant.drive(c.next_voltage(t, kDt));
     if (c.fault() != StopCause::none || c.finished()) break;
   }
   EXPECT_EQ(c.fault(), StopCause::stalled);
-  EXPECT_EQ(c.phase(), ScanPhase::failed);
+  EXPECT_EQ(c.stage(), ScanStage::failed);
 }
 
 }  // namespace

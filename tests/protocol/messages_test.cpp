@@ -291,7 +291,7 @@ TEST(Messages, AScanAndItsTriggersRoundTrip) {
   a.from_rad = 0.01;
   a.to_rad = -0.03;
   a.velocity_rad_per_s = 0.02;
-  a.phase = "done";
+  a.stage = "done";
   a.zero_displacement_m = 0.0701;
   a.measured_velocity_rad_per_s = 0.0199;
   a.model_velocity_rad_per_s = 0.021;

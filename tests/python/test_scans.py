@@ -69,7 +69,7 @@ def test_a_group_scan_runs_each_span_at_its_velocity_and_fires_each_position_onc
     rate = board.hello()["sensor_rate_hz"]
     for name, (a, b) in spans.items():
         account = scan.accounts[name]
-        assert account["stop_cause"] == "on_target" and account["phase"] == "done", account
+        assert account["stop_cause"] == "on_target" and account["stage"] == "done", account
         direction = np.sign(b - a)
         # The span's mean velocity, from the board and from the records.
         assert account["measured_velocity_rad_per_s"] == pytest.approx(v[name], rel=0.05), name

@@ -203,7 +203,7 @@ struct Fields<ScanAccount::Triggers> {
   static constexpr auto list = std::tuple{
       field("start_rad", &T::start_rad),         field("step_rad", &T::step_rad),
       field("width_s", &T::width_s),             field("pre_start_rad", &T::pre_start_rad),
-      field("pulses", &T::pulses),               field("fired", &T::fired),
+      field(wire_key::pulses, &T::pulses),       field("fired", &T::fired),
       field(wire_key::late, &T::late),           field("unreported", &T::unreported)};
 };
 template <>
@@ -218,7 +218,7 @@ struct Fields<ScanAccount> {
       field(firmware::arguments::deceleration_s.name, &T::deceleration_s),
       field("run_up_from_rad", &T::run_up_from_rad),
       field(wire_key::zero_displacement_m, &T::zero_displacement_m),
-      field("phase", &T::phase),
+      field("stage", &T::stage),
       field(wire_key::position_rad, &T::position_rad),
       field("measured_velocity_rad_per_s", &T::measured_velocity_rad_per_s),
       field("ripple_rad_per_s", &T::ripple_rad_per_s),
@@ -227,7 +227,7 @@ struct Fields<ScanAccount> {
       field("mean_V", &T::mean_V),
       field("model_velocity_rad_per_s", &T::model_velocity_rad_per_s),
       field(wire_key::triggers, &T::triggers),
-      field("pulses", &T::pulses, omitted_when_absent),
+      field(wire_key::pulses, &T::pulses, omitted_when_absent),
       field(wire_key::stop_cause, &T::stop_cause, omitted_when_absent)};
 };
 template <>

@@ -43,8 +43,8 @@ class Trigger:
     @classmethod
     def of(cls, axis: str, pulse: dict[str, Any]) -> "Trigger":
         return cls(axis, int(pulse[Key.k]), float(pulse[Key.position_rad]),
-                   float(pulse[Key.angle_rad]), float(pulse["reading_s"]),
-                   float(pulse["edge_s"]), bool(pulse[Key.late]))
+                   float(pulse[Key.angle_rad]), float(pulse[Key.reading_s]),
+                   float(pulse[Key.edge_s]), bool(pulse[Key.late]))
 
 
 class Scan(Run):
@@ -94,7 +94,7 @@ class Scan(Run):
         """Every pulse of ``axis`` (None: the scan's axis), from the board's
         summary: once the scan ended, all it fired."""
         name = axis or self.axis
-        return [Trigger.of(name, p) for p in self.accounts.get(name, {}).get("pulses") or []]
+        return [Trigger.of(name, p) for p in self.accounts.get(name, {}).get(Key.pulses) or []]
 
     def wait(self) -> dict[str, Any]:
         """Receives the scan to its end and returns its summary; raises

@@ -39,11 +39,12 @@
 #include "piezo/firmware/progress_judge.hpp"
 #include "piezo/firmware/spsc_ring.hpp"
 #include "piezo/firmware/velocity_branch.hpp"
+#include "piezo/hal/backend.hpp"
 #include "piezo/hal/digital_lines.hpp"
 
 namespace piezo::firmware {
 
-enum class ScanPhase : std::uint8_t { approach, run_up, span, run_down, done, failed };
+enum class ScanStage : std::uint8_t { approach, run_up, span, run_down, done, failed };
 
 struct ScanSettings {
   double from_rad = 0.0, to_rad = 0.0;  ///< A and B, from the axis's zero
@@ -51,7 +52,7 @@ struct ScanSettings {
   double acceleration_s = 0.0;          ///< from the base rate to v, before A
   double deceleration_s = 0.0;          ///< from v to the base rate, after B
   double zero_displacement_m = 0.0;  ///< the axis's zero (known: the approach's too)
-  double r2_m = 0.062;
+  double r2_m = hal::kDefaultSensorRadius_m;
   double V0 = 80.0;      ///< the sawtooth's full amplitude [V]
   double D = 0.74955;    ///< forward rise fraction (reverse: 1 - D)
   double sensor_rate_hz = 1000.0;
@@ -81,7 +82,7 @@ class ScanController final : public DriveProgram {
   ScanController(const ScanSettings& settings, const PositionFeed& feed);
 
   double next_voltage(double t, double dt) override;
-  [[nodiscard]] bool finished() const override { return phase() == ScanPhase::done; }
+  [[nodiscard]] bool finished() const override { return stage() == ScanStage::done; }
   [[nodiscard]] StopCause fault() const override;
   [[nodiscard]] std::uint8_t state_code() const override;
   [[nodiscard]] bool stepping() const override;
@@ -90,7 +91,7 @@ class ScanController final : public DriveProgram {
   }
 
   // Readable from any thread.
-  [[nodiscard]] ScanPhase phase() const { return phase_.load(std::memory_order_relaxed); }
+  [[nodiscard]] ScanStage stage() const { return stage_.load(std::memory_order_relaxed); }
   [[nodiscard]] double position_rad() const;
   [[nodiscard]] const ScanSettings& settings() const { return s_; }
   [[nodiscard]] const MoveController& approach() const { return approach_; }
@@ -156,7 +157,7 @@ class ScanController final : public DriveProgram {
 
   StopCause fault_ = StopCause::none;
   std::atomic<StopCause> fault_seen_{StopCause::none};
-  std::atomic<ScanPhase> phase_{ScanPhase::approach};
+  std::atomic<ScanStage> stage_{ScanStage::approach};
   std::atomic<double> position_;
 };
 

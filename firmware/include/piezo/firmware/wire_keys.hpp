@@ -58,6 +58,7 @@ inline constexpr std::string_view output = "output";
 inline constexpr std::string_view position = "position";
 inline constexpr std::string_view position_rad = "position_rad";
 inline constexpr std::string_view protocol = "protocol";
+inline constexpr std::string_view pulses = "pulses";
 inline constexpr std::string_view r2_m = "r2_m";
 inline constexpr std::string_view rest = "rest";
 inline constexpr std::string_view run = "run";

@@ -199,7 +199,7 @@ struct RequestFields<CalibrateRequest> {
 
 /// `scan`'s arguments for one axis (a group's: each entry of `scans`).
 struct ScanRequest {
-  static constexpr std::string_view kCommand = "scan";
+  static constexpr std::string_view kCommand = wire_key::scan;
   double from_rad = 0.0, to_rad = 0.0, velocity_rad_per_s = 0.0;
   std::optional<double> acceleration_s, deceleration_s;
   std::optional<double> trigger_step_rad, trigger_start_rad, trigger_width_s,
@@ -312,7 +312,7 @@ struct ScanAccount {
   double run_up_from_rad = 0.0;  ///< where the approach took it, before A
   /// The axis's zero its angles (and its pulses') are from: (d - it) / r2_m.
   std::optional<double> zero_displacement_m;
-  std::string phase;             ///< approach, run_up, span, run_down, done, failed
+  std::string stage;             ///< approach, run_up, span, run_down, done, failed
   std::optional<double> position_rad;
   /// Over the span, once passed: (B - A) over the time between the readings
   /// that crossed A and B, the standard deviation of the velocity per drive
