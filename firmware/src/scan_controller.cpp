@@ -180,11 +180,12 @@ void ScanController::next_period(double t) {
   const ScanStage p = stage();
   if (p == ScanStage::span) record_period(t);
   // What the last period's drive gave, against what the branch predicted.
-  if (drive_.fraction > 0.0 && have_theta_) {
+  if (drive_.fraction > 0.0 && have_theta_ && period_start_known_) {
     gain_measured_ = kGainMemory * gain_measured_ + dir_ * (theta_ - period_start_theta_);
     gain_predicted_ = kGainMemory * gain_predicted_ + s_.branch.velocity(drive_) / drive_.f_hz;
   }
   period_start_theta_ = theta_;
+  period_start_known_ = have_theta_;
   // The run-down has run its course and the rotor is past B: the scan ends
   // here, on the period's 0 V.
   if (p == ScanStage::run_down && t_decel_ >= 0.0 && t - t_decel_ >= s_.deceleration_s &&

@@ -64,6 +64,7 @@ void add_sweep_command(CLI::App& app, Commands& commands);
 void add_run_command(CLI::App& app, Commands& commands);
 void add_step_command(CLI::App& app, Commands& commands);
 void add_move_command(CLI::App& app, Commands& commands);
+void add_scan_command(CLI::App& app, Commands& commands);
 void add_calibrate_command(CLI::App& app, Commands& commands);
 void add_view_command(CLI::App& app, Commands& commands);
 void add_report_command(CLI::App& app, Commands& commands);

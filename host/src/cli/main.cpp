@@ -55,7 +55,8 @@ int main(int argc, char** argv) {
   for (const auto add :
        {piezo::host::add_simulate_command, piezo::host::add_sensitivity_command,
         piezo::host::add_sweep_command, piezo::host::add_run_command, piezo::host::add_step_command,
-        piezo::host::add_move_command, piezo::host::add_calibrate_command,
+        piezo::host::add_move_command, piezo::host::add_scan_command,
+        piezo::host::add_calibrate_command,
         piezo::host::add_view_command, piezo::host::add_report_command,
         piezo::host::add_recover_command, piezo::host::add_sensor_command,
         piezo::host::add_rig_sim_command, piezo::host::add_identify_command,

@@ -21,6 +21,9 @@
 //   (measured minus predicted, before correction), theta_open (open loop)
 //   /timing/drive_period_error_us, /timing/acquire_period_error_us (histogram
 //   counts, 1 us bins), written whole at the end.
+//   /triggers/k, position_rad, angle_rad, reading_s, edge_s, late: a scan's
+//   trigger pulses, one row each, as they were streamed (a pulse the
+//   stream lost is added from the board's summary at the end: sort by k).
 //
 // A run of several axes (a group move) keeps each axis's /drive, /sensor
 // and /observer under the axis's group, /axes/NAME (/axes/theta/drive/V),
@@ -46,6 +49,9 @@ struct SensorRows {
 struct ObserverRows {
   Column t, theta_hat, theta_dot_hat, x_hat, z_hat, F_hat, residual, theta_open;
 };
+struct TriggerRows {
+  Column k, position_rad, angle_rad, reading_s, edge_s, late;
+};
 
 /// Samples waiting to be appended: one typed column per dataset, so adding
 /// a sample is a push_back, not a lookup.
@@ -53,6 +59,7 @@ struct LogRows {
   DriveRows drive;
   SensorRows sensor;
   ObserverRows observer;
+  TriggerRows triggers;
 };
 
 /// One LogRows per axis of a run, in the run's order (a run of one axis: one).
@@ -128,6 +135,15 @@ inline constexpr std::array kObserver{
     Dataset<ObserverRows>{"/observer/theta_open", &ObserverRows::theta_open},
 };
 
+inline constexpr std::array kTriggers{
+    Dataset<TriggerRows>{"/triggers/k", &TriggerRows::k},
+    Dataset<TriggerRows>{"/triggers/position_rad", &TriggerRows::position_rad},
+    Dataset<TriggerRows>{"/triggers/angle_rad", &TriggerRows::angle_rad},
+    Dataset<TriggerRows>{"/triggers/reading_s", &TriggerRows::reading_s},
+    Dataset<TriggerRows>{"/triggers/edge_s", &TriggerRows::edge_s},
+    Dataset<TriggerRows>{"/triggers/late", &TriggerRows::late, Storage::uint8},
+};
+
 constexpr const auto& datasets(const DriveRows*) {
   return kDrive;
 }
@@ -136,6 +152,9 @@ constexpr const auto& datasets(const SensorRows*) {
 }
 constexpr const auto& datasets(const ObserverRows*) {
   return kObserver;
+}
+constexpr const auto& datasets(const TriggerRows*) {
+  return kTriggers;
 }
 
 /// The path of the dataset written from `column`, e.g. path(&DriveRows::V).
@@ -152,6 +171,8 @@ inline Storage storage(std::string_view path) {
     if (path.ends_with(d.path)) return d.storage;
   for (const auto& d : kSensor)
     if (path.ends_with(d.path)) return d.storage;
+  for (const auto& d : kTriggers)
+    if (path.ends_with(d.path)) return d.storage;
   return Storage::float64;
 }
 
@@ -161,6 +182,7 @@ void for_each_column(LogRows& rows, F&& f) {
   for (const auto& d : kDrive) f(d.path, rows.drive.*d.column);
   for (const auto& d : kSensor) f(d.path, rows.sensor.*d.column);
   for (const auto& d : kObserver) f(d.path, rows.observer.*d.column);
+  for (const auto& d : kTriggers) f(d.path, rows.triggers.*d.column);
 }
 
 /// Calls f(path, column) for every dataset of every axis of `rows`, each

@@ -28,8 +28,18 @@ std::vector<std::pair<std::string, json>> wire_requests(const BoardRequest& requ
           [](const protocol::CalibrateRequest& r) -> std::vector<std::pair<std::string, json>> {
             return {{"calibrate", r}};
           },
+          [&](const protocol::ScanRequest& r) -> std::vector<std::pair<std::string, json>> {
+            const std::string cmd(protocol::ScanRequest::kCommand);
+            if (request.scans.empty()) return {{cmd, json(r)}};
+            // A group: each axis's own arguments under `scans`, the lease beside.
+            json group{{wire_key::scans, json::object()}};
+            for (const auto& [axis, one] : request.scans) group[wire_key::scans][axis] = one;
+            if (r.lease_s) group[wire_key::lease_s] = *r.lease_s;
+            return {{cmd, group}};
+          },
       },
       request.command);
+  if (!request.scans.empty()) return sent;
   if (!request.targets.empty()) {
     // A group move: its targets name the axes.
     for (auto& [cmd, args] : sent) {
@@ -74,11 +84,26 @@ BoardRequest board_request(const config::HostConfig& host, const RunAsked& asked
                                         [&](const asked::Calibration& c) -> BoardCommand {
                                           return protocol::CalibrateRequest{c.V0, lease_s};
                                         },
+                                        [&](const asked::Scan& s) -> BoardCommand {
+                                          protocol::ScanRequest one = s.scans.size() == 1
+                                                                          ? s.scans.begin()->second
+                                                                          : protocol::ScanRequest{};
+                                          one.lease_s = lease_s;
+                                          return one;
+                                        },
                                     },
                                     asked);
+  if (const auto* scan = std::get_if<asked::Scan>(&asked)) {
+    // One axis of the config's [rig] axis (""), or a group named in full.
+    if (scan->scans.size() == 1 && scan->scans.begin()->first.empty()) {
+      return {std::move(command), axis, {}, {}};
+    }
+    if (scan->scans.size() == 1) return {std::move(command), scan->scans.begin()->first, {}, {}};
+    return {std::move(command), {}, {}, scan->scans};
+  }
   const auto* move = std::get_if<asked::Move>(&asked);
-  if (move != nullptr && !move->targets.empty()) return {std::move(command), {}, move->targets};
-  return {std::move(command), axis, {}};
+  if (move != nullptr && !move->targets.empty()) return {std::move(command), {}, move->targets, {}};
+  return {std::move(command), axis, {}, {}};
 }
 
 void check_request(const BoardRequest& request, const json& dictionary,

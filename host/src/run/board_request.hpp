@@ -1,8 +1,8 @@
 #pragma once
 // What `piezo` asks a board to run, as one typed request decided in one
 // place from the command's settings: a timed run (its waveform, then the
-// start), whole periods (`step`), a closed-loop move (`move_to`) or the
-// calibration experiment (`calibrate`). Checked against the board's own
+// start), whole periods (`step`), a closed-loop move (`move_to`), the
+// calibration experiment (`calibrate`) or a scan (`scan`). Checked against the board's own
 // dictionary before anything is sent, and sent once.
 
 #include <map>
@@ -24,7 +24,7 @@ struct TimedRun {
 };
 
 using BoardCommand = std::variant<TimedRun, protocol::StepRequest, protocol::MoveToRequest,
-                                  protocol::CalibrateRequest>;
+                                  protocol::CalibrateRequest, protocol::ScanRequest>;
 
 /// A command and the board's axis it drives.
 struct BoardRequest {
@@ -33,6 +33,10 @@ struct BoardRequest {
   /// A group move's targets, {axis: target_rad} (its `move_to` names no
   /// `axis` nor `target_rad`); empty: one axis's command.
   std::map<std::string, double> targets;
+  /// A group scan's, each axis's own request (its `scan` names `scans` and
+  /// no `axis`; the command's ScanRequest gives only its lease); empty: one
+  /// axis's command.
+  std::map<std::string, protocol::ScanRequest> scans;
 };
 
 /// What a run command asks for, beside the host's config (none of it is a
@@ -52,8 +56,12 @@ struct Move : firmware::MoveRequest {  ///< `piezo move`
 struct Calibration {  ///< `piezo calibrate`, at V0 when the user named it; else the board's
   std::optional<double> V0 = std::nullopt;
 };
+struct Scan {  ///< `piezo scan`: each axis's scan, by name ("": the [rig] axis, alone)
+  std::map<std::string, protocol::ScanRequest> scans;
+};
 }  // namespace asked
-using RunAsked = std::variant<asked::Timed, asked::Periods, asked::Move, asked::Calibration>;
+using RunAsked =
+    std::variant<asked::Timed, asked::Periods, asked::Move, asked::Calibration, asked::Scan>;
 
 /// The request for what was asked, with the host config's waveform where
 /// it needs one, under its `[rig] lease_s` (none: the board's default

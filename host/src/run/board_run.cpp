@@ -82,6 +82,21 @@ struct FollowedAxis {
   std::size_t board_index;
   std::optional<ObserverStage> observer;
   SampleCollector collector;
+  std::vector<bool> logged_pulses;  ///< a scan's trigger pulses logged so far, by k
+
+  /// A scan's pulse into the log's rows, once per k.
+  void log_pulse(const protocol::TriggerPulse& p) {
+    if (p.k >= logged_pulses.size()) logged_pulses.resize(p.k + 1, false);
+    if (logged_pulses[p.k]) return;
+    logged_pulses[p.k] = true;
+    log_schema::TriggerRows& t = collector.rows().triggers;
+    t.k.push_back(p.k);
+    t.position_rad.push_back(p.position_rad);
+    t.angle_rad.push_back(p.angle_rad);
+    t.reading_s.push_back(p.reading_s);
+    t.edge_s.push_back(p.edge_s);
+    t.late.push_back(p.late ? 1.0 : 0.0);
+  }
 };
 
 /// The axes a started run drives, in the log's order: a group move's
@@ -96,6 +111,8 @@ std::vector<RunAxisStart> run_axes(const protocol::StartReply& started, const Bo
   std::vector<RunAxisStart> out;
   if (started.moves) {
     for (const auto& m : *started.moves) out.push_back({m.axis, m.zero_displacement_m});
+  } else if (started.scans) {
+    for (const auto& s : *started.scans) out.push_back({s.axis, s.zero_displacement_m});
   } else {
     out.push_back({axis_info(hello, request.axis.value_or(""), "the board").name, {}});
   }
@@ -282,6 +299,11 @@ void FollowedRun::drain(std::optional<protocol::RunSummary>& end) {
   handlers.on_state = [&](const protocol::StateEvent& state) {
     if (state.summary && state.run == run_id_) end = state.summary;
   };
+  handlers.on_trigger = [&](const protocol::TriggerEvent& e) {
+    if (e.run != run_id_) return;
+    for (FollowedAxis& a : axes_)
+      if (a.name == e.axis) a.log_pulse(e.pulse);
+  };
   // The lease first, the gap after: a board that has heard no lease since
   // before an outage must not wait out the fetch of everything the outage
   // held back (seconds of samples, longer on a loaded machine).
@@ -385,6 +407,14 @@ RunSummary FollowedRun::finish(const std::optional<protocol::RunSummary>& end) {
     // The stream's tail may still be in flight or lost: the recorder has it all.
     follower_.fetch(protocol::Stream::drive, end->samples.drive);
     follower_.fetch(protocol::Stream::sensor, end->samples.sensor);
+    // So has the summary every pulse a scan fired: those the stream lost.
+    for (const protocol::RunSummary::Axis& board_axis : end->axes) {
+      if (!board_axis.scan || !board_axis.scan->pulses) continue;
+      for (FollowedAxis& a : axes_) {
+        if (a.name != board_axis.name) continue;
+        for (const protocol::TriggerPulse& p : *board_axis.scan->pulses) a.log_pulse(p);
+      }
+    }
   }
   finish_writing();
   if (!std::isnan(quiet_since_s_) || !end) {
@@ -462,8 +492,9 @@ RunSummary run_on_board(const config::ConfigFile& c, BoardClient& client,
       log.set_axis_attribute(i, log_schema::kThetaZero,
                              fmt::format("{:.12g} (the board's zero)", *a.zero_m));
     }
-    // A move's angles are from the board's zero (the frame of its target and
-    // of every position it reports); a run's from its first good reading.
+    // A move's and a scan's angles are from the board's zero (the frame of
+    // its target and of every position it reports); a run's from its
+    // first good reading.
     // The board's index of the axis (its records carry it).
     const auto index = static_cast<std::size_t>(&axis - hello.axes.data());
     axes.emplace_back(a.name, index, started.t0_ns, axis.r2_m, std::move(observer),

@@ -37,20 +37,30 @@ std::string host_name() {
 /// be the board's), else the one axis `named` names (resolved once).
 std::vector<std::string> run_axes(const RunAsked& asked, const protocol::Hello& hello,
                                   const std::string& named, const std::string& address) {
-  const auto* move = std::get_if<asked::Move>(&asked);
-  if (move == nullptr || move->targets.empty()) return {axis_info(hello, named, address).name};
+  // A group's axes by name: a move's targets, a scan's scans.
+  std::vector<std::string> group;
+  std::string_view group_key = wire_key::targets;
+  if (const auto* move = std::get_if<asked::Move>(&asked)) {
+    for (const auto& [axis, target] : move->targets) group.push_back(axis);
+  }
+  if (const auto* scan = std::get_if<asked::Scan>(&asked)) {
+    group_key = wire_key::scans;
+    for (const auto& [axis, one] : scan->scans) group.push_back(axis);
+    // One axis: the name it gave, or the config's [rig] axis.
+    if (group.size() == 1) return {axis_info(hello, group.front().empty() ? named : group.front(), address).name};
+  }
+  if (group.empty()) return {axis_info(hello, named, address).name};
   std::vector<std::string> names, out;
   for (const auto& a : hello.axes) names.push_back(a.name);
-  for (const auto& [axis, target] : move->targets) {
+  for (const std::string& axis : group) {
     if (std::find(names.begin(), names.end(), axis) == names.end()) {
-      throw config::ConfigError("piezod at " + address,
-                                fmt::format("{}.{}", wire_key::targets, axis),
+      throw config::ConfigError("piezod at " + address, fmt::format("{}.{}", group_key, axis),
                                 fmt::format("\"{}\" is not an axis of the board (allowed: {})",
                                             axis, fmt::join(names, ", ")));
     }
   }
   for (const std::string& name : names)
-    if (move->targets.contains(name)) out.push_back(name);
+    if (std::find(group.begin(), group.end(), name) != group.end()) out.push_back(name);
   return out;
 }
 

@@ -18,7 +18,7 @@ constexpr std::uint64_t kFetchChunk = 50'000;
 
 void StreamFollower::subscribe(BoardClient& client) {
   client.subscribe({protocol::topic::drive, protocol::topic::sensor, protocol::topic::state,
-                    protocol::topic::health});
+                    protocol::topic::health, protocol::topic::trigger});
   // A PUB socket drops what it publishes before a subscription reaches it:
   // wait for the board's health beat (every 250 ms), which shows the link
   // is up, for at most 2 s (as piezo_rig.board does).
@@ -64,6 +64,9 @@ void StreamFollower::drain(std::chrono::milliseconds wait, int max_messages,
     } else if (topic == protocol::topic::state) {
       const auto state = protocol::decode<protocol::StateEvent>(protocol::decode_map(body));
       if (handlers.on_state) handlers.on_state(state);
+    } else if (topic == protocol::topic::trigger) {
+      const auto pulse = protocol::decode<protocol::TriggerEvent>(protocol::decode_map(body));
+      if (handlers.on_trigger) handlers.on_trigger(pulse);
     } else if (!collectors_.empty()) {
       on_frame(body, handlers);
     }

@@ -49,6 +49,7 @@ class StreamFollower {
     std::function<void()> on_heard;    ///< a message arrived (before it is handled)
     std::function<void(const protocol::StateEvent&)> on_state;
     std::function<void(const protocol::HealthEvent&)> on_health;
+    std::function<void(const protocol::TriggerEvent&)> on_trigger;  ///< a scan's pulse
     /// Before a gap is fetched: a fetch after an outage takes as long as
     /// the outage's samples take to send and decode, and the caller's lease
     /// must not wait behind it.

@@ -139,6 +139,7 @@ class ScanController final : public DriveProgram {
   VelocityBranch::Drive drive_{};
   double gain_measured_ = 0.0, gain_predicted_ = 0.0;
   double period_start_theta_ = 0.0;
+  bool period_start_known_ = false;  ///< the filtered angle was known at the period's start
   // the span
   std::int64_t crossed_a_ns_ = 0, crossed_b_ns_ = 0;
   bool past_a_ = false, past_b_ = false;
