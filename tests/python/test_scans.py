@@ -4,14 +4,17 @@ velocity, checked against the run's own sensor records (the angle the
 board filtered, recomputed here from the readings it logged), its pulses
 counted, refusals that move nothing, and the stops every run has."""
 
+import json
 import os
 
+import h5py
 import numpy as np
 import pytest
 
 import peers
 from piezo_rig import errors
 from piezo_rig.board import Board
+from piezo_rig.log import open_run
 
 STEP = 0.002  # rad between trigger positions
 FILTER = 8    # readings the board averages (docs/protocol.md, "Scans")
@@ -183,3 +186,32 @@ def test_a_rotor_held_at_an_end_stop_stops_the_scan_stalled(tmp_path, source):
     finally:
         process.terminate()
         process.wait(10)
+
+
+def test_piezo_scan_logs_each_axis_s_pulses_as_the_board_fired_them(board_address, piezo, tmp_path):
+    with Board(board_address) as board:
+        r = ranges(board)
+    v = {name: 0.5 * (base + top) for name, (base, top) in r.items()}
+    out = piezo("scan", "--rig", board_address, "--from", "theta=0", "--to", "theta=0.02",
+                "--velocity", f"theta={v['theta']}", "--from", "chi=0.01", "--to", "chi=-0.01",
+                "--velocity", f"chi={v['chi']}", "--trigger-step", str(STEP),
+                "--trigger-width", "theta=0.0005", "--out", str(tmp_path / "run"), "--json")
+    assert out["scanned"] and sorted(out["scans"]) == ["chi", "theta"]
+    assert open_run(tmp_path / "run", axis="chi").axes == ["theta", "chi"], "the board's order"
+    with Board(board_address) as board:  # the board's own account of its last run
+        summary = {a["name"]: a for a in board.status()["run"]["summary"]["axes"]}
+    for name, span in (("theta", 0.02), ("chi", 0.02)):
+        log = open_run(tmp_path / "run", axis=name)
+        expected = int(np.floor(span / STEP + 1e-9)) + 1
+        assert list(log.triggers["k"]) == list(range(expected)), name
+        assert out["scans"][name]["triggers"]["fired"] == expected
+        assert not log.triggers["late"].any()
+        # The log's rows are the board's own account of each pulse.
+        board_pulses = summary[name]["scan"]["pulses"]
+        assert np.allclose(log.triggers["angle_rad"], [p["angle_rad"] for p in board_pulses])
+        assert np.allclose(log.triggers["edge_s"], [p["edge_s"] for p in board_pulses])
+    with h5py.File(tmp_path / "run" / "run.h5") as f:
+        logged = json.loads(f["axes/theta"].attrs["summary"])
+    assert logged["scan"]["measured_velocity_rad_per_s"] == pytest.approx(v["theta"], rel=0.05)
+    assert out["scans"]["theta"]["triggers"]["width_s"] == 0.0005
+    assert out["scans"]["chi"]["triggers"]["width_s"] == 0.001

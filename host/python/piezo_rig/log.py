@@ -64,6 +64,9 @@ class RunLog:
     layout: dict[str, Any] = field(default_factory=dict[str, Any])
     axes: list[str] = field(default_factory=list[str])
     axis: str = ""
+    #: A scan's trigger pulses (k, position_rad, angle_rad, reading_s,
+    #: edge_s, late), one row per pulse in k's order; empty for any other run.
+    triggers: pd.DataFrame = field(default_factory=pd.DataFrame)
 
     @property
     def model_parameters(self) -> dict[str, Any]:
@@ -217,6 +220,10 @@ def open_run(path: Union[str, os.PathLike[str]], *, t: Optional[str] = None,
             # The axis's own attributes over the log's.
             attrs.update({k: _typed(v) for k, v in f[prefix].attrs.items()})
         drive, sensor, observer = (_group(f, prefix + g) for g in GROUPS)
+        triggers = _group(f, prefix + "triggers")
+    if not triggers.empty:
+        # Streamed as fired; a pulse the stream lost was added at the end.
+        triggers = triggers.sort_values("k", ignore_index=True)
     config = {}
     if isinstance(attrs.get("config"), str):
         import tomllib
@@ -229,7 +236,8 @@ def open_run(path: Union[str, os.PathLike[str]], *, t: Optional[str] = None,
                   summary=summary if isinstance(summary, dict) else {},
                   status=str(attrs.get("status", "")), stop_cause=str(attrs.get("stop_cause", "")),
                   attrs=attrs, layout={"axis": axis or axes[0]} if prefix else {}, axes=axes,
-                  axis=axis or (axes[0] if axes else _text(attrs.get("axis", ""))))
+                  axis=axis or (axes[0] if axes else _text(attrs.get("axis", ""))),
+                  triggers=triggers)
 
 
 def _axis_group(path: str, axes: list[str], own: str, axis: Optional[str]) -> str:

@@ -238,6 +238,11 @@ nlohmann::json axes_json(const RunSummary& s) {
       a["stop_cause"] = axis_end(b);
       a["output"] = firmware::kOutputStateNames.name(b.output.state);
       a["move"] = b.move ? nlohmann::json(*b.move) : nlohmann::json(nullptr);
+      if (b.scan) {
+        protocol::ScanAccount scan = *b.scan;
+        scan.pulses.reset();  // each one is a row of the axis's /triggers
+        a["scan"] = scan;
+      }
     }
     out.push_back(std::move(a));
   }
