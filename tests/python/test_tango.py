@@ -505,6 +505,40 @@ def test_the_pages_session_scans_through_the_bridge(served, watcher, tmp_path, s
         server.wait()
 
 
+def test_a_scan_through_the_bridge_pushes_a_trigger_event_per_pulse(axis, watcher):
+    axis.Calibrate()
+    wait_for(lambda: axis.state() == DevState.ON, 60, "the calibration's end")
+    assert axis.Base_rate < axis.Velocity_max, "the calibrated range"
+    with pytest.raises(tango.DevFailed) as refused:
+        axis.Velocity = 2 * axis.Velocity_max
+    assert "Velocity_max" in refused.value.args[0].desc
+    axis.Velocity = 0.5 * (axis.Base_rate + axis.Velocity_max)
+    axis.Acceleration = 0.3
+    events = []
+    subscription = subscribe(axis, "Trigger", events)
+    try:
+        start = axis.Position
+        runs_before = watcher.status()["run"]["id"]
+        axis.Scan([start + 0.004, start + 0.024, 0.002, 0.0005])
+        wait_for(lambda: axis.state() == DevState.MOVING or
+                 watcher.status()["run"]["id"] > runs_before, 10, "the scan's start")
+        wait_for(lambda: axis.state() == DevState.ON, 60, "the scan's end")
+        # The board's own account: every pulse it fired, each a Tango event.
+        scan = last_summary(watcher)["axes"][0]["scan"]
+        assert scan["stop_cause"] == "on_target", scan
+        assert scan["acceleration_s"] == 0.3 and scan["triggers"]["width_s"] == 0.0005
+        fired = [p["k"] for p in scan["pulses"]]
+        assert fired == list(range(11))
+        def pulses():  # the events of pulses (the first, at the subscription, has none)
+            return [int(e[1][0]) for e in events if e[1] is not None and len(e[1]) == 5]
+
+        wait_for(lambda: len(pulses()) >= 11, 10, "an event per pulse")
+        assert pulses() == fired
+        assert axis.Triggers_fired == 11
+    finally:
+        axis.unsubscribe_event(subscription)
+
+
 def test_a_board_that_needs_keys_is_reached_with_the_bridges_own(tmp_path, source):
     """Towards the board the bridge is a client like any other: on a board
     with CURVE it brings its own keys (--keys), and without them gets no reply."""

@@ -4,8 +4,10 @@ scans, Taurus panels) drives its motors as it drives any other.
 
 One ``PiezoAxis`` device per axis of the board, with the names motor
 interfaces use (``Position``, ``Stop``, ``Abort``, ``DefinePosition``,
-``Limit_switches``), and one ``PiezoBoard`` device (e-stop, reset, health,
-a group move). The bridge is an ordinary client of the board
+``Limit_switches``, and Sardana's ``Velocity``, ``Acceleration``,
+``Deceleration`` and ``Base_rate`` for a fly scan: ``Scan``, its trigger
+pulses pushed as ``Trigger`` change events), and one ``PiezoBoard`` device
+(e-stop, reset, health, a group move). The bridge is an ordinary client of the board
 (``piezo_rig.board``): the board's limits, lease and refusals hold for it
 as for any client, and a bridge that dies mid-move leaves the board to stop
 the motor when the lease lapses. ``Position`` and ``State`` change events
@@ -115,8 +117,15 @@ class PiezoAxis(_OnBoard):
         self._tolerance_rad = float("nan")
         self._f_hz = float("nan")
         self._V0 = float("nan")
+        # A scan's: NaN takes the board's (velocity: the axis's highest steady one).
+        self._velocity = float("nan")
+        self._acceleration_s = float("nan")
+        self._deceleration_s = float("nan")
+        self._trigger: list[float] = []
+        self._triggers_fired = 0
         self.set_change_event("Position", True, True)
         self.set_change_event("State", True, False)
+        self.set_change_event("Trigger", True, False)
         if self.link.wait_until_heard(3.0):
             self._take_defaults()
         self.link.listen(self._changed)
@@ -401,6 +410,148 @@ class PiezoAxis(_OnBoard):
                 _raise("Abort", again)
         except NoReply as e:
             _raise("Abort", e)
+
+    # -- a fly scan (Sardana's motor: velocity, acceleration and deceleration
+    # times, base rate) -------------------------------------------------------
+    def _axis_info(self) -> dict[str, Any]:
+        """Its entry of the board's hello, asked now (a calibration changes it)."""
+        try:
+            info: dict[str, Any] = next(a for a in self.link.control.hello()[Key.axes]
+                                        if a[Key.name] == self._name)
+        except (BoardError, NoReply, StopIteration):
+            return {}
+        return info
+
+    def _scan_option(self, attribute: str, key: str, value: float) -> float:
+        """A scan's option as written, once the board's dictionary takes it."""
+        try:
+            self.link.control.checked(Command.scan, {Key.from_rad: 0.0, Key.to_rad: 1e-3,
+                                                     Key.velocity_rad_per_s: 1.0, key: value,
+                                                     Key.axis: self._name})
+        except BoardError as e:
+            _raise(attribute, e)
+        return value
+
+    @attribute(dtype=float, unit="rad/s", access=AttrWriteType.READ_WRITE, format="%.5g",
+               doc="a scan's velocity over its span (NaN: the axis's highest steady velocity); "
+                   "within Base_rate .. Velocity_max, from the axis's calibration")
+    def Velocity(self) -> float:
+        return self._velocity
+
+    @Velocity.write  # type: ignore[no-redef]
+    def Velocity(self, value: float) -> None:
+        info = self._axis_info()
+        low, high = info.get(Key.base_rate_rad_per_s), info.get(Key.velocity_max_rad_per_s)
+        if low is None or high is None:
+            tango.Except.throw_exception(
+                ErrorCode.bad_state, f"Velocity: axis {self._name} is not calibrated: its velocity "
+                                     "against its drive is unknown; Calibrate it first", "Velocity")
+        if not low <= value <= high:
+            tango.Except.throw_exception(
+                ErrorCode.out_of_limits, f"Velocity: {value:g} rad/s; allowed: [{low:.4g}, "
+                                         f"{high:.4g}] rad/s (Base_rate, Velocity_max)", "Velocity")
+        self._velocity = value
+
+    @attribute(dtype=float, unit="s", access=AttrWriteType.READ_WRITE,
+               doc="a scan's run-up: from the base rate to Velocity in this time (NaN: the "
+                   "board's default)")
+    def Acceleration(self) -> float:
+        return self._acceleration_s
+
+    @Acceleration.write  # type: ignore[no-redef]
+    def Acceleration(self, value: float) -> None:
+        self._acceleration_s = self._scan_option("Acceleration", Key.acceleration_s, value)
+
+    @attribute(dtype=float, unit="s", access=AttrWriteType.READ_WRITE,
+               doc="a scan's run-down: from Velocity to the base rate in this time (NaN: "
+                   "Acceleration's)")
+    def Deceleration(self) -> float:
+        return self._deceleration_s
+
+    @Deceleration.write  # type: ignore[no-redef]
+    def Deceleration(self, value: float) -> None:
+        self._deceleration_s = self._scan_option("Deceleration", Key.deceleration_s, value)
+
+    @attribute(dtype=float, unit="rad/s", format="%.5g",
+               doc="the slowest steady velocity, from the axis's calibration (NaN: uncalibrated)")
+    def Base_rate(self) -> float:
+        value = self._axis_info().get(Key.base_rate_rad_per_s)
+        return float("nan") if value is None else float(value)
+
+    @attribute(dtype=float, unit="rad/s", format="%.5g",
+               doc="the highest steady velocity, from the axis's calibration (NaN: uncalibrated)")
+    def Velocity_max(self) -> float:
+        value = self._axis_info().get(Key.velocity_max_rad_per_s)
+        return float("nan") if value is None else float(value)
+
+    @attribute(dtype=(float,), max_dim_x=6,
+               doc="the latest trigger pulse of a scan: k, its position [rad], the measured "
+                   "angle that fired it [rad], its edge [s from the run's start], late (1/0); "
+                   "a change event per pulse")
+    def Trigger(self) -> list[float]:
+        return self._trigger
+
+    @attribute(dtype=int, doc="trigger pulses of the current or last scan")
+    def Triggers_fired(self) -> int:
+        return self._triggers_fired
+
+    @command(dtype_in=(float,),
+             doc_in="a fly scan at Velocity: [from_rad, to_rad] and optionally the triggers' "
+                    "[trigger_step_rad, trigger_width_s, trigger_start_rad, trigger_pulses, "
+                    "trigger_pre_start_rad] (0 or NaN: none, or the board's default); returns at "
+                    "once, State MOVING until it ends, a Trigger event per pulse")
+    def Scan(self, argin: list[float]) -> None:
+        if len(argin) < 2 or len(argin) > 7:
+            tango.Except.throw_exception(
+                ErrorCode.bad_argument, "Scan: [from_rad, to_rad, trigger_step_rad, "
+                                        "trigger_width_s, trigger_start_rad, trigger_pulses, "
+                                        "trigger_pre_start_rad]: 2 to 7 numbers", "Scan")
+        if self._state()[0] == DevState.MOVING:
+            tango.Except.throw_exception("moving", f"Scan: axis {self._name} is moving", "Scan")
+        velocity = self._velocity
+        if velocity != velocity:
+            velocity = self._axis_info().get(Key.velocity_max_rad_per_s) or float("nan")
+        given = list(argin) + [float("nan")] * (7 - len(argin))
+        options: dict[str, Any] = {Key.axis: self._name, Key.acceleration_s: self._acceleration_s,
+                                   Key.deceleration_s: self._deceleration_s,
+                                   Key.trigger_step_rad: given[2] or float("nan"),
+                                   Key.trigger_width_s: given[3],
+                                   Key.trigger_start_rad: given[4],
+                                   Key.trigger_pulses: given[5] or float("nan"),
+                                   Key.trigger_pre_start_rad: given[6]}
+        options = {k: v for k, v in options.items() if v == v}  # NaN: the board's default
+        if Key.trigger_pulses in options:
+            options[Key.trigger_pulses] = int(options[Key.trigger_pulses])
+        from .scan import Scan
+        try:
+            scan = self.link.control.scan(given[0], given[1], velocity, **options)
+        except (BoardError, NoReply) as e:
+            _raise("Scan", e)
+        self._moving = True
+        self._move_error = ""
+        self._triggers_fired = 0
+
+        @_omni_thread
+        def follow() -> None:
+            try:
+                with scan:
+                    for pulse in scan.triggers():
+                        self._trigger = [float(pulse.k), pulse.position_rad, pulse.angle_rad,
+                                         pulse.edge_s, float(pulse.late)]
+                        self._triggers_fired += 1
+                        self.push_change_event("Trigger", self._trigger)
+                    scan.wait()
+            except BaseException as e:  # noqa: B036 -- kept for Status
+                self._move_error = f"scan: {e}"
+            finally:
+                self._moving = False
+                self._changed(self.link)
+
+        assert isinstance(scan, Scan)
+        threading.Thread(target=follow, name=f"scan {self._name}", daemon=True).start()
+        self.set_state(DevState.MOVING)
+        self.push_change_event("State", DevState.MOVING)
+        self._last = (self._last[0], DevState.MOVING)
 
     @command(dtype_in=float, doc_in="the rotor's position now is this angle [rad]: the board "
                                     "keeps one zero, so only 0 is taken")
