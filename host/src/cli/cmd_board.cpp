@@ -32,14 +32,20 @@ std::string rest_text(const protocol::RestReport& r) {
   return out;
 }
 
-std::string calibration_text(const std::optional<protocol::CalibrationRecord>& cal) {
+std::string calibration_text(const protocol::AxisInfo& axis) {
+  const std::optional<protocol::CalibrationRecord>& cal = axis.calibration;
   if (!cal) return "not calibrated (piezo calibrate --rig ADDRESS)";
+  std::string scans;
+  if (axis.base_rate_rad_per_s && axis.velocity_max_rad_per_s) {
+    scans = fmt::format(", scans at {:.4g} to {:.4g} rad/s", *axis.base_rate_rad_per_s,
+                        *axis.velocity_max_rad_per_s);
+  }
   return fmt::format(
-      "calibrated {}: steps fastest at {}, noise {:.3g} m, smallest tolerance {:.3g} rad{}",
+      "calibrated {}: steps fastest at {}, noise {:.3g} m, smallest tolerance {:.3g} rad{}{}",
       cal->created,
       cal->fastest_f_hz ? fmt::format("{:g} Hz", *cal->fastest_f_hz)
                         : std::string("(none reliable)"),
-      cal->noise_m, cal->smallest_tolerance_rad.value_or(0.0),
+      cal->noise_m, cal->smallest_tolerance_rad.value_or(0.0), scans,
       cal->model.is_object() ? ", model fitted" : "");
 }
 
@@ -64,6 +70,8 @@ std::string status_text(const protocol::Status& s, const protocol::Hello& hello)
             "  axis {:<6} {}{}\n", a.name, firmware::to_string(a.cause),
             a.move && a.move->stop_cause
                 ? fmt::format(", move {}", firmware::kMoveEndNames.name(*a.move->stop_cause))
+            : a.scan && a.scan->stop_cause
+                ? fmt::format(", scan {}", firmware::kMoveEndNames.name(*a.scan->stop_cause))
                 : std::string());
       }
     }
@@ -80,7 +88,7 @@ std::string status_text(const protocol::Status& s, const protocol::Hello& hello)
             : std::string("no reading yet"),
         rest_text(a.rest),
         a.fault ? fmt::format(" (fault: {})", firmware::to_string(*a.fault)) : std::string(),
-        info != hello.axes.end() ? calibration_text(info->calibration)
+        info != hello.axes.end() ? calibration_text(*info)
                                  : std::string(a.calibrated ? "calibrated" : "not calibrated"));
   }
   return out;
