@@ -65,6 +65,12 @@ Rig build_rig(const BoardConfig& c) {
   }
   rig.own_lines = c.lines.backends.chosen().open({}, context);
   rig.lines = rig.own_lines.get();
+  if (rig.sim && !c.lines.backends.chosen().simulated()) {
+    // Simulated amplifiers with the board's real lines (a GPIO chip, a DAQ
+    // card, none): no enable line reaches them, so they are always on, as
+    // a bench amplifier without an enable input is.
+    (void)rig.sim->lines().set_amplifier_enable(true);
+  }
   return rig;
 }
 
