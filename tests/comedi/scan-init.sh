@@ -23,7 +23,7 @@ mount -t tmpfs none /runs
 /trigger_watch watch /dev/comedi0 2 /edges.txt &
 watcher=$!
 /check scan --config /scan.toml --set piezod.calibration_file=/calibration.json \
-  --from 0.01 --to 0.05 --velocity 0.02 --trigger-step 0.004 --trigger-width 0.01 \
+  --from 0.01 --to 0.05 --velocity 0.02 --trigger-step 0.001 --trigger-width 0.01 \
   --out /runs/scan --json > /summary.json
 status=$?
 kill $watcher

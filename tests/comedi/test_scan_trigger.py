@@ -24,7 +24,7 @@ import pytest
 
 SOURCE = os.environ.get("PIEZO_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", ".."))
 CONFIG = os.path.join(SOURCE, "tests", "comedi", "scan.toml")
-FROM, TO, STEP = 0.01, 0.05, 0.004  # as scan-init.sh asks
+FROM, TO, STEP = 0.01, 0.05, 0.001  # as scan-init.sh asks
 
 
 def guest_output(work):
