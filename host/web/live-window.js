@@ -6,7 +6,7 @@
 // of the run, one or several, keeps its series under "axes", one object each.
 // Loaded by the shared worker (one stream for all tabs of a browser) and by
 // the page itself where a browser has no shared workers.
-const LIVE_SERIES = ["drive", "measured", "observer", "open_loop", "residual"];
+const LIVE_SERIES = ["drive", "measured", "observer", "open_loop", "residual", "triggers"];
 
 class LiveWindow {
   constructor() { this.d = null; }

@@ -228,6 +228,7 @@ def main():
         say("ok", len(rows), "run listed; screenshots in", shots)
         move_from_the_page(driver, piezo, piezod, work)
         group_move_on_the_page(driver, piezo, work, shots)
+        scan_on_the_page(driver, piezo, work, shots)
         many_tabs(driver, piezo, work)
     finally:
         if driver:
@@ -235,6 +236,41 @@ def main():
         if run.poll() is None:
             run.kill()
         shutil.rmtree(work, ignore_errors=True)
+
+
+def scan_on_the_page(driver, piezo, work, shots):
+    """`piezo scan` with --view, in real time (the axis calibrated first, on
+    the virtual clock): the page marks each trigger pulse on the angle
+    plot, as many as the run logged."""
+    config = os.path.join(SOURCE, "configs", "sim.toml")
+    calibration = os.path.join(work, "scan-calibration.json")
+    subprocess.run([piezo, "calibrate", "--config", config, "--set", "run.clock=virtual", "--set",
+                    f"piezod.calibration_file={calibration}", "--out",
+                    os.path.join(work, "scan-calibration")], check=True, capture_output=True)
+    port = free_port()
+    err = os.path.join(work, "scan.err")
+    run = peers.spawn(
+        [piezo, "scan", "--config", config, "--set", f"piezod.calibration_file={calibration}",
+         "--from", "0.005", "--to", "0.045", "--velocity", "0.01", "--trigger-step", "0.004",
+         "--view", f"127.0.0.1:{port}", "--json", "--out", os.path.join(work, "scan")],
+        stdout=subprocess.PIPE, stderr=open(err, "w"), text=True)
+    try:
+        url, _ = wait_for_banner(err, time.time() + 60)
+        driver.get(url)
+
+        def marked():
+            axes = driver.execute_script("return window.piezoView.axes") or []
+            return axes[0].get("triggers", 0) if axes else 0
+
+        wait_until(lambda: marked() >= 3, "trigger pulses marked on the angle plot")
+        driver.save_screenshot(os.path.join(shots, "view_scan.png"))
+        out, _ = run.communicate(timeout=180)
+        fired = json.loads(out)["scans"]["rotor"]["triggers"]["fired"]
+        wait_until(lambda: marked() == fired, f"every pulse of the {fired} marked", seconds=30)
+        say("scan on the page:", marked(), "pulses marked of", fired)
+    finally:
+        if run.poll() is None:
+            run.kill()
 
 
 def group_move_on_the_page(driver, piezo, work, shots):

@@ -295,6 +295,37 @@ TEST(LiveFeed, AGroupMoveShowsEachAxisApart) {
   EXPECT_GT(snap.at("axes")[0].at("zoom").at("y").size(), 2000u) << "its last periods";
 }
 
+TEST(LiveFeed, AScansTriggersArePointsOnItsAnglePlotEachSentOnce) {
+  LiveFeed feed(1.5, 0.3, 150);  // columns of 10 ms
+  LiveCursor cursor;
+  // Pulses as the board streams them: each before the samples of its time.
+  const auto add_pulse = [](log_schema::LogRows& rows, double edge_s, double angle_rad) {
+    rows.triggers.k.push_back(static_cast<double>(rows.triggers.k.size()));
+    rows.triggers.edge_s.push_back(edge_s);
+    rows.triggers.angle_rad.push_back(angle_rad);
+  };
+  log_schema::LogRows first = rig_rows(0.0, 1.0);
+  add_pulse(first, 0.25, 2e-3);
+  feed.add(first);
+  const auto sent = feed.changes(cursor).at("axes")[0].at("triggers");
+  ASSERT_EQ(sent.at("t").size(), 1u) << "a pulse behind the drive's end is sent at once";
+  EXPECT_NEAR(sent.at("t")[0].get<double>(), 0.25, 1e-9);
+  EXPECT_NEAR(sent.at("y")[0].get<double>(), 2e-3, 1e-12);
+  // The next pulse, and one the stream lost, added from the summary at the
+  // end out of order: it takes its place in time (a page sees it in the
+  // next snapshot; its column was sent already).
+  log_schema::LogRows more = rig_rows(1.0, 0.2);
+  add_pulse(more, 1.1, 3e-3);
+  add_pulse(more, 0.5, 2.5e-3);
+  feed.add(more);
+  const auto next = feed.changes(cursor);
+  ASSERT_FALSE(next.at("reset").get<bool>());
+  EXPECT_EQ(next.at("axes")[0].at("triggers").at("t").size(), 1u) << "only the new one, once";
+  const auto all = feed.snapshot().at("axes")[0].at("triggers").at("t");
+  ASSERT_EQ(all.size(), 3u);
+  EXPECT_TRUE(std::is_sorted(all.begin(), all.end()));
+}
+
 TEST(RunCatalogue, OnlyPlainRunNamesInsideTheDirectory) {
   const auto dir = std::filesystem::temp_directory_path() / "piezo-view-test-runs";
   std::filesystem::create_directories(dir / "r1");

@@ -10,9 +10,9 @@
 namespace piezo::host::view {
 namespace {
 
-constexpr std::array<std::string_view, 5> kNames{wire_key::drive, "measured", "observer",
-                                                 "open_loop", "residual"};
-enum : std::size_t { kDrive, kMeasured, kObserver, kOpenLoop, kResidual };
+constexpr std::array<std::string_view, 6> kNames{wire_key::drive, "measured",  "observer",
+                                                 "open_loop",     "residual",  wire_key::triggers};
+enum : std::size_t { kDrive, kMeasured, kObserver, kOpenLoop, kResidual, kTriggers };
 /// The zoom (thousands of full-rate samples) and changed loop histograms go
 /// with every fourth event: about once a second, which is most of what a
 /// viewer costs.
@@ -41,6 +41,17 @@ nlohmann::json take_histograms(nlohmann::json& status) {
 
 void append(std::vector<double>& to, const std::vector<double>& from) {
   to.insert(to.end(), from.begin(), from.end());
+}
+
+/// Points into a series in time order: a scan's pulses come as fired, and
+/// those the stream lost at the run's end.
+void insert_points(std::vector<double>& t, std::vector<double>& y, const std::vector<double>& at,
+                   const std::vector<double>& values) {
+  for (std::size_t i = 0; i < at.size() && i < values.size(); ++i) {
+    const auto where = std::upper_bound(t.begin(), t.end(), at[i]) - t.begin();
+    t.insert(t.begin() + where, at[i]);
+    y.insert(y.begin() + where, values[i]);
+  }
 }
 
 /// Numbers as short as what they show: times to the microsecond, values to
@@ -102,6 +113,7 @@ void LiveFeed::add(const log_schema::AxesRows& rows) {
     append(c[kObserver].y, r.observer.theta_hat);
     append(c[kOpenLoop].y, r.observer.theta_open);
     append(c[kResidual].y, r.observer.residual);
+    insert_points(c[kTriggers].t, c[kTriggers].y, r.triggers.edge_s, r.triggers.angle_rad);
   }
   trim(t_end());
 }
@@ -167,7 +179,12 @@ void LiveFeed::add_series(nlohmann::json& out, std::size_t axis, LiveCursor& cur
   const long long window_start = column_of(end - window_s_, width) + 1;
   for (std::size_t s = 0; s < kSeries; ++s) {
     const Column& c = axes_[axis][s];
-    const long long done = c.t.empty() ? window_start : column_of(c.t.back(), width);
+    // A column is complete once a later sample came; the sparse triggers'
+    // once the drive has passed it (a pulse is published before the
+    // samples of its time).
+    const long long done = s == kTriggers ? column_of(end, width)
+                           : c.t.empty()  ? window_start
+                                          : column_of(c.t.back(), width);
     const long long from = reset ? window_start : std::max(cursor.next[axis][s], window_start);
     out[kNames[s]] = to_json(min_max_columns(c.t, c.y, width, from, done));
     cursor.next[axis][s] = std::max(from, done);

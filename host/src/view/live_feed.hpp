@@ -13,7 +13,9 @@
 // The board's loop histograms go as "histograms" {drive, sensor}, apart from
 // the status, when they changed and at most every fourth event. Each axis
 // of the run, one or several, sends its series under "axes" ([{name, drive,
-// measured, ...}]): a plot per axis.
+// measured, ...}]): a plot per axis; a scan's trigger pulses are a series
+// of points, "triggers" (each pulse's edge time and the angle that fired it),
+// marked on the angle plot.
 
 #include <array>
 #include <cstddef>
@@ -32,7 +34,7 @@ namespace piezo::host::view {
 struct LiveCursor {
   std::uint64_t epoch = 0;                     ///< 0: nothing sent yet
   double width = 0.0;                          ///< the columns' width it was sent
-  std::vector<std::array<long long, 5>> next;  ///< per axis
+  std::vector<std::array<long long, 6>> next;  ///< per axis
   std::uint64_t events = 0;
   std::uint64_t histograms = 0;  ///< the version of the loop histograms it holds
 };
@@ -67,8 +69,9 @@ class LiveFeed {
   struct Column {
     std::vector<double> t, y;
   };
-  static constexpr std::size_t kSeries = 5;
-  /// drive, measured, observer, open_loop, residual (kNames' order)
+  static constexpr std::size_t kSeries = 6;
+  /// drive, measured, observer, open_loop, residual, triggers (kNames'
+  /// order); a scan's triggers are points (edge time, the angle that fired it)
   using AxisColumns = std::array<Column, kSeries>;
   [[nodiscard]] nlohmann::json event(LiveCursor& cursor, bool reset) const;
   /// One axis's series (and its zoom when `with_zoom`) into `out`.
