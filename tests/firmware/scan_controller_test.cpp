@@ -199,5 +199,24 @@ TEST(ScanController, ARotorThatStopsFollowingStopsTheScanStalled) {
   EXPECT_EQ(c.stage(), ScanStage::failed);
 }
 
+TEST(ScanController, ARotorFarAheadOfItsReferenceStopsTheScanImplausible) {
+  TestPlant plant;
+  PositionFeed feed;
+  ScanSettings s = scan(0.01, 0.05, 0.02, plant);
+  ScanController c(s, feed);
+  // Once the span has begun, something else turns the rotor on (a hand, a
+  // cable), five times as fast as the scan: no step the scan leaves out
+  // holds it back.
+  double t = 0.0;
+  for (long tick = 0; t < 30.0; ++tick, t += kDt) {
+    if (tick % kTicksPerReading == 0) feed.publish(plant.read(), static_cast<std::int64_t>(t * 1e9));
+    if (c.stage() == ScanStage::span) plant.theta += 5 * 0.02 * kDt;
+    plant.drive(c.next_voltage(t, kDt));
+    if (c.fault() != StopCause::none || c.finished()) break;
+  }
+  EXPECT_EQ(c.fault(), StopCause::sensor_implausible);
+  EXPECT_EQ(c.stage(), ScanStage::failed);
+}
+
 }  // namespace
 }  // namespace piezo::firmware

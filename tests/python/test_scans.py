@@ -13,7 +13,7 @@ import pytest
 
 import peers
 from piezo_rig import errors
-from piezo_rig.board import Board
+from piezo_rig.board import Board, Run
 from piezo_rig.log import open_run
 
 STEP = 0.002  # rad between trigger positions
@@ -163,6 +163,26 @@ def test_an_e_stop_stops_a_scan_at_0_V_and_its_summary_keeps_the_pulses_fired(bo
         drive = scan.records_of("theta", scan.drive)
         assert drive["V"][-1] == 0.0
         mover.reset_fault()
+
+
+def test_a_lease_that_lapses_stops_a_scan_at_0_V_with_its_pulses_kept(board_address):
+    with Board(board_address) as client:
+        base, top = ranges(client)["theta"]
+        # Long enough that the lapsed lease, not the scan's end, stops it.
+        args = client.checked("scan", {"axis": "theta", "from_rad": 0.0, "to_rad": 0.6,
+                                        "velocity_rad_per_s": 0.5 * (base + top),
+                                        "trigger_step_rad": STEP, "lease_s": 0.5})
+        run = Run(client, "scan", args, renew=False, raise_on_fault=False)
+        summary = run.wait()
+        run.close()
+        axis = summary["axes"][0]
+        assert summary["cause"] == "link_lost" and axis["scan"]["stop_cause"] == "link_lost"
+        assert axis["output"]["state"] == "confirmed"
+        assert run.records_of("theta", run.drive)["V"][-1] == 0.0
+        pulses = axis["scan"]["pulses"]
+        assert pulses and [p["k"] for p in pulses] == list(range(len(pulses)))
+        assert axis["scan"]["triggers"]["fired"] == len(pulses) < 301
+        client.reset_fault()
 
 
 def test_a_rotor_held_at_an_end_stop_stops_the_scan_stalled(tmp_path, source):
