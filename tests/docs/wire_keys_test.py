@@ -112,7 +112,7 @@ PYTHON = "host/python/piezo_rig"
 PYTHON_TABLE = f"{PYTHON}/_wire.py"
 # The modules that speak the wire (model.py and log.py do not: the log's
 # HDF5 schema has names of its own).
-PYTHON_WIRE = ("board.py", "follower.py", "scan.py", "errors.py", "frames.py", "tango_link.py",
+PYTHON_WIRE = ("board.py", "follower.py", "trigger.py", "errors.py", "frames.py", "tango_link.py",
                "tango_server.py")
 # Literals that are a wire word by their spelling only.
 NOT_WIRE = {("board.py", "timeout"): "the Board's own parameter, named in its refusal",

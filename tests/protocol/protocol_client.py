@@ -62,7 +62,7 @@ def frame_header(body):
 
 
 hello = call("hello")["result"]
-check(hello["protocol"] == 5, "protocol version")
+check(hello["protocol"] == 6, "protocol version")
 check(len(hello["axes"]) == 1 and hello["axes"][0]["r2_m"] > 0,
       "hello names its one axis's sensor radius: " + str(hello))
 check("sensor" not in hello and "calibration" not in hello,

@@ -19,7 +19,7 @@ from piezo_rig.board import Board
 
 def test_a_two_second_run_keeps_every_sample(board):
     hello = board.hello()
-    assert hello["protocol"] == 5 and hello["axes"][0]["r2_m"] > 0
+    assert hello["protocol"] == 6 and hello["axes"][0]["r2_m"] > 0
     assert "sensor" not in hello, "protocol 4: each axis's radius is in axes"
     blocks = 0
     with board.run(V0=60, f=10, duration=2) as run:
@@ -206,7 +206,7 @@ def test_curve_keys(tmp_path):
     process, address = peers.start_piezod(piezod, str(config), str(tmp_path / "err"))
     try:
         with Board(address, keys=(str(keys / "board.pub"), str(keys / "host.key"))) as b:
-            assert b.hello()["protocol"] == 5
+            assert b.hello()["protocol"] == 6
             with b.run(V0=40, f=10, duration=0.5) as run:
                 run.wait()
             assert len(run.sensor) == run.summary["samples"]["sensor"]

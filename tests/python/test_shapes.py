@@ -20,7 +20,7 @@ from piezo_rig.board import Board
 # The board's config, the axis the commands name (None: left out), its axes.
 BOARDS = {"one": ("piezod-sim.toml", None, ["rotor"]),
           "three": ("three-axes.toml", "chi", ["theta", "phi", "chi"])}
-AXIS_COMMANDS = ("configure", "step", "move_to", "calibrate", "set_calibration", "zero")
+AXIS_COMMANDS = ("configure", "step", "move_to", "scan", "calibrate", "set_calibration", "zero")
 
 
 @pytest.fixture(scope="module", params=sorted(BOARDS))
@@ -62,15 +62,17 @@ def ended(board, run_id, timeout=60):
 def test_every_protocol_command(rig):
     with Board(rig.address) as board:
         hello = board.call("hello")
-        assert hello["protocol"] == 5
+        assert hello["protocol"] == 6
         assert [a["name"] for a in hello["axes"]] == rig.names
         assert not {"sensor", "calibration"} & set(hello), "nothing of an axis at the top"
         described = board.call("describe")["commands"]
         for command in AXIS_COMMANDS:
             axis = next(a for a in described[command]["args"] if a["name"] == "axis")
             assert axis["choices"] == rig.names, command
-            # move_to may name its axes in `targets` instead (a group move).
-            assert axis["required"] == (len(rig.names) > 1 and command != "move_to"), command
+            # move_to and scan may name their axes in `targets` or `scans`
+            # instead (a group).
+            assert axis["required"] == (len(rig.names) > 1 and
+                                        command not in ("move_to", "scan")), command
         status = board.call("status")
         assert [a["name"] for a in status["axes"]] == rig.names
         assert not {"position", "calibration"} & set(status)
@@ -103,6 +105,14 @@ def test_every_protocol_command(rig):
         assert summary["calibration"] is not None, summary.get("calibration_error")
         entry = next(a for a in board.call("hello")["axes"] if a["name"] == rig.name)
         assert entry["calibration"]["created"] == summary["calibration"]["created"]
+        # A scan of the axis, now calibrated: its velocities from the calibration.
+        v = 0.5 * (entry["base_rate_rad_per_s"] + entry["velocity_max_rad_per_s"])
+        scanning = board.call("scan", **named(rig, from_rad=0.0, to_rad=0.01, velocity_rad_per_s=v,
+                                              trigger_step_rad=0.002))
+        assert [s["axis"] for s in scanning["scans"]] == [rig.name]
+        summary = ended(board, scanning["run"])
+        scanned = summary["axes"][0]["scan"]
+        assert scanned["stop_cause"] == "on_target" and len(scanned["pulses"]) == 6, scanned
         assert board.call("set_calibration", **named(rig, calibration=None))["calibration"] is None
 
         assert board.call("estop")["state"] == "fault"
@@ -113,6 +123,7 @@ def test_every_protocol_command(rig):
         # other arguments given).
         others = {"configure": dict(V0=40.0, f=10.0, duration_s=1.0),
                   "step": dict(count=1, V0=40.0, f=10.0), "move_to": dict(target_rad=0.001),
+                  "scan": dict(from_rad=0.0, to_rad=0.01, velocity_rad_per_s=0.01),
                   "calibrate": {}, "set_calibration": dict(calibration=None), "zero": {}}
         for command in AXIS_COMMANDS:
             with pytest.raises(errors.BadArgument, match=", ".join(rig.names)):
@@ -142,7 +153,9 @@ def test_every_cli_command(rig):
     ok("step", "2", *rig_args, *axis, "--V0", "40", "--json", "--out", str(out / "step"))
     ok("move", "--to", "0.0005", *rig_args, *axis, "--json", "--out", str(out / "move"))
     ok("calibrate", *rig_args, *axis, "--json", "--out", str(out / "calibrate"))
-    for run in ("run", "step", "move"):
+    ok("scan", "--from", "0", "--to", "0.01", "--velocity", "0.02", "--trigger-step", "0.002",
+       *rig_args, *axis, "--json", "--out", str(out / "scan"))
+    for run in ("run", "step", "move", "scan"):
         with h5py.File(out / run / "run.h5") as f:
             assert f.attrs["axes"].decode() == rig.name, run
             assert len(f[f"axes/{rig.name}/drive/V"]) > 0, run

@@ -18,6 +18,7 @@ Every refusal raises the exception of its protocol error code
 
 from __future__ import annotations
 
+import collections
 import itertools
 import queue
 import math
@@ -29,7 +30,7 @@ import time
 import tomllib
 import weakref
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Iterator, Optional, Union
+from typing import Any, Iterator, Optional, Self, Union
 
 import msgpack
 import numpy as np
@@ -38,11 +39,9 @@ import zmq
 from . import frames
 from ._wire import ArgType, Command, ErrorCode, Key, MoveEnd, State, StopCause, Topic
 from .follower import AxisSnapshot, Follower, angle_rad
+from .trigger import Trigger
 from .errors import (BadArgument, BoardError, ClientClosed, NoReply, OutOfLimits, RunEnded,
                      StaleBoard, UnknownCommand, board_error)
-
-if TYPE_CHECKING:
-    from .scan import Scan
 
 PROTOCOL = 6
 LOOPBACK = ("tcp://127.0.0.1:", "tcp://localhost:", "tcp://[::1]:")
@@ -567,7 +566,7 @@ class Board:
     def scan(self, from_rad: Optional[float] = None, to_rad: Optional[float] = None,
              velocity_rad_per_s: Optional[float] = None, *,
              scans: Optional[dict[str, dict[str, Any]]] = None, **options: Any) -> "Scan":
-        """Starts a fly scan and returns it (a ``piezo_rig.scan.Scan``, a
+        """Starts a fly scan and returns it (a ``Scan``, a
         ``Run``): the axis turns from ``from_rad`` to ``to_rad`` (from its
         zero) at the mean velocity ``velocity_rad_per_s`` in closed loop on
         its measured angle, after an approach and a run-up before A, with a
@@ -588,7 +587,6 @@ class Board:
         .. ``["velocity_max_rad_per_s"]``), an uncalibrated axis, or a
         trigger step under five times the sensor's peak-to-peak noise is
         refused with nothing moving."""
-        from .scan import Scan  # a Run of its own module
         args: dict[str, Any] = dict(options)
         if scans is not None:
             args[Key.scans] = {name: dict(own) for name, own in scans.items()}
@@ -763,7 +761,7 @@ class Run:
             if self.board._follower is not None:
                 self.board._follower.drop(self._messages)
 
-    def __enter__(self) -> "Run":
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
@@ -973,6 +971,76 @@ class Run:
         t, theta = self.t(sensor), self.theta(sensor, axis)
         good = ~np.isnan(theta)
         return drive_t, drive[Key.V].astype(float), t[good], theta[good]
+
+
+class Scan(Run):
+    """A fly scan this client controls (``Board.scan``): a ``Run`` whose
+    trigger pulses come as the board fires them (``triggers()``), its
+    samples beside as any run's; ``pulses(axis)`` every pulse of an axis
+    from the board's summary once it ended (complete even where the stream
+    lost some), ``accounts`` each axis's scan by name::
+
+        with board.scan(0.01, 0.06, 0.03, axis="theta", trigger_step_rad=0.002) as scan:
+            for pulse in scan.triggers():      # each as the board fires it
+                print(pulse.axis, pulse.k, pulse.angle_rad)
+    """
+
+    def __init__(self, board: Board, args: dict[str, Any]):
+        self._fired: collections.deque[Trigger] = collections.deque()
+        self._streamed: list[Trigger] = []
+        super().__init__(board, Command.scan, args, True, raise_on_fault=False,
+                         axis=args.get(Key.axis) or next(iter(args.get(Key.scans) or {}), None))
+
+    def _on_other(self, topic: str, body: bytes) -> None:
+        if topic != Topic.trigger:
+            return
+        event = msgpack.unpackb(body, raw=False)
+        if event.get(Key.run) != self.started.get(Key.run):
+            return
+        trigger = Trigger.of(str(event[Key.axis]), event)
+        self._fired.append(trigger)
+        self._streamed.append(trigger)
+
+    def triggers(self) -> Iterator[Trigger]:
+        """Each pulse as the board fires it, until the scan ended (the
+        samples keep coming in beside; ``drive``, ``sensor``, ``theta()``)."""
+        while self._summary is None or self._fired:
+            if self._fired:
+                yield self._fired.popleft()
+                continue
+            self._pending.clear()  # the blocks are kept in drive/sensor all the same
+            self._receive(0.2)
+
+    @property
+    def streamed(self) -> list[Trigger]:
+        """The pulses the stream brought so far, in the order they came."""
+        return list(self._streamed)
+
+    @property
+    def accounts(self) -> dict[str, dict[str, Any]]:
+        """Each axis's scan by name once it ended (``measured_velocity_rad_per_s``,
+        ``ripple_rad_per_s``, ``model_velocity_rad_per_s``, ``triggers``,
+        ``stop_cause``, ...; docs/protocol.md, "Scans"); as the board took them before."""
+        if self._summary is None:
+            return {str(a[Key.axis]): a for a in self.started.get(Key.scans) or []}
+        return {str(a[Key.name]): a.get(Key.scan) or {} for a in self._summary[Key.axes]}
+
+    def pulses(self, axis: Optional[str] = None) -> list[Trigger]:
+        """Every pulse of ``axis`` (None: the scan's axis), from the board's
+        summary: once the scan ended, all it fired."""
+        name = axis or self.axis
+        return [Trigger.of(name, p) for p in self.accounts.get(name, {}).get(Key.pulses) or []]
+
+    def wait(self) -> dict[str, Any]:
+        """Receives the scan to its end and returns its summary; raises
+        ``RunEnded`` when an axis did not end its scan (its ``stop_cause``:
+        ``stalled``, ``estop``, ``link_lost``, ...)."""
+        summary = super().wait()
+        missed = {name: a.get(Key.stop_cause) for name, a in self.accounts.items()
+                  if a.get(Key.stop_cause) != MoveEnd.on_target}
+        if missed:
+            raise RunEnded(Command.scan, ", ".join(f"{k}: {v}" for k, v in missed.items()), summary)
+        return summary
 
 
 def _joined(blocks: list[Any], dtype: np.dtype[Any]) -> np.ndarray[Any, Any]:

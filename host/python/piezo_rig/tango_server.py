@@ -522,7 +522,6 @@ class PiezoAxis(_OnBoard):
         options = {k: v for k, v in options.items() if v == v}  # NaN: the board's default
         if Key.trigger_pulses in options:
             options[Key.trigger_pulses] = int(options[Key.trigger_pulses])
-        from .scan import Scan
         try:
             scan = self.link.control.scan(given[0], given[1], velocity, **options)
         except (BoardError, NoReply) as e:
@@ -547,7 +546,6 @@ class PiezoAxis(_OnBoard):
                 self._moving = False
                 self._changed(self.link)
 
-        assert isinstance(scan, Scan)
         threading.Thread(target=follow, name=f"scan {self._name}", daemon=True).start()
         self.set_state(DevState.MOVING)
         self.push_change_event("State", DevState.MOVING)

@@ -67,13 +67,15 @@ asked::Scan scan_request(const ScanOptions& s, const RunOptions& o) {
   std::set<std::string> axes;
   for (const auto* m : {&from, &to, &velocity})
     for (const auto& [axis, value] : *m) axes.insert(axis);
-  if (axes.size() > 1 && axes.contains("")) {
+  const bool named = std::any_of(axes.begin(), axes.end(),
+                                 [](const std::string& axis) { return !axis.empty(); });
+  if (named && axes.contains("")) {
     throw config::ConfigError("--from/--to/--velocity", "",
                               "give a plain value for one axis, or AXIS=VALUE for every axis of a "
                               "group scan, not both");
   }
-  if (axes.size() > 1 && !o.axis.empty()) {
-    throw config::ConfigError("--axis", o.axis, "a group scan names its axes in AXIS=VALUE");
+  if (named && !o.axis.empty()) {
+    throw config::ConfigError("--axis", o.axis, "AXIS=VALUE names the scan's axes already");
   }
   const auto value_for = [](const std::map<std::string, double>& m, const std::string& axis,
                             const char* option) -> std::optional<double> {

@@ -85,8 +85,11 @@ BoardRequest board_request(const config::HostConfig& host, const RunAsked& asked
                                           return protocol::CalibrateRequest{c.V0, lease_s};
                                         },
                                         [&](const asked::Scan& s) -> BoardCommand {
-                                          protocol::ScanRequest one = s.scans.size() == 1
-                                                                          ? s.scans.begin()->second
+                                          // The config's axis's (no name),
+                                          // else each named axis's in `scans`.
+                                          const auto own = s.scans.find("");
+                                          protocol::ScanRequest one = own != s.scans.end()
+                                                                          ? own->second
                                                                           : protocol::ScanRequest{};
                                           one.lease_s = lease_s;
                                           return one;
@@ -94,11 +97,8 @@ BoardRequest board_request(const config::HostConfig& host, const RunAsked& asked
                                     },
                                     asked);
   if (const auto* scan = std::get_if<asked::Scan>(&asked)) {
-    // One axis of the config's [rig] axis (""), or a group named in full.
-    if (scan->scans.size() == 1 && scan->scans.begin()->first.empty()) {
-      return {std::move(command), axis, {}, {}};
-    }
-    if (scan->scans.size() == 1) return {std::move(command), scan->scans.begin()->first, {}, {}};
+    // The config's [rig] axis (no name given), or the axes named, by name.
+    if (scan->scans.contains("")) return {std::move(command), axis, {}, {}};
     return {std::move(command), {}, {}, scan->scans};
   }
   const auto* move = std::get_if<asked::Move>(&asked);

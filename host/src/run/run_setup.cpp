@@ -45,9 +45,9 @@ std::vector<std::string> run_axes(const RunAsked& asked, const protocol::Hello& 
   }
   if (const auto* scan = std::get_if<asked::Scan>(&asked)) {
     group_key = wire_key::scans;
-    for (const auto& [axis, one] : scan->scans) group.push_back(axis);
-    // One axis: the name it gave, or the config's [rig] axis.
-    if (group.size() == 1) return {axis_info(hello, group.front().empty() ? named : group.front(), address).name};
+    // A scan of no axis named is the config's [rig] axis's.
+    for (const auto& [axis, one] : scan->scans)
+      group.push_back(axis.empty() ? axis_info(hello, named, address).name : axis);
   }
   if (group.empty()) return {axis_info(hello, named, address).name};
   std::vector<std::string> names, out;
