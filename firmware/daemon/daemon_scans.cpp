@@ -172,9 +172,11 @@ firmware::ScanSettings Daemon::plan_scan(ServedAxis& axis, const protocol::ScanR
                                     axis.name()));
   }
   const protocol::CalibrationRecord& cal = *axis.calibration;
-  for (const auto& [a, value] : {std::pair{args::from_rad, r.from_rad}, std::pair{args::to_rad, r.to_rad}}) {
+  for (const auto& [a, value] :
+       {std::pair{args::from_rad, r.from_rad}, std::pair{args::to_rad, r.to_rad}}) {
     if (!a.allowed.admits(value)) {
-      throw out_of_limits(a.name, fmt::format("{:g} rad; allowed: {} rad", value, a.allowed.text()));
+      throw out_of_limits(a.name,
+                          fmt::format("{:g} rad; allowed: {} rad", value, a.allowed.text()));
     }
   }
   if (r.to_rad == r.from_rad) {
@@ -199,8 +201,7 @@ firmware::ScanSettings Daemon::plan_scan(ServedAxis& axis, const protocol::ScanR
                                double fallback) {
     const double value = v.value_or(fallback);
     if (!a.allowed.admits(value)) {
-      throw out_of_limits(a.name,
-                          fmt::format("{:g} s; allowed: {} s", value, a.allowed.text()));
+      throw out_of_limits(a.name, fmt::format("{:g} s; allowed: {} s", value, a.allowed.text()));
     }
     return value;
   };
@@ -225,15 +226,16 @@ firmware::ScanSettings Daemon::plan_scan(ServedAxis& axis, const protocol::ScanR
   const double run_down = 0.5 * (range.base_rate + v) * s.deceleration_s + lock;
   const double start = r.from_rad - dir * run_up;
   const double end = r.to_rad + dir * run_down;
-  if (std::min(start, end) < safety.travel_min_rad || std::max(start, end) > safety.travel_max_rad) {
+  if (std::min(start, end) < safety.travel_min_rad ||
+      std::max(start, end) > safety.travel_max_rad) {
     throw out_of_limits(
         (std::min(start, end) < safety.travel_min_rad) == (dir > 0) ? wire_key::from_rad
-                                                                     : wire_key::to_rad,
+                                                                    : wire_key::to_rad,
         fmt::format("the scan with its run-up and run-down reaches [{:.5g}, {:.5g}] rad, outside "
                     "axis {}'s travel window [{:g}, {:g}] rad (safety.travel_min_rad, "
                     "safety.travel_max_rad)",
-                    std::min(start, end), std::max(start, end), axis.name(),
-                    safety.travel_min_rad, safety.travel_max_rad));
+                    std::min(start, end), std::max(start, end), axis.name(), safety.travel_min_rad,
+                    safety.travel_max_rad));
   }
   // The approach: a move to the run-up's start, from either side (the
   // run-up takes up what the arrival left), within a tenth of the run-up.
@@ -269,8 +271,7 @@ firmware::ScanSettings Daemon::plan_scan(ServedAxis& axis, const protocol::ScanR
     const std::optional<double> noise_m =
         cal.noise_m > 0.0 ? std::optional(cal.noise_m) : axis.rest.noise_m();
     if (noise_m) {
-      const double smallest =
-          kStepOverPeakToPeak * kPeakToPeakOverSigma * *noise_m / s.r2_m;
+      const double smallest = kStepOverPeakToPeak * kPeakToPeakOverSigma * *noise_m / s.r2_m;
       if (!(step >= smallest)) {
         throw out_of_limits(
             args::trigger_step_rad.name,
@@ -293,8 +294,9 @@ firmware::ScanSettings Daemon::plan_scan(ServedAxis& axis, const protocol::ScanR
     }
     // Positions up to B: floor(|B - start| / step) + 1 (a rounding's
     // worth of slack, so a span of whole steps ends on a pulse).
-    const auto fit = static_cast<std::uint64_t>(
-        std::floor(std::abs(r.to_rad - t.start_rad) / step * (1.0 + 1e-12) + 1e-9)) + 1;
+    const auto fit = static_cast<std::uint64_t>(std::floor(
+                         std::abs(r.to_rad - t.start_rad) / step * (1.0 + 1e-12) + 1e-9)) +
+                     1;
     const std::uint64_t pulses = r.trigger_pulses.value_or(fit);
     if (pulses > fit || !args::trigger_pulses.allowed.admits(static_cast<double>(pulses))) {
       throw out_of_limits(args::trigger_pulses.name,
@@ -336,9 +338,9 @@ void Daemon::take_pulses(Run& run) {
     if (!part->scan) continue;
     firmware::TriggerPulse p;
     while (part->scan->pulses().try_pop(p)) {
-      protocol::TriggerPulse pulse{p.k, p.position_rad, p.angle_rad,
-                                   1e-9 * static_cast<double>(p.reading_ns - run.t0), p.edge_s,
-                                   p.late};
+      protocol::TriggerPulse pulse{p.k,         p.position_rad,
+                                   p.angle_rad, 1e-9 * static_cast<double>(p.reading_ns - run.t0),
+                                   p.edge_s,    p.late};
       part->pulses.push_back(pulse);
       const protocol::TriggerEvent e{board_id_, run.id, part->axis.name(), pulse};
       const std::string body = protocol::encode_map(e);
@@ -407,10 +409,10 @@ void Daemon::end_scans(Run& run) {
     const double dir = s.to_rad >= s.from_rad ? 1.0 : -1.0;
     const double periods_s = 10.0 / m.mean_f_hz;
     const model::Sawtooth drive(m.mean_fraction * s.V0, m.mean_f_hz, dir > 0 ? s.D : 1.0 - s.D);
-    part->model_velocity_rad_per_s =
-        dir * model::final_angle(part->axis.config.model.motor, drive,
-                                 model::FrictionModel::lugre, periods_s) /
-        periods_s;
+    part->model_velocity_rad_per_s = dir *
+                                     model::final_angle(part->axis.config.model.motor, drive,
+                                                        model::FrictionModel::lugre, periods_s) /
+                                     periods_s;
   }
 }
 

@@ -6,7 +6,9 @@ namespace piezo::firmware {
 
 AcquireLoop::AcquireLoop(hal::Clock& clock, std::vector<AcquireAxis> axes, double rate_hz,
                          LoopHealth& health)
-    : clock_(clock), axes_(std::move(axes)), period_(hal::from_seconds(1.0 / rate_hz)),
+    : clock_(clock),
+      axes_(std::move(axes)),
+      period_(hal::from_seconds(1.0 / rate_hz)),
       health_(health) {}
 
 void AcquireLoop::read(const AcquireAxis& axis) {

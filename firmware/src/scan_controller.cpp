@@ -56,9 +56,8 @@ std::uint8_t ScanController::state_code() const {
     case ScanStage::done:
       return static_cast<std::uint8_t>(MoveState::on_target);
     case ScanStage::failed:
-      return static_cast<std::uint8_t>(fault() == StopCause::stalled
-                                            ? MoveState::stalled
-                                            : MoveState::sensor_implausible);
+      return static_cast<std::uint8_t>(
+          fault() == StopCause::stalled ? MoveState::stalled : MoveState::sensor_implausible);
     default:
       return static_cast<std::uint8_t>(MoveState::coarse);
   }

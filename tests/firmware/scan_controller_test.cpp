@@ -130,10 +130,10 @@ TEST(VelocityBranch, EndsAtThePeak) {
   StepModel::Table small{}, large{};
   small.fill(1e-4);
   large.fill(2e-4);
-  b.add(10.0, large, true);     // 2 mrad/s
-  b.add(20.0, large, true);     // 4 mrad/s
-  b.add(40.0, small, true);     // 4 mrad/s: no faster, past the peak
-  b.add(80.0, large, true);     // after the peak: not on the rising branch
+  b.add(10.0, large, true);  // 2 mrad/s
+  b.add(20.0, large, true);  // 4 mrad/s
+  b.add(40.0, small, true);  // 4 mrad/s: no faster, past the peak
+  b.add(80.0, large, true);  // after the peak: not on the rising branch
   EXPECT_DOUBLE_EQ(b.top(), 4e-3);
   b.add(5.0, large, false);
   EXPECT_DOUBLE_EQ(b.base_rate(), 2e-3) << "an unreliable point is no point";
@@ -190,7 +190,8 @@ TEST(ScanController, ARotorThatStopsFollowingStopsTheScanStalled) {
   // The rotor blocks once the cruise has begun.
   double t = 0.0;
   for (long tick = 0; t < 30.0; ++tick, t += kDt) {
-    if (tick % kTicksPerReading == 0) feed.publish(plant.read(), static_cast<std::int64_t>(t * 1e9));
+    if (tick % kTicksPerReading == 0)
+      feed.publish(plant.read(), static_cast<std::int64_t>(t * 1e9));
     plant.blocked = c.stage() == ScanStage::span;
     plant.drive(c.next_voltage(t, kDt));
     if (c.fault() != StopCause::none || c.finished()) break;
@@ -209,7 +210,8 @@ TEST(ScanController, ARotorFarAheadOfItsReferenceStopsTheScanImplausible) {
   // holds it back.
   double t = 0.0;
   for (long tick = 0; t < 30.0; ++tick, t += kDt) {
-    if (tick % kTicksPerReading == 0) feed.publish(plant.read(), static_cast<std::int64_t>(t * 1e9));
+    if (tick % kTicksPerReading == 0)
+      feed.publish(plant.read(), static_cast<std::int64_t>(t * 1e9));
     if (c.stage() == ScanStage::span) plant.theta += 5 * 0.02 * kDt;
     plant.drive(c.next_voltage(t, kDt));
     if (c.fault() != StopCause::none || c.finished()) break;

@@ -167,9 +167,13 @@ void check_rig_devices(const std::string& chip) {
     ok = ok && read_line(bit) == static_cast<int>((0xC5u >> bit) & 1u);
   check(ok, "GpiodParallelDac (as built from a config) latches code 0xC5 on lines 0..7");
 
-  hal::gpiod::GpiodLinesSettings line_settings{
-      .chip = chip, .enable_offset = 10, .sync_offset = 11, .estop_offset = 12,
-      .trigger_offsets = {}, .gpio = {}, .triggers = {}};
+  hal::gpiod::GpiodLinesSettings line_settings{.chip = chip,
+                                               .enable_offset = 10,
+                                               .sync_offset = 11,
+                                               .estop_offset = 12,
+                                               .trigger_offsets = {},
+                                               .gpio = {},
+                                               .triggers = {}};
   const auto lines = hal::gpiod::open_rig_lines(line_settings, "gpio-sim-check");
   const bool idle = read_line(10) == 0;
   (void)lines->set_amplifier_enable(true);

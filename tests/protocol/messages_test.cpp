@@ -276,12 +276,14 @@ TEST(Messages, EventsAndSummariesRoundTrip) {
   EXPECT_EQ(json(over_the_wire(idle)), json(idle));
   EXPECT_TRUE(json(idle).at("run").is_null()) << "nil, as documented";
 
-  HealthEvent h{BoardState::running,        99,   a_health(true), a_health(true),
-                std::vector{a_move(false)}, std::nullopt, 0.25, "5eed",         std::vector{a_rest()}};
+  HealthEvent h{BoardState::running,        99,           a_health(true), a_health(true),
+                std::vector{a_move(false)}, std::nullopt, 0.25,           "5eed",
+                std::vector{a_rest()}};
   EXPECT_EQ(json(over_the_wire(h)), json(h));
   EXPECT_FALSE(json(h).contains("move")) << "a move of one axis is in `moves` too";
-  HealthEvent quiet{BoardState::idle, 1,      std::nullopt, std::nullopt, std::nullopt,
-                    std::nullopt,     std::nullopt, "5eed",   {}};
+  HealthEvent quiet{
+      BoardState::idle, 1, std::nullopt, std::nullopt, std::nullopt, std::nullopt, std::nullopt,
+      "5eed",           {}};
   EXPECT_EQ(json(over_the_wire(quiet)), json(quiet));
 }
 
@@ -430,8 +432,8 @@ TEST(Messages, AMovesAccountAndAStartsReplyRoundTrip) {
   EXPECT_EQ(json(a_move(true)).at("stop_cause"), "on_target");
   EXPECT_EQ(json(a_move(true)).at("state"), "on_target");
 
-  StartReply plain{7,           1'000,        0.5,         4.8, std::nullopt,
-                   std::nullopt, std::nullopt, std::nullopt, std::nullopt};
+  StartReply plain{
+      7, 1'000, 0.5, 4.8, std::nullopt, std::nullopt, std::nullopt, std::nullopt, std::nullopt};
   EXPECT_EQ(json(over_the_wire(plain)), json(plain));
   EXPECT_EQ(json(plain).size(), 4u) << json(plain).dump();
   StartReply step = plain;

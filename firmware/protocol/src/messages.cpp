@@ -185,10 +185,12 @@ struct Fields<MoveAccount> {
 template <>
 struct Fields<TriggerPulse> {
   using T = TriggerPulse;
-  static constexpr auto list =
-      std::tuple{field(wire_key::k, &T::k),           field(wire_key::position_rad, &T::position_rad),
-                 field(wire_key::angle_rad, &T::angle_rad), field("reading_s", &T::reading_s),
-                 field("edge_s", &T::edge_s),         field(wire_key::late, &T::late)};
+  static constexpr auto list = std::tuple{field(wire_key::k, &T::k),
+                                          field(wire_key::position_rad, &T::position_rad),
+                                          field(wire_key::angle_rad, &T::angle_rad),
+                                          field("reading_s", &T::reading_s),
+                                          field("edge_s", &T::edge_s),
+                                          field(wire_key::late, &T::late)};
 };
 template <>
 struct Fields<TriggerEvent> {
@@ -200,35 +202,35 @@ struct Fields<TriggerEvent> {
 template <>
 struct Fields<ScanAccount::Triggers> {
   using T = ScanAccount::Triggers;
-  static constexpr auto list = std::tuple{
-      field("start_rad", &T::start_rad),         field("step_rad", &T::step_rad),
-      field("width_s", &T::width_s),             field("pre_start_rad", &T::pre_start_rad),
-      field(wire_key::pulses, &T::pulses),       field("fired", &T::fired),
-      field(wire_key::late, &T::late),           field("unreported", &T::unreported)};
+  static constexpr auto list =
+      std::tuple{field("start_rad", &T::start_rad),   field("step_rad", &T::step_rad),
+                 field("width_s", &T::width_s),       field("pre_start_rad", &T::pre_start_rad),
+                 field(wire_key::pulses, &T::pulses), field("fired", &T::fired),
+                 field(wire_key::late, &T::late),     field("unreported", &T::unreported)};
 };
 template <>
 struct Fields<ScanAccount> {
   using T = ScanAccount;
-  static constexpr auto list = std::tuple{
-      field(wire_key::axis, &T::axis),
-      field(wire_key::from_rad, &T::from_rad),
-      field(wire_key::to_rad, &T::to_rad),
-      field(wire_key::velocity_rad_per_s, &T::velocity_rad_per_s),
-      field(firmware::arguments::acceleration_s.name, &T::acceleration_s),
-      field(firmware::arguments::deceleration_s.name, &T::deceleration_s),
-      field("run_up_from_rad", &T::run_up_from_rad),
-      field(wire_key::zero_displacement_m, &T::zero_displacement_m),
-      field("stage", &T::stage),
-      field(wire_key::position_rad, &T::position_rad),
-      field("measured_velocity_rad_per_s", &T::measured_velocity_rad_per_s),
-      field("ripple_rad_per_s", &T::ripple_rad_per_s),
-      field("ripple_10_rad_per_s", &T::ripple_10_rad_per_s),
-      field("mean_f_hz", &T::mean_f_hz),
-      field("mean_V", &T::mean_V),
-      field("model_velocity_rad_per_s", &T::model_velocity_rad_per_s),
-      field(wire_key::triggers, &T::triggers),
-      field(wire_key::pulses, &T::pulses, omitted_when_absent),
-      field(wire_key::stop_cause, &T::stop_cause, omitted_when_absent)};
+  static constexpr auto list =
+      std::tuple{field(wire_key::axis, &T::axis),
+                 field(wire_key::from_rad, &T::from_rad),
+                 field(wire_key::to_rad, &T::to_rad),
+                 field(wire_key::velocity_rad_per_s, &T::velocity_rad_per_s),
+                 field(firmware::arguments::acceleration_s.name, &T::acceleration_s),
+                 field(firmware::arguments::deceleration_s.name, &T::deceleration_s),
+                 field("run_up_from_rad", &T::run_up_from_rad),
+                 field(wire_key::zero_displacement_m, &T::zero_displacement_m),
+                 field("stage", &T::stage),
+                 field(wire_key::position_rad, &T::position_rad),
+                 field("measured_velocity_rad_per_s", &T::measured_velocity_rad_per_s),
+                 field("ripple_rad_per_s", &T::ripple_rad_per_s),
+                 field("ripple_10_rad_per_s", &T::ripple_10_rad_per_s),
+                 field("mean_f_hz", &T::mean_f_hz),
+                 field("mean_V", &T::mean_V),
+                 field("model_velocity_rad_per_s", &T::model_velocity_rad_per_s),
+                 field(wire_key::triggers, &T::triggers),
+                 field(wire_key::pulses, &T::pulses, omitted_when_absent),
+                 field(wire_key::stop_cause, &T::stop_cause, omitted_when_absent)};
 };
 template <>
 struct Fields<RunSummary::Samples> {

@@ -27,7 +27,6 @@ std::vector<int> GpioDigitalLines::idle_levels(const GpioLinesSettings& s,
   return levels;
 }
 
-
 GpioDigitalLines::GpioDigitalLines(const GpioLinesSettings& settings, OutputLineGroup& outputs,
                                    InputLine* estop, GpioTriggerLines triggers)
     : settings_(settings),

@@ -11,9 +11,9 @@
 #include <map>
 #include <set>
 
+#include "exit_codes.hpp"
 #include "piezo/config/config_error.hpp"
 #include "piezo/firmware/wire_keys.hpp"
-#include "exit_codes.hpp"
 #include "run_command.hpp"
 
 namespace piezo::host {
@@ -67,8 +67,8 @@ asked::Scan scan_request(const ScanOptions& s, const RunOptions& o) {
   std::set<std::string> axes;
   for (const auto* m : {&from, &to, &velocity})
     for (const auto& [axis, value] : *m) axes.insert(axis);
-  const bool named = std::any_of(axes.begin(), axes.end(),
-                                 [](const std::string& axis) { return !axis.empty(); });
+  const bool named =
+      std::any_of(axes.begin(), axes.end(), [](const std::string& axis) { return !axis.empty(); });
   if (named && axes.contains("")) {
     throw config::ConfigError("--from/--to/--velocity", "",
                               "give a plain value for one axis, or AXIS=VALUE for every axis of a "
@@ -163,12 +163,9 @@ nlohmann::json scan_json(const FinishedRun& run, bool scanned) {
     a.pulses.reset();
     scans[a.axis] = a;
   }
-  return {{"scanned", scanned},
-          {"stop_cause", run.summary.stop_cause()},
-          {wire_key::scans, scans},
-          {"run_dir", run.dir.string()},
-          {"log", run.log.string()},
-          {"run", run.result}};
+  return {{"scanned", scanned},      {"stop_cause", run.summary.stop_cause()},
+          {wire_key::scans, scans},  {"run_dir", run.dir.string()},
+          {"log", run.log.string()}, {"run", run.result}};
 }
 
 void add_per_axis(CLI::App& cmd, const std::string& name, PerAxis& p, const std::string& doc,
@@ -198,8 +195,8 @@ void add_scan_command(CLI::App& app, Commands& commands) {
                "A trigger pulse each time the measured angle passes the next multiple of this "
                "from the start [rad] (default: no triggers)",
                false);
-  add_per_axis(*cmd, "--trigger-start", s->start, "The first pulse's position [rad] (default: --from)",
-               false);
+  add_per_axis(*cmd, "--trigger-start", s->start,
+               "The first pulse's position [rad] (default: --from)", false);
   cmd->add_option("--trigger-pulses", s->pulses,
                   "Pulses (default: every position up to --to); AXIS=VALUE (repeated) for each "
                   "axis");
@@ -211,27 +208,26 @@ void add_scan_command(CLI::App& app, Commands& commands) {
                   "piezod's address (default: [rig] address, or in-process)",
                   "Print one JSON object: scanned, stop_cause, scans (each axis's account), "
                   "run_dir, log and the run");
-  RunProgram program{[s, o](config::ConfigFile& config) {
-                       asked::Scan scan = scan_request(*s, *o);
-                       config.host.run.duration_s = host_duration_s(scan);
-                       return scan;
-                     },
-                     [](const FinishedRun& run) {
-                       bool scanned = !run.summary.board.axes.empty();
-                       for (const auto& axis : run.summary.board.axes) {
-                         scanned = scanned && axis.scan &&
-                                   axis.scan->stop_cause == firmware::MoveEnd::on_target;
-                       }
-                       write_out(stdout, run.options.json
-                                             ? scan_json(run, scanned).dump() + "\n"
-                                             : scan_text(run) + summary_text(run.summary, run.log,
-                                                                             run.signal, nullptr));
-                       if (run.summary.output_state() != "confirmed") {
-                         write_out(stderr, "piezo: " + output_line(run.summary) + "\n");
-                       }
-                       if (exit_code(run.summary) != 0) return exit_code(run.summary);
-                       return scanned ? 0 : kExitFailed;
-                     }};
+  RunProgram program{
+      [s, o](config::ConfigFile& config) {
+        asked::Scan scan = scan_request(*s, *o);
+        config.host.run.duration_s = host_duration_s(scan);
+        return scan;
+      },
+      [](const FinishedRun& run) {
+        bool scanned = !run.summary.board.axes.empty();
+        for (const auto& axis : run.summary.board.axes) {
+          scanned = scanned && axis.scan && axis.scan->stop_cause == firmware::MoveEnd::on_target;
+        }
+        write_out(stdout, run.options.json ? scan_json(run, scanned).dump() + "\n"
+                                           : scan_text(run) + summary_text(run.summary, run.log,
+                                                                           run.signal, nullptr));
+        if (run.summary.output_state() != "confirmed") {
+          write_out(stderr, "piezo: " + output_line(run.summary) + "\n");
+        }
+        if (exit_code(run.summary) != 0) return exit_code(run.summary);
+        return scanned ? 0 : kExitFailed;
+      }};
   commands.add(cmd, run_command(cmd, o, std::move(program)));
 }
 

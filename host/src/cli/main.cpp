@@ -52,15 +52,14 @@ int main(int argc, char** argv) {
                        std::string("piezo ") + PIEZO_VERSION + " (" + PIEZO_BUILD_INFO + ")");
   app.require_subcommand(1);
   piezo::host::Commands commands;
-  for (const auto add :
-       {piezo::host::add_simulate_command, piezo::host::add_sensitivity_command,
-        piezo::host::add_sweep_command, piezo::host::add_run_command, piezo::host::add_step_command,
-        piezo::host::add_move_command, piezo::host::add_scan_command,
-        piezo::host::add_calibrate_command,
-        piezo::host::add_view_command, piezo::host::add_report_command,
-        piezo::host::add_recover_command, piezo::host::add_sensor_command,
-        piezo::host::add_rig_sim_command, piezo::host::add_identify_command,
-        piezo::host::add_compare_command, piezo::host::add_board_commands}) {
+  for (const auto add : {piezo::host::add_simulate_command, piezo::host::add_sensitivity_command,
+                         piezo::host::add_sweep_command, piezo::host::add_run_command,
+                         piezo::host::add_step_command, piezo::host::add_move_command,
+                         piezo::host::add_scan_command, piezo::host::add_calibrate_command,
+                         piezo::host::add_view_command, piezo::host::add_report_command,
+                         piezo::host::add_recover_command, piezo::host::add_sensor_command,
+                         piezo::host::add_rig_sim_command, piezo::host::add_identify_command,
+                         piezo::host::add_compare_command, piezo::host::add_board_commands}) {
     add(app, commands);
   }
   try {

@@ -70,32 +70,31 @@ BoardRequest board_request(const config::HostConfig& host, const RunAsked& asked
   const auto& drive = host.model.drive;
   const std::optional<std::string> axis =
       host.board.axis.empty() ? std::nullopt : std::optional(host.board.axis);
-  BoardCommand command = std::visit(Overload{
-                                        [&](const asked::Timed&) -> BoardCommand {
-                                          return TimedRun{{drive, host.run.duration_s}, {lease_s}};
-                                        },
-                                        [&](const asked::Periods& p) -> BoardCommand {
-                                          return protocol::StepRequest{p.count, drive, lease_s};
-                                        },
-                                        [&](const asked::Move& m) -> BoardCommand {
-                                          return protocol::MoveToRequest{
-                                              m, m.V0, m.f, drive.C_dr, drive.e_dr, lease_s};
-                                        },
-                                        [&](const asked::Calibration& c) -> BoardCommand {
-                                          return protocol::CalibrateRequest{c.V0, lease_s};
-                                        },
-                                        [&](const asked::Scan& s) -> BoardCommand {
-                                          // The config's axis's (no name),
-                                          // else each named axis's in `scans`.
-                                          const auto own = s.scans.find("");
-                                          protocol::ScanRequest one = own != s.scans.end()
-                                                                          ? own->second
-                                                                          : protocol::ScanRequest{};
-                                          one.lease_s = lease_s;
-                                          return one;
-                                        },
-                                    },
-                                    asked);
+  BoardCommand command = std::visit(
+      Overload{
+          [&](const asked::Timed&) -> BoardCommand {
+            return TimedRun{{drive, host.run.duration_s}, {lease_s}};
+          },
+          [&](const asked::Periods& p) -> BoardCommand {
+            return protocol::StepRequest{p.count, drive, lease_s};
+          },
+          [&](const asked::Move& m) -> BoardCommand {
+            return protocol::MoveToRequest{m, m.V0, m.f, drive.C_dr, drive.e_dr, lease_s};
+          },
+          [&](const asked::Calibration& c) -> BoardCommand {
+            return protocol::CalibrateRequest{c.V0, lease_s};
+          },
+          [&](const asked::Scan& s) -> BoardCommand {
+            // The config's axis's (no name),
+            // else each named axis's in `scans`.
+            const auto own = s.scans.find("");
+            protocol::ScanRequest one =
+                own != s.scans.end() ? own->second : protocol::ScanRequest{};
+            one.lease_s = lease_s;
+            return one;
+          },
+      },
+      asked);
   if (const auto* scan = std::get_if<asked::Scan>(&asked)) {
     // The config's [rig] axis (no name given), or the axes named, by name.
     if (scan->scans.contains("")) return {std::move(command), axis, {}, {}};

@@ -10,8 +10,8 @@
 namespace piezo::host::view {
 namespace {
 
-constexpr std::array<std::string_view, 6> kNames{wire_key::drive, "measured",  "observer",
-                                                 "open_loop",     "residual",  wire_key::triggers};
+constexpr std::array<std::string_view, 6> kNames{wire_key::drive, "measured", "observer",
+                                                 "open_loop",     "residual", wire_key::triggers};
 enum : std::size_t { kDrive, kMeasured, kObserver, kOpenLoop, kResidual, kTriggers };
 /// The zoom (thousands of full-rate samples) and changed loop histograms go
 /// with every fourth event: about once a second, which is most of what a

@@ -33,10 +33,10 @@ struct CompareSettings {
 /// A pulse as it went out.
 struct TriggerPulse {
   std::uint32_t k = 0;
-  double position_rad = 0.0;  ///< start + k * step * direction
-  double angle_rad = 0.0;     ///< the filtered angle that passed it
+  double position_rad = 0.0;    ///< start + k * step * direction
+  double angle_rad = 0.0;       ///< the filtered angle that passed it
   std::int64_t reading_ns = 0;  ///< that reading's time (the board's clock)
-  double edge_s = 0.0;        ///< its rising edge [s from the run's time origin]
+  double edge_s = 0.0;          ///< its rising edge [s from the run's time origin]
   bool late = false;  ///< not the only position its reading passed, or it waited for another pulse
 };
 

@@ -137,9 +137,19 @@ inline constexpr Argument fetch_count{wire_key::count,
                                       ArgumentType::integer};
 
 // A scan's (`scan`): a constant-velocity move with position-compare triggers.
-inline constexpr Argument from_rad{wire_key::from_rad, "rad", {-10.0, 10.0}, "", "",
-                                   "required", "A: where the span at constant velocity begins"};
-inline constexpr Argument to_rad{wire_key::to_rad, "rad", {-10.0, 10.0}, "", "", "required",
+inline constexpr Argument from_rad{wire_key::from_rad,
+                                   "rad",
+                                   {-10.0, 10.0},
+                                   "",
+                                   "",
+                                   "required",
+                                   "A: where the span at constant velocity begins"};
+inline constexpr Argument to_rad{wire_key::to_rad,
+                                 "rad",
+                                 {-10.0, 10.0},
+                                 "",
+                                 "",
+                                 "required",
                                  "B: where it ends (either side of A)"};
 inline constexpr Argument velocity_rad_per_s{
     wire_key::velocity_rad_per_s,
@@ -151,27 +161,55 @@ inline constexpr Argument velocity_rad_per_s{
     "the mean velocity over A..B, within the axis's `base_rate_rad_per_s` .. "
     "`velocity_max_rad_per_s` (hello, from its calibration)"};
 inline constexpr Argument acceleration_s{
-    "acceleration_s", "s", {0.0, 60.0}, "", "", "0.2",
+    "acceleration_s",
+    "s",
+    {0.0, 60.0},
+    "",
+    "",
+    "0.2",
     "the run-up before A: from the base rate to the velocity in this time"};
 inline constexpr Argument deceleration_s{
-    "deceleration_s", "s", {0.0, 60.0}, "", "", "`acceleration_s`",
+    "deceleration_s",
+    "s",
+    {0.0, 60.0},
+    "",
+    "",
+    "`acceleration_s`",
     "the run-down after B: from the velocity to the base rate in this time"};
 inline constexpr Argument trigger_step_rad{
-    "trigger_step_rad", "rad", {0.0, kOpen, true}, "", "", "none: no triggers",
+    "trigger_step_rad",
+    "rad",
+    {0.0, kOpen, true},
+    "",
+    "",
+    "none: no triggers",
     "a pulse each time the measured angle passes start + k·step; at least 5 times the "
     "sensor's peak-to-peak noise (6 standard deviations of a reading)"};
 inline constexpr Argument trigger_start_rad{
-    "trigger_start_rad", "rad", {-10.0, 10.0}, "", "", "`from_rad`",
-    "the first pulse's position"};
-inline constexpr Argument trigger_pulses{
-    "trigger_pulses", "", {1.0, 1'000'000.0}, "", "", "up to `to_rad`: floor(abs(to_rad − start) / step) + 1",
-    "positions k = 0 .. pulses - 1",
-    ArgumentType::integer};
+    "trigger_start_rad", "rad", {-10.0, 10.0}, "", "", "`from_rad`", "the first pulse's position"};
+inline constexpr Argument trigger_pulses{"trigger_pulses",
+                                         "",
+                                         {1.0, 1'000'000.0},
+                                         "",
+                                         "",
+                                         "up to `to_rad`: floor(abs(to_rad − start) / step) + 1",
+                                         "positions k = 0 .. pulses - 1",
+                                         ArgumentType::integer};
 inline constexpr Argument trigger_width_s{
-    "trigger_width_s", "s", {0.0, 1.0, true}, "", "", "0.001",
+    "trigger_width_s",
+    "s",
+    {0.0, 1.0, true},
+    "",
+    "",
+    "0.001",
     "each pulse's high time (and the least low time before the next)"};
 inline constexpr Argument trigger_pre_start_rad{
-    "trigger_pre_start_rad", "rad", {0.0, kOpen}, "", "", "0",
+    "trigger_pre_start_rad",
+    "rad",
+    {0.0, kOpen},
+    "",
+    "",
+    "0",
     "armed only once the angle was this far before the start"};
 
 }  // namespace arguments

@@ -51,10 +51,10 @@ struct ScanSettings {
   double velocity_rad_per_s = 0.0;      ///< v (> 0) over A..B
   double acceleration_s = 0.0;          ///< from the base rate to v, before A
   double deceleration_s = 0.0;          ///< from v to the base rate, after B
-  double zero_displacement_m = 0.0;  ///< the axis's zero (known: the approach's too)
+  double zero_displacement_m = 0.0;     ///< the axis's zero (known: the approach's too)
   double r2_m = hal::kDefaultSensorRadius_m;
-  double V0 = 80.0;      ///< the sawtooth's full amplitude [V]
-  double D = 0.74955;    ///< forward rise fraction (reverse: 1 - D)
+  double V0 = 80.0;    ///< the sawtooth's full amplitude [V]
+  double D = 0.74955;  ///< forward rise fraction (reverse: 1 - D)
   double sensor_rate_hz = 1000.0;
   double lag_limit_s = 1.0;
   VelocityBranch branch;  ///< in the scan's direction
@@ -67,12 +67,12 @@ struct ScanSettings {
 
 /// What the span measured, once the scan passed B.
 struct ScanMeasured {
-  double velocity_rad_per_s = 0.0;  ///< (B - A) over the time between the crossings
-  double ripple_rad_per_s = 0.0;    ///< standard deviation of the velocity per period
-  double ripple_10_rad_per_s = 0.0; ///< ... of the velocity over ten periods
-  double mean_f_hz = 0.0;           ///< the mean drive frequency over the span
-  double mean_fraction = 0.0;       ///< the mean amplitude (of V0) over the span
-  std::uint32_t periods = 0;        ///< drive periods in the span
+  double velocity_rad_per_s = 0.0;   ///< (B - A) over the time between the crossings
+  double ripple_rad_per_s = 0.0;     ///< standard deviation of the velocity per period
+  double ripple_10_rad_per_s = 0.0;  ///< ... of the velocity over ten periods
+  double mean_f_hz = 0.0;            ///< the mean drive frequency over the span
+  double mean_fraction = 0.0;        ///< the mean amplitude (of V0) over the span
+  std::uint32_t periods = 0;         ///< drive periods in the span
 };
 
 class ScanController final : public DriveProgram {
@@ -122,9 +122,9 @@ class ScanController final : public DriveProgram {
   const PositionFeed& feed_;
   MoveController approach_;
   PositionCompare compare_;
-  double dir_ = 1.0;   ///< +1 from < to
-  double rise_ = 0.5;  ///< the sawtooth's rise fraction in the scan's direction
-  double lag_s_ = 0.0; ///< the filtered angle's lag behind the rotor
+  double dir_ = 1.0;    ///< +1 from < to
+  double rise_ = 0.5;   ///< the sawtooth's rise fraction in the scan's direction
+  double lag_s_ = 0.0;  ///< the filtered angle's lag behind the rotor
   // readings
   std::uint64_t seen_ = 0;
   ReadingWindow window_;

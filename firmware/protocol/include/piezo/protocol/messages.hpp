@@ -202,27 +202,25 @@ struct ScanRequest {
   static constexpr std::string_view kCommand = wire_key::scan;
   double from_rad = 0.0, to_rad = 0.0, velocity_rad_per_s = 0.0;
   std::optional<double> acceleration_s, deceleration_s;
-  std::optional<double> trigger_step_rad, trigger_start_rad, trigger_width_s,
-      trigger_pre_start_rad;
+  std::optional<double> trigger_step_rad, trigger_start_rad, trigger_width_s, trigger_pre_start_rad;
   std::optional<std::uint64_t> trigger_pulses;
   std::optional<double> lease_s;
 };
 template <>
 struct RequestFields<ScanRequest> {
   using T = ScanRequest;
-  static constexpr auto list =
-      std::tuple{argument_field(firmware::arguments::from_rad, &T::from_rad),
-                 argument_field(firmware::arguments::to_rad, &T::to_rad),
-                 argument_field(firmware::arguments::velocity_rad_per_s, &T::velocity_rad_per_s),
-                 argument_field(firmware::arguments::acceleration_s, &T::acceleration_s),
-                 argument_field(firmware::arguments::deceleration_s, &T::deceleration_s),
-                 argument_field(firmware::arguments::trigger_step_rad, &T::trigger_step_rad),
-                 argument_field(firmware::arguments::trigger_start_rad, &T::trigger_start_rad),
-                 argument_field(firmware::arguments::trigger_pulses, &T::trigger_pulses),
-                 argument_field(firmware::arguments::trigger_width_s, &T::trigger_width_s),
-                 argument_field(firmware::arguments::trigger_pre_start_rad,
-                                &T::trigger_pre_start_rad),
-                 argument_field(firmware::arguments::lease_s, &T::lease_s)};
+  static constexpr auto list = std::tuple{
+      argument_field(firmware::arguments::from_rad, &T::from_rad),
+      argument_field(firmware::arguments::to_rad, &T::to_rad),
+      argument_field(firmware::arguments::velocity_rad_per_s, &T::velocity_rad_per_s),
+      argument_field(firmware::arguments::acceleration_s, &T::acceleration_s),
+      argument_field(firmware::arguments::deceleration_s, &T::deceleration_s),
+      argument_field(firmware::arguments::trigger_step_rad, &T::trigger_step_rad),
+      argument_field(firmware::arguments::trigger_start_rad, &T::trigger_start_rad),
+      argument_field(firmware::arguments::trigger_pulses, &T::trigger_pulses),
+      argument_field(firmware::arguments::trigger_width_s, &T::trigger_width_s),
+      argument_field(firmware::arguments::trigger_pre_start_rad, &T::trigger_pre_start_rad),
+      argument_field(firmware::arguments::lease_s, &T::lease_s)};
 };
 
 /// `lease`'s arguments: the drive samples the controller has logged (its
@@ -312,7 +310,7 @@ struct ScanAccount {
   double run_up_from_rad = 0.0;  ///< where the approach took it, before A
   /// The axis's zero its angles (and its pulses') are from: (d - it) / r2_m.
   std::optional<double> zero_displacement_m;
-  std::string stage;             ///< approach, run_up, span, run_down, done, failed
+  std::string stage;  ///< approach, run_up, span, run_down, done, failed
   std::optional<double> position_rad;
   /// Over the span, once passed: (B - A) over the time between the readings
   /// that crossed A and B, the standard deviation of the velocity per drive
@@ -375,7 +373,7 @@ struct StartReply {
     std::optional<double> zero_displacement_m;
     MoveToRequest request;
   };
-  std::optional<std::vector<Move>> moves;  ///< a move's, one per axis it moves
+  std::optional<std::vector<Move>> moves;         ///< a move's, one per axis it moves
   std::optional<std::vector<ScanAccount>> scans;  ///< a scan's, one per axis, as taken
   /// A calibration's: its V0, the frequencies it steps at, the steps per point.
   struct Calibration {
@@ -598,8 +596,7 @@ template <class T>
 /// The requests whose arguments the docs' tables list, each by its command
 /// (`kCommand`); a new command's request goes here.
 using DocumentedRequests = std::tuple<ConfigureRequest, StartRequest, StepRequest, CalibrateRequest,
-                                      ScanRequest,
-                                      LeaseRequest, FetchRequest>;
+                                      ScanRequest, LeaseRequest, FetchRequest>;
 
 // The enums the wire carries become their names wherever one is put into a
 // JSON value (nlohmann would write the number otherwise).

@@ -76,9 +76,9 @@ class GpioDigitalLines final : public DigitalLines {
   InputLine* estop_;
   bool enabled_ = false;
   bool sync_ = false;
-  std::vector<bool> triggers_;  ///< asserted, per entry of trigger_axes
-  std::vector<int> levels_;     ///< the group's, sized once
-  std::vector<int> off_;        ///< the group's with every output inactive
+  std::vector<bool> triggers_;               ///< asserted, per entry of trigger_axes
+  std::vector<int> levels_;                  ///< the group's, sized once
+  std::vector<int> off_;                     ///< the group's with every output inactive
   std::atomic<bool> tripped_{false};         ///< by the e-stop input: until reset_estop()
   std::atomic<bool> remote_tripped_{false};  ///< by trip(): until the next enable
   std::atomic<bool> trip_write_failed_{false};

@@ -3,9 +3,9 @@
 /// Simulated digital lines: the amplifier enable goes to every plant's
 /// amplifier (one enable for the board's axes),
 /// sync pulses are counted, each axis has a trigger line whose history
-/// (its rising edges, and when the latest came) is kept, and the e-stop can be pressed at a set time and
-/// held, as an operator holds the button: the board latches the press, and
-/// its reset is refused until the button is released.
+/// (its rising edges, and when the latest came) is kept, and the e-stop can be pressed at a set
+/// time and held, as an operator holds the button: the board latches the press, and its reset is
+/// refused until the button is released.
 
 #include <atomic>
 #include <limits>
