@@ -292,12 +292,27 @@ firmware::ScanSettings Daemon::plan_scan(ServedAxis& axis, const protocol::ScanR
                           fmt::format("{:g} rad; allowed: from from_rad to to_rad ({:g} .. {:g})",
                                       t.start_rad, r.from_rad, r.to_rad));
     }
-    // Positions up to B: floor(|B - start| / step) + 1 (a rounding's
-    // worth of slack, so a span of whole steps ends on a pulse).
-    const auto fit = static_cast<std::uint64_t>(std::floor(
-                         std::abs(r.to_rad - t.start_rad) / step * (1.0 + 1e-12) + 1e-9)) +
-                     1;
-    const std::uint64_t pulses = r.trigger_pulses.value_or(fit);
+    // The pulses up to the end (B unless given): floor(|end - start| /
+    // step) + 1, a rounding's worth of slack so that a span of whole steps
+    // ends on a pulse.
+    if (r.trigger_end_rad && r.trigger_pulses) {
+      throw ProtocolError(
+          code::bad_argument, args::trigger_end_rad.name,
+          "scan: trigger_end_rad: give trigger_pulses or trigger_end_rad, not both");
+    }
+    const double last = r.trigger_end_rad.value_or(r.to_rad);
+    if (dir * (last - t.start_rad) < 0.0 || dir * (last - r.to_rad) > 0.0) {
+      throw out_of_limits(args::trigger_end_rad.name,
+                          fmt::format("{:g} rad; allowed: from the start ({:g}) to to_rad ({:g})",
+                                      last, t.start_rad, r.to_rad));
+    }
+    const auto up_to = [&](double position) {
+      return static_cast<std::uint64_t>(
+                 std::floor(std::abs(position - t.start_rad) / step * (1.0 + 1e-12) + 1e-9)) +
+             1;
+    };
+    const std::uint64_t fit = up_to(r.to_rad);
+    const std::uint64_t pulses = r.trigger_pulses.value_or(up_to(last));
     if (pulses > fit || !args::trigger_pulses.allowed.admits(static_cast<double>(pulses))) {
       throw out_of_limits(args::trigger_pulses.name,
                           fmt::format("{}; allowed: 1 to {} (positions up to to_rad)", pulses,

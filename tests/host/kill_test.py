@@ -2,7 +2,7 @@
 """kill -9 at random instants, and nothing flushed is lost.
 
 usage: kill_test.py PIEZO PIEZOD SOURCE_DIR WORK_DIR [--kills N] [--daemon-kills M]
-                    [--group-kills G] [--seed S] [--port P]
+                    [--group-kills G] [--scan-kills K] [--seed S] [--port P]
 
 1. `piezo run` on the virtual clock (deterministic: every run writes the same
    samples), killed with SIGKILL at N instants drawn uniformly over a run's
@@ -19,6 +19,10 @@ usage: kill_test.py PIEZO PIEZOD SOURCE_DIR WORK_DIR [--kills N] [--daemon-kills
    killed at G instants: every log readable after `piezo recover`, and each
    axis's own columns (under /axes/NAME) equally long and a bit-identical
    prefix of that axis's in an unkilled group move.
+4. A fly scan of two axes (`piezo scan`, calibrated first) on the virtual
+   clock, killed at K instants: after `piezo recover`, each axis's trigger
+   pulses (/axes/NAME/triggers) a prefix, pulse by pulse, of those of an
+   unkilled scan, as are its samples.
 
 Prints the figures and exits 1 on the first broken promise, with its reason.
 """
@@ -51,6 +55,7 @@ def option(name, default):
 kills = option("--kills", 200)
 daemon_kills = option("--daemon-kills", 20)
 group_kills = option("--group-kills", 20)
+scan_kills = option("--scan-kills", 12)
 rng = random.Random(option("--seed", 1))
 port = option("--port", 5871)
 config = f"{source}/configs/sim.toml"
@@ -197,6 +202,58 @@ for i in range(group_kills):
     group_classes[cls] = group_classes.get(cls, 0) + 1
 print(f"group moves: {group_kills} kills", flush=True)
 for cls, count in sorted(group_classes.items()):
+    print(f"  {count:4d}  {cls}")
+
+
+# 4. A scan of two axes, killed.
+TRIGGER_COLUMNS = ["k", "angle_rad", "edge_s"]
+SCAN_AXES = ["theta", "phi"]
+calibrated = ["--set", f"piezod.calibration_file={work}/calibration.json"]
+for axis in SCAN_AXES:
+    subprocess.run([piezo, "calibrate", "--config", group_config, *virtual, *calibrated, "--axis",
+                    axis, "--out", f"{work}/calibration-{axis}"], check=True, capture_output=True,
+                   timeout=300)
+scan = [piezo, "scan", "--config", group_config, *virtual, *calibrated, "--from", "theta=0",
+        "--to", "theta=0.03", "--velocity", "theta=0.02", "--from", "phi=0", "--to", "phi=-0.03",
+        "--velocity", "phi=0.03", "--trigger-step", "0.002", "--json"]
+
+
+def triggers(path):
+    with h5py.File(path, "r") as f:
+        return {a: {c: f[f"axes/{a}/triggers/{c}"][:] for c in TRIGGER_COLUMNS} for a in SCAN_AXES}
+
+
+start = time.monotonic()
+subprocess.run([*scan, "--out", f"{work}/scan-reference"], check=True, capture_output=True,
+               timeout=300)
+scan_wall = time.monotonic() - start
+_, scan_reference = read(f"{work}/scan-reference/run.h5", columns_of(SCAN_AXES))
+trigger_reference = triggers(f"{work}/scan-reference/run.h5")
+print(f"scan reference: {[len(trigger_reference[a]['k']) for a in SCAN_AXES]} pulses of "
+      f"{', '.join(SCAN_AXES)} in {scan_wall:.2f} s wall", flush=True)
+scan_classes, kept_pulses = {}, []
+for i in range(scan_kills):
+    run_dir = f"{work}/scan-{i:03d}"
+    p = peers.spawn([*scan, "--out", run_dir], stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL)
+    time.sleep(rng.uniform(0.0, 1.1 * scan_wall))
+    p.send_signal(signal.SIGKILL)
+    p.wait()
+    cls, _ = check_recovered(run_dir, scan_reference, f"scan kill {i}", SCAN_AXES) \
+        if os.path.isdir(run_dir) else ("before the run directory", 0)
+    scan_classes[cls] = scan_classes.get(cls, 0) + 1
+    if cls in ("before the log", "before the run directory", "before the journal's header",
+               "failed"):
+        continue
+    kept = triggers(f"{run_dir}/run.h5")
+    for axis in SCAN_AXES:
+        for c in TRIGGER_COLUMNS:
+            if not is_prefix(kept[axis][c], trigger_reference[axis][c]):
+                fail(f"scan kill {i}: axis {axis}'s triggers/{c} is no prefix of the "
+                     f"unkilled scan's")
+    kept_pulses.append(sum(len(kept[a]["k"]) for a in SCAN_AXES))
+print(f"scans: {scan_kills} kills; pulses kept: {sorted(kept_pulses)}", flush=True)
+for cls, count in sorted(scan_classes.items()):
     print(f"  {count:4d}  {cls}")
 
 

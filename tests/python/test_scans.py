@@ -6,6 +6,7 @@ counted, refusals that move nothing, and the stops every run has."""
 
 import json
 import os
+import subprocess
 
 import h5py
 import numpy as np
@@ -17,6 +18,7 @@ from piezo_rig.board import Board, Run
 from piezo_rig.log import open_run
 
 STEP = 0.002  # rad between trigger positions
+STEP_TEXT = "0.002"
 FILTER = 8    # readings the board averages (docs/protocol.md, "Scans")
 
 
@@ -235,3 +237,39 @@ def test_piezo_scan_logs_each_axis_s_pulses_as_the_board_fired_them(board_addres
     assert logged["scan"]["measured_velocity_rad_per_s"] == pytest.approx(v["theta"], rel=0.05)
     assert out["scans"]["theta"]["triggers"]["width_s"] == 0.0005
     assert out["scans"]["chi"]["triggers"]["width_s"] == 0.001
+
+
+def test_the_pulses_end_where_trigger_end_rad_says(board):
+    base, top = ranges(board)["theta"]
+    with pytest.raises(errors.BadArgument) as refused:
+        board.scan(0.0, 0.04, 0.5 * (base + top), axis="theta", trigger_step_rad=STEP,
+                   trigger_end_rad=0.03, trigger_pulses=4)
+    assert "trigger_end_rad" in str(refused.value)
+    with board.scan(0.0, 0.04, 0.5 * (base + top), axis="theta", trigger_step_rad=STEP,
+                    trigger_end_rad=0.03) as scan:
+        scan.wait()
+    assert [p.k for p in scan.pulses("theta")] == list(range(16))
+    assert scan.pulses("theta")[-1].position_rad == pytest.approx(0.03)
+
+
+def test_an_e_stopped_scan_s_log_is_marked_failed_and_keeps_the_pulses_fired(piezo, tmp_path,
+                                                                           source):
+    """`piezo scan` on the board in its own process, its simulated e-stop
+    pressed mid-scan: the run ends failed at 0 V, and its log holds every
+    pulse the board fired until then, as the board's summary lists them."""
+    config = ["--config", os.path.join(source, "configs", "three-axes.toml"), "--set",
+              f"piezod.calibration_file={tmp_path / 'calibration.json'}"]
+    piezo("calibrate", *config, "--axis", "theta", "--out", str(tmp_path / "calibration"))
+    out = subprocess.run([piezo.binary, "scan", *config, "--set", "lines.sim.estop_at_s=2.5",
+                          "--axis", "theta", "--from", "0", "--to", "0.1", "--velocity", "0.02",
+                          "--trigger-step", STEP_TEXT, "--json", "--out", str(tmp_path / "run")],
+                         capture_output=True, text=True)
+    assert out.returncode == 1, out.stderr
+    result = json.loads(out.stdout)
+    assert result["stop_cause"] == "estop" and not result["scanned"]
+    account = result["scans"]["theta"]
+    assert account["stop_cause"] == "estop" and 0 < account["triggers"]["fired"] < 51
+    log = open_run(tmp_path / "run")
+    assert log.status == "failed" and log.stop_cause == "estop"
+    assert list(log.triggers["k"]) == list(range(account["triggers"]["fired"]))
+    assert log.drive["V"].iloc[-1] == 0.0

@@ -225,6 +225,7 @@ class Key:
     travel_max_rad = "travel_max_rad"
     travel_min_rad = "travel_min_rad"
     trigger = "trigger"
+    trigger_end_rad = "trigger_end_rad"
     trigger_pre_start_rad = "trigger_pre_start_rad"
     trigger_pulses = "trigger_pulses"
     trigger_start_rad = "trigger_start_rad"

@@ -143,6 +143,7 @@ int run(const RecoverOptions& o) {
                                 {"drive_samples", r.drive_rows},
                                 {"sensor_samples", r.sensor_rows},
                                 {"observer_samples", r.observer_rows},
+                                {"trigger_pulses", r.trigger_rows},
                                 {"journal_blocks", r.blocks},
                                 {"torn_bytes", r.torn_bytes},
                                 {"damaged", r.damaged},

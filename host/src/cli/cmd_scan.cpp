@@ -54,7 +54,7 @@ std::map<std::string, double> by_axis(const std::string& option, const PerAxis& 
 }
 
 struct ScanOptions {
-  PerAxis from, to, velocity, acceleration, deceleration, step, start, width, pre_start;
+  PerAxis from, to, velocity, acceleration, deceleration, step, start, end, width, pre_start;
   std::vector<std::string> pulses;
 };
 
@@ -90,7 +90,7 @@ asked::Scan scan_request(const ScanOptions& s, const RunOptions& o) {
   const auto acceleration = by_axis("--acceleration", s.acceleration),
              deceleration = by_axis("--deceleration", s.deceleration),
              step = by_axis("--trigger-step", s.step), start = by_axis("--trigger-start", s.start),
-             width = by_axis("--trigger-width", s.width),
+             end = by_axis("--trigger-end", s.end), width = by_axis("--trigger-width", s.width),
              pre_start = by_axis("--trigger-pre-start", s.pre_start),
              pulses = by_axis("--trigger-pulses", PerAxis{s.pulses});
   asked::Scan out;
@@ -103,6 +103,7 @@ asked::Scan scan_request(const ScanOptions& s, const RunOptions& o) {
     r.deceleration_s = value_for(deceleration, axis, nullptr);
     r.trigger_step_rad = value_for(step, axis, nullptr);
     r.trigger_start_rad = value_for(start, axis, nullptr);
+    r.trigger_end_rad = value_for(end, axis, nullptr);
     r.trigger_width_s = value_for(width, axis, nullptr);
     r.trigger_pre_start_rad = value_for(pre_start, axis, nullptr);
     if (const auto n = value_for(pulses, axis, nullptr)) {
@@ -197,6 +198,10 @@ void add_scan_command(CLI::App& app, Commands& commands) {
                false);
   add_per_axis(*cmd, "--trigger-start", s->start,
                "The first pulse's position [rad] (default: --from)", false);
+  add_per_axis(*cmd, "--trigger-end", s->end,
+               "The last position a pulse may be at [rad] (default: --to; instead of "
+               "--trigger-pulses)",
+               false);
   cmd->add_option("--trigger-pulses", s->pulses,
                   "Pulses (default: every position up to --to); AXIS=VALUE (repeated) for each "
                   "axis");

@@ -141,7 +141,7 @@ LogCopy read_log_copy(const fs::path& log, const std::vector<std::string>& axes)
   return copy;
 }
 
-/// One group (drive, sensor or observer) merged from both copies into
+/// One group (drive, sensor, observer or a scan's triggers) merged from both copies into
 /// `into`: row by row, the journal's value where it holds the row (each
 /// block CRC-checked and written before run.h5's copy; HDF5 killed inside a
 /// flush can leave an extent whose chunk was never written, read back as
@@ -302,7 +302,8 @@ Recovery recover_run(const std::string& run_dir) {
     const std::string group = log_schema::axis_group(copy.axes, i);
     journal_adds = journal_adds || journal_has_more(copy, j.rows[i].drive, group) ||
                    journal_has_more(copy, j.rows[i].sensor, group) ||
-                   journal_has_more(copy, j.rows[i].observer, group);
+                   journal_has_more(copy, j.rows[i].observer, group) ||
+                   journal_has_more(copy, j.rows[i].triggers, group);
   }
   // Whole and final (or whole, still "incomplete", with no journal to add
   // to it: readable up to its last flush): nothing to do.
@@ -322,6 +323,8 @@ Recovery recover_run(const std::string& run_dir) {
         merge_group(copy, from.sensor, one_run, rows[i].sensor, group, "sensor", r.losses);
     r.observer_rows +=
         merge_group(copy, from.observer, one_run, rows[i].observer, group, "observer", r.losses);
+    r.trigger_rows +=
+        merge_group(copy, from.triggers, one_run, rows[i].triggers, group, "triggers", r.losses);
   }
   r.blocks = j.blocks;
   r.torn_bytes = j.torn_bytes;

@@ -19,6 +19,7 @@ struct Recovery {
   bool rebuilt = false;  ///< false: run.h5 was already whole
   std::string status;    ///< run.h5's status afterwards
   std::size_t drive_rows = 0, sensor_rows = 0, observer_rows = 0;  ///< kept
+  std::size_t trigger_rows = 0;                                    ///< a scan's trigger pulses kept
   std::size_t blocks = 0;                                          ///< the journal's whole blocks
   std::uintmax_t torn_bytes = 0;                                   ///< the journal's torn tail
   std::string damaged;  ///< where the replaced run.h5 was kept, if any

@@ -1,9 +1,12 @@
 #pragma once
 /// @file
 /// The latest good sensor reading, from the acquire loop to a controller in
-/// the drive loop: one writer, no lock (a sequence lock on atomics). A
-/// reader that sees the count change reads the reading published with it,
-/// or a newer one, whole: its displacement with its own time.
+/// the drive loop: one writer, no lock (a sequence lock on atomics, every
+/// access sequentially consistent: one order of all of them, so a reader
+/// that saw the same even count before and after its reads saw no write
+/// between; no fences, which ThreadSanitizer cannot follow). A reader that
+/// sees the count change reads the reading published with it, or a newer
+/// one, whole: its displacement with its own time.
 
 #include <atomic>
 #include <cstdint>
@@ -18,27 +21,22 @@ class PositionFeed {
   };
 
   void publish(double displacement_m, std::int64_t t_ns = 0) {
-    const std::uint64_t s = sequence_.load(std::memory_order_relaxed);
-    sequence_.store(s + 1, std::memory_order_relaxed);  // odd: being written
-    std::atomic_thread_fence(std::memory_order_release);
-    displacement_m_.store(displacement_m, std::memory_order_relaxed);
-    t_ns_.store(t_ns, std::memory_order_relaxed);
-    sequence_.store(s + 2, std::memory_order_release);
+    const std::uint64_t s = sequence_.load();
+    sequence_.store(s + 1);  // odd: being written
+    displacement_m_.store(displacement_m);
+    t_ns_.store(t_ns);
+    sequence_.store(s + 2);
   }
   /// Readings published so far.
-  [[nodiscard]] std::uint64_t count() const {
-    return sequence_.load(std::memory_order_acquire) / 2;
-  }
+  [[nodiscard]] std::uint64_t count() const { return sequence_.load() / 2; }
   [[nodiscard]] double displacement_m() const { return latest().displacement_m; }
   /// The latest reading, whole (retried while the writer is in the middle
   /// of one: at most a reading's write, a few nanoseconds).
   [[nodiscard]] Reading latest() const {
     for (;;) {
-      const std::uint64_t before = sequence_.load(std::memory_order_acquire);
-      Reading r{displacement_m_.load(std::memory_order_relaxed),
-                t_ns_.load(std::memory_order_relaxed)};
-      std::atomic_thread_fence(std::memory_order_acquire);
-      if (before % 2 == 0 && sequence_.load(std::memory_order_relaxed) == before) return r;
+      const std::uint64_t before = sequence_.load();
+      const Reading r{displacement_m_.load(), t_ns_.load()};
+      if (before % 2 == 0 && sequence_.load() == before) return r;
     }
   }
 

@@ -195,6 +195,15 @@ inline constexpr Argument trigger_pulses{"trigger_pulses",
                                          "up to `to_rad`: floor(abs(to_rad − start) / step) + 1",
                                          "positions k = 0 .. pulses - 1",
                                          ArgumentType::integer};
+inline constexpr Argument trigger_end_rad{
+    "trigger_end_rad",
+    "rad",
+    {-10.0, 10.0},
+    "",
+    "",
+    "`to_rad`",
+    "the last position any pulse may be at: the pulses up to it (PandABox's END; instead of "
+    "`trigger_pulses`)"};
 inline constexpr Argument trigger_width_s{
     "trigger_width_s",
     "s",

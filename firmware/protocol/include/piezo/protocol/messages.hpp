@@ -202,7 +202,8 @@ struct ScanRequest {
   static constexpr std::string_view kCommand = wire_key::scan;
   double from_rad = 0.0, to_rad = 0.0, velocity_rad_per_s = 0.0;
   std::optional<double> acceleration_s, deceleration_s;
-  std::optional<double> trigger_step_rad, trigger_start_rad, trigger_width_s, trigger_pre_start_rad;
+  std::optional<double> trigger_step_rad, trigger_start_rad, trigger_end_rad, trigger_width_s,
+      trigger_pre_start_rad;
   std::optional<std::uint64_t> trigger_pulses;
   std::optional<double> lease_s;
 };
@@ -218,6 +219,7 @@ struct RequestFields<ScanRequest> {
       argument_field(firmware::arguments::trigger_step_rad, &T::trigger_step_rad),
       argument_field(firmware::arguments::trigger_start_rad, &T::trigger_start_rad),
       argument_field(firmware::arguments::trigger_pulses, &T::trigger_pulses),
+      argument_field(firmware::arguments::trigger_end_rad, &T::trigger_end_rad),
       argument_field(firmware::arguments::trigger_width_s, &T::trigger_width_s),
       argument_field(firmware::arguments::trigger_pre_start_rad, &T::trigger_pre_start_rad),
       argument_field(firmware::arguments::lease_s, &T::lease_s)};
