@@ -180,6 +180,30 @@ TEST(SimLines, EstopPressesAtItsTimeAndReportsOneEdge) {
   EXPECT_EQ(lines.sync_pulses(), 2);
 }
 
+// Each axis's trigger line keeps its history: its rising edges, and when
+// the latest came; an axis the rig lacks has none.
+TEST(SimLines, EachAxissTriggerLineKeepsItsRisingEdges) {
+  VirtualClock clock;
+  SleeperScope scope(clock);
+  Plant theta(model::MotorParameters{}, AmplifierSettings{}, 0);
+  Plant phi(model::MotorParameters{}, AmplifierSettings{}, 0);
+  SimLines lines({}, std::vector<Plant*>{&theta, &phi}, clock, 0);
+  EXPECT_TRUE(lines.has_trigger(0) && lines.has_trigger(1));
+  EXPECT_FALSE(lines.has_trigger(2));
+  EXPECT_EQ(lines.set_trigger(2, true), Status::io_error);
+  for (int pulse = 0; pulse < 3; ++pulse) {
+    clock.sleep_until((10 + 10 * pulse) * kMs);
+    EXPECT_EQ(lines.set_trigger(1, true), Status::ok);
+    EXPECT_EQ(lines.set_trigger(1, true), Status::ok) << "held high: no new edge";
+    clock.sleep_until((11 + 10 * pulse) * kMs);
+    EXPECT_EQ(lines.set_trigger(1, false), Status::ok);
+  }
+  EXPECT_EQ(lines.trigger_edges(1), 3);
+  EXPECT_EQ(lines.last_trigger_edge_ns(1), 30 * kMs);
+  EXPECT_FALSE(lines.trigger_high(1));
+  EXPECT_EQ(lines.trigger_edges(0), 0) << "theta's line is its own";
+}
+
 // The button held: its reset is refused until the release; a press with
 // no hold is still seen once, and each run is pressed at its own time.
 TEST(SimLines, AHeldButtonRefusesItsResetUntilReleased) {
