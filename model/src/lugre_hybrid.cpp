@@ -17,8 +17,16 @@ using namespace hybrid;
 constexpr double kSaturated = 1e-4;
 constexpr double kSticking = 0.3;
 /// The smooth part of v must exceed the ringing's velocity amplitude this
-/// many times for the ringing not to reverse it.
+/// many times for the ringing not to reverse it before the stick mode,
+/// which settles the stator at its first step, takes over.
 constexpr double kClearance = 2.0;
+/// The same before and through linear steps, which keep the ringing and
+/// need only that v does not reverse: within a step the smooth part moves
+/// monotonically (the rotor's acceleration is s F_c r/J, the drive's slope
+/// fixed) and the ringing decays, so the smooth part at both ends against
+/// the amplitude at the start bounds v; the margin covers the split's
+/// approximations (the stator's damping ratio is about 1 %).
+constexpr double kSlideClearance = 1.25;
 /// A series step below this many 1/omega_n is the sign of a stiff bristle.
 constexpr double kCrawl = 0.05;
 /// Below this tolerance the two approximations (the stator settled at the
@@ -159,11 +167,12 @@ void LuGreHybrid::choose_mode(const LinearPiece& piece, double t_end, bool crawl
   const double F_f = motor_.friction(y_).force;
   const Ringing ring = split_ringing(p_, y_, V, piece.slope, F_f);
   const bool clear = s_ * ring.smooth_v > kClearance * ring.amplitude;
+  ringing_ = ring.amplitude;
   // The linear and stick modes pay off over long pieces of drive; a drive
   // that turns every sample (a replayed log) stays in series mode, which
   // also keeps the stick mode's settling of the stator from adding up.
   const bool long_piece = t_end - t_ >= 2.0 * slide_.step();
-  if (saturated_ && clear && long_piece) {
+  if (saturated_ && s_ * ring.smooth_v > kSlideClearance * ringing_ && long_piece) {
     mode_ = Mode::linear;
   } else if (!saturated_ && rest > kSticking && clear && long_piece && t_ >= no_stick_before_) {
     stick_h_ = std::max(stick_h_, 10.0 / omega_n_);
@@ -190,7 +199,8 @@ bool LuGreHybrid::linear_step(const LinearPiece& piece, double t_end, StateSampl
   const double V1 = V0 + piece.slope * h;
   const double F1 = s_ * p_.F_c() + p_.sigma2 * (y1[kXDot] - p_.r * y1[kThetaDot]);
   const Ringing ring = split_ringing(p_, y1, V1, piece.slope, F1);
-  if (s_ * ring.smooth_v <= kClearance * ring.amplitude) return false;  // may reverse: resolve
+  if (s_ * ring.smooth_v <= kSlideClearance * ringing_) return false;  // may reverse: resolve
+  ringing_ = ring.amplitude;
   interpolate(samples, piece, t_ + h, y1);
   y_ = y1;
   t_ += h;

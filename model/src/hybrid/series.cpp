@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace piezo::model::hybrid {
 
@@ -13,24 +14,27 @@ LuGreState Expansion::state(double tau) const {
 
 namespace {
 
-/// The terms of order k's Cauchy product sum_j v[j] z[k-j] but its two
-/// ends (the coefficients just computed): summed from the middle out, the
-/// oldest coefficients first, so that the newest (v[k-1], z[k-1]) come last
-/// and the sum is ready soon after them.
-double cauchy_middle(const Coefficients& v, const Coefficients& z, std::size_t k) {
-  if (k < 2) return 0.0;
-  double lo = 0.0, hi = 0.0;
-  std::size_t j = k / 2, l = k - j;  // j + l = k
-  if (j == l) {
-    lo = v[j] * z[j];  // k even: the centre term, once
-    --j;
-    ++l;
+/// Order K's Cauchy product sum_j v[j] z[K-j]. Its middle terms are summed
+/// oldest coefficients first, in two chains, and its two ends (v[K] z[0],
+/// v[0] z[K], the coefficients just computed) last, so that the sum is
+/// ready soon after them. Unrolled at compile time: every index a constant.
+template <std::size_t K, std::size_t... J>
+double cauchy(const Coefficients& v, const Coefficients& z, std::index_sequence<J...>) {
+  if constexpr (K == 0) {
+    return v[0] * z[0];
+  } else {
+    double lo = K % 2 == 0 ? v[K / 2] * z[K / 2] : 0.0, hi = 0.0;
+    // J = 0, 1, ... walks j = (K - 1)/2 down to 1: the pairs (j, K - j).
+    ((lo += v[(K - 1) / 2 - J] * z[K - (K - 1) / 2 + J],
+      hi += v[K - (K - 1) / 2 + J] * z[(K - 1) / 2 - J]),
+     ...);
+    return v[K] * z[0] + (v[0] * z[K] + (lo + hi));
   }
-  for (; j >= 1; --j, ++l) {
-    lo += v[j] * z[l];
-    hi += v[l] * z[j];
-  }
-  return lo + hi;
+}
+
+template <std::size_t K>
+double cauchy(const Coefficients& v, const Coefficients& z) {
+  return cauchy<K>(v, z, std::make_index_sequence < K == 0 ? 0 : (K - 1) / 2 > {});
 }
 
 }  // namespace
@@ -46,6 +50,16 @@ SeriesMotor::SeriesMotor(const MotorParameters& p)
 
 void SeriesMotor::expand(const LuGreState& y0, double V0, double slope, double s, bool saturated,
                          Expansion& e) const {
+  if (saturated) {
+    expand<true>(y0, V0, slope, s, e);
+  } else {
+    expand<false>(y0, V0, slope, s, e);
+  }
+}
+
+template <bool Saturated>
+void SeriesMotor::expand(const LuGreState& y0, double V0, double slope, double s,
+                         Expansion& e) const {
   auto& [x, X, th, W, z] = e.y;
   auto& v = e.v;
   x[0] = y0[kX];
@@ -54,32 +68,43 @@ void SeriesMotor::expand(const LuGreState& y0, double V0, double slope, double s
   W[0] = y0[kThetaDot];
   z[0] = y0[kZ];
   v[0] = X[0] - p_.r * W[0];
-  // z' = zv v - sk (v z): a saturated bristle is held (z' = 0).
-  const double zv = saturated ? 0.0 : 1.0;
-  const double sk = saturated ? 0.0 : s * kappa_;
-  // F_f = sigma0 z + sigma1 z' + sigma2 v = P - q (v z), with P the part
-  // known before the order's Cauchy term.
-  const double a = p_.sigma1 * zv + p_.sigma2;
+  // z' = v - sk (v z); a saturated bristle is held (z' = 0), which leaves
+  // the recurrence linear: no Cauchy term. F_f = sigma0 z + sigma1 z' +
+  // sigma2 v = P - q (v z), with P the part known before the Cauchy term.
+  const double sk = s * kappa_;
+  const double a = Saturated ? p_.sigma2 : p_.sigma1 + p_.sigma2;
   const double q = p_.sigma1 * sk;
   // Each order's new coefficients hang on the Cauchy term of the one before
   // by one multiply-add each (v and z directly, not v through x' and
   // theta'): the recurrence's chain of dependent operations, which sets
-  // its cost, is three per order. The rest is computed beside it.
-  for (std::size_t k = 0; k < kOrder; ++k) {
-    const double vz = k == 0 ? v[0] * z[0] : v[k] * z[0] + (v[0] * z[k] + cauchy_middle(v, z, k));
-    const PerOrder& o = per_order_[k];
-    const double Vk = k == 0 ? V0 : (k == 1 ? slope : 0.0);
-    const double A = K_d_e_ * Vk - p_.C * X[k] - p_.K * x[k];  // M x'' + F_f
-    const double P = p_.sigma0 * z[k] + a * v[k];
-    const double F = P - q * vz;
-    x[k + 1] = X[k] * o.inv;
-    X[k + 1] = (A - F) * o.inv_M;
-    th[k + 1] = W[k] * o.inv;
-    W[k + 1] = F * o.r_over_J;
-    z[k + 1] = zv * o.inv * v[k] - sk * o.inv * vz;
-    // x'[k+1] - r theta'[k+1] = (A - F) inv_M - r F r_over_J.
-    v[k + 1] = (A * o.inv_M - P * o.to_v) + q * o.to_v * vz;
+  // its cost, is three per order. The rest is computed beside it. Every
+  // order is its own instance, unrolled: no loop, no branch.
+  auto order = [&]<std::size_t K>() __attribute__((always_inline)) {
+    const PerOrder& o = per_order_[K];
+    const double Vk = K == 0 ? V0 : (K == 1 ? slope : 0.0);
+    const double A = K_d_e_ * Vk - p_.C * X[K] - p_.K * x[K];  // M x'' + F_f
+    const double P = p_.sigma0 * z[K] + a * v[K];
+    x[K + 1] = X[K] * o.inv;
+    th[K + 1] = W[K] * o.inv;
+    if constexpr (Saturated) {
+      X[K + 1] = (A - P) * o.inv_M;
+      W[K + 1] = P * o.r_over_J;
+      z[K + 1] = 0.0;
+      v[K + 1] = A * o.inv_M - P * o.to_v;
+    } else {
+      const double vz = cauchy<K>(v, z);
+      const double F = P - q * vz;
+      X[K + 1] = (A - F) * o.inv_M;
+      W[K + 1] = F * o.r_over_J;
+      z[K + 1] = o.inv * v[K] - sk * o.inv * vz;
+      // x'[k+1] - r theta'[k+1] = (A - F) inv_M - r F r_over_J.
+      v[K + 1] = (A * o.inv_M - P * o.to_v) + q * o.to_v * vz;
+    }
+  };
+  [&]<std::size_t... K>(std::index_sequence<K...>) {
+    (order.template operator()<K>(), ...);
   }
+  (std::make_index_sequence<kOrder>{});
 }
 
 namespace {
@@ -109,46 +134,85 @@ double allowed_step(const Expansion& e, const LuGreState& inverse_scale, double 
     before = std::max(before, std::abs(e.y[i][kOrder - 1]) * inverse_scale[i]);
   }
   // A bound is below the step so far only if its coefficient times that
-  // step's power exceeds the tolerance: the roots (a costly pow each) only then.
-  if (last * power(h, kOrder) > tolerance) {
-    h = std::min(h, std::pow(tolerance / last, 1.0 / kOrder));
-  }
+  // step's power exceeds the tolerance: the roots (a costly pow each) only
+  // then. The order before the last binds first as a rule (a coefficient
+  // falls by about omega h / k an order), so it is tried first and the
+  // last order's root is rarely needed.
   if (before * power(h, kOrder - 1) > tolerance) {
-    h = std::min(h, std::pow(tolerance / before, 1.0 / (kOrder - 1)));
+    h = std::pow(tolerance / before, 1.0 / (kOrder - 1));
+  }
+  if (last * power(h, kOrder) > tolerance) {
+    h = std::pow(tolerance / last, 1.0 / kOrder);
   }
   return h;
 }
 
 namespace {
 
+/// The series' second derivative at tau, in two chains as at().
+double curvature_at(const Coefficients& c, double tau) {
+  const double t2 = tau * tau;
+  double even = kOrder * (kOrder - 1) * c[kOrder];
+  double odd = (kOrder - 1) * (kOrder - 2) * c[kOrder - 1];
+  for (int k = kOrder - 2; k >= 3; k -= 2) {
+    even = even * t2 + k * (k - 1) * c[static_cast<std::size_t>(k)];
+    odd = odd * t2 + (k - 1) * (k - 2) * c[static_cast<std::size_t>(k - 1)];
+  }
+  return (even * t2 + 2.0 * c[2]) + tau * odd;
+}
+
 /// s*v and its slope at one end of a bracket: each evaluated once.
 struct End {
   double value, slope;
 };
 
-/// The first root of s*v in (a, b], given its value at each end (s*v(a) >=
-/// 0 > s*v(b)): Newton from the chord (the midpoint when v(a) = 0, a
-/// reversal just passed), kept inside the bracket by bisection. (A start
-/// from the cubic through both ends' slopes too saved an iteration a root
-/// but cost more than it saved.) Returns a point where s*v < 0,
-/// past the root by at most 1e-12 of the step, so that the step ends with
-/// the contact's new sign.
+End end_at(const Coefficients& v, double s, double tau) {
+  return {s * at(v, tau), s * slope_at(v, tau)};
+}
+
+/// Where the cubic through both ends' values and slopes first crosses zero
+/// in (a, b): two Newton steps on the cubic from the chord, which cost no
+/// evaluation of the series. The chord if they leave the bracket; the
+/// midpoint when s*v(a) = 0 (a reversal just passed: the cubic's root at a
+/// is not the one sought).
+double cubic_start(double a, double b, const End& start, const End& end) {
+  if (start.value <= 0.0) return 0.5 * (a + b);
+  const double chord = start.value / (start.value - end.value);
+  const double w = b - a, m0 = w * start.slope, m1 = w * end.slope;
+  const double c2 = 3.0 * (end.value - start.value) - 2.0 * m0 - m1;
+  const double c3 = 2.0 * (start.value - end.value) + m0 + m1;
+  double u = chord;
+  for (int i = 0; i < 2; ++i) {
+    const double p = start.value + u * (m0 + u * (c2 + u * c3));
+    const double d = m0 + u * (2.0 * c2 + u * 3.0 * c3);
+    u = d != 0.0 ? u - p / d : chord;
+    if (!(u > 0.0 && u < 1.0)) u = chord;
+  }
+  return a + w * u;
+}
+
+/// The first root of s*v in (a, b], given its value and slope at each end
+/// (s*v(a) >= 0 > s*v(b)): Halley's method (the series' value, slope and
+/// curvature evaluated side by side; cubic convergence) from the cubic's
+/// root, kept inside the bracket by bisection. Returns a point where
+/// s*v < 0, past the root by at most 1e-12 of the step, so that the step
+/// ends with the contact's new sign.
 double first_root(const Coefficients& v, double s, double a, double b, const End& start,
                   const End& end) {
   const double resolution = 1e-12 * b;
-  // A Newton step this short leaves the next iterate within about its
-  // square of the root (quadratic convergence): close enough to try the
-  // point just past it. Near a double root, where Newton is slow, the try
-  // fails and the bracket moves on.
-  const double near = 1e-7 * b;
+  // A Halley step this short leaves the next iterate within about its cube
+  // of the root: close enough to try the point just past it. Near a double
+  // root, where it is slow, the try fails and the bracket moves on.
+  const double near = 1e-5 * b;
   double lo = a, hi = b;
-  double tau =
-      start.value > 0.0 ? a + (b - a) * start.value / (start.value - end.value) : 0.5 * (a + b);
+  double tau = cubic_start(a, b, start, end);
   for (int i = 0; i < 60 && hi - lo > resolution; ++i) {
     const double value = s * at(v, tau);
-    (value >= 0.0 ? lo : hi) = tau;
     const double d = s * slope_at(v, tau);
-    const double next = d != 0.0 ? tau - value / d : 0.5 * (lo + hi);
+    const double c = s * curvature_at(v, tau);
+    (value >= 0.0 ? lo : hi) = tau;
+    const double denominator = 2.0 * d * d - value * c;
+    const double next = denominator != 0.0 ? tau - 2.0 * value * d / denominator : 0.5 * (lo + hi);
     if (std::abs(next - tau) <= near) {
       const double past = next + 0.5 * resolution;
       if (past > lo && past < hi) {
@@ -159,14 +223,6 @@ double first_root(const Coefficients& v, double s, double a, double b, const End
     tau = next > lo && next < hi ? next : 0.5 * (lo + hi);
   }
   return hi;
-}
-
-/// Its second derivative at tau.
-double curvature_at(const Coefficients& c, double tau) {
-  double sum = kOrder * (kOrder - 1) * c[kOrder];
-  for (int k = kOrder - 1; k >= 2; --k)
-    sum = sum * tau + k * (k - 1) * c[static_cast<std::size_t>(k)];
-  return sum;
 }
 
 /// The minimum of s*v in (a, b), given s*v' < 0 at a and > 0 at b: Newton
@@ -185,25 +241,35 @@ double dip(const Coefficients& v, double s, double a, double b) {
   return tau;
 }
 
+/// The first root of s*v in the half step (a, b], from its ends: a sign
+/// change, or a dip below zero (the step cap keeps at most one extremum of
+/// v in a half step). Sets `found` to whether there is one.
+double root_in(const Coefficients& v, double s, double a, double b, const End& start,
+               const End& end, bool& found) {
+  found = true;
+  if (start.slope < 0.0 && end.slope > 0.0) {
+    const double m = dip(v, s, a, b);
+    if (const double value_m = s * at(v, m); value_m < 0.0) {
+      return first_root(v, s, a, m, start, {value_m, 0.0});  // v' = 0 at the dip
+    }
+  }
+  if (end.value < 0.0) return first_root(v, s, a, b, start, end);
+  found = false;
+  return b;
+}
+
 }  // namespace
 
 double first_zero(const Coefficients& v, double s, double h) {
-  // s*v and its slope at each end, each evaluated once and carried on.
-  double a = 0.0;
-  End start{s * v[0], s * v[1]};
-  for (const double b : {0.5 * h, h}) {
-    const End end{s * at(v, b), s * slope_at(v, b)};
-    if (start.slope < 0.0 && end.slope > 0.0) {
-      const double m = dip(v, s, a, b);
-      if (const double value_m = s * at(v, m); value_m < 0.0) {
-        return first_root(v, s, a, m, start, {value_m, 0.0});  // v' = 0 at the dip
-      }
-    }
-    if (end.value < 0.0) return first_root(v, s, a, b, start, end);
-    a = b;
-    start = end;
-  }
-  return h;
+  // s*v and its slope at both probes, evaluated side by side: the second is
+  // wasted when the first half holds the zero, but costs no wait.
+  const End start{s * v[0], s * v[1]};
+  const End middle = end_at(v, s, 0.5 * h);
+  const End end = end_at(v, s, h);
+
+  bool found = false;
+  const double tau = root_in(v, s, 0.0, 0.5 * h, start, middle, found);
+  return found ? tau : root_in(v, s, 0.5 * h, h, middle, end, found);
 }
 
 double sliding_sign(const Coefficients& v) {

@@ -103,6 +103,7 @@ class LuGreHybrid {
   Mode mode_ = Mode::series;
   double stick_h_ = 0.0;          ///< the Rosenbrock's next step
   double no_stick_before_ = 0.0;  ///< after a stick step that met a reversal
+  double ringing_ = 0.0;          ///< the stator's ringing amplitude at the step's start [m/s]
   hybrid::Expansion e_{};
   IntegrationStats stats_{};
   const std::function<void(double)>* progress_ = nullptr;

@@ -77,6 +77,8 @@ class SeriesMotor {
   struct PerOrder {
     double inv, inv_M, r_over_J, to_v;
   };
+  template <bool Saturated>
+  void expand(const LuGreState& y0, double V0, double slope, double s, Expansion& e) const;
   MotorParameters p_;
   double kappa_, K_d_e_;
   std::array<PerOrder, kOrder + 1> per_order_{};
