@@ -158,7 +158,12 @@ void LuGreHybrid::series_step(const LinearPiece& piece, double t_end, StateSampl
 
 void LuGreHybrid::choose_mode(const LinearPiece& piece, double t_end, bool crawling) {
   const double rest = 1.0 - s_ * kappa_ * y_[kZ];
-  if (!saturated_ && rest < kSaturated && approximate_) {
+  // At a tight tolerance the flip is resolved, unless the series crawls
+  // through a bristle already saturated to rounding (rest <= 0, which the
+  // exact motion never reaches): far from the prototype's parameters
+  // (identification tries them) the flip takes 1e-12 s, and resolving it
+  // would take millions of steps.
+  if (!saturated_ && rest < kSaturated && (approximate_ || (crawling && rest <= 0.0))) {
     slide_.saturate(y_, s_);
     saturated_ = true;
     ++stats_.saturations;

@@ -18,6 +18,7 @@
 #include <tuple>
 
 #include "piezo/model/frequency_sweep.hpp"
+#include "piezo/model/sampled_drive.hpp"
 #include "piezo/model/sensitivity.hpp"
 #include "piezo/model/simulate.hpp"
 
@@ -187,6 +188,26 @@ TEST(LuGreHybridConvergence, TheErrorFallsWithTheToleranceTo1e7At1e9) {
     }
     EXPECT_LT(previous, 1e-7) << f << " Hz at 1e-9";
   }
+}
+
+TEST(LuGreHybridExtremes, AFlipTooFastToResolveDoesNotCrawl) {
+  // mu and F_N as identification tried them when both were free (only
+  // their product counts): F_c = 1.7e-15 N, so the bristle flips in about
+  // 1e-12 s. At identification's tolerance, where flips are resolved, the
+  // series once crawled through the saturated bristle at that scale
+  // (tens of millions of steps within 0.3 ms).
+  Parameters p;
+  p.motor.mu = 1.6577535221129683e-19;
+  p.motor.F_N = 1e4;
+  const std::vector<double> drive_t = uniform_times(0.3, 1e-4);
+  std::vector<double> drive_V;
+  const Sawtooth saw(p.drive.V0, p.drive.f, p.drive.D());
+  for (const double t : drive_t) drive_V.push_back(saw.voltage(t));
+  const SampledDrive drive(drive_t, drive_V, 1e-4);
+  const auto times = uniform_times(0.3, 2e-3);
+  const Trajectory tr = simulate(p.motor, drive, FrictionModel::lugre, times, {.tolerance = 1e-7});
+  EXPECT_LT(tr.stats.steps, 100'000u);
+  EXPECT_TRUE(std::isfinite(tr.theta.back()));
 }
 
 }  // namespace
