@@ -10,6 +10,8 @@
 #include <pybind11/stl.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <memory>
@@ -70,6 +72,56 @@ py::array_t<double> to_numpy(std::vector<double>&& values) {
   py::capsule free_when_done(owned, [](void* v) { delete static_cast<std::vector<double>*>(v); });
   return py::array_t<double>(static_cast<py::ssize_t>(owned->size()), owned->data(),
                              free_when_done);
+}
+
+/// The columns' storage of arrays NumPy has dropped, for the next
+/// simulate() to write into: a loop of calls (a study, a benchmark) would
+/// otherwise fault in 3 MB of fresh pages at each call, which took about as
+/// long as the samples themselves. At most kKeptBytes are kept. Touched
+/// with the GIL held only (the arrays' capsules are freed under it).
+class ColumnPool {
+ public:
+  /// A used trajectory to write into: its recorded columns' memory from
+  /// the pool where there is some.
+  model::Trajectory storage(const model::ColumnSet& kept) {
+    model::Trajectory tr;
+    const std::array all{&tr.t, &tr.V, &tr.x, &tr.x_dot, &tr.theta, &tr.theta_dot, &tr.z, &tr.F_f};
+    for (std::size_t i = 0; i < all.size(); ++i) {
+      if ((i == 0 || kept[i]) && !free_.empty()) {
+        *all[i] = std::move(free_.back());
+        free_.pop_back();
+        bytes_ -= all[i]->capacity() * sizeof(double);
+      }
+    }
+    return tr;
+  }
+  void give(std::vector<double>&& column) {
+    const std::size_t bytes = column.capacity() * sizeof(double);
+    if (bytes_ + bytes > kKeptBytes) return;
+    bytes_ += bytes;
+    free_.push_back(std::move(column));
+  }
+  static ColumnPool& instance() {
+    static auto* pool = new ColumnPool;  // never destroyed: arrays may outlive the module
+    return *pool;
+  }
+
+ private:
+  static constexpr std::size_t kKeptBytes = 64u << 20;
+  std::vector<std::vector<double>> free_;
+  std::size_t bytes_ = 0;
+};
+
+/// A numpy array over a column's storage (no copy), which goes back to the
+/// pool when the array dies.
+py::array_t<double> pooled_numpy(std::vector<double>&& values) {
+  auto* owned = new std::vector<double>(std::move(values));
+  py::capsule back_to_pool(owned, [](void* v) {
+    auto* column = static_cast<std::vector<double>*>(v);
+    ColumnPool::instance().give(std::move(*column));
+    delete column;
+  });
+  return py::array_t<double>(static_cast<py::ssize_t>(owned->size()), owned->data(), back_to_pool);
 }
 
 std::vector<double> to_vector(
@@ -174,7 +226,7 @@ py::dict stats_dict(const model::IntegrationStats& s) {
 
 py::dict simulate(model::Parameters p, double duration, const std::string& friction_name,
                   const std::string& direction, double dt, double tolerance,
-                  const std::string& integrator_name) {
+                  const std::string& integrator_name, const std::vector<std::string>& columns) {
   piezo::config::require_valid(p, "Parameters");
   const auto friction = host::checked_friction_model(friction_name, "model");
   if (!direction.empty()) p.drive.direction = host::checked_direction(direction, "direction");
@@ -199,18 +251,34 @@ py::dict simulate(model::Parameters p, double duration, const std::string& frict
                                   duration / (memory / (8.0 * sizeof(double)))));
   }
   const auto integrator = host::checked_integrator(integrator_name, friction, "integrator");
-  model::Trajectory tr;
+  // t counts the samples and theta gives the end's figures: both always.
+  model::ColumnSet kept;
+  kept.set(0).set(4);
+  for (const auto& name : columns) {
+    const auto at = std::find(model::kColumnNames.begin(), model::kColumnNames.end(), name);
+    if (at == model::kColumnNames.end()) {
+      throw ConfigError(
+          "simulate", "columns",
+          fmt::format("'{}' (allowed: {})", name, fmt::join(model::kColumnNames, ", ")));
+    }
+    kept.set(static_cast<std::size_t>(at - model::kColumnNames.begin()));
+  }
+  model::Trajectory tr = ColumnPool::instance().storage(kept);
   {
     py::gil_scoped_release free_python;
     const model::Sawtooth drive(p.drive.V0, p.drive.f, p.drive.rise());
     const auto times = model::uniform_times(duration, dt);
     host::SimulationProgress progress(duration, true, model::differences_from_paper(p));
-    tr = model::simulate(
-        p.motor, drive, friction, times,
-        {.tolerance = tolerance, .integrator = integrator, .progress = [&](double t) {
-           host::interruption_point();
-           progress(t);
-         }});
+    tr = model::simulate(p.motor, drive, friction, times,
+                         {.tolerance = tolerance,
+                          .integrator = integrator,
+                          .progress =
+                              [&](double t) {
+                                host::interruption_point();
+                                progress(t);
+                              },
+                          .columns = kept},
+                         std::move(tr));
     progress.finish();
   }
   py::dict out;
@@ -218,14 +286,11 @@ py::dict simulate(model::Parameters p, double duration, const std::string& frict
   out["mean_velocity_rad_s"] = tr.theta.back() / duration;
   out["integrator"] = stats_dict(tr.stats);
   out["switch_times"] = to_numpy(std::move(tr.switch_times));
-  out["t"] = to_numpy(std::move(tr.t));
-  out["V"] = to_numpy(std::move(tr.V));
-  out["x"] = to_numpy(std::move(tr.x));
-  out["x_dot"] = to_numpy(std::move(tr.x_dot));
-  out["theta"] = to_numpy(std::move(tr.theta));
-  out["theta_dot"] = to_numpy(std::move(tr.theta_dot));
-  out["z"] = to_numpy(std::move(tr.z));
-  out["F_f"] = to_numpy(std::move(tr.F_f));
+  const std::array all{&tr.t, &tr.V, &tr.x, &tr.x_dot, &tr.theta, &tr.theta_dot, &tr.z, &tr.F_f};
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    if (kept[i])
+      out[py::str(std::string(model::kColumnNames[i]))] = pooled_numpy(std::move(*all[i]));
+  }
   return out;
 }
 
@@ -608,7 +673,8 @@ PYBIND11_MODULE(_model, m) {
            py::arg("axis") = "");
 
   m.def("simulate", &simulate, py::arg("params"), py::arg("duration"), py::arg("model"),
-        py::arg("direction"), py::arg("dt"), py::arg("tolerance"), py::arg("integrator"));
+        py::arg("direction"), py::arg("dt"), py::arg("tolerance"), py::arg("integrator"),
+        py::arg("columns"));
   m.def("sensitivity", &sensitivity, py::arg("params"), py::arg("model"));
   m.def("global_study", &global_study, py::arg("params"), py::arg("method"), py::arg("names"),
         py::arg("range_pct"), py::arg("samples"), py::arg("seed"), py::arg("output"),
@@ -648,6 +714,7 @@ PYBIND11_MODULE(_model, m) {
   };
   names["models"] = listed(model::friction_model_names());
   names["integrators"] = listed(model::integrator_names());
+  names["columns"] = listed(model::kColumnNames);
   std::vector<std::string_view> directions;
   for (const auto& [value, name] : model::kDirectionNames.entries()) directions.push_back(name);
   names["directions"] = listed(directions);

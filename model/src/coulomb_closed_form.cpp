@@ -278,12 +278,13 @@ bool coulomb_closed_form_applies(const MotorParameters& p) {
 
 Trajectory simulate_coulomb_closed_form(const MotorParameters& p, const Excitation& drive,
                                         std::span<const double> times,
-                                        const IntegratorSettings& settings) {
+                                        const IntegratorSettings& settings, Trajectory storage) {
   if (!coulomb_closed_form_applies(p)) {
     throw std::invalid_argument(
         "integrator closed_form: the stator must ring (C < 2 sqrt(K M)); use dopri5");
   }
-  Trajectory out;
+  Trajectory out = std::move(storage);
+  out.restart(settings.columns);
   out.stats.integrator = Integrator::closed_form;
   if (times.empty()) return out;
   if (times.front() < 0.0 || !std::is_sorted(times.begin(), times.end())) {

@@ -274,6 +274,9 @@ void LuGreHybrid::interpolate(StateSamples* samples, const LinearPiece& piece, d
 
 namespace {
 
+constexpr std::size_t kFrictionColumn = 7;
+static_assert(kColumnNames[kFrictionColumn] == "F_f");
+
 /// simulate()'s samples: every requested time, recorded into a Trajectory.
 class Recorder final : public StateSamples {
  public:
@@ -286,7 +289,9 @@ class Recorder final : public StateSamples {
     return next_ < times_.size() ? times_[next_] : std::numeric_limits<double>::infinity();
   }
   void take(const LuGreState& y, double V) override {
-    out_.append(times_[next_++], V, y, motor_.friction(y).force);
+    // The friction force only for a caller that records it.
+    const double F_f = out_.columns[kFrictionColumn] ? motor_.friction(y).force : 0.0;
+    out_.append(times_[next_++], V, y, F_f);
   }
   [[nodiscard]] bool done() const { return next_ >= times_.size(); }
 
@@ -300,9 +305,10 @@ class Recorder final : public StateSamples {
 }  // namespace
 
 Trajectory simulate_lugre_hybrid(const MotorParameters& p, const Excitation& drive,
-                                 std::span<const double> times,
-                                 const IntegratorSettings& settings) {
-  Trajectory out;
+                                 std::span<const double> times, const IntegratorSettings& settings,
+                                 Trajectory storage) {
+  Trajectory out = std::move(storage);
+  out.restart(settings.columns);
   if (!times.empty() && (times.front() < 0.0 || !std::is_sorted(times.begin(), times.end()))) {
     throw std::invalid_argument("sample times must be non-negative and non-decreasing");
   }

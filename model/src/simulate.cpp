@@ -21,19 +21,30 @@ std::vector<double> uniform_times(double duration, double interval) {
 }
 
 void Trajectory::reserve(std::size_t n) {
-  for (auto* column : {&t, &V, &x, &x_dot, &theta, &theta_dot, &z, &F_f}) column->reserve(n);
+  const std::array all{&t, &V, &x, &x_dot, &theta, &theta_dot, &z, &F_f};
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    if (i == 0 || columns[i]) all[i]->reserve(n);
+  }
+}
+
+void Trajectory::restart(ColumnSet kept) {
+  for (auto* column : {&t, &V, &x, &x_dot, &theta, &theta_dot, &z, &F_f, &switch_times}) {
+    column->clear();
+  }
+  stats = {};
+  columns = kept;
 }
 
 void Trajectory::append(double t_s, double V_volts, std::span<const double> state,
                         double F_f_value) {
   t.push_back(t_s);
-  V.push_back(V_volts);
-  x.push_back(state[kX]);
-  x_dot.push_back(state[kXDot]);
-  theta.push_back(state[kTheta]);
-  theta_dot.push_back(state[kThetaDot]);
-  z.push_back(state.size() > kZ ? state[kZ] : 0.0);
-  F_f.push_back(F_f_value);
+  const std::array all{&V, &x, &x_dot, &theta, &theta_dot, &z, &F_f};
+  const double values[] = {V_volts,       state[kX],        state[kXDot],
+                           state[kTheta], state[kThetaDot], state.size() > kZ ? state[kZ] : 0.0,
+                           F_f_value};
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    if (columns[i + 1]) all[i]->push_back(values[i]);
+  }
 }
 
 namespace {
@@ -127,8 +138,10 @@ auto locate(const Stepper& stepper, Crossed&& crossed) {
 }
 
 Trajectory simulate_lugre(const MotorParameters& p, const Excitation& drive,
-                          std::span<const double> times, const IntegratorSettings& settings) {
-  Trajectory out;
+                          std::span<const double> times, const IntegratorSettings& settings,
+                          Trajectory storage) {
+  Trajectory out = std::move(storage);
+  out.restart(settings.columns);
   out.reserve(times.size());
   const LuGreMotor motor(p);
   auto rhs = [&](const LuGreState& y, LuGreState& dydt, double V) { motor.derivative(V, y, dydt); };
@@ -152,8 +165,10 @@ Trajectory simulate_lugre(const MotorParameters& p, const Excitation& drive,
 }
 
 Trajectory simulate_coulomb(const MotorParameters& p, const Excitation& drive,
-                            std::span<const double> times, const IntegratorSettings& settings) {
-  Trajectory out;
+                            std::span<const double> times, const IntegratorSettings& settings,
+                            Trajectory storage) {
+  Trajectory out = std::move(storage);
+  out.restart(settings.columns);
   out.reserve(times.size());
   ContactMode mode = ContactMode::stick;
   auto rhs = [&](const CoulombState& y, CoulombState& dydt, double V) {
@@ -198,13 +213,14 @@ Trajectory simulate_coulomb(const MotorParameters& p, const Excitation& drive,
 }  // namespace
 
 Trajectory simulate(const MotorParameters& p, const Excitation& drive, FrictionModel model,
-                    std::span<const double> sample_times, const IntegratorSettings& settings) {
+                    std::span<const double> sample_times, const IntegratorSettings& settings,
+                    Trajectory storage) {
   switch (settings.integrator) {
     case Integrator::model_default:
       if (model == FrictionModel::lugre)
-        return simulate_lugre_hybrid(p, drive, sample_times, settings);
+        return simulate_lugre_hybrid(p, drive, sample_times, settings, std::move(storage));
       if (coulomb_closed_form_applies(p)) {
-        return simulate_coulomb_closed_form(p, drive, sample_times, settings);
+        return simulate_coulomb_closed_form(p, drive, sample_times, settings, std::move(storage));
       }
       break;
     case Integrator::dopri5:
@@ -215,16 +231,17 @@ Trajectory simulate(const MotorParameters& p, const Excitation& drive, FrictionM
             "integrator closed_form: Coulomb model only (the LuGre bristle has no closed form); "
             "use dopri5");
       }
-      return simulate_coulomb_closed_form(p, drive, sample_times, settings);
+      return simulate_coulomb_closed_form(p, drive, sample_times, settings, std::move(storage));
     case Integrator::hybrid:
       if (model == FrictionModel::coulomb) {
         throw std::invalid_argument(
             "integrator hybrid: LuGre model only (Coulomb runs in closed form); use closed_form");
       }
-      return simulate_lugre_hybrid(p, drive, sample_times, settings);
+      return simulate_lugre_hybrid(p, drive, sample_times, settings, std::move(storage));
   }
-  return model == FrictionModel::lugre ? simulate_lugre(p, drive, sample_times, settings)
-                                       : simulate_coulomb(p, drive, sample_times, settings);
+  return model == FrictionModel::lugre
+             ? simulate_lugre(p, drive, sample_times, settings, std::move(storage))
+             : simulate_coulomb(p, drive, sample_times, settings, std::move(storage));
 }
 
 double final_angle(const MotorParameters& p, const Excitation& drive, FrictionModel model,

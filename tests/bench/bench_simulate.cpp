@@ -165,8 +165,10 @@ int main(int argc, char** argv) {
   }
 
   const ModeCosts cost = mode_costs(model::Parameters{}, repeats);
+  fmt::print("\nseries step: {:.3f} us (expansion, step bound, zero search, state at its end)\n",
+             cost.series_us);
   fmt::print(
-      "\nHybrid cost by mode (per step: series {:.3f} us, linear {:.3f} us, stick {:.3f} us "
+      "Hybrid cost by mode (per step: series {:.3f} us, linear {:.3f} us, stick {:.3f} us "
       "incl. its LU)\n",
       cost.series_us, cost.linear_us, cost.stick_us);
   fmt::print("{:>6} | {:>8} {:>8} {:>8} {:>8} {:>6} | {:>9} {:>9} {:>9} | {:>8} {:>9}\n", "f/Hz",
@@ -188,6 +190,33 @@ int main(int argc, char** argv) {
       "(hybrid), accepted steps (dopri5), closed-form pieces (Coulomb); flips: bristle "
       "saturations finished in closed form\n",
       rows[1].stats.mode_switches);
+
+  // What simulate()'s samples cost beside the integration (what
+  // piezo_rig.model.simulate() adds NumPy to; bench_simulate_python.py
+  // measures that call itself): 48,001 samples of every column, of theta
+  // alone, and the end alone.
+  {
+    const model::Parameters p;
+    const model::Sawtooth drive(p.drive.V0, p.drive.f, p.drive.D());
+    const auto every = model::uniform_times(kRuntime, 1e-4);
+    const double end[] = {kRuntime};
+    model::ColumnSet theta_only;
+    theta_only.set(0).set(4);
+    model::Trajectory reused;
+    auto timed = [&](std::span<const double> times, const model::ColumnSet& columns) {
+      return median_seconds(repeats, [&] {
+        reused = model::simulate(p.motor, drive, model::FrictionModel::lugre, times,
+                                 {.columns = columns}, std::move(reused));
+      });
+    };
+    const double alone = timed(end, model::kAllColumns);
+    const double all = timed(every, model::kAllColumns);
+    const double theta = timed(every, theta_only);
+    fmt::print(
+        "\nSamples, 10 Hz, {} of them (storage reused): every column {:.2f} ms, theta alone "
+        "{:.2f} ms, the end alone (the integration) {:.2f} ms: {:.2f}x and {:.2f}x\n",
+        every.size(), 1e3 * all, 1e3 * theta, 1e3 * alone, all / alone, theta / alone);
+  }
 
   // Does the hybrid converge? Its error against the tolerance asked, down
   // to where an approximation in it (the stator settled at stick entry,

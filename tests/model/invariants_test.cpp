@@ -76,5 +76,27 @@ TEST(Simulate, DenseSamplesAgreeWithSingleEndSample) {
   EXPECT_NEAR(dense.theta.back(), end_only, 1e-5 * std::abs(end_only));
 }
 
+TEST(Simulate, RecordsTheColumnsAskedForIntoTheStorageGiven) {
+  const Parameters p;
+  const Sawtooth drive(p.drive.V0, p.drive.f, p.drive.D());
+  const auto times = uniform_times(0.3, 1e-4);
+  ColumnSet theta_only;
+  theta_only.set(0).set(4);
+  for (const auto integrator : {Integrator::hybrid, Integrator::dopri5}) {
+    const Trajectory whole =
+        simulate(p.motor, drive, FrictionModel::lugre, times, {.integrator = integrator});
+    Trajectory used = whole;  // a used trajectory: its samples are dropped, its memory written
+    const double* memory = used.theta.data();
+    const Trajectory some =
+        simulate(p.motor, drive, FrictionModel::lugre, times,
+                 {.integrator = integrator, .columns = theta_only}, std::move(used));
+    EXPECT_EQ(some.t, whole.t);
+    EXPECT_EQ(some.theta, whole.theta);
+    EXPECT_EQ(some.theta.data(), memory) << "the storage given is the one written";
+    EXPECT_TRUE(some.V.empty() && some.x.empty() && some.z.empty() && some.F_f.empty());
+    EXPECT_EQ(some.stats.steps, whole.stats.steps);
+  }
+}
+
 }  // namespace
 }  // namespace piezo::model

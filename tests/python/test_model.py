@@ -29,6 +29,29 @@ def test_simulate_matches_the_cli_to_the_last_digit(piezo, friction, direction):
     assert (sim.theta_end_rad > 0) == (direction == "forward")
 
 
+@pytest.mark.parametrize("friction", ["lugre", "coulomb"])
+def test_columns_asked_for_are_those_of_the_whole_run(friction):
+    whole = model.simulate(duration=0.3, model=friction)
+    some = model.simulate(duration=0.3, model=friction, columns=("V", "F_f"))
+    assert np.array_equal(some.t, whole.t) and np.array_equal(some.theta, whole.theta)
+    assert np.array_equal(some.V, whole.V) and np.array_equal(some.F_f, whole.F_f)
+    for name in ("x", "x_dot", "theta_dot", "z"):
+        assert len(getattr(some, name)) == 0, name
+    assert some.theta_end_rad == whole.theta_end_rad
+    assert list(some.to_dataframe().columns) == ["V", "theta", "F_f"]
+    # One name as a string; a run after many dropped ones gives the same samples.
+    for _ in range(3):
+        again = model.simulate(duration=0.3, model=friction, columns="theta_dot")
+    assert np.array_equal(again.theta_dot, whole.theta_dot)
+    assert model.COLUMNS == ("t", "V", "x", "x_dot", "theta", "theta_dot", "z", "F_f")
+
+
+def test_an_unknown_column_is_refused_naming_the_allowed_ones():
+    with pytest.raises(ValueError) as e:
+        model.simulate(duration=0.1, columns=("theta", "omega"))
+    assert "columns" in str(e.value) and "'omega'" in str(e.value) and "theta_dot" in str(e.value)
+
+
 def test_defaults_are_table_1_as_the_cli_has_them(piezo):
     cli = piezo("simulate", "--json", "--duration", "0.01")["parameters"]
     p = model.Parameters().to_dict()

@@ -196,6 +196,7 @@ def _study_names(function: str, value: Any) -> list[str]:
 MODELS: tuple[str, ...] = _model.NAMES["models"]
 DIRECTIONS: tuple[str, ...] = _model.NAMES["directions"]
 INTEGRATORS: tuple[str, ...] = _model.NAMES["integrators"]
+COLUMNS: tuple[str, ...] = _model.NAMES["columns"]
 OUTPUTS: tuple[str, ...] = _model.NAMES["outputs"]
 
 
@@ -227,24 +228,27 @@ class Simulation:
     parameters: Parameters
 
     def to_dataframe(self) -> Any:
-        """The samples as a pandas DataFrame indexed by t."""
+        """The samples as a pandas DataFrame indexed by t (the columns simulated)."""
         import pandas as pd
-        return pd.DataFrame({k: getattr(self, k) for k in
-                             ("t", "V", "x", "x_dot", "theta", "theta_dot", "z", "F_f")}).set_index("t")
+        return pd.DataFrame({k: getattr(self, k) for k in COLUMNS
+                             if len(getattr(self, k)) == len(self.t)}).set_index("t")
 
 
 def simulate(params: Optional[Parameters] = None, duration: float = 4.8, *,
              model: str = "lugre", direction: Optional[str] = None, dt: float = 1e-4,
              tolerance: float = 1e-6, integrator: str = "model_default",
-             **overrides: float) -> Simulation:
+             columns: Optional[Sequence[str]] = None, **overrides: float) -> Simulation:
     """Simulates the motor from rest for ``duration`` seconds (at most an
     hour) and samples it every ``dt``, as ``piezo simulate`` does.
 
     model: "lugre" or "coulomb"; direction: "forward" or "reverse" (default:
     the parameters'); integrator: "model_default" (hybrid for LuGre, closed
     form for Coulomb), "hybrid", "dopri5" or "closed_form"; tolerance: the
-    integrator's, on the scaled state (the CLI's default 1e-6). ``overrides``
-    set parameters by symbol (``simulate(V0=60)``).
+    integrator's, on the scaled state (the CLI's default 1e-6); columns: the
+    samples wanted, of ``COLUMNS`` (default: all; t and theta always come,
+    the others not asked for are empty arrays), so that a study that reads
+    theta pays for theta alone. ``overrides`` set parameters by symbol
+    (``simulate(V0=60)``).
 
     >>> sim = simulate(V0=60, duration=0.5)
     >>> len(sim.t), float(sim.t[-1])
@@ -256,7 +260,12 @@ def simulate(params: Optional[Parameters] = None, duration: float = 4.8, *,
                           "" if direction is None else _text("simulate", "direction", direction,
                                                              DIRECTIONS),
                           _number("simulate", "dt", dt), _number("simulate", "tolerance", tolerance),
-                          _text("simulate", "integrator", integrator, INTEGRATORS))
+                          _text("simulate", "integrator", integrator, INTEGRATORS),
+                          list(COLUMNS) if columns is None else
+                          [_text("simulate", "columns", c, COLUMNS) for c in
+                           ([columns] if isinstance(columns, str) else list(columns))])
+    for name in COLUMNS:
+        out.setdefault(name, np.empty(0))  # a column not asked for: empty
     return Simulation(model=model, parameters=p, **out)
 
 

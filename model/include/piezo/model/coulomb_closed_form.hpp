@@ -28,6 +28,7 @@ namespace piezo::model {
 [[nodiscard]] Trajectory simulate_coulomb_closed_form(const MotorParameters& p,
                                                       const Excitation& drive,
                                                       std::span<const double> times,
-                                                      const IntegratorSettings& settings);
+                                                      const IntegratorSettings& settings,
+                                                      Trajectory storage = {});
 
 }  // namespace piezo::model

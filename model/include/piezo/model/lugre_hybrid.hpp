@@ -113,6 +113,7 @@ class LuGreHybrid {
 /// Simulates the LuGre motor from rest (see simulate()).
 [[nodiscard]] Trajectory simulate_lugre_hybrid(const MotorParameters& p, const Excitation& drive,
                                                std::span<const double> sample_times,
-                                               const IntegratorSettings& settings);
+                                               const IntegratorSettings& settings,
+                                               Trajectory storage = {});
 
 }  // namespace piezo::model

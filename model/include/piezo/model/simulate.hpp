@@ -3,6 +3,8 @@
 /// Simulation of the motor models: adaptive, error-controlled integration that
 /// steps onto every kink of the drive and locates every stick/slip switch.
 
+#include <array>
+#include <bitset>
 #include <cstddef>
 #include <functional>
 #include <optional>
@@ -37,6 +39,14 @@ enum class Integrator {
 [[nodiscard]] std::vector<std::string_view> integrator_names();
 
 /// Accuracy settings of the adaptive integrator.
+/// A trajectory's columns, in their order; t is always recorded (it counts
+/// the samples).
+inline constexpr std::array<std::string_view, 8> kColumnNames = {"t",     "V",         "x", "x_dot",
+                                                                 "theta", "theta_dot", "z", "F_f"};
+/// Which columns a run records, by their index in kColumnNames.
+using ColumnSet = std::bitset<kColumnNames.size()>;
+inline const ColumnSet kAllColumns = ColumnSet{}.set();
+
 struct IntegratorSettings {
   /// Relative and absolute error per step on the scaled state (see simulate.cpp).
   /// The default meets the 1e-4 relative angle requirement with margin; the
@@ -50,6 +60,9 @@ struct IntegratorSettings {
   /// steps within a piece) with the simulated time reached: for progress on
   /// long simulations, and to stop one by throwing; may be empty.
   std::function<void(double t)> progress = {};
+  /// The columns recorded: a study that reads theta pays for theta alone
+  /// (the others stay empty).
+  ColumnSet columns = kAllColumns;
 };
 
 /// Cost of a simulation, for benchmarks and for reasoning about tolerances.
@@ -74,10 +87,14 @@ struct Trajectory {
   /// Times of the Coulomb model's stick/slip switches, in order (empty for LuGre).
   std::vector<double> switch_times;
   IntegrationStats stats;
+  ColumnSet columns = kAllColumns;  ///< those recorded (see IntegratorSettings)
 
   [[nodiscard]] std::size_t size() const { return t.size(); }
-  /// Room for n samples in every column, taken once before a run.
+  /// Room for n samples in every column recorded, taken once before a run.
   void reserve(std::size_t n);
+  /// Empty, recording `kept`: the columns' storage stays, for a caller that
+  /// hands a used trajectory to the next run (see simulate()).
+  void restart(ColumnSet kept);
   /// One sample: time, voltage, a LuGre or Coulomb state (z is 0 for a
   /// Coulomb state, which has no bristle) and the friction force.
   void append(double t_s, double V_volts, std::span<const double> state, double F_f_value);
@@ -87,10 +104,12 @@ struct Trajectory {
 /// times, which must be non-negative and non-decreasing. For the Coulomb
 /// model the z column is zero (it has no bristle state). Throws
 /// std::invalid_argument for closed_form with LuGre (its bristle has no
-/// closed form).
+/// closed form). `storage`: a used trajectory whose columns' memory the run
+/// writes into (its samples are dropped), so that a loop of runs does not
+/// fault in fresh pages each time.
 [[nodiscard]] Trajectory simulate(const MotorParameters& p, const Excitation& drive,
                                   FrictionModel model, std::span<const double> sample_times,
-                                  const IntegratorSettings& settings = {});
+                                  const IntegratorSettings& settings = {}, Trajectory storage = {});
 
 /// 0, dt, 2dt, ... up to and including duration (the last interval may be shorter).
 [[nodiscard]] std::vector<double> uniform_times(double duration, double interval);
