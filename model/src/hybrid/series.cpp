@@ -60,8 +60,10 @@ void SeriesMotor::expand(const LuGreState& y0, double V0, double slope, double s
 template <bool Saturated>
 void SeriesMotor::expand(const LuGreState& y0, double V0, double slope, double s,
                          Expansion& e) const {
-  auto& [x, X, th, W, z] = e.y;
-  auto& v = e.v;
+  // Plain references, not a structured binding: the lambda below captures
+  // them (clang before 16 refuses to capture a binding).
+  Coefficients &x = e.y[kX], &X = e.y[kXDot], &th = e.y[kTheta], &W = e.y[kThetaDot];
+  Coefficients &z = e.y[kZ], &v = e.v;
   x[0] = y0[kX];
   X[0] = y0[kXDot];
   th[0] = y0[kTheta];
