@@ -14,27 +14,24 @@ LuGreState Expansion::state(double tau) const {
 
 namespace {
 
-/// Order K's Cauchy product sum_j v[j] z[K-j]. Its middle terms are summed
-/// oldest coefficients first, in two chains, and its two ends (v[K] z[0],
-/// v[0] z[K], the coefficients just computed) last, so that the sum is
-/// ready soon after them. Unrolled at compile time: every index a constant.
+/// The middle of order K's Cauchy product, sum_j v[j] z[K-j] for 0 < j < K
+/// (its ends, v[K] z[0] and v[0] z[K], are folded into the recurrence's
+/// coefficients). Summed oldest coefficients first, in two chains, so that
+/// it waits least on the order just computed. Unrolled at compile time:
+/// every index a constant.
 template <std::size_t K, std::size_t... J>
-double cauchy(const Coefficients& v, const Coefficients& z, std::index_sequence<J...>) {
-  if constexpr (K == 0) {
-    return v[0] * z[0];
-  } else {
-    double lo = K % 2 == 0 ? v[K / 2] * z[K / 2] : 0.0, hi = 0.0;
-    // J = 0, 1, ... walks j = (K - 1)/2 down to 1: the pairs (j, K - j).
-    ((lo += v[(K - 1) / 2 - J] * z[K - (K - 1) / 2 + J],
-      hi += v[K - (K - 1) / 2 + J] * z[(K - 1) / 2 - J]),
-     ...);
-    return v[K] * z[0] + (v[0] * z[K] + (lo + hi));
-  }
+double cauchy_middle(const Coefficients& v, const Coefficients& z, std::index_sequence<J...>) {
+  double lo = K % 2 == 0 && K > 0 ? v[K / 2] * z[K / 2] : 0.0, hi = 0.0;
+  // J = 0, 1, ... walks j = (K - 1)/2 down to 1: the pairs (j, K - j).
+  ((lo += v[(K - 1) / 2 - J] * z[K - (K - 1) / 2 + J],
+    hi += v[K - (K - 1) / 2 + J] * z[(K - 1) / 2 - J]),
+   ...);
+  return lo + hi;
 }
 
 template <std::size_t K>
-double cauchy(const Coefficients& v, const Coefficients& z) {
-  return cauchy<K>(v, z, std::make_index_sequence < K == 0 ? 0 : (K - 1) / 2 > {});
+double cauchy_middle(const Coefficients& v, const Coefficients& z) {
+  return cauchy_middle<K>(v, z, std::make_index_sequence < K <= 1 ? 0 : (K - 1) / 2 > {});
 }
 
 }  // namespace
@@ -72,35 +69,51 @@ void SeriesMotor::expand(const LuGreState& y0, double V0, double slope, double s
   v[0] = X[0] - p_.r * W[0];
   // z' = v - sk (v z); a saturated bristle is held (z' = 0), which leaves
   // the recurrence linear: no Cauchy term. F_f = sigma0 z + sigma1 z' +
-  // sigma2 v = P - q (v z), with P the part known before the Cauchy term.
+  // sigma2 v = P - q (v z), with P = sigma0 z + a v.
   const double sk = s * kappa_;
   const double a = Saturated ? p_.sigma2 : p_.sigma1 + p_.sigma2;
   const double q = p_.sigma1 * sk;
-  // Each order's new coefficients hang on the Cauchy term of the one before
-  // by one multiply-add each (v and z directly, not v through x' and
-  // theta'): the recurrence's chain of dependent operations, which sets
-  // its cost, is three per order. The rest is computed beside it. Every
-  // order is its own instance, unrolled: no loop, no branch.
+  // Order k's Cauchy term (v z)[k] is v[k] z0 + v0 z[k] + its middle, which
+  // waits only on older orders. Folding its ends into the coefficients of
+  // v[k] and z[k] leaves -F_f[k] = cv v[k] + cz z[k] + q middle: two
+  // multiply-adds from the order before, and one more to each new
+  // coefficient. That chain sets the recurrence's cost; the rest is
+  // computed beside it. Every order is its own instance, unrolled: no loop,
+  // no branch.
+  // The constants in registers: a store into e might, for all the compiler
+  // knows, change the motor's, which it would then load after every one.
+  const double sigma0 = p_.sigma0, C = p_.C, K_spring = p_.K, K_d_e = K_d_e_;
+  const double z0 = z[0], v0 = v[0];
+  const double cv = q * z0 - a, cz = q * v0 - sigma0;
+  const double zv = 1.0 - sk * z0, zz = -sk * v0;  // z' = zv v + zz z - sk middle
   auto order = [&]<std::size_t K>() __attribute__((always_inline)) {
     const PerOrder& o = per_order_[K];
     const double Vk = K == 0 ? V0 : (K == 1 ? slope : 0.0);
-    const double A = K_d_e_ * Vk - p_.C * X[K] - p_.K * x[K];  // M x'' + F_f
-    const double P = p_.sigma0 * z[K] + a * v[K];
+    // M x'' + F_f, with x'[k] (the order before's) last.
+    const double A = (K_d_e * Vk - K_spring * x[K]) - C * X[K];
     x[K + 1] = X[K] * o.inv;
     th[K + 1] = W[K] * o.inv;
     if constexpr (Saturated) {
+      const double P = sigma0 * z[K] + a * v[K];
       X[K + 1] = (A - P) * o.inv_M;
       W[K + 1] = P * o.r_over_J;
       z[K + 1] = 0.0;
       v[K + 1] = A * o.inv_M - P * o.to_v;
+    } else if constexpr (K == 0) {
+      const double G = q * v0 * z0 - sigma0 * z0 - a * v0;  // -F_f
+      X[1] = (A + G) * o.inv_M;
+      W[1] = -G * o.r_over_J;
+      z[1] = v0 - sk * v0 * z0;
+      v[1] = A * o.inv_M + G * o.to_v;
     } else {
-      const double vz = cauchy<K>(v, z);
-      const double F = P - q * vz;
-      X[K + 1] = (A - F) * o.inv_M;
-      W[K + 1] = F * o.r_over_J;
-      z[K + 1] = o.inv * v[K] - sk * o.inv * vz;
-      // x'[k+1] - r theta'[k+1] = (A - F) inv_M - r F r_over_J.
-      v[K + 1] = (A * o.inv_M - P * o.to_v) + q * o.to_v * vz;
+      const double middle = cauchy_middle<K>(v, z);
+      const double G = cv * v[K] + (cz * z[K] + q * middle);  // -F_f
+      const double A_M = A * o.inv_M;
+      X[K + 1] = G * o.inv_M + A_M;
+      W[K + 1] = -G * o.r_over_J;
+      z[K + 1] = (zv * v[K] + (zz * z[K] - sk * middle)) * o.inv;
+      // x'[k+1] - r theta'[k+1] = (A + G) inv_M + r G r_over_J.
+      v[K + 1] = G * o.to_v + A_M;
     }
   };
   [&]<std::size_t... K>(std::index_sequence<K...>) {
@@ -227,20 +240,52 @@ double first_root(const Coefficients& v, double s, double a, double b, const End
   return hi;
 }
 
-/// The minimum of s*v in (a, b), given s*v' < 0 at a and > 0 at b: Newton
-/// on v', kept inside the bracket by bisection.
-double dip(const Coefficients& v, double s, double a, double b) {
-  double lo = a, hi = b, tau = 0.5 * (a + b);
+/// Where the cubic through both ends' values and slopes has its minimum in
+/// (a, b), given s*v' < 0 at a and > 0 at b: the slope's linear
+/// interpolation, refined by two Newton steps on the cubic's slope.
+double cubic_minimum(double a, double b, const End& start, const End& end) {
+  const double w = b - a, m0 = w * start.slope, m1 = w * end.slope;
+  const double c2 = 3.0 * (end.value - start.value) - 2.0 * m0 - m1;
+  const double c3 = 2.0 * (start.value - end.value) + m0 + m1;
+  const double linear = m0 / (m0 - m1);
+  double u = linear;
+  for (int i = 0; i < 2; ++i) {
+    const double d = m0 + u * (2.0 * c2 + u * 3.0 * c3);
+    const double c = 2.0 * c2 + u * 6.0 * c3;
+    u = c > 0.0 ? u - d / c : linear;
+    if (!(u > 0.0 && u < 1.0)) u = linear;
+  }
+  return a + w * u;
+}
+
+/// The first root of s*v in (a, b) when s*v >= 0 at both ends, falls at a
+/// and rises at b: at most one minimum lies between them (the step cap),
+/// and it is sought by Newton on v' from the cubic's minimum only until a
+/// point with s*v < 0 brackets the root, or the minimum is plainly above
+/// zero, or found to the resolution. Sets `found`.
+double root_in_dip(const Coefficients& v, double s, double a, double b, const End& start,
+                   const End& end, bool& found) {
+  double lo = a, hi = b, tau = cubic_minimum(a, b, start, end);
   const double resolution = 1e-12 * b;
+  found = true;
   for (int i = 0; i < 60 && hi - lo > resolution; ++i) {
+    const double value = s * at(v, tau);
     const double d = s * slope_at(v, tau);
-    (d < 0.0 ? lo : hi) = tau;
+    if (value < 0.0) return first_root(v, s, a, tau, start, {value, d});
     const double c = s * curvature_at(v, tau);
+    (d < 0.0 ? lo : hi) = tau;
     const double next = c > 0.0 ? tau - d / c : 0.5 * (lo + hi);
-    if (d == 0.0 || std::abs(next - tau) <= resolution) return std::clamp(next, lo, hi);
+    // Close to the minimum, s*v there is value - d^2/2c to within a small
+    // fraction of that drop: well above zero, there is no root.
+    const double drop = c > 0.0 ? 0.5 * d * d / c : value;
+    if (d == 0.0 || std::abs(next - tau) <= resolution ||
+        (std::abs(next - tau) <= 0.05 * (b - a) && drop <= 0.25 * value)) {
+      break;
+    }
     tau = next > lo && next < hi ? next : 0.5 * (lo + hi);
   }
-  return tau;
+  found = false;
+  return b;
 }
 
 /// The first root of s*v in the half step (a, b], from its ends: a sign
@@ -249,13 +294,8 @@ double dip(const Coefficients& v, double s, double a, double b) {
 double root_in(const Coefficients& v, double s, double a, double b, const End& start,
                const End& end, bool& found) {
   found = true;
-  if (start.slope < 0.0 && end.slope > 0.0) {
-    const double m = dip(v, s, a, b);
-    if (const double value_m = s * at(v, m); value_m < 0.0) {
-      return first_root(v, s, a, m, start, {value_m, 0.0});  // v' = 0 at the dip
-    }
-  }
   if (end.value < 0.0) return first_root(v, s, a, b, start, end);
+  if (start.slope < 0.0 && end.slope > 0.0) return root_in_dip(v, s, a, b, start, end, found);
   found = false;
   return b;
 }
