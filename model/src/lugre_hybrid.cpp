@@ -230,7 +230,7 @@ bool LuGreHybrid::stick_step(const LinearPiece& piece, double t_end, StateSample
   for (;;) {
     double error = stick_.step(y0, V0, piece.slope, s_, h, y1);
     if (!std::isfinite(error)) error = 1e10;  // overflowed: a far smaller step
-    const double factor = 0.9 * std::pow(std::max(error, 1e-10), -0.25);
+    const double factor = 0.9 / std::sqrt(std::sqrt(std::max(error, 1e-10)));  // error^-1/4
     stats_.rhs_evaluations += 6;
     if (error <= 1.0) {
       stick_h_ = h * std::clamp(factor, 0.2, 5.0);

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -93,8 +94,11 @@ TEST(IdentifyNotes, MuAndNormalForceAreNotSeparatelyIdentifiable) {
   settings.free = {"mu", "F_N"};
   settings.max_iterations = 3;
   const FitResult r = identify(Parameters{}, data, settings);
-  ASSERT_FALSE(r.notes.empty());
-  EXPECT_NE(r.notes.front().find("only as their product"), std::string::npos);
+  // Among the notes (a fit cut at three iterations may also say it did not
+  // converge, first).
+  EXPECT_TRUE(std::any_of(r.notes.begin(), r.notes.end(), [](const std::string& note) {
+    return note.find("only as their product") != std::string::npos;
+  }));
 }
 
 TEST(IdentifyNotes, RefusesUnknownParameters) {

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <utility>
 
+#include "piezo/model/hybrid/nth_root.hpp"
+
 namespace piezo::model::hybrid {
 
 LuGreState Expansion::state(double tau) const {
@@ -124,6 +126,9 @@ void SeriesMotor::expand(const LuGreState& y0, double V0, double slope, double s
 
 namespace {
 
+const NthRoot<kOrder - 1> kRootBefore;
+const NthRoot<kOrder> kRootLast;
+
 /// x^n by squaring: a short chain of multiplications.
 double power(double x, int n) {
   double out = 1.0;
@@ -149,15 +154,14 @@ double allowed_step(const Expansion& e, const LuGreState& inverse_scale, double 
     before = std::max(before, std::abs(e.y[i][kOrder - 1]) * inverse_scale[i]);
   }
   // A bound is below the step so far only if its coefficient times that
-  // step's power exceeds the tolerance: the roots (a costly pow each) only
-  // then. The order before the last binds first as a rule (a coefficient
-  // falls by about omega h / k an order), so it is tried first and the
+  // step's power exceeds the tolerance: the roots only then. The order before the last binds first
+  // as a rule (a coefficient falls by about omega h / k an order), so it is tried first and the
   // last order's root is rarely needed.
   if (before * power(h, kOrder - 1) > tolerance) {
-    h = std::pow(tolerance / before, 1.0 / (kOrder - 1));
+    h = kRootBefore(tolerance / before);
   }
   if (last * power(h, kOrder) > tolerance) {
-    h = std::pow(tolerance / last, 1.0 / kOrder);
+    h = kRootLast(tolerance / last);
   }
   return h;
 }
@@ -216,8 +220,9 @@ double first_root(const Coefficients& v, double s, double a, double b, const End
                   const End& end) {
   const double resolution = 1e-12 * b;
   // A Halley step this short leaves the next iterate within about its cube
-  // of the root: close enough to try the point just past it. Near a double
-  // root, where it is slow, the try fails and the bracket moves on.
+  // of the root: close enough to try the points just either side of it.
+  // Near a double root, where it is slow, the try fails and the bracket
+  // moves on.
   const double near = 1e-5 * b;
   double lo = a, hi = b;
   double tau = cubic_start(a, b, start, end);
@@ -229,10 +234,20 @@ double first_root(const Coefficients& v, double s, double a, double b, const End
     const double denominator = 2.0 * d * d - value * c;
     const double next = denominator != 0.0 ? tau - 2.0 * value * d / denominator : 0.5 * (lo + hi);
     if (std::abs(next - tau) <= near) {
-      const double past = next + 0.5 * resolution;
-      if (past > lo && past < hi) {
-        if (s * at(v, past) < 0.0) return past;
-        lo = past;
+      // The root within the resolution around next if s*v changes sign
+      // across it: both sides evaluated side by side. (The try alone would
+      // let a root near a double one, where Halley's error constant is
+      // large, be missed by far more than the resolution.)
+      const double before = next - 0.5 * resolution, past = next + 0.5 * resolution;
+      if (before > lo && past < hi) {
+        const double value_before = s * at(v, before), value_past = s * at(v, past);
+        if (value_before < 0.0) {
+          hi = before;
+        } else if (value_past < 0.0) {
+          return past;
+        } else {
+          lo = past;
+        }
       }
     }
     tau = next > lo && next < hi ? next : 0.5 * (lo + hi);

@@ -1,15 +1,18 @@
 // The hybrid integrator's series mode, part by part: the evaluations
 // against a plain Horner, the recurrence against the motor's own equations
 // (the series must satisfy them order by order), the step bound against
-// its definition, and the zero of v against a bisection of the polynomial.
+// its definition, the zero of v against a bisection of the polynomial, and
+// the step bound's root against std::pow.
 
 #include "piezo/model/hybrid/series.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
+#include "piezo/model/hybrid/nth_root.hpp"
 #include "piezo/model/parameters.hpp"
 #include "piezo/model/step_control.hpp"
 
@@ -120,7 +123,8 @@ TEST(SeriesStep, TheBoundIsTheSmallerRootOfTheLastTwoOrders) {
     const double h_max = std::pow(10.0, exponent(rng) / 4.0);
     const double expected = std::min(
         {h_max, std::pow(1e-6 / last, 1.0 / kOrder), std::pow(1e-6 / before, 1.0 / (kOrder - 1))});
-    EXPECT_NEAR(allowed_step(e, scale, 1e-6, h_max), expected, 1e-14 * expected);
+    // The roots by NthRoot, to 1e-9.
+    EXPECT_NEAR(allowed_step(e, scale, 1e-6, h_max), expected, 2e-9 * expected);
   }
 }
 
@@ -148,7 +152,34 @@ TEST(SeriesZero, FirstZeroIsTheFirstSignChangeOfSv) {
     dip[1] = s * -0.62;
     dip[2] = s;
     EXPECT_NEAR(first_zero(dip, s, 1.0), 0.3, 2e-12);
+    // A dip whose minimum (at 0.31) stays 1e-9 above zero: no zero, the
+    // whole step; 1e-9 below: its first root, 0.31 - sqrt(1e-9).
+    for (const double lift : {1e-4 + 1e-9, 1e-4 - 1e-9}) {
+      Coefficients near{};
+      near[0] = s * (0.3 * 0.32 + lift);
+      near[1] = s * -0.62;
+      near[2] = s;
+      const double expected = lift > 1e-4 ? 1.0 : 0.31 - std::sqrt(1e-4 - lift);
+      EXPECT_NEAR(first_zero(near, s, 1.0), expected, 2e-12) << lift;
+    }
   }
+}
+
+TEST(NthRoot, IsStdPowToOnePartInABillionOverTheWholeRange) {
+  const NthRoot<kOrder - 1> root13;
+  const NthRoot<kOrder> root14;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> exponent(-307.0, 307.0);
+  for (int i = 0; i < 100000; ++i) {
+    const double x = std::pow(10.0, exponent(rng));
+    EXPECT_NEAR(root13(x), std::pow(x, 1.0 / (kOrder - 1)), 1e-9 * std::pow(x, 1.0 / 13)) << x;
+    EXPECT_NEAR(root14(x), std::pow(x, 1.0 / kOrder), 1e-9 * std::pow(x, 1.0 / 14)) << x;
+  }
+  // Past the normal range, std::pow itself.
+  for (const double x : {0.0, 1e-310, std::numeric_limits<double>::infinity()}) {
+    EXPECT_EQ(root13(x), std::pow(x, 1.0 / 13)) << x;
+  }
+  EXPECT_TRUE(std::isnan(root13(std::numeric_limits<double>::quiet_NaN())));
 }
 
 }  // namespace
