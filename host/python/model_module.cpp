@@ -87,13 +87,17 @@ class ColumnPool {
     model::Trajectory tr;
     const std::array all{&tr.t, &tr.V, &tr.x, &tr.x_dot, &tr.theta, &tr.theta_dot, &tr.z, &tr.F_f};
     for (std::size_t i = 0; i < all.size(); ++i) {
-      if ((i == 0 || kept[i]) && !free_.empty()) {
-        *all[i] = std::move(free_.back());
-        free_.pop_back();
-        bytes_ -= all[i]->capacity() * sizeof(double);
-      }
+      if (i == 0 || kept[i]) *all[i] = column();
     }
     return tr;
+  }
+  /// One column's memory (the sample times'), empty if there is none.
+  std::vector<double> column() {
+    if (free_.empty()) return {};
+    std::vector<double> out = std::move(free_.back());
+    free_.pop_back();
+    bytes_ -= out.capacity() * sizeof(double);
+    return out;
   }
   void give(std::vector<double>&& column) {
     const std::size_t bytes = column.capacity() * sizeof(double);
@@ -264,10 +268,11 @@ py::dict simulate(model::Parameters p, double duration, const std::string& frict
     kept.set(static_cast<std::size_t>(at - model::kColumnNames.begin()));
   }
   model::Trajectory tr = ColumnPool::instance().storage(kept);
+  std::vector<double> times = ColumnPool::instance().column();
   {
     py::gil_scoped_release free_python;
     const model::Sawtooth drive(p.drive.V0, p.drive.f, p.drive.rise());
-    const auto times = model::uniform_times(duration, dt);
+    times = model::uniform_times(duration, dt, std::move(times));
     host::SimulationProgress progress(duration, true, model::differences_from_paper(p));
     tr = model::simulate(p.motor, drive, friction, times,
                          {.tolerance = tolerance,
@@ -281,6 +286,7 @@ py::dict simulate(model::Parameters p, double duration, const std::string& frict
                          std::move(tr));
     progress.finish();
   }
+  ColumnPool::instance().give(std::move(times));
   py::dict out;
   out["theta_end_rad"] = tr.theta.back();
   out["mean_velocity_rad_s"] = tr.theta.back() / duration;

@@ -11,8 +11,9 @@
 
 namespace piezo::model {
 
-std::vector<double> uniform_times(double duration, double interval) {
-  std::vector<double> times;
+std::vector<double> uniform_times(double duration, double interval, std::vector<double> storage) {
+  std::vector<double> times = std::move(storage);
+  times.clear();
   const auto n = static_cast<std::size_t>(std::floor(duration / interval + 1e-9));
   times.reserve(n + 2);
   for (std::size_t i = 0; i <= n; ++i) times.push_back(static_cast<double>(i) * interval);

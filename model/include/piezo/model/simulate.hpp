@@ -111,8 +111,10 @@ struct Trajectory {
                                   FrictionModel model, std::span<const double> sample_times,
                                   const IntegratorSettings& settings = {}, Trajectory storage = {});
 
-/// 0, dt, 2dt, ... up to and including duration (the last interval may be shorter).
-[[nodiscard]] std::vector<double> uniform_times(double duration, double interval);
+/// 0, dt, 2dt, ... up to and including duration (the last interval may be
+/// shorter), written into `storage`'s memory (as simulate()'s).
+[[nodiscard]] std::vector<double> uniform_times(double duration, double interval,
+                                                std::vector<double> storage = {});
 
 /// Rotor angle at t_end only: the cheap call for sweeps.
 [[nodiscard]] double final_angle(const MotorParameters& p, const Excitation& drive,
