@@ -305,11 +305,9 @@ class Recorder final : public StateSamples {
                                                       &out.x_dot, &out.theta, &out.theta_dot,
                                                       &out.z,     &out.F_f} {
     out_.reserve(times.size());
+    move_on();
   }
 
-  [[nodiscard]] double next() const override {
-    return next_ < times_.size() ? times_[next_] : std::numeric_limits<double>::infinity();
-  }
   void take(const LuGreState& y, double V) override {
     // The friction force only for a caller that records it.
     const double F_f = out_.columns[kFrictionColumn] ? motor_.friction(y).force : 0.0;
@@ -317,9 +315,14 @@ class Recorder final : public StateSamples {
     for (std::size_t i = 0; i < 5; ++i) block_[2 + i][rows_] = y[i];
     block_[kFrictionColumn][rows_] = F_f;
     ++next_;
+    move_on();
     if (++rows_ == kRows) flush();
   }
   [[nodiscard]] bool done() const { return next_ >= times_.size(); }
+
+  void move_on() {
+    set_next(next_ < times_.size() ? times_[next_] : std::numeric_limits<double>::infinity());
+  }
 
   /// The rows not yet in the columns, into them: once the run is over.
   void flush() {

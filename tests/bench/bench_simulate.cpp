@@ -7,7 +7,8 @@
 // mode: steps per mode at 10 and 20 Hz times each mode's cost per step,
 // measured here on states taken from the run. Last, the hybrid's error
 // against the tolerance asked, 1e-4 to 1e-10, at 5, 10, 20 and 50 Hz.
-// Usage: bench_simulate [repeats]   (prints tables; timings are medians)
+// Usage: bench_simulate [repeats]   (prints tables; timings are medians, of runs
+// interleaved where they are set side by side)
 
 #include <fmt/format.h>
 
@@ -126,13 +127,13 @@ int main(int argc, char** argv) {
     const double reference =
         run(p, model::FrictionModel::lugre, model::Integrator::dopri5, 1e-11, true).theta.back();
     double rk4 = 0.0;
-    const double t_rk4 = median_seconds(
-        repeats, [&] { rk4 = testing::lugre_rk4_angle(p.motor, drive, kRuntime, 1e-6); });
     model::Trajectory hybrid, dopri5;
-    const double t_hybrid = median_seconds(
-        repeats, [&] { hybrid = run(p, model::FrictionModel::lugre, model::Integrator::hybrid); });
-    const double t_dopri5 = median_seconds(
-        repeats, [&] { dopri5 = run(p, model::FrictionModel::lugre, model::Integrator::dopri5); });
+    const auto medians = testing::interleaved_median_seconds(
+        repeats,
+        {[&] { rk4 = testing::lugre_rk4_angle(p.motor, drive, kRuntime, 1e-6); },
+         [&] { hybrid = run(p, model::FrictionModel::lugre, model::Integrator::hybrid); },
+         [&] { dopri5 = run(p, model::FrictionModel::lugre, model::Integrator::dopri5); }});
+    const double t_rk4 = medians[0], t_hybrid = medians[1], t_dopri5 = medians[2];
     fmt::print(
         "{:>6g} | {:>9.2f} {:>8} {:>9.1e} | {:>9.2f} {:>8} {:>8.1e} | {:>9.1f} {:>8.1e} | "
         "{:>6.1f}x {:>6.1f}x\n",
@@ -204,14 +205,15 @@ int main(int argc, char** argv) {
     theta_only.set(0).set(4);
     model::Trajectory reused;
     auto timed = [&](std::span<const double> times, const model::ColumnSet& columns) {
-      return median_seconds(repeats, [&] {
+      return [&, times, columns] {
         reused = model::simulate(p.motor, drive, model::FrictionModel::lugre, times,
                                  {.columns = columns}, std::move(reused));
-      });
+      };
     };
-    const double alone = timed(end, model::kAllColumns);
-    const double all = timed(every, model::kAllColumns);
-    const double theta = timed(every, theta_only);
+    const auto medians = testing::interleaved_median_seconds(
+        repeats, {timed(end, model::kAllColumns), timed(every, model::kAllColumns),
+                  timed(every, theta_only)});
+    const double alone = medians[0], all = medians[1], theta = medians[2];
     fmt::print(
         "\nSamples, 10 Hz, {} of them (storage reused): every column {:.2f} ms, theta alone "
         "{:.2f} ms, the end alone (the integration) {:.2f} ms: {:.2f}x and {:.2f}x\n",

@@ -223,7 +223,7 @@ double first_root(const Coefficients& v, double s, double a, double b, const End
   // of the root: close enough to try the points just either side of it.
   // Near a double root, where it is slow, the try fails and the bracket
   // moves on.
-  const double near = 1e-5 * b;
+  const double near = 1e-4 * b;
   double lo = a, hi = b;
   double tau = cubic_start(a, b, start, end);
   for (int i = 0; i < 60 && hi - lo > resolution; ++i) {

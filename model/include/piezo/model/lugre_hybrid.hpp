@@ -34,15 +34,20 @@ namespace piezo::model {
 /// Receives the state at the times it asks for during an advance.
 class StateSamples {
  public:
-  /// The next time wanted (infinity: none).
-  [[nodiscard]] virtual double next() const = 0;
+  /// The next time wanted (infinity: none): a plain read, as the
+  /// integrator asks it before each sample and at each step.
+  [[nodiscard]] double next() const { return next_; }
   /// The state at next() and the drive's voltage there (from the piece the
   /// integrator is on: no lookup in the drive per sample); the sink moves
-  /// on to its following time.
+  /// on to its following time (set_next).
   virtual void take(const LuGreState& y, double V) = 0;
 
  protected:
   ~StateSamples() = default;
+  void set_next(double t) { next_ = t; }
+
+ private:
+  double next_ = std::numeric_limits<double>::infinity();
 };
 
 /// The LuGre motor advanced piece by piece of drive, from a given state.
