@@ -9,8 +9,9 @@
 namespace piezo::model::hybrid {
 
 LuGreState Expansion::state(double tau) const {
+  const Powers t(tau);
   LuGreState out{};
-  for (std::size_t i = 0; i < 5; ++i) out[i] = at(y[i], tau);
+  for (std::size_t i = 0; i < 5; ++i) out[i] = estrin<kOrder + 1>(y[i].data(), t);
   return out;
 }
 
@@ -168,16 +169,13 @@ double allowed_step(const Expansion& e, const LuGreState& inverse_scale, double 
 
 namespace {
 
-/// The series' second derivative at tau, in two chains as at().
+/// The series' second derivative at tau, by Estrin's scheme as at().
 double curvature_at(const Coefficients& c, double tau) {
-  const double t2 = tau * tau;
-  double even = kOrder * (kOrder - 1) * c[kOrder];
-  double odd = (kOrder - 1) * (kOrder - 2) * c[kOrder - 1];
-  for (int k = kOrder - 2; k >= 3; k -= 2) {
-    even = even * t2 + k * (k - 1) * c[static_cast<std::size_t>(k)];
-    odd = odd * t2 + (k - 1) * (k - 2) * c[static_cast<std::size_t>(k - 1)];
+  std::array<double, kOrder - 1> d;
+  for (std::size_t k = 0; k + 1 < kOrder; ++k) {
+    d[k] = static_cast<double>((k + 2) * (k + 1)) * c[k + 2];
   }
-  return (even * t2 + 2.0 * c[2]) + tau * odd;
+  return estrin<kOrder - 1>(d.data(), Powers(tau));
 }
 
 /// s*v and its slope at one end of a bracket: each evaluated once.

@@ -12,6 +12,7 @@
 /// v and z per order). Allocation-free.
 
 #include <array>
+#include <bit>
 
 #include "piezo/model/motor.hpp"
 #include "piezo/model/parameters.hpp"
@@ -23,32 +24,42 @@ namespace piezo::model::hybrid {
 inline constexpr int kOrder = 14;
 using Coefficients = std::array<double, kOrder + 1>;
 
-static_assert(kOrder % 2 == 0, "at() and slope_at() split the coefficients into even and odd");
-
-/// The series at tau: Horner in tau^2 over the even and over the odd
-/// coefficients, two chains of half the length that the processor runs side
-/// by side (a plain Horner is one chain of kOrder dependent multiply-adds,
-/// and the root search evaluates it several times a step).
-[[nodiscard]] inline double at(const Coefficients& c, double tau) {
-  const double t2 = tau * tau;
-  double even = c[kOrder], odd = c[kOrder - 1];
-  for (int k = kOrder - 2; k >= 0; k -= 2) {
-    even = even * t2 + c[static_cast<std::size_t>(k)];
-    if (k >= 1) odd = odd * t2 + c[static_cast<std::size_t>(k - 1)];
+/// Powers t, t^2, t^4 and t^8 of a point: what Estrin's scheme multiplies by.
+struct Powers {
+  explicit Powers(double t) : p{t, t * t, 0.0, 0.0} {
+    p[2] = p[1] * p[1];
+    p[3] = p[2] * p[2];
   }
-  return even + tau * odd;
+  std::array<double, 4> p;
+};
+
+/// sum_k c[k] t^k over N coefficients by Estrin's scheme: the lower half
+/// plus t^m times the upper (m the largest power of two below N), each
+/// half the same way, unrolled at compile time. Its chain of dependent
+/// operations is log2(N) multiply-adds long (four for the series),
+/// against N - 1 for Horner's: the evaluations sit on each step's critical
+/// path (the probes, the root's iterations, the state at the step's end).
+template <std::size_t N>
+[[nodiscard]] inline double estrin(const double* c, const Powers& t) {
+  static_assert(N >= 1 && N <= 16, "t^8 is the highest power kept");
+  if constexpr (N == 1) {
+    return c[0];
+  } else {
+    constexpr std::size_t m = std::bit_floor(N - 1);
+    return estrin<m>(c, t) + t.p[std::countr_zero(m)] * estrin<N - m>(c + m, t);
+  }
 }
 
-/// Its derivative at tau, the same way: the derivative's coefficient k is
-/// (k + 1) c[k + 1].
+/// The series at tau.
+[[nodiscard]] inline double at(const Coefficients& c, double tau) {
+  return estrin<kOrder + 1>(c.data(), Powers(tau));
+}
+
+/// Its derivative at tau: the derivative's coefficient k is (k + 1) c[k + 1].
 [[nodiscard]] inline double slope_at(const Coefficients& c, double tau) {
-  const double t2 = tau * tau;
-  double odd = kOrder * c[kOrder], even = (kOrder - 1) * c[kOrder - 1];
-  for (int k = kOrder - 4; k >= 0; k -= 2) {
-    even = even * t2 + (k + 1) * c[static_cast<std::size_t>(k + 1)];
-    odd = odd * t2 + (k + 2) * c[static_cast<std::size_t>(k + 2)];
-  }
-  return even + tau * odd;
+  std::array<double, kOrder> d;
+  for (std::size_t k = 0; k < kOrder; ++k) d[k] = static_cast<double>(k + 1) * c[k + 1];
+  return estrin<kOrder>(d.data(), Powers(tau));
 }
 
 /// The series of the five states and of v about one point.
