@@ -34,36 +34,6 @@ constexpr double kCrawl = 0.05;
 /// leave more error than asked: the integrator resolves both instead.
 constexpr double kExactBelow = 1e-6;
 
-/// The cubic Hermite interpolant of the state between two steps, as a
-/// polynomial in u = (t - t0)/h per state: worked out once a step, a sample
-/// costs three multiply-adds per state (the samples outnumber the linear
-/// and stick steps they fall in some twenty to one at 10 kHz).
-class HermiteCubic {
- public:
-  HermiteCubic(double t0, const LuGreState& y0, const LuGreState& f0, double t1,
-               const LuGreState& y1, const LuGreState& f1)
-      : t0_(t0), inverse_h_(1.0 / (t1 - t0)) {
-    const double h = t1 - t0;
-    for (std::size_t i = 0; i < 5; ++i) {
-      const double rise = y1[i] - y0[i], m0 = h * f0[i], m1 = h * f1[i];
-      c_[i] = {y0[i], m0, 3.0 * rise - 2.0 * m0 - m1, m0 + m1 - 2.0 * rise};
-    }
-  }
-
-  [[nodiscard]] LuGreState at(double t) const {
-    const double u = (t - t0_) * inverse_h_;
-    LuGreState out{};
-    for (std::size_t i = 0; i < 5; ++i) {
-      out[i] = c_[i][0] + u * (c_[i][1] + u * (c_[i][2] + u * c_[i][3]));
-    }
-    return out;
-  }
-
- private:
-  double t0_, inverse_h_;
-  std::array<std::array<double, 4>, 5> c_{};  // [state][power of u]
-};
-
 /// The state with the stator's free oscillation removed (see ringing.hpp).
 LuGreState settle_stator(const MotorParameters& p, LuGreState y, double V, double slope,
                          double F_f) {
@@ -282,11 +252,7 @@ void LuGreHybrid::interpolate(StateSamples* samples, const LinearPiece& piece, d
   LuGreState f0{}, f1{};
   stick_.derivative(y_, piece.at(t_), s_, f0);
   stick_.derivative(y1, piece.at(t1), s_, f1);
-  const HermiteCubic cubic(t_, y_, f0, t1, y1, f1);
-  while (samples->next() <= t1) {
-    const double t = samples->next();
-    samples->take(cubic.at(t), piece.at(t));
-  }
+  samples->take_from(StateCubic(t_, y_, f0, t1, y1, f1), piece, t1);
 }
 
 namespace {
@@ -317,6 +283,34 @@ class Recorder final : public StateSamples {
     ++next_;
     move_on();
     if (++rows_ == kRows) flush();
+  }
+  /// A step's samples as whole columns of the block: loops over the
+  /// samples per state, which the compiler vectorises.
+  void take_from(const StateCubic& cubic, const LinearPiece& piece, double t1) override {
+    while (next() <= t1) {
+      std::size_t n = 0;
+      while (rows_ + n < kRows && next_ + n < times_.size() && times_[next_ + n] <= t1) ++n;
+      const double* t = times_.data() + next_;
+      std::array<double, kRows> u;
+      for (std::size_t j = 0; j < n; ++j) u[j] = cubic.u(t[j]);
+      for (std::size_t i = 0; i < 5; ++i) {
+        double* column = block_[2 + i].data() + rows_;
+        for (std::size_t j = 0; j < n; ++j) column[j] = cubic.at(i, u[j]);
+      }
+      double* V = block_[1].data() + rows_;
+      for (std::size_t j = 0; j < n; ++j) V[j] = piece.at(t[j]);
+      if (out_.columns[kFrictionColumn]) {
+        const double *x_dot = block_[3].data() + rows_, *theta_dot = block_[5].data() + rows_;
+        const double* z = block_[6].data() + rows_;
+        double* F_f = block_[kFrictionColumn].data() + rows_;
+        for (std::size_t j = 0; j < n; ++j)
+          F_f[j] = motor_.friction(x_dot[j], theta_dot[j], z[j]).force;
+      }
+      next_ += n;
+      rows_ += n;
+      move_on();
+      if (rows_ == kRows) flush();
+    }
   }
   [[nodiscard]] bool done() const { return next_ >= times_.size(); }
 

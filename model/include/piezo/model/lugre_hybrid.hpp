@@ -23,6 +23,7 @@
 
 #include "piezo/model/hybrid/linear_slide.hpp"
 #include "piezo/model/hybrid/series.hpp"
+#include "piezo/model/hybrid/state_cubic.hpp"
 #include "piezo/model/hybrid/stick_rosenbrock.hpp"
 #include "piezo/model/motor.hpp"
 #include "piezo/model/parameters.hpp"
@@ -41,6 +42,10 @@ class StateSamples {
   /// integrator is on: no lookup in the drive per sample); the sink moves
   /// on to its following time (set_next).
   virtual void take(const LuGreState& y, double V) = 0;
+  /// The samples up to t1 between two steps, from the state's cubic there
+  /// and the drive's piece (most of a run's samples: a step's worth at a
+  /// time).
+  virtual void take_from(const hybrid::StateCubic& cubic, const LinearPiece& piece, double t1) = 0;
 
  protected:
   ~StateSamples() = default;

@@ -43,9 +43,13 @@ class LuGreMotor {
         K_d_e_(p.K * p.d_e) {}
 
   [[nodiscard]] LuGreFriction friction(const LuGreState& y) const {
-    const double v = y[kXDot] - p_.r * y[kThetaDot];
-    const double z_rate = v - sigma0_over_Fc_ * std::abs(v) * y[kZ];
-    return {p_.sigma0 * y[kZ] + p_.sigma1 * z_rate + p_.sigma2 * v, z_rate};
+    return friction(y[kXDot], y[kThetaDot], y[kZ]);
+  }
+  /// The same from the three states it depends on.
+  [[nodiscard]] LuGreFriction friction(double x_dot, double theta_dot, double z) const {
+    const double v = x_dot - p_.r * theta_dot;
+    const double z_rate = v - sigma0_over_Fc_ * std::abs(v) * z;
+    return {p_.sigma0 * z + p_.sigma1 * z_rate + p_.sigma2 * v, z_rate};
   }
 
   /// dy/dt at amplifier voltage V.
