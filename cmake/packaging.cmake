@@ -19,7 +19,8 @@ install(FILES ${PROJECT_SOURCE_DIR}/configs/rig-example.toml
 if(PIEZO_HOST)
   install(TARGETS piezo RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT piezo)
   # Loaded by piezo when first needed (host/src/io/module_loader.hpp).
-  install(TARGETS piezo_h5 LIBRARY DESTINATION ${PIEZO_MODULE_DIR} COMPONENT piezo)
+  install(TARGETS piezo_h5 piezo_rig_commands LIBRARY DESTINATION ${PIEZO_MODULE_DIR}
+          COMPONENT piezo)
   if(TARGET piezo_mpi)
     install(TARGETS piezo_mpi LIBRARY DESTINATION ${PIEZO_MODULE_DIR} COMPONENT piezo)
   endif()

@@ -48,9 +48,11 @@ def guest_output(work):
 def run():
     work = os.environ["GUEST_WORK"]
     os.makedirs(work, exist_ok=True)
-    module = os.path.join(os.environ["PIEZO_MODULE_DIR"], "libpiezo_h5.so")
+    # piezo's modules: HDF5 for the log, and the rig's commands.
+    modules = " ".join(f"{os.path.join(os.environ['PIEZO_MODULE_DIR'], m)}=/lib/piezo/{m}"
+                       for m in ("libpiezo_h5.so", "libpiezo_rig_commands.so"))
     env = dict(os.environ, GUEST_MEMORY="768M",
-               GUEST_FILES=f"{module}=/lib/piezo/libpiezo_h5.so "
+               GUEST_FILES=f"{modules} "
                            f"{os.path.join(SOURCE, 'configs', 'daq.toml')}=/daq.toml")
     guest = subprocess.run(
         [os.path.join(SOURCE, "tests", "qemu", "run-guest.sh"), "daq-run",

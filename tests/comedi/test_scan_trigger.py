@@ -53,9 +53,11 @@ def scanned():
                     "--set", f"piezod.calibration_file={calibration}",
                     "--out", os.path.join(work, "calibration-run")],
                    check=True, capture_output=True)
-    module = os.path.join(os.environ["PIEZO_MODULE_DIR"], "libpiezo_h5.so")
+    # piezo's modules: HDF5 for the log, and the rig's commands.
+    modules = " ".join(f"{os.path.join(os.environ['PIEZO_MODULE_DIR'], m)}=/lib/piezo/{m}"
+                       for m in ("libpiezo_h5.so", "libpiezo_rig_commands.so"))
     env = dict(os.environ, GUEST_MEMORY="768M",
-               GUEST_FILES=f"{module}=/lib/piezo/libpiezo_h5.so {CONFIG}=/scan.toml "
+               GUEST_FILES=f"{modules} {CONFIG}=/scan.toml "
                            f"{calibration}=/calibration.json "
                            f"{os.environ['TRIGGER_WATCH']}=/trigger_watch")
     guest = subprocess.run(

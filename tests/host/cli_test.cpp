@@ -280,7 +280,9 @@ namespace {
 // a short range, not a 300-digit one, for a bad duration.
 // A command that opens no file and runs under no MPI launcher does not
 // load HDF5 or Open MPI (their modules come when first needed: a third of
-// the start-up); one that writes a log does.
+// the start-up); one that writes a log does. A model command does not load
+// the rig's commands, nor ZeroMQ with them; the help lists every command,
+// and a board's command runs from its module.
 TEST(Cli, HeavyLibrariesLoadOnlyWhenACommandNeedsThem) {
   const auto loaded = [](const std::string& args) {
     return run_command("LD_DEBUG=files " + kPiezo + args + " >/dev/null").err;
@@ -291,10 +293,25 @@ TEST(Cli, HeavyLibrariesLoadOnlyWhenACommandNeedsThem) {
     EXPECT_EQ(trace.find("libhdf5"), std::string::npos) << args;
     EXPECT_EQ(trace.find("libmpi"), std::string::npos) << args;
   }
+  for (const std::string args : {" simulate --duration 0.01 --json", " sweep --help"}) {
+    const std::string trace = loaded(args);
+    EXPECT_EQ(trace.find("libpiezo_rig_commands.so"), std::string::npos) << args;
+    EXPECT_EQ(trace.find("libzmq"), std::string::npos) << args;
+  }
+  const std::string trace = loaded(" --help");
+  EXPECT_NE(trace.find("libpiezo_rig_commands.so"), std::string::npos);
+  EXPECT_NE(trace.find("libzmq"), std::string::npos);
+  const auto help = run_command(kPiezo + " --help");
+  for (const char* command :
+       {"simulate", "identify", "run", "scan", "calibrate", "rig-sim", "estop"})
+    EXPECT_NE(help.out.find(std::string("\n  ") + command + " "), std::string::npos) << command;
+  const auto status = run_command(kPiezo + " status --rig tcp://127.0.0.1:1 --json");
+  EXPECT_EQ(status.exit_code, 1) << status.err;
+  EXPECT_NE(status.out.find("\"code\":\"no_reply\""), std::string::npos) << status.out;
   const auto h5 = std::filesystem::temp_directory_path() / "piezo-cli-modules.h5";
-  const std::string trace = loaded(" simulate --duration 0.01 --out " + h5.string());
-  EXPECT_NE(trace.find("libpiezo_h5.so"), std::string::npos);
-  EXPECT_NE(trace.find("libhdf5"), std::string::npos);
+  const std::string h5_trace = loaded(" simulate --duration 0.01 --out " + h5.string());
+  EXPECT_NE(h5_trace.find("libpiezo_h5.so"), std::string::npos);
+  EXPECT_NE(h5_trace.find("libhdf5"), std::string::npos);
   EXPECT_GT(std::filesystem::file_size(h5), 0u);
   std::filesystem::remove(h5);
 }

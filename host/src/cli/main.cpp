@@ -1,4 +1,7 @@
-// The `piezo` command line: one binary for the rig and the analyses.
+// The `piezo` command line: one binary for the rig and the analyses. The
+// model's commands are linked in; the rig's come from a module loaded when
+// the command line asks for anything else, so that `piezo simulate` does
+// not start ZeroMQ, Kerberos and the hardware libraries it never uses.
 
 #include <fmt/format.h>
 
@@ -8,8 +11,10 @@
 
 #include "commands.hpp"
 #include "exit_codes.hpp"
+#include "io/module_loader.hpp"
 #include "piezo/config/config_error.hpp"
-#include "run/board_client.hpp"
+#include "piezo/protocol/error.hpp"
+#include "run/link_timeout.hpp"
 
 namespace {
 using piezo::host::kExitBadInput;
@@ -44,6 +49,25 @@ int report_error(bool json, int exit_code, const std::string& code, const std::s
   }
   return exit_code;
 }
+
+/// Whether the command line's first word names a command already added:
+/// `piezo --help`, `piezo run` or a misspelt command want them all.
+bool names_an_added_command(const CLI::App& app, int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string word = argv[i];
+    if (word.starts_with('-')) continue;
+    return !app.get_subcommands([&](const CLI::App* sub) { return sub->check_name(word); }).empty();
+  }
+  return false;
+}
+
+/// The rig's commands, from their module (rig_commands.cpp).
+void add_rig_commands(CLI::App& app, piezo::host::Commands& commands) {
+  using Entry = void (*)(CLI::App&, piezo::host::Commands&);
+  const auto entry = reinterpret_cast<Entry>(
+      piezo::host::module_entry("libpiezo_rig_commands.so", "piezo_add_rig_commands"));
+  entry(app, commands);
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -53,14 +77,17 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   piezo::host::Commands commands;
   for (const auto add : {piezo::host::add_simulate_command, piezo::host::add_sensitivity_command,
-                         piezo::host::add_sweep_command, piezo::host::add_run_command,
-                         piezo::host::add_step_command, piezo::host::add_move_command,
-                         piezo::host::add_scan_command, piezo::host::add_calibrate_command,
-                         piezo::host::add_view_command, piezo::host::add_report_command,
-                         piezo::host::add_recover_command, piezo::host::add_sensor_command,
-                         piezo::host::add_rig_sim_command, piezo::host::add_identify_command,
-                         piezo::host::add_compare_command, piezo::host::add_board_commands}) {
+                         piezo::host::add_sweep_command, piezo::host::add_report_command,
+                         piezo::host::add_recover_command, piezo::host::add_identify_command,
+                         piezo::host::add_compare_command}) {
     add(app, commands);
+  }
+  if (!names_an_added_command(app, argc, argv)) {
+    try {
+      add_rig_commands(app, commands);
+    } catch (const std::exception& e) {
+      return report_error(false, kExitFailed, "error", "", e.what());
+    }
   }
   try {
     app.parse(argc, argv);

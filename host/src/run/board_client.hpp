@@ -7,11 +7,11 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
-#include <stdexcept>
 #include <string>
 #include <zmq.hpp>
 
 #include "config/config_file.hpp"
+#include "link_timeout.hpp"
 #include "piezo/protocol/error.hpp"
 #include "piezo/protocol/messages.hpp"
 
@@ -21,12 +21,6 @@ namespace piezo::host {
 class RemoteError : public protocol::ProtocolError {
  public:
   using ProtocolError::ProtocolError;
-};
-
-/// No reply within the timeout: the link or the daemon is down.
-class LinkTimeout : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
 };
 
 /// zmq::poll on one socket; false on timeout or when a signal interrupts it
