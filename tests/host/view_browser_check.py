@@ -267,7 +267,10 @@ def scan_on_the_page(driver, piezo, work, shots):
         out, _ = run.communicate(timeout=180)
         fired = json.loads(out)["scans"]["rotor"]["triggers"]["fired"]
         wait_until(lambda: marked() == fired, f"every pulse of the {fired} marked", seconds=30)
-        say("scan on the page:", marked(), "pulses marked of", fired)
+        # The page was sent the run's end before the view closed: how it ended.
+        state = driver.execute_script("return document.getElementById('state').textContent")
+        assert state == "ended: completed", state
+        say("scan on the page:", marked(), "pulses marked of", fired, "; state:", state)
     finally:
         if run.poll() is None:
             run.kill()

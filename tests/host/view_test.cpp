@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <thread>
 
 #include "view/decimate.hpp"
 #include "view/gzip_stream.hpp"
@@ -311,19 +312,67 @@ TEST(LiveFeed, AScansTriggersArePointsOnItsAnglePlotEachSentOnce) {
   ASSERT_EQ(sent.at("t").size(), 1u) << "a pulse behind the drive's end is sent at once";
   EXPECT_NEAR(sent.at("t")[0].get<double>(), 0.25, 1e-9);
   EXPECT_NEAR(sent.at("y")[0].get<double>(), 2e-3, 1e-12);
-  // The next pulse, and one the stream lost, added from the summary at the
-  // end out of order: it takes its place in time (a page sees it in the
-  // next snapshot; its column was sent already).
+  // The next pulse comes alone, once.
   log_schema::LogRows more = rig_rows(1.0, 0.2);
   add_pulse(more, 1.1, 3e-3);
-  add_pulse(more, 0.5, 2.5e-3);
   feed.add(more);
   const auto next = feed.changes(cursor);
   ASSERT_FALSE(next.at("reset").get<bool>());
   EXPECT_EQ(next.at("axes")[0].at("triggers").at("t").size(), 1u) << "only the new one, once";
-  const auto all = feed.snapshot().at("axes")[0].at("triggers").at("t");
+  // One the stream lost, added from the summary at the end out of order: it
+  // takes its place in time, and the page, whose copy of its column lacks
+  // it, takes the window again.
+  log_schema::LogRows summary;
+  add_pulse(summary, 0.5, 2.5e-3);
+  feed.add(summary);
+  const auto again = feed.changes(cursor);
+  EXPECT_TRUE(again.at("reset").get<bool>());
+  const auto all = again.at("axes")[0].at("triggers").at("t");
   ASSERT_EQ(all.size(), 3u);
   EXPECT_TRUE(std::is_sorted(all.begin(), all.end()));
+  EXPECT_EQ(feed.snapshot().at("axes")[0].at("triggers"), again.at("axes")[0].at("triggers"));
+}
+
+// A run's last moments: the pulse in the drive's last column, and that
+// column itself, wait for later samples while the run goes on; once it has
+// ended they go, with how it ended, and the run's owner learns when every
+// open page has them.
+TEST(LiveFeed, AnEndedRunSendsItsLastColumnsAndHowItEnded) {
+  LiveFeed feed(1.5, 0.3, 150);  // columns of 10 ms
+  LiveCursor cursor;
+  log_schema::LogRows rows = rig_rows(0.0, 1.0);
+  rows.triggers.k.push_back(0.0);
+  rows.triggers.edge_s.push_back(0.9995);  // the drive's last column
+  rows.triggers.angle_rad.push_back(1e-3);
+  feed.add(rows);
+  const auto running = feed.changes(cursor).at("axes")[0];
+  EXPECT_TRUE(running.at("triggers").at("t").empty()) << "its column is not complete";
+  const double drive_sent = running.at("drive").at("t").back().get<double>();
+  EXPECT_LT(drive_sent, 0.99);
+  const auto one_page = [] { return 1; };
+  EXPECT_FALSE(feed.wait_until_pages_have_the_end(one_page, std::chrono::milliseconds(0)));
+
+  feed.finish("completed");
+  const auto ended = feed.changes(cursor);
+  EXPECT_FALSE(feed.wait_until_pages_have_the_end(one_page, std::chrono::milliseconds(0)))
+      << "the end is written once the page's stream asks for the next event";
+  bool told = false;
+  std::thread owner(
+      [&] { told = feed.wait_until_pages_have_the_end(one_page, std::chrono::seconds(60)); });
+  const auto after = feed.changes(cursor);
+  owner.join();
+  EXPECT_TRUE(told);
+  EXPECT_EQ(ended.at("status").at("ended"), "completed");
+  const auto axis = ended.at("axes")[0];
+  ASSERT_EQ(axis.at("triggers").at("t").size(), 1u);
+  EXPECT_NEAR(axis.at("triggers").at("t")[0].get<double>(), 0.9995, 1e-9);
+  ASSERT_FALSE(axis.at("drive").at("t").empty());
+  EXPECT_NEAR(axis.at("drive").at("t").back().get<double>(), 0.9999, 1e-9) << "the last sample";
+  EXPECT_TRUE(after.at("axes")[0].at("triggers").at("t").empty()) << "sent once";
+  EXPECT_TRUE(after.at("axes")[0].at("drive").at("t").empty());
+  (void)feed.changes(cursor);
+  EXPECT_FALSE(feed.wait_until_pages_have_the_end([] { return 2; }, std::chrono::milliseconds(0)))
+      << "one page counted once";
 }
 
 TEST(RunCatalogue, OnlyPlainRunNamesInsideTheDirectory) {

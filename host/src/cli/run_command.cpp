@@ -422,6 +422,12 @@ int run(const RunOptions& o, const RunProgram& program) {
   } catch (const std::exception& e) {
     write_out(stderr, fmt::format("piezo: warning: catalogue not updated: {}\n", e.what()));
   }
+  // The open pages take the run's last columns and how it ended (within two
+  // stream periods) before the view goes with this function.
+  if (live) {
+    live->finish(summary.status());
+    server->let_pages_take_the_end(std::chrono::seconds(2));
+  }
   // Again: finishing the log may have failed the run.
   return program.report(FinishedRun{o, summary, config, dir, log_path, signals.received(),
                                     result_json(), *board.client, board.local != nullptr});

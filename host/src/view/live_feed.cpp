@@ -102,6 +102,10 @@ void LiveFeed::add(const log_schema::AxesRows& rows) {
     }
     restart();
   }
+  // Pages may hold every column before the one the drive's end is in.
+  const double width = width_now(),
+               sent_until = static_cast<double>(column_of(t_end(), width)) * width;
+  bool late_pulse = false;
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const log_schema::LogRows& r = rows[i];
     AxisColumns& c = axes_[i];
@@ -114,13 +118,29 @@ void LiveFeed::add(const log_schema::AxesRows& rows) {
     append(c[kOpenLoop].y, r.observer.theta_open);
     append(c[kResidual].y, r.observer.residual);
     insert_points(c[kTriggers].t, c[kTriggers].y, r.triggers.edge_s, r.triggers.angle_rad);
+    late_pulse = late_pulse || std::any_of(r.triggers.edge_s.begin(), r.triggers.edge_s.end(),
+                                           [&](double edge) { return edge < sent_until; });
   }
   trim(t_end());
+  if (late_pulse) ++epoch_;  // its column went without it: every page takes the window again
 }
 
 void LiveFeed::restart() {
   axes_.assign(names_.size(), AxisColumns{});
+  ended_ = false;
   ++epoch_;
+}
+
+void LiveFeed::finish(const std::string& how) {
+  const std::lock_guard lock(mutex_);
+  ended_ = true;
+  status_["ended"] = how;
+}
+
+bool LiveFeed::wait_until_pages_have_the_end(const std::function<int()>& open_pages,
+                                             std::chrono::milliseconds timeout) const {
+  std::unique_lock lock(mutex_);
+  return told_end_.wait_for(lock, timeout, [&] { return pages_told_end_ >= open_pages(); });
 }
 
 double LiveFeed::t_end() const {
@@ -161,7 +181,15 @@ nlohmann::json LiveFeed::snapshot() const {
 
 nlohmann::json LiveFeed::changes(LiveCursor& cursor) const {
   const std::lock_guard lock(mutex_);
-  return event(cursor, cursor.epoch != epoch_ || cursor.width != width_now());
+  nlohmann::json out = event(cursor, cursor.epoch != epoch_ || cursor.width != width_now());
+  using End = LiveCursor::End;
+  if (cursor.end == End::in_last_event) {
+    cursor.end = End::written;
+    ++pages_told_end_;
+    told_end_.notify_all();
+  }
+  if (ended_ && cursor.end == End::not_sent) cursor.end = End::in_last_event;
+  return out;
 }
 
 double LiveFeed::width_now() const {
@@ -181,10 +209,11 @@ void LiveFeed::add_series(nlohmann::json& out, std::size_t axis, LiveCursor& cur
     const Column& c = axes_[axis][s];
     // A column is complete once a later sample came; the sparse triggers'
     // once the drive has passed it (a pulse is published before the
-    // samples of its time).
-    const long long done = s == kTriggers ? column_of(end, width)
+    // samples of its time); every one once the run has ended.
+    const long long last = s == kTriggers ? column_of(end, width)
                            : c.t.empty()  ? window_start
                                           : column_of(c.t.back(), width);
+    const long long done = ended_ ? last + 1 : last;
     const long long from = reset ? window_start : std::max(cursor.next[axis][s], window_start);
     out[kNames[s]] = to_json(min_max_columns(c.t, c.y, width, from, done));
     cursor.next[axis][s] = std::max(from, done);

@@ -15,11 +15,17 @@
 // of the run, one or several, sends its series under "axes" ([{name, drive,
 // measured, ...}]): a plot per axis; a scan's trigger pulses are a series
 // of points, "triggers" (each pulse's edge time and the angle that fired it),
-// marked on the angle plot.
+// marked on the angle plot. A pulse that comes after its column was sent
+// (the run's summary hands over those the stream lost) makes every page
+// take the window again. Once the run has ended (finish), the last columns
+// are complete too and the status says how it ended.
 
 #include <array>
+#include <chrono>
+#include <condition_variable>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -37,6 +43,9 @@ struct LiveCursor {
   std::vector<std::array<long long, 6>> next;  ///< per axis
   std::uint64_t events = 0;
   std::uint64_t histograms = 0;  ///< the version of the loop histograms it holds
+  /// The run's end: not sent yet, in the last event, or written (the
+  /// stream asks for the next event only once the last one was written).
+  enum class End : std::uint8_t { not_sent, in_last_event, written } end = End::not_sent;
 };
 
 class LiveFeed {
@@ -55,6 +64,14 @@ class LiveFeed {
   /// The same for a run of one axis.
   void add(const log_schema::LogRows& rows) { add(log_schema::AxesRows{rows}); }
   void set_status(nlohmann::json status);
+  /// The run has ended, as `how` says (its status: completed, interrupted,
+  /// failed):
+  /// no later sample will complete its last columns, so they go as they are.
+  void finish(const std::string& how);
+  /// Waits until as many pages as `open_pages()` says are open have been
+  /// written the run's end, or `timeout` passed; true when they have.
+  [[nodiscard]] bool wait_until_pages_have_the_end(const std::function<int()>& open_pages,
+                                                   std::chrono::milliseconds timeout) const;
 
   /// The whole window, the zoom and the status ("reset": true).
   [[nodiscard]] nlohmann::json snapshot() const;
@@ -86,6 +103,10 @@ class LiveFeed {
   mutable std::mutex mutex_;
   double window_s_, zoom_s_, width_;
   std::uint64_t epoch_ = 1;
+  bool ended_ = false;
+  /// Pages written the run's end, and a wait for them (finish's caller's).
+  mutable int pages_told_end_ = 0;
+  mutable std::condition_variable told_end_;
   std::vector<std::string> names_{""};
   std::vector<AxisColumns> axes_ = std::vector<AxisColumns>(1);
   /// The status without the loop histograms, which go apart (histograms_):

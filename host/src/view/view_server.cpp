@@ -249,6 +249,11 @@ HttpReply ViewServer::serve(const HttpRequest& req) {
   return refused(404, fmt::format("nothing at {}", path));
 }
 
+void ViewServer::let_pages_take_the_end(std::chrono::milliseconds timeout) const {
+  if (live_ == nullptr) return;
+  (void)live_->wait_until_pages_have_the_end([this] { return streams_->load(); }, timeout);
+}
+
 HttpReply ViewServer::live_stream() {
   if (live_ == nullptr) return refused(404, "no run under way in this view");
   if (streams_->fetch_add(1) >= kMaxStreams) {

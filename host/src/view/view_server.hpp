@@ -10,6 +10,7 @@
 // needs the token too.
 
 #include <atomic>
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -59,6 +60,10 @@ class ViewServer {
   [[nodiscard]] const std::string& token() const { return token_; }
   /// What to tell the user: where it listens, and how control is guarded.
   [[nodiscard]] std::string banner() const;
+  /// Once the live feed has finished (the run ended): lets every open live
+  /// page take the run's end before the server goes, waiting at most
+  /// `timeout` (a page that is gone or stuck costs no more).
+  void let_pages_take_the_end(std::chrono::milliseconds timeout) const;
 
  private:
   /// Why a request is refused before its body is read (empty: served):
