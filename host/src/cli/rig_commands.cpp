@@ -6,7 +6,8 @@
 
 #include "commands.hpp"
 
-extern "C" void piezo_add_rig_commands(CLI::App& app, piezo::host::Commands& commands) {
+extern "C" __attribute__((visibility("default"))) void piezo_add_rig_commands(
+    CLI::App& app, piezo::host::Commands& commands) {
   using namespace piezo::host;
   for (const auto add : {add_run_command, add_step_command, add_move_command, add_scan_command,
                          add_calibrate_command, add_view_command, add_sensor_command,
