@@ -423,10 +423,11 @@ int run(const RunOptions& o, const RunProgram& program) {
     write_out(stderr, fmt::format("piezo: warning: catalogue not updated: {}\n", e.what()));
   }
   // The open pages take the run's last columns and how it ended (within two
-  // stream periods) before the view goes with this function.
+  // stream periods) before the view goes with this function; a page that
+  // does not read keeps the process at most a second.
   if (live) {
     live->finish(summary.status());
-    server->let_pages_take_the_end(std::chrono::seconds(2));
+    server->let_pages_take_the_end(std::chrono::seconds(1));
   }
   // Again: finishing the log may have failed the run.
   return program.report(FinishedRun{o, summary, config, dir, log_path, signals.received(),
