@@ -41,6 +41,7 @@ class H5Store {
   virtual void set_attribute(const std::string& object, const std::string& name,
                              const std::string& value) = 0;
   [[nodiscard]] virtual const std::string& path() const = 0;
+  [[nodiscard]] virtual std::string unreachable_objects() const = 0;
 };
 
 /// What the HDF5 side offers: its entry point, `piezo_h5_library`.
@@ -114,6 +115,11 @@ class H5File {
     store_->set_attribute(object, name, value);
   }
   [[nodiscard]] const std::string& path() const { return store_->path(); }
+  /// Why a walk of every object in the file (every group's links, as a
+  /// generic reader such as h5py's visititems takes them) fails; empty
+  /// when it reaches them all. A damaged group's name heap fails it, while
+  /// the datasets opened by their paths still read.
+  [[nodiscard]] std::string unreachable_objects() const { return store_->unreachable_objects(); }
 
  private:
   explicit H5File(std::unique_ptr<H5Store> store) : store_(std::move(store)) {}

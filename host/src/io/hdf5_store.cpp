@@ -97,6 +97,7 @@ class Hdf5Store final : public H5Store {
   void set_attribute(const std::string& object, const std::string& name,
                      const std::string& value) override;
   [[nodiscard]] const std::string& path() const override { return path_; }
+  [[nodiscard]] std::string unreachable_objects() const override;
 
  private:
   H5Id file_;
@@ -235,6 +236,14 @@ std::vector<double> Hdf5Store::read_prefix(const std::string& name) const {
     out.insert(out.end(), block.begin(), block.end());
   }
   return out;
+}
+
+std::string Hdf5Store::unreachable_objects() const {
+  const auto reached = [](hid_t, const char*, const H5O_info_t*, void*) -> herr_t { return 0; };
+  if (H5Ovisit2(file_.get(), H5_INDEX_NAME, H5_ITER_NATIVE, reached, nullptr, H5O_INFO_BASIC) < 0) {
+    return "HDF5: not every object of " + path_ + " can be reached from its root";
+  }
+  return "";
 }
 
 std::vector<std::string> Hdf5Store::attribute_names(const std::string& object) const {

@@ -129,6 +129,11 @@ LogCopy read_log_copy(const fs::path& log, const std::vector<std::string>& axes)
       copy.problems.push_back(fmt::format("{}: {}", path, e.what()));
     }
   }
+  // A generic reader walks every group: a damaged one fails it even where
+  // each dataset, opened by its path, reads.
+  if (std::string unreachable = file->unreachable_objects(); !unreachable.empty()) {
+    copy.problems.push_back(std::move(unreachable));
+  }
   bool even = true;
   for (std::size_t i = 0; i < copy.axes.size(); ++i) {
     const std::string group = log_schema::axis_group(copy.axes, i);
