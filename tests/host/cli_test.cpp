@@ -276,13 +276,12 @@ TEST(SweepCli, AnUnknownParameterIsRefused) {
 namespace piezo::testing {
 namespace {
 
-// What a new user tries first: the version says where the build came from;
-// a short range, not a 300-digit one, for a bad duration.
 // A command that opens no file and runs under no MPI launcher does not
 // load HDF5 or Open MPI (their modules come when first needed: a third of
 // the start-up); one that writes a log does. A model command does not load
 // the rig's commands, nor ZeroMQ with them; the help lists every command,
-// and a board's command runs from its module.
+// a command line naming one builds it alone, and a board's command runs
+// from its module.
 TEST(Cli, HeavyLibrariesLoadOnlyWhenACommandNeedsThem) {
   const auto loaded = [](const std::string& args) {
     return run_command("LD_DEBUG=files " + kPiezo + args + " >/dev/null").err;
@@ -293,7 +292,10 @@ TEST(Cli, HeavyLibrariesLoadOnlyWhenACommandNeedsThem) {
     EXPECT_EQ(trace.find("libhdf5"), std::string::npos) << args;
     EXPECT_EQ(trace.find("libmpi"), std::string::npos) << args;
   }
-  for (const std::string args : {" simulate --duration 0.01 --json", " sweep --help"}) {
+  for (const std::string args :
+       {" simulate --duration 0.01 --json", " simulate --help", " sensitivity --help",
+        " sweep --help", " report --help", " recover --help", " identify --help",
+        " compare --help"}) {
     const std::string trace = loaded(args);
     EXPECT_EQ(trace.find("libpiezo_rig_commands.so"), std::string::npos) << args;
     EXPECT_EQ(trace.find("libzmq"), std::string::npos) << args;
@@ -305,6 +307,13 @@ TEST(Cli, HeavyLibrariesLoadOnlyWhenACommandNeedsThem) {
   for (const char* command :
        {"simulate", "identify", "run", "scan", "calibrate", "rig-sim", "estop"})
     EXPECT_NE(help.out.find(std::string("\n  ") + command + " "), std::string::npos) << command;
+  // A rig command line builds its own command alone, and a nested one too.
+  const auto estop = run_command(kPiezo + " estop --help");
+  EXPECT_EQ(estop.exit_code, 0) << estop.err;
+  EXPECT_NE(estop.out.find("estop [OPTIONS]"), std::string::npos) << estop.out;
+  const auto read = run_command(kPiezo + " sensor read --help");
+  EXPECT_EQ(read.exit_code, 0) << read.err;
+  EXPECT_NE(read.out.find("--count"), std::string::npos) << read.out;
   const auto status = run_command(kPiezo + " status --rig tcp://127.0.0.1:1 --json");
   EXPECT_EQ(status.exit_code, 1) << status.err;
   EXPECT_NE(status.out.find("\"code\":\"no_reply\""), std::string::npos) << status.out;
@@ -316,6 +325,8 @@ TEST(Cli, HeavyLibrariesLoadOnlyWhenACommandNeedsThem) {
   std::filesystem::remove(h5);
 }
 
+// What a new user tries first: the version says where the build came from;
+// a short range, not a 300-digit one, for a bad duration.
 TEST(Cli, VersionNamesTheRevisionAndBuildType) {
   const auto r = run_command(kPiezo + " --version");
   EXPECT_EQ(r.exit_code, 0);

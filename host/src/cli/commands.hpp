@@ -5,7 +5,9 @@
 
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <span>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -52,6 +54,31 @@ class Commands {
  private:
   std::vector<std::pair<const CLI::App*, CommandRunner>> runners_;
 };
+
+/// A command's name on the command line and what adds it. Every command's
+/// options cost start-up (CLI11 builds each as objects on the heap), so a
+/// command line that names a command builds that one alone.
+struct NamedCommand {
+  std::string_view name;
+  void (*add)(CLI::App& app, Commands& commands);
+};
+
+/// Adds the command of `table` that `named` names and says true, or, when
+/// it names none of them, adds them all (each add once: entries that share
+/// one, as the board's commands do, sit side by side) and says false.
+inline bool add_named_or_all(std::span<const NamedCommand> table, std::string_view named,
+                             CLI::App& app, Commands& commands) {
+  for (const NamedCommand& command : table) {
+    if (command.name == named) {
+      command.add(app, commands);
+      return true;
+    }
+  }
+  for (std::size_t i = 0; i < table.size(); ++i) {
+    if (i == 0 || table[i].add != table[i - 1].add) table[i].add(app, commands);
+  }
+  return false;
+}
 
 struct LogLayout;
 /// --t, --V, --theta, --theta-t: where another tool's log keeps its data

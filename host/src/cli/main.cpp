@@ -8,6 +8,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <string_view>
 
 #include "commands.hpp"
 #include "exit_codes.hpp"
@@ -50,23 +51,32 @@ int report_error(bool json, int exit_code, const std::string& code, const std::s
   return exit_code;
 }
 
-/// Whether the command line's first word names a command already added:
-/// `piezo --help`, `piezo run` or a misspelt command want them all.
-bool names_an_added_command(const CLI::App& app, int argc, char** argv) {
+constexpr piezo::host::NamedCommand kModelCommands[] = {
+    {"simulate", piezo::host::add_simulate_command},
+    {"sensitivity", piezo::host::add_sensitivity_command},
+    {"sweep", piezo::host::add_sweep_command},
+    {"report", piezo::host::add_report_command},
+    {"recover", piezo::host::add_recover_command},
+    {"identify", piezo::host::add_identify_command},
+    {"compare", piezo::host::add_compare_command},
+};
+
+/// The command line's first word that is not an option ("" when none):
+/// the command it names, if any.
+std::string_view first_word(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
-    const std::string word = argv[i];
-    if (word.starts_with('-')) continue;
-    return !app.get_subcommands([&](const CLI::App* sub) { return sub->check_name(word); }).empty();
+    if (argv[i][0] != '-') return argv[i];
   }
-  return false;
+  return {};
 }
 
-/// The rig's commands, from their module (rig_commands.cpp).
-void add_rig_commands(CLI::App& app, piezo::host::Commands& commands) {
-  using Entry = void (*)(CLI::App&, piezo::host::Commands&);
+/// The rig's commands (rig_commands.cpp) from their module: the one
+/// `named` names, or all of them.
+void add_rig_commands(CLI::App& app, piezo::host::Commands& commands, std::string_view named) {
+  using Entry = void (*)(CLI::App&, piezo::host::Commands&, const char*);
   const auto entry = reinterpret_cast<Entry>(
       piezo::host::module_entry("libpiezo_rig_commands.so", "piezo_add_rig_commands"));
-  entry(app, commands);
+  entry(app, commands, std::string(named).c_str());
 }
 }  // namespace
 
@@ -76,15 +86,12 @@ int main(int argc, char** argv) {
                        std::string("piezo ") + PIEZO_VERSION + " (" + PIEZO_BUILD_INFO + ")");
   app.require_subcommand(1);
   piezo::host::Commands commands;
-  for (const auto add : {piezo::host::add_simulate_command, piezo::host::add_sensitivity_command,
-                         piezo::host::add_sweep_command, piezo::host::add_report_command,
-                         piezo::host::add_recover_command, piezo::host::add_identify_command,
-                         piezo::host::add_compare_command}) {
-    add(app, commands);
-  }
-  if (!names_an_added_command(app, argc, argv)) {
+  // A model command is built alone and loads no module; anything else
+  // (a rig command, --help, a misspelt command) loads the rig's.
+  const std::string_view named = first_word(argc, argv);
+  if (!piezo::host::add_named_or_all(kModelCommands, named, app, commands)) {
     try {
-      add_rig_commands(app, commands);
+      add_rig_commands(app, commands, named);
     } catch (const std::exception& e) {
       return report_error(false, kExitFailed, "error", "", e.what());
     }
