@@ -145,13 +145,17 @@ def test_a_follower_whose_socket_fails_says_so_and_follows_again(board_address):
         follower.listen(seen.append)
 
         class Failing:
-            """The follower's socket, closed under it with an error."""
+            """The follower's socket, closed under it: whatever the follower
+            calls next (a poll, or the receive after a poll it began on the
+            real socket) fails as a closed ZeroMQ socket does."""
             def __init__(self, real):
                 self.real = real
 
-            def poll(self, *_):
-                self.real.close()
-                raise zmq.ZMQError(zmq.ENOTSOCK)
+            def __getattr__(self, _name):
+                def fail(*_args, **_kwargs):
+                    self.real.close()
+                    raise zmq.ZMQError(zmq.ENOTSOCK)
+                return fail
 
             def close(self):
                 pass
