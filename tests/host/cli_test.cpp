@@ -293,7 +293,7 @@ TEST(Cli, HeavyLibrariesLoadOnlyWhenACommandNeedsThem) {
     EXPECT_EQ(trace.find("libmpi"), std::string::npos) << args;
   }
   for (const std::string args :
-       {" simulate --duration 0.01 --json", " simulate --help", " sensitivity --help",
+       {" --version", " simulate --duration 0.01 --json", " simulate --help", " sensitivity --help",
         " sweep --help", " report --help", " recover --help", " identify --help",
         " compare --help"}) {
     const std::string trace = loaded(args);

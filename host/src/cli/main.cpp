@@ -86,10 +86,12 @@ int main(int argc, char** argv) {
                        std::string("piezo ") + PIEZO_VERSION + " (" + PIEZO_BUILD_INFO + ")");
   app.require_subcommand(1);
   piezo::host::Commands commands;
-  // A model command is built alone and loads no module; anything else
-  // (a rig command, --help, a misspelt command) loads the rig's.
+  // A model command is built alone and loads no module; `--version` alone
+  // needs no command; anything else (a rig command, --help, a misspelt
+  // command) loads the rig's.
   const std::string_view named = first_word(argc, argv);
-  if (!piezo::host::add_named_or_all(kModelCommands, named, app, commands)) {
+  const bool version_alone = argc == 2 && std::string_view(argv[1]) == "--version";
+  if (!version_alone && !piezo::host::add_named_or_all(kModelCommands, named, app, commands)) {
     try {
       add_rig_commands(app, commands, named);
     } catch (const std::exception& e) {
