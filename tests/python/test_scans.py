@@ -170,21 +170,25 @@ def test_an_e_stop_stops_a_scan_at_0_V_and_its_summary_keeps_the_pulses_fired(bo
 def test_a_lease_that_lapses_stops_a_scan_at_0_V_with_its_pulses_kept(board_address):
     with Board(board_address) as client:
         base, top = ranges(client)["theta"]
-        # Long enough that the lapsed lease, not the scan's end, stops it.
+        # Long enough that the lapsed lease, not the scan's end, stops it
+        # (the scan takes some 18 s), and that pulses fire before it lapses
+        # however slowly the scan gets going (the first is at the start).
         args = client.checked("scan", {"axis": "theta", "from_rad": 0.0, "to_rad": 0.6,
                                         "velocity_rad_per_s": 0.5 * (base + top),
-                                        "trigger_step_rad": STEP, "lease_s": 0.5})
-        run = Run(client, "scan", args, renew=False, raise_on_fault=False)
-        summary = run.wait()
-        run.close()
-        axis = summary["axes"][0]
-        assert summary["cause"] == "link_lost" and axis["scan"]["stop_cause"] == "link_lost"
-        assert axis["output"]["state"] == "confirmed"
-        assert run.records_of("theta", run.drive)["V"][-1] == 0.0
-        pulses = axis["scan"]["pulses"]
-        assert pulses and [p["k"] for p in pulses] == list(range(len(pulses)))
-        assert axis["scan"]["triggers"]["fired"] == len(pulses) < 301
-        client.reset_fault()
+                                        "trigger_step_rad": STEP, "lease_s": 2.0})
+        try:
+            run = Run(client, "scan", args, renew=False, raise_on_fault=False)
+            summary = run.wait()
+            run.close()
+            axis = summary["axes"][0]
+            assert summary["cause"] == "link_lost" and axis["scan"]["stop_cause"] == "link_lost"
+            assert axis["output"]["state"] == "confirmed"
+            assert run.records_of("theta", run.drive)["V"][-1] == 0.0
+            pulses = axis["scan"]["pulses"]
+            assert pulses and [p["k"] for p in pulses] == list(range(len(pulses)))
+            assert axis["scan"]["triggers"]["fired"] == len(pulses) < 301
+        finally:
+            client.reset_fault()  # the next test's board is this one
 
 
 def test_a_rotor_held_at_an_end_stop_stops_the_scan_stalled(tmp_path, source):
