@@ -96,7 +96,14 @@ try:
                                   *client_keys),
                             stdout=host_out, stderr=subprocess.STDOUT)
     procs.append(host)
-    time.sleep(1.5)
+    # The cut comes 0.5 s into the board's run, as the board says: after a
+    # fixed sleep a host slow to start (a loaded machine) may not have begun.
+    for _ in range(300):
+        now = json.loads(sh(*in_ns(host_ns, piezo, "status", "--rig", address, "--json",
+                                   *status_keys)).stdout)
+        if now["state"] == "running" and now["board_ns"] - now["run"]["t0_ns"] >= 0.5e9:
+            break
+        time.sleep(0.05)
     cut_ns = time.monotonic_ns()  # CLOCK_MONOTONIC is the board's clock too
     sh(*in_ns(board_ns, "ip", "link", "set", veth_board, "down"))
     time.sleep(2.0)

@@ -138,6 +138,29 @@ TEST_F(Piezod, AnIndependentClientCalibratesThenMovesAndTheBoardKeepsIt) {
       << text.out;
 }
 
+/// Waits until the board at `address` has been running for `seconds`, as
+/// the board itself says: a host slow to start (a loaded machine) has not
+/// begun its run after any fixed sleep. One Python client polls, not a
+/// `piezo status` each poll: a sanitized `piezo` on a loaded machine takes
+/// seconds to start. Returns the board's state when it stopped waiting.
+std::string wait_until_into_the_run(const std::string& address, double seconds) {
+  const auto r = run_command(
+      "/usr/bin/python3 -c \"import zmq, msgpack, time\n"
+      "c = zmq.Context().socket(zmq.DEALER); c.setsockopt(zmq.RCVTIMEO, 30000)\n"
+      "c.connect('" +
+      address +
+      "')\n"
+      "for i in range(1, 3000):\n"
+      "    c.send(msgpack.packb({'id': i, 'cmd': 'status', 'args': {}}))\n"
+      "    s = msgpack.unpackb(c.recv())['result']\n"
+      "    if s['state'] == 'running' and s['board_ns'] - s['run']['t0_ns'] >= " +
+      std::to_string(seconds) +
+      " * 1e9: break\n"
+      "    time.sleep(0.01)\n"
+      "print(s['state'])\"");
+  return r.out + r.err;
+}
+
 // The host dies mid-run: nothing renews the lease, and the board ramps to
 // 0 V, disables and latches link_lost by itself. Checked on the board's
 // recorder: the drive's own samples, as the simulated drive acknowledged.
@@ -146,10 +169,10 @@ TEST_F(Piezod, KillNineOfTheHostStopsTheBoardAndLatchesLinkLost) {
   Spawned host({kPiezo, "run", "--config", kSimConfig, "--rig", address_, "--duration", "60",
                 "--out", (dir_ / "killed").string()},
                (dir_ / "host.log").string());
-  std::this_thread::sleep_for(1500ms);
+  ASSERT_EQ(wait_until_into_the_run(address_, 1.0), "running\n") << read_all(dir_ / "host.log");
   host.signal(SIGKILL);
   EXPECT_EQ(host.wait_exit(), 128 + SIGKILL);
-  std::this_thread::sleep_for(1500ms);
+  EXPECT_TRUE(poll_until([&] { return status().at("state") != "running"; }, 30000ms, 100ms));
   const auto s = status();
   EXPECT_EQ(s.at("state"), "fault");
   EXPECT_EQ(s.at("fault"), "link_lost");
@@ -400,19 +423,21 @@ struct OutageRun {
   std::string log_facts;  ///< status, samples, in order, outages marked, gaps fetched
 };
 
-OutageRun run_through_an_outage(const Piezod& board, int board_port, const fs::path& dir,
-                                const std::string& extra) {
+OutageRun run_through_an_outage(int board_port, const fs::path& dir, const std::string& extra) {
   const int port = free_port(2);
   Spawned proxy({"/usr/bin/python3", kSource + "/tests/protocol/link_proxy.py",
                  std::to_string(port), std::to_string(board_port), "2.0"},
                 (dir / "proxy.log").string());
   EXPECT_TRUE(wait_for_tcp(port));
-  (void)board;
   Spawned host(
       {kPiezo, "run", "--config", kSimConfig, "--rig", "tcp://127.0.0.1:" + std::to_string(port),
        "--duration", "5", "--json", "--out", (dir / "outage").string(), "--set", extra},
       (dir / "host.txt").string());
-  std::this_thread::sleep_for(1500ms);
+  // The link is cut 0.5 s into the board's run: cut before it, the host
+  // would fail to connect rather than lose a run.
+  EXPECT_EQ(wait_until_into_the_run("tcp://127.0.0.1:" + std::to_string(board_port), 0.5),
+            "running\n")
+      << read_all(dir / "host.txt");
   proxy.signal(SIGUSR1);
   (void)host.wait_exit();
   OutageRun out;
@@ -436,7 +461,7 @@ OutageRun run_through_an_outage(const Piezod& board, int board_port, const fs::p
 // has every sample the board recorded: the gap was fetched and marked.
 TEST_F(Piezod, ATwoSecondOutageUnderALongerLeaseLosesNothing) {
   start();
-  const auto r = run_through_an_outage(*this, port_, dir_, "rig.lease_s=5");
+  const auto r = run_through_an_outage(port_, dir_, "rig.lease_s=5");
   ASSERT_FALSE(r.summary.is_null()) << read_all(dir_ / "host.txt");
   EXPECT_EQ(r.summary.at("status"), "completed") << read_all(dir_ / "host.txt");
   const auto board = status();
@@ -450,7 +475,7 @@ TEST_F(Piezod, ATwoSecondOutageUnderALongerLeaseLosesNothing) {
 // after the link returns the host still completes its log up to the stop.
 TEST_F(Piezod, ATwoSecondOutageUnderTheDefaultLeaseStopsTheBoard) {
   start();
-  const auto r = run_through_an_outage(*this, port_, dir_, "run.flush_interval_s=0.25");
+  const auto r = run_through_an_outage(port_, dir_, "run.flush_interval_s=0.25");
   ASSERT_FALSE(r.summary.is_null()) << read_all(dir_ / "host.txt");
   EXPECT_EQ(r.summary.at("stop_cause"), "link_lost");
   EXPECT_EQ(r.summary.at("output").at("state"), "confirmed");
