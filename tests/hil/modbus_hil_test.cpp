@@ -208,7 +208,8 @@ TEST_F(ModbusHil, TheLinkReconnectsAfterTheServerReturns) {
     result = run_command(kPiezo + " sensor read --config " + kConfig + " --count 600 --json " +
                          tcp_sets());  // 3 s at 200 Hz
   });
-  std::this_thread::sleep_for(700ms);
+  EXPECT_TRUE(poll_until([&] { return has_a_client(port); }, 60000ms, 20ms));
+  std::this_thread::sleep_for(300ms);  // reads that succeed before the loss
   rig->signal(SIGKILL);
   rig->wait_exit();
   std::this_thread::sleep_for(500ms);

@@ -10,6 +10,9 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -90,6 +93,26 @@ inline bool wait_for_tcp(int port) {
         return ok;
       },
       5000ms);
+}
+
+/// True once a client holds a connection to `port` on loopback (IPv4), as
+/// the kernel's table says: a client slow to start (a sanitized build on a
+/// loaded machine takes seconds) has not connected after any fixed sleep.
+inline bool has_a_client(int port) {
+  std::ifstream table("/proc/net/tcp");
+  std::string line;
+  std::getline(table, line);  // the header
+  char local[64] = {};
+  char state[8] = {};
+  while (std::getline(table, line)) {
+    if (std::sscanf(line.c_str(), "%*d: %63s %*s %7s", local, state) != 2) continue;
+    const char* colon = std::strchr(local, ':');
+    if (colon != nullptr && std::strtol(colon + 1, nullptr, 16) == port &&
+        std::string(state) == "01") {  // TCP_ESTABLISHED
+      return true;
+    }
+  }
+  return false;
 }
 
 inline bool wait_for_path(const fs::path& p) {
