@@ -136,6 +136,17 @@ TEST_F(ModbusRtu, PymodbusSensorOverRtuIsDecodedRight) {
   }
 }
 
+// A line rig-sim cannot open is refused by name, and nothing is left
+// behind (a sanitizer build's leak check would change the exit code).
+TEST_F(ModbusRtu, ALineRigSimCannotOpenIsRefusedByName) {
+  const std::string missing = (dir / "no-such-pty").string();
+  const auto r =
+      run_command(kPiezo + " rig-sim --config " + kConfig +
+                  " --set sensor.modbus.port=" + std::to_string(port) + " --rtu " + missing);
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("cannot open " + missing), std::string::npos) << r.err;
+}
+
 TEST_F(ModbusHil, RunCompletesAgainstRigSim) {
   auto rig = start_rig_sim();
   ASSERT_TRUE(wait_for_tcp(port));

@@ -166,8 +166,9 @@ void ModbusRigDevice::serve_rtu(const std::string& device) {
   // One unit on the line: the axes' registers are its (rig-sim's config check).
   if (ctx == nullptr || modbus_set_slave(ctx, settings_.axes.front().sensor_map.unit_id) != 0 ||
       modbus_connect(ctx) != 0) {
-    throw std::runtime_error(
-        fmt::format("rig-sim: cannot open {}: {}", device, modbus_strerror(errno)));
+    const std::string why = modbus_strerror(errno);
+    modbus_free(ctx);  // takes NULL
+    throw std::runtime_error(fmt::format("rig-sim: cannot open {}: {}", device, why));
   }
   // Wake now and then without a request, for the watchdog.
   modbus_set_indication_timeout(ctx, 0, 20'000);
