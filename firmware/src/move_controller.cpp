@@ -298,14 +298,14 @@ ProgressFloors MoveController::floors() const {
 
 void MoveController::begin_run_of_steps() {
   judge_.begin(static_cast<int>(std::min<std::uint64_t>(s_.stall_steps, kMaxStallSteps)), theta_f_,
-               window_.changes());
+               window_.counts());
 }
 
 void MoveController::check_progress() {
   if (!s_.protect || !judge_.running()) return;
   const ProgressFloors floors = this->floors();
   const auto verdict =
-      judge_.end_unit(theta_f_, window_.changes(), step_low_, step_high_, direction_, floors);
+      judge_.end_unit(theta_f_, window_.counts(), step_low_, step_high_, direction_, floors);
   // No step of a stick-slip motor goes far beyond the stator's stroke,
   // whatever the prediction (the model may predict almost none at V0).
   const auto& table = steps_model_.table(direction_ > 0 ? 0 : 1);

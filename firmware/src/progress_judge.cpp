@@ -6,7 +6,8 @@
 namespace piezo::firmware {
 
 double ReadingWindow::add(double displacement_m) {
-  if (filled_ > 0 && displacement_m != last_) ++changes_;
+  if (filled_ > 0 && displacement_m != last_) ++counts_.changes;
+  ++counts_.readings;
   last_ = displacement_m;
   window_[static_cast<std::size_t>(next_)] = displacement_m;
   next_ = (next_ + 1) % kSize;
@@ -33,31 +34,39 @@ double ProgressJudge::swing_floor(const ProgressFloors& f) {
   return std::max(8.0 * noise_rad(f), 0.05 * f.stroke_rad);
 }
 
-void ProgressJudge::begin(int units, double theta_rad, std::uint64_t changes) {
+void ProgressJudge::begin(int units, double theta_rad, ReadingCounts counts) {
   K_ = std::clamp(units, 1, kMaxUnits);
   completed_ = 0;
   theta_[0] = theta_rad;
-  changes_[0] = changes;
+  counts_[0] = counts;
   span_[0] = {theta_rad, theta_rad};
 }
 
-ProgressJudge::Verdict ProgressJudge::end_unit(double theta_rad, std::uint64_t changes,
+ProgressJudge::Verdict ProgressJudge::end_unit(double theta_rad, ReadingCounts counts,
                                                double low_rad, double high_rad, double direction,
                                                const ProgressFloors& floors) {
   if (completed_ < 0) return Verdict::progressing;
   ++completed_;
   theta_[slot(completed_)] = theta_rad;
-  changes_[slot(completed_)] = changes;
+  counts_[slot(completed_)] = counts;
   span_[slot(completed_)] = {low_rad, high_rad};
   last_unit_ = theta_rad - theta_[slot(completed_ - 1)];
+  const auto seen_since = [&](int unit) {
+    return counts.readings - counts_[slot(unit)].readings >= kReadingsToJudge;
+  };
+  const auto changed_since = [&](int unit) {
+    return counts.changes != counts_[slot(unit)].changes;
+  };
   // One unit is enough to see a sensor that does not see the rotor: in
   // every unit the rotor follows the stator's rise or is dragged in its
   // slip, while a frozen value does not change and noise alone hardly swings.
-  if (changes == changes_[slot(completed_ - 1)] || high_rad - low_rad < swing_floor(floors)) {
+  if (seen_since(completed_ - 1) &&
+      (!changed_since(completed_ - 1) || high_rad - low_rad < swing_floor(floors))) {
     return Verdict::implausible;
   }
   if (completed_ < K_) return Verdict::progressing;
   const int from = completed_ - K_;
+  if (!seen_since(from)) return Verdict::progressing;  // no evidence either way
   progress_ = (theta_rad - theta_[slot(from)]) * direction;
   double low = theta_[slot(from)], high = low;
   for (int i = from + 1; i <= completed_; ++i) {
@@ -66,7 +75,7 @@ ProgressJudge::Verdict ProgressJudge::end_unit(double theta_rad, std::uint64_t c
   }
   const double floor = progress_floor(floors);
   const double against = std::max(floor, 0.25 * K_ * floors.stroke_rad);
-  if (changes == changes_[slot(from)] || high - low < swing_floor(floors) || progress_ < -against) {
+  if (!changed_since(from) || high - low < swing_floor(floors) || progress_ < -against) {
     return Verdict::implausible;
   }
   return progress_ < floor ? Verdict::stalled : Verdict::progressing;

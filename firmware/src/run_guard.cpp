@@ -31,7 +31,7 @@ void RunGuard::on_reading(double displacement_m) {
   theta_f_ = window_.add(displacement_m) / s_.r2_m;
   if (!window_.full()) return;
   // The first full mean: where the judged periods begin.
-  if (!judge_.running()) judge_.begin(s_.periods, theta_f_, window_.changes());
+  if (!judge_.running()) judge_.begin(s_.periods, theta_f_, window_.counts());
   // A period's swing: its own raw readings' extremes (a mean of 8 would
   // smooth away the swing of periods shorter than 8 readings).
   if (in_period_++ == 0) low_ = high_ = theta;
@@ -42,7 +42,7 @@ void RunGuard::on_reading(double displacement_m) {
 void RunGuard::end_of_period() {
   ++period_;
   const auto verdict =
-      judge_.end_unit(theta_f_, window_.changes(), low_, high_, s_.direction, floors());
+      judge_.end_unit(theta_f_, window_.counts(), low_, high_, s_.direction, floors());
   in_period_ = 0;
   if (fault_ != StopCause::none) return;
   if (verdict == ProgressJudge::Verdict::implausible) fault_ = StopCause::sensor_implausible;

@@ -17,18 +17,21 @@ using Verdict = ProgressJudge::Verdict;
 // the progress floor the resolution (50 urad).
 const ProgressFloors kFloors{0.0, 0.062, 2.5e-3, 50e-6};
 
-/// Units of `gain` each, swinging by `swing` within each, with a reading
-/// change per unit unless `frozen`; the verdict after `units` of them (K = 2).
-Verdict after(int units, double gain, double swing, bool frozen = false) {
+/// Units of `gain` each, swinging by `swing` within each, with `readings`
+/// readings in each and a change among them unless `frozen`; the verdict
+/// after `units` of them (K = 2).
+Verdict after(int units, double gain, double swing, bool frozen = false,
+              std::uint64_t readings = 10) {
   ProgressJudge judge;
-  judge.begin(2, 0.0, 0);
+  judge.begin(2, 0.0, {});
   Verdict v = Verdict::progressing;
   double theta = 0.0;
-  std::uint64_t changes = 0;
+  ReadingCounts counts;
   for (int i = 0; i < units; ++i) {
     theta += gain;
-    if (!frozen) changes += 10;
-    v = judge.end_unit(theta, changes, theta - swing, theta + swing, 1.0, kFloors);
+    counts.readings += readings;
+    if (!frozen) counts.changes += readings;
+    v = judge.end_unit(theta, counts, theta - swing, theta + swing, 1.0, kFloors);
   }
   return v;
 }
@@ -41,6 +44,16 @@ TEST(ProgressJudge, ProgressIsJudgedOverKUnitsASensorInEach) {
   EXPECT_EQ(after(1, 0.0, 1e-3), Verdict::progressing) << "no progress yet judged";
   EXPECT_EQ(after(1, 1e-3, 1e-3, true), Verdict::implausible) << "frozen in one unit";
   EXPECT_EQ(after(1, 1e-3, 10e-6), Verdict::implausible) << "blind in one unit";
+}
+
+// A loaded line may deliver no reading, or one, in a step: that is no
+// frozen or blind sensor (a late or silent one is the staleness limit's).
+TEST(ProgressJudge, UnitsWithoutTwoReadingsAreNotJudgedTheSensors) {
+  EXPECT_EQ(after(1, 0.0, 0.0, true, 0), Verdict::progressing) << "no reading in the unit";
+  EXPECT_EQ(after(1, 0.0, 0.0, true, 1), Verdict::progressing) << "one reading in the unit";
+  EXPECT_EQ(after(3, 0.0, 0.0, true, 0), Verdict::progressing) << "none in K units";
+  EXPECT_EQ(after(1, 0.0, 0.0, true, 2), Verdict::implausible) << "two, equal: frozen";
+  EXPECT_EQ(after(2, 0.0, 0.0, true, 1), Verdict::implausible) << "one a unit, equal over K";
 }
 
 TEST(ProgressJudge, GainBelowTheFloorIsAStall) {
@@ -64,14 +77,15 @@ TEST(ProgressJudge, TheFloorsTakeTheLargerOfNoiseAndStroke) {
   EXPECT_NEAR(ProgressJudge::swing_floor(f), 8.0 * 10e-6 / 0.062, 1e-12);
 }
 
-TEST(ReadingWindow, MeansTheLastEightAndCountsChanges) {
+TEST(ReadingWindow, MeansTheLastEightAndCountsReadingsAndChanges) {
   ReadingWindow w;
   EXPECT_DOUBLE_EQ(w.add(1.0), 1.0);
   EXPECT_DOUBLE_EQ(w.add(3.0), 2.0);
   for (int i = 0; i < 8; ++i) (void)w.add(5.0);
   EXPECT_TRUE(w.full());
   EXPECT_DOUBLE_EQ(w.add(5.0), 5.0);
-  EXPECT_EQ(w.changes(), 2u);  // 1 -> 3 -> 5
+  EXPECT_EQ(w.counts().readings, 11u);
+  EXPECT_EQ(w.counts().changes, 2u);  // 1 -> 3 -> 5
 }
 
 }  // namespace
